@@ -1,0 +1,30 @@
+"""obsnl: observability and identifiability of nonlinear, non-smooth mechanical models,
+and the estimators that use that analysis."""
+
+from .errors import (
+    AnalysisError,
+    DataError,
+    EstimatorError,
+    ModelError,
+    NotSupportedError,
+    ObsnlError,
+    ParseError,
+    TableError,
+)
+from .model import Model
+from .parse import load_model
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Model",
+    "load_model",
+    "ObsnlError",
+    "ModelError",
+    "ParseError",
+    "NotSupportedError",
+    "AnalysisError",
+    "DataError",
+    "TableError",
+    "EstimatorError",
+]

@@ -1,0 +1,152 @@
+"""The ``obsnl`` command line: thin argparse dispatch onto the public API.
+
+Exit codes: 0 success, 2 bad input (one line on stderr, no traceback), 1 an internal error.
+Each subcommand is one ``_cmd_*`` function plus its ``_add_*`` parser builder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from .errors import ObsnlError
+
+__all__ = ["main"]
+
+
+class _Exit(Exception):
+    def __init__(self, code: int, message: str = "") -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
+def _load(path: str):
+    from .parse import load_model
+
+    return load_model(path)
+
+
+def write_output(text: str, out: str | None, *, force: bool) -> None:
+    """Print ``text`` or write it to ``out``; never overwrite an existing file without ``force``."""
+    if out is None or out == "-":
+        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        return
+    p = Path(out)
+    if p.exists() and not force:
+        raise _Exit(2, f"{out} exists; pass --force to overwrite it")
+    if p.parent and not p.parent.exists():
+        p.parent.mkdir(parents=True, exist_ok=True)
+    p.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
+
+
+# --------------------------------------------------------------------------- show
+def _add_show(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("show", help="print a model's equations", description="Print a model's equations and roles.")
+    p.add_argument("model", help="model file (.toml or .json)")
+    p.add_argument("--format", choices=("text", "json"), default="text", help="output format (default: text)")
+    p.set_defaults(func=_cmd_show)
+
+
+def _cmd_show(args: argparse.Namespace) -> int:
+    model = _load(args.model)
+    if args.format == "json":
+        write_output(json.dumps(model.to_dict(), indent=2), None, force=False)
+        return 0
+    lines = [str(model)]
+    for role in ("parameters", "inputs", "unknown_inputs", "known_constants"):
+        syms = getattr(model, role)
+        if syms:
+            lines.append(f"  {role.replace('_', ' ')}: {', '.join(s.name for s in syms)}")
+    if model.source:
+        lines.append(f"  source: {model.source}")
+    write_output("\n".join(lines), None, force=False)
+    return 0
+
+
+# --------------------------------------------------------------------------- branches
+def _add_branches(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "branches",
+        help="list the smooth branches of a non-smooth model",
+        description="Split a model at its switching functions and list each branch's label and guard.",
+    )
+    p.add_argument("model", help="model file (.toml or .json)")
+    p.add_argument("--format", choices=("text", "json"), default="text", help="output format (default: text)")
+    p.add_argument("--equations", action="store_true", help="also print each branch's smooth equations (text format)")
+    p.set_defaults(func=_cmd_branches)
+
+
+def _cmd_branches(args: argparse.Namespace) -> int:
+    from .branches import split_branches
+
+    model = _load(args.model)
+    branches = split_branches(model)
+    if args.format == "json":
+        doc = {"model": model.name, "branches": [{"label": b.label, "guard": b.guard_text} for b in branches]}
+        write_output(json.dumps(doc, indent=2), None, force=False)
+        return 0
+    lines = [f"{model.name}: {len(branches)} branch{'es' if len(branches) != 1 else ''}"]
+    for b in branches:
+        lines.append(f"  ({b.label}) {b.guard_text}")
+        if args.equations:
+            for s in b.model.states:
+                lines.append(f"      d/dt {s} = {b.model.equations[s]}")
+    write_output("\n".join(lines), None, force=False)
+    return 0
+
+
+# --------------------------------------------------------------------------- more commands
+# (later subcommands are added below, one _add_*/_cmd_* pair each, and listed in _BUILDERS)
+
+
+_BUILDERS = [_add_show, _add_branches]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The full argument parser (exposed for tests and documentation)."""
+    parser = argparse.ArgumentParser(
+        prog="obsnl",
+        description="Observability and identifiability of nonlinear, non-smooth mechanical models.",
+    )
+    from . import __version__
+
+    parser.add_argument("--version", action="version", version=f"obsnl {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for build in _BUILDERS:
+        build(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line; returns the exit code (0 ok, 2 bad input, 1 internal error)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # argparse: --help (0) or usage error (2)
+        return int(exc.code or 0)
+    if not getattr(args, "func", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except _Exit as exc:
+        if exc.message:
+            print(f"obsnl {args.command}: error: {exc.message}", file=sys.stderr)
+        return exc.code
+    except ObsnlError as exc:
+        print(f"obsnl {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+        print(f"obsnl {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"obsnl {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
