@@ -11,6 +11,7 @@ from .errors import (
     ParseError,
     TableError,
 )
+from .branches import Branch, split_branches
 from .model import Model
 from .parse import load_model
 
@@ -18,6 +19,8 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Model",
+    "Branch",
+    "split_branches",
     "load_model",
     "ObsnlError",
     "ModelError",

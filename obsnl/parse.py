@@ -56,7 +56,7 @@ ALLOWED_FUNCTIONS: dict[str, Any] = {
 _CONSTANTS: dict[str, Any] = {"pi": sp.pi}
 
 #: Logical helpers for Piecewise conditions.
-_LOGIC: dict[str, Any] = {"And": sp.And, "Or": sp.Or, "Not": sp.Not, "True": sp.true, "False": sp.false}
+_LOGIC: dict[str, Any] = {"And": sp.And, "Or": sp.Or, "Not": sp.Not, "Eq": sp.Eq, "Ne": sp.Ne, "True": sp.true, "False": sp.false}
 
 # The names parse_expr's generated code needs; nothing else from sympy is visible.
 _PARSER_GLOBALS: dict[str, Any] = {
@@ -159,7 +159,7 @@ def parse_expression(
         return _adopt_sympy(text, symbols, where=where, allow_relations=allow_relations, reserved=reserved)
     if not isinstance(text, str):
         raise ParseError(f"{where}: expected an expression string, got {type(text).__name__}")
-    stripped = text.strip()
+    stripped = " ".join(text.split())  # a line break inside an expression is plain white space
     if not stripped:
         raise ParseError(f"{where}: the expression is empty")
     if len(stripped) > _MAX_EXPRESSION_LENGTH:
@@ -174,10 +174,9 @@ def parse_expression(
         expr = parse_expr(stripped, local_dict=local, global_dict=dict(_PARSER_GLOBALS), transformations=_TRANSFORMS)
     except ParseError:
         raise
-    except SyntaxError:
+    except (SyntaxError, tokenize.TokenError):
         raise ParseError(f"{where}: syntax error in {stripped!r}; check brackets and operators") from None
-    except (TypeError, ValueError, AttributeError, ZeroDivisionError, sp.SympifyError, RecursionError,
-            OverflowError, KeyError, IndexError, NameError, NotImplementedError) as exc:
+    except Exception as exc:  # noqa: BLE001 - the door: anything sympy raises becomes our error
         raise ParseError(f"{where}: cannot read {stripped!r}: {type(exc).__name__}: {exc}") from None
     return _adopt_sympy(expr, symbols, where=where, allow_relations=allow_relations, text=stripped, reserved=reserved)
 

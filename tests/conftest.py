@@ -1,0 +1,31 @@
+"""Shared fixtures: paths of the model catalogue and of the published peer cases."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+MODELS = ROOT / "models"
+PEER_CASES = Path(__file__).resolve().parent / "data" / "peer_cases"
+
+def _is_ode_model(path: Path) -> bool:
+    import tomllib
+
+    return "states" in tomllib.loads(path.read_text(encoding="utf-8"))
+
+
+#: ODE model files of the catalogue (models/ also holds structure data such as the cantilever link).
+MODEL_FILES = sorted(p for p in MODELS.glob("*.toml") if _is_ode_model(p))
+PEER_CASE_FILES = sorted(PEER_CASES.glob("*.json"))
+
+
+@pytest.fixture
+def models_dir() -> Path:
+    return MODELS
+
+
+@pytest.fixture
+def peer_dir() -> Path:
+    return PEER_CASES
