@@ -69,10 +69,14 @@ class Branch:
 
     @property
     def guard_text(self) -> str:
-        """The guard as text, e.g. ``"sigma - eta > 0 & x2 < 0"`` (``"true"`` for a smooth model)."""
+        """The guard as text that sympy reads back, e.g. ``"(sigma - eta > 0) & (x2 < 0)"``.
+
+        ``"true"`` for a smooth model; a single relation has no parentheses (``"v > 0"``).
+        """
         if not self.switching:
             return "true"
-        return " & ".join(f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(self.switching, self.signs))
+        rels = [f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(self.switching, self.signs)]
+        return rels[0] if len(rels) == 1 else " & ".join(f"({r})" for r in rels)
 
     def contains(self, point: Mapping[str, float]) -> bool:
         """True when ``point`` (name -> value) lies strictly inside this branch."""

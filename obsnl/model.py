@@ -413,6 +413,22 @@ class Model:
         return tuple(self.outputs.values())
 
     @property
+    def fingerprint(self) -> str:
+        """A hash of the roles and equations (not of name, text or values).
+
+        Tables and compiled functions derived from a model carry it, so that a table made for
+        another model is refused.
+        """
+        import hashlib
+        import json
+
+        d = self.to_dict()
+        core = {k: d.get(k) for k in ("states", "parameters", "inputs", "unknown_inputs", "known_constants",
+                                      "outputs", "equations", "known_initial_conditions",
+                                      "initial_condition_values")}
+        return hashlib.sha256(json.dumps(core, sort_keys=True).encode()).hexdigest()[:32]
+
+    @property
     def is_smooth(self) -> bool:
         """True when no sign/Abs/Heaviside/Piecewise/Max/Min is left in equations or outputs."""
         return not any(e.has(*NONSMOOTH_FUNCTIONS) for e in self.rhs + self.output_exprs)

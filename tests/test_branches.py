@@ -30,7 +30,7 @@ def test_seed_model_has_exactly_the_papers_four_branches():
         assert list(b.switching) == sw
         assert b.signs == paper[b.label]
         assert b.model.is_smooth
-    assert branches[0].guard_text == "sigma - eta > 0 & x2 > 0"
+    assert branches[0].guard_text == "(sigma - eta > 0) & (x2 > 0)"
 
 
 def test_products_of_switching_functions_are_resolved_from_factors():
@@ -122,3 +122,9 @@ def test_branch_fields_equal_the_nonsmooth_model_inside_each_branch(path):
             np.testing.assert_allclose(g[inside][ok], f[inside][ok], rtol=1e-9, atol=1e-12,
                                        err_msg=f"{path.stem} branch {b.label} expression {i}")
     assert hits == n or hits > 0.99 * n  # the branches cover the space (up to switching surfaces)
+
+
+def test_guard_text_reads_back_as_the_guard():
+    m = obsnl.load_model(MODELS / "damage_healing.toml")
+    for b in split_branches(m):
+        assert sp.sympify(b.guard_text, locals=m.symbols) == b.guard

@@ -42,7 +42,7 @@ def test_branches_json(capsys):
     doc = json.loads(out)
     assert doc["model"] == "damage_healing"
     assert [b["label"] for b in doc["branches"]] == ["a", "b", "c", "d"]
-    assert doc["branches"][2]["guard"] == "sigma - eta < 0 & x2 < 0"
+    assert doc["branches"][2]["guard"] == "(sigma - eta < 0) & (x2 < 0)"
     assert set(doc) == {"model", "branches"} and all(set(b) == {"label", "guard"} for b in doc["branches"])
 
 
