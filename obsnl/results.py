@@ -54,6 +54,8 @@ class BranchResult:
         Classes of unknown inputs ``{"observable": [...], "unobservable": [...]}`` when the model has some.
     notes
         Plain-text notes: what was decomposed, augmented non-rational terms and what that means.
+    signs
+        The sign of each switching function of the model in this branch (empty for a smooth model).
     """
 
     label: str
@@ -72,6 +74,7 @@ class BranchResult:
     method: str = ""
     unknown_inputs: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
+    signs: tuple[int, ...] = ()
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
         """The branch as JSON-ready data.
@@ -125,6 +128,12 @@ class AnalysisResult:
         One :class:`BranchResult` per branch.
     variables
         All unknowns in model order (states, then parameters).
+    switching
+        The model's switching functions as text (empty for a smooth model).
+    parameters
+        The model's parameters (to tell them from states in reports and branch tables).
+    latex
+        LaTeX names of symbols (from the model file), for reports.
     """
 
     model: str
@@ -134,6 +143,9 @@ class AnalysisResult:
     seconds: float
     branches: tuple[BranchResult, ...]
     variables: tuple[str, ...] = ()
+    switching: tuple[str, ...] = ()
+    parameters: tuple[str, ...] = ()
+    latex: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def overall_observable(self) -> tuple[str, ...]:
@@ -165,6 +177,16 @@ class AnalysisResult:
             if b.label == label:
                 return b
         raise KeyError(f"no branch {label!r}; branches are {[b.label for b in self.branches]}")
+
+    def _repr_markdown_(self) -> str:
+        from .report import to_markdown
+
+        return to_markdown(self)
+
+    def _repr_latex_(self) -> str:
+        from .report import to_latex
+
+        return to_latex(self, environment=False)
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
         """JSON-ready data with exactly the keys of ``obsnl analyze --format json``:

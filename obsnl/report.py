@@ -1,0 +1,420 @@
+"""All formatting of analysis results: LaTeX (booktabs), Markdown, JSON branch tables, text.
+
+A branch table has one column per *group* of branches with identical results (merged as the
+seed paper merges (A),(C) and (B),(D) in its Table 1) and the rows Condition / Observable /
+Unidentifiable / Transcendence degree. The condition of a group is simplified to a single sign
+condition on a product of switching functions when one describes the group exactly (for the
+seed model ``(r - eta') x2 > 0``), else it is the disjunction of the branch guards.
+"""
+
+from __future__ import annotations
+
+import itertools
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import sympy as sp
+
+from .branch_table import SCHEMA_ID, BranchEntry, BranchTable
+from .errors import ObsnlError
+from .model import Model
+from .results import AnalysisResult, BranchResult, Verdict
+
+__all__ = [
+    "ROWS",
+    "BranchGroup",
+    "complete",
+    "branch_groups",
+    "branch_table",
+    "to_markdown",
+    "to_latex",
+    "to_json",
+    "to_text",
+    "timing_table",
+    "write_report",
+]
+
+#: Row keys of a branch table and their headings.
+ROWS: dict[str, str] = {
+    "condition": "Condition",
+    "observable": "Observable",
+    "unobservable": "Unidentifiable",
+    "degree": "Transcendence degree",
+}
+DEFAULT_ROWS: tuple[str, ...] = ("condition", "observable", "unobservable", "degree")
+
+
+# --------------------------------------------------------------------------- completing a result
+def complete(result: AnalysisResult, model: Model) -> AnalysisResult:
+    """Fill what rendering needs (variable order, switching functions, branch signs, LaTeX names)
+    from ``model`` when the result does not carry it."""
+    from .branches import expr_text, split_branches
+
+    changes: dict = {}
+    if not result.variables:
+        changes["variables"] = tuple(s.name for s in model.variables)
+    if not result.parameters:
+        changes["parameters"] = tuple(s.name for s in model.parameters)
+    if not result.latex and model.latex:
+        changes["latex"] = dict(model.latex)
+    needs_signs = any(not b.signs for b in result.branches) and not (
+        len(result.branches) == 1 and result.branches[0].guard == "true"
+    )
+    if needs_signs or not result.switching:
+        branches = {b.label: b for b in split_branches(model)}
+        if branches and next(iter(branches.values())).switching:
+            first = next(iter(branches.values()))
+            changes["switching"] = tuple(expr_text(g) for g in first.switching)
+            new_b = []
+            for b in result.branches:
+                if not b.signs and b.label in branches:
+                    b = replace(b, signs=branches[b.label].signs)
+                new_b.append(b)
+            changes["branches"] = tuple(new_b)
+    return replace(result, **changes) if changes else result
+
+
+# --------------------------------------------------------------------------- grouping
+@dataclass(frozen=True)
+class BranchGroup:
+    """Branches with identical results, rendered as one column."""
+
+    labels: tuple[str, ...]
+    branches: tuple[BranchResult, ...]
+    condition: str  # plain text, sympy syntax
+    condition_expr: sp.Basic | None
+    factors: tuple[sp.Expr, ...] = ()  # when the condition is "product of factors <sign> 0"
+    sign: int = 0
+
+    @property
+    def observable(self) -> tuple[str, ...]:
+        return self.branches[0].observable
+
+    @property
+    def unobservable(self) -> tuple[str, ...]:
+        return self.branches[0].unobservable
+
+    @property
+    def degree(self) -> int:
+        return self.branches[0].transcendence_degree
+
+    @property
+    def heading(self) -> str:
+        return ", ".join(f"({lab})" for lab in self.labels)
+
+
+def _key(b: BranchResult) -> tuple:
+    return (b.verdict, frozenset(b.observable), frozenset(b.unobservable), frozenset(b.undecided),
+            b.transcendence_degree)
+
+
+def _symbols_in(texts: Iterable[str]) -> dict[str, sp.Symbol]:
+    names = set()
+    for t in texts:
+        names.update(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", t))
+    return {n: sp.Symbol(n, real=True) for n in names}
+
+
+def branch_groups(result: AnalysisResult) -> tuple[BranchGroup, ...]:
+    """Group branches with identical verdicts and lists, in order of first appearance."""
+    groups: dict[tuple, list[BranchResult]] = {}
+    for b in result.branches:
+        groups.setdefault(_key(b), []).append(b)
+    sw_exprs: list[sp.Expr] = []
+    if result.switching:
+        loc = _symbols_in(result.switching)
+        sw_exprs = [sp.sympify(t, locals=loc) for t in result.switching]
+    all_patterns = [b.signs for b in result.branches]
+    out = []
+    for members in groups.values():
+        text, expr, factors, sign = _group_condition(members, sw_exprs, all_patterns)
+        out.append(BranchGroup(tuple(b.label for b in members), tuple(members), text, expr, factors, sign))
+    return tuple(out)
+
+
+def _group_condition(members: Sequence[BranchResult], sw: Sequence[sp.Expr],
+                     all_patterns: Sequence[tuple[int, ...]]) -> tuple[str, sp.Basic | None, tuple, int]:
+    from .branches import expr_text
+
+    if not sw or any(len(b.signs) != len(sw) for b in members):
+        texts = [b.guard for b in members]
+        return (" | ".join(f"({t})" for t in texts) if len(texts) > 1 else texts[0]), None, (), 0
+    mine = {b.signs for b in members}
+    if len(mine) == len(all_patterns):
+        return "true", sp.true, (), 0
+    # the smallest product of switching functions whose sign singles out exactly this group
+    for size in range(1, len(sw) + 1):
+        for subset in itertools.combinations(range(len(sw)), size):
+            for s in (1, -1):
+                chosen = {p for p in all_patterns if _prod(p, subset) == s}
+                if chosen == mine:
+                    prod = sp.Mul(*[sw[i] for i in subset])
+                    rel = sp.StrictGreaterThan(prod, 0) if s > 0 else sp.StrictLessThan(prod, 0)
+                    factors = [expr_text(sw[i]) for i in subset]
+                    if len(factors) > 1:
+                        factors = [f"({f})" if isinstance(sw[i], sp.Add) else f for f, i in zip(factors, subset)]
+                    return (f"{'*'.join(factors)} {'>' if s > 0 else '<'} 0", rel,
+                            tuple(sw[i] for i in subset), s)
+    rels = [sp.And(*[sp.StrictGreaterThan(g, 0) if si > 0 else sp.StrictLessThan(g, 0) for g, si in zip(sw, b.signs)])
+            for b in members]
+    return " | ".join(f"({b.guard})" for b in members), sp.Or(*rels), (), 0
+
+
+def _prod(pattern: tuple[int, ...], subset: Sequence[int]) -> int:
+    out = 1
+    for i in subset:
+        out *= pattern[i]
+    return out
+
+
+# --------------------------------------------------------------------------- branch table (JSON)
+def branch_table(result: AnalysisResult, model: Model) -> BranchTable:
+    """The estimators' branch table (schema ``obsnl.branch-table/1``) of an analysis of ``model``."""
+    from .branches import expr_text, split_branches
+
+    result = complete(result, model)
+    params = [s.name for s in model.parameters]
+    splits = {b.label: b for b in split_branches(model)}
+    entries = []
+    for b in result.branches:
+        sb = splits.get(b.label)
+        if sb is None:
+            raise ObsnlError(f"the analysis has a branch {b.label!r} that model {model.name!r} does not have; "
+                             f"analyse the same model")
+        entries.append(BranchEntry(
+            label=b.label, guard=b.guard, signs=tuple(sb.signs),
+            observable=tuple(b.observable), unobservable=tuple(b.unobservable), absent=tuple(b.absent),
+            identifiable_parameters=tuple(p for p in params if p not in b.unobservable),
+            unidentifiable_parameters=tuple(p for p in params if p in b.unobservable),
+            transcendence_degree=b.transcendence_degree, verdict=b.verdict.value,
+        ))
+    switching = next(iter(splits.values())).switching if splits else ()
+    table = BranchTable(
+        model=model.name, fingerprint=model.fingerprint,
+        states=tuple(s.name for s in model.states), parameters=tuple(params),
+        inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.output_names),
+        switching=tuple(expr_text(g) for g in switching), method=result.method, seed=result.seed,
+        probability=result.probability, branches=tuple(entries),
+        overall_observable=result.overall_observable, overall_unobservable=result.overall_unobservable,
+    )
+    return BranchTable.from_dict(table.to_dict())  # validated like any table read from disk
+
+
+def to_json(result: AnalysisResult, model: Model) -> str:
+    """The branch table as JSON text (the estimators' contract)."""
+    return branch_table(result, model).to_json()
+
+
+# --------------------------------------------------------------------------- markdown / text
+def _names(names: Sequence[str]) -> str:
+    return ", ".join(names) if names else "none"
+
+
+def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult) -> str:
+    if row == "condition":
+        if latex:
+            if group.condition_expr is None:
+                return _tex_escape(group.condition)
+            if group.condition_expr is sp.true:
+                return "always"
+            if group.factors:
+                prod = " ".join(_latex_factor(f, result, wrap=len(group.factors) > 1) for f in group.factors)
+                return f"${prod} {'>' if group.sign > 0 else '<'} 0$"
+            return "$" + _latex_expr(group.condition_expr, result) + "$"
+        return f"`{group.condition}`"
+    if row == "degree":
+        return str(group.degree)
+    names = group.observable if row == "observable" else group.unobservable
+    if row == "unobservable" and group.branches[0].undecided:
+        names = tuple(names) + tuple(f"{n}?" for n in group.branches[0].undecided)
+    if not latex:
+        return _names(names)
+    # one math group per name, so that a long list wraps inside its p{} column
+    return ", ".join(f"${_latex_name(n, result)}$" for n in names) if names else "none"
+
+
+def _header_line(result: AnalysisResult) -> str:
+    bits = [f"method {result.method}"]
+    if result.seed is not None:
+        bits.append(f"seed {result.seed}")
+    if result.probability is not None:
+        bits.append(f"every verdict right with probability >= {result.probability:g}")
+    return ", ".join(bits)
+
+
+def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, title: str | None = None) -> str:
+    """A Markdown branch table: one column per group of branches with identical results."""
+    _check_rows(rows)
+    groups = branch_groups(result)
+    lines = [f"### {title or 'Observability of ' + result.model}", "", f"_{_header_line(result)}_", ""]
+    lines.append("| Branches | " + " | ".join(g.heading for g in groups) + " |")
+    lines.append("|---|" + "---|" * len(groups))
+    for row in rows:
+        lines.append(f"| {ROWS[row]} | " + " | ".join(_cells(g, row, latex=False, result=result) for g in groups)
+                     + " |")
+    lines.append("")
+    lines.append(f"Union over branches (observable in at least one branch): "
+                 f"{_union_text(result)}.")
+    inconclusive = [b for b in result.branches if b.verdict is Verdict.INCONCLUSIVE]
+    for b in inconclusive:
+        lines.append(f"Branch ({b.label}) is inconclusive: {b.reason}")
+    return "\n".join(lines) + "\n"
+
+
+def _union_text(result: AnalysisResult) -> str:
+    unobs = result.overall_unobservable
+    if not unobs and result.verdict is Verdict.OBSERVABLE:
+        return "every state and parameter is observable"
+    return f"unobservable in every branch: {_names(unobs)}"
+
+
+def to_text(result: AnalysisResult) -> str:
+    """A plain-text summary for terminals."""
+    lines = [f"{result.model}: {len(result.branches)} branch(es), {_header_line(result)}, {result.seconds:.3f} s"]
+    for b in result.branches:
+        lines.append(f"  ({b.label}) {b.guard}")
+        lines.append(f"      verdict: {b.verdict.value}; rank {b.rank}/{b.size}, transcendence degree "
+                     f"{b.transcendence_degree}")
+        lines.append(f"      observable:   {_names(b.observable)}")
+        lines.append(f"      unobservable: {_names(b.unobservable)}")
+        if b.absent:
+            lines.append(f"      absent:       {_names(b.absent)}")
+        if b.reason:
+            lines.append(f"      reason: {b.reason}")
+        for n in b.notes:
+            lines.append(f"      note: {n}")
+    lines.append(f"  overall: {_union_text(result)}")
+    return "\n".join(lines) + "\n"
+
+
+# --------------------------------------------------------------------------- latex
+_TEX_SPECIAL = {"_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#", "$": r"\$", "{": r"\{", "}": r"\}",
+                "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "\\": r"\textbackslash{}"}
+
+
+def _tex_escape(text: str) -> str:
+    return "".join(_TEX_SPECIAL.get(c, c) for c in text)
+
+
+def _latex_name(name: str, result: AnalysisResult) -> str:
+    if name in result.latex:
+        return result.latex[name]
+    return sp.latex(sp.Symbol(name))
+
+
+def _latex_factor(f: sp.Expr, result: AnalysisResult, *, wrap: bool) -> str:
+    """LaTeX of a switching function with positive terms first (``r - \\eta'``, not ``-\\eta' + r``)."""
+    if not isinstance(f, sp.Add):
+        return _latex_expr(f, result)
+    terms = sorted(f.args, key=lambda t: (t.could_extract_minus_sign(), sp.default_sort_key(t)))
+    out = ""
+    for i, t in enumerate(terms):
+        neg = t.could_extract_minus_sign()
+        body = _latex_expr(-t if neg else t, result)
+        out += (" - " if neg else " + ") + body if i else ("-" if neg else "") + body
+    return f"\\left({out}\\right)" if wrap else out
+
+
+def _latex_expr(expr: sp.Basic, result: AnalysisResult) -> str:
+    names = {s: _latex_name(s.name, result) for s in expr.free_symbols}
+    return sp.latex(expr, symbol_names=names)
+
+
+def to_latex(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, caption: str | None = None,
+             label: str | None = None, environment: bool = True) -> str:
+    """A booktabs LaTeX table, ready to ``\\input`` (needs ``\\usepackage{booktabs}``).
+
+    Parameters
+    ----------
+    rows
+        Row keys among :data:`ROWS`, in order.
+    caption, label
+        Caption and label of the ``table`` environment (defaults name the model).
+    environment
+        False gives the bare ``tabular`` (e.g. for notebooks or your own float).
+    """
+    _check_rows(rows)
+    groups = branch_groups(result)
+    width = f"{0.60 / max(1, len(groups)):.2f}\\linewidth"
+    body = [
+        "\\begin{tabular}{@{}l" + "".join("p{" + width + "}" for _ in groups) + "@{}}",
+        "\\toprule",
+        "Branches & " + " & ".join(g.heading for g in groups) + " \\\\",
+        "\\midrule",
+    ]
+    for row in rows:
+        body.append(f"{ROWS[row]} & " + " & ".join(_cells(g, row, latex=True, result=result) for g in groups)
+                    + " \\\\")
+    body += ["\\bottomrule", "\\end{tabular}"]
+    if not environment:
+        return "\n".join(body) + "\n"
+    header = _tex_escape(_header_line(result)).replace(">=", "$\\geq$")
+    cap = caption or (f"Observability of the model {_tex_escape(result.model)} by branch "
+                      f"({header}). {_tex_escape(_union_text(result)).capitalize()}.")
+    lab = label or f"tab:obsnl-{re.sub(r'[^A-Za-z0-9-]+', '-', result.model)}"
+    head = ["% generated by obsnl; needs \\usepackage{booktabs}", "\\begin{table}[htbp]", "\\centering",
+            f"\\caption{{{cap}}}", f"\\label{{{lab}}}"]
+    return "\n".join(head + body + ["\\end{table}"]) + "\n"
+
+
+def _check_rows(rows: Sequence[str]) -> None:
+    bad = [r for r in rows if r not in ROWS]
+    if bad:
+        raise ObsnlError(f"unknown table row {bad[0]!r}; rows are {', '.join(ROWS)}")
+
+
+# --------------------------------------------------------------------------- timing / index / report
+def timing_table(entries: Sequence[tuple[str, str, int, float]]) -> str:
+    """Markdown timing table from ``(model, method, number of branches, seconds)`` rows."""
+    lines = ["| Model | Method | Branches | Seconds |", "|---|---|---:|---:|"]
+    lines += [f"| {m} | {meth} | {n} | {s:.3f} |" for m, meth, n, s in entries]
+    return "\n".join(lines) + "\n"
+
+
+def _index(results: Sequence[AnalysisResult]) -> str:
+    lines = ["# obsnl observability reports", "", "| Model | Branches | Union over branches | Files |",
+             "|---|---:|---|---|"]
+    for r in results:
+        files = ", ".join(f"[{ext}]({r.model}.{ext})" for ext in ("md", "tex", "json"))
+        lines.append(f"| {r.model} | {len(r.branches)} | {_union_text(r)} | {files} |")
+    lines += ["", "Timings are in [timings.md](timings.md). The `.json` files are branch tables "
+              f"(schema `{SCHEMA_ID}`), read by the DUKF."]
+    return "\n".join(lines) + "\n"
+
+
+def write_report(models: Sequence[Model], out: str | Path, *, method: str = "auto", seed: int = 0,
+                 force: bool = False, max_seconds: float | None = None) -> tuple[AnalysisResult, ...]:
+    """Analyse ``models`` and write one table per model (``.md``, ``.tex``, ``.json``), ``index.md``
+    and ``timings.md`` into ``out``.
+
+    Raises
+    ------
+    ObsnlError
+        When a file to write exists and ``force`` is False (nothing is written then).
+    """
+    from .analyze import analyze
+
+    out = Path(out)
+    names = [m.name for m in models]
+    if len(set(names)) != len(names):
+        raise ObsnlError(f"two models share a name ({names}); file names come from model names")
+    targets = [out / f"{m.name}.{ext}" for m in models for ext in ("md", "tex", "json")]
+    targets += [out / "index.md", out / "timings.md"]
+    existing = [str(t) for t in targets if t.exists()]
+    if existing and not force:
+        raise ObsnlError(f"{existing[0]} exists; pass --force to overwrite the report")
+    results = []
+    for m in models:
+        r = complete(analyze(m, method=method, seed=seed, max_seconds=max_seconds), m)
+        results.append(r)
+    out.mkdir(parents=True, exist_ok=True)
+    for m, r in zip(models, results):
+        (out / f"{m.name}.md").write_text(to_markdown(r), encoding="utf-8")
+        (out / f"{m.name}.tex").write_text(to_latex(r), encoding="utf-8")
+        (out / f"{m.name}.json").write_text(to_json(r, m), encoding="utf-8")
+    (out / "index.md").write_text(_index(results), encoding="utf-8")
+    (out / "timings.md").write_text(
+        timing_table([(r.model, r.method, len(r.branches), r.seconds) for r in results]), encoding="utf-8")
+    return tuple(results)

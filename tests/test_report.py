@@ -1,0 +1,124 @@
+"""Rendering of branch tables: grouping, conditions, Markdown, LaTeX (compiled when LaTeX exists), JSON.
+
+The result rendered here is the seed paper's Table 1 (000_d24855f97fc8bdd4.txt) typed in by hand,
+so these tests check the formatting independently of the engines.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+
+import jsonschema
+import pytest
+
+import obsnl
+from obsnl import report
+from obsnl.branch_table import BranchTable, schema
+from obsnl.results import AnalysisResult, BranchResult, Verdict
+
+from .conftest import MODELS
+
+
+def paper_table1_result() -> tuple[AnalysisResult, obsnl.Model]:
+    m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    names = [s.name for s in m.variables]
+    guards = {b.label: b.guard_text for b in obsnl.split_branches(m)}
+    brs = []
+    for label, signs in (("a", (1, 1)), ("b", (1, -1)), ("c", (-1, -1)), ("d", (-1, 1))):
+        un = {"Delta2"} if signs[0] * signs[1] > 0 else {"Delta1", "w_h"}  # Table 1
+        brs.append(BranchResult(
+            label=label, guard=guards[label], observable=tuple(v for v in names if v not in un),
+            unobservable=tuple(v for v in names if v in un), absent=tuple(v for v in names if v in un),
+            rank=14 - len(un), size=14, transcendence_degree=len(un), seconds=0.0,
+            verdict=Verdict.UNOBSERVABLE))
+    r = AnalysisResult(model=m.name, method="sedoglavic", seed=0, probability=0.99, seconds=0.0, branches=tuple(brs))
+    return report.complete(r, m), m
+
+
+def test_groups_merge_like_the_paper():
+    r, _ = paper_table1_result()
+    groups = report.branch_groups(r)
+    assert [g.labels for g in groups] == [("a", "c"), ("b", "d")]
+    # Table 1: (A),(C) when (r - eta')x2 > 0, (B),(D) when (r - eta')x2 < 0
+    assert groups[0].condition == "(r - eta_p)*x2 > 0"
+    assert groups[1].condition == "(r - eta_p)*x2 < 0"
+
+
+def test_markdown_table():
+    r, _ = paper_table1_result()
+    md = report.to_markdown(r)
+    rows = [ln for ln in md.splitlines() if ln.startswith("|")]
+    assert rows[0] == "| Branches | (a), (c) | (b), (d) |"
+    assert "| Unidentifiable | Delta2 | w_h, Delta1 |" in rows
+    assert "x1, x2, r, eta_p, Eh_p, k_m, c_dm, c_eta_p, w_h, c_p, h_p, Delta1, N" in md
+    assert "every state and parameter is observable" in md
+    assert r._repr_markdown_() == md
+
+
+def latex_structure_ok(tex: str, n_groups: int) -> None:
+    """Structural check used when no LaTeX engine is installed."""
+    assert tex.count("{") == tex.count("}")
+    for cmd in ("\\toprule", "\\midrule", "\\bottomrule", "\\begin{tabular}", "\\end{tabular}"):
+        assert tex.count(cmd) == 1, cmd
+    body = tex.split("\\midrule")[1].split("\\bottomrule")[0]
+    for line in body.strip().splitlines():
+        assert line.endswith("\\\\") and line.count("&") == n_groups, line
+    for line in tex.splitlines():
+        if line.startswith("%"):
+            continue
+        assert line.count("$") % 2 == 0, line
+        assert not re.search(r"(?<!\\)_(?![{A-Za-z0-9\\])", line.replace("$", "")) or "$" in line
+
+
+def test_latex_table_structure_and_symbols():
+    r, _ = paper_table1_result()
+    tex = report.to_latex(r)
+    latex_structure_ok(tex, 2)
+    assert "$(r - \\eta') x_{2} > 0$" in tex or "$(r - \\eta') x_2 > 0$" in tex or "\\left(r - \\eta'\\right)" in tex
+    assert "$\\Delta_2$" in tex and "$c'_\\eta$" in tex and "damage\\_healing\\_reparam" in tex
+    assert report.to_latex(r, environment=False).startswith("\\begin{tabular}")
+
+
+@pytest.mark.skipif(shutil.which("pdflatex") is None, reason="no LaTeX engine installed (structural check runs)")
+def test_latex_compiles(tmp_path):
+    r, _ = paper_table1_result()
+    (tmp_path / "t.tex").write_text(report.to_latex(r))
+    (tmp_path / "doc.tex").write_text("\\documentclass{article}\n\\usepackage{booktabs}\n\\begin{document}\n"
+                                      "\\input{t.tex}\n\\end{document}\n")
+    proc = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "doc.tex"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout[-2000:]
+    log = (tmp_path / "doc.log").read_text(errors="replace")
+    assert "Overfull \\hbox" not in log
+
+
+def test_json_table_validates_and_round_trips(tmp_path):
+    r, m = paper_table1_result()
+    text = report.to_json(r, m)
+    doc = json.loads(text)
+    jsonschema.validate(doc, schema())
+    t = BranchTable.from_dict(doc)
+    assert t.frozen_mask((1, 1)) == tuple(p == "Delta2" for p in t.parameters)
+    assert t.entry((-1, 1)).unidentifiable_parameters == ("w_h", "Delta1")
+    assert doc["overall"] == {"observable": [s.name for s in m.variables], "unobservable": []}
+
+
+def test_unknown_row_is_an_error():
+    r, _ = paper_table1_result()
+    with pytest.raises(obsnl.ObsnlError, match="unknown table row 'rank'"):
+        report.to_markdown(r, rows=("condition", "rank"))
+
+
+def test_smooth_model_single_column():
+    m = obsnl.Model(name="msd", states=["x", "v"], parameters=["k"], inputs=["u"],
+                    equations={"x": "v", "v": "u - k*x"}, outputs={"y": "x"})
+    b = BranchResult(label="smooth", guard="true", observable=("x", "v", "k"), unobservable=(), absent=(),
+                     rank=3, size=3, transcendence_degree=0, seconds=0.0)
+    r = report.complete(AnalysisResult(model="msd", method="orc", seed=None, probability=None, seconds=0.0,
+                                       branches=(b,)), m)
+    md = report.to_markdown(r)
+    assert "| Condition | `true` |" in md and "| Unidentifiable | none |" in md
+    latex_structure_ok(report.to_latex(r), 1)
