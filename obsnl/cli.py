@@ -103,7 +103,45 @@ def _cmd_branches(args: argparse.Namespace) -> int:
 # (later subcommands are added below, one _add_*/_cmd_* pair each, and listed in _BUILDERS)
 
 
-_BUILDERS = [_add_show, _add_branches]
+# --------------------------------------------------------------------------- bank
+def _add_bank(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "bank",
+        help="run the observer-bank crack benchmark on the cantilever link",
+        description="Run the observer-bank scenarios (healthy link, a breathing crack in each element) with "
+        "several noise seeds; write a localisation table (bank.md), force plots (forces_*.png) and bank.json.",
+    )
+    p.add_argument("--seeds", type=int, default=3, help="noise seeds per scenario (default: 3); thresholds use as many other seeds")
+    p.add_argument("--out", default="reports/bank", help="output folder (default: reports/bank)")
+    p.add_argument("--model", default=None, help="link model file (default: models/cantilever_link.toml)")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.set_defaults(func=_cmd_bank)
+
+
+def _cmd_bank(args: argparse.Namespace) -> int:
+    from .bank import run_link_study
+    from .beam import load_link_spec
+    from .report_bank import FIGURE_PREFIX, bank_table_markdown, plot_bank_forces
+
+    if args.seeds < 1:
+        raise _Exit(2, f"--seeds must be at least 1, got {args.seeds}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise _Exit(2, f"{args.out} is a file; --out needs a folder")
+    taken = [p for p in (out / "bank.json", out / "bank.md") if p.exists()]
+    taken += sorted(out.glob(f"{FIGURE_PREFIX}*.png")) if out.is_dir() else []
+    if taken and not args.force:
+        raise _Exit(2, f"{taken[0]} exists; pass --force to overwrite it")
+    study = run_link_study(seeds=args.seeds, spec=load_link_spec(args.model) if args.model else None)
+    doc = study.to_dict()
+    write_output(json.dumps(doc, indent=2), str(out / "bank.json"), force=True)
+    write_output(bank_table_markdown(doc), str(out / "bank.md"), force=True)
+    figs = plot_bank_forces(study, out)
+    print(f"wrote {out / 'bank.json'}, {out / 'bank.md'} and {len(figs)} force plots")
+    return 0
+
+
+_BUILDERS = [_add_show, _add_branches, _add_bank]
 
 
 def build_parser() -> argparse.ArgumentParser:
