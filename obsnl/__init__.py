@@ -17,6 +17,36 @@ from .parse import load_model
 
 __version__ = "0.1.0"
 
+# Numeric modules (scipy, casadi, matplotlib) load on first use, so that `import obsnl` and the
+# command line start fast: name -> module that defines it.
+_LAZY: dict[str, str] = {
+    # linear observability, extended observers, observer bank (seed 001_d0508a78c5399696.txt)
+    "LinearSystem": "linear", "as_linear_system": "linear", "system_scaling": "linear",
+    "kalman_rank": "linear", "hautus": "linear", "ObsVerdict": "linear",
+    "integrator": "observer", "oscillator": "observer", "extend": "observer",
+    "extended_observability": "observer", "riccati_gain": "observer", "place_gain": "observer",
+    "simulate_observer": "observer",
+    "build_bank": "bank", "ObserverBank": "bank", "calibrate_thresholds": "bank", "decide": "bank",
+    "BankVerdict": "bank", "run_link_study": "bank",
+    "build_cantilever": "beam", "load_link_spec": "beam", "BreathingCrack": "beam",
+    # branch tables (the estimators' contract)
+    "BranchTable": "branch_table", "load_branch_table": "branch_table",
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module 'obsnl' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))
+
 __all__ = [
     "Model",
     "Branch",
@@ -30,4 +60,5 @@ __all__ = [
     "DataError",
     "TableError",
     "EstimatorError",
+    *_LAZY,
 ]

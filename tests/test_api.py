@@ -1,0 +1,20 @@
+"""The public API: every exported name resolves, and the package imports fast (numeric modules lazily)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import obsnl
+
+
+def test_every_exported_name_resolves():
+    for name in obsnl.__all__:
+        assert getattr(obsnl, name) is not None, name
+    assert len(set(obsnl.__all__)) == len(obsnl.__all__)
+
+
+def test_import_does_not_load_the_numeric_stack():
+    code = "import sys, obsnl; print(sorted(m for m in ('casadi', 'matplotlib', 'scipy.signal') if m in sys.modules))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120).stdout.strip()
+    assert out == "[]"
