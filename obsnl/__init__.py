@@ -31,6 +31,11 @@ _LAZY: dict[str, str] = {
     "build_cantilever": "beam", "load_link_spec": "beam", "BreathingCrack": "beam",
     # branch tables (the estimators' contract)
     "BranchTable": "branch_table", "load_branch_table": "branch_table",
+    # symmetries, identifiable combinations, reparametrizations
+    "symmetries": "symmetry", "Symmetry": "symmetry", "Symmetries": "symmetry",
+    "reparametrize": "reparam", "Reparametrization": "reparam",
+    "identifiable_functions": "identifiable", "IdentifiableFunctions": "identifiable",
+    "same_field": "fields", "FieldComparison": "fields", "model_to_toml": "writer",
 }
 
 

@@ -144,6 +144,89 @@ def _cmd_bank(args: argparse.Namespace) -> int:
 _BUILDERS = [_add_show, _add_branches, _add_bank]
 
 
+# --------------------------------------------------------------------------- symmetries, reparametrize
+def _add_symmetries(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "symmetries",
+        help="generators of the unobservable directions of each branch",
+        description="Find, branch by branch, the translations, scalings and affine fields that leave the outputs "
+        "unchanged (exact over Q, verified symbolically); directions with no closed form are counted.",
+    )
+    p.add_argument("model", help="model file (.toml or .json)")
+    p.add_argument("--format", choices=("text", "json"), default="text", help="output format (default: text)")
+    p.add_argument("--degree", type=int, choices=(1, 2), default=1, help="ansatz degree (default: 1, affine)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random points (default: 0)")
+    p.set_defaults(func=_cmd_symmetries)
+
+
+def _cmd_symmetries(args: argparse.Namespace) -> int:
+    from .branches import split_branches
+    from .symmetry import symmetries
+
+    model = _load(args.model)
+    out = []
+    for i, b in enumerate(split_branches(model, seed=args.seed)):
+        out.append((b, symmetries(b.model, seed=args.seed + i, degree=args.degree)))
+    if args.format == "json":
+        data = [{"label": b.label, "guard": b.guard_text, **s.to_dict()} for b, s in out]
+        write_output(json.dumps(data, indent=2), None, force=False)
+        return 0
+    lines = []
+    for b, s in out:
+        lines.append(f"branch {b.label} ({b.guard_text}): {s.dimension} unobservable direction(s), "
+                     f"{len(s.generators)} with a closed form, {s.missing} without")
+        lines.extend(f"  {g.kind:<11} {g}" for g in s.generators)
+        lines.extend(f"  note: {n}" for n in s.notes)
+    write_output("\n".join(lines), None, force=False)
+    return 0
+
+
+def _add_reparametrize(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "reparametrize",
+        help="propose identifiable combinations and write the model in them",
+        description="Propose identifiable combinations (invariants of the symmetry groups, merged across branches) "
+        "and write the reparametrized model file; each new symbol is defined in its [definitions] table.",
+    )
+    p.add_argument("model", help="model file (.toml or .json)")
+    p.add_argument("-o", "--output", metavar="NEW.toml", help="write the new model here (default: print it)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing output file")
+    p.add_argument("--eliminate", default="", metavar="P,Q", help="parameters to normalise to 1 (scaling pivots)")
+    p.add_argument("--keep", default="", metavar="P,Q", help="parameters that must not be pivots")
+    p.add_argument("--name", action="append", default=[], metavar="OLD=NEW",
+                   help="rename a proposed symbol (repeatable), e.g. --name sigma_p=r")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random points (default: 0)")
+    p.set_defaults(func=_cmd_reparametrize)
+
+
+def _cmd_reparametrize(args: argparse.Namespace) -> int:
+    from .reparam import reparametrize
+
+    model = _load(args.model)
+    names = {}
+    for item in args.name:
+        if item.count("=") != 1 or not all(item.split("=")):
+            raise _Exit(2, f"--name takes OLD=NEW, got {item!r}")
+        old, new = item.split("=")
+        names[old.strip()] = new.strip()
+    split = lambda s: [x.strip() for x in s.split(",") if x.strip()]  # noqa: E731
+    r = reparametrize(model, keep=split(args.keep), eliminate=split(args.eliminate), names=names, seed=args.seed)
+    if args.output is None or args.output == "-":
+        write_output(r.to_toml(), None, force=False)
+        return 0
+    write_output(r.to_toml(), args.output, force=args.force)
+    print(f"wrote {args.output}: {len(r.mapping)} variables ({'complete' if r.complete else 'incomplete'}, "
+          f"method {r.method}, verified {'yes' if r.verified else 'no'})")
+    for k, v in r.mapping.items():
+        print(f"  {k} = {v}")
+    for n in r.notes:
+        print(f"  note: {n}")
+    return 0
+
+
+_BUILDERS += [_add_symmetries, _add_reparametrize]
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser (exposed for tests and documentation)."""
     parser = argparse.ArgumentParser(
