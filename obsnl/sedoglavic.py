@@ -1,0 +1,158 @@
+"""Sedoglavic's probabilistic observability test (J. Symbolic Comput. 33(5):735-755, 2002).
+
+At a random point of GF(p) (random prime ``p < 2**50``, random parameters, initial states,
+input series and unknown-input coefficients) the truncated power-series solution of the model
+and its sensitivities to the unknowns are computed in Taylor mode on first-order jets
+(:mod:`obsnl.series`, algorithms.md §3.5). Row ``(k, i)`` of the Jacobian is the gradient of the
+``t**k`` coefficient of output ``i``; its rank and kernel over GF(p) give the observable and
+unobservable unknowns and the transcendence degree (rank deficit), see :mod:`obsnl.exact`.
+
+- **Order.** ``K = dim`` series terms (states + parameters + augmented functions + unknown-input
+  derivatives; Lie derivatives of order ``0..K-1``), which suffices with generic initial values;
+  the computation stops earlier as soon as the rank is full. With specific initial values
+  (``x(0) = 0``) ``2*dim + n`` terms are used (see :meth:`obsnl.series.Problem.order_bound`).
+- **Known inputs** are generic: random series with every coefficient random (or the first
+  ``input_derivatives + 1`` only). **Unknown inputs** ``w`` are polynomials of degree
+  ``unknown_input_derivatives`` with unknown coefficients (STRIKE-GOLDD's ``nnzDerW``); ``w`` is
+  observable when its value ``w(0)`` is.
+- **Known initial conditions** are not unknowns: without a value they are generic (random), with a
+  value (a number, or an expression in parameters and known constants) they take it exactly.
+  Known constants are generic (random).
+- **Non-rational terms** are augmented as in :mod:`obsnl.augment` (exact, not conservative).
+- **Probability.** Sedoglavic's Prop. 3.3 for the prime drawn, one-sided: full rank is certain;
+  an unobservable verdict is confirmed by a second independent run (:mod:`obsnl.exact`).
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Sequence
+
+import numpy as np
+
+from .exact import BlockOutcome, classify, failure_bound, rank
+from .series import Problem, Resample, TimeUp, run_series
+
+__all__ = ["sedoglavic", "sedoglavic_block"]
+
+_MAX_RUNS = 4
+
+
+def _stopper(M: int):
+    def stop(rows: list[np.ndarray], p: int) -> bool:
+        if sum(r.shape[0] for r in rows) < M:
+            return False
+        return rank(np.vstack(rows), p) == M
+
+    return stop
+
+
+def _one_run(problem: Problem, rng: random.Random, deadline: float | None):
+    K = problem.order_bound()
+    M = problem.size
+    run = run_series(problem, rng, K=K, deadline=deadline, stop=_stopper(M))
+    J = np.vstack(run.rows) if run.rows else np.zeros((0, M), dtype=np.int64)
+    r, unobs = classify(J, run.p)
+    return run, r, unobs
+
+
+def sedoglavic_block(
+    problem: Problem,
+    *,
+    seed: object,
+    deadline: float | None = None,
+    bound_args: dict | None = None,
+    target: float = 0.01,
+) -> BlockOutcome:
+    """Run the randomized test on one block (a smooth, decomposed model) and confirm it.
+
+    ``seed`` is any value fixing the random streams (``f"sedoglavic:{seed}:{run}"``);
+    ``bound_args`` are the sizes for :func:`obsnl.exact.failure_bound` (without ``p``); runs are
+    added (up to four) until two or more agree and their combined failure bound is at most
+    ``target``.
+    """
+    M = problem.size
+    out = BlockOutcome(method="sedoglavic", columns=problem.columns)
+    if M == 0:
+        return out
+    results: list[tuple[object, int, tuple[bool, ...]]] = []
+    try:
+        for run_no in range(_MAX_RUNS):
+            rng = random.Random(f"sedoglavic:{seed}:{run_no}")
+            run, r, unobs = _one_run(problem, rng, deadline)
+            out.runs += 1
+            if r == M:  # a nonzero maximal minor at one point: a certificate
+                out.rank, out.unobservable, out.order, out.failure = r, frozenset(), run.orders, 0.0
+                return out
+            results.append((run, r, tuple(unobs)))
+            best = max(x[1] for x in results)
+            groups: dict[tuple[bool, ...], list] = {}
+            for x in results:
+                if x[1] == best:
+                    groups.setdefault(x[2], []).append(x[0])
+            classes, runs = max(groups.items(), key=lambda kv: len(kv[1]))
+            if len(runs) < 2:
+                continue
+            failure = 1.0
+            for rr in runs:
+                failure *= failure_bound(rr.p, nfuncs=M, **(bound_args or {}))
+            if failure <= target or run_no == _MAX_RUNS - 1:
+                out.rank = best
+                out.unobservable = frozenset(c for c, u in zip(problem.columns, classes) if u)
+                out.order = runs[0].orders
+                out.failure = failure
+                return out
+    except TimeUp as exc:
+        out.reason = f"time limit reached ({exc}); no verdict from a truncated computation"
+        return out
+    out.reason = f"{_MAX_RUNS} random points gave different ranks or classes; no verdict"
+    return out
+
+
+def sedoglavic(
+    model,
+    *,
+    seed: int | None = None,
+    max_seconds: float | None = None,
+    unknown_input_derivatives: int = 1,
+    input_derivatives: int | None = None,
+    decompose: bool = True,
+):
+    """Sedoglavic's randomized observability test of a smooth model.
+
+    Parameters
+    ----------
+    model
+        A smooth :class:`~obsnl.model.Model` (split non-smooth models with
+        :func:`obsnl.split_branches`, or use :func:`obsnl.analyze`).
+    seed
+        Seed of every random choice (prime, point, inputs); None draws one and reports it.
+    max_seconds
+        Time limit; reaching it gives an ``INCONCLUSIVE`` verdict, never an unobservable one.
+    unknown_input_derivatives
+        Number of non-zero derivatives of each unknown input (STRIKE-GOLDD ``nnzDerW``).
+    input_derivatives
+        Number of non-zero derivatives of the known inputs (None: generic inputs).
+    decompose
+        Analyse the output-reachable submodel and its independent blocks separately.
+
+    Returns
+    -------
+    BranchResult
+        Label ``"smooth"``, guard ``"true"``.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="decay", states=["x"], parameters=["a", "b"],
+    ...           equations={"x": "-a*b*x"}, outputs={"y": "x"})
+    >>> r = sedoglavic(m, seed=1)
+    >>> r.observable, r.unobservable, r.transcendence_degree
+    (('x',), ('a', 'b'), 1)
+    """
+    from .analyze import analyze_smooth
+
+    return analyze_smooth(model, method="sedoglavic", seed=seed, max_seconds=max_seconds,
+                          unknown_input_derivatives=unknown_input_derivatives,
+                          input_derivatives=input_derivatives, decompose=decompose)
