@@ -31,6 +31,12 @@ _LAZY: dict[str, str] = {
     "build_cantilever": "beam", "load_link_spec": "beam", "BreathingCrack": "beam",
     # branch tables (the estimators' contract)
     "BranchTable": "branch_table", "load_branch_table": "branch_table",
+    # estimators: codegen (the sympy -> casadi bridge), UKF, DUKF, records, identification
+    "to_casadi": "codegen", "NumericModel": "codegen", "ParameterMap": "codegen",
+    "parameter_map": "codegen", "log_map": "codegen",
+    "UKF": "ukf", "Estimate": "ukf", "Trajectory": "ukf", "DUKF": "dukf",
+    "Record": "data", "read_record": "data", "add_noise": "data", "simulate": "simulate",
+    "reproduce": "identify", "Reproduction": "identify",
     # symmetries, identifiable combinations, reparametrizations
     "symmetries": "symmetry", "Symmetry": "symmetry", "Symmetries": "symmetry",
     "reparametrize": "reparam", "Reparametrization": "reparam",

@@ -227,6 +227,152 @@ def _cmd_reparametrize(args: argparse.Namespace) -> int:
 _BUILDERS += [_add_symmetries, _add_reparametrize]
 
 
+# --------------------------------------------------------------------------- identify, reproduce
+def _add_identify(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "identify",
+        help="identify a model's parameters from a simulated noisy response to a ground motion (UKF or DUKF)",
+        description="Simulate MODEL with its [values] (the truth) under the ground motion RECORD, add Gaussian noise "
+        "(--noise of the RMS, --seed) to input and output, and estimate states and parameters with the UKF or the "
+        "DUKF (which freezes, branch by branch, the parameters the branch TABLE marks unidentifiable). Writes "
+        "DIR/identify.json (estimates, errors, practical identifiability) and prints a summary.",
+    )
+    p.add_argument("model", help="model file (.toml or .json) with [values] for every parameter")
+    p.add_argument("--table", help="branch table JSON (required for --method dukf)")
+    p.add_argument("--record", required=True, help="ground motion: .csv (time_s,accel_m_s2) or PEER .AT2")
+    p.add_argument("--method", choices=("ukf", "dukf"), default="ukf", help="filter (default: ukf)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
+    p.add_argument("--noise", type=float, default=1e-3, help="noise-to-signal RMS ratio (default: 0.001)")
+    p.add_argument("--guess", action="append", default=[], metavar="P=V",
+                   help="initial guess of a parameter (repeatable; default: the seed paper's Table 2 guesses)")
+    p.add_argument("--s0", type=float, default=0.2, help="prior std of log-parameters (default: 0.2)")
+    p.add_argument("--q-theta", type=float, default=0.0, help="random walk of log-parameters per step (default: 0)")
+    p.add_argument("--q-x", type=float, default=1.0, help="factor on the state noise from the input noise (default: 1)")
+    p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
+    p.add_argument("--samples", type=int, default=None, help="use only the first samples of the record")
+    p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
+    p.add_argument("--out", default=None, help="output folder for identify.json (default: print only)")
+    p.add_argument("--force", action="store_true", help="overwrite an existing identify.json")
+    p.set_defaults(func=_cmd_identify)
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from .branch_table import load_branch_table
+    from .codegen import to_casadi
+    from .data import read_record
+    from .identify import SEED_GUESS, Setup, Tuning, coordinates, make_data, make_filter, output_misfit, \
+        practical_identifiability, run_passes
+
+    if args.method == "dukf" and not args.table:
+        raise _Exit(2, "--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL`)")
+    if args.passes < 1 or args.s0 <= 0 or args.noise <= 0:
+        raise _Exit(2, "--passes must be >= 1, --s0 and --noise > 0")
+    model = _load(args.model)
+    table = load_branch_table(args.table) if args.table else None
+    num = to_casadi(model, switching=table.switching if table else None)
+    guess = {k: v for k, v in SEED_GUESS.items() if k in num.parameters}
+    for item in args.guess:
+        name, _, value = item.partition("=")
+        if name not in num.parameters:
+            raise _Exit(2, f"--guess {item!r}: {name!r} is not a parameter of {model.name} ({', '.join(num.parameters)})")
+        try:
+            guess[name] = float(value)
+        except ValueError:
+            raise _Exit(2, f"--guess {item!r}: {value!r} is not a number") from None
+    missing = [q for q in num.parameters if q not in guess]
+    if missing:
+        raise _Exit(2, f"no initial guess for {missing}; give --guess {missing[0]}=VALUE")
+    truth = {q: num.values.get(q) for q in num.parameters}
+    if any(v is None for v in truth.values()):
+        raise _Exit(2, f"{args.model} needs [values] for every parameter (the truth of the simulation)")
+    record = read_record(args.record)
+    if args.samples:
+        record = record.head(args.samples)
+    setup = Setup(model=num, record=record, truth=truth, guess=guess, noise=args.noise, jit=args.jit,
+                  coordinates=coordinates(num, "log", reference=guess))
+    if table is not None:
+        table.check_model(states=num.states, parameters=num.parameters, inputs=num.inputs, outputs=num.outputs,
+                          switching_count=len(num.switching), fingerprint=num.fingerprint)
+    filt = make_filter(setup, args.method, table=table)
+    data = make_data(setup, args.seed)
+    tuning = Tuning(args.s0, args.q_theta, args.q_x)
+    trs, _ = run_passes(setup, filt, data, tuning, passes=args.passes)
+    theta = trs[-1].theta[-1]
+    prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=args.s0)
+    err = 100 * (theta - setup.theta_true) / abs(setup.theta_true)
+    doc = {"model": model.name, "record": record.to_dict(), "method": args.method, "seed": args.seed,
+           "noise_ratio": args.noise, "tuning": tuning.to_dict(), "passes": args.passes,
+           "parameters": {q: {"true": float(t), "guess": guess[q], "estimate": float(e), "error_percent": float(r)}
+                          for q, t, e, r in zip(num.parameters, setup.theta_true, theta, err)},
+           "seconds": float(sum(t.seconds for t in trs)), "repairs": int(sum(t.total_repairs for t in trs)),
+           "implicit_sigma_point_steps": int(sum(t.implicit.sum() for t in trs)),
+           "output_misfit": output_misfit(setup, theta, data), "practically_unidentifiable": list(prac.flagged),
+           "practical_identifiability": prac.to_dict()}
+    lines = [f"{args.method.upper()} on {model.name}, {record.name}, seed {args.seed}, {args.passes} pass(es): "
+             f"{doc['seconds']:.2f} s, {doc['repairs']} repairs"]
+    for q in num.parameters:
+        d = doc["parameters"][q]
+        note = f"  poorly informed: {prac.reasons[q]}" if q in prac.reasons else ""
+        lines.append(f"  {q:10s} true {d['true']:<11.4g} estimate {d['estimate']:<11.4g} error {d['error_percent']:7.2f} %{note}")
+    write_output("\n".join(lines), None, force=False)
+    if args.out:
+        write_output(json.dumps(doc, indent=1), str(Path(args.out) / "identify.json"), force=args.force)
+    return 0
+
+
+def _add_reproduce(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "reproduce",
+        help="reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
+        description="The whole seed pipeline: analyse the damage-healing model, write its branch table, tune the "
+        "UKF and the DUKF on noise seeds that are not reported, run both on --seeds noise seeds and write "
+        "table2.json/.md/.tex and fig2_*.png, fig3_*.png into --out. The default output folder "
+        "reports/identification (or reports/identification/RECORD with --record) is REGENERATED on every run; "
+        "another --out is never overwritten without --force.",
+    )
+    p.add_argument("--record", default=None, help="another ground motion (.csv or .AT2); resampled to 100 Hz, first 2000 samples")
+    p.add_argument("--seeds", type=int, default=5, help="reported noise seeds 0..K-1 (default: 5)")
+    p.add_argument("--tuning-seeds", type=int, default=3, help="noise seeds used for tuning only (default: 3)")
+    p.add_argument("--passes", type=int, default=3, help="passes of the refined protocol (default: 3)")
+    p.add_argument("--samples", type=int, default=None, help="use only the first samples (quick runs)")
+    p.add_argument("--no-jit", action="store_true", help="do not compile the filters to C (slower runs)")
+    p.add_argument("--out", default=None, help="output folder (default: reports/identification)")
+    p.add_argument("--force", action="store_true", help="overwrite files in a non-default --out")
+    p.set_defaults(func=_cmd_reproduce)
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from .data import read_record
+    from .identify import reproduce
+    from .report_identify import write_reproduction
+
+    if args.seeds < 1 or args.tuning_seeds < 1 or args.passes < 1:
+        raise _Exit(2, "--seeds, --tuning-seeds and --passes must be at least 1")
+    record = read_record(args.record) if args.record else None
+    default = Path("reports/identification") / (record.name if record is not None else "")
+    out = Path(args.out) if args.out else default
+    if args.out and not args.force and (out / "table2.json").exists():
+        raise _Exit(2, f"{out / 'table2.json'} exists; pass --force to overwrite it")
+    try:
+        from tqdm import tqdm
+
+        bar = tqdm(desc="reproduce", unit="run", file=sys.stderr)
+    except ImportError:  # pragma: no cover
+        bar = None
+    try:
+        rep = reproduce(record=record, seeds=args.seeds, tuning_seeds=args.tuning_seeds, passes=args.passes,
+                        jit=not args.no_jit, samples=args.samples, progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    files = write_reproduction(rep, out)
+    print(f"wrote {len(files)} files to {out}: " + ", ".join(f.name for f in files))
+    return 0
+
+
+_BUILDERS += [_add_identify, _add_reproduce]
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser (exposed for tests and documentation)."""
     parser = argparse.ArgumentParser(

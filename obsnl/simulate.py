@@ -1,0 +1,77 @@
+"""Simulate a compiled model over a record: the "truth" of an identification experiment.
+
+The input is interpolated linearly between samples; the whole record is one casadi ``mapaccum``
+call. The default discretisation (RK4 with 100 substeps per sample) is converged far below the
+0.1 % measurement noise of the seed experiment for the damage-healing model (the switching of
+the healing operator makes its right-hand side discontinuous, so fixed-step methods converge only
+to first order there; ``tests/test_simulate.py`` checks the default against scipy's LSODA).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from .codegen import NumericModel
+from .errors import DataError, EstimatorError
+
+__all__ = ["Simulation", "simulate"]
+
+
+@dataclass(frozen=True, eq=False)
+class Simulation:
+    """States ``x`` ``(T, nx)`` and outputs ``y`` ``(T, ny)`` at the sample times ``t``."""
+
+    t: np.ndarray
+    x: np.ndarray
+    y: np.ndarray
+    states: tuple[str, ...]
+    outputs: tuple[str, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"t": self.t.tolist(), "states": list(self.states), "outputs": list(self.outputs),
+                "x": self.x.tolist(), "y": self.y.tolist()}
+
+
+def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, method: str = "auto",
+             substeps: int = 100) -> Simulation:
+    """Simulate ``model`` from ``x0`` with parameters ``theta`` under the input samples ``u``.
+
+    Parameters
+    ----------
+    model
+        Compiled model.
+    theta, x0
+        Parameter values and initial state (model order).
+    u
+        Input samples, shape ``(T,)`` for one input or ``(T, nu)``.
+    dt
+        Sampling interval.
+    method, substeps
+        Discretisation (:meth:`obsnl.codegen.NumericModel.step`).
+
+    Raises
+    ------
+    DataError
+        Bad shapes or non-finite input.
+    EstimatorError
+        The simulation left the finite numbers (the parameters make the model unstable).
+    """
+    u = np.asarray(u, float)
+    u = u.reshape(-1, 1) if u.ndim == 1 else u
+    if u.ndim != 2 or u.shape[1] != model.nu or len(u) < 2:
+        raise DataError(f"input must have shape (T, {model.nu}) with T >= 2, got {u.shape}")
+    if not np.all(np.isfinite(u)):
+        raise DataError("input contains NaN/inf")
+    theta, x0 = np.asarray(theta, float), np.asarray(x0, float)
+    if theta.shape != (model.np,) or x0.shape != (model.nx,):
+        raise DataError(f"theta needs {model.np} values and x0 {model.nx}")
+    run = model.step(dt, method=method, substeps=substeps).mapaccum(len(u) - 1)
+    X = np.vstack([x0, np.asarray(run(x0, theta, u[:-1].T, u[1:].T)[0]).T])
+    if not np.all(np.isfinite(X)):
+        k = int(np.flatnonzero(~np.all(np.isfinite(X), axis=1))[0])
+        raise EstimatorError(f"the simulation of {model.name!r} left the finite numbers at sample {k}")
+    Y = np.asarray(model.h.map(len(u))(X.T, theta, u.T)).T
+    return Simulation(t=np.arange(len(u)) * dt, x=X, y=Y, states=model.states, outputs=model.outputs)

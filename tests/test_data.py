@@ -1,0 +1,85 @@
+"""Records: CSV and PEER AT2 readers (the shipped Northridge files agree), validation, noise."""
+
+from __future__ import annotations
+
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from obsnl.data import G, Record, add_noise, read_at2, read_csv, read_record, rms
+from obsnl.errors import DataError
+
+DATA = resources.files("obsnl").joinpath("data")
+
+
+def test_shipped_csv_and_at2_agree():
+    a = read_record(str(DATA.joinpath("RSN960_NORTHR_LOS270.AT2")))
+    c = read_record(str(DATA.joinpath("northridge1994_LOS270_ngawest2_accel.csv")))
+    assert len(a) == len(c) == 1999  # NPTS of the header; the 2000th number is padding
+    assert a.dt == pytest.approx(0.01) and c.dt == pytest.approx(0.01, rel=1e-9)
+    np.testing.assert_allclose(a.accel, c.accel, rtol=0, atol=1e-7)
+    assert np.max(np.abs(a.accel)) == pytest.approx(0.4716 * G, rel=1e-3)  # PGA from the record's README
+    assert "Northridge" in a.source
+
+
+def _csv(tmp_path, rows, header="time_s,accel_m_s2"):
+    p = tmp_path / "r.csv"
+    p.write_text(header + "\n" + "\n".join(rows) + "\n")
+    return p
+
+
+@pytest.mark.parametrize("rows, match", [
+    (["0.00,1.0", "0.01,nan", "0.02,1.0"], "line 3: NaN/inf"),
+    (["0.00,1.0", "0.01,inf", "0.02,1.0"], "line 3: NaN/inf"),
+    (["0.00,1.0", "0.01,2.0", "0.03,1.0", "0.04,1.0"], "irregular time step at sample 2"),
+    (["0.00,1.0", "0.01,2.0", "0.01,1.0"], "does not increase at sample 2"),
+    (["0.00,1.0", "0.01,x"], "not a number"),
+    (["0.00,1.0,3", "0.01,1.0"], "3 fields"),
+    (["0.00,1.0"], "at least 2 samples"),
+])
+def test_bad_csv_is_refused(tmp_path, rows, match):
+    with pytest.raises(DataError, match=match):
+        read_csv(_csv(tmp_path, rows))
+
+
+def test_csv_without_time_column(tmp_path):
+    with pytest.raises(DataError, match="no time column"):
+        read_csv(_csv(tmp_path, ["1,2"], header="a,b"))
+
+
+def test_at2_validation(tmp_path):
+    head = ["PEER NGA STRONG MOTION DATABASE RECORD", "test", "ACCELERATION TIME SERIES IN UNITS OF G",
+            "NPTS=   4, DT=   .0100 SEC"]
+    p = tmp_path / "x.AT2"
+    p.write_text("\n".join(head + ["  .1  .2  .3  .4  .0"]) + "\n")
+    r = read_at2(p)
+    np.testing.assert_allclose(r.accel, np.array([0.1, 0.2, 0.3, 0.4]) * G)
+    p.write_text("\n".join(head + ["  .1  .2"]) + "\n")
+    with pytest.raises(DataError, match="NPTS=4 but the file holds 2"):
+        read_at2(p)
+    p.write_text("\n".join(head[:2] + ["VELOCITY IN CM/S", head[3], ".1 .2 .3 .4"]) + "\n")
+    with pytest.raises(DataError, match="units of g"):
+        read_at2(p)
+    with pytest.raises(DataError, match="unknown record type"):
+        read_record(tmp_path / "x.txt")
+
+
+def test_record_validation_and_resampling():
+    with pytest.raises(DataError, match="NaN/inf at sample 1"):
+        Record("r", np.array([0.0, np.nan, 1.0]), 0.01)
+    r = Record("r", np.sin(np.arange(400) * 0.05), 0.005)
+    half = r.resampled(0.01)
+    assert half.dt == 0.01 and len(half) == 200 and "resampled" in half.notes[0]
+    assert r.resampled(0.005) is r
+    assert len(r.head(10)) == 10
+
+
+def test_noise_ratio_and_seed():
+    x = np.sin(np.linspace(0, 50, 20000))
+    a, b = add_noise(x, ratio=1e-3, seed=5), add_noise(x, ratio=1e-3, seed=5)  # fixed seed: reproducible
+    np.testing.assert_array_equal(a, b)
+    assert rms(a - x) / rms(x) == pytest.approx(1e-3, rel=0.03)
+    assert not np.array_equal(a, add_noise(x, ratio=1e-3, seed=6))
+    with pytest.raises(DataError):
+        add_noise(x, ratio=-1.0)
