@@ -15,6 +15,13 @@ from .branches import Branch, split_branches
 from .model import Model
 from .parse import load_model
 
+# the observability engines (imported eagerly: these functions share their modules' names)
+from .analyze import analyze
+from .decompose import decompose, dependency_graph
+from .lie import orc
+from .results import AnalysisResult, BranchResult, Verdict
+from .sedoglavic import sedoglavic
+
 __version__ = "0.1.0"
 
 # Numeric modules (scipy, casadi, matplotlib) load on first use, so that `import obsnl` and the
@@ -71,5 +78,13 @@ __all__ = [
     "DataError",
     "TableError",
     "EstimatorError",
+    "analyze",
+    "orc",
+    "sedoglavic",
+    "decompose",
+    "dependency_graph",
+    "AnalysisResult",
+    "BranchResult",
+    "Verdict",
     *_LAZY,
 ]

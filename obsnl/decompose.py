@@ -18,11 +18,13 @@ states as generic inputs) are not used.
 from __future__ import annotations
 
 from dataclasses import dataclass
-
-import networkx as nx
+from typing import TYPE_CHECKING
 
 from .errors import AnalysisError
 from .model import Model
+
+if TYPE_CHECKING:  # networkx loads on first use (fast `import obsnl`)
+    import networkx as nx
 
 __all__ = ["dependency_graph", "decompose", "Decomposition"]
 
@@ -39,6 +41,8 @@ def dependency_graph(model: Model) -> nx.DiGraph:
     >>> sorted(g.predecessors("y")), sorted(g.predecessors("x"))
     (['x'], ['a', 'x'])
     """
+    import networkx as nx
+
     g = nx.DiGraph()
     for role in ("states", "parameters", "inputs", "unknown_inputs", "known_constants"):
         for s in getattr(model, role):
@@ -93,6 +97,8 @@ def decompose(model: Model) -> Decomposition:
     >>> d.unreachable, [list(map(str, b.states)) for b in d.blocks]
     (('z', 'b'), [['x']])
     """
+    import networkx as nx
+
     if not model.outputs:
         raise AnalysisError(f"model {model.name!r} has no outputs; add at least one measured quantity")
     g = dependency_graph(model)

@@ -147,7 +147,7 @@ class _OutOfInputs(Exception):
 
 
 #: A Lie derivative numerator with more terms than this ends the ORC (INCONCLUSIVE): expression swell.
-MAX_TERMS = 200_000
+MAX_TERMS = 2_000_000
 
 
 def lie_derivatives(system: _System, H, G, *, deadline: float | None):
@@ -160,6 +160,8 @@ def lie_derivatives(system: _System, H, G, *, deadline: float | None):
         if deadline is not None and time.perf_counter() > deadline:
             raise TimeUp("time limit reached while computing Lie derivatives")
         SN = system.S(N)
+        if len(SN) * max(len(G), 1) * max(len(system.Q), 1) > 3 * MAX_TERMS:
+            raise TimeUp(f"a Lie derivative would exceed {3 * MAX_TERMS} terms (expression swell)")
         if G_const and system.Q_const:
             N = SN
         elif G_const:

@@ -85,10 +85,9 @@ class Field:
         if q == 2:
             from flint import nmod
 
-            try:
-                return int(nmod(x, self.p).sqrt())
-            except (ValueError, ZeroDivisionError):
-                raise Resample("non-residue") from None
+            if pow(x, (self.p - 1) // 2, self.p) != 1:
+                raise Resample("non-residue")
+            return int(nmod(x, self.p).sqrt())
         from sympy.ntheory import nthroot_mod
 
         r = nthroot_mod(x, q, self.p)
