@@ -103,6 +103,73 @@ def _cmd_branches(args: argparse.Namespace) -> int:
 # (later subcommands are added below, one _add_*/_cmd_* pair each, and listed in _BUILDERS)
 
 
+# --------------------------------------------------------------------------- analyze
+def _analyze_json(result) -> str:
+    return json.dumps(result.to_dict(), indent=2)
+
+
+def _analyze_text(result) -> str:
+    lines = [f"{result.model}: method {result.method}, seed {result.seed}, "
+             f"P(all verdicts right) >= {result.probability:.6g}, {result.seconds:.3f} s"]
+    for b in result.branches:
+        lines.append(f"  ({b.label}) {b.guard}  [{b.method}, rank {b.rank}/{b.size}, transcendence degree "
+                     f"{b.transcendence_degree}, {b.seconds:.3f} s]")
+        if b.verdict.value == "inconclusive":
+            lines.append(f"      INCONCLUSIVE: {b.reason}")
+            if b.undecided:
+                lines.append(f"      undecided:    {', '.join(b.undecided)}")
+        lines.append(f"      observable:   {', '.join(b.observable) or '-'}")
+        lines.append(f"      unobservable: {', '.join(b.unobservable) or '-'}")
+        if b.absent:
+            lines.append(f"      absent:       {', '.join(b.absent)}")
+        for k, v in b.unknown_inputs.items():
+            lines.append(f"      unknown inputs {k}: {', '.join(v) or '-'}")
+        for note in b.notes:
+            lines.append(f"      note: {note}")
+    lines.append(f"  overall observable:   {', '.join(result.overall_observable) or '-'}")
+    lines.append(f"  overall unobservable: {', '.join(result.overall_unobservable) or '-'}")
+    return "\n".join(lines)
+
+
+#: ``obsnl analyze --format NAME`` -> renderer of an AnalysisResult (add formats here).
+_ANALYZE_FORMATS = {"json": _analyze_json, "text": _analyze_text}
+
+
+def _add_analyze(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "analyze",
+        help="observability/identifiability of every branch of a model",
+        description="Split the model into smooth branches and test each with the ORC or Sedoglavic's randomized "
+        "test. Exit code 2 when a branch is inconclusive (time limit, disagreeing points): the result is still "
+        "printed (undecided variables are in neither list) and the reason goes to stderr.",
+    )
+    p.add_argument("model", help="model file (.toml, or .json such as a peer case)")
+    p.add_argument("--format", choices=tuple(_ANALYZE_FORMATS), default="text", help="output format (default: text)")
+    p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
+                   help="observability engine (default: auto)")
+    p.add_argument("--seed", type=int, default=None, help="seed of the random choices (default: drawn and reported)")
+    p.add_argument("--max-seconds", type=float, default=None, help="time limit of the whole analysis")
+    p.add_argument("-o", "--output", default=None, metavar="FILE", help="write to FILE instead of stdout")
+    p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
+    p.set_defaults(func=_cmd_analyze)
+
+
+def _cmd_analyze(args: argparse.Namespace) -> int:
+    from .analyze import analyze
+
+    if args.output and args.output != "-" and Path(args.output).exists() and not args.force:
+        raise _Exit(2, f"{args.output} exists; pass --force to overwrite it")
+    model = _load(args.model)
+    result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds)
+    write_output(_ANALYZE_FORMATS[args.format](result), args.output, force=args.force)
+    stuck = [b for b in result.branches if b.verdict.value == "inconclusive"]
+    if stuck:
+        b = stuck[0]
+        more = f" (and {len(stuck) - 1} more branch(es))" if len(stuck) > 1 else ""
+        raise _Exit(2, f"branch ({b.label}) is inconclusive: {b.reason}{more}")
+    return 0
+
+
 # --------------------------------------------------------------------------- bank
 def _add_bank(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -371,6 +438,9 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
 
 _BUILDERS += [_add_identify, _add_reproduce]
+
+
+_BUILDERS += [_add_analyze]
 
 
 def build_parser() -> argparse.ArgumentParser:
