@@ -217,3 +217,22 @@ def test_failure_bound_matches_the_worked_prime_sizes() -> None:
     assert failure_bound(int(sp.nextprime(2**45)), **args) < small
     assert failure_bound(101, **args) == 1.0
     assert math.isfinite(small)
+
+
+# --------------------------------------------------------------------------- excitation and initial values
+@pytest.mark.parametrize("method", ["orc", "sedoglavic"])
+def test_constant_input_loses_identifiability_of_c2m(method) -> None:
+    # STRIKE-GOLDD manual 4.3.1 (answer_source of the case): unidentifiable with nnzDerU = 0, identifiable
+    # with a ramp (nnzDerU = 1) and with a generic input
+    model = load_model(PEER_CASES / "sg_c2m_known_input.json")
+    assert analyze(model, method=method, seed=2, input_derivatives=0).overall_unobservable != ()
+    assert analyze(model, method=method, seed=2, input_derivatives=1).overall_unobservable == ()
+
+
+def test_initial_value_given_by_parameters() -> None:
+    # x(0) = c0*g, x' = -k x, y = x: only the product c0*g and k are seen (c0 -> l c0, g -> g/l)
+    m = Model(name="dose", states=["x"], parameters=["c0", "g", "k"], equations={"x": "-k*x"},
+              outputs={"y": "x"}, known_initial_conditions=["x"], initial_condition_values={"x": "c0*g"})
+    for method in ("orc", "sedoglavic"):
+        b = analyze(m, method=method, seed=1).branches[0]
+        assert set(b.unobservable) == {"c0", "g"} and "x" in b.observable
