@@ -22,7 +22,7 @@ from .augment import rationalize
 from .branches import split_branches
 from .decompose import decompose as _decompose
 from .errors import AnalysisError, ModelError
-from .exact import BlockOutcome, degree_height
+from .exact import BlockOutcome, program_degree_height
 from .model import Model
 from .results import AnalysisResult, BranchResult, Verdict
 from .series import make_problem
@@ -79,10 +79,8 @@ def _variable_names(model: Model) -> tuple[str, ...]:
 def _bound_args(problem) -> dict:
     rat = problem.rational
     model = rat.model
-    gens = (list(model.states) + list(model.parameters) + list(model.known_constants) + list(model.inputs)
-            + list(model.unknown_inputs) + list(rat.atom_symbols))
-    exprs = list(rat.rhs.values()) + list(rat.outputs.values())
-    d, h = degree_height(exprs, gens)
+    n_rhs = len(model.states) + len(model.outputs)
+    d, h = program_degree_height(problem.program, problem.program.roots[:n_rhs])
     # atom derivative rules raise the degree of the augmented system by at most 2 (E' = E g', l' = g'/g)
     if rat.atoms:
         d += 2

@@ -13,7 +13,8 @@ correctly with probability at least ``(1 - 1/mu)^2``. :func:`failure_bound` inve
 prime actually drawn (largest such ``mu``) and takes the union over the classified unknowns. Here
 ``n`` counts states, augmented functions and unknown-input derivatives, ``l`` parameters and known
 constants, ``d`` the largest total degree and ``h`` twice the largest coefficient bit size of the
-numerators and denominators of the (augmented, rational) right-hand sides and outputs.
+numerators and denominators of the (augmented, rational) right-hand sides and outputs, bounded from
+above on the straight-line program (:func:`program_degree_height`).
 A full-rank Jacobian at one point is a certificate (a nonzero minor mod p is a nonzero minor
 over Q), so its failure bound is 0. An unobservable verdict is reported only when a second,
 independent run (new prime, new point) gives the same rank and the same classes; both runs must
@@ -23,13 +24,13 @@ then have failed, so the bounds multiply.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
 import sympy as sp
 
-__all__ = ["classify", "failure_bound", "degree_height", "BlockOutcome"]
+__all__ = ["classify", "failure_bound", "program_degree_height", "BlockOutcome"]
 
 
 @dataclass
@@ -112,21 +113,56 @@ def failure_bound(p: int, *, n: int, l: int, m: int, r: int, d: int, h: int, nfu
     return min(1.0, nfuncs * per)
 
 
-def degree_height(exprs: Iterable[sp.Expr], gens: Sequence[sp.Symbol]) -> tuple[int, int]:
-    """Largest total degree and twice the largest coefficient bit size of numerators and denominators."""
+def program_degree_height(program, roots: Sequence[int]) -> tuple[int, int]:
+    """Upper bounds of the largest degree ``d`` and twice the coefficient bits ``h`` of a program's roots.
+
+    Every node is bounded as ``P/Q`` without cancellation: ``a + b = (Pa Qb + Pb Qa)/(Qa Qb)``,
+    ``a b = Pa Pb/(Qa Qb)``, ``a/b = Pa Qb/(Qa Pb)``; degrees add, and ``log2`` of the coefficient
+    1-norms (an upper bound of the largest coefficient) add under products. Linear in the program
+    size, and never smaller than the true values (a larger ``d``, ``h`` only weakens the bound).
+    """
+    INF = 10**9
+    nd: list[tuple[int, int, float, float]] = []  # (deg P, deg Q, log2|P|_1, log2|Q|_1)
+    for op in program.ops:
+        k = op.kind
+        if k == "leaf":
+            nd.append((1, 0, 0.0, 0.0))
+        elif k == "const":
+            c = sp.Rational(op.arg)
+            nd.append((0, 0, math.log2(max(1, abs(int(c.p)))), math.log2(int(c.q))))
+        elif k == "neg":
+            nd.append(nd[op.a])
+        elif k in ("scale", "shift"):
+            c = sp.Rational(op.arg)
+            a = nd[op.a]
+            cp, cq = math.log2(max(1, abs(int(c.p)))), math.log2(int(c.q))
+            if k == "scale":
+                nd.append((a[0], a[1], a[2] + cp, a[3] + cq))
+            else:  # a + p/q = (q Pa + p Qa) / (q Qa)
+                nd.append((max(a[0], a[1]), a[1], _lsum(a[2] + cq, cp + a[3]), a[3] + cq))
+        else:
+            a, b = nd[op.a], nd[op.b]
+            if k in ("add", "sub"):
+                if a[1] == 0 and b[1] == 0 and a[3] == 0 and b[3] == 0:
+                    nd.append((max(a[0], b[0]), 0, _lsum(a[2], b[2]), 0.0))
+                else:
+                    nd.append((max(a[0] + b[1], b[0] + a[1]), a[1] + b[1], _lsum(a[2] + b[3], b[2] + a[3]),
+                               a[3] + b[3]))
+            elif k == "mul":
+                nd.append((a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]))
+            elif k == "div":
+                nd.append((a[0] + b[1], a[1] + b[0], a[2] + b[3], a[3] + b[2]))
+            else:  # pragma: no cover
+                nd.append((INF, INF, float(INF), float(INF)))
     d, h = 1, 1
-    gens = list(gens)
-    for e in exprs:
-        num, den = sp.fraction(sp.together(e))
-        for part in (num, den):
-            try:
-                poly = sp.Poly(part, *gens) if gens else None
-            except sp.PolynomialError:
-                poly = None
-            if poly is None:
-                continue
-            d = max(d, poly.total_degree())
-            for c in poly.coeffs():
-                c = sp.Rational(c)
-                h = max(h, 2 * max(abs(int(c.p)).bit_length(), int(c.q).bit_length()))
+    for r in roots:
+        n = nd[r]
+        d = max(d, n[0], n[1])
+        h = max(h, 2 * math.ceil(max(n[2], n[3], 1.0)))
     return d, h
+
+
+def _lsum(x: float, y: float) -> float:
+    """log2(2**x + 2**y)."""
+    m = max(x, y)
+    return m + math.log2(1 + 2 ** (min(x, y) - m))
