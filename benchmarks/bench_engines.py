@@ -73,7 +73,8 @@ def _symident_models(path: str) -> list[tuple[str, dict]]:
             observables={k: sp.sstr(v) for k, v in m.outputs.items()},
             known_inputs=[u.name for u in m.inputs],
             unknown_inputs=[w.name for w in m.unknown_inputs],
-            parameters=[p.name for p in m.parameters],
+            parameters=[p.name for p in m.parameters
+                        if any(p in e.free_symbols for e in list(m.rhs) + list(m.output_exprs))],
         )
         fixed = [c.name for c in m.known_constants]
         trafo = {}
@@ -87,7 +88,8 @@ def _symident_models(path: str) -> list[tuple[str, dict]]:
             kw["trafo"] = trafo
         if fixed:
             kw["fixed"] = fixed
-        out.append((br.label, kw))
+        absent = [p.name for p in m.parameters if p.name not in kw["parameters"]]
+        out.append((br.label, kw, absent))
     return out
 
 
@@ -97,10 +99,10 @@ def _symident_worker(path: str, queue) -> None:
 
         t0 = time.perf_counter()
         branches = {}
-        for label, kw in _symident_models(path):
+        for label, kw, absent in _symident_models(path):
             res = symident.detect(symident.Model(**kw))
             d = res.to_dict()
-            lost = set()
+            lost = set(absent)  # parameters absent from the branch are unidentifiable there
             for sym in d.get("symmetries", []):
                 lost |= set(sym.get("support") or sym.get("generator", {}).keys())
             branches[label] = lost

@@ -195,7 +195,7 @@ def _branch_result(
         absent=absent,
         rank=rank,
         size=size,
-        transcendence_degree=size - rank if not reasons else size - rank,
+        transcendence_degree=size - rank,  # with an inconclusive block: of what was decided
         seconds=round(time.perf_counter() - t0, 6),
         verdict=verdict,
         reason="; ".join(reasons),

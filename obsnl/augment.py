@@ -170,6 +170,7 @@ class _Builder:
         self.counter = 0
         # provisional exponentials / trig functions keyed by (monomial, coefficient)
         self.prov_exp: dict[tuple[sp.Expr, sp.Rational], sp.Symbol] = {}
+        self.orientation: set[sp.Expr] = set()
         self.prov_exp_inv: dict[sp.Symbol, tuple[sp.Expr, sp.Rational]] = {}
         self.prov_trig: dict[tuple[str, sp.Expr, sp.Rational], sp.Symbol] = {}
         self.used_terms: list[str] = []
@@ -275,10 +276,12 @@ class _Builder:
                 c, factors = sp.Integer(1), [(part, 1)]
             c = sp.Rational(c)
             for f, k in factors:
-                if f.could_extract_minus_sign():
+                # one orientation per factor: the first one seen (log(-f) = log(f) + log(-1))
+                if (-f) in self.orientation and f not in self.orientation:
                     f = -f
                     if k % 2:
                         c = -c
+                self.orientation.add(f)
                 if f in self.prov_exp_inv:  # log(exp(c*m)) = c*m
                     m, cc = self.prov_exp_inv[f]
                     out += sign * k * cc * m
