@@ -312,15 +312,27 @@ def _is_affine(g: sp.Expr, syms: Sequence[sp.Symbol]) -> bool:
     return poly.total_degree() <= 1 and all(c.is_number for c in poly.coeffs())
 
 
+def _affine_coefficients(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol]):
+    rows, consts = [], []
+    for g, _ in conds:
+        poly = sp.Poly(g, *syms)
+        rows.append([float(poly.coeff_monomial(v)) for v in syms])
+        consts.append(float(poly.coeff_monomial(1)))
+    return np.array(rows, dtype=float).reshape(len(conds), len(syms)), np.array(consts, dtype=float)
+
+
 def _feasible_lp(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol]) -> dict[str, float] | None:
+    n = len(syms)
+    A, b0 = _affine_coefficients(conds, syms)
+    signs = np.array([s for _, s in conds], dtype=float)
+    if n and np.linalg.matrix_rank(A) == len(conds):
+        # independent affine forms: every sign pattern holds somewhere; A z + b = signs is solvable
+        z = np.linalg.lstsq(A, signs - b0, rcond=None)[0]
+        return {v.name: float(x) for v, x in zip(syms, z)}
     from scipy.optimize import linprog
 
-    n = len(syms)
     A_ub, b_ub = [], []
-    for g, s in conds:
-        poly = sp.Poly(g, *syms)
-        a = np.array([float(poly.coeff_monomial(v)) for v in syms])
-        b = float(poly.coeff_monomial(1))
+    for (g, s), a, b in zip(conds, A, b0):
         # s*(a.z + b) >= t  <=>  -s*a.z + t <= s*b
         A_ub.append(np.concatenate([-s * a, [1.0]]))
         b_ub.append(s * b)
