@@ -104,37 +104,6 @@ def _cmd_branches(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- analyze
-def _analyze_json(result) -> str:
-    return json.dumps(result.to_dict(), indent=2)
-
-
-def _analyze_text(result) -> str:
-    lines = [f"{result.model}: method {result.method}, seed {result.seed}, "
-             f"P(all verdicts right) >= {result.probability:.6g}, {result.seconds:.3f} s"]
-    for b in result.branches:
-        lines.append(f"  ({b.label}) {b.guard}  [{b.method}, rank {b.rank}/{b.size}, transcendence degree "
-                     f"{b.transcendence_degree}, {b.seconds:.3f} s]")
-        if b.verdict.value == "inconclusive":
-            lines.append(f"      INCONCLUSIVE: {b.reason}")
-            if b.undecided:
-                lines.append(f"      undecided:    {', '.join(b.undecided)}")
-        lines.append(f"      observable:   {', '.join(b.observable) or '-'}")
-        lines.append(f"      unobservable: {', '.join(b.unobservable) or '-'}")
-        if b.absent:
-            lines.append(f"      absent:       {', '.join(b.absent)}")
-        for k, v in b.unknown_inputs.items():
-            lines.append(f"      unknown inputs {k}: {', '.join(v) or '-'}")
-        for note in b.notes:
-            lines.append(f"      note: {note}")
-    lines.append(f"  overall observable:   {', '.join(result.overall_observable) or '-'}")
-    lines.append(f"  overall unobservable: {', '.join(result.overall_unobservable) or '-'}")
-    return "\n".join(lines)
-
-
-#: ``obsnl analyze --format NAME`` -> renderer of an AnalysisResult (add formats here).
-_ANALYZE_FORMATS = {"json": _analyze_json, "text": _analyze_text}
-
-
 def _add_analyze(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "analyze",
@@ -144,7 +113,9 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
         "printed (undecided variables are in neither list) and the reason goes to stderr.",
     )
     p.add_argument("model", help="model file (.toml, or .json such as a peer case)")
-    p.add_argument("--format", choices=tuple(_ANALYZE_FORMATS), default="text", help="output format (default: text)")
+    p.add_argument("--format", choices=("text", "json", "md", "tex", "json-table"), default="text",
+                   help="text (default); json: the analysis; md/tex: branch tables for documents; json-table: the "
+                   "branch table read by the DUKF (schema obsnl.branch-table/1)")
     p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
                    help="observability engine (default: auto)")
     p.add_argument("--seed", type=int, default=None, help="seed of the random choices (default: drawn and reported)")
@@ -161,12 +132,42 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         raise _Exit(2, f"{args.output} exists; pass --force to overwrite it")
     model = _load(args.model)
     result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds)
-    write_output(_ANALYZE_FORMATS[args.format](result), args.output, force=args.force)
+    from .report import render
+
+    write_output(render(result, model, args.format), args.output, force=args.force)
     stuck = [b for b in result.branches if b.verdict.value == "inconclusive"]
     if stuck:
         b = stuck[0]
         more = f" (and {len(stuck) - 1} more branch(es))" if len(stuck) > 1 else ""
         raise _Exit(2, f"branch ({b.label}) is inconclusive: {b.reason}{more}")
+    return 0
+
+
+# --------------------------------------------------------------------------- report
+def _add_report(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "report",
+        help="analyse models and write their branch tables (Markdown, LaTeX, JSON)",
+        description="Analyse each model and write DIR/<model>.md, .tex (booktabs) and .json (branch table, "
+        "schema obsnl.branch-table/1), an index (index.md) and a timing table (timings.md).",
+    )
+    p.add_argument("models", nargs="+", metavar="MODEL", help="model files (.toml or .json)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
+                   help="observability engine (default: auto)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random point (default: 0)")
+    p.add_argument("--max-seconds", type=float, default=None, help="time limit per branch")
+    p.add_argument("--force", action="store_true", help="overwrite existing report files")
+    p.set_defaults(func=_cmd_report)
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from .report import write_report
+
+    models = [_load(m) for m in args.models]
+    results = write_report(models, args.out, method=args.method, seed=args.seed, force=args.force,
+                           max_seconds=args.max_seconds)
+    print(f"wrote {len(results)} table(s) with index.md and timings.md to {args.out}")
     return 0
 
 
@@ -208,7 +209,7 @@ def _cmd_bank(args: argparse.Namespace) -> int:
     return 0
 
 
-_BUILDERS = [_add_show, _add_branches, _add_bank]
+_BUILDERS = [_add_show, _add_branches, _add_bank, _add_report]
 
 
 # --------------------------------------------------------------------------- symmetries, reparametrize
@@ -487,3 +488,4 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 if __name__ == "__main__":  # pragma: no cover
     sys.exit(main())
+

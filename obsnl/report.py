@@ -10,6 +10,7 @@ seed model ``(r - eta') x2 > 0``), else it is the disjunction of the branch guar
 from __future__ import annotations
 
 import itertools
+import json
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, replace
@@ -32,6 +33,9 @@ __all__ = [
     "to_latex",
     "to_json",
     "to_text",
+    "to_analysis_json",
+    "render",
+    "FORMATS",
     "timing_table",
     "write_report",
 ]
@@ -235,12 +239,23 @@ def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult)
     return ", ".join(f"${_latex_name(n, result)}$" for n in names) if names else "none"
 
 
+def probability_text(p: float | None) -> str:
+    """A probability bound as text that does not round a near-certainty up to 1."""
+    if p is None:
+        return "deterministic"
+    if p >= 1.0:
+        return "1 (certified)"
+    if p > 0.999:
+        return f"1 - {1.0 - p:.1e}"
+    return f"{p:.4g}"
+
+
 def _header_line(result: AnalysisResult) -> str:
     bits = [f"method {result.method}"]
     if result.seed is not None:
         bits.append(f"seed {result.seed}")
     if result.probability is not None:
-        bits.append(f"every verdict right with probability >= {result.probability:g}")
+        bits.append(f"every verdict right with probability >= {probability_text(result.probability)}")
     return ", ".join(bits)
 
 
@@ -271,22 +286,58 @@ def _union_text(result: AnalysisResult) -> str:
 
 
 def to_text(result: AnalysisResult) -> str:
-    """A plain-text summary for terminals."""
-    lines = [f"{result.model}: {len(result.branches)} branch(es), {_header_line(result)}, {result.seconds:.3f} s"]
+    """A plain-text summary for terminals (``obsnl analyze --format text``)."""
+    prob = (f"P(all verdicts right) >= {probability_text(result.probability)}" if result.probability is not None
+            else "deterministic")
+    lines = [f"{result.model}: method {result.method}, seed {result.seed}, {prob}, {result.seconds:.3f} s"]
     for b in result.branches:
-        lines.append(f"  ({b.label}) {b.guard}")
-        lines.append(f"      verdict: {b.verdict.value}; rank {b.rank}/{b.size}, transcendence degree "
-                     f"{b.transcendence_degree}")
+        lines.append(f"  ({b.label}) {b.guard}  [{b.method or result.method}, rank {b.rank}/{b.size}, "
+                     f"transcendence degree {b.transcendence_degree}, {b.seconds:.3f} s]")
+        if b.verdict is Verdict.INCONCLUSIVE:
+            lines.append(f"      INCONCLUSIVE: {b.reason}")
+            if b.undecided:
+                lines.append(f"      undecided:    {_names(b.undecided)}")
         lines.append(f"      observable:   {_names(b.observable)}")
         lines.append(f"      unobservable: {_names(b.unobservable)}")
         if b.absent:
             lines.append(f"      absent:       {_names(b.absent)}")
-        if b.reason:
-            lines.append(f"      reason: {b.reason}")
-        for n in b.notes:
-            lines.append(f"      note: {n}")
-    lines.append(f"  overall: {_union_text(result)}")
+        for k, v in b.unknown_inputs.items():
+            lines.append(f"      unknown inputs {k}: {_names(v)}")
+        for note in b.notes:
+            lines.append(f"      note: {note}")
+    lines.append(f"  overall observable:   {_names(result.overall_observable)}")
+    lines.append(f"  overall unobservable: {_names(result.overall_unobservable)}")
     return "\n".join(lines) + "\n"
+
+
+def to_analysis_json(result: AnalysisResult) -> str:
+    """The analysis as JSON with exactly the keys of ``obsnl analyze --format json``."""
+    return json.dumps(result.to_dict(), indent=2) + "\n"
+
+
+#: Formats of :func:`render` (``obsnl analyze --format``).
+FORMATS: tuple[str, ...] = ("text", "json", "md", "tex", "json-table")
+
+
+def render(result: AnalysisResult, model: Model, fmt: str) -> str:
+    """Render an analysis of ``model`` in one of :data:`FORMATS`.
+
+    ``json`` is the analysis itself (keys ``model, method, seed, probability, seconds, branches,
+    overall``); ``json-table`` is the estimators' branch table (schema ``obsnl.branch-table/1``);
+    ``md`` and ``tex`` are the branch tables for documents.
+    """
+    if fmt == "text":
+        return to_text(result)
+    if fmt == "json":
+        return to_analysis_json(result)
+    result = complete(result, model)
+    if fmt == "md":
+        return to_markdown(result)
+    if fmt == "tex":
+        return to_latex(result)
+    if fmt == "json-table":
+        return to_json(result, model)
+    raise ObsnlError(f"unknown format {fmt!r}; formats are {', '.join(FORMATS)}")
 
 
 # --------------------------------------------------------------------------- latex
