@@ -19,7 +19,8 @@ The step takes a mask of *active* coordinates; the UKF passes all ones, the DUKF
 
 Repairs (counted per step in :class:`Trajectory`, never silent): a Cholesky pivot below
 ``1e-12`` times its diagonal entry is raised to that floor; a sigma point whose propagated state is
-not finite (or beyond ``1e150``) is replaced by the propagated mean point. A NaN in the mean or
+not finite or beyond ``1e6`` typical magnitudes (``state_scale``) is replaced by the propagated
+mean point. A NaN in the mean or
 covariance stops ``run`` with an :class:`~obsnl.errors.EstimatorError`.
 """
 
@@ -39,7 +40,7 @@ from .errors import DataError, EstimatorError
 __all__ = ["UKF", "Estimate", "Trajectory", "check_inputs"]
 
 _PIVOT_FLOOR = 1e-12
-_BIG = 1e150
+_BIG = 1e6  # scaled states: a million times their typical magnitude
 
 
 @dataclass(frozen=True, eq=False)
