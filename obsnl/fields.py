@@ -20,6 +20,7 @@ This module also holds the small compiler shared with the power-series Jacobian 
 
 from __future__ import annotations
 
+import functools
 import random
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -50,6 +51,11 @@ _TLog = sp.Function("_tlog")   # _tlog(f) = log(f)
 
 def canonical(expr: sp.Expr) -> sp.Expr:
     """Rewrite non-integer powers, ``exp`` and ``log`` into independent atoms (see module doc)."""
+    return _canonical(sp.sympify(expr))
+
+
+@functools.lru_cache(maxsize=8192)
+def _canonical(expr: sp.Expr) -> sp.Expr:
     if expr.has(*NONSMOOTH_FUNCTIONS):
         raise NotSupportedError(f"{expr} is not smooth; split the model into branches first (obsnl.split_branches)")
 
@@ -73,10 +79,11 @@ def canonical(expr: sp.Expr) -> sp.Expr:
                                     f"rewrite it with exp/log or powers")
         return e.func(*args)
 
-    return walk(sp.sympify(expr))
+    return walk(expr)
 
 
-def _factors(b: sp.Expr) -> list[tuple[sp.Expr, int]]:
+@functools.lru_cache(maxsize=8192)
+def _factors(b: sp.Expr) -> tuple[tuple[sp.Expr, int], ...]:
     """``b = prod f**k`` with numeric content and irreducible (or atom) factors ``f``."""
     out: list[tuple[sp.Expr, int]] = []
     for part, sign in zip(sp.fraction(sp.together(b)), (1, -1)):
@@ -87,7 +94,7 @@ def _factors(b: sp.Expr) -> list[tuple[sp.Expr, int]]:
         c = sp.Rational(c)
         out += [(sp.Integer(c.p), sign), (sp.Integer(c.q), -sign)]
         out += [(f, sign * int(k)) for f, k in fl]
-    return [(f, k) for f, k in out if f != 1]
+    return tuple((f, k) for f, k in out if f != 1)
 
 
 def _power(b: sp.Expr, x: sp.Expr) -> sp.Expr:

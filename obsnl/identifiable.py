@@ -111,7 +111,7 @@ def _normalise(e: sp.Expr) -> sp.Expr:
     nums = [int(sp.Rational(c) * den) for c in coeffs]
     g = math.gcd(*nums) or 1
     e = sp.expand(e * den / g)
-    return -e if sp.Add.make_args(e)[0].could_extract_minus_sign() else e
+    return -e if e.as_ordered_terms()[0].could_extract_minus_sign() else e
 
 
 def _pairs(kept: _Kept, coords: Sequence[sp.Expr]) -> None:
@@ -258,7 +258,7 @@ def identifiable_functions(model: Model, *, seed: int = 0, symmetries: Symmetrie
     ...           equations={"x0": "-(a01 + a21)*x0 + a12*x1", "x1": "a21*x0 - a12*x1"}, outputs={"y": "x0"})
     >>> r = identifiable_functions(m)
     >>> r.complete, [str(f) for f in r.functions]
-    (True, ['x0', 'a01 + a12 + a21', 'a01*a12', 'a01*x0 - a12*x1 + a21*x0'])
+    (True, ['x0', 'a01*a12', 'a01 + a12 + a21', 'a01*x0 - a12*x1 + a21*x0'])
     """
     t0 = time.perf_counter()
     if not model.is_smooth:

@@ -25,14 +25,16 @@ import itertools
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from fractions import Fraction
 
 import flint
 import sympy as sp
 
 from .errors import ModelError
+from .fields import canonical
+from .parse import make_symbol
 
-__all__ = ["ScalingSection", "scaling_section", "span_intersection", "translation_invariants", "adapted_forms"]
+__all__ = ["ScalingSection", "scaling_section", "span_intersection", "translation_invariants", "adapted_forms",
+           "pushforward", "coordinates", "section_map"]
 
 _MAX_PIVOT_SETS = 4000
 
@@ -46,8 +48,29 @@ def _basis(rows: Sequence[Sequence[sp.Expr]]) -> list[list[sp.Expr]]:
     return [[sp.factor(x) for x in R.row(i)] for i in range(len(piv))]
 
 
+def _rank_at(rows: Sequence[Sequence[sp.Expr]], at: Mapping[sp.Symbol, int]) -> int:
+    vals = [[sp.Rational(sp.sympify(x).xreplace(at)) for x in r] for r in rows]
+    return flint.fmpq_mat([[flint.fmpq(int(x.p), int(x.q)) for x in r] for r in vals]).rank() if vals else 0
+
+
 def span_intersection(a: Sequence[Sequence[sp.Expr]], b: Sequence[Sequence[sp.Expr]]) -> list[list[sp.Expr]]:
-    """A basis of span(a) ∩ span(b) (row vectors over Q(e))."""
+    """A basis of span(a) ∩ span(b) (row vectors over Q(e)).
+
+    Equal spans (the usual case across branches) are recognised by ranks at two values of the
+    exponent parameters (a rank can only drop at a special value, so equal ranks of ``a``, ``b`` and
+    ``a + b`` at a value where ``a`` and ``b`` keep their generic rank prove equality there).
+    """
+    if a and b:
+        syms = sorted(set().union(*(sp.sympify(x).free_symbols for r in list(a) + list(b) for x in r)),
+                      key=lambda s: s.name)
+        try:
+            same = all(_rank_at(a, at) == _rank_at(b, at) == _rank_at(list(a) + list(b), at) == len(a)
+                       for at in ({s: 1009 + 2 * i for i, s in enumerate(syms)},
+                                  {s: 2003 + 2 * i for i, s in enumerate(syms)}))
+        except TypeError:
+            same = False
+        if same:
+            return [list(r) for r in a]
     a, b = _basis(a), _basis(b)
     if not a or not b:
         return []
@@ -106,22 +129,22 @@ def _score(mats: Sequence[flint.fmpq_mat], cols: Sequence[int], exps: Sequence[s
         P = flint.fmpq_mat([[A[i, j] for j in cols] for i in range(A.nrows())])
         if P.rank() < P.nrows():
             return None
-        solved.append(P.solve(A))
-    total, bad = 0.0, 0
-    samples = _samples(exps)
+        solved.append(P.solve(A).tolist())
+    total, bad = flint.fmpq(0), 0
+    chk = _samples(exps)[-1]
+    ne = len(exps)
     for i in range(mats[0].nrows()):
         for j in range(mats[0].ncols()):
             if j in cols:
                 continue
-            vals = [Fraction(int(M[i, j].p), int(M[i, j].q)) for M in solved]
-            coeffs = [vals[0]] + [v - vals[0] for v in vals[1:1 + len(exps)]]
-            const = coeffs[0] - 3 * sum(coeffs[1:])
-            chk = samples[-1]
-            ok = vals[-1] == const + sum(c * chk[e] for c, e in zip(coeffs[1:], exps))
-            cs = [const] + coeffs[1:]
-            total += sum(abs(c) for c in cs)
-            bad += (0 if ok else 1) + sum(1 for c in cs if c.denominator != 1)
-    return bad, total
+            vals = [M[i][j] for M in solved]
+            slopes = [v - vals[0] for v in vals[1:1 + ne]]
+            const = vals[0] - 3 * sum(slopes, flint.fmpq(0))
+            ok = vals[-1] == const + sum((c * chk[e] for c, e in zip(slopes, exps)), flint.fmpq(0))
+            cs = [const] + slopes
+            total += sum((abs(c) for c in cs), flint.fmpq(0))
+            bad += (0 if ok else 1) + sum(1 for c in cs if c.q != 1)
+    return bad, float(total)
 
 
 def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: Sequence[sp.Symbol],
@@ -260,3 +283,77 @@ def adapted_forms(branch_vectors: Sequence[Sequence[Mapping[sp.Symbol, sp.Ration
         if len(chosen) < n and sp.Matrix(chosen + [e]).rank() == len(chosen) + 1:
             chosen.append(e)
     return [({c: x for c, x in zip(moved, f) if x != 0}, inv.get(tuple(f), invariant_in(f))) for f in chosen]
+
+
+# --------------------------------------------------------------------------- coordinates of a reparametrization
+def pushforward(comp: Mapping[sp.Symbol, sp.Expr], coords: Sequence[tuple[sp.Symbol, sp.Expr]]):
+    """The translation vector of generator ``comp`` in ``coords`` (None if it is not a translation there).
+
+    Returns ``{}`` when the generator does not move the coordinates (it lies in the divided group).
+    """
+    vals = []
+    for y, phi in coords:
+        vals.append(sp.Add(*[c * sp.diff(phi, v) for v, c in comp.items()]))
+    vals = [sp.expand(v) for v in vals]
+    nz = [(y, v) for (y, _), v in zip(coords, vals) if v != 0 and sp.cancel(sp.together(canonical(v))) != 0]
+    if not nz:
+        return {}
+    ref = nz[0][1]
+    out = {}
+    for y, v in nz:
+        r = v / ref
+        if not r.is_Rational:
+            r = sp.cancel(sp.together(canonical(v) / canonical(ref)))
+        if not r.is_Rational:
+            return None
+        if r != 0:
+            out[y] = r
+    return out
+
+
+def coordinates(coords, rest, tinv, forms, V, flips) -> list[tuple[str, sp.Expr, sp.Expr]]:
+    """The new coordinates ``(name, expression in the old symbols, linear expression in the y)``."""
+    phi_y = dict(coords)
+    formed = set().union(*(set(f) for f, _ in forms)) if forms else set()
+    y_of_new: dict[str, sp.Expr] = {}
+    k_delta = 0
+    for y in rest:
+        if y not in formed:
+            y_of_new[y.name if phi_y[y] == y else f"{y.name}_p"] = tinv.get(y, y)
+    for f, _ in forms:
+        lin = sp.Add(*[c * tinv.get(y, y) for y, c in f.items()])
+        if len(f) == 1 and list(f.values())[0] == 1:
+            y = list(f)[0]
+            nm = y.name if phi_y[y] == y else f"{y.name}_p"
+        else:
+            k_delta += 1
+            nm = f"Delta{k_delta}"
+            lin = -lin if nm in flips else lin
+        y_of_new[nm] = lin
+    order = {v: i for i, v in enumerate(V)}
+    new = []
+    for nm in sorted(y_of_new, key=lambda n: min(order[y] for y in y_of_new[n].free_symbols)):
+        phi = sp.expand(y_of_new[nm].xreplace(phi_y))
+        phi = sp.powsimp(sp.factor_terms(phi)) if isinstance(phi, sp.Add) else phi
+        new.append((nm, phi, y_of_new[nm]))
+    return new
+
+
+def section_map(new, rest, tpiv, sec, V, kic) -> dict[sp.Symbol, sp.Expr]:
+    """Old symbols in terms of the new ones on the section (pivots 1, translation pivots 0)."""
+    unknown_y = [sp.Dummy(y.name) for y in rest + tpiv]
+    to_dummy = dict(zip(rest + tpiv, unknown_y))
+    eqs_lin = [lin.xreplace(to_dummy) - make_symbol(nm) for nm, _, lin in new] + [to_dummy[p] for p in tpiv]
+    A, b = sp.linear_eq_to_matrix(eqs_lin, unknown_y)
+    if A.rows != A.cols or A.rank() < A.cols:
+        raise ModelError("internal: the linear coordinates are not invertible")  # pragma: no cover
+    sol = A.LUsolve(b)
+    ysec = {y: sp.expand(sol[i]) for i, y in enumerate(rest + tpiv)}
+    section: dict[sp.Symbol, sp.Expr] = {p: sp.Integer(1) for p in sec.pivots}
+    for v in V:
+        if v not in sec.pivots:
+            val = ysec.get(v, sp.Integer(0))
+            section[v] = val ** sp.Rational(1, sec.powers[v]) if sec.powers.get(v, 1) != 1 else val
+    for v in kic:
+        section[v] = v
+    return section

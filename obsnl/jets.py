@@ -193,7 +193,8 @@ def observability_jacobian(model: Model, *, seed: int = 0, order: int | None = N
     seed
         Seed of the random point and input series.
     order
-        Number of series coefficients per output (default: number of unknowns + 1).
+        Number of series coefficients per output (default: number of unknowns + 1; twice that plus the
+        number of states when some initial value is a specific number).
     """
     if not model.is_smooth:
         raise NotSupportedError(f"model {model.name!r} is not smooth; pass a branch (obsnl.split_branches)")
@@ -206,7 +207,9 @@ def observability_jacobian(model: Model, *, seed: int = 0, order: int | None = N
     unknown_states = [s for s in model.states if s not in kic]
     variables = tuple(unknown_states) + tuple(model.parameters)
     col = {v: j for j, v in enumerate(variables)}
-    K = order or len(variables) + 1
+    # with specific known initial values the rank may stall and grow again (algorithms.md §1.4): more terms
+    specific = any(not v.free_symbols for v in model.initial_condition_values.values())
+    K = order or (2 * len(variables) + len(model.states) if specific else len(variables) + 1)
     syms = tuple(model.states) + tuple(model.parameters) + tuple(model.inputs) + tuple(model.known_constants)
     prog = compile_program(list(model.rhs) + list(model.output_exprs), syms)
     ic_prog = compile_program([model.initial_condition_values.get(s, s) for s in model.states], syms)

@@ -12,7 +12,7 @@ Algorithm (algorithms.md §4.2, step C, extended to non-smooth models):
    combination identifiable in one branch and another identifiable in another both survive.
 4. The new model is the old one on the section (pivots = 1, translation pivots = 0), the equation
    of a new state ``s = phi(z)`` being ``L_f(phi)`` there. It is verified symbolically, branch by
-   branch, and its identifiability is checked with the power-series Jacobian of every branch.
+   branch, and its observability is checked independently by the engine (``analyze_smooth``).
 
 Pivots are divided by: the section assumes them positive (as physical moduli, lengths and masses are).
 A smooth model whose generators are not all translations and scalings, or that has directions with
@@ -23,18 +23,20 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
+import flint
 import sympy as sp
 
 from .branches import split_branches
 from .errors import ModelError
-from .fields import canonical
-from .invariants import adapted_forms, scaling_section, span_intersection, translation_invariants
-from .jets import observability_jacobian
+from .invariants import (adapted_forms, coordinates, pushforward, scaling_section, section_map, span_intersection,
+                         translation_invariants)
+from .analyze import analyze_smooth
 from .model import Model
 from .parse import make_symbol
+from .proofs import verify_reparametrization
 from .symmetry import Symmetries, symmetries
 from .writer import model_to_toml
 
@@ -109,29 +111,14 @@ class Reparametrization:
 
 
 # --------------------------------------------------------------------------- helpers
-def _pushforward(comp: Mapping[sp.Symbol, sp.Expr], coords: Sequence[tuple[sp.Symbol, sp.Expr]]):
-    """The translation vector of generator ``comp`` in ``coords`` (None if it is not a translation there).
-
-    Returns ``{}`` when the generator does not move the coordinates (it lies in the divided group).
-    """
-    vals = []
-    for y, phi in coords:
-        vals.append(sp.Add(*[c * sp.diff(phi, v) for v, c in comp.items()]))
-    vals = [sp.expand(v) for v in vals]
-    nz = [(y, v) for (y, _), v in zip(coords, vals) if v != 0 and sp.cancel(sp.together(canonical(v))) != 0]
-    if not nz:
-        return {}
-    ref = nz[0][1]
-    out = {}
-    for y, v in nz:
-        r = v / ref
-        if not r.is_Rational:
-            r = sp.cancel(sp.together(canonical(v) / canonical(ref)))
-        if not r.is_Rational:
-            return None
-        if r != 0:
-            out[y] = r
-    return out
+def _numeric_rows(rows, V, exps) -> flint.fmpq_mat | None:
+    """Weight rows at a random integer value of the exponent parameters (for span membership)."""
+    at = {e: 1009 + 2 * i for i, e in enumerate(exps)}
+    try:
+        vals = [[sp.Rational(sp.sympify(x).subs(at)) for x in r] for r in rows]
+    except TypeError:
+        return None
+    return flint.fmpq_mat(len(vals), len(V), [flint.fmpq(int(x.p), int(x.q)) for r in vals for x in r])
 
 
 def _piecewise_tidy(e: sp.Expr) -> sp.Expr:
@@ -153,12 +140,6 @@ def _piecewise_tidy(e: sp.Expr) -> sp.Expr:
         return node
 
     return e.replace(lambda n: isinstance(n, sp.Add), fix)
-
-
-def _same(a: sp.Expr, b: sp.Expr) -> bool:
-    """Symbolic equality through the canonical (atom) form, which makes both rational."""
-    d = canonical(a) - canonical(b)
-    return d == 0 or sp.cancel(sp.together(d)) == 0
 
 
 def _value_of(expr: sp.Expr, values: Mapping[str, float]) -> float | None:
@@ -201,7 +182,7 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     >>> m = Model(name="scaled", states=["x"], parameters=["a", "b", "c"], inputs=["u"],
     ...           equations={"x": "a*x + b*u"}, outputs={"y": "c*x"})
     >>> {k: str(v) for k, v in reparametrize(m).mapping.items()}
-    {'x_p': 'c*x', 'a': 'a', 'b_p': 'b*c'}
+    {'x_p': 'x/b', 'a': 'a', 'c_p': 'b*c'}
     """
     t0 = time.perf_counter()
     names = dict(names or {})
@@ -232,11 +213,17 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     # 3. other generators pushed forward
     branch_vecs: list[list[dict]] = []
     unmerged = 0
+    common_num = _numeric_rows(common or [], V, exps)
     for s in per:
         vecs = []
         for g in s.generators:
             comp = {syms[k]: c for k, c in g.components.items()}
-            pf = _pushforward(comp, coords)
+            if g.kind == "scaling" and common_num is not None:
+                row = _numeric_rows([[sp.cancel(comp.get(v, 0) / v) for v in V]], V, exps)
+                if (common_num.nrows() and row is not None and
+                        flint.fmpq_mat(common_num.tolist() + row.tolist()).rank() == common_num.rank()):
+                    continue  # in the divided group: it does not move the invariants
+            pf = pushforward(comp, coords)
             if pf is None:
                 unmerged += 1
             elif pf:
@@ -268,22 +255,30 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     # 4. new coordinates, the section, the new model (a Delta that enters only negated is flipped)
     flips: set[str] = set()
     for _ in range(2):
-        new = _coordinates(coords, rest, tinv, forms, V, names, flips)
-        section = _section(new, rest, tpiv, sec, V, kic)
+        internal = coordinates(coords, rest, tinv, forms, V, flips)
+        unknown = set(names) - {nm for nm, _, _ in internal}
+        if unknown:
+            raise ModelError(f"names renames {sorted(unknown)[0]!r}, which is not a proposed symbol; proposed: "
+                             f"{', '.join(nm for nm, _, _ in internal)}")
+        new = [(names.get(nm, nm), phi, lin) for nm, phi, lin in internal]
+        section = section_map(new, rest, tpiv, sec, V, kic)
         built = _build(model, new, section, notes)
-        neg = _negated_only(built, [nm for nm, _, _ in new if nm.startswith("Delta")])
+        deltas = {names.get(nm, nm): nm for nm, _, _ in internal if nm.startswith("Delta")}
+        neg = _negated_only(built, list(deltas))
         if not neg:
             break
-        flips |= neg
+        flips |= {deltas[n] for n in neg}
     if unmerged:
         notes.append(f"{unmerged} generator(s) are neither translations nor scalings in the invariant "
                      f"coordinates; their directions remain in the new model")
     new_branches = split_branches(built, seed=seed)
-    verified = _verify_model(built, {nm: phi for nm, phi, _ in new}, branches, new_branches)
+    verified = verify_reparametrization(built, {nm: phi for nm, phi, _ in new}, branches, new_branches)
     unobs = {}
-    for b in new_branches:
-        J = observability_jacobian(b.model, seed=seed)
-        unobs[b.label] = tuple(v.name for v in J.unobservable)
+    for b in new_branches:  # the engine checks our proposal independently (obsnl.analyze_smooth)
+        res = analyze_smooth(b.model, method="sedoglavic", seed=seed)
+        unobs[b.label] = tuple(res.unobservable) + tuple(res.undecided)
+        if res.reason:
+            notes.append(f"branch {b.label} of the new model: {res.reason}")
     nowhere = set.intersection(*(set(v) for v in unobs.values())) if unobs else set()
     missing = sum(s.missing for s in per)
     complete = not nowhere and not missing and not unmerged
@@ -297,58 +292,14 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
         idf = identifiable_functions(model, seed=seed, symmetries=per[0], invariants=[phi for _, phi, _ in new])
         functions, method, complete = idf.functions, idf.method, idf.complete
         notes.extend(idf.notes)
+    for b, s in zip(branches, per):
+        if s.missing:
+            notes.append(f"branch {b.label}: {s.missing} unobservable direction(s) without a closed form remain")
     if nowhere:
         notes.append(f"unobservable in every branch of the new model: {', '.join(sorted(nowhere))}")
     return Reparametrization(built, model.name, mapping, {k.name: v for k, v in section.items()},
                              tuple(p.name for p in list(sec.pivots) + list(tpiv)), functions, complete,
                              not nowhere, method, per, unobs, verified, tuple(notes), time.perf_counter() - t0)
-
-
-def _coordinates(coords, rest, tinv, forms, V, names, flips) -> list[tuple[str, sp.Expr, sp.Expr]]:
-    """The new coordinates ``(name, expression in the old symbols, linear expression in the y)``."""
-    phi_y = dict(coords)
-    formed = set().union(*(set(f) for f, _ in forms)) if forms else set()
-    y_of_new: dict[str, sp.Expr] = {}
-    k_delta = 0
-    for y in rest:
-        if y not in formed:
-            y_of_new[y.name if phi_y[y] == y else f"{y.name}_p"] = tinv.get(y, y)
-    for f, _ in forms:
-        lin = sp.Add(*[c * tinv.get(y, y) for y, c in f.items()])
-        if len(f) == 1 and list(f.values())[0] == 1:
-            y = list(f)[0]
-            nm = y.name if phi_y[y] == y else f"{y.name}_p"
-        else:
-            k_delta += 1
-            nm = f"Delta{k_delta}"
-            lin = -lin if nm in flips else lin
-        y_of_new[nm] = lin
-    order = {v: i for i, v in enumerate(V)}
-    new = []
-    for nm in sorted(y_of_new, key=lambda n: min(order[y] for y in y_of_new[n].free_symbols)):
-        phi = sp.expand(y_of_new[nm].xreplace(phi_y))
-        phi = sp.powsimp(sp.factor_terms(phi)) if isinstance(phi, sp.Add) else phi
-        new.append((names.get(nm, nm), phi, y_of_new[nm]))
-    return new
-
-
-def _section(new, rest, tpiv, sec, V, kic) -> dict[sp.Symbol, sp.Expr]:
-    """Old symbols in terms of the new ones on the section (pivots 1, translation pivots 0)."""
-    unknown_y = [sp.Dummy(y.name) for y in rest + tpiv]
-    to_dummy = dict(zip(rest + tpiv, unknown_y))
-    eqs_lin = [lin.xreplace(to_dummy) - make_symbol(nm) for nm, _, lin in new] + [to_dummy[p] for p in tpiv]
-    sol = sp.solve(eqs_lin, unknown_y, dict=True)
-    if len(sol) != 1:
-        raise ModelError("internal: the linear coordinates are not invertible")  # pragma: no cover
-    ysec = {y: sol[0][to_dummy[y]] for y in rest + tpiv}
-    section: dict[sp.Symbol, sp.Expr] = {p: sp.Integer(1) for p in sec.pivots}
-    for v in V:
-        if v not in sec.pivots:
-            val = ysec.get(v, sp.Integer(0))
-            section[v] = val ** sp.Rational(1, sec.powers[v]) if sec.powers.get(v, 1) != 1 else val
-    for v in kic:
-        section[v] = v
-    return section
 
 
 def _negated_only(model: Model, deltas: Sequence[str]) -> set[str]:
@@ -416,19 +367,3 @@ def _build(model: Model, new: list, section: Mapping[sp.Symbol, sp.Expr], notes:
                  values=values, definitions=defs)
 
 
-def _verify_model(new: Model, mapping: Mapping[str, sp.Expr], old_branches, new_branches) -> bool:
-    """Branch by branch: ``L_f(phi_s) == f~_s(phi)`` for every new state and ``h == h~(phi)``."""
-    back = {make_symbol(nm): phi for nm, phi in mapping.items()}
-    if len(new_branches) != len(old_branches):
-        return False
-    for ob, nb in zip(old_branches, new_branches):
-        f = ob.model.equations
-        for s in nb.model.states:
-            phi = mapping.get(s.name, s)
-            lhs = sp.Add(*[sp.diff(phi, x) * f[x] for x in ob.model.states if phi.has(x)])
-            if not _same(lhs, nb.model.equations[s].xreplace(back)):
-                return False
-        for k, h in ob.model.outputs.items():
-            if not _same(h, nb.model.outputs[k].xreplace(back)):
-                return False
-    return True

@@ -34,9 +34,10 @@ import sympy as sp
 from .errors import NotSupportedError
 from .fields import PRIME, Redraw, compile_program, eval_dual, nullspace_mod_p, rank_mod_p, rational_reconstruction
 from .jets import ModularJacobian, observability_jacobian
-from .model import NONSMOOTH_FUNCTIONS, Model
+from .model import Model
+from .proofs import verify_generator
 
-__all__ = ["Symmetry", "Symmetries", "symmetries", "weight"]
+__all__ = ["Symmetry", "Symmetries", "symmetries", "output_relevant"]
 
 _MAX_UNKNOWNS = 2500
 
@@ -54,8 +55,8 @@ class Symmetry:
     components
         ``{variable name: xi_j}`` as sympy expressions; for a scaling ``xi_j = w_j z_j``.
     verification
-        ``"symbolic"`` (proved with sympy) or ``"modular"`` (sympy could not simplify; checked at
-        fresh random points mod p).
+        ``"symbolic"`` (the determining equations reduce to 0 with sympy) or ``"dependency graph"``
+        (a decoupled variable).
     """
 
     kind: str
@@ -131,103 +132,6 @@ class Symmetries:
 
 
 # --------------------------------------------------------------------------- weights (scaling proof)
-class _Any:
-    """Weight of 0: any weight fits."""
-
-
-ANY = _Any()
-
-
-def weight(expr: sp.Expr, weights: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr | _Any | None:
-    """The weight of ``expr`` under ``z_j -> lambda**w_j z_j`` (lambda > 0), or None if not homogeneous.
-
-    A proof, term by term, that ``expr(lambda^w z) = lambda^weight expr(z)``; ``sign`` and ``Abs``
-    keep the weight of their argument (``lambda > 0``).
-    """
-    moved = {s for s, w in weights.items() if w != 0}
-
-    def same(a: sp.Expr, b: sp.Expr) -> bool:
-        return sp.expand(a - b) == 0
-
-    def w(e: sp.Basic):
-        if e.is_Number:
-            return ANY if e == 0 else sp.Integer(0)
-        if isinstance(e, sp.Symbol):
-            return weights.get(e, sp.Integer(0))
-        if isinstance(e, sp.Add):
-            out = ANY
-            for a in e.args:
-                wa = w(a)
-                if wa is None:
-                    return None
-                if wa is ANY:
-                    continue
-                if out is ANY:
-                    out = wa
-                elif not same(out, wa):
-                    return None
-            return out
-        if isinstance(e, sp.Mul):
-            tot = sp.Integer(0)
-            for a in e.args:
-                wa = w(a)
-                if wa is None:
-                    return None
-                if wa is ANY:
-                    return ANY
-                tot += wa
-            return tot
-        if isinstance(e, sp.Pow):
-            if e.exp.free_symbols & moved:
-                return None
-            wb = w(e.base)
-            return wb if wb is None or wb is ANY else sp.expand(wb * e.exp)
-        if isinstance(e, (sp.Abs, sp.sign)):
-            wa = w(e.args[0])
-            return wa if isinstance(e, sp.Abs) or wa is None else (ANY if wa is ANY else sp.Integer(0))
-        if isinstance(e, sp.Function) and not (e.free_symbols & moved):
-            return sp.Integer(0)
-        return None
-
-    return w(sp.sympify(expr))
-
-
-def _is_zero(e: sp.Expr) -> bool:
-    if e == 0:
-        return True
-    e = sp.expand(e)
-    if e == 0 or sp.cancel(sp.together(e)) == 0:
-        return True
-    try:
-        return sp.simplify(sp.powsimp(sp.expand_power_base(e, force=True), force=True)) == 0
-    except Exception:  # noqa: BLE001 - sympy may fail on exotic expressions; then it is not proved
-        return False
-
-
-def _verify(model: Model, kind: str, comp: Mapping[sp.Symbol, sp.Expr]) -> bool:
-    """Symbolic check of the determining equations of one generator."""
-    f = dict(model.equations)
-    h = list(model.output_exprs)
-    if kind == "scaling":
-        ws = {s: sp.cancel(c / s) for s, c in comp.items()}
-        for s, fs in f.items():
-            wf = weight(fs, ws)
-            if wf is None or (wf is not ANY and not sp.expand(wf - ws.get(s, 0)) == 0):
-                return False
-        return all((wh := weight(e, ws)) is ANY or (wh is not None and sp.expand(wh) == 0) for e in h)
-    if kind == "translation":
-        eps = sp.Dummy("eps")
-        shift = {s: s + c * eps for s, c in comp.items()}
-        return all(e.xreplace(shift) == e or _is_zero(e.xreplace(shift) - e) for e in list(f.values()) + h)
-    for s, fs in f.items():
-        lhs = sum(c * sp.diff(fs, v) for v, c in comp.items())
-        rhs = sum(fk * sp.diff(comp.get(s, 0), xk) for xk, fk in f.items())
-        if not _is_zero(lhs - rhs):
-            return False
-    for s, c in comp.items():
-        if s not in f and not _is_zero(sum(fk * sp.diff(c, xk) for xk, fk in f.items())):
-            return False
-    return all(_is_zero(sum(c * sp.diff(e, v) for v, c in comp.items())) for e in h)
 
 
 # --------------------------------------------------------------------------- the search
@@ -379,7 +283,7 @@ def _normalised(comp: Mapping[sp.Symbol, sp.Expr], order: Sequence[sp.Symbol]) -
     den = math.lcm(*[int(sp.Rational(c).q) for c in coeffs])
     num = math.gcd(*[int(sp.Rational(c) * den) for c in coeffs]) or 1
     first = next(comp[v] for v in order if v in comp)
-    sign = -1 if sp.Add.make_args(sp.expand(first))[0].could_extract_minus_sign() else 1
+    sign = -1 if sp.expand(first).as_ordered_terms()[0].could_extract_minus_sign() else 1
     return {v: sp.expand(c * den * sign / num) for v, c in comp.items()}
 
 
@@ -418,7 +322,7 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
     >>> m = Model(name="scaled", states=["x"], parameters=["a", "b", "c"], inputs=["u"],
     ...           equations={"x": "a*x + b*u"}, outputs={"y": "c*x"})
     >>> [str(g) for g in symmetries(m).generators]
-    ['b*d/db - c*d/dc + x*d/dx']
+    ['x*d/dx + b*d/db - c*d/dc']
     """
     t0 = time.perf_counter()
     if not model.is_smooth:
@@ -463,7 +367,7 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
             for comp in sols:
                 vals = _value_at(comp, J)
                 if rank_mod_p(kept_vals + [vals], len(vals)) == len(kept_vals) + 1:
-                    verified = _verify(sub, kind if kind != "quadratic" else "affine", comp)
+                    verified = verify_generator(sub, kind if kind != "quadratic" else "affine", comp)
                     if not verified:
                         notes.append(f"a {kind} generator failed symbolic verification and was not kept")
                         continue

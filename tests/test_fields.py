@@ -93,3 +93,13 @@ def test_jacobian_mod_p_matches_a_hand_computation():
 
 def test_exported_from_the_package():
     assert obsnl.same_field is same_field
+
+
+@pytest.mark.parametrize("module", ["obsnl.fields", "obsnl.writer", "obsnl.symmetry", "obsnl.reparam",
+                                    "obsnl.identifiable"])
+def test_docstring_examples(module):
+    import doctest
+    import importlib
+
+    result = doctest.testmod(importlib.import_module(module))
+    assert result.attempted > 0 and result.failed == 0
