@@ -145,8 +145,9 @@ def catalogue(out: Path) -> None:
              "StructuralIdentifiability.jl). *same field*: our functions and the stated ones generate the same field "
              "(Jacobian rank test mod p); *contains*: the file states only some functions (its rank grows when the "
              "identifiable variables of `expected` are added) and ours contain them. *method*: the sources that "
-             "were needed (symmetries = invariants of the generators found and identifiable variables; "
-             "polynomial invariants; output derivatives).", "",
+             "were needed (symmetries = invariants of the generators found and identifiable variables; invariant "
+             "pairs = products, ratios, sums of two invariants; polynomial invariants of degree <= 2; output "
+             "derivatives split into identifiable terms).", "",
              "| case | seconds | directions with no closed form | method | stated set | agrees |",
              "|---|---|---|---|---|---|"]
     for p in sorted((ROOT / "tests" / "data" / "peer_cases").glob("*.json")):

@@ -8,7 +8,8 @@ Candidates are offered in order of readability; one is kept when it passes the f
 raises the rank. The sources, in order (``method`` names those that were needed):
 
 1. ``symmetries``: the given invariants (Hubert-Labahn monomials, translation invariants) and the
-   identifiable variables themselves;
+   identifiable variables themselves; then ``invariant pairs``: products, ratios, sums and
+   differences of two of the non-identifiable invariants (``N a/b`` from ``N/b`` and ``a``);
 2. ``polynomial invariants``: polynomials of degree <= ``degree`` annihilated by every generator
    found (exact identities, solved at random points and reconstructed over Q) and, when directions
    have no closed form, orthogonal to the kernel at further random points;
@@ -49,8 +50,8 @@ class IdentifiableFunctions:
     functions
         The generators (sympy expressions in the model's symbols); known initial states come first.
     sources
-        For each function: ``"known"``, ``"symmetries"``, ``"polynomial invariants"`` or
-        ``"output derivatives"``.
+        For each function: ``"known"``, ``"symmetries"``, ``"invariant pairs"``,
+        ``"polynomial invariants"`` or ``"output derivatives"``.
     rank
         Rank of the observability Jacobian (the number of independent identifiable functions).
     complete
@@ -138,7 +139,7 @@ def _pairs(kept: _Kept, coords: Sequence[sp.Expr]) -> None:
             if rank_mod_p(kept.grads + [g], len(g)) == len(kept.grads) + 1:
                 kept.grads.append(g)
                 kept.funcs.append(sp.factor_terms(expr))
-                kept.sources.append("symmetries")
+                kept.sources.append("invariant pairs")
 
 
 def _polynomial_invariants(model: Model, J: ModularJacobian, S: Symmetries, degree: int, rng: random.Random,
@@ -285,7 +286,8 @@ def identifiable_functions(model: Model, *, seed: int = 0, symmetries: Symmetrie
     complete = kept.full and ok2 and rank_mod_p(J2.gradients(kept.funcs), len(J2.variables)) == J2.rank
     if not complete:
         notes.append(f"{len(kept.funcs)} of {J.rank} independent identifiable functions found")
-    used = [s for s in ("symmetries", "polynomial invariants", "output derivatives") if s in kept.sources]
+    used = [s for s in ("symmetries", "invariant pairs", "polynomial invariants", "output derivatives")
+            if s in kept.sources]
     method = "+".join(used or ["symmetries"])
     known = list(model.known_initial_conditions)
     return IdentifiableFunctions(model.name, tuple(known) + tuple(kept.funcs),

@@ -206,8 +206,14 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     for x in model.states:
         if x.name not in hidden:
             measured |= model.equations[x].free_symbols
-    sec = scaling_section([dict(zip(V, r)) for r in (common or [])], V, model.parameters, exponents=exps,
-                          keep=keep_s, eliminate=elim_s, avoid=[p for p in model.parameters if p in measured])
+    try:
+        sec = scaling_section([dict(zip(V, r)) for r in (common or [])], V, model.parameters, exponents=exps,
+                              keep=keep_s, eliminate=elim_s, avoid=[p for p in model.parameters if p in measured])
+    except ModelError as exc:
+        if elim_s or keep_s:
+            raise
+        notes.append(f"the common scalings were not divided out: {exc}")
+        common, sec = [], scaling_section([], V, model.parameters)
     coords = [(v, sec.invariants.get(v, v)) for v in V if v not in sec.pivots]
 
     # 3. other generators pushed forward

@@ -194,3 +194,28 @@ def test_unknown_inputs_are_refused_with_a_message():
               equations={"x": "-a*x + w"}, outputs={"y": "x"})
     with pytest.raises(obsnl.ObsnlError, match="unknown inputs"):
         reparametrize(m)
+
+
+def test_state_only_scaling_goes_to_the_functions_route():
+    # x1' = a x1, x2' = a x2, y = x1/x2: y' = 0, so x1/x2 is the only identifiable function (by hand)
+    m = Model(name="ratio", states=["x1", "x2"], parameters=["a"], equations={"x1": "a*x1", "x2": "a*x2"},
+              outputs={"y": "x1/x2"})
+    r = reparametrize(m)
+    assert r.complete and not r.observable
+    assert same_field(list(r.functions), ["x1/x2"], ["x1", "x2", "a"])
+    assert any("not divided out" in n for n in r.notes) and any("without a closed form" in n for n in r.notes)
+
+
+def test_identifiable_functions_standalone():
+    from obsnl.identifiable import identifiable_functions
+
+    path = PEER_CASES / "si_bench_hiv2.json"
+    m = obsnl.load_model(path)
+    r = identifiable_functions(m)
+    assert r.complete and r.rank == len(r.functions)
+    assert set(r.sources) <= {"symmetries", "invariant pairs", "polynomial invariants", "output derivatives"}
+    stated = json.loads(path.read_text())["expected_identifiable_functions"]
+    assert same_field(list(r.functions), stated, list(m.states) + list(m.parameters))
+    json.dumps(r.to_dict())
+    with pytest.raises(obsnl.ObsnlError, match="not smooth"):
+        identifiable_functions(obsnl.load_model(MODELS / "bouc_wen.toml"))
