@@ -287,6 +287,8 @@ def _cmd_reparametrize(args: argparse.Namespace) -> int:
           f"method {r.method}, verified {'yes' if r.verified else 'no'})")
     for k, v in r.mapping.items():
         print(f"  {k} = {v}")
+    for g in r.divided:
+        print(f"  divided out: {g}")
     for n in r.notes:
         print(f"  note: {n}")
     return 0

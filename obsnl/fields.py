@@ -294,11 +294,6 @@ def rational_reconstruction(a: int, p: int = PRIME) -> sp.Rational | None:
     return sp.Rational(r1 * (1 if t1 > 0 else -1), abs(t1))
 
 
-def random_point(symbols: Iterable[sp.Symbol], rng: random.Random) -> dict[sp.Symbol, int]:
-    """A uniformly random nonzero value mod p for each symbol."""
-    return {s: rng.randrange(1, PRIME) for s in symbols}
-
-
 def jacobian_mod_p(exprs: Sequence[sp.Expr], variables: Sequence[sp.Symbol], *, seed: int = 0,
                    point: Mapping[sp.Symbol, int] | None = None) -> list[list[int]]:
     """The Jacobian of ``exprs`` w.r.t. ``variables`` at a random point mod :data:`PRIME` (rows = exprs).

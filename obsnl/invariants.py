@@ -286,7 +286,8 @@ def adapted_forms(branch_vectors: Sequence[Sequence[Mapping[sp.Symbol, sp.Ration
 
 
 # --------------------------------------------------------------------------- coordinates of a reparametrization
-def pushforward(comp: Mapping[sp.Symbol, sp.Expr], coords: Sequence[tuple[sp.Symbol, sp.Expr]]):
+def pushforward(comp: Mapping[sp.Symbol, sp.Expr],
+                coords: Sequence[tuple[sp.Symbol, sp.Expr]]) -> dict[sp.Symbol, sp.Rational] | None:
     """The translation vector of generator ``comp`` in ``coords`` (None if it is not a translation there).
 
     Returns ``{}`` when the generator does not move the coordinates (it lies in the divided group).
@@ -311,7 +312,9 @@ def pushforward(comp: Mapping[sp.Symbol, sp.Expr], coords: Sequence[tuple[sp.Sym
     return out
 
 
-def coordinates(coords, rest, tinv, forms, V, flips) -> list[tuple[str, sp.Expr, sp.Expr]]:
+def coordinates(coords: Sequence[tuple[sp.Symbol, sp.Expr]], rest: Sequence[sp.Symbol],
+                tinv: Mapping[sp.Symbol, sp.Expr], forms: Sequence[tuple[Mapping[sp.Symbol, sp.Rational], tuple]],
+                V: Sequence[sp.Symbol], flips: set[str]) -> list[tuple[str, sp.Expr, sp.Expr]]:
     """The new coordinates ``(name, expression in the old symbols, linear expression in the y)``."""
     phi_y = dict(coords)
     formed = set().union(*(set(f) for f, _ in forms)) if forms else set()
@@ -339,8 +342,10 @@ def coordinates(coords, rest, tinv, forms, V, flips) -> list[tuple[str, sp.Expr,
     return new
 
 
-def section_map(new, rest, tpiv, sec, V, kic) -> dict[sp.Symbol, sp.Expr]:
+def section_map(new: Sequence[tuple[str, sp.Expr, sp.Expr]], rest: Sequence[sp.Symbol], tpiv: Sequence[sp.Symbol],
+                sec: ScalingSection, V: Sequence[sp.Symbol], kic: set[sp.Symbol]) -> dict[sp.Symbol, sp.Expr]:
     """Old symbols in terms of the new ones on the section (pivots 1, translation pivots 0)."""
+    rest, tpiv = list(rest), list(tpiv)
     unknown_y = [sp.Dummy(y.name) for y in rest + tpiv]
     to_dummy = dict(zip(rest + tpiv, unknown_y))
     eqs_lin = [lin.xreplace(to_dummy) - make_symbol(nm) for nm, _, lin in new] + [to_dummy[p] for p in tpiv]

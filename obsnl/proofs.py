@@ -9,10 +9,11 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 
 import sympy as sp
 
+from .branches import Branch
 from .errors import NotSupportedError
 from .fields import canonical
 from .model import Model
@@ -125,7 +126,8 @@ def verify_generator(model: Model, kind: str, comp: Mapping[sp.Symbol, sp.Expr])
     return all(is_zero(sum(c * sp.diff(e, v) for v, c in comp.items())) for e in h)
 
 
-def verify_reparametrization(new: Model, mapping: Mapping[str, sp.Expr], old_branches, new_branches) -> bool:
+def verify_reparametrization(new: Model, mapping: Mapping[str, sp.Expr], old_branches: Sequence[Branch],
+                             new_branches: Sequence[Branch]) -> bool:
     """Branch by branch: ``L_f(phi_s) == f~_s(phi)`` for every new state and ``h == h~(phi)``."""
     back = {make_symbol(nm): phi for nm, phi in mapping.items()}
     if len(new_branches) != len(old_branches):

@@ -37,7 +37,7 @@ from .analyze import analyze_smooth
 from .model import Model
 from .parse import make_symbol
 from .proofs import verify_reparametrization
-from .symmetry import Symmetries, symmetries
+from .symmetry import Symmetries, Symmetry, symmetries
 from .writer import model_to_toml
 
 __all__ = ["Reparametrization", "reparametrize"]
@@ -76,6 +76,9 @@ class Reparametrization:
         Per branch of the new model, its unobservable coordinates.
     verified
         The new model's equations and outputs were checked symbolically against the old ones.
+    divided
+        The group divided out, one generator per pivot (scalings in rref form over the pivots, e.g.
+        the seed model's ``L``-scaling ``L d/dL - sigma d/dsigma - ...``), as text.
     """
 
     model: Model
@@ -92,6 +95,7 @@ class Reparametrization:
     verified: bool
     notes: tuple[str, ...] = ()
     seconds: float = 0.0
+    divided: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         return {"original": self.original, "model": self.model.name,
@@ -102,6 +106,7 @@ class Reparametrization:
                 "method": self.method, "verified": self.verified,
                 "unobservable": {k: list(v) for k, v in self.unobservable.items()},
                 "branches": [b.to_dict() for b in self.branches], "notes": list(self.notes),
+                "divided": list(self.divided),
                 "seconds": self.seconds}
 
     def to_toml(self) -> str:
@@ -303,9 +308,13 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
             notes.append(f"branch {b.label}: {s.missing} unobservable direction(s) without a closed form remain")
     if nowhere:
         notes.append(f"unobservable in every branch of the new model: {', '.join(sorted(nowhere))}")
+    divided = [str(Symmetry("scaling", {v.name: w * v for v, w in row.items()})) for row in sec.weights]
+    divided += [str(Symmetry("translation", {y.name: c for y, c in zip(ys, r) if c != 0})) for r in (common_t or [])
+                if tpiv]
     return Reparametrization(built, model.name, mapping, {k.name: v for k, v in section.items()},
                              tuple(p.name for p in list(sec.pivots) + list(tpiv)), functions, complete,
-                             not nowhere, method, per, unobs, verified, tuple(notes), time.perf_counter() - t0)
+                             not nowhere, method, per, unobs, verified, tuple(notes), time.perf_counter() - t0,
+                             tuple(divided))
 
 
 def _negated_only(model: Model, deltas: Sequence[str]) -> set[str]:

@@ -53,7 +53,7 @@ def test_seed_model_gives_the_papers_recombination(seed):
     for name, text in PAPER_16.items():
         e = sp.sympify(text, locals=syms)
         assert any(_same_expr(e, o) for o in ours), name
-    assert set(r.pivots) == {"E", "L", "sigma_y"}
+    assert set(r.pivots) == {"E", "L", "sigma_y"} and len(r.divided) == 3
     assert r.complete and r.observable and r.verified and r.method == "symmetries"
 
 
@@ -83,14 +83,17 @@ def test_written_seed_model_loads_and_is_observable(seed, tmp_path):
     assert m2 == r.model
     names = [s.name for s in m2.states + m2.parameters]
     assert set(m2.definitions) == set(names)
-    analyze = getattr(obsnl, "analyze", None)
-    if analyze is None:
-        try:
-            from obsnl.analyze import analyze
-        except ImportError:
-            pytest.skip("obsnl.analyze (the observability engine) is not in this checkout yet")
-    res = analyze(m2, method="sedoglavic", seed=0)
+    res = obsnl.analyze(m2, method="sedoglavic", seed=0)
     assert res.to_dict()["overall"]["unobservable"] == []
+
+
+def test_cli_end_to_end_on_the_seed_model(tmp_path, capsys):
+    # `obsnl reparametrize MODEL -o NEW.toml`, then `obsnl analyze NEW.toml`: nothing unobservable
+    out = tmp_path / "dh.toml"
+    assert main(["reparametrize", str(MODELS / "damage_healing.toml"), "-o", str(out)]) == 0
+    capsys.readouterr()
+    assert main(["analyze", str(out), "--format", "json", "--seed", "1"]) == 0
+    assert json.loads(capsys.readouterr().out)["overall"]["unobservable"] == []
 
 
 def test_bouc_wen_amplitude_normalisation():
