@@ -16,10 +16,14 @@ across one switching surface); for the seed model this is the paper's order (a)-
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import itertools
 import string
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -30,6 +34,7 @@ from .model import NONSMOOTH_FUNCTIONS, Model
 __all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of"]
 
 _MAX_SWITCHING = 12  # 2**12 sign patterns per level at most
+_FIELDS = {f.name for f in dataclasses.fields(Model)}
 
 
 @dataclass(frozen=True)
@@ -224,11 +229,22 @@ def switching_functions(model: Model) -> tuple[sp.Expr, ...]:
     return _switching_of(list(model.rhs) + list(model.output_exprs), model.switching)
 
 
-def _switching_of(exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr]) -> tuple[sp.Expr, ...]:
+def _factored(g: sp.Expr, memo: dict | None) -> tuple[int, list[sp.Expr]]:
+    """:func:`_factor_signs` remembered for one split (the same arguments recur in every branch)."""
+    if memo is None:
+        return _factor_signs(g)
+    if g not in memo:
+        memo[g] = _factor_signs(g)
+    c, factors = memo[g]
+    return c, list(factors)
+
+
+def _switching_of(exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr],
+                  memo: dict | None = None) -> tuple[sp.Expr, ...]:
     found: list[sp.Expr] = []
     for node in _innermost_nonsmooth(exprs):
         for raw in _raw_switching(node):
-            _, factors = _factor_signs(raw)
+            _, factors = _factored(raw, memo)
             for f in factors:
                 if f not in found:
                     found.append(f)
@@ -239,9 +255,9 @@ def _switching_of(exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr]) -> tup
 
 
 # --------------------------------------------------------------------------- resolution in a branch
-def _sign_in(g: sp.Expr, switching: Sequence[sp.Expr], signs: Sequence[int]) -> int:
+def _sign_in(g: sp.Expr, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> int:
     """The sign of ``g`` in the branch where ``switching`` have ``signs``."""
-    c, factors = _factor_signs(g)
+    c, factors = _factored(g, memo)
     canon = {_canonical(sw)[1]: (_canonical(sw)[0], s) for sw, s in zip(switching, signs)}
     out = c
     for f in factors:
@@ -252,40 +268,40 @@ def _sign_in(g: sp.Expr, switching: Sequence[sp.Expr], signs: Sequence[int]) -> 
     return out
 
 
-def _truth(cond: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int]) -> bool:
+def _truth(cond: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> bool:
     if cond is sp.true or cond is True:
         return True
     if cond is sp.false or cond is False:
         return False
     if isinstance(cond, (sp.StrictGreaterThan, sp.GreaterThan)):
-        return _sign_in(cond.lhs - cond.rhs, switching, signs) > 0
+        return _sign_in(cond.lhs - cond.rhs, switching, signs, memo) > 0
     if isinstance(cond, (sp.StrictLessThan, sp.LessThan)):
-        return _sign_in(cond.lhs - cond.rhs, switching, signs) < 0
+        return _sign_in(cond.lhs - cond.rhs, switching, signs, memo) < 0
     if isinstance(cond, sp.And):
-        return all(_truth(a, switching, signs) for a in cond.args)
+        return all(_truth(a, switching, signs, memo) for a in cond.args)
     if isinstance(cond, sp.Or):
-        return any(_truth(a, switching, signs) for a in cond.args)
+        return any(_truth(a, switching, signs, memo) for a in cond.args)
     if isinstance(cond, sp.Not):
-        return not _truth(cond.args[0], switching, signs)
+        return not _truth(cond.args[0], switching, signs, memo)
     raise NotSupportedError(f"Piecewise condition {cond} is not supported")  # pragma: no cover
 
 
-def _resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int]) -> sp.Expr:
+def _resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> sp.Expr:
     if isinstance(node, sp.sign):
-        return sp.Integer(_sign_in(node.args[0], switching, signs))
+        return sp.Integer(_sign_in(node.args[0], switching, signs, memo))
     if isinstance(node, sp.Abs):
-        return _sign_in(node.args[0], switching, signs) * node.args[0]
+        return _sign_in(node.args[0], switching, signs, memo) * node.args[0]
     if isinstance(node, sp.Heaviside):
-        return sp.Integer(1 if _sign_in(node.args[0], switching, signs) > 0 else 0)
+        return sp.Integer(1 if _sign_in(node.args[0], switching, signs, memo) > 0 else 0)
     if isinstance(node, (sp.Max, sp.Min)):
         want = 1 if isinstance(node, sp.Max) else -1
         for a in node.args:
-            if all(want * _sign_in(a - b, switching, signs) > 0 for b in node.args if b is not a):
+            if all(want * _sign_in(a - b, switching, signs, memo) > 0 for b in node.args if b is not a):
                 return a
         raise ModelError(f"cannot resolve {node} in a branch")  # pragma: no cover
     if isinstance(node, sp.Piecewise):
         for e, c in node.args:
-            if _truth(c, switching, signs):
+            if _truth(c, switching, signs, memo):
                 return e
         raise ModelError(
             f"Piecewise {node} has no branch for the sign pattern "
@@ -390,6 +406,29 @@ def _feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator) ->
 
 
 # --------------------------------------------------------------------------- splitting
+def derived_model(base: Model, **changes: Any) -> Model:
+    """``base.replace(**changes)`` for changes made of ``base``'s own validated parts, without re-parsing.
+
+    :meth:`Model.replace` validates every expression again, and validation prints each one (about
+    15 ms per branch of the seed model, as much as analysing the branch). The models derived here
+    only substitute signs into ``base``'s expressions (branches) or keep subsets of its names and
+    expressions (blocks of :mod:`obsnl.decompose`): the symbols are ``base``'s own and no
+    non-smooth function or undeclared name can appear, so re-validation cannot fail. Mappings are
+    keyed like the validated model's (``equations`` and ``initial_condition_values`` by symbol,
+    ``outputs`` by name) and frozen the same way; tests compare every field with ``replace``.
+    """
+    new = copy.copy(base)
+    for key, value in changes.items():
+        if key not in _FIELDS:
+            raise TypeError(f"derived_model: unknown field {key!r}")
+        if isinstance(value, Mapping):
+            value = MappingProxyType(dict(value))
+        elif isinstance(value, list):
+            value = tuple(value)
+        object.__setattr__(new, key, value)
+    return new
+
+
 def _labels(n: int) -> list[str]:
     letters = string.ascii_lowercase
     out = []
@@ -433,18 +472,18 @@ def split_branches(model: Model, *, seed: int = 0, with_dropped: bool = False):
     rng = np.random.default_rng(seed)
     exprs = list(model.rhs) + list(model.output_exprs)
     if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
-        branches = (Branch("smooth", (), (), model.replace(switching=()), {}),)
+        branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
         return (branches, ()) if with_dropped else branches
     found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float]]] = []
     dropped: list[DroppedPattern] = []
-    _split_level(exprs, model.switching, (), (), {}, rng, found, dropped)
+    _split_level(exprs, model.switching, (), (), {}, rng, found, dropped, {})
     labels = _labels(len(found))
     n_rhs = len(model.states)
     branches = []
     for label, (sw, signs, new_exprs, witness) in zip(labels, found):
-        eqs = {s.name: e for s, e in zip(model.states, new_exprs[:n_rhs])}
+        eqs = dict(zip(model.states, new_exprs[:n_rhs]))
         outs = dict(zip(model.output_names, new_exprs[n_rhs:]))
-        sub = model.replace(name=f"{model.name}[{label}]", equations=eqs, outputs=outs, switching=())
+        sub = derived_model(model, name=f"{model.name}[{label}]", equations=eqs, outputs=outs, switching=())
         branches.append(Branch(label, sw, signs, sub, witness))
     result = tuple(branches)
     return (result, tuple(dropped)) if with_dropped else result
@@ -459,11 +498,12 @@ def _split_level(
     rng: np.random.Generator,
     found: list,
     dropped: list,
+    memo: dict,
 ) -> None:
     if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
         found.append((outer_sw, outer_signs, exprs, witness))
         return
-    sw = _switching_of(exprs, declared)
+    sw = _switching_of(exprs, declared, memo)
     if len(sw) > _MAX_SWITCHING:
         raise NotSupportedError(
             f"{len(sw)} switching functions at one level ({2 ** len(sw)} sign patterns); at most "
@@ -477,9 +517,9 @@ def _split_level(
         if witness is None:
             dropped.append(DroppedPattern(all_sw, all_signs, reason))
             continue
-        repl = {node: _resolve(node, sw, signs) for node in nodes}
+        repl = {node: _resolve(node, sw, signs, memo) for node in nodes}
         new_exprs = [e.xreplace(repl) for e in exprs]
-        _split_level(new_exprs, declared, all_sw, all_signs, witness, rng, found, dropped)
+        _split_level(new_exprs, declared, all_sw, all_signs, witness, rng, found, dropped, memo)
 
 
 def branch_of(branches: Sequence[Branch], point: Mapping[str, float]) -> Branch | None:

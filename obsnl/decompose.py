@@ -20,6 +20,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from .branches import derived_model
 from .errors import AnalysisError
 from .model import Model
 
@@ -148,7 +149,8 @@ def decompose(model: Model) -> Decomposition:
 
 
 def _submodel(model: Model, outputs: list[str], names: set[str], index: int | None) -> Model:
-    keep = lambda syms: [s.name for s in syms if s.name in names]  # noqa: E731
+    """The block of ``model`` on ``names`` (built from the model's validated parts, no re-parsing)."""
+    keep = lambda syms: tuple(s for s in syms if s.name in names)  # noqa: E731
     states = keep(model.states)
     if not states:
         raise AnalysisError(
@@ -156,18 +158,18 @@ def _submodel(model: Model, outputs: list[str], names: set[str], index: int | No
             f"measure at least one state"
         )
     sset = set(states)
-    kic = [s.name for s in model.known_initial_conditions if s.name in sset]
-    icv = {s.name: v for s, v in model.initial_condition_values.items() if s.name in sset}
-    return Model(
+    return derived_model(
+        model,
         name=model.name if index is None else f"{model.name}[{index}]",
         states=states,
         parameters=keep(model.parameters),
-        equations={s.name: model.equations[s] for s in model.states if s.name in sset},
+        equations={s: model.equations[s] for s in states},
         outputs={y: model.outputs[y] for y in outputs},
         inputs=keep(model.inputs),
         unknown_inputs=keep(model.unknown_inputs),
         known_constants=keep(model.known_constants),
-        known_initial_conditions=kic,
-        initial_condition_values=icv,
+        known_initial_conditions=tuple(s for s in model.known_initial_conditions if s in sset),
+        initial_condition_values={s: v for s, v in model.initial_condition_values.items() if s in sset},
+        description="", source="", switching=(), latex={}, values={}, definitions={}, metadata={},
     )
 
