@@ -11,15 +11,19 @@ derivative rule, so that the model becomes a rational system over the variables 
 atom      derivative              initial value a0             gradient of a0 w.r.t. unknowns z
 ========  ======================  ===========================  ==================================
 exp(g)    E' = E g'               random in GF(p)              E0 * dg0
-log(g)    l' = g'/g               random in GF(p)              dg0 / g0
+log|g|    l' = g'/g               random in GF(p)              dg0 / g0
 atan(g)   a' = g'/(1 + g^2)       random in GF(p)              dg0 / (1 + g0^2)
 g^(1/q)   w' = w g'/(q g)         a q-th root of g0 in GF(p)   w0 dg0 / (q g0)
 sin, cos  s' = c g', c' = -s g'   (2t, 1 - t^2)/(1 + t^2)      c0 dg0, -s0 dg0
 ========  ======================  ===========================  ==================================
 
-A symbolic power is ``b**e = exp(e*log(b))``; the base is factored into irreducible
-polynomials and ``log`` of a product is split, so ``log(sigma - eta)``, ``log(sigma_y)`` and
-``exp(2*N*log(sigma - eta))`` are the atoms of the seed model. Exponent arguments are split
+A symbolic power is ``b**e = b**c0 * exp((e - c0)*log(b))`` (``c0`` the rational part of ``e``);
+the base is factored into irreducible polynomials and ``log`` of a product is split, so
+``log(sigma - eta)``, ``log(sigma_y)`` and ``exp(2*N*log(sigma - eta))`` are the atoms of the seed
+model. Logarithms are real: a log atom stands for ``log|f|`` (same derivative ``f'/f`` for either
+sign of ``f``), so a factor and its negative share one atom and no ``log(-1)`` ever appears (in a
+real model the argument of ``log`` and the base of a symbolic power are positive in the branch,
+so ``log b = log|c| + sum k log|f|`` for ``b = c prod f**k``). Exponent arguments are split
 into terms ``c*m`` (``c`` rational, ``m`` a monomial); all terms with the same monomial share
 one atom ``exp(u*m)`` (``u`` the gcd of their coefficients), so that ``x**N`` and ``x**(2*N)``
 become ``E`` and ``E**2``. The same is done for ``sin``/``cos`` (multiple angles through
@@ -173,7 +177,9 @@ class _Builder:
         self.orientation: set[sp.Expr] = set()
         self.prov_exp_inv: dict[sp.Symbol, tuple[sp.Expr, sp.Rational]] = {}
         self.prov_trig: dict[tuple[str, sp.Expr, sp.Rational], sp.Symbol] = {}
-        self.used_terms: list[str] = []
+        self.used_terms: list[object] = []  # sympy terms or (base, exponent); printed once, in the notes
+        self.memo: dict[sp.Expr, sp.Expr] = {}
+        self.log_memo: dict[sp.Expr, sp.Expr] = {}
 
     # ----------------------------------------------------------------- atoms
     def _new(self, kind: str, arg: sp.Expr, *, q: int = 0, name: str | None = None) -> sp.Symbol:
@@ -199,10 +205,13 @@ class _Builder:
 
     # ----------------------------------------------------------------- walk
     def rat(self, e: sp.Expr) -> sp.Expr:
-        if e.is_Symbol:
+        if e.is_Symbol or e.is_Rational:
             return e
-        if e.is_Rational:
-            return e
+        if e not in self.memo:  # subexpressions recur (the seed model has |sigma - eta|**(2N) thrice)
+            self.memo[e] = self._rat(e)
+        return self.memo[e]
+
+    def _rat(self, e: sp.Expr) -> sp.Expr:
         if e.is_Number:  # Float
             return _to_exact(e)
         if e is sp.pi:
@@ -227,7 +236,7 @@ class _Builder:
             return self.rat(e.rewrite(sp.exp))
         if isinstance(e, sp.atan):
             g = self.rat(e.args[0])
-            self.used_terms.append(str(e))
+            self.used_terms.append(e)
             return self._new("atan", g)
         if isinstance(e, NONSMOOTH_FUNCTIONS):
             raise NotSupportedError(
@@ -244,12 +253,15 @@ class _Builder:
         if ex.is_Integer:
             return base**ex
         if ex.is_Rational:
-            self.used_terms.append(f"({base})**({ex})")
+            self.used_terms.append((base, ex))
             return self.root_power(base, ex)
         if not ex.free_symbols:
             raise NotSupportedError(f"the irrational exponent in ({base})**({ex}) is not supported; use a rational number")
-        self.used_terms.append(f"({base})**({ex})")
-        return self.exp_of(self.rat(ex) * self.log_of(base))
+        self.used_terms.append((base, ex))
+        # b**(c0 + e') = b**c0 * exp(e' log b): the rational part stays algebraic in b itself
+        c0, rest = self.rat(ex).as_coeff_Add()
+        out = base**c0 if c0.is_Integer else self.root_power(base, c0)
+        return out * self.exp_of(rest * self.log_of(base))
 
     def root_power(self, base: sp.Expr, ex: sp.Rational) -> sp.Expr:
         p, q = int(ex.p), int(ex.q)
@@ -262,6 +274,12 @@ class _Builder:
         return base**s * w**t
 
     def log_of(self, g: sp.Expr) -> sp.Expr:
+        """``log|g|`` over log atoms of irreducible factors and logarithms of primes."""
+        if g not in self.log_memo:
+            self.log_memo[g] = self._log_of(g)
+        return self.log_memo[g]
+
+    def _log_of(self, g: sp.Expr) -> sp.Expr:
         g = sp.together(g)
         if g == 0:
             raise ModelError("log(0) in the model")
@@ -276,11 +294,9 @@ class _Builder:
                 c, factors = sp.Integer(1), [(part, 1)]
             c = sp.Rational(c)
             for f, k in factors:
-                # one orientation per factor: the first one seen (log(-f) = log(f) + log(-1))
+                # one atom per factor up to sign, the orientation first seen (log|-f| = log|f|)
                 if (-f) in self.orientation and f not in self.orientation:
                     f = -f
-                    if k % 2:
-                        c = -c
                 self.orientation.add(f)
                 if f in self.prov_exp_inv:  # log(exp(c*m)) = c*m
                     m, cc = self.prov_exp_inv[f]
@@ -291,13 +307,11 @@ class _Builder:
         return out
 
     def log_number(self, c: sp.Rational) -> sp.Expr:
-        c = sp.Rational(c)
+        """``log|c|`` as a combination of logarithms of primes (random stand-ins)."""
+        c = abs(sp.Rational(c))
         if c == 1:
             return sp.Integer(0)
         out = sp.Integer(0)
-        if c < 0:
-            out += self.const(sp.log(-1, evaluate=False))
-            c = -c
         for prime, e in sp.factorint(int(c.p)).items():
             out += e * self.const(sp.log(prime, evaluate=False))
         for prime, e in sp.factorint(int(c.q)).items():
@@ -504,14 +518,15 @@ def _specific_initial_values(
     return out
 
 
-def _notes(atoms: Sequence[Atom], used: Sequence[str], initial: Mapping[sp.Symbol, sp.Expr]) -> tuple[str, ...]:
+def _notes(atoms: Sequence[Atom], used: Sequence[object], initial: Mapping[sp.Symbol, sp.Expr]) -> tuple[str, ...]:
     if not atoms:
         return ()
     dyn = [a for a in atoms if a.kind != "const"]
     consts = [a for a in atoms if a.kind == "const"]
     lines = []
     seen: list[str] = []
-    for t in used:
+    for u in dict.fromkeys(used):
+        t = f"({u[0]})**({u[1]})" if isinstance(u, tuple) else str(u)
         if t not in seen:
             seen.append(t)
     if seen:
