@@ -26,35 +26,42 @@ unobservable unknowns and the transcendence degree (rank deficit), see :mod:`obs
 from __future__ import annotations
 
 import random
-import time
-from collections.abc import Sequence
 
 import numpy as np
 
-from .exact import BlockOutcome, classify, failure_bound, rank
-from .series import Problem, Resample, TimeUp, run_series
+from .exact import BlockOutcome, failure_bound
+from .modp import Echelon
+from .series import Problem, TimeUp, run_series
 
 __all__ = ["sedoglavic", "sedoglavic_block"]
 
 _MAX_RUNS = 4
 
 
-def _stopper(M: int):
-    def stop(rows: list[np.ndarray], p: int) -> bool:
-        if sum(r.shape[0] for r in rows) < M:
-            return False
-        return rank(np.vstack(rows), p) == M
+class _Tracker:
+    """Rank of the Jacobian rows seen so far (an incremental echelon basis mod p); stops at full rank."""
 
-    return stop
+    def __init__(self, M: int) -> None:
+        self.M = M
+        self.basis: Echelon | None = None
+        self.seen = 0
+
+    def __call__(self, rows: list[np.ndarray], p: int) -> bool:
+        if self.basis is None or self.basis.p != p:  # a new prime after a resample
+            self.basis, self.seen = Echelon(self.M, p), 0
+        for block in rows[self.seen:]:
+            for r in block:
+                self.basis.add(r)
+        self.seen = len(rows)
+        return self.basis.rank == self.M
 
 
 def _one_run(problem: Problem, rng: random.Random, deadline: float | None):
-    K = problem.order_bound()
-    M = problem.size
-    run = run_series(problem, rng, K=K, deadline=deadline, stop=_stopper(M))
-    J = np.vstack(run.rows) if run.rows else np.zeros((0, M), dtype=np.int64)
-    r, unobs = classify(J, run.p)
-    return run, r, unobs
+    """One run: rank and per-column classes of the Jacobian at one random point (exact, mod p)."""
+    tracker = _Tracker(problem.size)
+    run = run_series(problem, rng, K=problem.order_bound(), deadline=deadline, stop=tracker)
+    tracker(run.rows, run.p)  # rows the stop rule has not seen (none, unless it was never called)
+    return run, tracker.basis.rank, tracker.basis.unobservable()
 
 
 def sedoglavic_block(
