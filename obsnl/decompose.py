@@ -98,28 +98,34 @@ def decompose(model: Model) -> Decomposition:
     >>> d.unreachable, [list(map(str, b.states)) for b in d.blocks]
     (('z', 'b'), [['x']])
     """
-    import networkx as nx
-
     if not model.outputs:
         raise AnalysisError(f"model {model.name!r} has no outputs; add at least one measured quantity")
-    g = dependency_graph(model)
+    parents, role = _parents(model)
     known = set(model.known_initial_conditions)
     unknowns = [s.name for s in model.states if s not in known] + [s.name for s in model.parameters]
     unknowns += [s.name for s in model.unknown_inputs]
-    anc = {y: nx.ancestors(g, y) for y in model.outputs}
+    anc = {y: _ancestors(parents, y) for y in model.outputs}
     relevant = set().union(*anc.values())
     unreachable = tuple(v for v in unknowns if v not in relevant)
-    # group outputs whose ancestor sets share a state or an unknown
+    # group outputs whose ancestor sets share a state or an unknown (union-find over outputs)
     shared_roles = {"state", "parameter", "unknown_input"}
-    h = nx.Graph()
-    h.add_nodes_from(model.outputs)
     outs = list(model.outputs)
+    group = {y: y for y in outs}
+
+    def find(y: str) -> str:
+        while group[y] != y:
+            group[y] = group[group[y]]
+            y = group[y]
+        return y
+
     for i, y1 in enumerate(outs):
         for y2 in outs[i + 1:]:
-            common = anc[y1] & anc[y2]
-            if any(g.nodes[v].get("role") in shared_roles for v in common):
-                h.add_edge(y1, y2)
-    comps = [sorted(c, key=outs.index) for c in nx.connected_components(h)]
+            if any(role.get(v) in shared_roles for v in anc[y1] & anc[y2]):
+                group[find(y1)] = find(y2)
+    by_root: dict[str, list[str]] = {}
+    for y in outs:
+        by_root.setdefault(find(y), []).append(y)
+    comps = list(by_root.values())
     comps.sort(key=lambda c: outs.index(c[0]))
     # an output group that reaches no state (it measures parameters only) joins another group
     states = {s.name for s in model.states}
@@ -146,6 +152,34 @@ def decompose(model: Model) -> Decomposition:
                         for c, b in zip(comps, blocks))
         )
     return Decomposition(unreachable=unreachable, blocks=tuple(blocks), report=tuple(report))
+
+
+def _parents(model: Model) -> tuple[dict[str, set[str]], dict[str, str]]:
+    """The dependency graph of :func:`dependency_graph` as parent sets, and each name's role."""
+    role: dict[str, str] = {}
+    for r in ("states", "parameters", "inputs", "unknown_inputs", "known_constants"):
+        for s in getattr(model, r):
+            role[s.name] = r[:-1] if r != "unknown_inputs" else "unknown_input"
+    parents: dict[str, set[str]] = {}
+    for s in model.states:
+        ps = {v.name for v in model.equations[s].free_symbols}
+        if s in model.initial_condition_values:
+            ps |= {v.name for v in model.initial_condition_values[s].free_symbols}
+        parents[s.name] = ps
+    for name, expr in model.outputs.items():
+        parents[name] = {v.name for v in expr.free_symbols}
+    return parents, role
+
+
+def _ancestors(parents: dict[str, set[str]], node: str) -> set[str]:
+    seen: set[str] = set()
+    stack = list(parents.get(node, ()))
+    while stack:
+        v = stack.pop()
+        if v not in seen:
+            seen.add(v)
+            stack.extend(parents.get(v, ()))
+    return seen
 
 
 def _submodel(model: Model, outputs: list[str], names: set[str], index: int | None) -> Model:

@@ -70,12 +70,22 @@ class Problem:
         """Number of series terms (derivative orders 0..K-1) used.
 
         With generic initial values the rank of the observability matrix grows at every order until
-        it stops, so ``dim`` terms suffice (algorithms.md §1.4). With specific initial values that
-        argument fails (the rank may stall and grow again); obsnl then uses ``2*dim + n`` terms and
-        says so in the notes.
+        it stops, so ``dim`` terms suffice (algorithms.md §1.4). When moreover every initial state
+        is an unknown (no known initial conditions), the rank of the Jacobian with respect to the
+        ``M`` unknowns itself grows at every order until it stops for good (if all outputs' ``j``-th
+        derivatives are algebraic over the lower ones, differentiating the relation along the flow
+        gives the same for ``j + 1``; the set of initial points, with the augmented functions'
+        values, is invariant under the flow, and the input coefficients form a differential
+        field). That rank is at most ``M``, so ``min(dim, M)`` terms suffice. This is a fixed number
+        of terms, so the probability bound is unchanged (lower orders only lower the degrees). A
+        known initial condition breaks the invariance (the rank may stall and grow again), and with
+        specific initial values even the ``dim`` argument fails; obsnl then uses ``2*dim + n``
+        terms and says so in the notes.
         """
         if self.specific:
             return 2 * self.dim + len(self.model.states)
+        if not self.model.known_initial_conditions:
+            return min(self.dim, self.size)
         return self.dim
 
 

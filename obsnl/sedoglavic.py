@@ -4,12 +4,15 @@ At a random point of GF(p) (random prime ``p < 2**50``, random parameters, initi
 input series and unknown-input coefficients) the truncated power-series solution of the model
 and its sensitivities to the unknowns are computed in Taylor mode on first-order jets
 (:mod:`obsnl.series`, algorithms.md §3.5). Row ``(k, i)`` of the Jacobian is the gradient of the
-``t**k`` coefficient of output ``i``; its rank and kernel over GF(p) give the observable and
-unobservable unknowns and the transcendence degree (rank deficit), see :mod:`obsnl.exact`.
+``t**k`` coefficient of output ``i``; its rank and kernel over GF(p) (an echelon basis grown row by
+row, :class:`obsnl.modp.Echelon`) give the observable and unobservable unknowns and the
+transcendence degree (rank deficit), see :mod:`obsnl.exact`.
 
 - **Order.** ``K = dim`` series terms (states + parameters + augmented functions + unknown-input
-  derivatives; Lie derivatives of order ``0..K-1``), which suffices with generic initial values;
-  the computation stops earlier as soon as the rank is full. With specific initial values
+  derivatives; Lie derivatives of order ``0..K-1``), which suffices with generic initial values,
+  and ``K = min(dim, M)`` (``M`` unknowns) when no initial condition is known (the rank then grows
+  at every order until it stops for good, see :meth:`obsnl.problem.Problem.order_bound`); the
+  computation stops earlier as soon as the rank is full. With specific initial values
   (``x(0) = 0``) ``2*dim + n`` terms are used (see :meth:`obsnl.series.Problem.order_bound`).
 - **Known inputs** are generic: random series with every coefficient random (or the first
   ``input_derivatives + 1`` only). **Unknown inputs** ``w`` are polynomials of degree
