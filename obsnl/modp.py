@@ -70,11 +70,10 @@ class MatMod:
         if vec:
             B = B[:, None]
         c = B.shape[1]
-        P = self._stack @ np.hstack([B >> LIMB, B & _MASK])  # (2m, 2c), entries < 2**63
+        P = self._stack @ np.concatenate((B >> LIMB, B & _MASK), axis=1)  # (2m, 2c), entries < 2**56
         m = self._m
-        hh, hl = P[:m, :c] % p, P[:m, c:] % p
-        lh, ll = P[m:, :c] % p, P[m:, c:] % p
-        out = (mulmod(hh, self._c50, p) + mulmod((hl + lh) % p, self._c25, p) + ll) % p
+        mid = (P[:m, c:] + P[m:, :c]) % p  # hi*lo + lo*hi
+        out = (mulmod(P[:m, :c] % p, self._c50, p) + mulmod(mid, self._c25, p) + P[m:, c:]) % p
         return out[:, 0] if vec else out
 
 

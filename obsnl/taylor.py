@@ -199,30 +199,40 @@ class Stepper:
         self.state_rhs = np.asarray(state_rhs, dtype=np.int64)
         self.rhs_tv = [r for r, f in enumerate(state_rhs) if tv[f]]
         self.rhs_tv_rows = [self.rpos[state_rhs[r]] for r in self.rhs_tv]
-        self.S = np.zeros((K, len(plan.rows), M1), dtype=np.int64)
+        self.S = np.zeros((1, len(plan.rows), M1), dtype=np.int64)
         self.S[0] = X0[list(plan.rows)] if plan.rows else 0
         self._tangent()
         conv = plan.conv
-        self.upos = [self.rpos[c[2]] for c in conv]
-        self.vpos = [self.rpos[c[3]] for c in conv]
+        nr = len(plan.rows)
+        # history terms sum_j u'[j] v[k-j]: u' is u (products, quotients) or j*u[j] (atoms: the
+        # weights j/k are j*u[j] summed, then 1/k); a root has both, ((r+1) j - k)/k. Rows nr..2nr-1
+        # of SS hold j*S[j].
+        t_u, t_v, t_c, t_fac, t_byk = [], [], [], [], []
+        for ci, c in enumerate(conv):
+            u, v = self.rpos[c[2]], self.rpos[c[3]]
+            if c[1] in ("mul", "div"):
+                terms = [(u, 1, False)]
+            elif c[1] == "root":
+                terms = [(nr + u, (1 + pow(c[5], -1, p)) % p, True), (u, p - 1, False)]
+            else:
+                terms = [(nr + u, 1, True)]
+            for uu, fac, byk in terms:
+                t_u.append(uu), t_v.append(v), t_c.append(ci), t_fac.append(fac), t_byk.append(byk)
+        self.t_u, self.t_v = t_u, t_v
+        self.t_c = np.array(t_c, dtype=np.int64)
+        self.t_fac = np.array(t_fac, dtype=np.int64)[:, None]
+        self.t_byk = np.array(t_byk, dtype=bool)[:, None]
+        self.weighted = bool(any(t_byk))
+        self.plain_terms = not self.weighted and all(f == 1 for f in t_fac)
+        self.n_conv = len(conv)
+        self.SS = np.zeros((K, 2 * nr if self.weighted else nr, M1), dtype=np.int64)
+        self.SS[0, :nr] = self.S[0]
         lam = np.array([self._jet(c[4]) for c in conv], dtype=np.int64).reshape(len(conv), M1)
         self.lam_v = lam[:, :1].copy()
         self.lam_g = lam[:, 1:].copy()
         self.lam_trivial = bool(np.all(lam[:, 1:] == 0) and np.all(lam[:, 0] == 1))
-        self.alpha = np.array([self._alpha(c) for c in conv], dtype=np.int64)
-        self.beta = np.array([0 if c[1] in ("exp", "log", "atan", "sin", "cos") else
-                              (p - 1 if c[1] == "root" else 1) for c in conv], dtype=np.int64)
-        self.unit_weights = all(c[1] in ("mul", "div") for c in conv)
-        self.n_conv = len(conv)
 
     # ------------------------------------------------------------------ constant jets
-    def _alpha(self, c) -> int:
-        if c[1] in ("mul", "div"):
-            return 0
-        if c[1] == "root":
-            return (1 + pow(c[5], -1, self.p)) % self.p
-        return 1
-
     def _inv(self, i: int) -> np.ndarray:
         p = self.p
         v, g = int(self.X0[i, 0]), self.X0[i, 1:]
@@ -298,7 +308,7 @@ class Stepper:
     # ------------------------------------------------------------------ one order
     def step(self, k: int) -> None:
         """Compute coefficient ``k >= 1`` of every row."""
-        p, S, M1 = self.p, self.S, self.M1
+        p, SS, M1 = self.p, self.SS, self.M1
         R = np.zeros((self.nc, M1), dtype=np.int64)
         ns = self.n_state
         inv_k = np.int64(pow(k, -1, p))
@@ -307,21 +317,24 @@ class Stepper:
         else:
             F = np.zeros((ns, M1), dtype=np.int64)
             if self.rhs_tv:
-                F[self.rhs_tv] = S[k - 1, self.rhs_tv_rows]
+                F[self.rhs_tv] = SS[k - 1, self.rhs_tv_rows]
         R[:ns] = mulmod(F, inv_k, p)
         n_src = len(self.plan.sources)
         if n_src > ns:
             R[ns:n_src] = self.given(k)
         if k >= 2 and self.n_conv:
-            U = S[1:k][:, self.upos]  # (k-1, C, M+1): u[j], j = 1..k-1
-            V = S[k - 1:0:-1][:, self.vpos]  # v[k-j]
-            if not self.unit_weights:
-                j = np.arange(1, k, dtype=np.int64)[:, None]
-                W = (self.alpha[None, :] * j % p + self.beta[None, :] * k) % p
-                U = mulmod(U, mulmod(W, inv_k, p)[:, :, None], p)
+            U = SS[1:k][:, self.t_u]  # (k-1, terms, M+1): u'[j], j = 1..k-1
+            V = SS[k - 1:0:-1][:, self.t_v]  # v[k-j]
             P = mulmod(U[:, :, :1], V, p)
             P[:, :, 1:] += mulmod(V[:, :, :1], U[:, :, 1:], p)
             H = P.sum(axis=0) % p
+            if not self.plain_terms:
+                fac = np.where(self.t_byk, mulmod(self.t_fac, inv_k, p), self.t_fac)
+                H = mulmod(H, fac, p)
+                if len(self.t_u) > self.n_conv:  # roots: two terms into one history
+                    Hc = np.zeros((self.n_conv, M1), dtype=np.int64)
+                    np.add.at(Hc, self.t_c, H)
+                    H = Hc % p
             if not self.lam_trivial:
                 rho = mulmod(H, self.lam_v, p)
                 rho[:, 1:] = (rho[:, 1:] + mulmod(H[:, :1], self.lam_g, p)) % p
@@ -330,7 +343,10 @@ class Stepper:
         X = self.T0 @ R
         if M1 > 1:
             X[:, 1:] = (X[:, 1:] + (self.TG @ R[:, 0]).reshape(-1, M1 - 1)) % p
-        S[k] = X
+        nr = X.shape[0]
+        SS[k, :nr] = X
+        if self.weighted:
+            SS[k, nr:] = mulmod(X, np.int64(k), p)
 
     def gradients(self, nodes: Sequence[int], k: int) -> np.ndarray:
         """Gradient part of coefficient ``k`` of ``nodes`` (time-invariant nodes: 0 for ``k >= 1``)."""
@@ -339,5 +355,5 @@ class Stepper:
             if k == 0:
                 out[r] = self.X0[x, 1:]
             elif x in self.rpos:
-                out[r] = self.S[k, self.rpos[x], 1:]
+                out[r] = self.SS[k, self.rpos[x], 1:]
         return out
