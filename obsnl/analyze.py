@@ -91,11 +91,12 @@ def _bound_args(problem) -> dict:
 
 
 def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | None, target: float,
-               unknown_input_derivatives: int, input_derivatives: int | None) -> tuple[BlockOutcome, object]:
+               unknown_input_derivatives: int, input_derivatives: int | None,
+               factor_cache: dict | None = None) -> tuple[BlockOutcome, object]:
     from .lie import orc_block
     from .sedoglavic import sedoglavic_block
 
-    rational = rationalize(block)
+    rational = rationalize(block, factor_cache=factor_cache)
     problem = make_problem(rational, unknown_input_derivatives=unknown_input_derivatives,
                            input_derivatives=input_derivatives)
     bargs = _bound_args(problem)
@@ -115,7 +116,7 @@ def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | No
 def _branch_result(
     label: str, guard: str, bmodel: Model, variables: Sequence[str], *, method: str, seed: int,
     deadline: float | None, target: float, decompose: bool, unknown_input_derivatives: int,
-    input_derivatives: int | None,
+    input_derivatives: int | None, factor_cache: dict | None = None,
 ) -> tuple[BranchResult, float]:
     t0 = time.perf_counter()
     appear: set[str] = set()
@@ -148,7 +149,7 @@ def _branch_result(
         else:
             out, problem = _run_block(block, method=method, seed_key=f"{seed}:{label}:{i}", deadline=deadline,
                                       target=target, unknown_input_derivatives=unknown_input_derivatives,
-                                      input_derivatives=input_derivatives)
+                                      input_derivatives=input_derivatives, factor_cache=factor_cache)
         methods.append(out.method)
         if out.inconclusive:
             reasons.append(out.reason)
@@ -276,11 +277,12 @@ def analyze(
     target = (1 - prob) / n_blocks_guess
     results: list[BranchResult] = []
     failure = 0.0
+    factor_cache: dict = {}  # branches share their logarithm arguments (|sigma - eta| in the seed model)
     for b in branches:
         br, f = _branch_result(b.label, b.guard_text, b.model, variables, method=method, seed=seed,
                                deadline=deadline, target=target, decompose=decompose,
                                unknown_input_derivatives=unknown_input_derivatives,
-                               input_derivatives=input_derivatives)
+                               input_derivatives=input_derivatives, factor_cache=factor_cache)
         results.append(br)
         failure += f
     return AnalysisResult(

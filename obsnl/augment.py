@@ -144,6 +144,23 @@ class Rationalized:
 
 
 # --------------------------------------------------------------------------- helpers
+def _factor_fraction(g: sp.Expr):
+    """``g`` as a rational number, or ((c, factors) of the numerator, (c, factors) of the denominator)."""
+    g = sp.together(g)
+    if g == 0:
+        raise ModelError("log(0) in the model")
+    if g.is_Rational:
+        return sp.Rational(g)
+    out = []
+    for part in sp.fraction(g):
+        try:
+            c, factors = sp.factor_list(sp.expand(part))
+        except (sp.PolynomialError, NotImplementedError):  # pragma: no cover - defensive
+            c, factors = sp.Integer(1), [(part, 1)]
+        out.append((sp.Rational(c), tuple(factors)))
+    return tuple(out)
+
+
 def _rational_gcd(values: Sequence[sp.Rational]) -> sp.Rational:
     nums = [abs(int(v.p)) for v in values]
     dens = [int(v.q) for v in values]
@@ -165,8 +182,9 @@ def _to_exact(e: sp.Expr) -> sp.Expr:
 class _Builder:
     """Walks the expressions of one model, creating atoms (two passes, see :func:`rationalize`)."""
 
-    def __init__(self, model: Model) -> None:
+    def __init__(self, model: Model, factor_cache: dict | None = None) -> None:
         self.model = model
+        self.factor_cache = {} if factor_cache is None else factor_cache
         self.declared = set(model.symbols.values())
         self.time_symbols = set(model.states) | set(model.inputs) | set(model.unknown_inputs)
         self.atoms: dict[sp.Symbol, Atom] = {}
@@ -280,19 +298,13 @@ class _Builder:
         return self.log_memo[g]
 
     def _log_of(self, g: sp.Expr) -> sp.Expr:
-        g = sp.together(g)
-        if g == 0:
-            raise ModelError("log(0) in the model")
-        if g.is_Rational:
-            return self.log_number(g)
-        num, den = sp.fraction(g)
+        if g not in self.factor_cache:  # shared by the branches of one analysis
+            self.factor_cache[g] = _factor_fraction(g)
+        parts = self.factor_cache[g]
+        if not isinstance(parts, tuple):
+            return self.log_number(parts)
         out = sp.Integer(0)
-        for part, sign in ((num, 1), (den, -1)):
-            try:
-                c, factors = sp.factor_list(sp.expand(part))
-            except (sp.PolynomialError, NotImplementedError):  # pragma: no cover - defensive
-                c, factors = sp.Integer(1), [(part, 1)]
-            c = sp.Rational(c)
+        for (c, factors), sign in zip(parts, (1, -1)):
             for f, k in factors:
                 # one atom per factor up to sign, the orientation first seen (log|-f| = log|f|)
                 if (-f) in self.orientation and f not in self.orientation:
@@ -439,13 +451,16 @@ class _Builder:
         return tuple(done)
 
 
-def rationalize(model: Model) -> Rationalized:
+def rationalize(model: Model, *, factor_cache: dict | None = None) -> Rationalized:
     """Rewrite the non-rational terms of a smooth ``model`` over atoms (see the module docstring).
 
     Parameters
     ----------
     model
         A smooth model (no ``sign``/``Abs``/``Heaviside``/``Piecewise``/``Max``/``Min``).
+    factor_cache
+        A dictionary shared by several calls (the branches of one analysis) that remembers the
+        factorizations of logarithm arguments; None: one for this call.
 
     Returns
     -------
@@ -467,7 +482,7 @@ def rationalize(model: Model) -> Rationalized:
     >>> [a.kind for a in r.atoms]
     ['log', 'exp']
     """
-    b = _Builder(model)
+    b = _Builder(model, factor_cache)
     rhs = {s: b.rat(_to_exact(model.equations[s])) for s in model.states}
     outs = {k: b.rat(_to_exact(v)) for k, v in model.outputs.items()}
     icv = {s: b.rat(_to_exact(v)) for s, v in model.initial_condition_values.items()}

@@ -320,26 +320,27 @@ def _gray(k: int) -> list[tuple[int, ...]]:
     return out
 
 
-def _is_affine(g: sp.Expr, syms: Sequence[sp.Symbol]) -> bool:
+def _affine(g: sp.Expr, syms: Sequence[sp.Symbol], memo: dict | None = None) -> tuple[list[float], float] | None:
+    """(coefficients of ``syms``, constant) when ``g`` is affine in ``syms`` with numeric coefficients."""
+    key = (g, tuple(syms))
+    if memo is not None and key in memo:
+        return memo[key]
     try:
         poly = sp.Poly(g, *syms)
+        ok = poly.total_degree() <= 1 and all(c.is_number for c in poly.coeffs())
     except sp.PolynomialError:
-        return False
-    return poly.total_degree() <= 1 and all(c.is_number for c in poly.coeffs())
+        ok = False
+    out = ([float(poly.coeff_monomial(v)) for v in syms], float(poly.coeff_monomial(1))) if ok else None
+    if memo is not None:
+        memo[key] = out
+    return out
 
 
-def _affine_coefficients(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol]):
-    rows, consts = [], []
-    for g, _ in conds:
-        poly = sp.Poly(g, *syms)
-        rows.append([float(poly.coeff_monomial(v)) for v in syms])
-        consts.append(float(poly.coeff_monomial(1)))
-    return np.array(rows, dtype=float).reshape(len(conds), len(syms)), np.array(consts, dtype=float)
-
-
-def _feasible_lp(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol]) -> dict[str, float] | None:
+def _feasible_lp(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol],
+                 coeffs: Sequence[tuple[list[float], float]]) -> dict[str, float] | None:
     n = len(syms)
-    A, b0 = _affine_coefficients(conds, syms)
+    A = np.array([c[0] for c in coeffs], dtype=float).reshape(len(conds), n)
+    b0 = np.array([c[1] for c in coeffs], dtype=float)
     signs = np.array([s for _, s in conds], dtype=float)
     if n and np.linalg.matrix_rank(A) == len(conds):
         # independent affine forms: every sign pattern holds somewhere; A z + b = signs is solvable
@@ -394,12 +395,14 @@ def _feasible_search(
     return None
 
 
-def _feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator) -> tuple[dict[str, float] | None, str]:
+def _feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
+              memo: dict | None = None) -> tuple[dict[str, float] | None, str]:
     syms = sorted(set().union(*(g.free_symbols for g, _ in conds)), key=lambda s: s.name) if conds else []
     if not conds:
         return {}, ""
-    if all(_is_affine(g, syms) for g, _ in conds):
-        w = _feasible_lp(conds, syms)
+    coeffs = [_affine(g, syms, memo) for g, _ in conds]
+    if all(c is not None for c in coeffs):
+        w = _feasible_lp(conds, syms, coeffs)
         return w, "" if w is not None else "the affine sign conditions contradict each other (linear program)"
     w = _feasible_search(conds, syms, rng)
     return w, "" if w is not None else "no point satisfies the sign conditions (random and local search)"
@@ -513,7 +516,7 @@ def _split_level(
     for signs in _gray(len(sw)):
         all_sw = outer_sw + sw
         all_signs = outer_signs + signs
-        witness, reason = _feasible(list(zip(all_sw, all_signs)), rng)
+        witness, reason = _feasible(list(zip(all_sw, all_signs)), rng, memo)
         if witness is None:
             dropped.append(DroppedPattern(all_sw, all_signs, reason))
             continue
