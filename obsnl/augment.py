@@ -98,6 +98,8 @@ class Atom:
             return f"({self.arg})**(1/{self.q})"
         if self.kind == "const":
             return str(self.arg)
+        if self.kind == "log":  # a real logarithm of either sign of its argument (module docstring)
+            return f"log|{self.arg}|"
         return f"{self.kind}({self.arg})"
 
 

@@ -226,6 +226,28 @@ def test_seed_model_has_no_log_of_minus_one() -> None:
     kinds = []
     for br in split_branches(load_model(MODELS / "damage_healing.toml")):
         rat = rationalize(br.model)
-        assert all("log(-1)" not in a.text for a in rat.atoms)
+        assert all("-1" not in a.text for a in rat.atoms)
         kinds.append(sorted(a.kind for a in rat.atoms))
     assert kinds == [["exp", "exp", "log", "log"]] * 4
+
+
+# --------------------------------------------------------------------------- order bound, real logarithms
+def test_order_bound_is_min_dim_m_only_without_known_initial_conditions() -> None:
+    kw = dict(name="m", states=["x", "v"], parameters=["k", "c", "N"], inputs=["u"],
+              equations={"x": "v", "v": "u - k*x - c*v*x**N"}, outputs={"y": "x"})
+    free = make_problem(rationalize(Model(**kw)))
+    assert free.dim == 2 + 3 + 2 and free.size == 5 and free.order_bound() == 5  # min(dim, M)
+    known = make_problem(rationalize(Model(**kw, known_initial_conditions=["v"])))
+    assert known.order_bound() == known.dim == 7  # a known initial value breaks the argument
+    given = make_problem(rationalize(Model(**kw, known_initial_conditions=["v"], initial_condition_values={"v": 0})))
+    assert given.specific and given.order_bound() == 2 * given.dim + 2
+
+
+def test_a_factor_and_its_negative_share_one_real_logarithm() -> None:
+    m = Model(name="m", states=["x", "z"], parameters=["a", "N"],
+              equations={"x": "-a*(x - z)**N", "z": "(z - x)**(2*N) + (x - z)**(N + 1)"}, outputs={"y": "x"})
+    rat = rationalize(m)
+    logs = [a for a in rat.atoms if a.kind == "log"]
+    assert len(logs) == 1 and not any(a.kind == "const" for a in rat.atoms)
+    # (x - z)**(N + 1) keeps its integer part algebraic: (x - z) * exp(N log|x - z|)
+    assert sp.Poly(rat.rhs[m.states[1]].subs({a.symbol: 1 for a in rat.atoms}), *m.states).total_degree() == 1
