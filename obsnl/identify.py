@@ -7,6 +7,8 @@ output. :func:`reproduce` runs the whole pipeline (analysis -> branch table -> U
 
 Protocol, the same for the UKF and the DUKF:
 
+* Log-parameters are kept within a factor 100 of the guesses (``BOUND``; a mean that leaves this
+  region is put back on its edge and counted as a repair).
 * ``R`` = (noise ratio x RMS of the measured output)², the process noise of the states from the
   input noise (``sigma_u`` = ratio x RMS of the measured input, mapped through the discrete step),
   scaled by ``q_x``; parameter coordinates ``log|theta|`` with prior std ``s0`` and random walk ``q_theta``.
@@ -52,6 +54,8 @@ PAPER_ERRORS: Mapping[str, Mapping[str, float]] = {
 #: Threshold on the Cramér-Rao standard deviation of log(theta): a parameter whose 3-sigma bound is
 #: wider than the 5 % goal cannot be pinned to it by any unbiased estimator on this record.
 CRB_LIMIT = 0.05 / 3
+#: Valid region of the log-parameter coordinates: within a factor exp(BOUND) = 100 of the guesses.
+BOUND = float(np.log(100.0))
 #: A filter that kept more than this fraction of its prior standard deviation learnt (almost) nothing.
 POSTERIOR_LIMIT = 0.5
 
@@ -160,8 +164,10 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
                    substeps=setup.substeps)
     typical = np.sqrt(np.mean(sim.x ** 2, axis=0))  # typical magnitudes at the guess, floored at 1 %
     scale = np.maximum(typical, 1e-2 * max(typical.max(), 1e-300))  # of the largest (a state idle at the guess)
+    phi0 = setup.coordinates.to_phi(setup.theta_guess)  # valid region: within 100x of the guesses
+    bounds = (np.r_[np.full(m.nx, -np.inf), phi0 - BOUND], np.r_[np.full(m.nx, np.inf), phi0 + BOUND])
     opts = dict(dt=setup.record.dt, coordinates=setup.coordinates, state_scale=scale, R=1.0,
-                substeps=setup.substeps, jit=setup.jit)
+                substeps=setup.substeps, jit=setup.jit, bounds=bounds)
     if kind == "ukf":
         return UKF(m, **opts)
     if kind == "dukf":

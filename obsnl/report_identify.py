@@ -141,7 +141,7 @@ def table2_latex(doc: Mapping[str, Any]) -> str:
 
 
 def write_reproduction(rep: Any, out: Any) -> list[Any]:
-    """Write ``table2.json/.md/.tex`` and the figures of a :class:`obsnl.identify.Reproduction` into ``out``."""
+    """Write ``table2.json/.md/.tex``, ``branch_table.json`` and the figures of a reproduction into ``out``."""
     import json
     from pathlib import Path
 
@@ -150,8 +150,9 @@ def write_reproduction(rep: Any, out: Any) -> list[Any]:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     doc = rep.to_dict()
-    files = [out / "table2.json", out / "table2.md", out / "table2.tex"]
+    files = [out / "table2.json", out / "table2.md", out / "table2.tex", out / "branch_table.json"]
     files[0].write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+    files[3].write_text(rep.table.to_json(), encoding="utf-8")  # the DUKF's input, from the analysis
     files[1].write_text(table2_markdown(doc), encoding="utf-8")
     files[2].write_text(table2_latex(doc), encoding="utf-8")
     s = rep.setup

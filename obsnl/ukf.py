@@ -17,7 +17,8 @@ update, symmetrisation. ``run`` wraps the step in ``mapaccum``: one call for a w
 The step takes a mask of *active* coordinates; the UKF passes all ones, the DUKF
 (:mod:`obsnl.dukf`) the mask of the current branch (see there for the frozen-block rule).
 
-Repairs (counted per step in :class:`Trajectory`, never silent): a Cholesky pivot below
+Repairs (counted per step in :class:`Trajectory`, never silent): a mean component outside
+``bounds`` is put back on the bound; a Cholesky pivot below
 ``1e-12`` times its diagonal entry is raised to that floor; a sigma point whose propagated state is
 not finite or beyond ``1e6`` typical magnitudes (``state_scale``) is replaced by the propagated
 mean point. A NaN in the mean or
@@ -240,10 +241,14 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     K = ca.mtimes(A, ca.solve(Pyy, Pzy.T).T) if ny > 1 else ca.mtimes(A, Pzy / Pyy)
     nu = y - yhat
     zn = m + ca.mtimes(K, nu)
+    lo, hi = ca.SX.sym("lo", L), ca.SX.sym("hi", L)
+    clamped = ca.fmin(ca.fmax(zn, lo), hi)  # the valid region: a mean outside it is put back on its edge
+    rep += ca.sum1(clamped != zn)
+    zn = clamped
     Pn = Pp - ca.mtimes(K, Pzy_full.T) - ca.mtimes(Pzy_full, K.T) + ca.mtimes([K, Pyy, K.T])
     Pn = 0.5 * (Pn + Pn.T)
     rep = rep + rep2
-    upd = ca.Function("update", [z, P, a, hyp, S_, Xp, u1, y, Q, R], [zn, Pn, yhat, nu, Pyy, rep], opts)
+    upd = ca.Function("update", [z, P, a, hyp, S_, Xp, u1, y, Q, R, lo, hi], [zn, Pn, yhat, nu, Pyy, rep], opts)
 
     # joined
     zM, PM, aM, hM = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("active", L), ca.MX.sym("hyp", 3)
@@ -252,10 +257,11 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     XM, SM, rc, XpM, flM = sig(zM, PM, aM, hM, u0M, u1M)
     nflag = ca.sum2(flM)
     XpM = ca.if_else(nflag > 0, fix(XM, XpM, flM, u0M, u1M), XpM, True)
-    zn, Pn, yp, nuM, Syy, ru = upd(zM, PM, aM, hM, SM, XpM, u1M, yM, QM, RM)
-    return ca.Function("ukf_step", [zM, PM, u0M, u1M, yM, aM, QM, RM, hM],
+    loM, hiM = ca.MX.sym("lo", L), ca.MX.sym("hi", L)
+    zn, Pn, yp, nuM, Syy, ru = upd(zM, PM, aM, hM, SM, XpM, u1M, yM, QM, RM, loM, hiM)
+    return ca.Function("ukf_step", [zM, PM, u0M, u1M, yM, aM, QM, RM, hM, loM, hiM],
                        [zn, Pn, yp, nuM, Syy, rc + ru, nflag],
-                       ["z", "P", "u0", "u1", "y", "active", "Q", "R", "hyp"],
+                       ["z", "P", "u0", "u1", "y", "active", "Q", "R", "hyp", "lo", "hi"],
                        ["z_next", "P_next", "y_pred", "innovation", "S", "repairs", "implicit"])
 
 
@@ -340,6 +346,10 @@ class UKF:
     fixed
         Parameters held at their initial value (no spread, no update, no noise), e.g. parameters
         found practically unidentifiable; the coordinates that move only them are frozen.
+    bounds
+        ``(lo, hi)`` in filter coordinates (``-inf``/``inf`` allowed): the valid region. A mean that an
+        update takes outside is put back on the edge and counted as a repair (a filter diverging
+        along a direction the data do not yet inform otherwise runs to ``exp`` overflow).
 
     Examples
     --------
@@ -368,6 +378,7 @@ class UKF:
     substeps: int = 8
     jit: bool = False
     fixed: tuple[str, ...] = ()
+    bounds: Any = None
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -393,6 +404,11 @@ class UKF:
         if unknown:
             raise EstimatorError(f"fixed names {sorted(unknown)} are not parameters of {self.model.name!r}")
         set_("fixed", tuple(self.fixed))
+        if self.bounds is not None:
+            lo, hi = (np.broadcast_to(np.asarray(b, float), (self.size,)).copy() for b in self.bounds)
+            if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo >= hi):
+                raise EstimatorError("bounds must be (lo, hi) with lo < hi for every filter coordinate")
+            set_("bounds", (lo, hi))
         if not (self.alpha > 0 and self.size + self.kappa > 0):
             raise EstimatorError(f"need alpha > 0 and L + kappa > 0 (alpha={self.alpha}, kappa={self.kappa})")
 
@@ -466,12 +482,18 @@ class UKF:
             allowed = ca.MX.sym("allowed", L)
             act, signs = self._active_and_signs(z, u0, prev)
             act = act * allowed
-            zn, Pn, yp, nuv, S, rep, imp = core(z, P, u0, u1, y, act, Q, R, hyp)
+            lo, hi = ca.MX.sym("lo", L), ca.MX.sym("hi", L)
+            zn, Pn, yp, nuv, S, rep, imp = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi)
             opts = jit_options() if self.jit else {}
             self.cache[key] = ca.Function(
-                "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed],
+                "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi],
                 [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0)], opts)
         return self.cache[key]
+
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.bounds is None:
+            return np.full(self.size, -np.inf), np.full(self.size, np.inf)
+        return self.bounds
 
     @property
     def allowed(self) -> np.ndarray:
@@ -489,7 +511,7 @@ class UKF:
         ys, us = check_inputs(np.vstack([np.reshape(y, (1, -1))] * 2), np.vstack([np.reshape(u0, (1, -1)),
                               np.reshape(u1, (1, -1))]), ny=self.model.ny, nu=self.model.nu)
         out = self._compiled()(est.z, est.P, est.active, us[0], us[1], ys[1], self.Q, self.R, self._hyp(),
-                               self.allowed)
+                               self.allowed, *self._bounds())
         z, P = np.asarray(out[0]).ravel(), np.asarray(out[1])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(P))):
             raise EstimatorError(f"the filter produced NaN/inf at step {est.k + 1}; lower P0/Q, use method='ros2' "
@@ -513,7 +535,7 @@ class UKF:
             self.cache[key] = fn.mapaccum("run", T - 1, 3, {})
         tic = time.perf_counter()
         out = self.cache[key](est0.z, est0.P, est0.active, us[:-1].T, us[1:].T, ys[1:].T, self.Q, self.R,
-                              self._hyp(), self.allowed)
+                              self._hyp(), self.allowed, *self._bounds())
         seconds = time.perf_counter() - tic
         Z = np.vstack([est0.z, np.asarray(out[0]).T])
         Ps = np.concatenate([est0.P[None], np.asarray(out[1]).T.reshape(T - 1, L, L).transpose(0, 2, 1)])

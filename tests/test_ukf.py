@@ -132,3 +132,16 @@ def test_an_indefinite_covariance_is_repaired_and_counted():
     tr = f.run(broken, np.zeros((5, 1)), np.zeros((5, 1)))
     assert tr.repairs[1] >= 1
     assert np.all(np.isfinite(tr.P))
+
+
+def test_bounds_keep_the_mean_in_the_valid_region_and_are_counted():
+    f = _osc_filter()
+    est0 = f.initial(x0=[0.0, 0.0], theta0=[6.0, 1.0], P0=[1e-8, 1e-8, 0.25, 0.25])
+    lo, hi = np.r_[-np.inf, -np.inf, est0.z[2:] - 1e-3], np.r_[np.inf, np.inf, est0.z[2:] + 1e-3]
+    g = f.with_options(bounds=(lo, hi))
+    u = np.sin(np.arange(50) * 0.3)
+    tr = g.run(est0, np.full((50, 1), 0.5), u)  # data far from the model: the update pushes the parameters
+    assert np.all(tr.z[:, 2:] >= lo[2:] - 1e-15) and np.all(tr.z[:, 2:] <= hi[2:] + 1e-15)
+    assert tr.total_repairs > 0
+    with pytest.raises(EstimatorError, match="bounds"):
+        f.with_options(bounds=(hi, lo))
