@@ -11,9 +11,10 @@ call with a time limit, ``--seed-runs`` calls on the seed models). For the two s
 times the stages of an analysis in fresh interpreters (import, first call, split, prepare, series),
 next to those of an older checkout given with ``--before``. It prints and writes a Markdown table:
 times, the ratio symident/obsnl, and each tool's agreement with the published answer (``expected``
-of the peer case; the seed paper's 3.2 and Table 1 for the two seed models). symident's unobservable set is the union of the supports
-of the non-identifiable directions it reports. Non-smooth models are given to symident branch by
-branch (the smooth models obsnl analyses), so both tools see the same equations.
+of the peer case; the seed paper's 3.2 and Table 1 for the two seed models). symident's
+unobservable set is the union of the supports of the non-identifiable directions it reports.
+Non-smooth models are given to symident branch by branch (the smooth models obsnl analyses), so
+both tools see the same equations.
 """
 
 from __future__ import annotations

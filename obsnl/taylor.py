@@ -41,9 +41,6 @@ from .modp import MatMod, mulmod
 
 __all__ = ["Plan", "make_plan", "Stepper"]
 
-_CONV_KINDS = ("mul", "div", "exp", "log", "atan", "root", "sin", "cos")
-
-
 @dataclass(frozen=True)
 class Plan:
     """Point-independent structure of the batched Taylor step of one program.
@@ -53,9 +50,9 @@ class Plan:
     edges
         For every time-varying node, in topological order: ``(node, ((operand, mu), ...))`` where
         ``mu`` says how the constant jet multiplying the operand's coefficient ``k`` is formed from
-        order-0 jets: ``("s", +-1)``, ``("r", num, den)`` a rational, ``("j", i)`` the jet of node ``i``, ``("-j", i)`` its
-        negative, ``("inv", i)`` its inverse, ``("-cb", c, b)`` ``-c0/b0``, ``("root", w, g, q)``
-        ``w0/(q g0)``.
+        order-0 jets: ``("s", +-1)``, ``("r", num, den)`` a rational, ``("j", i)`` the jet of node
+        ``i``, ``("-j", i)`` its negative, ``("inv", i)`` its inverse, ``("-inv", i)``,
+        ``("-cb", c, b)`` for ``-c0/b0``, ``("root", w, g, q)`` for ``w0/(q g0)``.
     conv
         History terms: ``(node, kind, u, v, lam, q)`` with ``H = sum_j w_j u[j] v[k-j]``, the weights
         ``w_j`` given by ``kind`` (and ``q`` for roots) and the constant jet ``lam`` (same codes as
@@ -199,14 +196,11 @@ class Stepper:
         self.state_rhs = np.asarray(state_rhs, dtype=np.int64)
         self.rhs_tv = [r for r, f in enumerate(state_rhs) if tv[f]]
         self.rhs_tv_rows = [self.rpos[state_rhs[r]] for r in self.rhs_tv]
-        self.S = np.zeros((1, len(plan.rows), M1), dtype=np.int64)
-        self.S[0] = X0[list(plan.rows)] if plan.rows else 0
         self._tangent()
         conv = plan.conv
         nr = len(plan.rows)
         # history terms sum_j u'[j] v[k-j]: u' is u (products, quotients) or j*u[j] (atoms: the
-        # weights j/k are j*u[j] summed, then 1/k); a root has both, ((r+1) j - k)/k. Rows nr..2nr-1
-        # of SS hold j*S[j].
+        # weights j/k are j*u[j] summed, then 1/k); a root has both, ((r+1) j - k)/k
         t_u, t_v, t_c, t_fac, t_byk = [], [], [], [], []
         for ci, c in enumerate(conv):
             u, v = self.rpos[c[2]], self.rpos[c[3]]
@@ -225,8 +219,10 @@ class Stepper:
         self.weighted = bool(any(t_byk))
         self.plain_terms = not self.weighted and all(f == 1 for f in t_fac)
         self.n_conv = len(conv)
+        # the kept series, order by order: SS[k, :nr] coefficient k of each row, SS[k, nr:] k times it
         self.SS = np.zeros((K, 2 * nr if self.weighted else nr, M1), dtype=np.int64)
-        self.SS[0, :nr] = self.S[0]
+        if nr:
+            self.SS[0, :nr] = X0[list(plan.rows)]
         lam = np.array([self._jet(c[4]) for c in conv], dtype=np.int64).reshape(len(conv), M1)
         self.lam_v = lam[:, :1].copy()
         self.lam_g = lam[:, 1:].copy()
