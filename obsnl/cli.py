@@ -339,6 +339,12 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         raise _Exit(2, "--passes must be >= 1, --s0 and --noise > 0")
     model = _load(args.model)
     table = load_branch_table(args.table) if args.table else None
+    if table is not None:  # refuse a table made for another model before compiling anything
+        from .branches import switching_functions
+
+        table.check_model(states=[v.name for v in model.states], parameters=[v.name for v in model.parameters],
+                          inputs=[v.name for v in model.inputs], outputs=list(model.output_names),
+                          switching_count=len(switching_functions(model)), fingerprint=model.fingerprint)
     num = to_casadi(model, switching=table.switching if table else None)
     guess = {k: v for k, v in SEED_GUESS.items() if k in num.parameters}
     for item in args.guess:
@@ -360,9 +366,6 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         record = record.head(args.samples)
     setup = Setup(model=num, record=record, truth=truth, guess=guess, noise=args.noise, jit=args.jit,
                   coordinates=coordinates(num, "log", reference=guess))
-    if table is not None:
-        table.check_model(states=num.states, parameters=num.parameters, inputs=num.inputs, outputs=num.outputs,
-                          switching_count=len(num.switching), fingerprint=num.fingerprint)
     filt = make_filter(setup, args.method, table=table)
     data = make_data(setup, args.seed)
     tuning = Tuning(args.s0, args.q_theta, args.q_x)

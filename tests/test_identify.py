@@ -84,6 +84,9 @@ def test_identify_command(tmp_path, capsys):
     other.write_text(json.dumps(d))
     assert main(["identify", model, "--record", str(CSV), "--method", "dukf", "--table", str(other)]) == 2
     assert "fingerprint" in capsys.readouterr().err
+    bouc_wen = str(MODELS / "bouc_wen.toml")  # a table made for another model: refused, named
+    assert main(["identify", bouc_wen, "--record", str(CSV), "--method", "dukf", "--table", str(table)]) == 2
+    assert "made for model 'damage_healing_reparam'" in capsys.readouterr().err
     bad = tmp_path / "bad.csv"
     bad.write_text("time_s,accel_m_s2\n0,1\n0.01,nan\n0.02,1\n")
     assert main(["identify", model, "--record", str(bad)]) == 2
