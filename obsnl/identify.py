@@ -335,7 +335,13 @@ class RunResult:
     repairs: int
     implicit: int
     misfit: float
-    practical: Practical
+    practical: Practical | None
+    error: str = ""
+
+    @property
+    def failed(self) -> bool:
+        """True when the filter stopped (NaN); the run is reported with its error, not dropped."""
+        return bool(self.error)
 
     def errors(self, truth: np.ndarray) -> np.ndarray:
         """Error of each parameter in % of its true value."""
@@ -343,12 +349,14 @@ class RunResult:
 
     def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
         err = self.errors(truth)
+        num = lambda v: float(v) if np.isfinite(v) else None  # noqa: E731  (JSON has no NaN)
         return {"method": self.method, "passes": self.passes, "seed": self.seed, "tuning": self.tuning.to_dict(),
-                "parameters": {p: {"true": float(t), "estimate": float(e), "error_percent": float(r)}
+                "parameters": {p: {"true": float(t), "estimate": num(e), "error_percent": num(r)}
                                for p, t, e, r in zip(parameters, truth, self.theta, err)},
-                "seconds": self.seconds, "repairs": self.repairs, "implicit_sigma_point_steps": self.implicit,
-                "output_misfit": self.misfit, "practically_unidentifiable": list(self.practical.flagged),
-                "practical_identifiability": self.practical.to_dict()}
+                "seconds": num(self.seconds), "repairs": self.repairs, "implicit_sigma_point_steps": self.implicit,
+                "output_misfit": num(self.misfit), "error": self.error,
+                "practically_unidentifiable": list(self.practical.flagged) if self.practical else [],
+                "practical_identifiability": self.practical.to_dict() if self.practical else None}
 
 
 @dataclass(frozen=True, eq=False)
@@ -478,8 +486,13 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
                 data = make_data(setup, seed)
                 try:
                     trs, fixed = run_passes(setup, f, data, tuning, passes=k)
-                except ObsnlError as exc:
-                    raise EstimatorError(f"{name}, {k} pass(es), seed {seed}: {exc}") from None
+                except ObsnlError as exc:  # reported as a failed run, never dropped
+                    runs.append(RunResult(method=name, passes=k, seed=seed, tuning=tuning,
+                                          theta=(float("nan"),) * setup.model.np, seconds=float("nan"), repairs=0,
+                                          implicit=0, misfit=float("nan"), practical=None, error=str(exc)))
+                    if step:
+                        step()
+                    continue
                 theta = trs[-1].theta[-1]
                 runs.append(RunResult(
                     method=name, passes=k, seed=seed, tuning=tuning, theta=tuple(float(v) for v in theta),

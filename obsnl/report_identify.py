@@ -26,21 +26,23 @@ def summarize(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, Any]]:
     for r in doc["runs"]:
         groups.setdefault((r["method"], r["passes"]), []).append(r)
     out = {}
-    for key, runs in groups.items():
+    for key, every in groups.items():
+        runs = [r for r in every if not r.get("error")] or every[:1]
+        failed = [r for r in every if r.get("error")]
         params = list(runs[0]["parameters"])
-        est = np.array([[r["parameters"][p]["estimate"] for p in params] for r in runs])
-        err = np.abs(np.array([[r["parameters"][p]["error_percent"] for p in params] for r in runs]))
+        est = np.array([[r["parameters"][p]["estimate"] for p in params] for r in runs], float)
+        err = np.abs(np.array([[r["parameters"][p]["error_percent"] for p in params] for r in runs], float))
         flags = {p: sum(p in r["practically_unidentifiable"] for r in runs) for p in params}
         out[key] = {
             "parameters": params, "seeds": [r["seed"] for r in runs], "mean_estimate": est.mean(axis=0),
             "mean_abs_error": err.mean(axis=0), "worst_abs_error": err.max(axis=0),
             "worst_seed": [runs[i]["seed"] for i in err.argmax(axis=0)], "flag_counts": flags,
-            "seconds": float(np.mean([r["seconds"] for r in runs])),
-            "seconds_per_pass": float(np.mean([r["seconds"] / r["passes"] for r in runs])),
+            "seconds": float(np.mean(np.array([r["seconds"] for r in runs], float))),
+            "seconds_per_pass": float(np.mean(np.array([r["seconds"] for r in runs], float) / key[1])),
             "repairs": int(sum(r["repairs"] for r in runs)),
             "implicit": int(sum(r["implicit_sigma_point_steps"] for r in runs)),
-            "misfit": float(np.mean([r["output_misfit"] for r in runs])),
-            "tuning": runs[0]["tuning"],
+            "misfit": float(np.mean(np.array([r["output_misfit"] for r in runs], float))),
+            "tuning": runs[0]["tuning"], "failed": [(r["seed"], r["error"]) for r in failed],
         }
     return out
 
@@ -50,6 +52,8 @@ def _flagged(s: Mapping[str, Any], p: str) -> bool:
 
 
 def _goal(s: Mapping[str, Any]) -> str:
+    if s["failed"]:
+        return f"not met ({len(s['failed'])} run(s) diverged: seed {', '.join(str(k) for k, _ in s['failed'])})"
     worst = [(p, w) for p, w in zip(s["parameters"], s["worst_abs_error"]) if not _flagged(s, p)]
     bad = [f"{_MD.get(p, p)} {w:.1f} %" for p, w in worst if w > 5.0]
     return "met" if not bad else "not met (" + ", ".join(bad) + ")"
@@ -63,7 +67,7 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
     lines = [f"# Table 2 analog: {exp['model']} under {exp['record']['name']}", "",
              f"Noise {100 * exp['noise_ratio']:g} % (RMS) on input and output; branch table: {doc['branch_table']}; "
              f"tuning seeds {doc['tuning_seeds']} (never reported). Errors are |estimate - true| / |true| in %; "
-             f"mean and worst over the reported seeds. † = flagged practically unidentifiable in at least half "
+             f"mean and worst over the reported seeds that ran to the end. † = flagged practically unidentifiable in at least half "
              f"of the seeds (not an estimate; see the flags below).", ""]
     for passes in sorted({k for _, k in summ}):
         methods = [m for m in ("ukf", "dukf", "dukf-zero") if (m, passes) in summ]
@@ -100,6 +104,10 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
     for (m, k), s in sorted(summ.items()):
         flags = ", ".join(f"{_MD.get(p, p)} {c}/{len(s['seeds'])}" for p, c in s["flag_counts"].items() if c)
         lines.append(f"- {_METHODS[m]}, {k} pass(es): {flags or 'none'}")
+    stopped = [r for r in doc["runs"] if r.get("error")]
+    if stopped:
+        lines += ["", "## Runs that stopped (reported, not dropped)", ""]
+        lines += [f"- {_METHODS[r['method']]}, {r['passes']} pass(es), seed {r['seed']}: {r['error']}" for r in stopped]
     reasons = _example_reasons(doc["runs"])
     if reasons:
         lines += ["", "Reasons (first seed of the UKF, one pass):", ""]
@@ -109,7 +117,7 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
 
 def _example_reasons(runs: Sequence[Mapping[str, Any]]) -> Mapping[str, str]:
     for r in runs:
-        if r["method"] == "ukf" and r["passes"] == 1:
+        if r["method"] == "ukf" and r["passes"] == 1 and r.get("practical_identifiability"):
             return r["practical_identifiability"]["reasons"]
     return {}
 

@@ -60,6 +60,13 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
     assert set(run) >= {"parameters", "seconds", "practically_unidentifiable"}
     assert set(run["parameters"]["k_m"]) == {"true", "estimate", "error_percent"}
     assert "Table 2 analog" in table2_markdown(doc)
+    broken = json.loads(json.dumps(doc))  # a run that stopped is reported, not dropped
+    broken["runs"][0].update(error="the filter produced NaN/inf at step 7", output_misfit=None,
+                             practically_unidentifiable=[], practical_identifiability=None)
+    for v in broken["runs"][0]["parameters"].values():
+        v.update(estimate=None, error_percent=None)
+    text = table2_markdown(broken)
+    assert "1 run(s) diverged: seed 0" in text and "NaN/inf at step 7" in text
     files = write_reproduction(rep, tmp_path)
     names = {f.name for f in files}
     assert {"table2.json", "table2.md", "table2.tex", "fig2_1pass.png", "fig3_2passes.png"} <= names
