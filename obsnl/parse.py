@@ -190,36 +190,39 @@ def _adopt_sympy(
     text: str | None = None,
     reserved: Mapping[str, str] | None = None,
 ) -> sp.Expr:
-    shown = text if text is not None else str(expr)
+
+    def shown() -> str:  # built only when an error is raised: printing every expression is costly
+        return text if text is not None else str(expr)
+
     if not isinstance(expr, sp.Basic):
         try:
             expr = sp.sympify(expr, strict=True)
         except (sp.SympifyError, TypeError, ValueError):
-            raise ParseError(f"{where}: {shown!r} is not an expression") from None
+            raise ParseError(f"{where}: {shown()!r} is not an expression") from None
     if isinstance(expr, sp.logic.boolalg.BooleanAtom) or isinstance(expr, (sp.Rel, sp.logic.boolalg.BooleanFunction)):
         if not allow_relations:
-            raise ParseError(f"{where}: {shown!r} is a condition, not an expression")
+            raise ParseError(f"{where}: {shown()!r} is a condition, not an expression")
     elif not isinstance(expr, sp.Expr):
-        raise ParseError(f"{where}: {shown!r} is not a scalar expression ({type(expr).__name__})")
+        raise ParseError(f"{where}: {shown()!r} is not a scalar expression ({type(expr).__name__})")
     # Functions: only the allowed ones.
     allowed_classes = tuple({type(f) if not isinstance(f, type) else f for f in ALLOWED_FUNCTIONS.values()})
     for f in expr.atoms(sp.Function):
         if isinstance(f, sp.core.function.AppliedUndef):
             name = type(f).__name__
             raise ParseError(
-                f"{where}: unknown function {name!r} in {shown!r}{_suggest(name, ALLOWED_FUNCTIONS)}; "
+                f"{where}: unknown function {name!r} in {shown()!r}{_suggest(name, ALLOWED_FUNCTIONS)}; "
                 f"supported functions are {', '.join(sorted(set(ALLOWED_FUNCTIONS)))}"
             )
         if not isinstance(f, allowed_classes):
             raise ParseError(
-                f"{where}: the function {type(f).__name__!r} in {shown!r} is not supported; "
+                f"{where}: the function {type(f).__name__!r} in {shown()!r} is not supported; "
                 f"supported functions are {', '.join(sorted(set(ALLOWED_FUNCTIONS)))}"
             )
     for bad in (sp.zoo, sp.nan, sp.oo, -sp.oo):
         if expr.has(bad):
-            raise ParseError(f"{where}: {shown!r} evaluates to {bad} (a division by zero or an infinity)")
+            raise ParseError(f"{where}: {shown()!r} evaluates to {bad} (a division by zero or an infinity)")
     if expr.has(sp.I):
-        raise ParseError(f"{where}: {shown!r} contains the imaginary unit; declare a symbol 'I' if you meant a variable")
+        raise ParseError(f"{where}: {shown()!r} contains the imaginary unit; declare a symbol 'I' if you meant a variable")
     # Symbols: declared ones only, matched by name.
     replace: dict[sp.Symbol, sp.Symbol] = {}
     for s in expr.free_symbols:
@@ -228,7 +231,7 @@ def _adopt_sympy(
             raise ParseError(f"{where}: {reserved[name]}")
         if name not in symbols:
             raise ParseError(
-                f"{where}: undeclared symbol {name!r} in {shown!r}{_suggest(name, symbols)}; "
+                f"{where}: undeclared symbol {name!r} in {shown()!r}{_suggest(name, symbols)}; "
                 f"declare it as a state, parameter, input or known constant"
             )
         if s is not symbols[name]:
