@@ -142,12 +142,12 @@ def _group_condition(members: Sequence[BranchResult], sw: Sequence[sp.Expr],
                      all_patterns: Sequence[tuple[int, ...]]) -> tuple[str, sp.Basic | None, tuple, int]:
     from .branches import expr_text
 
+    if len(members) == len(all_patterns):
+        return "true", sp.true, (), 0
     if not sw or any(len(b.signs) != len(sw) for b in members):
         texts = [b.guard for b in members]
         return (" | ".join(f"({t})" for t in texts) if len(texts) > 1 else texts[0]), None, (), 0
     mine = {b.signs for b in members}
-    if len(mine) == len(all_patterns):
-        return "true", sp.true, (), 0
     # the smallest product of switching functions whose sign singles out exactly this group
     for size in range(1, len(sw) + 1):
         for subset in itertools.combinations(range(len(sw)), size):
