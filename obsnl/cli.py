@@ -189,7 +189,8 @@ def _add_bank(sub: argparse._SubParsersAction) -> None:
 def _cmd_bank(args: argparse.Namespace) -> int:
     from .bank import run_link_study
     from .beam import load_link_spec
-    from .report_bank import FIGURE_PREFIX, bank_table_markdown, plot_bank_forces
+    from .plots import FIGURE_PREFIX, plot_bank_forces
+    from .report import bank_table_markdown
 
     if args.seeds < 1:
         raise _Exit(2, f"--seeds must be at least 1, got {args.seeds}")

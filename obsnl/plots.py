@@ -1,4 +1,5 @@
-"""Figures of the identification experiment, after the seed paper's Figures 2 and 3 (matplotlib, Agg).
+"""Figures (matplotlib, Agg): the identification experiment after the seed paper's Figures 2 and 3,
+and the observer bank's crack forces.
 
 ``figure2``: (a) the ground motion, (b) measured and estimated displacement (UKF and DUKF).
 ``figure3``: the estimated/true ratio of every parameter over time, one panel per filter.
@@ -8,10 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
-__all__ = ["figure2", "figure3"]
+__all__ = ["figure2", "figure3", "plot_bank_forces", "FIGURE_PREFIX"]
+
+#: Bank figures are written as ``<FIGURE_PREFIX><scenario>.png``.
+FIGURE_PREFIX = "forces_"
 
 _LATEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h": r"$w_h$", "c_p": r"$c'$",
           "h_p": r"$h'$", "Delta1": r"$\Delta_1$", "Delta2": r"$\Delta_2$", "N": r"$N$"}
@@ -74,3 +79,51 @@ def figure3(path: str | Path, *, t: np.ndarray, panels: Mapping[str, np.ndarray]
         ax.legend(fontsize=7, ncol=5, loc="upper right")
     axes[-1, 0].set_xlabel("t (s)")
     return _save(plt, fig, path)
+
+
+# ---- observer bank
+def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list[Path]:
+    """One PNG per scenario: estimated crack forces (first seed) and their sliding RMS against tau.
+
+    Parameters
+    ----------
+    study
+        A :class:`obsnl.bank.LinkStudy` (its ``traces`` hold the time series).
+    out_dir
+        Folder for ``forces_<scenario>.png`` (created if needed; existing files are replaced,
+        the caller decides whether that is allowed).
+    every
+        Plot every ``every``-th sample (the figures stay small).
+    """
+    plt = _plt()
+    from .bank import sliding_rms
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    thr, st = study.thresholds, study.settings
+    paths = []
+    for name, (t, nhat, n_true) in study.traces.items():
+        nwin = int(round(thr.window / (t[1] - t[0])))
+        srms = sliding_rms(nhat, nwin)
+        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 4.8), sharex=True, constrained_layout=True)
+        sl = slice(None, None, max(1, int(every)))
+        ax1.plot(t[sl], n_true[sl], color="0.6", lw=0.8, label="true (dipole projection)")
+        for j, lab in enumerate(thr.labels):
+            ax1.plot(t[sl], nhat[sl, j], lw=0.8, label=f"n̂ obs {lab}")
+            line, = ax2.plot(t[sl], srms[sl, j], lw=1.0, label=f"obs {lab}")
+            ax2.axhline(thr.tau[j], color=line.get_color(), ls="--", lw=0.8)
+        for ax in (ax1, ax2):
+            if name != "healthy":
+                ax.axvline(st["onset"], color="k", lw=0.6, ls=":")
+            ax.grid(alpha=0.3)
+        ax1.set_ylabel("crack force [N·m]")
+        ax1.set_title(f"{name}: estimated crack forces (seed {st['evaluation_seeds'][0]})", fontsize=10)
+        ax1.legend(fontsize=7, ncol=4, loc="upper left")
+        ax2.set_ylabel(f"{thr.window:g}-s RMS [N·m]")
+        ax2.set_xlabel("time [s]")
+        ax2.legend(fontsize=7, ncol=3, loc="upper left", title="dashed: tau", title_fontsize=7)
+        path = out / f"{FIGURE_PREFIX}{name}.png"
+        fig.savefig(path, dpi=80)
+        plt.close(fig)
+        paths.append(path)
+    return paths
