@@ -100,7 +100,7 @@ def _cmd_branches(args: argparse.Namespace) -> int:
 
 
 # --------------------------------------------------------------------------- more commands
-# (later subcommands are added below, one _add_*/_cmd_* pair each, and listed in _BUILDERS)
+# (one _add_*/_cmd_* pair per subcommand, listed in _BUILDERS above build_parser)
 
 
 # --------------------------------------------------------------------------- analyze
@@ -210,7 +210,6 @@ def _cmd_bank(args: argparse.Namespace) -> int:
     return 0
 
 
-_BUILDERS = [_add_show, _add_branches, _add_bank, _add_report]
 
 
 # --------------------------------------------------------------------------- symmetries, reparametrize
@@ -295,7 +294,6 @@ def _cmd_reparametrize(args: argparse.Namespace) -> int:
     return 0
 
 
-_BUILDERS += [_add_symmetries, _add_reparametrize]
 
 
 # --------------------------------------------------------------------------- identify, reproduce
@@ -444,10 +442,13 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     return 0
 
 
-_BUILDERS += [_add_identify, _add_reproduce]
 
 
-_BUILDERS += [_add_analyze]
+
+
+#: Subcommands in the order ``obsnl --help`` lists them.
+_BUILDERS = [_add_show, _add_branches, _add_analyze, _add_report, _add_symmetries, _add_reparametrize,
+             _add_identify, _add_reproduce, _add_bank]
 
 
 def build_parser() -> argparse.ArgumentParser:
