@@ -41,3 +41,20 @@ def test_report_writes_tables_index_and_timings(capsys, tmp_path):
     assert "pass --force" in capsys.readouterr().err and (tmp_path / "index.md").read_text() == "mine"
     assert main(["report", *models, "--out", str(tmp_path), "--force"]) == 0
     assert (tmp_path / "index.md").read_text() == before
+
+
+def test_identify_refuses_a_corrupted_table(tmp_path, capsys):
+    """A branch table that fails its schema never reaches the DUKF (exit 2, one line)."""
+    import glob
+
+    from .test_branch_table import paper_table1
+
+    record = sorted(glob.glob(str(MODELS.parent / "obsnl" / "data" / "*LOS270*ngawest2*.csv")))[0]
+    doc = paper_table1()
+    doc["branches"][0]["signs"] = [1, 7]  # corrupt
+    bad = tmp_path / "table.json"
+    bad.write_text(json.dumps(doc))
+    code = main(["identify", str(MODELS / "damage_healing_reparam.toml"), "--table", str(bad), "--record", record,
+                 "--method", "dukf", "--samples", "50"])
+    err = capsys.readouterr().err
+    assert code == 2 and "schema" in err and len(err.strip().splitlines()) == 1
