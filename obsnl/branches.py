@@ -443,7 +443,9 @@ def _labels(n: int) -> list[str]:
     return out
 
 
-def split_branches(model: Model, *, seed: int = 0, with_dropped: bool = False):
+def split_branches(
+    model: Model, *, seed: int = 0, with_dropped: bool = False
+) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
     """Split ``model`` into its smooth branches.
 
     Parameters

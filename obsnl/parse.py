@@ -16,7 +16,7 @@ import tokenize
 from collections.abc import Iterable, Mapping
 from io import StringIO
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import sympy as sp
 from sympy.parsing.sympy_parser import (
@@ -27,6 +27,9 @@ from sympy.parsing.sympy_parser import (
 )
 
 from .errors import ParseError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .model import Model
 
 __all__ = ["ALLOWED_FUNCTIONS", "make_symbol", "parse_expression", "load_model", "read_model_file"]
 
@@ -284,7 +287,7 @@ def read_model_file(path: str | Path) -> dict[str, Any]:
     return data
 
 
-def load_model(path: str | Path):
+def load_model(path: str | Path) -> Model:
     """Load a model from a TOML or JSON file.
 
     The keys are those of ``shared/peer_cases/*.json``: ``name, description, source,
