@@ -22,7 +22,7 @@ from .augment import rationalize
 from .branches import split_branches
 from .decompose import decompose as _decompose
 from .errors import AnalysisError, ModelError
-from .exact import BlockOutcome, program_degree_height
+from .exact import BlockOutcome, bound_sizes
 from .model import Model
 from .results import AnalysisResult, BranchResult, Verdict
 from .series import make_problem
@@ -76,20 +76,6 @@ def _variable_names(model: Model) -> tuple[str, ...]:
     return tuple(s.name for s in model.states) + tuple(s.name for s in model.parameters)
 
 
-def _bound_args(problem) -> dict:
-    rat = problem.rational
-    model = rat.model
-    n_rhs = len(model.states) + len(model.outputs)
-    d, h = program_degree_height(problem.program, problem.program.roots[:n_rhs])
-    # atom derivative rules raise the degree of the augmented system by at most 2 (E' = E g', l' = g'/g)
-    if rat.atoms:
-        d += 2
-    tv_atoms = sum(1 for a in rat.atoms if a.time_varying)
-    n = len(model.states) + tv_atoms + len(model.unknown_inputs) * (problem.unknown_input_derivatives + 1)
-    ell = len(model.parameters) + len(model.known_constants) + len(rat.atoms) - tv_atoms
-    return dict(n=n, l=ell, m=len(model.outputs), r=len(model.inputs), d=d, h=h)
-
-
 def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | None, target: float,
                unknown_input_derivatives: int, input_derivatives: int | None,
                factor_cache: dict | None = None) -> tuple[BlockOutcome, object]:
@@ -99,7 +85,7 @@ def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | No
     rational = rationalize(block, factor_cache=factor_cache)
     problem = make_problem(rational, unknown_input_derivatives=unknown_input_derivatives,
                            input_derivatives=input_derivatives)
-    bargs = _bound_args(problem)
+    bargs = bound_sizes(problem)
     if method == "auto":
         if problem.size <= _AUTO_ORC_SIZE:
             budget = time.perf_counter() + _AUTO_ORC_SECONDS

@@ -1,10 +1,12 @@
 """Non-rational terms of a smooth model, rewritten over augmented functions ("atoms").
 
-Both exact engines (:mod:`obsnl.lie`, :mod:`obsnl.sedoglavic`) work with rational functions
-modulo a prime. A smooth branch of a mechanical model may also contain symbolic powers
-(``|sigma - eta|**(2*N)``, ``x3**p3``), ``exp``, ``log``, ``sqrt``, ``sin``, ``cos``, ``atan``
+Both exact engines (:mod:`obsnl.lie`, :mod:`obsnl.sedoglavic`) and every evaluation at a random
+point (:mod:`obsnl.dual`: the symmetry search, identifiable functions, ``same_field``) work with
+rational functions modulo a prime. A smooth branch of a mechanical model may also contain symbolic
+powers (``|sigma - eta|**(2*N)``, ``x3**p3``), ``exp``, ``log``, ``sqrt``, ``sin``, ``cos``, ``atan``
 (``tanh``, ``sinh``, ``cosh``, ``tan`` are rewritten through ``exp``, ``sin`` and ``cos``).
-:func:`rationalize` replaces each of them by a new symbol, an *atom*, with a rational
+:func:`rationalize` replaces each of them by a new symbol, an *atom* (the walk is
+:class:`obsnl.atoms.Rewriter`; this module applies it to a model), with a rational
 derivative rule, so that the model becomes a rational system over the variables and the atoms:
 
 ========  ======================  ===========================  ==================================
@@ -44,63 +46,24 @@ specific number (``x3(0) = 13/10`` in ``x3**p3``), ``log(13/10) = log 13 - log 2
 fixed transcendental number and the logs of primes are random stand-ins; independence of the
 logarithms of several primes (or of ``pi``) is Schanuel's conjecture, which the notes state.
 Plain augmentation with a *free* initial value would only be conservative (on the seed model
-it would wrongly make ``Delta1`` look unidentifiable); obsnl never does that.
+it would wrongly make ``Delta1`` look unidentifiable); obsnl never does that. Expressions evaluated
+later at the same point (a candidate identifiable function, :mod:`obsnl.jacobian`) are rewritten
+over the same atoms (:meth:`obsnl.atoms.Rewriter.extend`): an exponential of a monomial that has an
+atom becomes a power or a root of it, so that the stand-ins keep their relations.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import sympy as sp
 
+from .atoms import Atom, Rewriter
 from .errors import ModelError, NotSupportedError
-from .model import NONSMOOTH_FUNCTIONS, Model
+from .model import Model
 
 __all__ = ["Atom", "Rationalized", "rationalize", "atom_rates"]
-
-_KINDS = ("exp", "log", "atan", "root", "sin", "cos", "const")
-
-
-@dataclass(frozen=True)
-class Atom:
-    """One augmented function.
-
-    Attributes
-    ----------
-    symbol
-        The stand-in symbol used in the rational system.
-    kind
-        ``"exp"``, ``"log"``, ``"atan"``, ``"root"``, ``"sin"``, ``"cos"`` or ``"const"`` (a
-        transcendental number such as ``log(2)`` or ``pi``).
-    arg
-        The argument ``g`` (rational in the model's symbols and earlier atoms); the base for a
-        root; the number itself for a constant.
-    q
-        Degree of a root (``g**(1/q)``), else 0.
-    partner
-        For ``sin``/``cos``: the symbol of the other function of the pair.
-    time_varying
-        True when the atom depends on a state or an input.
-    """
-
-    symbol: sp.Symbol
-    kind: str
-    arg: sp.Expr
-    q: int = 0
-    partner: sp.Symbol | None = None
-    time_varying: bool = True
-
-    @property
-    def text(self) -> str:
-        if self.kind == "root":
-            return f"({self.arg})**(1/{self.q})"
-        if self.kind == "const":
-            return str(self.arg)
-        if self.kind == "log":  # a real logarithm of either sign of its argument (module docstring)
-            return f"log|{self.arg}|"
-        return f"{self.kind}({self.arg})"
 
 
 @dataclass(frozen=True)
@@ -145,315 +108,7 @@ class Rationalized:
         raise KeyError(symbol)
 
 
-# --------------------------------------------------------------------------- helpers
-def _factor_fraction(g: sp.Expr):
-    """``g`` as a rational number, or ((c, factors) of the numerator, (c, factors) of the denominator)."""
-    g = sp.together(g)
-    if g == 0:
-        raise ModelError("log(0) in the model")
-    if g.is_Rational:
-        return sp.Rational(g)
-    out = []
-    for part in sp.fraction(g):
-        try:
-            c, factors = sp.factor_list(sp.expand(part))
-        except (sp.PolynomialError, NotImplementedError):  # pragma: no cover - defensive
-            c, factors = sp.Integer(1), [(part, 1)]
-        out.append((sp.Rational(c), tuple(factors)))
-    return tuple(out)
-
-
-def _rational_gcd(values: Sequence[sp.Rational]) -> sp.Rational:
-    nums = [abs(int(v.p)) for v in values]
-    dens = [int(v.q) for v in values]
-    g = 0
-    for n in nums:
-        g = math.gcd(g, n)
-    lcm = 1
-    for d in dens:
-        lcm = lcm * d // math.gcd(lcm, d)
-    return sp.Rational(g, lcm)
-
-
-def _to_exact(e: sp.Expr) -> sp.Expr:
-    if e.has(sp.Float):
-        return e.xreplace({f: sp.nsimplify(f, rational=True) for f in e.atoms(sp.Float)})
-    return e
-
-
-class _Builder:
-    """Walks the expressions of one model, creating atoms (two passes, see :func:`rationalize`)."""
-
-    def __init__(self, model: Model, factor_cache: dict | None = None) -> None:
-        self.model = model
-        self.factor_cache = {} if factor_cache is None else factor_cache
-        self.declared = set(model.symbols.values())
-        self.time_symbols = set(model.states) | set(model.inputs) | set(model.unknown_inputs)
-        self.atoms: dict[sp.Symbol, Atom] = {}
-        self.by_key: dict[tuple, sp.Symbol] = {}
-        self.counter = 0
-        # provisional exponentials / trig functions keyed by (monomial, coefficient)
-        self.prov_exp: dict[tuple[sp.Expr, sp.Rational], sp.Symbol] = {}
-        self.orientation: set[sp.Expr] = set()
-        self.prov_exp_inv: dict[sp.Symbol, tuple[sp.Expr, sp.Rational]] = {}
-        self.prov_trig: dict[tuple[str, sp.Expr, sp.Rational], sp.Symbol] = {}
-        self.used_terms: list[object] = []  # sympy terms or (base, exponent); printed once, in the notes
-        self.memo: dict[sp.Expr, sp.Expr] = {}
-        self.log_memo: dict[sp.Expr, sp.Expr] = {}
-
-    # ----------------------------------------------------------------- atoms
-    def _new(self, kind: str, arg: sp.Expr, *, q: int = 0, name: str | None = None) -> sp.Symbol:
-        key = (kind, arg, q)
-        if key in self.by_key:
-            return self.by_key[key]
-        sym = sp.Symbol(f"_{name or kind}{self.counter}", real=True)
-        self.counter += 1
-        self.by_key[key] = sym
-        self.atoms[sym] = Atom(sym, kind, arg, q=q, time_varying=self._varies(arg) if kind != "const" else False)
-        return sym
-
-    def _varies(self, e: sp.Expr) -> bool:
-        for s in e.free_symbols:
-            if s in self.time_symbols:
-                return True
-            if s in self.atoms and self.atoms[s].time_varying:
-                return True
-        return False
-
-    def const(self, value: sp.Expr) -> sp.Symbol:
-        return self._new("const", value, name="c")
-
-    # ----------------------------------------------------------------- walk
-    def rat(self, e: sp.Expr) -> sp.Expr:
-        if e.is_Symbol or e.is_Rational:
-            return e
-        if e not in self.memo:  # subexpressions recur (the seed model has |sigma - eta|**(2N) thrice)
-            self.memo[e] = self._rat(e)
-        return self.memo[e]
-
-    def _rat(self, e: sp.Expr) -> sp.Expr:
-        if e.is_Number:  # Float
-            return _to_exact(e)
-        if e is sp.pi:
-            return self.const(sp.pi)
-        if e.is_NumberSymbol or e is sp.I or e.has(sp.I):
-            raise NotSupportedError(f"the constant {e} is not supported; write its value as a rational number")
-        if isinstance(e, (sp.Add, sp.Mul)):
-            return e.func(*[self.rat(a) for a in e.args])
-        if isinstance(e, sp.Pow):
-            return self.power(self.rat(e.base), _to_exact(e.exp))
-        if isinstance(e, sp.exp):
-            return self.exp_of(self.rat(e.args[0]))
-        if isinstance(e, sp.log):
-            if len(e.args) != 1:
-                return self.rat(sp.log(e.args[0]) / sp.log(e.args[1]))
-            return self.log_of(self.rat(e.args[0]))
-        if isinstance(e, (sp.sin, sp.cos)):
-            return self.trig(type(e).__name__, self.rat(e.args[0]))
-        if isinstance(e, sp.tan):
-            return self.trig("sin", self.rat(e.args[0])) / self.trig("cos", self.rat(e.args[0]))
-        if isinstance(e, (sp.tanh, sp.sinh, sp.cosh)):
-            return self.rat(e.rewrite(sp.exp))
-        if isinstance(e, sp.atan):
-            g = self.rat(e.args[0])
-            self.used_terms.append(e)
-            return self._new("atan", g)
-        if isinstance(e, NONSMOOTH_FUNCTIONS):
-            raise NotSupportedError(
-                f"{type(e).__name__} in {e} is not smooth; split the model into smooth branches first "
-                f"(obsnl.split_branches, or obsnl.analyze which does it)"
-            )
-        name = getattr(e.func, "__name__", type(e).__name__)
-        raise NotSupportedError(
-            f"the function {name} (in {e}) is not supported by the exact engines; supported are rational "
-            f"functions, powers, exp, log, sqrt, sin, cos, tan, tanh, sinh, cosh, atan"
-        )
-
-    def power(self, base: sp.Expr, ex: sp.Expr) -> sp.Expr:
-        if ex.is_Integer:
-            return base**ex
-        if ex.is_Rational:
-            self.used_terms.append((base, ex))
-            return self.root_power(base, ex)
-        if not ex.free_symbols:
-            raise NotSupportedError(f"the irrational exponent in ({base})**({ex}) is not supported; use a rational number")
-        self.used_terms.append((base, ex))
-        # b**(c0 + e') = b**c0 * exp(e' log b): the rational part stays algebraic in b itself
-        c0, rest = self.rat(ex).as_coeff_Add()
-        out = base**c0 if c0.is_Integer else self.root_power(base, c0)
-        return out * self.exp_of(rest * self.log_of(base))
-
-    def root_power(self, base: sp.Expr, ex: sp.Rational) -> sp.Expr:
-        p, q = int(ex.p), int(ex.q)
-        s, t = divmod(p, q)  # base**(p/q) = base**s * (base**(1/q))**t
-        if base.is_Rational and base >= 0:
-            root = sp.Integer(int(base.p)) ** sp.Rational(1, q) / sp.Integer(int(base.q)) ** sp.Rational(1, q)
-            if root.is_Rational:
-                return base**s * root**t
-        w = self._new("root", base, q=q)
-        return base**s * w**t
-
-    def log_of(self, g: sp.Expr) -> sp.Expr:
-        """``log|g|`` over log atoms of irreducible factors and logarithms of primes."""
-        if g not in self.log_memo:
-            self.log_memo[g] = self._log_of(g)
-        return self.log_memo[g]
-
-    def _log_of(self, g: sp.Expr) -> sp.Expr:
-        if g not in self.factor_cache:  # shared by the branches of one analysis
-            self.factor_cache[g] = _factor_fraction(g)
-        parts = self.factor_cache[g]
-        if not isinstance(parts, tuple):
-            return self.log_number(parts)
-        out = sp.Integer(0)
-        for (c, factors), sign in zip(parts, (1, -1)):
-            for f, k in factors:
-                # one atom per factor up to sign, the orientation first seen (log|-f| = log|f|)
-                if (-f) in self.orientation and f not in self.orientation:
-                    f = -f
-                self.orientation.add(f)
-                if f in self.prov_exp_inv:  # log(exp(c*m)) = c*m
-                    m, cc = self.prov_exp_inv[f]
-                    out += sign * k * cc * m
-                    continue
-                out += sign * k * self._new("log", f)
-            out += sign * self.log_number(c)
-        return out
-
-    def log_number(self, c: sp.Rational) -> sp.Expr:
-        """``log|c|`` as a combination of logarithms of primes (random stand-ins)."""
-        c = abs(sp.Rational(c))
-        if c == 1:
-            return sp.Integer(0)
-        out = sp.Integer(0)
-        for prime, e in sp.factorint(int(c.p)).items():
-            out += e * self.const(sp.log(prime, evaluate=False))
-        for prime, e in sp.factorint(int(c.q)).items():
-            out -= e * self.const(sp.log(prime, evaluate=False))
-        return out
-
-    def _terms(self, g: sp.Expr, what: str) -> list[tuple[sp.Rational, sp.Expr]]:
-        out: list[tuple[sp.Rational, sp.Expr]] = []
-        for term in sp.Add.make_args(sp.expand(g)):
-            c, m = term.as_coeff_Mul()
-            if not c.is_Rational:  # pragma: no cover - numbers are exact here
-                raise NotSupportedError(f"the coefficient {c} in {what} is not rational")
-            for b, k in m.as_powers_dict().items():
-                if m == 1:
-                    break
-                if not (b.is_Symbol and (b in self.declared or b in self.atoms)) or not sp.sympify(k).is_Integer:
-                    raise NotSupportedError(
-                        f"the term {term} of {what} is not a monomial in the model's variables; obsnl needs "
-                        f"exponent and angle arguments that are sums of monomials (e.g. -E_a/(R*T), N*log(x)); "
-                        f"introduce a state for this quantity instead"
-                    )
-            out.append((sp.Rational(c), m))
-        return out
-
-    def exp_of(self, g: sp.Expr) -> sp.Expr:
-        out = sp.Integer(1)
-        for c, m in self._terms(g, f"exp({g})"):
-            if c == 0:
-                continue
-            if m in self.atoms and self.atoms[m].kind == "log":  # exp(c*log f) = f**c
-                out *= self.power(self.atoms[m].arg, c) if not c.is_Integer else self.atoms[m].arg ** c
-                continue
-            key = (m, c)
-            if key not in self.prov_exp:
-                self.prov_exp[key] = sp.Symbol(f"_pexp{len(self.prov_exp)}", real=True)
-                self.prov_exp_inv[self.prov_exp[key]] = key
-            out *= self.prov_exp[key]
-        return out
-
-    def trig(self, kind: str, g: sp.Expr) -> sp.Expr:
-        terms = self._terms(g, f"{kind}({g})")
-        if not terms:
-            return sp.Integer(0) if kind == "sin" else sp.Integer(1)
-
-        def one(k: str, c: sp.Rational, m: sp.Expr) -> sp.Symbol:
-            key = (k, m, c)
-            if key not in self.prov_trig:
-                self.prov_trig[key] = sp.Symbol(f"_p{k}{len(self.prov_trig)}", real=True)
-            return self.prov_trig[key]
-
-        s, co = one("sin", *terms[0]), one("cos", *terms[0])
-        for c, m in terms[1:]:  # addition formulas
-            s2, c2 = one("sin", c, m), one("cos", c, m)
-            s, co = s * c2 + co * s2, co * c2 - s * s2
-        return s if kind == "sin" else co
-
-    # ----------------------------------------------------------------- second pass
-    def finalize(self) -> dict[sp.Symbol, sp.Expr]:
-        """Group provisional exponentials and trig functions by monomial; the substitution map."""
-        subs: dict[sp.Symbol, sp.Expr] = {}
-        groups: dict[sp.Expr, list[sp.Rational]] = {}
-        for (m, c) in self.prov_exp:
-            groups.setdefault(m, []).append(c)
-        for m, cs in groups.items():
-            u = _rational_gcd(cs)
-            e = self._new("exp", u * m)
-            for c in cs:
-                subs[self.prov_exp[(m, c)]] = e ** int(c / u)
-        tgroups: dict[sp.Expr, list[sp.Rational]] = {}
-        for (_, m, c) in self.prov_trig:
-            tgroups.setdefault(m, []).append(c)
-        X = sp.Dummy("X")
-        for m, cs in tgroups.items():
-            u = _rational_gcd(cs)
-            s = self._new("sin", u * m)
-            co = self._new("cos", u * m)
-            self.atoms[s] = Atom(s, "sin", u * m, partner=co, time_varying=self.atoms[s].time_varying)
-            self.atoms[co] = Atom(co, "cos", u * m, partner=s, time_varying=self.atoms[co].time_varying)
-            for (k, mm, c), sym in self.prov_trig.items():
-                if mm != m:
-                    continue
-                n = int(c / u)
-                expr = sp.expand_trig((sp.sin if k == "sin" else sp.cos)(n * X))
-                subs[sym] = expr.xreplace({sp.sin(X): s, sp.cos(X): co})
-        # atom arguments may hold provisional symbols: substitute until stable
-        for _ in range(len(self.atoms) + 2):
-            changed = False
-            for sym, a in list(self.atoms.items()):
-                new_arg = a.arg.xreplace(subs) if a.kind != "const" else a.arg
-                if new_arg != a.arg:
-                    changed = True
-                    self.atoms[sym] = Atom(sym, a.kind, new_arg, q=a.q, partner=a.partner,
-                                           time_varying=a.time_varying)
-            subs = {k: v.xreplace(subs) for k, v in subs.items()}
-            if not changed:
-                break
-        # time variation after substitution (arguments may now reference other atoms)
-        for _ in range(len(self.atoms) + 1):
-            for sym, a in list(self.atoms.items()):
-                if a.kind == "const":
-                    continue
-                tv = self._varies(a.arg)
-                if tv != a.time_varying:
-                    self.atoms[sym] = Atom(sym, a.kind, a.arg, q=a.q, partner=a.partner, time_varying=tv)
-        return subs
-
-    def ordered_atoms(self) -> tuple[Atom, ...]:
-        done: list[Atom] = []
-        placed: set[sp.Symbol] = set()
-        pending = dict(self.atoms)
-        while pending:
-            progress = False
-            for sym, a in list(pending.items()):
-                deps = {s for s in a.arg.free_symbols if s in self.atoms} if a.kind != "const" else set()
-                deps.discard(sym)
-                if a.partner is not None:
-                    deps.discard(a.partner)
-                if deps <= placed:
-                    done.append(a)
-                    placed.add(sym)
-                    del pending[sym]
-                    progress = True
-            if not progress:  # pragma: no cover - arguments are built bottom-up
-                raise NotSupportedError("circular definition among non-rational terms")
-        return tuple(done)
-
-
-def rationalize(model: Model, *, factor_cache: dict | None = None) -> Rationalized:
+def rationalize(model: Model, *, factor_cache: dict | None = None, unit: bool = False) -> Rationalized:
     """Rewrite the non-rational terms of a smooth ``model`` over atoms (see the module docstring).
 
     Parameters
@@ -463,6 +118,9 @@ def rationalize(model: Model, *, factor_cache: dict | None = None) -> Rationaliz
     factor_cache
         A dictionary shared by several calls (the branches of one analysis) that remembers the
         factorizations of logarithm arguments; None: one for this call.
+    unit
+        Exponentials (and sines) of a monomial ``m`` as powers of ``exp(u m)`` with ``u`` dividing 1, so
+        that later expressions over the same atoms need no roots (:class:`obsnl.atoms.Rewriter`).
 
     Returns
     -------
@@ -484,10 +142,11 @@ def rationalize(model: Model, *, factor_cache: dict | None = None) -> Rationaliz
     >>> [a.kind for a in r.atoms]
     ['log', 'exp']
     """
-    b = _Builder(model, factor_cache)
-    rhs = {s: b.rat(_to_exact(model.equations[s])) for s in model.states}
-    outs = {k: b.rat(_to_exact(v)) for k, v in model.outputs.items()}
-    icv = {s: b.rat(_to_exact(v)) for s, v in model.initial_condition_values.items()}
+    b = Rewriter(model.symbols.values(), set(model.states) | set(model.inputs) | set(model.unknown_inputs),
+                 factor_cache, unit)
+    rhs = {s: b.add(model.equations[s]) for s in model.states}
+    outs = {k: b.add(v) for k, v in model.outputs.items()}
+    icv = {s: b.add(v) for s, v in model.initial_condition_values.items()}
     subs = b.finalize()
     if subs:
         rhs = {s: e.xreplace(subs) for s, e in rhs.items()}
@@ -501,7 +160,7 @@ def rationalize(model: Model, *, factor_cache: dict | None = None) -> Rationaliz
 
 
 def _specific_initial_values(
-    model: Model, atoms: Sequence[Atom], icv: Mapping[sp.Symbol, sp.Expr], b: _Builder
+    model: Model, atoms: Sequence[Atom], icv: Mapping[sp.Symbol, sp.Expr], b: Rewriter
 ) -> dict[sp.Symbol, sp.Expr]:
     """Atoms whose initial value is fixed by specific initial conditions (numbers only)."""
     numeric_ic = {s: v for s, v in icv.items() if v.is_Rational}

@@ -30,7 +30,9 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-__all__ = ["classify", "failure_bound", "program_degree_height", "BlockOutcome"]
+from .modp import nullspace_mod_p
+
+__all__ = ["classify", "failure_bound", "bound_sizes", "program_degree_height", "BlockOutcome"]
 
 
 @dataclass
@@ -52,37 +54,13 @@ class BlockOutcome:
         return bool(self.reason)
 
 
-def nmod_matrix(J: np.ndarray, p: int):
-    from flint import nmod_mat
-
-    R, M = J.shape
-    return nmod_mat(R, M, [int(x) for x in J.ravel()], p)
-
-
-def rank(J: np.ndarray, p: int) -> int:
-    if J.size == 0:
-        return 0
-    return nmod_matrix(J, p).rank()
-
-
 def classify(J: np.ndarray, p: int) -> tuple[int, list[bool]]:
-    """Rank of ``J`` over GF(p) and, per column, whether the unknown is unobservable."""
+    """Rank of ``J`` over GF(p) and, per column, whether the unknown is unobservable (kernel test)."""
     R, M = J.shape
     if M == 0:
         return 0, []
-    if R == 0:
-        return 0, [True] * M
-    mat = nmod_matrix(J, p)
-    r = mat.rank()
-    if r == M:
-        return r, [False] * M
-    X, nullity = mat.nullspace()
-    entries = X.entries()
-    unobs = []
-    for j in range(M):
-        row = entries[j * M:(j + 1) * M]
-        unobs.append(any(int(row[c]) != 0 for c in range(nullity)))
-    return r, unobs
+    kernel = nullspace_mod_p(J, M, p)
+    return M - len(kernel), [any(k[j] for k in kernel) for j in range(M)]
 
 
 def failure_bound(p: int, *, n: int, l: int, m: int, r: int, d: int, h: int, nfuncs: int) -> float:
@@ -111,6 +89,21 @@ def failure_bound(p: int, *, n: int, l: int, m: int, r: int, d: int, h: int, nfu
         return 1.0
     per = 1 - (1 - 1 / mu) ** 2
     return min(1.0, nfuncs * per)
+
+
+def bound_sizes(problem) -> dict[str, int]:
+    """The sizes ``n, l, m, r, d, h`` of :func:`failure_bound` for a :class:`obsnl.problem.Problem`."""
+    rat = problem.rational
+    model = rat.model
+    n_rhs = len(model.states) + len(model.outputs)
+    d, h = program_degree_height(problem.program, problem.program.roots[:n_rhs])
+    # atom derivative rules raise the degree of the augmented system by at most 2 (E' = E g', l' = g'/g)
+    if rat.atoms:
+        d += 2
+    tv_atoms = sum(1 for a in rat.atoms if a.time_varying)
+    n = len(model.states) + tv_atoms + len(model.unknown_inputs) * (problem.unknown_input_derivatives + 1)
+    ell = len(model.parameters) + len(model.known_constants) + len(rat.atoms) - tv_atoms
+    return dict(n=n, l=ell, m=len(model.outputs), r=len(model.inputs), d=d, h=h)
 
 
 def program_degree_height(program, roots: Sequence[int]) -> tuple[int, int]:

@@ -31,7 +31,8 @@ import sympy as sp
 
 from .augment import atom_rates
 from .errors import NotSupportedError
-from .exact import BlockOutcome, classify, failure_bound, nmod_matrix, rank
+from .exact import BlockOutcome, classify, failure_bound
+from .modp import nmod_matrix, rank_mod_p
 from .series import Problem, Resample, TimeUp, random_prime, run_series
 
 __all__ = ["orc", "orc_block", "lie_derivatives"]
@@ -242,7 +243,7 @@ def _ev(poly, values) -> int:
 def _project(rows_A: np.ndarray, T: np.ndarray, p: int) -> np.ndarray:
     if rows_A.size == 0:
         return np.zeros((0, T.shape[1]), dtype=np.int64)
-    prod = nmod_matrix(rows_A, p) * nmod_matrix(T, p)
+    prod = nmod_matrix(rows_A, T.shape[0], p) * nmod_matrix(T, T.shape[1], p)
     return np.array([int(x) for x in prod.entries()], dtype=np.int64).reshape(rows_A.shape[0], T.shape[1])
 
 
@@ -289,9 +290,9 @@ def orc_block(
                 rows_A.append(point.row(system, o, N, a, b))
             order = k
             A = np.vstack(rows_A)
-            rA = rank(A, p)
+            rA = rank_mod_p(A, A.shape[1], p)
             J = _project(A, point.T, p)
-            if rank(J, p) == M:
+            if rank_mod_p(J, M, p) == M:
                 out.rank, out.order, out.failure, out.runs = M, k, 0.0, 1
                 return out
             if not problem.specific and rA == last_rank:

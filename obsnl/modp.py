@@ -1,27 +1,114 @@
-"""Exact vectorised arithmetic modulo a prime ``p < 2**50`` on int64 numpy arrays.
+"""Exact arithmetic modulo a prime: scalars, int64 arrays, ranks, kernels, rational reconstruction.
 
-Three pieces used by the randomized observability test:
+One module for every modular computation of the package (the engines and the symmetry side):
 
-- :func:`mulmod`: elementwise ``a*b mod p``. The int64 product wraps modulo ``2**64``; a quotient
-  estimate from a float64 product (relative error below ``2**-50``) leaves a remainder
-  ``|a*b - q*p| < 2**53``, which the wrapped int64 arithmetic therefore gives exactly.
+- :class:`Field`: GF(p) scalars (inverses, rationals in and out, ``q``-th roots); any prime below
+  ``2**63``. :class:`Resample` says the random point hit a zero denominator or a non-residue.
+- :func:`mulmod`: elementwise ``a*b mod p`` on int64 arrays for ``p < 2**50``. The int64 product wraps
+  modulo ``2**64``; a quotient estimate from a float64 product (relative error below ``2**-50``) leaves
+  a remainder ``|a*b - q*p| < 2**53``, which the wrapped int64 arithmetic therefore gives exactly.
 - :class:`MatMod`: ``A @ B mod p`` for a matrix ``A`` fixed over many products. Both factors are
   split into 25-bit limbs, so that every limb product is below ``2**50`` and a sum of up to
   ``2**13`` of them stays below ``2**63``: int64 matrix products are exact.
 - :class:`Echelon`: an incremental reduced row echelon basis (rank after every new row, and the
   kernel classification of the columns at the end) without converting to another library.
+- :func:`rank_mod_p`, :func:`nullspace_mod_p`: rank and a kernel basis of a whole matrix (flint).
+- :func:`rational_reconstruction`: back from GF(p) to a small rational.
 
 No float ever decides anything: floats only estimate quotients that integer arithmetic corrects.
+The engines draw a random prime below ``2**50`` for every run (:func:`random_prime`, array
+arithmetic); :data:`PRIME` is the fixed prime of the computations without arrays (``same_field``,
+the determining equations of the symmetry search), large for rational reconstruction.
 """
 
 from __future__ import annotations
 
+import math
+import random
+from collections.abc import Sequence
+from dataclasses import dataclass
+from fractions import Fraction
+
 import numpy as np
 
-__all__ = ["mulmod", "MatMod", "Echelon", "LIMB"]
+__all__ = ["PRIME", "PRIME_BITS", "Field", "Resample", "random_prime", "mulmod", "MatMod", "Echelon", "LIMB",
+           "nmod_matrix", "rank_mod_p", "nullspace_mod_p", "rational_reconstruction"]
 
+#: Bits of the engines' random primes (array products need ``p < 2**50``).
+PRIME_BITS = 50
+#: The fixed prime of the computations without arrays (62 bits, so that flint's nmod types hold it).
+PRIME = 2**62 - 57
 LIMB = 25
 _MASK = (1 << LIMB) - 1
+
+
+class Resample(Exception):
+    """The random point (or prime) hit a zero denominator or a non-residue; draw another."""
+
+
+@dataclass(frozen=True)
+class Field:
+    """GF(p) for a prime ``2 < p < 2**63``: exact scalar inverses, rationals and roots.
+
+    Examples
+    --------
+    >>> F = Field(101)
+    >>> F.inv(2), F.el(Fraction(1, 2)), F.rational(51), F.root(4, 2) in (2, 99)
+    (51, 51, 1/2, True)
+    """
+
+    p: int
+
+    def __post_init__(self) -> None:
+        if not 2 < self.p < 2**63:
+            raise ValueError("prime must be below 2**63")
+
+    def inv(self, x: int) -> int:
+        x = int(x) % self.p
+        if x == 0:
+            raise Resample("division by zero")
+        return pow(x, -1, self.p)
+
+    def el(self, c) -> int:
+        """The element of a rational number (a sympy Rational, a Fraction or an int)."""
+        if hasattr(c, "q"):  # sympy
+            return int(c.p) % self.p * self.inv(int(c.q)) % self.p
+        c = Fraction(c)
+        return c.numerator % self.p * self.inv(c.denominator) % self.p
+
+    def rational(self, a: int):
+        """The small rational with this element (see :func:`rational_reconstruction`), or None."""
+        return rational_reconstruction(a, self.p)
+
+    def root(self, x: int, q: int) -> int:
+        """A q-th root of x in GF(p) (Resample when there is none)."""
+        x = int(x) % self.p
+        if x == 0:
+            raise Resample("root of zero")
+        g = math.gcd(q, self.p - 1)
+        if g == 1:
+            return pow(x, pow(q, -1, self.p - 1), self.p)
+        if q == 2:
+            from flint import nmod
+
+            if pow(x, (self.p - 1) // 2, self.p) != 1:
+                raise Resample("non-residue")
+            return int(nmod(x, self.p).sqrt())
+        from sympy.ntheory import nthroot_mod
+
+        r = nthroot_mod(x, q, self.p)
+        if r is None:
+            raise Resample("non-residue")
+        return int(r)
+
+
+def random_prime(rng: random.Random, bits: int = PRIME_BITS) -> int:
+    """A random prime in [2**(bits-1), 2**bits)."""
+    import sympy as sp
+
+    lo = 2 ** (bits - 1)
+    start = rng.randrange(lo, 2**bits - 2**20)
+    return int(sp.nextprime(start))
 
 
 def mulmod(a: np.ndarray, b: np.ndarray, p: int) -> np.ndarray:
@@ -52,6 +139,8 @@ class MatMod:
 
     def __init__(self, A: np.ndarray, p: int) -> None:
         A = np.asarray(A, dtype=np.int64)
+        if p >= 2**PRIME_BITS:
+            raise ValueError(f"MatMod needs a prime below 2**{PRIME_BITS}")
         if A.ndim != 2 or A.shape[1] >= 1 << 13:
             raise ValueError("MatMod needs a matrix with fewer than 2**13 columns")
         self.p = p
@@ -130,3 +219,66 @@ class Echelon:
         for i, j in enumerate(self.pivots):
             out[j] = bool(free) and bool(self.rows[i, free].any())
         return out
+
+
+# --------------------------------------------------------------------------- whole matrices (flint)
+def nmod_matrix(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int):
+    """``rows`` (an int64 array or lists of integers) as a flint ``nmod_mat`` modulo ``p``."""
+    from flint import nmod_mat
+
+    rows = rows.tolist() if isinstance(rows, np.ndarray) else rows
+    return nmod_mat(len(rows), ncols, [int(x) for r in rows for x in r], p)
+
+
+def rank_mod_p(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int = PRIME) -> int:
+    """Rank of an integer matrix modulo ``p``.
+
+    Examples
+    --------
+    >>> rank_mod_p([[1, 2], [2, 4]], 2), rank_mod_p([[1, 2], [2, 4]], 2, p=3)
+    (1, 1)
+    """
+    if len(rows) == 0 or ncols == 0:
+        return 0
+    return nmod_matrix(rows, ncols, p).rank()
+
+
+def nullspace_mod_p(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int = PRIME) -> list[list[int]]:
+    """A basis of the right kernel ``{x : rows x = 0}`` mod ``p`` (rref-normalised), as lists.
+
+    Examples
+    --------
+    >>> nullspace_mod_p([[1, 2, 0]], 3, p=7)
+    [[5, 1, 0], [0, 0, 1]]
+    """
+    if ncols == 0:
+        return []
+    if len(rows) == 0:
+        return [[int(i == j) for i in range(ncols)] for j in range(ncols)]
+    X, nullity = nmod_matrix(rows, ncols, p).nullspace()
+    if not nullity:
+        return []
+    table = X.tolist()
+    return [[int(table[i][j]) for i in range(ncols)] for j in range(nullity)]
+
+
+def rational_reconstruction(a: int, p: int = PRIME):
+    """The rational ``n/d`` with ``n = a d mod p`` and ``|n|, d <= sqrt(p/2)`` (a sympy Rational), or None.
+
+    Examples
+    --------
+    >>> rational_reconstruction(3 * pow(7, -1, PRIME) % PRIME)
+    3/7
+    """
+    import sympy as sp
+
+    a %= p
+    bound = math.isqrt(p // 2)
+    r0, r1, t0, t1 = p, a, 0, 1
+    while r1 > bound:
+        q = r0 // r1
+        r0, r1 = r1, r0 - q * r1
+        t0, t1 = t1, t0 - q * t1
+    if t1 == 0 or abs(t1) > bound:
+        return None
+    return sp.Rational(r1 * (1 if t1 > 0 else -1), abs(t1))

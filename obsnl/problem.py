@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import sympy as sp
 
 from .augment import Rationalized
-from .errors import NotSupportedError
+from .dual import atom_deps, atom_expressions, atom_roots, topological_order
 from .model import Model
 from .slp import Program, compile_program
 from .taylor import Plan, make_plan
@@ -112,8 +112,7 @@ def make_problem(
               + tuple(model.inputs) + tuple(model.unknown_inputs) + rational.atom_symbols)
     exprs: list[sp.Expr] = [rational.rhs[s] for s in model.states]
     exprs += list(rational.outputs.values())
-    exprs += [a.arg for a in rational.atoms if a.kind not in ("const",)]
-    exprs += [1 + a.arg**2 for a in rational.atoms if a.kind == "atan"]
+    exprs += atom_expressions(rational.atoms)
     exprs += list(rational.ic_values.values())
     exprs += list(rational.initial.values())
     program = compile_program(exprs, leaves)
@@ -149,68 +148,29 @@ def _layout(rational: Rationalized, program: Program) -> Layout:
     roots = program.roots
     n_states, n_out = len(model.states), len(rational.outputs)
     pos = n_states + n_out
-    atom_arg_root: dict[sp.Symbol, int] = {}
-    for a in rational.atoms:
-        if a.kind != "const":
-            atom_arg_root[a.symbol] = roots[pos]
-            pos += 1
-    atan_q_root: dict[sp.Symbol, int] = {}
-    for a in rational.atoms:
-        if a.kind == "atan":
-            atan_q_root[a.symbol] = roots[pos]
-            pos += 1
+    atom_arg_root, atan_q_root = atom_roots(rational.atoms, roots[pos:])
+    pos += len(atom_arg_root) + len(atan_q_root)
     ic_root = dict(zip(rational.ic_values, roots[pos:pos + len(rational.ic_values)]))
     pos += len(rational.ic_values)
     init_root = dict(zip(rational.initial, roots[pos:pos + len(rational.initial)]))
     atoms = {a.symbol: a for a in rational.atoms}
-    state_set = set(model.states)
-    tv_leaf = state_set | set(model.inputs) | set(model.unknown_inputs)
-    n = len(ops)
-    tv = [False] * n
+    tv_leaf = set(model.states) | set(model.inputs) | set(model.unknown_inputs)
+    tv = [False] * len(ops)
     for i, op in enumerate(ops):
         if op.kind == "leaf":
             s = op.arg
             tv[i] = s in tv_leaf or (s in atoms and atoms[s].time_varying)
         elif op.kind != "const":
             tv[i] = tv[op.a] or (op.b >= 0 and tv[op.b])
-    # topological order: atoms after their arguments, states after their initial-value
-    # expressions, cosines after their sines
-    deps: list[list[int]] = [[] for _ in range(n)]
-    for i, op in enumerate(ops):
-        if op.kind == "leaf":
-            s = op.arg
-            if s in ic_root:
-                deps[i].append(ic_root[s])
-            if s in atoms:
-                for table in (atom_arg_root, atan_q_root, init_root):
-                    if s in table and table[s] != i:
-                        deps[i].append(table[s])
-                if atoms[s].kind == "cos":
-                    deps[i].append(leaf[atoms[s].partner])
-        else:
-            deps[i] = [j for j in (op.a, op.b) if j >= 0]
-    topo: list[int] = []
-    mark = [0] * n
-    for start in range(n):
-        if mark[start]:
-            continue
-        stack = [(start, 0)]
-        while stack:
-            node, it = stack.pop()
-            if it == 0:
-                if mark[node] == 2:
-                    continue
-                mark[node] = 1
-            if it < len(deps[node]):
-                stack.append((node, it + 1))
-                d = deps[node][it]
-                if mark[d] == 0:
-                    stack.append((d, 0))
-                elif mark[d] == 1:  # pragma: no cover - programs are acyclic
-                    raise NotSupportedError("internal: cyclic program")
-            else:
-                mark[node] = 2
-                topo.append(node)
+    # topological order: atoms after their arguments (and fixed initial values), states after their
+    # initial-value expressions, cosines after their sines
+    deps = atom_deps(rational.atoms, leaf, atom_arg_root, atan_q_root)
+    for s, r in init_root.items():
+        if r != leaf[s]:
+            deps[leaf[s]].append(r)
+    for s, r in ic_root.items():
+        deps[leaf[s]] = [r]
+    topo = topological_order(ops, deps)
     state_nodes = tuple(leaf[s] for s in model.states)
     input_nodes = tuple(leaf[u] for u in model.inputs)
     winput_nodes = tuple(leaf[w] for w in model.unknown_inputs)
