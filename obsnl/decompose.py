@@ -27,7 +27,7 @@ from .model import Model
 if TYPE_CHECKING:  # networkx loads on first use (fast `import obsnl`)
     import networkx as nx
 
-__all__ = ["dependency_graph", "decompose", "Decomposition"]
+__all__ = ["dependency_graph", "decompose", "Decomposition", "output_reachable"]
 
 
 def dependency_graph(model: Model) -> nx.DiGraph:
@@ -105,7 +105,7 @@ def decompose(model: Model) -> Decomposition:
     unknowns = [s.name for s in model.states if s not in known] + [s.name for s in model.parameters]
     unknowns += [s.name for s in model.unknown_inputs]
     anc = {y: _ancestors(parents, y) for y in model.outputs}
-    relevant = set().union(*anc.values())
+    relevant = set().union(*anc.values())  # (F1), as output_reachable
     unreachable = tuple(v for v in unknowns if v not in relevant)
     # group outputs whose ancestor sets share a state or an unknown (union-find over outputs)
     shared_roles = {"state", "parameter", "unknown_input"}
@@ -152,6 +152,21 @@ def decompose(model: Model) -> Decomposition:
                         for c, b in zip(comps, blocks))
         )
     return Decomposition(unreachable=unreachable, blocks=tuple(blocks), report=tuple(report))
+
+
+def output_reachable(model: Model) -> set[str]:
+    """Names with a path to an output in the dependency graph (F1: the others are unobservable).
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="m", states=["x", "z"], parameters=["a", "b"],
+    ...           equations={"x": "-a*x", "z": "-b*z"}, outputs={"y": "x"})
+    >>> sorted(output_reachable(m))
+    ['a', 'x']
+    """
+    parents, _ = _parents(model)
+    return set().union(*(_ancestors(parents, y) for y in model.outputs))
 
 
 def _parents(model: Model) -> tuple[dict[str, set[str]], dict[str, str]]:

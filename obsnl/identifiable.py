@@ -17,8 +17,9 @@ raises the rank. The sources, in order (``method`` names those that were needed)
    the input derivatives), split into their identifiable terms.
 
 The answer is checked again at an independent random point (``complete`` is that check). Error
-probability: each rank is exact unless the random point is special, probability <= D/p with
-p = 2**62 - 57 (Schwartz-Zippel); with the degrees of the catalogue models this is below 1e-12.
+probability: ranks and kernels are those of the engine's Jacobian at one random point
+(:mod:`obsnl.jacobian`), exact unless the prime or the point is special: probability at most
+``J.failure``, Sedoglavic's Prop. 3.3 bound (:mod:`obsnl.exact`).
 """
 
 from __future__ import annotations
@@ -32,10 +33,11 @@ from typing import Any
 
 import sympy as sp
 
-from .errors import NotSupportedError
-from .fields import PRIME, compile_program, eval_dual, nullspace_mod_p, rank_mod_p, rational_reconstruction
-from .jets import ModularJacobian, observability_jacobian
+from .dual import Expressions
+from .errors import AnalysisError, NotSupportedError
+from .jacobian import ModularJacobian, observability_jacobian
 from .model import Model
+from .modp import PRIME, nullspace_mod_p, rank_mod_p, rational_reconstruction
 from .symmetry import Symmetries, _monomials, symmetries as find_symmetries
 
 __all__ = ["IdentifiableFunctions", "identifiable_functions"]
@@ -88,9 +90,9 @@ class _Kept:
         if self.full or not expr.free_symbols & set(self.J.variables):
             return False
         g = self.J.gradients([expr])[0]
-        if any(sum(a * b for a, b in zip(g, k)) % PRIME for k in self.J.kernel):
+        if any(sum(a * b for a, b in zip(g, k)) % self.J.p for k in self.J.kernel):
             return False
-        if rank_mod_p(self.grads + [g], len(g)) == len(self.grads) + 1:
+        if rank_mod_p(self.grads + [g], len(g), self.J.p) == len(self.grads) + 1:
             self.grads.append(g)
             self.funcs.append(expr)
             self.sources.append(source)
@@ -100,7 +102,7 @@ class _Kept:
     def redundant(self, term: sp.Expr) -> bool:
         """The term is (locally) a function of the kept ones."""
         g = self.J.gradients([term])[0]
-        return rank_mod_p(self.grads + [g], len(g)) == len(self.grads)
+        return rank_mod_p(self.grads + [g], len(g), self.J.p) == len(self.grads)
 
 
 def _normalise(e: sp.Expr) -> sp.Expr:
@@ -122,7 +124,7 @@ def _pairs(kept: _Kept, coords: Sequence[sp.Expr]) -> None:
     if not coords:
         return
     jets = J.jets(list(coords))
-    p = PRIME
+    p = J.p
     for i, j in ((i, j) for i in range(len(coords)) for j in range(i + 1, len(coords))):
         (vi, gi), (vj, gj) = jets[i], jets[j]
         inv_i, inv_j = pow(vi, -1, p), pow(vj, -1, p)
@@ -136,7 +138,7 @@ def _pairs(kept: _Kept, coords: Sequence[sp.Expr]) -> None:
                 return
             if any(sum(a * b for a, b in zip(g, k)) % p for k in J.kernel):
                 continue
-            if rank_mod_p(kept.grads + [g], len(g)) == len(kept.grads) + 1:
+            if rank_mod_p(kept.grads + [g], len(g), p) == len(kept.grads) + 1:
                 kept.grads.append(g)
                 kept.funcs.append(sp.factor_terms(expr))
                 kept.sources.append("invariant pairs")
@@ -150,8 +152,9 @@ def _polynomial_invariants(model: Model, J: ModularJacobian, S: Symmetries, degr
     M = len(monos)
     gens = [[sp.sympify(g.components.get(v.name, 0)) for v in vars_] for g in S.generators]
     syms = sorted(set(J.point), key=lambda s: s.name)
-    progs = [compile_program(gv, syms) for gv in gens]
+    progs = [Expressions(gv, syms) for gv in gens]
     idx = {v: i for i, v in enumerate(vars_)}
+    P = J.p if S.missing else PRIME  # one field for all rows: the Jacobians' when their kernels join
 
     def grad_rows(pt: dict, dirs: list[list[int]]) -> list[list[int]]:
         rows = [[0] * M for _ in dirs]
@@ -162,30 +165,33 @@ def _polynomial_invariants(model: Model, J: ModularJacobian, S: Symmetries, degr
                 k = mono.count(v)
                 rest = k
                 for w in mono:
-                    rest = rest * pt[w] % PRIME
-                rest = rest * pow(pt[v], -1, PRIME) % PRIME
+                    rest = rest * pt[w] % P
+                rest = rest * pow(pt[v], -1, P) % P
                 for r, dvec in enumerate(dirs):
-                    rows[r][m] = (rows[r][m] + rest * dvec[idx[v]]) % PRIME
+                    rows[r][m] = (rows[r][m] + rest * dvec[idx[v]]) % P
         return rows
 
     rows: list[list[int]] = []
     for _ in range(M // max(1, len(gens)) + 3 if gens else 0):
-        pt = {s: rng.randrange(1, PRIME) for s in syms}
-        dirs = [[v for v, _ in eval_dual(p, pt, [], rng, {})] for p in progs]
+        pt = {s: rng.randrange(1, P) for s in syms}
+        dirs = [e.values(pt, P, rng) for e in progs]
         rows += grad_rows(pt, dirs)
     if S.missing:
         nullity, stable, k = None, 0, 0
         while stable < 2 and time.perf_counter() < deadline and k < M + 3:
             k += 1
-            Jk = observability_jacobian(model, seed=rng.randrange(2**30))
+            try:
+                Jk = observability_jacobian(model, seed=rng.randrange(2**30), p=P)
+            except AnalysisError:  # no usable point modulo P
+                continue
             pad = [list(kv) + [0] * (len(vars_) - len(kv)) for kv in Jk.kernel]
             rows += grad_rows(dict(Jk.point), pad)
-            n = M - rank_mod_p(rows, M)
+            n = M - rank_mod_p(rows, M, P)
             stable = stable + 1 if n == nullity else 0
             nullity = n
     out = []
-    for vec in nullspace_mod_p(rows, M):
-        coeffs = [rational_reconstruction(c) for c in vec]
+    for vec in nullspace_mod_p(rows, M, P):
+        coeffs = [rational_reconstruction(c, P) for c in vec]
         if any(c is None for c, x in zip(coeffs, vec) if x):
             continue
         out.append(_normalise(sp.Add(*[c * sp.Mul(*mono) for c, mono in zip(coeffs, monos) if c])))
@@ -283,7 +289,7 @@ def identifiable_functions(model: Model, *, seed: int = 0, symmetries: Symmetrie
         _output_derivatives(model, kept, deadline)
     J2 = observability_jacobian(model, seed=seed + 101)
     ok2 = all(J2.identifiable(kept.funcs)) if kept.funcs else True
-    complete = kept.full and ok2 and rank_mod_p(J2.gradients(kept.funcs), len(J2.variables)) == J2.rank
+    complete = kept.full and ok2 and rank_mod_p(J2.gradients(kept.funcs), len(J2.variables), J2.p) == J2.rank
     if not complete:
         notes.append(f"{len(kept.funcs)} of {J.rank} independent identifiable functions found")
     used = [s for s in ("symmetries", "invariant pairs", "polynomial invariants", "output derivatives")

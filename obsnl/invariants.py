@@ -30,8 +30,8 @@ import flint
 import sympy as sp
 
 from .errors import ModelError
-from .fields import canonical
 from .parse import make_symbol
+from .proofs import canonical
 
 __all__ = ["ScalingSection", "scaling_section", "span_intersection", "translation_invariants", "adapted_forms",
            "pushforward", "coordinates", "section_map"]

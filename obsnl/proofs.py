@@ -2,24 +2,24 @@
 
 * A **scaling** is proved by weighted homogeneity (:func:`weight`): every term of every equation
   has the weight of its state and the outputs have weight 0, so ``f(lambda^w z) = lambda^w_i f(z)``.
-* Any other identity is proved in the canonical form of :func:`obsnl.fields.canonical`, where
-  powers with symbolic exponents, ``exp`` and ``log`` are atoms (algebraically independent by Ax's
-  theorem) and every expression is a rational function: ``cancel`` then decides zero exactly.
+* Any other identity is proved in the canonical form of :func:`canonical`, where powers with
+  symbolic exponents, ``exp`` and ``log`` are atoms (algebraically independent by Ax's theorem) and
+  every expression is a rational function: ``cancel`` then decides zero exactly.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping, Sequence
 
 import sympy as sp
 
 from .branches import Branch
 from .errors import NotSupportedError
-from .fields import canonical
-from .model import Model
+from .model import NONSMOOTH_FUNCTIONS, Model
 from .parse import make_symbol
 
-__all__ = ["ANY", "weight", "is_zero", "same", "verify_generator", "verify_reparametrization"]
+__all__ = ["ANY", "weight", "is_zero", "same", "canonical", "verify_generator", "verify_reparametrization"]
 
 
 class _Any:
@@ -83,8 +83,99 @@ def weight(expr: sp.Expr, weights: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr | _An
     return w(sp.sympify(expr))
 
 
+# --------------------------------------------------------------------------- canonical form
+_TPow = sp.Function("_tpow")   # _tpow(f, m) = f**m, f a factor, m a monomial exponent (or a rational)
+_TExp = sp.Function("_texp")   # _texp(m) = exp(m)
+_TLog = sp.Function("_tlog")   # _tlog(f) = log(f)
+
+
+def canonical(expr: sp.Expr) -> sp.Expr:
+    """Rewrite non-integer powers, ``exp`` and ``log`` into independent atoms (see module doc).
+
+    A normal form per expression (cached; ``f**m``, ``exp(m)`` and ``log f`` become the functions
+    ``_tpow``, ``_texp``, ``_tlog`` of factors and monomials), never identifying ``f`` with ``-f``:
+    only true identities cancel. The evaluator's atoms (:mod:`obsnl.atoms`, real logarithms
+    ``log|f|``, stand-ins and derivative rules) serve the computations mod p, not these proofs.
+    """
+    return _canonical(sp.sympify(expr))
+
+
+@functools.lru_cache(maxsize=8192)
+def _canonical(expr: sp.Expr) -> sp.Expr:
+    if expr.has(*NONSMOOTH_FUNCTIONS):
+        raise NotSupportedError(f"{expr} is not smooth; split the model into branches first (obsnl.split_branches)")
+
+    def walk(e: sp.Basic) -> sp.Basic:
+        if e.is_Atom:
+            return e
+        args = [walk(a) for a in e.args]
+        if isinstance(e, sp.Pow):
+            b, x = args
+            if x.is_Integer:
+                return b**x
+            return _power(b, x)
+        if isinstance(e, sp.exp):
+            return _exponential(args[0])
+        if isinstance(e, sp.log):
+            return _logarithm(args[0])
+        if isinstance(e, (sp.tanh, sp.sinh, sp.cosh)):
+            return walk(e.rewrite(sp.exp))
+        if isinstance(e, sp.Function) and not isinstance(e, sp.core.function.AppliedUndef):
+            raise NotSupportedError(f"{type(e).__name__} is not supported by the modular evaluator; "
+                                    f"rewrite it with exp/log or powers")
+        return e.func(*args)
+
+    return walk(expr)
+
+
+@functools.lru_cache(maxsize=8192)
+def _factors(b: sp.Expr) -> tuple[tuple[sp.Expr, int], ...]:
+    """``b = prod f**k`` with numeric content and irreducible (or atom) factors ``f``."""
+    out: list[tuple[sp.Expr, int]] = []
+    for part, sign in zip(sp.fraction(sp.together(b)), (1, -1)):
+        try:
+            c, fl = sp.factor_list(part)
+        except sp.PolynomialError:
+            c, fl = 1, [(f, 1) for f in sp.Mul.make_args(part)]
+        c = sp.Rational(c)
+        out += [(sp.Integer(c.p), sign), (sp.Integer(c.q), -sign)]
+        out += [(f, sign * int(k)) for f, k in fl]
+    return tuple((f, k) for f, k in out if f != 1)
+
+
+def _power(b: sp.Expr, x: sp.Expr) -> sp.Expr:
+    out = sp.Integer(1)
+    terms = sp.Add.make_args(sp.expand(x))
+    for f, k in _factors(b):
+        for t in terms:
+            c, m = t.as_coeff_Mul()
+            if m == 1:  # numeric part of the exponent
+                kc = k * c
+                out *= f**kc if kc.is_Integer else _TPow(f, kc)
+            elif (k * c).is_Integer:
+                out *= _TPow(f, m) ** (k * c)
+            else:
+                out *= _TPow(f, k * c * m)
+    return out
+
+
+def _exponential(g: sp.Expr) -> sp.Expr:
+    out = sp.Integer(1)
+    for t in sp.Add.make_args(sp.expand(g)):
+        c, m = t.as_coeff_Mul()
+        if m == 1:
+            out *= _TExp(c)
+        else:
+            out *= _TExp(m) ** c if c.is_Integer else _TExp(c * m)
+    return out
+
+
+def _logarithm(g: sp.Expr) -> sp.Expr:
+    return sp.Add(*[k * _TLog(f) for f, k in _factors(g)])
+
+
 def is_zero(e: sp.Expr) -> bool:
-    """Exact zero test: in the canonical form of :func:`obsnl.fields.canonical` (powers with symbolic
+    """Exact zero test: in the canonical form of :func:`canonical` (powers with symbolic
     exponents and exp/log as independent atoms, by Ax's theorem) ``e`` is a rational function."""
     if e == 0:
         return True

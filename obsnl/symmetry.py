@@ -14,9 +14,10 @@ homogeneity of every equation (a proof of ``f(lambda^w z) = lambda^w_i f(z)``), 
 substitution, an affine field by simplifying its determining equations. The ansatz grows by
 stages: translations, scalings (weights ``a_j + b_j e`` affine in the exponent parameters ``e``
 of symbolic powers such as ``N`` in ``|sigma - eta|**(2N)``), affine fields, quadratic fields.
-Each stage keeps only generators that add a new direction at a random point, and the search stops
-when the generators span the whole unobservable space (its dimension ``d`` comes from the
-power-series Jacobian). Directions left without a closed form are counted in ``missing``.
+Each stage keeps only generators that add a new direction at the Jacobian's point, and the search
+stops when the generators span the whole unobservable space (its dimension ``d`` comes from the
+power-series Jacobian of the engine, :func:`obsnl.jacobian.observability_jacobian`). Directions left
+without a closed form are counted in ``missing``.
 """
 
 from __future__ import annotations
@@ -31,13 +32,15 @@ from typing import Any
 
 import sympy as sp
 
+from .decompose import output_reachable
+from .dual import Expressions
 from .errors import NotSupportedError
-from .fields import PRIME, Redraw, compile_program, eval_dual, nullspace_mod_p, rank_mod_p, rational_reconstruction
-from .jets import ModularJacobian, observability_jacobian
+from .jacobian import ModularJacobian, observability_jacobian
 from .model import Model
+from .modp import PRIME, Resample, nullspace_mod_p, rank_mod_p, rational_reconstruction
 from .proofs import verify_generator
 
-__all__ = ["Symmetry", "Symmetries", "symmetries", "output_relevant"]
+__all__ = ["Symmetry", "Symmetries", "symmetries"]
 
 _MAX_UNKNOWNS = 2500
 
@@ -143,19 +146,7 @@ class _Setup:
     basis_vars: list[sp.Symbol]     # variables of the ansatz monomials
     exps: list[sp.Symbol]           # exponent parameters allowed in weights
     samples: list[tuple[dict, list]] = field(default_factory=list)  # (point, [(value, grad)] of f and h)
-
-
-def output_relevant(model: Model) -> set[sp.Symbol]:
-    """Symbols with a path to an output in the dependency graph (the others cannot be observed)."""
-    live = set().union(*(e.free_symbols for e in model.output_exprs))
-    todo = [s for s in live if s in model.equations]
-    while todo:
-        for v in model.equations[todo.pop()].free_symbols:
-            if v not in live:
-                live.add(v)
-                if v in model.equations:
-                    todo.append(v)
-    return live
+    exprs: Expressions | None = None  # f and h, compiled once
 
 
 def _reduced(model: Model, live: set[sp.Symbol]) -> Model:
@@ -181,14 +172,16 @@ def _exponent_parameters(model: Model, observable: set[sp.Symbol]) -> list[sp.Sy
 
 
 def _samples(st: _Setup, count: int, rng: random.Random) -> None:
+    """Values and gradients (w.r.t. the moved unknowns) of ``f`` and ``h`` at random points mod :data:`PRIME`."""
     m = st.model
     syms = list(m.states) + list(m.parameters) + list(m.inputs) + list(m.known_constants)
-    prog = compile_program(list(m.rhs) + list(m.output_exprs), syms)
+    if st.exprs is None:
+        st.exprs = Expressions(list(m.rhs) + list(m.output_exprs), syms)
     while len(st.samples) < count:
         pt = {s: rng.randrange(1, PRIME) for s in syms}
         try:
-            st.samples.append((pt, eval_dual(prog, pt, st.moved, rng, {})))
-        except Redraw:
+            st.samples.append((pt, st.exprs.jets(pt, st.moved, PRIME, rng)))
+        except Resample:
             continue
 
 
@@ -287,13 +280,6 @@ def _normalised(comp: Mapping[sp.Symbol, sp.Expr], order: Sequence[sp.Symbol]) -
     return {v: sp.expand(c * den * sign / num) for v, c in comp.items()}
 
 
-def _value_at(comp: Mapping[sp.Symbol, sp.Expr], J: ModularJacobian) -> list[int]:
-    exprs = [comp.get(v, sp.Integer(0)) for v in J.variables]
-    syms = sorted(set(J.point) | set().union(*(sp.sympify(e).free_symbols for e in exprs)), key=lambda s: s.name)
-    prog = compile_program(exprs, syms)
-    return [v for v, _ in eval_dual(prog, J.point, [], random.Random(0), dict(J.atoms))]
-
-
 def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: ModularJacobian | None = None) -> Symmetries:
     """Generators of the unobservable directions of a smooth model, exact over Q and verified.
 
@@ -307,14 +293,16 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
         Highest polynomial degree of the ansatz after translations and scalings: 1 (affine,
         default) or 2 (quadratic in the states and parameters).
     jacobian
-        A precomputed :func:`obsnl.jets.observability_jacobian` of ``model`` (to share the point).
+        A precomputed :func:`obsnl.jacobian.observability_jacobian` of ``model`` (to share the point).
 
     Returns
     -------
     Symmetries
         Pointwise independent generators; ``missing`` counts the directions with no closed form.
-        The rank decisions hold with probability at least ``1 - 1e-12`` for models of moderate
-        degree (random point mod a 62-bit prime).
+        Every generator kept is verified symbolically, so a special random point can only lose
+        generators (they would count in ``missing``): the dimension and the unobservable set come
+        from the Jacobian (error probability at most ``jacobian.failure``, :mod:`obsnl.exact`), the
+        determining equations are solved mod :data:`obsnl.modp.PRIME` (62 bits).
 
     Examples
     --------
@@ -339,7 +327,8 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
     notes: list[str] = []
     kept: list[Symmetry] = []
     kept_vals: list[list[int]] = []
-    live = output_relevant(model)
+    syms = model.symbols
+    live = {syms[n] for n in output_reachable(model)}
     dead = [v for v in J.variables if v not in live]
     for v in dead:  # no path to an output: any change of v is invisible (proof: the dependency graph)
         kept.append(Symmetry("decoupled", {v.name: sp.Integer(1)}, "dependency graph"))
@@ -365,8 +354,8 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
                 continue
             sols.sort(key=lambda c: (len(c), sum(sp.count_ops(v) for v in c.values())))
             for comp in sols:
-                vals = _value_at(comp, J)
-                if rank_mod_p(kept_vals + [vals], len(vals)) == len(kept_vals) + 1:
+                vals = J.values([comp.get(v, sp.Integer(0)) for v in J.variables])  # the field at J's point
+                if rank_mod_p(kept_vals + [vals], len(vals), J.p) == len(kept_vals) + 1:
                     verified = verify_generator(sub, kind if kind != "quadratic" else "affine", comp)
                     if not verified:
                         notes.append(f"a {kind} generator failed symbolic verification and was not kept")
