@@ -317,6 +317,8 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--s0", type=float, default=0.2, help="prior std of log-parameters (default: 0.2)")
     p.add_argument("--q-theta", type=float, default=0.0, help="random walk of log-parameters per step (default: 0)")
     p.add_argument("--q-x", type=float, default=1.0, help="factor on the state noise from the input noise (default: 1)")
+    p.add_argument("--gate", type=float, default=float("inf"),
+                   help="innovation gate: Mahalanobis distance beyond which the gain is scaled down (default: off)")
     p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
     p.add_argument("--samples", type=int, default=None, help="use only the first samples of the record")
     p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
@@ -334,8 +336,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     if args.method == "dukf" and not args.table:
         raise _Exit(2, "--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL`)")
-    if args.passes < 1 or args.s0 <= 0 or args.noise <= 0:
-        raise _Exit(2, "--passes must be >= 1, --s0 and --noise > 0")
+    if args.passes < 1 or args.s0 <= 0 or args.noise <= 0 or not args.gate > 0:
+        raise _Exit(2, "--passes must be >= 1, --s0, --noise and --gate > 0")
     model = _load(args.model)
     table = load_branch_table(args.table) if args.table else None
     if table is not None:  # refuse a table made for another model before compiling anything
@@ -367,7 +369,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
                   coordinates=coordinates(num, "log", reference=guess))
     filt = make_filter(setup, args.method, table=table)
     data = make_data(setup, args.seed)
-    tuning = Tuning(args.s0, args.q_theta, args.q_x)
+    tuning = Tuning(args.s0, args.q_theta, args.q_x, args.gate)
     trs, _ = run_passes(setup, filt, data, tuning, passes=args.passes)
     theta = trs[-1].theta[-1]
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=args.s0)
@@ -377,6 +379,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
            "parameters": {q: {"true": float(t), "guess": guess[q], "estimate": float(e), "error_percent": float(r)}
                           for q, t, e, r in zip(num.parameters, setup.theta_true, theta, err)},
            "seconds": float(sum(t.seconds for t in trs)), "repairs": int(sum(t.total_repairs for t in trs)),
+           "interventions": {k: sum(t.counts()[k] for t in trs) for k in trs[0].counts()},
            "implicit_sigma_point_steps": int(sum(t.implicit.sum() for t in trs)),
            "output_misfit": output_misfit(setup, theta, data), "practically_unidentifiable": list(prac.flagged),
            "practical_identifiability": prac.to_dict()}
@@ -404,7 +407,7 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--record", default=None, help="another ground motion (.csv or .AT2); resampled to 100 Hz, first 2000 samples")
     p.add_argument("--seeds", type=int, default=5, help="reported noise seeds 0..K-1 (default: 5)")
-    p.add_argument("--tuning-seeds", type=int, default=3, help="noise seeds used for tuning only (default: 3)")
+    p.add_argument("--tuning-seeds", type=int, default=5, help="noise seeds used for tuning only (default: 5)")
     p.add_argument("--passes", type=int, default=3, help="passes of the refined protocol (default: 3)")
     p.add_argument("--samples", type=int, default=None, help="use only the first samples (quick runs)")
     p.add_argument("--no-jit", action="store_true", help="do not compile the filters to C (slower runs)")
@@ -415,8 +418,7 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
     from .data import read_record
-    from .identify import reproduce
-    from .report_identify import write_reproduction
+    from .reproduction import reproduce, write_reproduction
 
     if args.seeds < 1 or args.tuning_seeds < 1 or args.passes < 1:
         raise _Exit(2, "--seeds, --tuning-seeds and --passes must be at least 1")

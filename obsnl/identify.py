@@ -3,7 +3,8 @@
 The seed experiment (``000_d24855f97fc8bdd4.txt`` §5, Table 2): the damage-healing oscillator in its
 identifiable coordinates (``models/damage_healing_reparam.toml``) under the 1994 Northridge record,
 true values and initial guesses of Table 2, Gaussian noise of 0.1 % noise-to-signal RMS on input and
-output. :func:`reproduce` runs the whole pipeline (analysis -> branch table -> UKF and DUKF).
+output. :func:`obsnl.reproduction.reproduce` runs the whole pipeline (analysis -> branch table -> UKF
+and DUKF).
 
 Protocol, the same for the UKF and the DUKF:
 
@@ -16,9 +17,14 @@ Protocol, the same for the UKF and the DUKF:
   parameter covariance ``inflate x diag(P_final)`` (the record is reused: later passes refine the
   estimate, their covariance is optimistic). After the first pass the parameters found practically
   unidentifiable (:func:`practical_identifiability`) are put back to their guess and held fixed.
-* Tuning: every configuration of a grid is run on noise seeds that are not reported; the one with the
-  smallest mean free-run output misfit (simulation with the estimate under the measured input, against
-  the measured output) wins; a run that fails counts as infinite misfit. No true value is used.
+* Robust step (:mod:`obsnl.ukf_step`): every update that is not finite or clearly indefinite is
+  rejected (the prediction is kept), standard deviations are capped at ``STATE_CAP`` typical magnitudes
+  (states) and ``BOUND`` (log-parameters), and the innovation gate ``gate`` (a tuning choice, off or 3)
+  scales the gain down beyond that Mahalanobis distance; every intervention is counted per kind.
+* Tuning: every configuration of the grid (``DEFAULT_GRID``: ``s0``, ``q_theta``, ``q_x``, ``gate``) is
+  run on noise seeds that are not reported (five by default); the one with the smallest mean free-run
+  output misfit (simulation with the estimate under the measured input, against the measured output)
+  wins; a run that fails counts as infinite misfit. No true value is used.
 """
 
 from __future__ import annotations
@@ -39,7 +45,7 @@ from .ukf import UKF, Trajectory
 
 __all__ = ["SEED_GUESS", "PAPER_ERRORS", "Tuning", "DEFAULT_GRID", "Setup", "Data", "Practical",
            "coordinates", "make_data", "make_filter", "run_passes", "output_misfit",
-           "practical_identifiability"]
+           "practical_identifiability", "input_noise_crb", "tune"]
 
 #: Initial guesses of Table 2 of the seed paper (DESIGN.md).
 SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
@@ -60,20 +66,29 @@ BOUND = float(np.log(100.0))
 POSTERIOR_LIMIT = 0.5
 
 
+#: Covariance ceiling (standard deviation) of the scaled states: 100 typical magnitudes at the guess.
+STATE_CAP = 100.0
+
+
 @dataclass(frozen=True)
 class Tuning:
-    """One filter configuration: prior std of log-parameters, their random walk, state-noise factor."""
+    """One filter configuration: prior std of log-parameters, their random walk, state-noise factor,
+    innovation gate (Mahalanobis distance beyond which the gain is scaled down; inf: off)."""
 
     s0: float
     q_theta: float
     q_x: float
+    gate: float = float("inf")
 
-    def to_dict(self) -> dict[str, float]:
-        return {"s0": self.s0, "q_theta": self.q_theta, "q_x": self.q_x}
+    def to_dict(self) -> dict[str, float | None]:
+        return {"s0": self.s0, "q_theta": self.q_theta, "q_x": self.q_x,
+                "gate": self.gate if np.isfinite(self.gate) else None}
 
 
-DEFAULT_GRID: tuple[Tuning, ...] = tuple(Tuning(s, q, x) for s, q, x in itertools.product(
-    (0.1, 0.2, 0.3, 0.5), (0.0, 1e-9, 1e-8), (1.0, 100.0)))
+#: The tuning grid, the same for the UKF and the DUKF: 48 configurations. The gate is off or at the
+#: textbook 3 (Mahalanobis distance of a scalar innovation); decided before any reported seed was run.
+DEFAULT_GRID: tuple[Tuning, ...] = tuple(Tuning(s, q, x, g) for g, s, q, x in itertools.product(
+    (float("inf"), 3.0), (0.1, 0.2, 0.3, 0.5), (0.0, 1e-9, 1e-8), (1.0, 100.0)))
 
 
 @dataclass(frozen=True, eq=False)
@@ -166,8 +181,9 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
     scale = np.maximum(typical, 1e-2 * max(typical.max(), 1e-300))  # of the largest (a state idle at the guess)
     phi0 = setup.coordinates.to_phi(setup.theta_guess)  # valid region: within 100x of the guesses
     bounds = (np.r_[np.full(m.nx, -np.inf), phi0 - BOUND], np.r_[np.full(m.nx, np.inf), phi0 + BOUND])
+    cap = np.r_[np.full(m.nx, STATE_CAP), np.full(len(phi0), BOUND)]  # ceilings: sanity, not tuning
     opts = dict(dt=setup.record.dt, coordinates=setup.coordinates, state_scale=scale, R=1.0,
-                substeps=setup.substeps, jit=setup.jit, bounds=bounds)
+                substeps=setup.substeps, jit=setup.jit, bounds=bounds, cap=cap)
     if kind == "ukf":
         return UKF(m, **opts)
     if kind == "dukf":
@@ -201,7 +217,7 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
     Returns the trajectories and the parameters held at their guess after the first pass.
     """
     Q, R = _noise(setup, filt, data, tuning)
-    f = filt.with_options(Q=Q, R=R)
+    f = filt.with_options(Q=Q, R=R, gate=tuning.gate)
     nx = setup.model.nx
     theta, Pth = setup.theta_guess, np.full(filt.size - nx, tuning.s0 ** 2)
     Px = np.full(nx, 1e-8)  # the record starts at rest
@@ -225,7 +241,8 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
 def output_misfit(setup: Setup, theta: np.ndarray, data: Data) -> float:
     """RMS of (simulated - measured output) / RMS(measured output); simulation under the measured input."""
     try:
-        sim = simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps)
+        sim = simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps,
+                       jit=setup.jit)
     except EstimatorError:
         return float("inf")
     return rms(sim.y - data.y) / rms(data.y)
@@ -268,9 +285,40 @@ def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: float, *, step
         for s in (step, -step):
             th = np.array(theta, float)
             th[i] *= np.exp(s)
-            ys.append(simulate(m, theta=th, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps).y.ravel())
+            ys.append(simulate(m, theta=th, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, jit=setup.jit).y.ravel())
         cols.append((ys[0] - ys[1]) / (2 * step) / sigma)
     return np.array(cols).T
+
+
+def input_noise_crb(setup: Setup, theta: np.ndarray | None = None, *, u: np.ndarray | None = None) -> dict[str, Any]:
+    """Cramér-Rao std of ``log|theta_i|`` with the input noise counted (a diagnostic, not a flag).
+
+    The filters and fits see the *measured* input ``u + w``; to first order the output they should
+    reproduce is off by ``-J_u w`` (``J_u = dy/du``, one column per input sample, by central
+    differences of the simulation), so the effective output noise has covariance
+    ``Sigma = sigma_y^2 I + sigma_u^2 J_u J_u^T`` and the Fisher information is ``S^T Sigma^-1 S``
+    (``S = dy/dlog|theta|``). ``crb_output_only`` is the bound with ``sigma_u = 0`` (the one the
+    practical-identifiability flag uses). Costs two simulations per input sample (about a minute).
+    """
+    m, dt = setup.model, setup.record.dt
+    theta = setup.theta_true if theta is None else np.asarray(theta, float)
+    u = setup.record.accel if u is None else np.asarray(u, float)
+    su, sy = setup.noise * rms(u), setup.noise * rms(setup.y_true)
+    S = fisher(setup, theta, u, 1.0)  # raw sensitivities dy/dlog|theta|
+    sim = lambda uu: simulate(m, theta=theta, x0=setup.x0, u=uu, dt=dt, substeps=setup.substeps,  # noqa: E731
+                              jit=setup.jit).y.ravel()
+    Ju = np.zeros((len(S), len(u)))
+    for k in range(len(u)):
+        e = np.zeros_like(u)
+        e[k] = su
+        Ju[:, k] = (sim(u + e) - sim(u - e)) / (2 * su)
+    out = {}
+    for name, cov in (("crb_output_only", sy ** 2 * np.eye(len(S))), ("crb_with_input_noise",
+                                                                       sy ** 2 * np.eye(len(S)) + su ** 2 * Ju @ Ju.T)):
+        F = S.T @ np.linalg.solve(cov, S)
+        out[name] = dict(zip(m.parameters, np.sqrt(np.clip(np.diag(np.linalg.pinv(F, rcond=1e-12)), 0, None))))
+    out["input_noise_output_rms_over_sigma_y"] = float(su * np.sqrt(np.trace(Ju @ Ju.T) / len(S)) / sy)
+    return out
 
 
 def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, first: Trajectory,
@@ -321,187 +369,13 @@ def tune(setup: Setup, filt: UKF, seeds: Sequence[int], *, grid: Sequence[Tuning
     return {k: {t: float(np.mean(v)) for t, v in s.items()} for k, s in scores.items()}
 
 
-# --------------------------------------------------------------------------- the whole pipeline
-@dataclass(frozen=True, eq=False)
-class RunResult:
-    """One reported filter run: final estimate, cost, repairs, misfit, practical identifiability."""
-
-    method: str
-    passes: int
-    seed: int
-    tuning: Tuning
-    theta: tuple[float, ...]
-    seconds: float
-    repairs: int
-    implicit: int
-    misfit: float
-    practical: Practical | None
-    error: str = ""
-
-    @property
-    def failed(self) -> bool:
-        """True when the filter stopped (NaN); the run is reported with its error, not dropped."""
-        return bool(self.error)
-
-    def errors(self, truth: np.ndarray) -> np.ndarray:
-        """Error of each parameter in % of its true value."""
-        return 100.0 * (np.asarray(self.theta) - truth) / np.abs(truth)
-
-    def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
-        err = self.errors(truth)
-        num = lambda v: float(v) if np.isfinite(v) else None  # noqa: E731  (JSON has no NaN)
-        return {"method": self.method, "passes": self.passes, "seed": self.seed, "tuning": self.tuning.to_dict(),
-                "parameters": {p: {"true": float(t), "estimate": num(e), "error_percent": num(r)}
-                               for p, t, e, r in zip(parameters, truth, self.theta, err)},
-                "seconds": num(self.seconds), "repairs": self.repairs, "implicit_sigma_point_steps": self.implicit,
-                "output_misfit": num(self.misfit), "error": self.error,
-                "practically_unidentifiable": list(self.practical.flagged) if self.practical else [],
-                "practical_identifiability": self.practical.to_dict() if self.practical else None}
+_MOVED = ("RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce")
 
 
-@dataclass(frozen=True, eq=False)
-class Reproduction:
-    """Result of :func:`reproduce`: tuning, every reported run, trajectories of the first seed."""
+def __getattr__(name: str) -> Any:
+    """The pipeline moved to :mod:`obsnl.reproduction`; its names stay reachable here (``obsnl.reproduce``)."""
+    if name in _MOVED:
+        from . import reproduction
 
-    setup: Setup
-    table: Any
-    table_source: str
-    tuning: Mapping[tuple[str, int], tuple[Tuning, Mapping[Tuning, float]]]
-    runs: tuple[RunResult, ...]
-    trajectories: Mapping[tuple[str, int], tuple[Trajectory, ...]] = field(repr=False)
-    tuning_seeds: tuple[int, ...] = ()
-    compile_seconds: Mapping[str, float] = field(default_factory=dict)
-
-    def to_dict(self) -> dict[str, Any]:
-        s = self.setup
-        return {
-            "experiment": s.to_dict(), "branch_table": self.table_source, "tuning_seeds": list(self.tuning_seeds),
-            "tuning": [{"method": m, "passes": k, "chosen": t.to_dict(),
-                        "scores": [{**g.to_dict(), "misfit": v} for g, v in sc.items()]}
-                       for (m, k), (t, sc) in self.tuning.items()],
-            "compile_seconds": dict(self.compile_seconds),
-            "paper_errors_percent": {k: dict(v) for k, v in PAPER_ERRORS.items()},
-            "runs": [r.to_dict(s.model.parameters, s.theta_true) for r in self.runs],
-        }
-
-
-def seed_model_path() -> str:
-    """``models/damage_healing_reparam.toml`` of the obsnl source tree (the model of the seed experiment)."""
-    from pathlib import Path
-
-    p = Path(__file__).resolve().parents[1] / "models" / "damage_healing_reparam.toml"
-    if not p.is_file():
-        raise ObsnlError(f"the seed model {p} is missing; run from an obsnl source checkout")
-    return str(p)
-
-
-def seed_setup(*, record: Record | None = None, samples: int | None = None, jit: bool = False,
-               kind: str = "log") -> Setup:
-    """The seed paper's experiment (on another record when given: resampled to 100 Hz, first 2000 samples)."""
-    from importlib import resources
-
-    from .codegen import to_casadi
-    from .data import read_record
-    from .parse import load_model
-
-    here = resources.files("obsnl")
-    model = load_model(seed_model_path())
-    if record is None:
-        record = read_record(str(here.joinpath("data/northridge1994_LOS270_ngawest2_accel.csv")))
-    else:
-        record = record.resampled(0.01)
-        record = record.head(min(len(record), 2000))
-    if samples is not None:
-        record = record.head(samples)
-    num = to_casadi(model)
-    truth = {p: float(model.values[p]) for p in num.parameters}
-    return Setup(model=num, record=record, truth=truth, guess=dict(SEED_GUESS), jit=jit,
-                 coordinates=coordinates(num, kind, reference=SEED_GUESS))
-
-
-def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
-    """The branch table of the seed model from obsnl's analysis, checked against the paper's Table 1."""
-    from .analyze import analyze
-    from .parse import load_model
-    from .report import branch_table
-
-    model = load_model(seed_model_path())
-    table = branch_table(analyze(model, seed=seed), model)
-    paper = {1: {"Delta2"}, -1: {"Delta1", "w_h"}}  # Table 1: by the sign of (r - eta') x2
-    agrees = all(set(b.unidentifiable_parameters) == paper[b.signs[0] * b.signs[1]] for b in table.branches)
-    source = (f"obsnl analysis ({table.method}, seed {seed}); "
-              f"{'agrees with' if agrees else 'DIFFERS from'} the seed paper's Table 1")
-    return table, source
-
-
-def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int = 3, passes: int = 3,
-              grid: Sequence[Tuning] = DEFAULT_GRID, jit: bool = True, samples: int | None = None,
-              progress: Any = None) -> Reproduction:
-    """Table 2 of the seed paper with obsnl's UKF and DUKF (module docstring for the protocol).
-
-    Parameters
-    ----------
-    record
-        Another ground motion (default: Northridge 1994, the paper's record).
-    seeds, tuning_seeds
-        Reported noise seeds ``0..seeds-1``; tuning seeds ``1000..`` (never reported).
-    passes
-        Passes of the refined protocol (the paper's protocol is one pass).
-    grid
-        Tuning configurations.
-    jit
-        Compile the filters to C.
-    samples
-        Use only the first samples of the record (quick runs).
-    progress
-        A tqdm-like object (``total``, ``update(n)``) or None.
-    """
-    import time
-
-    setup = seed_setup(record=record, samples=samples, jit=jit)
-    table, source = seed_branch_table()
-    filters = {"ukf": make_filter(setup, "ukf"), "dukf": make_filter(setup, "dukf", table=table)}
-    ablation = make_filter(setup, "dukf", table=table, cross="zero")
-    t_seeds = tuple(range(1000, 1000 + tuning_seeds))
-    protocols = sorted({1, passes})
-    if progress is not None:
-        progress.total = len(filters) * len(grid) * tuning_seeds + seeds * (len(filters) + 1) * len(protocols)
-    compile_seconds = {}
-    for name, f in [*filters.items(), ("dukf-zero", ablation)]:
-        tic = time.perf_counter()
-        f._compiled()
-        compile_seconds[name] = time.perf_counter() - tic
-    step = (lambda: progress.update(1)) if progress is not None else None
-    chosen: dict[tuple[str, int], tuple[Tuning, Mapping[Tuning, float]]] = {}
-    for name, f in filters.items():
-        scores = tune(setup, f, t_seeds, grid=grid, passes=passes, progress=step)
-        for k in protocols:
-            sc = scores[k]
-            chosen[(name, k)] = (min(sc, key=lambda t: (sc[t], grid.index(t))), sc)
-    runs, trajs = [], {}
-    for name, f in [*filters.items(), ("dukf-zero", ablation)]:
-        for k in protocols:
-            tuning = chosen[("dukf" if name == "dukf-zero" else name, k)][0]
-            for seed in range(seeds):
-                data = make_data(setup, seed)
-                try:
-                    trs, fixed = run_passes(setup, f, data, tuning, passes=k)
-                except ObsnlError as exc:  # reported as a failed run, never dropped
-                    runs.append(RunResult(method=name, passes=k, seed=seed, tuning=tuning,
-                                          theta=(float("nan"),) * setup.model.np, seconds=float("nan"), repairs=0,
-                                          implicit=0, misfit=float("nan"), practical=None, error=str(exc)))
-                    if step:
-                        step()
-                    continue
-                theta = trs[-1].theta[-1]
-                runs.append(RunResult(
-                    method=name, passes=k, seed=seed, tuning=tuning, theta=tuple(float(v) for v in theta),
-                    seconds=float(sum(t.seconds for t in trs)), repairs=sum(t.total_repairs for t in trs),
-                    implicit=int(sum(t.implicit.sum() for t in trs)), misfit=output_misfit(setup, theta, data),
-                    practical=practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0)))
-                if seed == 0:
-                    trajs[(name, k)] = trs
-                if step:
-                    step()
-    return Reproduction(setup=setup, table=table, table_source=source, tuning=chosen, runs=tuple(runs),
-                        trajectories=trajs, tuning_seeds=t_seeds, compile_seconds=compile_seconds)
+        return getattr(reproduction, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

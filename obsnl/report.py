@@ -547,3 +547,146 @@ def bank_table_markdown(doc: Mapping[str, Any]) -> str:
                        f"{g['n_channels']} | {g['verdict']} | {sv} | {_bank_num(g['condition'], '.3g')} | "
                        f"{g['reason'] or '–'} |")
     return "\n".join(out) + "\n"
+
+
+# ---- identification (Table 2 analog)
+# Text of the Table 2 analog (seed paper 000_d24855f97fc8bdd4.txt) from the plain ``table2.json``
+# document written by ``obsnl reproduce`` (``obsnl.reproduction``), so that a committed table2.json
+# can be re-rendered without running anything. Writing files and figures stays in obsnl.reproduction.
+__all__ += ["table2_summary", "table2_markdown", "table2_latex"]
+
+_T2_TEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h": r"$w_h$", "c_p": r"$c'$",
+           "h_p": r"$h'$", "Delta1": r"$\Delta_1$", "Delta2": r"$\Delta_2$", "N": r"$N$"}
+_T2_MD = {"k_m": "k_m", "c_dm": "c_dm", "c_eta_p": "c'_eta", "w_h": "w_h", "c_p": "c'", "h_p": "h'",
+          "Delta1": "Δ1", "Delta2": "Δ2", "N": "N"}
+_T2_METHODS = {"ukf": "UKF", "dukf": "DUKF", "dukf-zero": "DUKF, P_AU = 0"}
+
+
+def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, Any]]:
+    """Per (method, passes): mean estimate, mean and worst |error| per parameter, flags, cost, interventions."""
+    groups: dict[tuple[str, int], list[Mapping[str, Any]]] = {}
+    for r in doc["runs"]:
+        groups.setdefault((r["method"], r["passes"]), []).append(r)
+    out = {}
+    for key, every in groups.items():
+        runs = [r for r in every if not r.get("error")] or every[:1]
+        failed = [r for r in every if r.get("error")]
+        params = list(runs[0]["parameters"])
+        est = np.array([[r["parameters"][p]["estimate"] for p in params] for r in runs], float)
+        err = np.abs(np.array([[r["parameters"][p]["error_percent"] for p in params] for r in runs], float))
+        kinds: Counter[str] = Counter()
+        for r in every:
+            kinds.update(r.get("interventions") or {})
+        out[key] = {
+            "parameters": params, "seeds": [r["seed"] for r in runs], "mean_estimate": est.mean(axis=0),
+            "mean_abs_error": err.mean(axis=0), "worst_abs_error": err.max(axis=0),
+            "worst_seed": [runs[i]["seed"] for i in err.argmax(axis=0)],
+            "flag_counts": {p: sum(p in r["practically_unidentifiable"] for r in runs) for p in params},
+            "seconds": float(np.mean(np.array([r["seconds"] for r in runs], float))),
+            "seconds_per_pass": float(np.mean(np.array([r["seconds"] for r in runs], float) / key[1])),
+            "repairs": int(sum(r["repairs"] for r in every)), "interventions": dict(kinds),
+            "implicit": int(sum(r["implicit_sigma_point_steps"] for r in every)),
+            "misfit": float(np.mean(np.array([r["output_misfit"] for r in runs], float))),
+            "tuning": runs[0]["tuning"], "failed": [(r["seed"], r["error"]) for r in failed],
+        }
+    return out
+
+
+def _t2_flagged(s: Mapping[str, Any], p: str) -> bool:
+    return s["flag_counts"][p] * 2 >= len(s["seeds"])
+
+
+def _t2_goal(s: Mapping[str, Any]) -> str:
+    if s["failed"]:
+        return f"not met ({len(s['failed'])} run(s) stopped: seed {', '.join(str(k) for k, _ in s['failed'])})"
+    worst = [(p, w) for p, w in zip(s["parameters"], s["worst_abs_error"]) if not _t2_flagged(s, p)]
+    bad = [f"{_T2_MD.get(p, p)} {w:.1f} %" for p, w in worst if w > 5.0]
+    return "met" if not bad else "not met (" + ", ".join(bad) + ")"
+
+
+def _t2_tuning(t: Mapping[str, Any]) -> str:
+    gate = t.get("gate")
+    return f"{t['s0']:g}, {t['q_theta']:g}, {t['q_x']:g}, {'off' if gate is None else f'{gate:g}'}"
+
+
+def _t2_kinds(s: Mapping[str, Any]) -> str:
+    return ", ".join(f"{k} {v}" for k, v in s["interventions"].items() if v) or "none"
+
+
+def table2_markdown(doc: Mapping[str, Any]) -> str:
+    """The Table 2 analog as Markdown: one table per protocol, then costs, interventions and flags."""
+    summ = table2_summary(doc)
+    exp = doc["experiment"]
+    paper = doc["paper_errors_percent"]
+    lines = [f"# Table 2 analog: {exp['model']} under {exp['record']['name']}", "",
+             f"Noise {100 * exp['noise_ratio']:g} % (RMS) on input and output; branch table: {doc['branch_table']}; "
+             f"tuning seeds {doc['tuning_seeds']} (never reported). Errors are |estimate - true| / |true| in %; "
+             f"mean and worst over the reported seeds that ran to the end. † = flagged practically unidentifiable "
+             f"in at least half of the seeds (not an estimate; see the flags below).", ""]
+    for passes in sorted({k for _, k in summ}):
+        methods = [m for m in _T2_METHODS if (m, passes) in summ]
+        title = "one pass (the paper's protocol)" if passes == 1 else f"{passes} passes over the record"
+        lines += [f"## {title}", ""]
+        head = "| parameter | true | guess | " + " | ".join(
+            f"{_T2_METHODS[m]} mean est. | {_T2_METHODS[m]} mean % | {_T2_METHODS[m]} worst %" for m in methods)
+        head += " | paper UKF % | paper DUKF % |" if passes == 1 else " |"
+        lines += [head, "|" + "---|" * (head.count("|") - 1)]
+        for i, p in enumerate(summ[(methods[0], passes)]["parameters"]):
+            cells = [_T2_MD.get(p, p), f"{exp['truth'][p]:.4g}", f"{exp['guess'][p]:.4g}"]
+            for m in methods:
+                s = summ[(m, passes)]
+                mark = " †" if _t2_flagged(s, p) else ""
+                cells += [f"{s['mean_estimate'][i]:.4g}", f"{s['mean_abs_error'][i]:.2f}{mark}",
+                          f"{s['worst_abs_error'][i]:.2f}{mark}"]
+            if passes == 1:
+                cells += [f"{paper['ukf'][p]:.2f}", f"{paper['dukf'][p]:.2f}"]
+            lines.append("| " + " | ".join(cells) + " |")
+        lines += ["", "| filter | tuning (s0, q_theta, q_x, gate) | s per run | s per pass | repairs | interventions "
+                      "(all seeds) | implicit sigma-point steps | output misfit | 5 % goal (worst seed, unflagged) |",
+                  "|---|---|---|---|---|---|---|---|---|"]
+        for m in methods:
+            s = summ[(m, passes)]
+            lines.append(f"| {_T2_METHODS[m]} | {_t2_tuning(s['tuning'])} | {s['seconds']:.3f} | "
+                         f"{s['seconds_per_pass']:.3f} | {s['repairs']} | {_t2_kinds(s)} | {s['implicit']} | "
+                         f"{s['misfit']:.5f} | {_t2_goal(s)} |")
+        lines.append("")
+    lines += ["## Practically unidentifiable (flag counts over seeds)", ""]
+    for (m, k), s in sorted(summ.items()):
+        flags = ", ".join(f"{_T2_MD.get(p, p)} {c}/{len(s['seeds'])}" for p, c in s["flag_counts"].items() if c)
+        lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {flags or 'none'}")
+    stopped = [r for r in doc["runs"] if r.get("error")]
+    if stopped:
+        lines += ["", "## Runs that stopped (reported, not dropped)", ""]
+        lines += [f"- {_T2_METHODS[r['method']]}, {r['passes']} pass(es), seed {r['seed']}: {r['error']}"
+                  for r in stopped]
+    reasons = next((r["practical_identifiability"]["reasons"] for r in doc["runs"] if r["method"] == "ukf"
+                    and r["passes"] == 1 and r.get("practical_identifiability")), {})
+    if reasons:
+        lines += ["", "Reasons (first seed of the UKF, one pass):", ""]
+        lines += [f"- {_T2_MD.get(p, p)}: {why}" for p, why in reasons.items()]
+    return "\n".join(lines) + "\n"
+
+
+def table2_latex(doc: Mapping[str, Any]) -> str:
+    """The Table 2 analog as a booktabs LaTeX table (one pass and refined, UKF and DUKF, worst seed)."""
+    summ = table2_summary(doc)
+    exp = doc["experiment"]
+    keys = [k for k in sorted(summ, key=lambda k: (k[1], k[0])) if k[0] in ("ukf", "dukf")]
+    cols = "l" + "r" * (2 + 2 * len(keys))
+    head = " & ".join(["", "true", "guess"] + [
+        rf"\multicolumn{{2}}{{c}}{{{_T2_METHODS[m]}, {k} pass{'es' if k > 1 else ''}}}" for m, k in keys]) + r" \\"
+    sub = " & ".join(["", "", ""] + ["mean \\%", "worst \\%"] * len(keys)) + r" \\"
+    rows = []
+    for i, p in enumerate(summ[keys[0]]["parameters"]):
+        cells = [_T2_TEX.get(p, p), f"{exp['truth'][p]:.3g}", f"{exp['guess'][p]:.3g}"]
+        for key in keys:
+            s = summ[key]
+            mark = r"$^\dagger$" if _t2_flagged(s, p) else ""
+            cells += [f"{s['mean_abs_error'][i]:.2f}{mark}", f"{s['worst_abs_error'][i]:.2f}{mark}"]
+        rows.append(" & ".join(cells) + r" \\")
+    return "\n".join([
+        r"\begin{table}[ht]", r"\centering",
+        rf"\caption{{Table 2 analog ({_tex_escape(exp['record']['name'])}, {100 * exp['noise_ratio']:g}\,\% noise, "
+        rf"{len(summ[keys[0]]['seeds'])} seeds). $^\dagger$ practically unidentifiable on this record.}}",
+        rf"\begin{{tabular}}{{{cols}}}", r"\toprule", head, sub, r"\midrule", *rows, r"\bottomrule",
+        r"\end{tabular}", r"\end{table}"]) + "\n"

@@ -14,8 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from .codegen import NumericModel
+import casadi as ca
+
 from .errors import DataError, EstimatorError
+from .numeric import NumericModel, jit_options
 
 __all__ = ["Simulation", "simulate"]
 
@@ -35,8 +37,25 @@ class Simulation:
                 "x": self.x.tolist(), "y": self.y.tolist()}
 
 
+_RUNS: dict[tuple, tuple[NumericModel, ca.Function]] = {}
+
+
+def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, jit: bool) -> ca.Function:
+    """``(x0, theta, u0s, u1s) -> X`` over ``T - 1`` steps; with ``jit`` one compiled loop (cached per model)."""
+    key = (id(model), float(dt), int(T), method, int(substeps), bool(jit))
+    if key not in _RUNS:
+        step = model.step(dt, method=method, substeps=substeps)
+        if jit:  # one step in C, the implicit fallback evaluated in every step (no branching in C)
+            sx = step.expand()
+            step = ca.Function(step.name(), sx.sx_in(), sx.call(sx.sx_in()), jit_options())
+        _RUNS[key] = (model, step.mapaccum(T - 1))  # keeps the model alive: its id stays unique
+        if len(_RUNS) > 64:
+            _RUNS.pop(next(iter(_RUNS)))
+    return _RUNS[key][1]
+
+
 def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, method: str = "auto",
-             substeps: int = 100) -> Simulation:
+             substeps: int = 100, jit: bool = False) -> Simulation:
     """Simulate ``model`` from ``x0`` with parameters ``theta`` under the input samples ``u``.
 
     Parameters
@@ -51,6 +70,9 @@ def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, met
         Sampling interval.
     method, substeps
         Discretisation (:meth:`obsnl.codegen.NumericModel.step`).
+    jit
+        Compile the step to C once per model, step and record length (a few seconds), for
+        repeated simulations (tuning, sensitivities); the same numbers as without.
 
     Raises
     ------
@@ -68,7 +90,7 @@ def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, met
     theta, x0 = np.asarray(theta, float), np.asarray(x0, float)
     if theta.shape != (model.np,) or x0.shape != (model.nx,):
         raise DataError(f"theta needs {model.np} values and x0 {model.nx}")
-    run = model.step(dt, method=method, substeps=substeps).mapaccum(len(u) - 1)
+    run = _runner(model, dt, len(u), method, substeps, jit)
     X = np.vstack([x0, np.asarray(run(x0, theta, u[:-1].T, u[1:].T)[0]).T])
     if not np.all(np.isfinite(X)):
         k = int(np.flatnonzero(~np.all(np.isfinite(X), axis=1))[0])

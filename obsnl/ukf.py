@@ -4,25 +4,22 @@ The filter state is ``z = [x / state_scale; phi]``: scaled model states and para
 ``phi`` (``theta = coordinates.forward(phi)``, e.g. log parameters, so values from 1e-3 to 1e10
 live together). Parameters are constant states with an optional random walk (``Q``).
 
-One step (predict with ``u_k -> u_{k+1}``, update with ``y_{k+1}``) is one ``SX`` Function: scaled
-sigma points (Julier 2002; ``alpha=1, beta=2, kappa=0`` by default, so every covariance weight is
-``>= 0`` and the predicted covariance is a sum of PSD terms) from a Cholesky factor, every sigma
-point through the full non-smooth discrete model (``Function.map``; RK4, with the implicit ROS2
-fallback only for the sigma points where RK4 is unstable, see :mod:`obsnl.codegen`), unscented mean
-and covariance, sigma points redrawn from the predicted mean and covariance for the update (so that
-``Q`` reaches ``P_yy``; on a linear model the filter is then exactly the Kalman filter), Kalman
-update, symmetrisation. ``run`` wraps the step in ``mapaccum``: one call for a whole record; with
-``jit=True`` the whole step is compiled to C (about 15-30 s once, then a few times faster).
+One step (predict with ``u_k -> u_{k+1}``, update with ``y_{k+1}``) is one casadi Function built by
+:mod:`obsnl.ukf_step` (scaled sigma points, ``alpha=1, beta=2, kappa=0`` by default so that every
+covariance weight is ``>= 0``; every sigma point through the full non-smooth discrete model;
+sigma points redrawn for the update, so that on a linear model the filter is exactly the Kalman
+filter). ``run`` wraps the step in ``mapaccum``: one call for a whole record; with ``jit=True`` the
+whole step is compiled to C (about 30-50 s once, then a few times faster).
 
 The step takes a mask of *active* coordinates; the UKF passes all ones, the DUKF
 (:mod:`obsnl.dukf`) the mask of the current branch (see there for the frozen-block rule).
 
-Repairs (counted per step in :class:`Trajectory`, never silent): a mean component outside
-``bounds`` is put back on the bound; a Cholesky pivot below
-``1e-12`` times its diagonal entry is raised to that floor; a sigma point whose propagated state is
-not finite or beyond ``1e6`` typical magnitudes (``state_scale``) is replaced by the propagated
-mean point. A NaN in the mean or
-covariance stops ``run`` with an :class:`~obsnl.errors.EstimatorError`.
+Interventions (counted per step and kind in :class:`Trajectory`, never silent; rules in
+:mod:`obsnl.ukf_step`): floored Cholesky pivots, replaced sigma points, the innovation gate
+(``gate``), rejected updates (non-finite or indefinite: the prediction is kept), held steps (the
+prediction is not finite: the previous estimate is kept), means put back into ``bounds``, standard
+deviations capped at ``cap``. No step can produce NaN or inf from a finite start; ``run`` still
+checks and raises :class:`~obsnl.errors.EstimatorError` if one ever did.
 """
 
 from __future__ import annotations
@@ -35,234 +32,12 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from .codegen import NumericModel, ParameterMap, jit_options
 from .errors import DataError, EstimatorError
+from .numeric import NumericModel, ParameterMap, jit_options
+from .trajectory import Estimate, Trajectory
+from .ukf_step import INTERVENTIONS, build_step
 
 __all__ = ["UKF", "Estimate", "Trajectory", "check_inputs"]
-
-_PIVOT_FLOOR = 1e-12
-_BIG = 1e6  # scaled states: a million times their typical magnitude
-
-
-@dataclass(frozen=True, eq=False)
-class Estimate:
-    """Filter state after step ``k``: mean ``z`` and covariance ``P`` in filter coordinates.
-
-    ``x`` and ``theta`` are the same mean in model states and model parameters.
-    """
-
-    k: int
-    z: np.ndarray
-    P: np.ndarray
-    x: np.ndarray
-    theta: np.ndarray
-    active: np.ndarray
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"k": self.k, "z": self.z.tolist(), "P": self.P.tolist(), "x": self.x.tolist(),
-                "theta": self.theta.tolist(), "active": self.active.astype(bool).tolist()}
-
-
-@dataclass(frozen=True, eq=False)
-class Trajectory:
-    """A filter run over a record (row ``k`` is the estimate after the measurement at sample ``k``).
-
-    Attributes
-    ----------
-    t
-        Sample times.
-    z, P
-        Means ``(T, L)`` and covariances ``(T, L, L)`` in filter coordinates.
-    x, theta
-        Means in model states ``(T, nx)`` and model parameters ``(T, np)``.
-    y_pred, innovations, S
-        Predicted outputs, innovations ``y - y_pred`` and their covariance, per step (row 0: NaN).
-    signs
-        Sign of each switching function at the estimated mean before each step ``(T, m)``.
-    active
-        Active (not frozen) coordinates per step.
-    repairs
-        Repairs per step (floored Cholesky pivots + replaced sigma points).
-    implicit
-        Sigma points per step whose propagation needed the implicit (ROS2) fallback.
-    seconds
-        Wall time of the run (after compilation).
-    names, parameters, states
-        Names of the filter coordinates, model parameters and model states.
-    """
-
-    t: np.ndarray
-    z: np.ndarray
-    P: np.ndarray
-    x: np.ndarray
-    theta: np.ndarray
-    y_pred: np.ndarray
-    innovations: np.ndarray
-    S: np.ndarray
-    signs: np.ndarray
-    active: np.ndarray
-    repairs: np.ndarray
-    implicit: np.ndarray
-    seconds: float
-    names: tuple[str, ...]
-    parameters: tuple[str, ...]
-    states: tuple[str, ...]
-
-    @property
-    def final(self) -> Estimate:
-        return Estimate(k=len(self.t) - 1, z=self.z[-1], P=self.P[-1], x=self.x[-1], theta=self.theta[-1],
-                        active=self.active[-1])
-
-    @property
-    def total_repairs(self) -> int:
-        return int(np.sum(self.repairs))
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"names": list(self.names), "parameters": list(self.parameters), "states": list(self.states),
-                "t": self.t.tolist(), "theta": self.theta.tolist(), "x": self.x.tolist(),
-                "P_diag": np.diagonal(self.P, axis1=1, axis2=2).tolist(),
-                "innovations": self.innovations.tolist(), "signs": self.signs.tolist(),
-                "repairs": self.repairs.tolist(), "implicit": self.implicit.tolist(), "seconds": self.seconds}
-
-
-# --------------------------------------------------------------------------- the symbolic step
-def _chol_floor(A: ca.SX, n: int) -> tuple[ca.SX, ca.SX]:
-    """Lower Cholesky factor of ``A``; pivots below ``1e-12 * A_jj`` are floored (and counted)."""
-    L = ca.SX.zeros(n, n)
-    repairs = ca.SX(0)
-    for j in range(n):
-        s = A[j, j] - sum((L[j, k] ** 2 for k in range(j)), ca.SX(0))
-        floor = _PIVOT_FLOOR * ca.fmax(A[j, j], 1e-300)
-        bad = s < floor
-        repairs += bad
-        d = ca.sqrt(ca.if_else(bad, floor, s))
-        L[j, j] = d
-        for i in range(j + 1, n):
-            L[i, j] = (A[i, j] - sum((L[i, k] * L[j, k] for k in range(j)), ca.SX(0))) / d
-    return L, repairs
-
-
-def _sym_outer(D: ca.SX, w: ca.SX, n: int) -> ca.SX:
-    """``D diag(w) D^T`` computing only the lower triangle (symmetric result)."""
-    low = ca.mac(D * ca.repmat(w.T, n, 1), D.T, ca.SX.zeros(ca.Sparsity.lower(n)))
-    return low + ca.tril(low, False).T
-
-
-def _lower_solve(L: ca.SX, B: ca.SX, n: int) -> ca.SX:
-    """``L^{-1} B`` by forward substitution (``L`` lower triangular)."""
-    X = ca.SX.zeros(B.shape)
-    for i in range(n):
-        X[i, :] = (B[i, :] - ca.mtimes(L[i, :i], X[:i, :])) / L[i, i] if i else B[i, :] / L[i, i]
-    return X
-
-
-def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_scale: np.ndarray,
-               method: str, substeps: int, cross: str = "regression") -> ca.Function:
-    """The filter step ``(z, P, u0, u1, y, active, Q, R, hyp) -> (z+, P+, y_pred, nu, S, repairs, implicit)``.
-
-    ``hyp = [alpha, beta, kappa]``; ``active`` is 1 for estimated coordinates, 0 for frozen ones;
-    ``cross`` is the DUKF rule for the frozen-active covariance (``"regression"`` or ``"zero"``);
-    ``implicit`` counts the sigma points that needed the implicit fallback of the discrete step.
-    Three SX blocks (sigma points, propagation mapped over the sigma points, unscented update)
-    joined in an MX Function, so that the implicit fallback is only evaluated where needed.
-    """
-    if cross not in ("regression", "zero"):
-        raise EstimatorError(f"unknown cross-covariance rule {cross!r}; use 'regression' or 'zero'")
-    nx, nq, ny, nu_ = model.nx, len(coords.names), model.ny, model.nu
-    L = nx + nq
-    npts = 2 * L + 1
-    opts: dict[str, Any] = {}
-    scale = ca.DM(np.asarray(state_scale, float))
-
-    # 1. sigma points over the active coordinates only, every one through RK4 (the common case)
-    z, P, a, hyp = ca.SX.sym("z", L), ca.SX.sym("P", L, L), ca.SX.sym("active", L), ca.SX.sym("hyp", 3)
-    u0, u1 = ca.SX.sym("u0", nu_), ca.SX.sym("u1", nu_)
-    alpha, beta, kappa = hyp[0], hyp[1], hyp[2]
-    A, U = ca.diag(a), ca.diag(1 - a)
-    nA = ca.sum1(a)
-    lam = alpha ** 2 * (nA + kappa) - nA
-    gam = ca.sqrt(nA + lam)
-    S, rep_chol = _chol_floor(ca.mtimes([A, P, A]) + U, L)
-    Sm = ca.mtimes(A, S)
-    X = ca.horzcat(z, ca.repmat(z, 1, L) + gam * Sm, ca.repmat(z, 1, L) - gam * Sm)
-    fns = model.integrators(dt, substeps=substeps, scale=state_scale)
-    zc = ca.SX.sym("zc", L)
-    xc, th = zc[:nx] * scale, coords.forward(zc[nx:])
-    first = "ros2" if method == "ros2" else "rk4"
-    xr = fns[first](xc, th, u0, u1)
-    stiff = fns["stiff"](xc, xr, th, u0, u1, 2.0) if method == "auto" else ca.SX(0)
-    prop = ca.Function("prop", [zc, u0, u1], [ca.vertcat(xr / scale, zc[nx:]), stiff]).map(npts)
-    Xp, flags = prop(X, u0, u1)
-    sig = ca.Function("sigma_points", [z, P, a, hyp, u0, u1], [X, S, rep_chol, Xp, flags], opts)
-
-    # 2. the implicit fallback (ROS2) for the flagged sigma points; evaluated only when one is flagged
-    imp = ca.Function("implicit", [zc, u0, u1], [ca.vertcat(fns["ros2"](xc, th, u0, u1) / scale, zc[nx:])], opts)
-    zM, xM, fM = ca.MX.sym("zc", L), ca.MX.sym("xr", L), ca.MX.sym("flag")
-    u0M, u1M = ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_)
-    fix = ca.Function("fix", [zM, xM, fM, u0M, u1M], [ca.if_else(fM, imp(zM, u0M, u1M), xM, True)]).map(npts)
-
-    # 3. unscented mean and covariance, frozen-active covariance, update
-    Xp, y, Q, R = ca.SX.sym("Xp", L, npts), ca.SX.sym("y", ny), ca.SX.sym("Q", L, L), ca.SX.sym("R", ny, ny)
-    S_ = ca.SX.sym("S", L, L)
-    good = ca.SX.ones(1, npts - 1)
-    for i in range(nx):
-        good = ca.logic_and(good, ca.fabs(Xp[i, 1:]) < _BIG)
-    rep = ca.sum2(1 - good)
-    Xp_ = ca.horzcat(Xp[:, 0], ca.if_else(ca.repmat(good, L, 1), Xp[:, 1:], ca.repmat(Xp[:, 0], 1, npts - 1)))
-    w = a / (2 * (nA + lam))
-    Wm = ca.vertcat(lam / (nA + lam), w, w)
-    Wc = ca.vertcat(lam / (nA + lam) + 1 - alpha ** 2 + beta, w, w)
-    m = ca.mtimes(A, ca.mtimes(Xp_, Wm)) + ca.mtimes(U, z)  # frozen means kept exactly
-    D = Xp_ - ca.repmat(m, 1, npts)
-    Psig = _sym_outer(D, Wc, L)
-    if cross == "regression":   # frozen block regressed on the prior active block (dukf.py)
-        G = _lower_solve(S_, ca.mtimes(P, U), L)                 # S^-1 P_{.,U}
-        PAU = ca.mtimes([A, gam * (Xp_[:, 1:L + 1] - Xp_[:, L + 1:]), ca.diag(w), G])
-    else:
-        PAU = ca.SX.zeros(L, L)
-    Pp = ca.mtimes([A, Psig + Q, A]) + ca.mtimes([U, P, U]) + PAU + PAU.T
-
-    # update: sigma points redrawn from the predicted mean and covariance (so that Q reaches P_yy)
-    S2, rep2 = _chol_floor(ca.mtimes([A, Pp, A]) + U, L)
-    S2m = ca.mtimes(A, S2)
-    X2 = ca.horzcat(m, ca.repmat(m, 1, L) + gam * S2m, ca.repmat(m, 1, L) - gam * S2m)
-    zx = ca.SX.sym("zx", L)
-    hf = ca.Function("hz", [zx, u1], [model.h(zx[:nx] * scale, coords.forward(zx[nx:]), u1)])
-    Y = hf.map(npts)(X2, u1)
-    yhat = ca.mtimes(Y, Wm)
-    dY = Y - ca.repmat(yhat, 1, npts)
-    Pyy = ca.mtimes([dY, ca.diag(Wc), dY.T]) + R
-    Pzy = ca.mtimes([X2 - ca.repmat(m, 1, npts), ca.diag(Wc), dY.T])
-    if cross == "regression":   # P_Uy = P_UA- (P_AA-)^-1 P_A-y through the same sigma points
-        G2 = _lower_solve(S2, ca.mtimes(Pp, U), L)
-        Pzy_full = Pzy + ca.mtimes([U, gam * G2.T, ca.diag(w), (Y[:, 1:L + 1] - Y[:, L + 1:]).T])
-    else:
-        Pzy_full = Pzy
-    K = ca.mtimes(A, ca.solve(Pyy, Pzy.T).T) if ny > 1 else ca.mtimes(A, Pzy / Pyy)
-    nu = y - yhat
-    zn = m + ca.mtimes(K, nu)
-    lo, hi = ca.SX.sym("lo", L), ca.SX.sym("hi", L)
-    clamped = ca.fmin(ca.fmax(zn, lo), hi)  # the valid region: a mean outside it is put back on its edge
-    rep += ca.sum1(clamped != zn)
-    zn = clamped
-    Pn = Pp - ca.mtimes(K, Pzy_full.T) - ca.mtimes(Pzy_full, K.T) + ca.mtimes([K, Pyy, K.T])
-    Pn = 0.5 * (Pn + Pn.T)
-    rep = rep + rep2
-    upd = ca.Function("update", [z, P, a, hyp, S_, Xp, u1, y, Q, R, lo, hi], [zn, Pn, yhat, nu, Pyy, rep], opts)
-
-    # joined
-    zM, PM, aM, hM = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("active", L), ca.MX.sym("hyp", 3)
-    u0M, u1M, yM = ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_), ca.MX.sym("y", ny)
-    QM, RM = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny)
-    XM, SM, rc, XpM, flM = sig(zM, PM, aM, hM, u0M, u1M)
-    nflag = ca.sum2(flM)
-    XpM = ca.if_else(nflag > 0, fix(XM, XpM, flM, u0M, u1M), XpM, True)
-    loM, hiM = ca.MX.sym("lo", L), ca.MX.sym("hi", L)
-    zn, Pn, yp, nuM, Syy, ru = upd(zM, PM, aM, hM, SM, XpM, u1M, yM, QM, RM, loM, hiM)
-    return ca.Function("ukf_step", [zM, PM, u0M, u1M, yM, aM, QM, RM, hM, loM, hiM],
-                       [zn, Pn, yp, nuM, Syy, rc + ru, nflag],
-                       ["z", "P", "u0", "u1", "y", "active", "Q", "R", "hyp", "lo", "hi"],
-                       ["z_next", "P_next", "y_pred", "innovation", "S", "repairs", "implicit"])
 
 
 def check_inputs(ys: Any, us: Any, *, ny: int, nu: int) -> tuple[np.ndarray, np.ndarray]:
@@ -346,6 +121,12 @@ class UKF:
     fixed
         Parameters held at their initial value (no spread, no update, no noise), e.g. parameters
         found practically unidentifiable; the coordinates that move only them are frozen.
+    gate
+        Innovation gate: beyond this Mahalanobis distance the gain is scaled down (Huber-type,
+        :mod:`obsnl.ukf_step`); default ``inf`` (off). Changing it does not recompile.
+    cap
+        Ceiling of the standard deviations in filter coordinates (scalar or one per coordinate;
+        default ``inf``, off); larger ones are scaled down by a congruence (PSD kept) and counted.
     bounds
         ``(lo, hi)`` in filter coordinates (``-inf``/``inf`` allowed): the valid region. A mean that an
         update takes outside is put back on the edge and counted as a repair (a filter diverging
@@ -379,6 +160,8 @@ class UKF:
     jit: bool = False
     fixed: tuple[str, ...] = ()
     bounds: Any = None
+    gate: float = float("inf")
+    cap: Any = float("inf")
     cache: dict = field(default_factory=dict, repr=False, compare=False)
 
     def __post_init__(self) -> None:
@@ -409,6 +192,12 @@ class UKF:
             if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo >= hi):
                 raise EstimatorError("bounds must be (lo, hi) with lo < hi for every filter coordinate")
             set_("bounds", (lo, hi))
+        if not self.gate > 0:
+            raise EstimatorError(f"gate must be > 0 (inf: off), got {self.gate!r}")
+        cap = np.broadcast_to(np.asarray(self.cap, float), (self.size,)).copy()
+        if np.any(np.isnan(cap)) or np.any(cap <= 0):
+            raise EstimatorError("cap must be > 0 (inf: off) for every filter coordinate")
+        set_("cap", cap)
         if not (self.alpha > 0 and self.size + self.kappa > 0):
             raise EstimatorError(f"need alpha > 0 and L + kappa > 0 (alpha={self.alpha}, kappa={self.kappa})")
 
@@ -478,15 +267,15 @@ class UKF:
             L, m, nu, ny = self.size, len(self.model.switching), self.model.nu, self.model.ny
             z, P, prev = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("prev", L)
             u0, u1, y = ca.MX.sym("u0", nu), ca.MX.sym("u1", nu), ca.MX.sym("y", ny)
-            Q, R, hyp = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny), ca.MX.sym("hyp", 3)
+            Q, R, hyp = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny), ca.MX.sym("hyp", 4)
             allowed = ca.MX.sym("allowed", L)
             act, signs = self._active_and_signs(z, u0, prev)
             act = act * allowed
-            lo, hi = ca.MX.sym("lo", L), ca.MX.sym("hi", L)
-            zn, Pn, yp, nuv, S, rep, imp = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi)
+            lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
+            zn, Pn, yp, nuv, S, rep, imp = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap)
             opts = jit_options() if self.jit else {}
             self.cache[key] = ca.Function(
-                "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi],
+                "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap],
                 [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0)], opts)
         return self.cache[key]
 
@@ -503,7 +292,7 @@ class UKF:
                          for dep in ((),) * self.model.nx + self.coordinates.depends])
 
     def _hyp(self) -> np.ndarray:
-        return np.array([self.alpha, self.beta, self.kappa], float)
+        return np.array([self.alpha, self.beta, self.kappa, self.gate], float)
 
     # ------------------------------------------------------------------ filtering
     def step(self, est: Estimate, *, y: Any, u0: Any, u1: Any) -> Estimate:
@@ -511,7 +300,7 @@ class UKF:
         ys, us = check_inputs(np.vstack([np.reshape(y, (1, -1))] * 2), np.vstack([np.reshape(u0, (1, -1)),
                               np.reshape(u1, (1, -1))]), ny=self.model.ny, nu=self.model.nu)
         out = self._compiled()(est.z, est.P, est.active, us[0], us[1], ys[1], self.Q, self.R, self._hyp(),
-                               self.allowed, *self._bounds())
+                               self.allowed, *self._bounds(), self.cap)
         z, P = np.asarray(out[0]).ravel(), np.asarray(out[1])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(P))):
             raise EstimatorError(f"the filter produced NaN/inf at step {est.k + 1}; lower P0/Q, use method='ros2' "
@@ -535,7 +324,7 @@ class UKF:
             self.cache[key] = fn.mapaccum("run", T - 1, 3, {})
         tic = time.perf_counter()
         out = self.cache[key](est0.z, est0.P, est0.active, us[:-1].T, us[1:].T, ys[1:].T, self.Q, self.R,
-                              self._hyp(), self.allowed, *self._bounds())
+                              self._hyp(), self.allowed, *self._bounds(), self.cap)
         seconds = time.perf_counter() - tic
         Z = np.vstack([est0.z, np.asarray(out[0]).T])
         Ps = np.concatenate([est0.P[None], np.asarray(out[1]).T.reshape(T - 1, L, L).transpose(0, 2, 1)])
@@ -553,6 +342,6 @@ class UKF:
             y_pred=nan_row(np.asarray(out[3])), innovations=nan_row(np.asarray(out[4])), S=S,
             signs=np.vstack([signs, np.full((1, signs.shape[1]), np.nan)]) if signs.size else signs,
             active=np.vstack([est0.active, np.asarray(out[2]).T]),
-            repairs=np.concatenate([[0], np.asarray(out[6]).ravel()]).astype(int),
+            interventions=np.vstack([np.zeros((1, len(INTERVENTIONS))), np.asarray(out[6]).T]).astype(int),
             implicit=np.concatenate([[0], np.asarray(out[7]).ravel()]).astype(int),
             seconds=seconds, names=self.names, parameters=self.model.parameters, states=self.model.states)

@@ -12,8 +12,9 @@ import pytest
 from obsnl.branch_table import BranchTable
 from obsnl.cli import main
 from obsnl.identify import (SEED_GUESS, Tuning, coordinates, make_data, make_filter, output_misfit,
-                            practical_identifiability, reproduce, run_passes, seed_setup)
-from obsnl.report_identify import table2_markdown, write_reproduction
+                            practical_identifiability, run_passes)
+from obsnl.report import table2_markdown
+from obsnl.reproduction import reproduce, seed_setup, write_reproduction
 
 from .conftest import MODELS
 from .test_branch_table import paper_table1
@@ -50,6 +51,19 @@ def test_short_experiment(setup, kind):
     assert set(prac.to_dict()) >= {"crb_relative_std", "flagged", "reasons"}
 
 
+def test_a_divergent_configuration_ends_without_nan_and_counts_its_repairs(setup):
+    # a prior spread of e^(+-3.7 x 3) on every log-parameter: sigma points far outside any sensible
+    # model (stiff, overflowing); the filter must end finite, with its interventions counted
+    f = make_filter(setup, "ukf")
+    data = make_data(setup, 0)
+    (tr,), _ = run_passes(setup, f, data, Tuning(3.0, 0.0, 1.0), passes=1)
+    assert np.all(np.isfinite(tr.z)) and np.all(np.isfinite(tr.P))
+    counts = tr.counts()
+    assert tr.total_repairs > 0 and tr.total_repairs == sum(v for k, v in counts.items() if k != "gated")
+    assert counts["clamped"] + counts["rejected"] + counts["held"] + counts["sigma"] > 0
+    assert np.all(np.linalg.eigvalsh(tr.P[-1]) > -1e-9 * np.abs(tr.P[-1]).max())
+
+
 def test_reproduce_pipeline_end_to_end(tmp_path):
     rep = reproduce(seeds=1, tuning_seeds=1, passes=2, grid=(TUNING,), jit=False, samples=600)
     doc = json.loads(json.dumps(rep.to_dict()))
@@ -66,7 +80,7 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
     for v in broken["runs"][0]["parameters"].values():
         v.update(estimate=None, error_percent=None)
     text = table2_markdown(broken)
-    assert "1 run(s) diverged: seed 0" in text and "NaN/inf at step 7" in text
+    assert "1 run(s) stopped: seed 0" in text and "NaN/inf at step 7" in text
     files = write_reproduction(rep, tmp_path)
     names = {f.name for f in files}
     assert {"table2.json", "table2.md", "table2.tex", "fig2_1pass.png", "fig3_2passes.png"} <= names

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 PKG = Path(__file__).resolve().parents[1] / "obsnl"
-NUMERIC = ["ukf", "dukf", "data", "identify", "simulate", "plots", "report_identify"]
+NUMERIC = ["numeric", "ukf", "ukf_step", "trajectory", "dukf", "data", "identify", "reproduction", "simulate", "plots"]
 
 
 def _imports(module: str) -> set[str]:

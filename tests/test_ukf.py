@@ -145,3 +145,36 @@ def test_bounds_keep_the_mean_in_the_valid_region_and_are_counted():
     assert tr.total_repairs > 0
     with pytest.raises(EstimatorError, match="bounds"):
         f.with_options(bounds=(hi, lo))
+
+
+def test_an_outlier_is_gated_or_rejected_never_nan():
+    # one absurd measurement (1e150): without a gate the update throws the mean far out and the
+    # following predictions overflow (rejected / held, counted); with the gate it moves 3 sigma at most
+    f = _osc_filter()
+    est0 = f.initial(x0=[0.0, 0.0], theta0=[6.0, 1.0], P0=[1e-8, 1e-8, 0.25, 0.25])
+    u = np.sin(np.arange(40) * 0.3)
+    ys = np.zeros((40, 1))
+    ys[10] = 1e150
+    for gate in (np.inf, 3.0):
+        g = f.with_options(gate=gate)
+        tr, clean = g.run(est0, ys, u), g.run(est0, np.zeros((40, 1)), u)
+        assert np.all(np.isfinite(tr.z)) and np.all(np.isfinite(tr.P))
+        c = tr.counts()
+        if np.isinf(gate):
+            assert c["gated"] == 0 and c["rejected"] + c["held"] + c["sigma"] + c["pivot"] > 0
+        else:
+            assert tr.interventions[10, 2] == 1 and c["rejected"] + c["held"] == 0
+            np.testing.assert_array_equal(tr.z[:10], clean.z[:10])
+            assert np.all(np.abs(tr.z[-1] - clean.z[-1]) < 1.0)  # recovered: near the run without the outlier
+    with pytest.raises(EstimatorError, match="gate"):
+        f.with_options(gate=0.0)
+
+
+def test_the_covariance_ceiling_keeps_psd_and_is_counted():
+    f = _osc_filter()
+    est0 = f.initial(x0=[0.0, 0.0], theta0=[6.0, 1.0], P0=[1e-8, 1e-8, 0.25, 0.25])
+    g = f.with_options(cap=[np.inf, np.inf, 0.1, 0.1])  # below the prior std 0.5: capped from step 1
+    tr = g.run(est0, np.zeros((20, 1)), np.sin(np.arange(20) * 0.3))
+    assert np.all(np.sqrt(np.diagonal(tr.P[1:], axis1=1, axis2=2))[:, 2:] <= 0.1 * (1 + 1e-12))
+    assert tr.counts()["capped"] > 0
+    assert all(np.linalg.eigvalsh(P).min() > 0 for P in tr.P[1:])
