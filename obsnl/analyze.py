@@ -17,9 +17,10 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Sequence
+from dataclasses import replace
 
 from .augment import rationalize
-from .branches import split_branches
+from .branches import expr_text, split_branches
 from .decompose import decompose as _decompose
 from .errors import AnalysisError, ModelError
 from .exact import BlockOutcome, bound_sizes
@@ -269,7 +270,7 @@ def analyze(
                                deadline=deadline, target=target, decompose=decompose,
                                unknown_input_derivatives=unknown_input_derivatives,
                                input_derivatives=input_derivatives, factor_cache=factor_cache)
-        results.append(br)
+        results.append(replace(br, signs=tuple(b.signs)))
         failure += f
     return AnalysisResult(
         model=model.name,
@@ -279,6 +280,9 @@ def analyze(
         seconds=round(time.perf_counter() - t0, 6),
         branches=tuple(results),
         variables=variables,
+        switching=tuple(expr_text(g) for g in branches[0].switching) if branches else (),
+        parameters=tuple(p.name for p in model.parameters),
+        latex=dict(model.latex),
     )
 
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -91,7 +92,7 @@ def failure_bound(p: int, *, n: int, l: int, m: int, r: int, d: int, h: int, nfu
     return min(1.0, nfuncs * per)
 
 
-def bound_sizes(problem) -> dict[str, int]:
+def bound_sizes(problem: Any) -> dict[str, int]:
     """The sizes ``n, l, m, r, d, h`` of :func:`failure_bound` for a :class:`obsnl.problem.Problem`."""
     rat = problem.rational
     model = rat.model
@@ -106,7 +107,7 @@ def bound_sizes(problem) -> dict[str, int]:
     return dict(n=n, l=ell, m=len(model.outputs), r=len(model.inputs), d=d, h=h)
 
 
-def program_degree_height(program, roots: Sequence[int]) -> tuple[int, int]:
+def program_degree_height(program: Any, roots: Sequence[int]) -> tuple[int, int]:
     """Upper bounds of the largest degree ``d`` and twice the coefficient bits ``h`` of a program's roots.
 
     Every node is bounded as ``P/Q`` without cancellation: ``a + b = (Pa Qb + Pb Qa)/(Qa Qb)``,

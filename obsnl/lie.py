@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Iterator
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import sympy as sp
@@ -34,6 +36,10 @@ from .errors import NotSupportedError
 from .exact import BlockOutcome, classify, failure_bound
 from .modp import nmod_matrix, rank_mod_p
 from .series import Problem, Resample, TimeUp, random_prime, run_series
+
+if TYPE_CHECKING:
+    from .model import Model
+    from .results import AnalysisResult
 
 __all__ = ["orc", "orc_block", "lie_derivatives"]
 
@@ -118,7 +124,7 @@ class _System:
             d[tuple(exps)] = int(c.p) % p * pow(int(c.q) % p, -1, p) % p
         return self.ctx.from_dict(d)
 
-    def S(self, X):
+    def S(self, X: Any) -> Any:
         """Q times the extended Lie derivative of X."""
         degs = X.degrees()
         out = self.ctx.constant(0)
@@ -151,7 +157,7 @@ class _OutOfInputs(Exception):
 MAX_TERMS = 2_000_000
 
 
-def lie_derivatives(system: _System, H, G, *, deadline: float | None):
+def lie_derivatives(system: _System, H: Any, G: Any, *, deadline: float | None) -> Iterator[tuple[Any, int, int]]:
     """Yield ``(N_k, a, b)`` with ``L^k h = N_k / (G**b Q**a)`` for k = 0, 1, ..."""
     N, a, b = H, 0, 1
     G_const = G.is_constant()
@@ -338,14 +344,14 @@ def orc_block(
 
 
 def orc(
-    model,
+    model: Model,
     *,
     seed: int | None = None,
     max_seconds: float | None = None,
     unknown_input_derivatives: int = 1,
     input_derivatives: int | None = None,
     decompose: bool = True,
-):
+) -> AnalysisResult:
     """Hermann-Krener observability rank condition of a smooth model (extended Lie derivatives).
 
     Parameters

@@ -28,8 +28,12 @@ import random
 from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    import sympy as sp
 
 __all__ = ["PRIME", "PRIME_BITS", "Field", "Resample", "random_prime", "mulmod", "MatMod", "Echelon", "LIMB",
            "nmod_matrix", "rank_mod_p", "nullspace_mod_p", "rational_reconstruction"]
@@ -69,14 +73,14 @@ class Field:
             raise Resample("division by zero")
         return pow(x, -1, self.p)
 
-    def el(self, c) -> int:
+    def el(self, c: Any) -> int:
         """The element of a rational number (a sympy Rational, a Fraction or an int)."""
         if hasattr(c, "q"):  # sympy
             return int(c.p) % self.p * self.inv(int(c.q)) % self.p
         c = Fraction(c)
         return c.numerator % self.p * self.inv(c.denominator) % self.p
 
-    def rational(self, a: int):
+    def rational(self, a: int) -> sp.Rational | None:
         """The small rational with this element (see :func:`rational_reconstruction`), or None."""
         return rational_reconstruction(a, self.p)
 
@@ -222,7 +226,7 @@ class Echelon:
 
 
 # --------------------------------------------------------------------------- whole matrices (flint)
-def nmod_matrix(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int):
+def nmod_matrix(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int) -> Any:
     """``rows`` (an int64 array or lists of integers) as a flint ``nmod_mat`` modulo ``p``."""
     from flint import nmod_mat
 
@@ -262,7 +266,7 @@ def nullspace_mod_p(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: i
     return [[int(table[i][j]) for i in range(ncols)] for j in range(nullity)]
 
 
-def rational_reconstruction(a: int, p: int = PRIME):
+def rational_reconstruction(a: int, p: int = PRIME) -> sp.Rational | None:
     """The rational ``n/d`` with ``n = a d mod p`` and ``|n|, d <= sqrt(p/2)`` (a sympy Rational), or None.
 
     Examples

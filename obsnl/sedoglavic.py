@@ -29,12 +29,17 @@ transcendence degree (rank deficit), see :mod:`obsnl.exact`.
 from __future__ import annotations
 
 import random
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .exact import BlockOutcome, failure_bound
 from .modp import Echelon
 from .series import Problem, TimeUp, run_series
+
+if TYPE_CHECKING:
+    from .model import Model
+    from .results import AnalysisResult
 
 __all__ = ["sedoglavic", "sedoglavic_block"]
 
@@ -121,14 +126,14 @@ def sedoglavic_block(
 
 
 def sedoglavic(
-    model,
+    model: Model,
     *,
     seed: int | None = None,
     max_seconds: float | None = None,
     unknown_input_derivatives: int = 1,
     input_derivatives: int | None = None,
     decompose: bool = True,
-):
+) -> AnalysisResult:
     """Sedoglavic's randomized observability test of a smooth model.
 
     Parameters
