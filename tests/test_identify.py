@@ -81,6 +81,9 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
         v.update(estimate=None, error_percent=None)
     text = table2_markdown(broken)
     assert "1 run(s) stopped: seed 0" in text and "NaN/inf at step 7" in text
+    unsim = json.loads(json.dumps(doc))  # ran to the end, but its estimate cannot be simulated
+    unsim["runs"][0]["output_misfit"] = None
+    assert "| - (seed 0: the estimate cannot be simulated) |" in table2_markdown(unsim)
     files = write_reproduction(rep, tmp_path)
     names = {f.name for f in files}
     assert {"table2.json", "table2.md", "table2.tex", "fig2_1pass.png", "fig3_2passes.png"} <= names
