@@ -70,7 +70,10 @@ _STAGE_CODE = r"""
 import json, time
 t0 = time.perf_counter()
 import obsnl
-from obsnl.analyze import _bound_args
+try:  # this tree: bound sizes in obsnl.exact
+    from obsnl.exact import bound_sizes as _bound_args
+except ImportError:  # older checkouts
+    from obsnl.analyze import _bound_args
 from obsnl.augment import rationalize
 from obsnl.decompose import decompose
 from obsnl.sedoglavic import sedoglavic_block
