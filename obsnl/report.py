@@ -587,7 +587,9 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
             "repairs": int(sum(r["repairs"] for r in every)), "interventions": dict(kinds),
             "implicit": int(sum(r["implicit_sigma_point_steps"] for r in every)),
             "misfits": [r["output_misfit"] for r in runs],
-            "tuning": runs[0]["tuning"], "failed": [(r["seed"], r["error"]) for r in failed],
+            "tuning": Counter(json.dumps(r["tuning"], sort_keys=True) for r in every).most_common(1)[0][0],
+            "redone": [(r["seed"], r["redone"], r["tuning"]) for r in every if r.get("redone")],
+            "failed": [(r["seed"], r["error"]) for r in failed],
         }
     return out
 
@@ -614,7 +616,8 @@ def _t2_goal(s: Mapping[str, Any]) -> str:
     return "met" if not bad else "not met (" + ", ".join(bad) + ")"
 
 
-def _t2_tuning(t: Mapping[str, Any]) -> str:
+def _t2_tuning(t: Mapping[str, Any] | str) -> str:
+    t = json.loads(t) if isinstance(t, str) else t
     gate = t.get("gate")
     return f"{t['s0']:g}, {t['q_theta']:g}, {t['q_x']:g}, {'off' if gate is None else f'{gate:g}'}"
 
@@ -659,6 +662,16 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
             lines.append(f"| {_T2_METHODS[m]} | {_t2_tuning(s['tuning'])} | {s['seconds']:.3f} | "
                          f"{s['seconds_per_pass']:.3f} | {s['repairs']} | {_t2_kinds(s)} | {s['implicit']} | "
                          f"{_t2_misfit(s)} | {_t2_goal(s)} |")
+        redone = [(m, r) for m in methods for r in summ[(m, passes)]["redone"]]
+        if redone:
+            factor = doc.get("diverged_factor", 10)
+            lines += ["", f"Redone (the run diverged: it stopped or its output misfit was above {factor:g}x the "
+                          "noise level; the next configuration of the tuning ranking was run instead):", ""]
+            for m, (seed, attempts, final) in redone:
+                tried = "; ".join(f"({_t2_tuning(a['tuning'])}) misfit "
+                                  + (f"{a['output_misfit']:.3g}" if a["output_misfit"] is not None else "inf")
+                                  + (f", {a['error']}" if a["error"] else "") for a in attempts)
+                lines.append(f"- {_T2_METHODS[m]}, seed {seed}: {tried} -> ({_t2_tuning(final)})")
         lines.append("")
     lines += ["## Practically unidentifiable (flag counts over seeds)", ""]
     for (m, k), s in sorted(summ.items()):

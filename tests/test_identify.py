@@ -90,6 +90,30 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
     assert all(f.stat().st_size > 0 for f in files)
 
 
+def test_a_diverged_reported_run_is_redone_with_the_next_tuning(monkeypatch):
+    # the first reported run (UKF, seed 0) is made to look diverged (misfit 1000x the noise level):
+    # it must be redone with the second configuration of the ranking, the attempt kept and shown
+    import obsnl.reproduction as repro
+
+    real, calls = repro.output_misfit, []
+
+    def fake(setup, theta, data):
+        calls.append(1)
+        return 1.0 if len(calls) == 1 else real(setup, theta, data)
+
+    monkeypatch.setattr(repro, "output_misfit", fake)
+    grid = (TUNING, Tuning(0.2, 0.0, 1.0))
+    rep = reproduce(seeds=1, tuning_seeds=1, passes=1, grid=grid, jit=False, samples=400)
+    doc = json.loads(json.dumps(rep.to_dict()))
+    first, others = doc["runs"][0], doc["runs"][1:]
+    assert first["method"] == "ukf" and len(first["redone"]) == 1
+    tuned = next(t["chosen"] for t in doc["tuning"] if t["method"] == "ukf")
+    assert first["redone"][0]["tuning"] == tuned and first["redone"][0]["output_misfit"] == 1.0
+    assert first["tuning"] != tuned and first["output_misfit"] < 10 * rep.setup.noise
+    assert all(not r["redone"] for r in others)
+    assert "- UKF, seed 0: (" in table2_markdown(doc) and "misfit 1 ->" in table2_markdown(doc)
+
+
 def test_identify_command(tmp_path, capsys):
     table = tmp_path / "t.json"
     table.write_text(BranchTable.from_dict(paper_table1()).to_json())
