@@ -43,7 +43,7 @@ _LAZY: dict[str, str] = {
     "parameter_map": "codegen", "log_map": "codegen",
     "UKF": "ukf", "Estimate": "ukf", "Trajectory": "ukf", "DUKF": "dukf",
     "Record": "data", "read_record": "data", "add_noise": "data", "simulate": "simulate",
-    "reproduce": "identify", "Reproduction": "identify",
+    "reproduce": "reproduction", "Reproduction": "reproduction",
     # symmetries, identifiable combinations, reparametrizations
     "symmetries": "symmetry", "Symmetry": "symmetry", "Symmetries": "symmetry",
     "reparametrize": "reparam", "Reparametrization": "reparam",

@@ -368,14 +368,3 @@ def tune(setup: Setup, filt: UKF, seeds: Sequence[int], *, grid: Sequence[Tuning
                 progress()
     return {k: {t: float(np.mean(v)) for t, v in s.items()} for k, s in scores.items()}
 
-
-_MOVED = ("RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce")
-
-
-def __getattr__(name: str) -> Any:
-    """The pipeline moved to :mod:`obsnl.reproduction`; its names stay reachable here (``obsnl.reproduce``)."""
-    if name in _MOVED:
-        from . import reproduction
-
-        return getattr(reproduction, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

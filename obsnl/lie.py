@@ -39,7 +39,7 @@ from .series import Problem, Resample, TimeUp, random_prime, run_series
 
 if TYPE_CHECKING:
     from .model import Model
-    from .results import AnalysisResult
+    from .results import BranchResult
 
 __all__ = ["orc", "orc_block", "lie_derivatives"]
 
@@ -351,7 +351,7 @@ def orc(
     unknown_input_derivatives: int = 1,
     input_derivatives: int | None = None,
     decompose: bool = True,
-) -> AnalysisResult:
+) -> BranchResult:
     """Hermann-Krener observability rank condition of a smooth model (extended Lie derivatives).
 
     Parameters

@@ -587,7 +587,7 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
             "repairs": int(sum(r["repairs"] for r in every)), "interventions": dict(kinds),
             "implicit": int(sum(r["implicit_sigma_point_steps"] for r in every)),
             "misfits": [r["output_misfit"] for r in runs],
-            "tuning": Counter(json.dumps(r["tuning"], sort_keys=True) for r in every).most_common(1)[0][0],
+            "tuning": max((r["tuning"] for r in every), key=[r["tuning"] for r in every].count),
             "redone": [(r["seed"], r["redone"], r["tuning"]) for r in every if r.get("redone")],
             "failed": [(r["seed"], r["error"]) for r in failed],
         }
@@ -616,8 +616,7 @@ def _t2_goal(s: Mapping[str, Any]) -> str:
     return "met" if not bad else "not met (" + ", ".join(bad) + ")"
 
 
-def _t2_tuning(t: Mapping[str, Any] | str) -> str:
-    t = json.loads(t) if isinstance(t, str) else t
+def _t2_tuning(t: Mapping[str, Any]) -> str:
     gate = t.get("gate")
     return f"{t['s0']:g}, {t['q_theta']:g}, {t['q_x']:g}, {'off' if gate is None else f'{gate:g}'}"
 

@@ -65,13 +65,12 @@ class RunResult:
 
     def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
         err = self.errors(truth)
-        num = lambda v: float(v) if np.isfinite(v) else None  # noqa: E731  (JSON has no NaN)
         return {"method": self.method, "passes": self.passes, "seed": self.seed, "tuning": self.tuning.to_dict(),
-                "parameters": {p: {"true": float(t), "estimate": num(e), "error_percent": num(r)}
+                "parameters": {p: {"true": float(t), "estimate": _num(e), "error_percent": _num(r)}
                                for p, t, e, r in zip(parameters, truth, self.theta, err)},
-                "seconds": num(self.seconds), "repairs": self.repairs, "interventions": dict(self.interventions),
+                "seconds": _num(self.seconds), "repairs": self.repairs, "interventions": dict(self.interventions),
                 "implicit_sigma_point_steps": self.implicit,
-                "output_misfit": num(self.misfit), "error": self.error,
+                "output_misfit": _num(self.misfit), "error": self.error,
                 "practically_unidentifiable": list(self.practical.flagged) if self.practical else [],
                 "practical_identifiability": self.practical.to_dict() if self.practical else None,
                 "redone": [dict(a) for a in self.redone]}
@@ -155,6 +154,7 @@ def _interventions(trs: Sequence[Trajectory]) -> dict[str, int]:
 
 
 def _num(v: float) -> float | None:
+    """A finite number, or None (JSON has no NaN)."""
     return float(v) if np.isfinite(v) else None
 
 

@@ -39,7 +39,7 @@ from .series import Problem, TimeUp, run_series
 
 if TYPE_CHECKING:
     from .model import Model
-    from .results import AnalysisResult
+    from .results import BranchResult
 
 __all__ = ["sedoglavic", "sedoglavic_block"]
 
@@ -133,7 +133,7 @@ def sedoglavic(
     unknown_input_derivatives: int = 1,
     input_derivatives: int | None = None,
     decompose: bool = True,
-) -> AnalysisResult:
+) -> BranchResult:
     """Sedoglavic's randomized observability test of a smooth model.
 
     Parameters
