@@ -2,7 +2,8 @@
 
 * obsnl: the compiled casadi step (`mapaccum` over the record), with and without JIT;
 * numpy: the same filter written with plain vectorised numpy (all sigma points as one matrix, the
-  model by sympy `lambdify`, RK4 with the same substeps, the same redraw before the update);
+  model by sympy `lambdify`, RK4 with the same substeps and the same refinement of a substep in
+  which a switching function changes sign, the same redraw before the update);
 * filterpy: `UnscentedKalmanFilter` with `MerweScaledSigmaPoints` (same alpha, beta, kappa), the
   model as scalar Python functions (`math`) called once per sigma point.
 
@@ -58,7 +59,7 @@ def _sigma(z, P, alpha, beta, kappa):
 def numpy_ukf(setup, data, filt, P0, z0):
     """The same filter as obsnl's UKF, vectorised over sigma points with numpy."""
     fns = numpy_model(obsnl.load_model(seed_model_path()))
-    f, nx, dt, n = fns["f"], setup.model.nx, setup.record.dt, filt.substeps
+    f, gfun, nx, dt, n, r = fns["f"], fns["g"], setup.model.nx, setup.record.dt, filt.substeps, filt.refine
     scale = filt.state_scale
     signs = np.sign(setup.theta_guess)[:, None]
     z, P = z0.copy(), P0.copy()
@@ -69,6 +70,17 @@ def numpy_ukf(setup, data, filt, P0, z0):
     def rhs(x, th, uu):
         return np.array(np.broadcast_arrays(*f(list(x), list(th), [uu])), float)
 
+    def g(x, th, uu):
+        return np.array(np.broadcast_arrays(*gfun(list(x), list(th), [uu])), float)
+
+    def rk4(x, th, ua, ub, h):
+        um = 0.5 * (ua + ub)
+        k1 = rhs(x, th, ua)
+        k2 = rhs(x + 0.5 * h * k1, th, um)
+        k3 = rhs(x + 0.5 * h * k2, th, um)
+        k4 = rhs(x + h * k3, th, ub)
+        return x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+
     for k in range(len(u) - 1):
         X, Wm, Wc = _sigma(z, P, filt.alpha, filt.beta, filt.kappa)
         x, th = X[:nx] * scale[:, None], signs * np.exp(X[nx:])
@@ -76,12 +88,15 @@ def numpy_ukf(setup, data, filt, P0, z0):
         for i in range(n):
             ua = u[k] + (u[k + 1] - u[k]) * i / n
             ub = u[k] + (u[k + 1] - u[k]) * (i + 1) / n
-            um = 0.5 * (ua + ub)
-            k1 = rhs(x, th, ua)
-            k2 = rhs(x + 0.5 * h * k1, th, um)
-            k3 = rhs(x + 0.5 * h * k2, th, um)
-            k4 = rhs(x + h * k3, th, ub)
-            x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            xb = rk4(x, th, ua, ub, h)
+            crossed = np.any(g(x, th, ua) * g(xb, th, ub) < 0, axis=0)  # a switching inside: refine
+            if crossed.any():
+                xf, thf = x[:, crossed], th[:, crossed]
+                for j in range(r):
+                    va, vb = ua + (ub - ua) * j / r, ua + (ub - ua) * (j + 1) / r
+                    xf = rk4(xf, thf, va, vb, h / r)
+                xb[:, crossed] = xf
+            x = xb
         Xp = np.vstack([x / scale[:, None], X[nx:]])
         m = Xp @ Wm
         D = Xp - m[:, None]
@@ -104,9 +119,18 @@ def filterpy_ukf(setup, data, filt, P0, z0):
     """filterpy's UKF with a scalar-Python model called per sigma point."""
     from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-    f = numpy_model(obsnl.load_model(seed_model_path()), scalar=True)["f"]
-    nx, dt, n, scale = setup.model.nx, setup.record.dt, filt.substeps, filt.state_scale
+    fns = numpy_model(obsnl.load_model(seed_model_path()), scalar=True)
+    f, g = fns["f"], fns["g"]
+    nx, dt, n, r, scale = setup.model.nx, setup.record.dt, filt.substeps, filt.refine, filt.state_scale
     signs = np.sign(setup.theta_guess)
+
+    def rk4(x, th, ua, ub, h):
+        um = 0.5 * (ua + ub)
+        k1 = f(x, th, [ua])
+        k2 = f([a + 0.5 * h * b for a, b in zip(x, k1)], th, [um])
+        k3 = f([a + 0.5 * h * b for a, b in zip(x, k2)], th, [um])
+        k4 = f([a + h * b for a, b in zip(x, k3)], th, [ub])
+        return [a + h / 6 * (b + 2 * c + 2 * d + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]
 
     def fx(z, dt_, u0=0.0, u1=0.0):
         x = list(z[:nx] * scale)
@@ -115,12 +139,12 @@ def filterpy_ukf(setup, data, filt, P0, z0):
         for i in range(n):
             ua = u0 + (u1 - u0) * i / n
             ub = u0 + (u1 - u0) * (i + 1) / n
-            um = 0.5 * (ua + ub)
-            k1 = f(x, th, [ua])
-            k2 = f([a + 0.5 * h * b for a, b in zip(x, k1)], th, [um])
-            k3 = f([a + 0.5 * h * b for a, b in zip(x, k2)], th, [um])
-            k4 = f([a + h * b for a, b in zip(x, k3)], th, [ub])
-            x = [a + h / 6 * (b + 2 * c + 2 * d + e) for a, b, c, d, e in zip(x, k1, k2, k3, k4)]
+            xb = rk4(x, th, ua, ub, h)
+            if any(a * b < 0 for a, b in zip(g(x, th, [ua]), g(xb, th, [ub]))):  # a switching inside: refine
+                for j in range(r):
+                    x = rk4(x, th, ua + (ub - ua) * j / r, ua + (ub - ua) * (j + 1) / r, h / r)
+            else:
+                x = xb
         return np.r_[np.array(x, float) / scale, z[nx:]]
 
     pts = MerweScaledSigmaPoints(len(z0), alpha=filt.alpha, beta=filt.beta, kappa=filt.kappa)
@@ -153,8 +177,9 @@ def main(argv=None) -> int:
     load0 = os.getloadavg()[0]
     setup, data, filt, P0, z0 = _settings = _setting(args.samples)
     rows, finals = [], {}
-    for label, jit in (("obsnl casadi, JIT", True), ("obsnl casadi, no JIT", False)):
-        f = filt.with_options(jit=jit)
+    for label, jit, par in (("obsnl casadi, JIT", True, True), ("obsnl casadi, JIT, one thread", True, False),
+                            ("obsnl casadi, no JIT", False, False)):
+        f = filt.with_options(jit=jit, parallel=par)
         tic = time.perf_counter()
         f._compiled()
         build = time.perf_counter() - tic
@@ -165,7 +190,7 @@ def main(argv=None) -> int:
             secs.append(tr.seconds)
         rows.append((label, min(secs), build))
         finals[label] = tr.z[-1]
-        implicit, counts = int(tr.implicit.sum()), tr.counts()
+        implicit, refined, counts = int(tr.implicit.sum()), int(tr.refined.sum()), tr.counts()
     t_np, z_np = _best(lambda: numpy_ukf(*_settings), args.repeats)
     rows.append(("numpy, vectorised sigma points", t_np, 0.0))
     finals["numpy"] = z_np[-1]
@@ -178,17 +203,21 @@ def main(argv=None) -> int:
     lines = ["# UKF benchmark: one filter run over the record", "",
              f"{setup.model.name}, {setup.record.name}, {T} samples ({(T - 1) * setup.record.dt:.2f} s), "
              f"L = {filt.size} (5 states + 9 log-parameters), {2 * filt.size + 1} sigma points, RK4 with "
-             f"{filt.substeps} substeps per sample ({implicit} sigma-point steps needed the implicit fallback in "
-             f"this run, and no intervention of the robust step ({sum(counts.values())} counted), so all four "
-             f"compute the same numbers), noise seed 0, one pass, tuning s0={TUNING.s0}, q_theta={TUNING.q_theta}, "
-             f"q_x={TUNING.q_x}, no gate.", "",
+             f"{filt.substeps} substeps per sample, a substep in which a switching function changes sign redone "
+             f"with {filt.refine} (all implementations; {refined} of {(T - 1) * (2 * filt.size + 1)} sigma-point "
+             f"steps in this run). {implicit} sigma-point steps needed the implicit fallback and the robust step "
+             f"made no intervention ({sum(counts.values())} counted), so all compute the same numbers. "
+             f"obsnl (JIT) propagates the sigma points on {os.environ.get('OMP_NUM_THREADS', os.cpu_count())} "
+             f"OpenMP threads; the one-thread row is the same compiled step without them. Noise seed 0, one "
+             f"pass, tuning s0={TUNING.s0}, q_theta={TUNING.q_theta}, q_x={TUNING.q_x}, no gate.", "",
              f"Machine: {platform.machine()}, {platform.python_version()}, shared 2 cores (absolute times +-2x); "
              f"load average (1 min) {load0:.2f} at the start, {os.getloadavg()[0]:.2f} at the end (other jobs of "
              f"the machine: ratios matter more than seconds); best of {args.repeats} repeats, filterpy once. "
              f"Generated by `python benchmarks/bench_ukf.py`.", "",
              "| implementation | s per run | compile s | speed-up of obsnl (JIT) | max abs diff of the final mean vs obsnl |",
              "|---|---|---|---|---|"]
-    key = {"obsnl casadi, JIT": "obsnl casadi, JIT", "obsnl casadi, no JIT": "obsnl casadi, no JIT",
+    key = {"obsnl casadi, JIT": "obsnl casadi, JIT", "obsnl casadi, JIT, one thread": "obsnl casadi, JIT, one thread",
+           "obsnl casadi, no JIT": "obsnl casadi, no JIT",
            "numpy, vectorised sigma points": "numpy", "filterpy, scalar-Python model": "filterpy"}
     for label, t, build in rows:
         diff = float(np.max(np.abs(finals[key[label]] - ref)))

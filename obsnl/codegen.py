@@ -255,7 +255,8 @@ def log_map(parameters: Sequence[str], *, signs: Mapping[str, int] | None = None
 
 # --------------------------------------------------------------------------- numpy (baselines, checks)
 def numpy_model(model: Model, *, constants: Mapping[str, float] | None = None, scalar: bool = False) -> dict[str, Any]:
-    """NumPy callables ``f(x, p, u)``, ``h(x, p, u)``, ``jac_x(x, p, u)`` by sympy ``lambdify``.
+    """NumPy callables ``f(x, p, u)``, ``h(x, p, u)``, ``g(x, p, u)`` (switching functions, in the
+    order of :func:`to_casadi`) and ``jac_x(x, p, u)`` by sympy ``lambdify``.
 
     An independent path from symbols to numbers, used by the numpy/filterpy baselines of
     ``benchmarks/bench_ukf.py`` and to check :func:`to_casadi`. Arguments may be arrays with the
@@ -267,8 +268,9 @@ def numpy_model(model: Model, *, constants: Mapping[str, float] | None = None, s
     subs = {s: sp.Float(vals[s.name]) for s in model.known_constants if s.name in vals}
     rhs = [sp.sympify(e).xreplace(subs) for e in model.rhs]
     outs = [sp.sympify(e).xreplace(subs) for e in model.output_exprs]
+    gs = [sp.sympify(e).xreplace(subs) for e in switching_functions(model)]
     jac = [[sp.diff(e, s).replace(sp.DiracDelta, lambda *a: sp.S.Zero) for s in model.states] for e in rhs]
     args = [list(model.states), list(model.parameters), list(model.inputs)]
     mods: Any = [{"sign": lambda v: float((v > 0) - (v < 0))}, "math"] if scalar else "numpy"
     lam = lambda exprs: sp.lambdify(args, exprs, modules=mods)  # noqa: E731
-    return {"f": lam(rhs), "h": lam(outs), "jac_x": lam(jac)}
+    return {"f": lam(rhs), "h": lam(outs), "g": lam(gs), "jac_x": lam(jac)}

@@ -101,7 +101,8 @@ class Setup:
     guess: Mapping[str, float]
     noise: float = 1e-3
     coordinates: ParameterMap | None = None
-    substeps: int = 8
+    substeps: int = 4
+    refine: int = 8
     jit: bool = False
     y_true: np.ndarray = field(default=None, repr=False)
     x0: np.ndarray = field(default=None, repr=False)
@@ -131,7 +132,9 @@ class Setup:
     def to_dict(self) -> dict[str, Any]:
         return {"model": self.model.name, "record": self.record.to_dict(), "truth": dict(self.truth),
                 "guess": dict(self.guess), "noise_ratio": self.noise, "coordinates": self.coordinates.to_dict(),
-                "substeps": self.substeps, "integrator": "RK4, ROS2 where stiff"}
+                "substeps": self.substeps, "refine": self.refine,
+                "integrator": "RK4; a step that crosses a switching function redone with refine x the substeps; "
+                              "ROS2 (refine x the substeps) where stiff"}
 
 
 def coordinates(model: NumericModel, kind: str = "log", *, reference: Mapping[str, float]) -> ParameterMap:
@@ -176,14 +179,14 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
     """A UKF (``kind="ukf"``) or DUKF (``"dukf"``) for this experiment (noise set per run)."""
     m = setup.model
     sim = simulate(m, theta=setup.theta_guess, x0=setup.x0, u=setup.record.accel, dt=setup.record.dt,
-                   substeps=setup.substeps)
+                   substeps=setup.substeps, refine=setup.refine)
     typical = np.sqrt(np.mean(sim.x ** 2, axis=0))  # typical magnitudes at the guess, floored at 1 %
     scale = np.maximum(typical, 1e-2 * max(typical.max(), 1e-300))  # of the largest (a state idle at the guess)
     phi0 = setup.coordinates.to_phi(setup.theta_guess)  # valid region: within 100x of the guesses
     bounds = (np.r_[np.full(m.nx, -np.inf), phi0 - BOUND], np.r_[np.full(m.nx, np.inf), phi0 + BOUND])
     cap = np.r_[np.full(m.nx, STATE_CAP), np.full(len(phi0), BOUND)]  # ceilings: sanity, not tuning
     opts = dict(dt=setup.record.dt, coordinates=setup.coordinates, state_scale=scale, R=1.0,
-                substeps=setup.substeps, jit=setup.jit, bounds=bounds, cap=cap)
+                substeps=setup.substeps, refine=setup.refine, jit=setup.jit, bounds=bounds, cap=cap)
     if kind == "ukf":
         return UKF(m, **opts)
     if kind == "dukf":
@@ -242,6 +245,7 @@ def output_misfit(setup: Setup, theta: np.ndarray, data: Data) -> float:
     """RMS of (simulated - measured output) / RMS(measured output); simulation under the measured input."""
     try:
         sim = simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps,
+                       refine=setup.refine,
                        jit=setup.jit)
     except EstimatorError:
         return float("inf")
@@ -285,7 +289,8 @@ def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: float, *, step
         for s in (step, -step):
             th = np.array(theta, float)
             th[i] *= np.exp(s)
-            ys.append(simulate(m, theta=th, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, jit=setup.jit).y.ravel())
+            ys.append(simulate(m, theta=th, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, refine=setup.refine,
+                               jit=setup.jit).y.ravel())
         cols.append((ys[0] - ys[1]) / (2 * step) / sigma)
     return np.array(cols).T
 
@@ -306,7 +311,7 @@ def input_noise_crb(setup: Setup, theta: np.ndarray | None = None, *, u: np.ndar
     su, sy = setup.noise * rms(u), setup.noise * rms(setup.y_true)
     S = fisher(setup, theta, u, 1.0)  # raw sensitivities dy/dlog|theta|
     sim = lambda uu: simulate(m, theta=theta, x0=setup.x0, u=uu, dt=dt, substeps=setup.substeps,  # noqa: E731
-                              jit=setup.jit).y.ravel()
+                              refine=setup.refine, jit=setup.jit).y.ravel()
     Ju = np.zeros((len(S), len(u)))
     for k in range(len(u)):
         e = np.zeros_like(u)

@@ -55,6 +55,9 @@ class Trajectory:
         Repairs per step: the interventions except the innovation gate.
     implicit
         Sigma points per step whose propagation needed the implicit (ROS2) fallback.
+    refined
+        Sigma points per step redone with finer substeps because a switching function changed sign
+        inside the step (:mod:`obsnl.numeric`).
     seconds
         Wall time of the run (after compilation).
     names, parameters, states
@@ -73,6 +76,7 @@ class Trajectory:
     active: np.ndarray
     interventions: np.ndarray
     implicit: np.ndarray
+    refined: np.ndarray
     seconds: float
     names: tuple[str, ...]
     parameters: tuple[str, ...]
@@ -101,4 +105,4 @@ class Trajectory:
                 "P_diag": np.diagonal(self.P, axis1=1, axis2=2).tolist(),
                 "innovations": self.innovations.tolist(), "signs": self.signs.tolist(),
                 "repairs": self.repairs.tolist(), "interventions": self.counts(), "implicit": self.implicit.tolist(),
-                "seconds": self.seconds}
+                "refined": self.refined.tolist(), "seconds": self.seconds}

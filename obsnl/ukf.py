@@ -114,10 +114,15 @@ class UKF:
         noise covariance (``ny x ny``). Changing them with :meth:`with_options` does not recompile.
     alpha, beta, kappa
         Scaled unscented transform (default ``1, 2, 0``: all covariance weights ``>= 0``).
-    method, substeps
-        Discrete step of the model (:meth:`obsnl.codegen.NumericModel.step`).
+    method, substeps, refine
+        Discrete step of the model (:meth:`obsnl.codegen.NumericModel.step`): RK4 with ``substeps``
+        (default 4); a sigma point whose step is stiff for RK4 is redone with ROS2, one whose step
+        crosses a switching function with RK4, both with ``refine * substeps`` (default 8x).
     jit
         Compile the step to C (needs a C compiler; off by default).
+    parallel
+        With ``jit``, propagate the sigma points on OpenMP threads (default; ``OMP_NUM_THREADS``
+        sets how many; the same numbers as one thread).
     fixed
         Parameters held at their initial value (no spread, no update, no noise), e.g. parameters
         found practically unidentifiable; the coordinates that move only them are frozen.
@@ -156,8 +161,10 @@ class UKF:
     beta: float = 2.0
     kappa: float = 0.0
     method: str = "auto"
-    substeps: int = 8
+    substeps: int = 4
+    refine: int = 8
     jit: bool = False
+    parallel: bool = True
     fixed: tuple[str, ...] = ()
     bounds: Any = None
     gate: float = float("inf")
@@ -192,6 +199,10 @@ class UKF:
             if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo >= hi):
                 raise EstimatorError("bounds must be (lo, hi) with lo < hi for every filter coordinate")
             set_("bounds", (lo, hi))
+        for k in ("substeps", "refine"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, np.integer)) and v >= 1):
+                raise EstimatorError(f"{k} must be a whole number >= 1, got {v!r}")
         if not self.gate > 0:
             raise EstimatorError(f"gate must be > 0 (inf: off), got {self.gate!r}")
         cap = np.broadcast_to(np.asarray(self.cap, float), (self.size,)).copy()
@@ -243,7 +254,7 @@ class UKF:
     # ------------------------------------------------------------------ compiled functions
     def _key(self) -> tuple:
         return (id(self.model), id(self.coordinates), self.dt, tuple(self.state_scale), self.method,
-                self.substeps, self.jit, type(self).__name__) + self._extra_key()
+                self.substeps, self.refine, self.jit, self.parallel, type(self).__name__) + self._extra_key()
 
     def _extra_key(self) -> tuple:
         return ()
@@ -263,7 +274,8 @@ class UKF:
         key = self._key()
         if key not in self.cache:
             core = build_step(self.model, self.coordinates, self.dt, state_scale=self.state_scale,
-                              method=self.method, substeps=self.substeps, cross=self._cross())
+                              method=self.method, substeps=self.substeps, cross=self._cross(),
+                              refine=self.refine, parallel=self.jit and self.parallel)
             L, m, nu, ny = self.size, len(self.model.switching), self.model.nu, self.model.ny
             z, P, prev = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("prev", L)
             u0, u1, y = ca.MX.sym("u0", nu), ca.MX.sym("u1", nu), ca.MX.sym("y", ny)
@@ -272,11 +284,11 @@ class UKF:
             act, signs = self._active_and_signs(z, u0, prev)
             act = act * allowed
             lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
-            zn, Pn, yp, nuv, S, rep, imp = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap)
+            zn, Pn, yp, nuv, S, rep, imp, fine = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap)
             opts = jit_options() if self.jit else {}
             self.cache[key] = ca.Function(
                 "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap],
-                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0)], opts)
+                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine], opts)
         return self.cache[key]
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -344,4 +356,5 @@ class UKF:
             active=np.vstack([est0.active, np.asarray(out[2]).T]),
             interventions=np.vstack([np.zeros((1, len(INTERVENTIONS))), np.asarray(out[6]).T]).astype(int),
             implicit=np.concatenate([[0], np.asarray(out[7]).ravel()]).astype(int),
+            refined=np.concatenate([[0], np.asarray(out[9]).ravel()]).astype(int),
             seconds=seconds, names=self.names, parameters=self.model.parameters, states=self.model.states)

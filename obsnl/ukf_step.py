@@ -78,9 +78,10 @@ def _chol(A: ca.SX, n: int, *, floor: float) -> tuple[ca.SX, ca.SX]:
 
 
 def _finite(x: ca.SX) -> ca.SX:
-    """1 when every entry is finite (comparisons with NaN are false; no fast-math in the JIT)."""
-    v = ca.vec(x)
-    return ca.sum1(ca.fabs(v) < _FINITE) >= v.numel()
+    """1 when every entry is finite: their sum is (a NaN or inf entry makes it NaN or inf; comparisons
+    with NaN are false; no fast-math in the JIT). Entries so large that the sum passes 1e300 count
+    as not finite too, which only rejects an update that is absurd anyway."""
+    return ca.fabs(ca.sum1(ca.vec(x))) < _FINITE
 
 
 def _sym_outer(D: ca.SX, w: ca.SX, n: int) -> ca.SX:
@@ -98,9 +99,10 @@ def _lower_solve(L: ca.SX, B: ca.SX, n: int) -> ca.SX:
 
 
 def _sigma_block(model: NumericModel, coords: ParameterMap, dt: float, scale: Any, method: str,
-                 substeps: int) -> tuple[ca.Function, ca.Function]:
-    """``(z, P, active, hyp) -> (X, S, pivots)`` (sigma points) and ``(zc, u0, u1) -> (zc+, stiff)``
-    (RK4 propagation of one sigma point, with the stiffness test of the implicit fallback).
+                 substeps: int, refine: int) -> tuple[ca.Function, ca.Function]:
+    """``(z, P, active, hyp) -> (X, S, pivots)`` (sigma points) and ``(zc, u0, u1) -> (zc+, stiff,
+    crossed)`` (RK4 propagation of one sigma point, with the tests of the fallbacks: stiff for RK4,
+    a switching function crossed inside the step).
 
     The propagation stays one Function mapped over the sigma points (one copy of its code called in
     a loop, not 2L+1 inlined copies: the compiled step is several times smaller and faster)."""
@@ -113,28 +115,34 @@ def _sigma_block(model: NumericModel, coords: ParameterMap, dt: float, scale: An
     Sm = ca.sqrt(nA + lam) * ca.mtimes(A, S)
     X = ca.horzcat(z, ca.repmat(z, 1, L) + Sm, ca.repmat(z, 1, L) - Sm)
     sig = ca.Function("sigma_points", [z, P, a, hyp], [X, S, pivots])
-    fns = model.integrators(dt, substeps=substeps, scale=scale)
+    fns = model.integrators(dt, substeps=substeps, scale=scale, refine=refine)
     zc, u0, u1 = ca.SX.sym("zc", L), ca.SX.sym("u0", nu_), ca.SX.sym("u1", nu_)
     sc = ca.DM(np.asarray(scale, float))
     xc, th = zc[:nx] * sc, coords.forward(zc[nx:])
-    xr = fns["ros2" if method == "ros2" else "rk4"](xc, th, u0, u1)
-    stiff = fns["stiff"](xc, xr, th, u0, u1, 2.0) if method == "auto" else ca.SX(0)
-    prop = ca.Function("prop", [zc, u0, u1], [ca.vertcat(xr / sc, zc[nx:]), stiff])
+    if method == "auto":
+        xr, crossed = fns["rk4_track"](xc, th, u0, u1)
+        stiff = fns["stiff"](xc, xr, th, u0, u1, 2.0)
+        crossed = ca.logic_and(crossed, ca.logic_not(stiff))
+    else:
+        xr, stiff, crossed = fns[method](xc, th, u0, u1), ca.SX(0), ca.SX(0)
+    prop = ca.Function("prop", [zc, u0, u1], [ca.vertcat(xr / sc, zc[nx:]), stiff, crossed])
     return sig, prop
 
 
-def _implicit_block(model: NumericModel, coords: ParameterMap, dt: float, scale: Any, substeps: int,
-                    npts: int) -> ca.Function:
-    """``(X, Xp, flags, u0, u1) -> Xp'``: ROS2 for the flagged sigma points, evaluated only for them."""
+def _fallback_block(model: NumericModel, coords: ParameterMap, dt: float, scale: Any, substeps: int,
+                    refine: int, npts: int) -> ca.Function:
+    """``(X, Xp, stiff, crossed, u0, u1) -> Xp'``: per sigma point, ROS2 where RK4 was stiff, fine RK4
+    where a switching function crossed, both with ``refine * substeps``; evaluated only there."""
     nx, L, nu_ = model.nx, model.nx + len(coords.names), model.nu
     sc = ca.DM(np.asarray(scale, float))
-    zc, u0, u1 = ca.SX.sym("zc", L), ca.SX.sym("u0", nu_), ca.SX.sym("u1", nu_)
-    ros2 = model.integrators(dt, substeps=substeps, scale=scale)["ros2"]
-    imp = ca.Function("implicit", [zc, u0, u1], [ca.vertcat(ros2(zc[:nx] * sc, coords.forward(zc[nx:]), u0, u1) / sc,
-                                                            zc[nx:])])
-    zM, xM, fM = ca.MX.sym("zc", L), ca.MX.sym("xr", L), ca.MX.sym("flag")
+    fns = model.integrators(dt, substeps=substeps, scale=scale, refine=refine)
+    zM, xM, sM, cM = ca.MX.sym("zc", L), ca.MX.sym("xr", L), ca.MX.sym("stiff"), ca.MX.sym("crossed")
     u0M, u1M = ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_)
-    return ca.Function("fix", [zM, xM, fM, u0M, u1M], [ca.if_else(fM, imp(zM, u0M, u1M), xM, True)]).map(npts)
+    xc, th = zM[:nx] * sc, coords.forward(zM[nx:])
+    fine = ca.vertcat(fns["rk4_fine"](xc, th, u0M, u1M) / sc, zM[nx:])
+    implicit = ca.vertcat(fns["ros2_fine"](xc, th, u0M, u1M) / sc, zM[nx:])
+    out = ca.if_else(sM, implicit, ca.if_else(cM, fine, xM, True), True)
+    return ca.Function("fallback", [zM, xM, sM, cM, u0M, u1M], [out]).map(npts)
 
 
 def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: str) -> ca.Function:
@@ -220,25 +228,29 @@ def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: 
 
 
 def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_scale: np.ndarray,
-               method: str, substeps: int, cross: str = "regression") -> ca.Function:
+               method: str, substeps: int, cross: str = "regression", refine: int = 8,
+               parallel: bool = False) -> ca.Function:
     """The filter step ``(z, P, u0, u1, y, active, Q, R, hyp, lo, hi, cap)
-    -> (z+, P+, y_pred, nu, S, interventions, implicit)``.
+    -> (z+, P+, y_pred, nu, S, interventions, implicit, refined)``.
 
     ``hyp = [alpha, beta, kappa, gate]``; ``active`` is 1 for estimated coordinates, 0 for frozen
     ones; ``lo, hi`` the valid region and ``cap`` the standard-deviation ceiling (filter coordinates);
     ``cross`` is the DUKF rule for the frozen-active covariance (``"regression"`` or ``"zero"``);
     ``interventions`` counts each kind of ``INTERVENTIONS`` (module docstring); ``implicit`` counts
-    the sigma points that needed the implicit fallback of the discrete step. Three SX blocks (sigma
-    points, propagation mapped over the sigma points, update) joined in an MX Function, so that the
-    implicit fallback is only evaluated where needed.
+    the sigma points that needed the implicit fallback of the discrete step, ``refined`` those redone
+    with ``refine`` times the substeps because a switching function changed sign inside the step
+    (:mod:`obsnl.numeric`). Three SX blocks (sigma points, propagation mapped over the sigma points,
+    update) joined in an MX Function, so that the fallbacks are only evaluated where needed. With
+    ``parallel`` the sigma points are propagated by OpenMP threads (for a step compiled with
+    :func:`~obsnl.numeric.jit_options`; the same numbers).
     """
     if cross not in ("regression", "zero"):
         raise EstimatorError(f"unknown cross-covariance rule {cross!r}; use 'regression' or 'zero'")
     nx, nq, ny, nu_ = model.nx, len(coords.names), model.ny, model.nu
     L = nx + nq
     scale = np.asarray(state_scale, float)
-    sig, prop = _sigma_block(model, coords, dt, scale, method, substeps)
-    fix = _implicit_block(model, coords, dt, scale, substeps, 2 * L + 1)
+    sig, prop = _sigma_block(model, coords, dt, scale, method, substeps, refine)
+    fix = _fallback_block(model, coords, dt, scale, substeps, refine, 2 * L + 1)
     upd = _update_block(model, coords, scale, cross)
 
     z, P, a, hyp = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("active", L), ca.MX.sym("hyp", 4)
@@ -246,12 +258,12 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     Q, R = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny)
     lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
     X, S, n_pivot = sig(z, P, a, hyp)
-    Xp, flags = prop.map(2 * L + 1)(X, u0, u1)
-    n_implicit = ca.sum2(flags)
-    Xp = ca.if_else(n_implicit > 0, fix(X, Xp, flags, u0, u1), Xp, True)
+    Xp, stiff, crossed = prop.map(2 * L + 1, "openmp" if parallel else "serial")(X, u0, u1)
+    n_implicit, n_refined = ca.sum2(stiff), ca.sum2(crossed)
+    Xp = ca.if_else(n_implicit + n_refined > 0, fix(X, Xp, stiff, crossed, u0, u1), Xp, True)
     zn, Pn, yp, nu, Syy, n_pivot2, counts = upd(z, P, a, hyp, S, Xp, u1, y, Q, R, lo, hi, cap)
     interventions = ca.vertcat(n_pivot + n_pivot2, counts)
     return ca.Function("ukf_step", [z, P, u0, u1, y, a, Q, R, hyp, lo, hi, cap],
-                       [zn, Pn, yp, nu, Syy, interventions, n_implicit],
+                       [zn, Pn, yp, nu, Syy, interventions, n_implicit, n_refined],
                        ["z", "P", "u0", "u1", "y", "active", "Q", "R", "hyp", "lo", "hi", "cap"],
-                       ["z_next", "P_next", "y_pred", "innovation", "S", "interventions", "implicit"])
+                       ["z_next", "P_next", "y_pred", "innovation", "S", "interventions", "implicit", "refined"])

@@ -3,6 +3,7 @@ their order and stay finite where the model is stiff; parameter coordinates roun
 
 from __future__ import annotations
 
+import casadi as ca
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -87,13 +88,54 @@ def test_stiff_step_falls_back_to_ros2():
     args = ([0.0], [1e10], [0.1], [0.1])
     rk4 = float(num.step(0.01, method="rk4", substeps=4)(*args)[0])
     assert not np.isfinite(rk4)
-    z, flag = (float(v) for v in num.step(0.01, method="auto", substeps=4)(*args))
-    assert flag == 1.0
+    z, flag, refined = (float(v) for v in num.step(0.01, method="auto", substeps=4)(*args))
+    assert flag == 1.0 and refined == 0.0
     assert 0.0 < z <= 1e-5  # stable and monotone: approaches the branch z = 1e-5 from below, no overshoot
     easy = num.step(0.01, method="auto", substeps=4)([0.0], [1.0], [0.1], [0.1])
     assert float(easy[1]) == 0.0
     np.testing.assert_allclose(float(easy[0]), float(num.step(0.01, method="rk4", substeps=4)([0.0], [1.0], [0.1],
                                                                                                  [0.1])[0]))
+
+
+def test_step_across_a_jump_of_the_vector_field_is_refined():
+    # x' = a + b*(1 + sign(x - c))/2: the rate jumps from a to a + b where x crosses c; the exact
+    # solution is piecewise linear. Plain RK4 is first order across the jump; "auto" redoes the
+    # crossing substep with refine x finer substeps and flags it.
+    m = obsnl.Model(name="jump", states=["x"], parameters=["a", "b", "c"], inputs=[],
+                    equations={"x": "a + b*(1 + sign(x - c))/2"}, outputs={"y": "x"}, switching=["x - c"])
+    num = to_casadi(m)
+    a, b, x0, dt = 1.0, 3.0, 0.0, 0.01
+    steps = {k: num.step(dt, method=mth, substeps=n) for k, (mth, n) in
+             {"rk4": ("rk4", 4), "auto": ("auto", 4), "rk4_32": ("rk4", 32)}.items()}
+    cs = (np.arange(40) + 0.5) / 40 * dt * a * 0.999  # the jump anywhere inside the step
+    err = {k: np.mean([abs(float(f([x0], [a, b, c], [], [])[0]) - (c + (a + b) * (dt - c / a))) for c in cs])
+           for k, f in steps.items()}
+    assert err["auto"] < err["rk4"] / 6  # first order across the jump: 8x finer there
+    assert err["auto"] == pytest.approx(err["rk4_32"], rel=0.05)  # only the crossing substep at 8x: as fine as 32
+    c = 0.00437
+    out = num.step(dt, method="auto", substeps=4)([x0], [a, b, c], [], [])
+    assert (float(out[1]), float(out[2])) == (0.0, 1.0)
+    calm = num.step(dt, method="auto", substeps=4)([0.5], [a, b, c], [], [])  # no crossing: plain RK4, not flagged
+    assert float(calm[2]) == 0.0
+    assert float(calm[0]) == pytest.approx(0.5 + (a + b) * dt, abs=1e-14)
+    with pytest.raises(ModelError, match="refine"):
+        num.step(dt, refine=0)
+
+
+def test_perron_bound_bounds_the_spectral_radius():
+    # Collatz-Wielandt: an upper bound of rho(|J|) >= rho(J), never above the infinity norm (of
+    # |J| + eps) it starts from; deterministic random matrices (seed 3), exact property, no error probability
+    from obsnl.numeric import _perron_bound
+    A = ca.SX.sym("A", 5, 5)
+    bound = ca.Function("b", [A], [_perron_bound(A, 5)])
+    rng = np.random.default_rng(3)
+    for _ in range(50):
+        J = rng.normal(size=(5, 5)) * rng.lognormal(sigma=2.0, size=(5, 1))
+        J[rng.random((5, 5)) < 0.3] = 0.0
+        b = float(bound(np.abs(J)))
+        assert b >= max(abs(np.linalg.eigvals(J))) * (1 - 1e-9)
+        assert b >= max(abs(np.linalg.eigvals(np.abs(J)))) * (1 - 1e-9)
+        assert b <= np.abs(J).sum(axis=1).max() + 5 * 1e-6 * np.abs(J).max() + 1e-12  # ||A + eps||_inf
 
 
 def test_parameter_map_round_trip_and_dependencies():
