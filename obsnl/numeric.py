@@ -47,10 +47,9 @@ def jit_options() -> dict[str, Any]:
 
     ``-O3 -march=native``: the code is compiled on the machine that runs it; on the UKF step of the
     seed model this is about 1.8x faster than ``-O1`` for the same compile time (no fast-math: the
-    NaN/inf guards must keep their meaning). ``-fopenmp``: maps marked ``"openmp"`` (the sigma points
-    of a filter step) run on threads.
+    NaN/inf guards must keep their meaning).
     """
-    return {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O3", "-march=native", "-fopenmp"], "linker_flags": ["-fopenmp"], "verbose": False}}
+    return {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O3", "-march=native"], "verbose": False}}
 
 
 @dataclass(frozen=True, eq=False)

@@ -5,7 +5,7 @@ call. The default discretisation (RK4 with 100 substeps per sample; a step in wh
 function changes sign redone with 8x the substeps) is converged far below the 0.1 % measurement
 noise of the seed experiment for the damage-healing model (the switching of the healing operator
 makes its right-hand side discontinuous, so fixed-step methods converge only to first order
-there; ``tests/test_simulate.py`` checks the default against scipy's LSODA).
+there; ``tests/test_seed_models.py`` checks the default against scipy's LSODA).
 """
 
 from __future__ import annotations

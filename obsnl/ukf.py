@@ -120,9 +120,6 @@ class UKF:
         crosses a switching function with RK4, both with ``refine * substeps`` (default 8x).
     jit
         Compile the step to C (needs a C compiler; off by default).
-    parallel
-        With ``jit``, propagate the sigma points on OpenMP threads (default; ``OMP_NUM_THREADS``
-        sets how many; the same numbers as one thread).
     fixed
         Parameters held at their initial value (no spread, no update, no noise), e.g. parameters
         found practically unidentifiable; the coordinates that move only them are frozen.
@@ -164,7 +161,6 @@ class UKF:
     substeps: int = 4
     refine: int = 8
     jit: bool = False
-    parallel: bool = True
     fixed: tuple[str, ...] = ()
     bounds: Any = None
     gate: float = float("inf")
@@ -254,7 +250,7 @@ class UKF:
     # ------------------------------------------------------------------ compiled functions
     def _key(self) -> tuple:
         return (id(self.model), id(self.coordinates), self.dt, tuple(self.state_scale), self.method,
-                self.substeps, self.refine, self.jit, self.parallel, type(self).__name__) + self._extra_key()
+                self.substeps, self.refine, self.jit, type(self).__name__) + self._extra_key()
 
     def _extra_key(self) -> tuple:
         return ()
@@ -275,7 +271,7 @@ class UKF:
         if key not in self.cache:
             core = build_step(self.model, self.coordinates, self.dt, state_scale=self.state_scale,
                               method=self.method, substeps=self.substeps, cross=self._cross(),
-                              refine=self.refine, parallel=self.jit and self.parallel)
+                              refine=self.refine)
             L, m, nu, ny = self.size, len(self.model.switching), self.model.nu, self.model.ny
             z, P, prev = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("prev", L)
             u0, u1, y = ca.MX.sym("u0", nu), ca.MX.sym("u1", nu), ca.MX.sym("y", ny)

@@ -228,8 +228,7 @@ def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: 
 
 
 def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_scale: np.ndarray,
-               method: str, substeps: int, cross: str = "regression", refine: int = 8,
-               parallel: bool = False) -> ca.Function:
+               method: str, substeps: int, cross: str = "regression", refine: int = 8) -> ca.Function:
     """The filter step ``(z, P, u0, u1, y, active, Q, R, hyp, lo, hi, cap)
     -> (z+, P+, y_pred, nu, S, interventions, implicit, refined)``.
 
@@ -240,9 +239,7 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     the sigma points that needed the implicit fallback of the discrete step, ``refined`` those redone
     with ``refine`` times the substeps because a switching function changed sign inside the step
     (:mod:`obsnl.numeric`). Three SX blocks (sigma points, propagation mapped over the sigma points,
-    update) joined in an MX Function, so that the fallbacks are only evaluated where needed. With
-    ``parallel`` the sigma points are propagated by OpenMP threads (for a step compiled with
-    :func:`~obsnl.numeric.jit_options`; the same numbers).
+    update) joined in an MX Function, so that the fallbacks are only evaluated where needed.
     """
     if cross not in ("regression", "zero"):
         raise EstimatorError(f"unknown cross-covariance rule {cross!r}; use 'regression' or 'zero'")
@@ -258,7 +255,7 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     Q, R = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny)
     lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
     X, S, n_pivot = sig(z, P, a, hyp)
-    Xp, stiff, crossed = prop.map(2 * L + 1, "openmp" if parallel else "serial")(X, u0, u1)
+    Xp, stiff, crossed = prop.map(2 * L + 1)(X, u0, u1)
     n_implicit, n_refined = ca.sum2(stiff), ca.sum2(crossed)
     Xp = ca.if_else(n_implicit + n_refined > 0, fix(X, Xp, stiff, crossed, u0, u1), Xp, True)
     zn, Pn, yp, nu, Syy, n_pivot2, counts = upd(z, P, a, hyp, S, Xp, u1, y, Q, R, lo, hi, cap)
