@@ -20,7 +20,7 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
-from .branches import expr_text, switching_functions
+from .branches import expr_text, field_jumps, switching_functions
 from .errors import ModelError, NotSupportedError, TableError
 from .model import Model
 from .numeric import NumericModel, ParameterMap, jit_options
@@ -180,6 +180,7 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
         switching=tuple(expr_text(g) if isinstance(g, sp.Basic) else str(g) for g in
                         (gs if switching is None else switching)),
         values=MappingProxyType(values),
+        jumps=field_jumps(model, gs) if gs else (),
         f=ca.Function("f", args, [fx], names, ["xdot"]),
         h=ca.Function("h", args, [hx], names, ["y"]),
         g=ca.Function("g", args, [gx], names, ["g"]),

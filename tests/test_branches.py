@@ -8,7 +8,7 @@ import sympy as sp
 
 import obsnl
 from obsnl import Model
-from obsnl.branches import split_branches, switching_functions
+from obsnl.branches import field_jumps, split_branches, switching_functions
 from obsnl.model import NONSMOOTH_FUNCTIONS
 
 from .conftest import MODEL_FILES, MODELS
@@ -128,3 +128,18 @@ def test_guard_text_reads_back_as_the_guard():
     m = obsnl.load_model(MODELS / "damage_healing.toml")
     for b in split_branches(m):
         assert sp.sympify(b.guard_text, locals=m.symbols) == b.guard
+
+
+def test_field_jumps_only_where_the_vector_field_is_discontinuous():
+    # seed model (16): across x2 = 0 every switched term carries a factor x2 (continuous); across
+    # r = eta' the healing factor (1 + w_h c'_eta E'_h (1 + sign((r - eta')x2))/2) switches while x2 != 0
+    seed = obsnl.load_model(next(p for p in MODEL_FILES if p.stem == "damage_healing_reparam"))
+    gs = switching_functions(seed)
+    assert [str(g) for g in gs] == ["-eta_p + r", "x2"]
+    assert field_jumps(seed, gs) == (True, False)
+    coulomb = Model(name="c", states=["x", "v"], parameters=["k", "mu"], inputs=["u"],
+                    equations={"x": "v", "v": "u - k*x - mu*sign(v)"}, outputs={"y": "x"})
+    assert field_jumps(coulomb, switching_functions(coulomb)) == (True,)
+    kink = Model(name="k", states=["x"], parameters=["a"], inputs=[], equations={"x": "-a*Abs(x)"},
+                 outputs={"y": "x"})
+    assert field_jumps(kink, switching_functions(kink)) == (False,)

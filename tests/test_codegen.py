@@ -120,6 +120,11 @@ def test_step_across_a_jump_of_the_vector_field_is_refined():
     assert float(calm[0]) == pytest.approx(0.5 + (a + b) * dt, abs=1e-14)
     with pytest.raises(ModelError, match="refine"):
         num.step(dt, refine=0)
+    # a kink (continuous field) is not refined: RK4 loses little there
+    kink = to_casadi(obsnl.Model(name="kink", states=["x"], parameters=["a"], inputs=[],
+                                 equations={"x": "1 - a*Abs(x)"}, outputs={"y": "x"}))
+    assert kink.jumps == (False,)
+    assert float(kink.step(dt, method="auto", substeps=4)([-0.005], [1.0], [], [])[2]) == 0.0
 
 
 def test_perron_bound_bounds_the_spectral_radius():
