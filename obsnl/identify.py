@@ -133,8 +133,8 @@ class Setup:
         return {"model": self.model.name, "record": self.record.to_dict(), "truth": dict(self.truth),
                 "guess": dict(self.guess), "noise_ratio": self.noise, "coordinates": self.coordinates.to_dict(),
                 "substeps": self.substeps, "refine": self.refine,
-                "integrator": "RK4; a step that crosses a switching function redone with refine x the substeps; "
-                              "ROS2 (refine x the substeps) where stiff"}
+                "integrator": "RK4; a substep in which a switching function across which the field can jump "
+                              "changes sign redone with refine finer ones; ROS2 (refine x the substeps) where stiff"}
 
 
 def coordinates(model: NumericModel, kind: str = "log", *, reference: Mapping[str, float]) -> ParameterMap:
@@ -245,8 +245,7 @@ def output_misfit(setup: Setup, theta: np.ndarray, data: Data) -> float:
     """RMS of (simulated - measured output) / RMS(measured output); simulation under the measured input."""
     try:
         sim = simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps,
-                       refine=setup.refine,
-                       jit=setup.jit)
+                       refine=setup.refine, jit=setup.jit)
     except EstimatorError:
         return float("inf")
     return rms(sim.y - data.y) / rms(data.y)

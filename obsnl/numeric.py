@@ -81,12 +81,12 @@ class NumericModel:
     outputs: tuple[str, ...]
     switching: tuple[str, ...]
     values: Mapping[str, float]
+    f: ca.Function = field(repr=False)
+    h: ca.Function = field(repr=False)
+    g: ca.Function = field(repr=False)
+    jac_x: ca.Function = field(repr=False)
+    jac_u: ca.Function = field(repr=False)
     jumps: tuple[bool, ...] = ()
-    f: ca.Function = field(repr=False, default=None)
-    h: ca.Function = field(repr=False, default=None)
-    g: ca.Function = field(repr=False, default=None)
-    jac_x: ca.Function = field(repr=False, default=None)
-    jac_u: ca.Function = field(repr=False, default=None)
 
     @property
     def nx(self) -> int:
@@ -129,8 +129,9 @@ class NumericModel:
             substeps``), or the RK4 result is not finite (an RK4 step
             that went unstable ends where the model is stiff or overflowed); ROS2 is evaluated only
             then (``implicit`` is 1), with ``refine * substeps`` substeps; otherwise, where a switching
-            function changed sign between two substeps, RK4 with ``refine * substeps`` substeps
-            (``refined`` is 1). ``"rk4"`` or ``"ros2"``: always that one, no refinement.
+            function across which the field can jump (``jumps``) changed sign between two substeps,
+            RK4 again with that substep split into ``refine`` (``refined`` is 1). ``"rk4"`` or
+            ``"ros2"``: always that one, no refinement.
         substeps
             Equal substeps per interval.
         refine
@@ -171,8 +172,8 @@ class NumericModel:
     def integrators(self, dt: float, *, substeps: int, scale: Any = None, jit: bool = False,
                     refine: int = 8) -> dict[str, ca.Function]:
         """The pieces of :meth:`step`: ``rk4`` and ``ros2`` ``(x, p, u0, u1) -> x_next`` with
-        ``substeps``; ``rk4_fine``, RK4 with every substep in which a switching function changes sign
-        split into ``refine``; ``ros2_fine``, ROS2 with ``refine * substeps``; ``rk4_track``
+        ``substeps``; ``rk4_fine``, RK4 with every substep in which a watched switching function
+        (``jumps``) changes sign split into ``refine``; ``ros2_fine``, ROS2 with ``refine * substeps``; ``rk4_track``
         ``(x, p, u0, u1) -> (x_next, crossed)`` (RK4 that also says whether a switching function
         changed sign between two substeps) and ``stiff(x, x_rk4, p, u0, u1, threshold) -> 0/1``
         (the test of ``method="auto"``)."""
@@ -200,7 +201,7 @@ class NumericModel:
 
     def _refined(self, dt: float, n: int, refine: int, opts: Mapping[str, Any]) -> ca.Function:
         """``(x, p, u0, u1) -> x_next``: ``n`` RK4 substeps, each redone with ``refine`` substeps where a
-        switching function changed sign over it (the crossing substep carries the error)."""
+        watched switching function changed sign over it (the crossing substep carries the error)."""
         x, p = ca.SX.sym("x", self.nx), ca.SX.sym("p", self.np)
         ua, ub = ca.SX.sym("ua", self.nu), ca.SX.sym("ub", self.nu)
         one = ca.Function("substep", [x, p, ua, ub], list(self._integrate("rk4", x, p, ua, ub, dt / n, 1, track=True)))
@@ -210,13 +211,7 @@ class NumericModel:
         xb, crossed = one(xm, pm, uam, ubm)
         cell = ca.Function("refined_substep", [xm, pm, uam, ubm],
                            [ca.if_else(crossed, fine(xm, pm, uam, ubm), xb, True)])
-        loop = cell.mapaccum("rk4_refined_loop", n)
-        X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
-        U0, U1 = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu)
-        frac = ca.DM(np.arange(n + 1)[None, :] / n)
-        us = ca.mtimes(U0, 1 - frac) + ca.mtimes(U1, frac)
-        xi = loop(X, P, us[:, :n], us[:, 1:])[:, n - 1]
-        return ca.Function(f"rk4_refined{n}x{refine}", [X, P, U0, U1], [xi], ["x", "p", "u0", "u1"], ["x_next"], opts)
+        return self._over_substeps(cell, n, f"rk4_refined{n}x{refine}", opts)
 
     def _looped(self, method: str, dt: float, n: int, opts: Mapping[str, Any]) -> ca.Function:
         """``(x, p, u0, u1) -> x_next``: ``n`` substeps as a loop over one substep (not unrolled, so
@@ -224,13 +219,18 @@ class NumericModel:
         x, p = ca.SX.sym("x", self.nx), ca.SX.sym("p", self.np)
         ua, ub = ca.SX.sym("ua", self.nu), ca.SX.sym("ub", self.nu)
         one = ca.Function("substep", [x, p, ua, ub], [self._integrate(method, x, p, ua, ub, dt / n, 1)[0]])
-        loop = one.mapaccum(f"{method}_loop", n)
+        return self._over_substeps(one, n, f"{method}{n}", opts)
+
+    def _over_substeps(self, cell: ca.Function, n: int, name: str, opts: Mapping[str, Any]) -> ca.Function:
+        """``(x, p, u0, u1) -> x_next``: ``cell(x, p, ua, ub) -> x`` applied over ``n`` equal substeps
+        (a ``mapaccum`` loop, the input linear from ``u0`` to ``u1``)."""
+        loop = cell.mapaccum(f"{name}_loop", n)
         X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         U0, U1 = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu)
         frac = ca.DM(np.arange(n + 1)[None, :] / n)
         us = ca.mtimes(U0, 1 - frac) + ca.mtimes(U1, frac)
         xs = loop(X, P, us[:, :n], us[:, 1:])
-        return ca.Function(f"{method}{n}", [X, P, U0, U1], [xs[:, n - 1]], ["x", "p", "u0", "u1"], ["x_next"], opts)
+        return ca.Function(name, [X, P, U0, U1], [xs[:, n - 1]], ["x", "p", "u0", "u1"], ["x_next"], opts)
 
     def _integrate(self, method: str, x: ca.SX, p: ca.SX, u0: ca.SX, u1: ca.SX, dt: float, n: int,
                    track: bool = False) -> tuple[ca.SX, ca.SX]:

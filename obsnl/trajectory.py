@@ -56,8 +56,8 @@ class Trajectory:
     implicit
         Sigma points per step whose propagation needed the implicit (ROS2) fallback.
     refined
-        Sigma points per step redone with finer substeps because a switching function changed sign
-        inside the step (:mod:`obsnl.numeric`).
+        Sigma points per step whose crossing substep was redone with finer ones because a switching
+        function across which the field can jump changed sign inside the step (:mod:`obsnl.numeric`).
     seconds
         Wall time of the run (after compilation).
     names, parameters, states

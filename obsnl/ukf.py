@@ -116,8 +116,9 @@ class UKF:
         Scaled unscented transform (default ``1, 2, 0``: all covariance weights ``>= 0``).
     method, substeps, refine
         Discrete step of the model (:meth:`obsnl.codegen.NumericModel.step`): RK4 with ``substeps``
-        (default 4); a sigma point whose step is stiff for RK4 is redone with ROS2, one whose step
-        crosses a switching function with RK4, both with ``refine * substeps`` (default 8x).
+        (default 4); a sigma point whose step is stiff for RK4 is redone with ROS2 and
+        ``refine * substeps``, one whose step crosses a switching function across which the field
+        can jump with that substep split into ``refine`` (default 8).
     jit
         Compile the step to C (needs a C compiler; off by default).
     fixed

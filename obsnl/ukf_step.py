@@ -98,8 +98,8 @@ def _lower_solve(L: ca.SX, B: ca.SX, n: int) -> ca.SX:
     return X
 
 
-def _sigma_block(model: NumericModel, coords: ParameterMap, dt: float, scale: Any, method: str,
-                 substeps: int, refine: int) -> tuple[ca.Function, ca.Function]:
+def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], scale: Any,
+                 method: str) -> tuple[ca.Function, ca.Function]:
     """``(z, P, active, hyp) -> (X, S, pivots)`` (sigma points) and ``(zc, u0, u1) -> (zc+, stiff,
     crossed)`` (RK4 propagation of one sigma point, with the tests of the fallbacks: stiff for RK4,
     a switching function crossed inside the step).
@@ -115,7 +115,6 @@ def _sigma_block(model: NumericModel, coords: ParameterMap, dt: float, scale: An
     Sm = ca.sqrt(nA + lam) * ca.mtimes(A, S)
     X = ca.horzcat(z, ca.repmat(z, 1, L) + Sm, ca.repmat(z, 1, L) - Sm)
     sig = ca.Function("sigma_points", [z, P, a, hyp], [X, S, pivots])
-    fns = model.integrators(dt, substeps=substeps, scale=scale, refine=refine)
     zc, u0, u1 = ca.SX.sym("zc", L), ca.SX.sym("u0", nu_), ca.SX.sym("u1", nu_)
     sc = ca.DM(np.asarray(scale, float))
     xc, th = zc[:nx] * sc, coords.forward(zc[nx:])
@@ -129,13 +128,13 @@ def _sigma_block(model: NumericModel, coords: ParameterMap, dt: float, scale: An
     return sig, prop
 
 
-def _fallback_block(model: NumericModel, coords: ParameterMap, dt: float, scale: Any, substeps: int,
-                    refine: int, npts: int) -> ca.Function:
-    """``(X, Xp, stiff, crossed, u0, u1) -> Xp'``: per sigma point, ROS2 where RK4 was stiff, fine RK4
-    where a switching function crossed, both with ``refine * substeps``; evaluated only there."""
+def _fallback_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], scale: Any,
+                    npts: int) -> ca.Function:
+    """``(X, Xp, stiff, crossed, u0, u1) -> Xp'``: per sigma point, ROS2 (``refine * substeps``) where
+    RK4 was stiff, RK4 with the crossing substep refined where a watched switching function changed
+    sign; evaluated only there."""
     nx, L, nu_ = model.nx, model.nx + len(coords.names), model.nu
     sc = ca.DM(np.asarray(scale, float))
-    fns = model.integrators(dt, substeps=substeps, scale=scale, refine=refine)
     zM, xM, sM, cM = ca.MX.sym("zc", L), ca.MX.sym("xr", L), ca.MX.sym("stiff"), ca.MX.sym("crossed")
     u0M, u1M = ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_)
     xc, th = zM[:nx] * sc, coords.forward(zM[nx:])
@@ -236,9 +235,9 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     ones; ``lo, hi`` the valid region and ``cap`` the standard-deviation ceiling (filter coordinates);
     ``cross`` is the DUKF rule for the frozen-active covariance (``"regression"`` or ``"zero"``);
     ``interventions`` counts each kind of ``INTERVENTIONS`` (module docstring); ``implicit`` counts
-    the sigma points that needed the implicit fallback of the discrete step, ``refined`` those redone
-    with ``refine`` times the substeps because a switching function changed sign inside the step
-    (:mod:`obsnl.numeric`). Three SX blocks (sigma points, propagation mapped over the sigma points,
+    the sigma points that needed the implicit fallback of the discrete step, ``refined`` those whose
+    crossing substep was redone with ``refine`` finer ones because a switching function across which
+    the field can jump changed sign inside the step (:mod:`obsnl.numeric`). Three SX blocks (sigma points, propagation mapped over the sigma points,
     update) joined in an MX Function, so that the fallbacks are only evaluated where needed.
     """
     if cross not in ("regression", "zero"):
@@ -246,8 +245,9 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     nx, nq, ny, nu_ = model.nx, len(coords.names), model.ny, model.nu
     L = nx + nq
     scale = np.asarray(state_scale, float)
-    sig, prop = _sigma_block(model, coords, dt, scale, method, substeps, refine)
-    fix = _fallback_block(model, coords, dt, scale, substeps, refine, 2 * L + 1)
+    fns = model.integrators(dt, substeps=substeps, scale=scale, refine=refine)
+    sig, prop = _sigma_block(model, coords, fns, scale, method)
+    fix = _fallback_block(model, coords, fns, scale, 2 * L + 1)
     upd = _update_block(model, coords, scale, cross)
 
     z, P, a, hyp = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("active", L), ca.MX.sym("hyp", 4)
