@@ -121,6 +121,9 @@ def test_bad_input_is_refused():
         UKF(f.model, dt=0.05)
     with pytest.raises(EstimatorError, match="Q must be"):
         _osc_filter().with_options(Q=np.ones(3))
+    for bad_steps in ({"substeps": 0}, {"refine": 2.5}, {"refine": 0}):
+        with pytest.raises(EstimatorError, match="whole number >= 1"):
+            _osc_filter().with_options(**bad_steps)
 
 
 def test_an_indefinite_covariance_is_repaired_and_counted():
