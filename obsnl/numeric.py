@@ -30,6 +30,9 @@ evaluated only for the sigma points that need them, and counted.
 
 from __future__ import annotations
 
+import getpass
+import os
+import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -39,7 +42,7 @@ import numpy as np
 
 from .errors import ModelError
 
-__all__ = ["NumericModel", "ParameterMap", "jit_options", "GAMMA_ROS2"]
+__all__ = ["NumericModel", "ParameterMap", "jit_options", "jit_directory", "GAMMA_ROS2"]
 
 GAMMA_ROS2 = 1.0 + 1.0 / np.sqrt(2.0)
 
@@ -49,9 +52,26 @@ def jit_options() -> dict[str, Any]:
 
     ``-O3 -march=native``: the code is compiled on the machine that runs it; on the UKF step of the
     seed model this is about 1.8x faster than ``-O1`` for the same compile time (no fast-math: the
-    NaN/inf guards must keep their meaning).
+    NaN/inf guards must keep their meaning). The compiler's scratch files (C source, object, shared
+    library) go to :func:`jit_directory`, never to the working directory.
     """
-    return {"jit": True, "compiler": "shell", "jit_options": {"flags": ["-O3", "-march=native"], "verbose": False}}
+    return {"jit": True, "compiler": "shell",
+            "jit_options": {"flags": ["-O3", "-march=native"], "verbose": False, "directory": jit_directory()}}
+
+
+def jit_directory() -> str:
+    """The directory of the JIT compiler's scratch files: one per user under the system temp folder.
+
+    casadi names every file uniquely and deletes it with its Function, so processes can share the
+    folder; a process that is killed leaves its files there, not in the user's working directory.
+    """
+    try:
+        user = str(os.getuid())
+    except AttributeError:  # no uid on Windows
+        user = getpass.getuser()
+    path = os.path.join(tempfile.gettempdir(), f"obsnl-jit-{user}")
+    os.makedirs(path, mode=0o700, exist_ok=True)
+    return path + os.sep
 
 
 @dataclass(frozen=True, eq=False)

@@ -3,6 +3,9 @@ their order and stay finite where the model is stiff; parameter coordinates roun
 
 from __future__ import annotations
 
+import shutil
+import tempfile
+
 import casadi as ca
 import numpy as np
 import pytest
@@ -157,3 +160,17 @@ def test_parameter_map_round_trip_and_dependencies():
         parameter_map(["k"], {"k": "exp(lk)"}, {"lk": "2*log(k)"}, check={"k": 3.0})
     lm = log_map(["a", "b"], signs={"b": -1})
     np.testing.assert_allclose(lm.to_theta(lm.to_phi([3.0, -5.0])), [3.0, -5.0])
+
+
+@pytest.mark.skipif(not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="needs a C compiler")
+def test_jit_scratch_files_stay_out_of_the_working_directory(tmp_path, monkeypatch):
+    # casadi's shell compiler writes its C source to the working directory unless told otherwise;
+    # a user's folder must not collect jit_tmp*.c files (a killed run would leave them behind)
+    from obsnl.numeric import jit_directory, jit_options
+
+    monkeypatch.chdir(tmp_path)
+    x = ca.SX.sym("x")
+    f = ca.Function("sq", [x], [x * x + 1.0], jit_options())
+    assert float(f(3.0)) == 10.0  # compiled code computes what the expression says
+    assert list(tmp_path.iterdir()) == []
+    assert jit_directory().startswith(tempfile.gettempdir())
