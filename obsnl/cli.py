@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -372,7 +373,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     tuning = Tuning(args.s0, args.q_theta, args.q_x, args.gate)
     trs, _ = run_passes(setup, filt, data, tuning, passes=args.passes)
     theta = trs[-1].theta[-1]
-    prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=args.s0)
+    misfit = output_misfit(setup, theta, data)
+    prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=args.s0, misfit=misfit)
     err = 100 * (theta - setup.theta_true) / abs(setup.theta_true)
     doc = {"model": model.name, "record": record.to_dict(), "method": args.method, "seed": args.seed,
            "noise_ratio": args.noise, "tuning": tuning.to_dict(), "passes": args.passes,
@@ -381,10 +383,15 @@ def _cmd_identify(args: argparse.Namespace) -> int:
            "seconds": float(sum(t.seconds for t in trs)), "repairs": int(sum(t.total_repairs for t in trs)),
            "interventions": {k: sum(t.counts()[k] for t in trs) for k in trs[0].counts()},
            "implicit_sigma_point_steps": int(sum(t.implicit.sum() for t in trs)),
-           "output_misfit": output_misfit(setup, theta, data), "practically_unidentifiable": list(prac.flagged),
+           "passes_run": len(trs), "output_misfit": misfit if math.isfinite(misfit) else None,
+           "practically_unidentifiable": None if prac.inconclusive else list(prac.flagged),
            "practical_identifiability": prac.to_dict()}
     lines = [f"{args.method.upper()} on {model.name}, {record.name}, seed {args.seed}, {args.passes} pass(es): "
              f"{doc['seconds']:.2f} s, {doc['repairs']} repairs"]
+    if len(trs) < args.passes:
+        lines.append(f"  stopped after pass {len(trs)}: its estimate cannot be simulated (the filter diverged)")
+    if prac.inconclusive:
+        lines.append(f"  practical identifiability not decided: {prac.inconclusive}")
     for q in num.parameters:
         d = doc["parameters"][q]
         note = f"  poorly informed: {prac.reasons[q]}" if q in prac.reasons else ""

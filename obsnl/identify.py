@@ -17,6 +17,10 @@ Protocol, the same for the UKF and the DUKF:
   parameter covariance ``inflate x diag(P_final)`` (the record is reused: later passes refine the
   estimate, their covariance is optimistic). After the first pass the parameters found practically
   unidentifiable (:func:`practical_identifiability`) are put back to their guess and held fixed.
+  A first pass that diverged (free-run output misfit above ``DIVERGED`` x the noise level) flags
+  nothing: its sensitivities are those of a wrong model, and holding parameters at their guess
+  would lock the later passes out of a recovery; they go on with every parameter free. An estimate
+  that cannot be simulated at all ends the run (no later pass can start from it).
 * Robust step (:mod:`obsnl.ukf_step`): every update that is not finite or clearly indefinite is
   rejected (the prediction is kept), standard deviations are capped at ``STATE_CAP`` typical magnitudes
   (states) and ``BOUND`` (log-parameters), and the innovation gate ``gate`` (a tuning choice, off or 3)
@@ -45,7 +49,7 @@ from .ukf import UKF, Trajectory
 
 __all__ = ["SEED_GUESS", "PAPER_ERRORS", "Tuning", "DEFAULT_GRID", "Setup", "Data", "Practical",
            "coordinates", "make_data", "make_filter", "run_passes", "output_misfit",
-           "practical_identifiability", "input_noise_crb", "tune"]
+           "practical_identifiability", "input_noise_crb", "tune", "DIVERGED"]
 
 #: Initial guesses of Table 2 of the seed paper (DESIGN.md).
 SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
@@ -64,6 +68,10 @@ CRB_LIMIT = 0.05 / 3
 BOUND = float(np.log(100.0))
 #: A filter that kept more than this fraction of its prior standard deviation learnt (almost) nothing.
 POSTERIOR_LIMIT = 0.5
+#: An estimate whose free-run output misfit exceeds this many times the stated output noise level
+#: (the misfit's floor is 1x) comes from a diverged filter: its output sensitivities say nothing about
+#: what the record can inform, so no parameter is flagged there. Uses the measured data only.
+DIVERGED = 10.0
 
 
 #: Covariance ceiling (standard deviation) of the scaled states: 100 typical magnitudes at the guess.
@@ -217,7 +225,8 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
                fix_flagged: bool = True) -> tuple[tuple[Trajectory, ...], tuple[str, ...]]:
     """Run ``filt`` ``passes`` times over the record (protocol in the module docstring).
 
-    Returns the trajectories and the parameters held at their guess after the first pass.
+    Returns the trajectories (fewer than ``passes`` when an estimate could not be simulated, which
+    ends the run) and the parameters held at their guess after the first pass.
     """
     Q, R = _noise(setup, filt, data, tuning)
     f = filt.with_options(Q=Q, R=R, gate=tuning.gate)
@@ -231,9 +240,14 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
         tr = f.run(est, data.y, data.u)
         out.append(tr)
         theta, Pth = tr.theta[-1].copy(), inflate * np.diag(tr.P[-1])[nx:]
-        if k == 0 and passes > 1 and fix_flagged:
-            prac = practical_identifiability(setup, theta, data, first=tr, prior_std=tuning.s0)
-            fixed = prac.flagged
+        if k == passes - 1:
+            break
+        misfit = output_misfit(setup, theta, data)
+        if not np.isfinite(misfit):  # no later pass can start from an estimate that cannot be simulated
+            break
+        if k == 0 and fix_flagged:
+            prac = practical_identifiability(setup, theta, data, first=tr, prior_std=tuning.s0, misfit=misfit)
+            fixed = prac.flagged  # empty when the pass diverged (inconclusive)
             f = f.with_options(fixed=fixed)
             for p in fixed:  # poorly informed: back to the prior guess, not estimated any more
                 theta[setup.model.parameters.index(p)] = setup.guess[p]
@@ -259,7 +273,9 @@ class Practical:
     information of the output sensitivities (central differences of the simulated output in
     ``log|theta|``) and the output noise; ``sensitivity``: RMS of ``d y / d log|theta_i|`` over the
     noise std; ``posterior``: the filter's final std over its prior std (first pass). A parameter is
-    flagged when ``crb > CRB_LIMIT`` or ``posterior > POSTERIOR_LIMIT``.
+    flagged when ``crb > CRB_LIMIT`` or ``posterior > POSTERIOR_LIMIT``. ``inconclusive`` (non-empty)
+    says why nothing could be decided (the estimate diverged or cannot be simulated); then nothing
+    is flagged and the numbers are NaN.
     """
 
     parameters: tuple[str, ...]
@@ -268,11 +284,14 @@ class Practical:
     posterior: tuple[float, ...]
     flagged: tuple[str, ...]
     reasons: Mapping[str, str]
+    inconclusive: str = ""
 
     def to_dict(self) -> dict[str, Any]:
-        return {"parameters": list(self.parameters), "crb_relative_std": list(self.crb),
-                "sensitivity_over_noise": list(self.sensitivity), "posterior_over_prior_std": list(self.posterior),
-                "flagged": list(self.flagged), "reasons": dict(self.reasons)}
+        nums = lambda v: [float(x) if np.isfinite(x) else None for x in v]  # noqa: E731 (JSON has no NaN)
+        return {"parameters": list(self.parameters), "crb_relative_std": nums(self.crb),
+                "sensitivity_over_noise": nums(self.sensitivity), "posterior_over_prior_std": nums(self.posterior),
+                "flagged": list(self.flagged), "reasons": dict(self.reasons),
+                "inconclusive": self.inconclusive or None}
 
 
 def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: float, *, step: float = 1e-2) -> np.ndarray:
@@ -326,16 +345,44 @@ def input_noise_crb(setup: Setup, theta: np.ndarray | None = None, *, u: np.ndar
 
 
 def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, first: Trajectory,
-                              prior_std: float) -> Practical:
-    """Flag the parameters this record cannot pin down (see :class:`Practical`)."""
+                              prior_std: float, misfit: float | None = None) -> Practical:
+    """Flag the parameters this record cannot pin down (see :class:`Practical`).
+
+    Parameters
+    ----------
+    setup, data
+        The experiment and the measured record.
+    theta
+        The estimate at which the output sensitivities are taken.
+    first
+        The first pass of the filter (its final covariance against ``prior_std``).
+    prior_std
+        The filter's prior std of the log-parameters.
+    misfit
+        The free-run output misfit of ``theta`` if already computed (else computed here). Above
+        ``DIVERGED`` x the noise level, or when ``theta`` cannot be simulated, the result is
+        inconclusive: sensitivities of a diverged estimate say nothing about these data.
+    """
     m = setup.model
-    try:
-        S = fisher(setup, theta, data.u, setup.noise * rms(data.y))
-        F = S.T @ S
-        crb = np.sqrt(np.clip(np.diag(np.linalg.pinv(F, rcond=1e-12)), 0, None))
-        sens = np.sqrt(np.mean(S ** 2, axis=0))
-    except EstimatorError:
-        crb, sens = np.full(m.np, np.inf), np.full(m.np, np.nan)
+    misfit = output_misfit(setup, theta, data) if misfit is None else float(misfit)
+    why_not = ""
+    if not np.isfinite(misfit):
+        why_not = "the estimate cannot be simulated (the filter diverged)"
+    elif misfit > DIVERGED * setup.noise:
+        why_not = (f"the estimate's output misfit {misfit:.3g} is above {DIVERGED:g}x the noise level "
+                   f"{setup.noise:g} (the filter diverged)")
+    if not why_not:
+        try:
+            S = fisher(setup, theta, data.u, setup.noise * rms(data.y))
+        except EstimatorError:
+            why_not = "a perturbed estimate cannot be simulated (no sensitivities)"
+    if why_not:
+        nan = (float("nan"),) * m.np
+        return Practical(parameters=m.parameters, crb=nan, sensitivity=nan, posterior=nan, flagged=(), reasons={},
+                         inconclusive=why_not)
+    F = S.T @ S
+    crb = np.sqrt(np.clip(np.diag(np.linalg.pinv(F, rcond=1e-12)), 0, None))
+    sens = np.sqrt(np.mean(S ** 2, axis=0))
     nx = m.nx
     post = np.sqrt(np.diag(first.P[-1])[nx:]) / prior_std
     # posterior ratios are per filter coordinate; with log coordinates they are per parameter

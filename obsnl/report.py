@@ -581,7 +581,9 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
             "parameters": params, "seeds": [r["seed"] for r in runs], "mean_estimate": est.mean(axis=0),
             "mean_abs_error": err.mean(axis=0), "worst_abs_error": err.max(axis=0),
             "worst_seed": [runs[i]["seed"] for i in err.argmax(axis=0)],
-            "flag_counts": {p: sum(p in r["practically_unidentifiable"] for r in runs) for p in params},
+            "flag_counts": {p: sum(p in (r["practically_unidentifiable"] or ()) for r in runs) for p in params},
+            "undecided": [(r["seed"], (r.get("practical_identifiability") or {}).get("inconclusive") or r.get("error")
+                           or "no estimate") for r in runs if r["practically_unidentifiable"] is None],
             "seconds": float(np.mean(np.array([r["seconds"] for r in runs], float))),
             "seconds_per_pass": float(np.mean(np.array([r["seconds"] for r in runs], float) / key[1])),
             "repairs": int(sum(r["repairs"] for r in every)), "interventions": dict(kinds),
@@ -675,7 +677,8 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
     lines += ["## Practically unidentifiable (flag counts over seeds)", ""]
     for (m, k), s in sorted(summ.items()):
         flags = ", ".join(f"{_T2_MD.get(p, p)} {c}/{len(s['seeds'])}" for p, c in s["flag_counts"].items() if c)
-        lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {flags or 'none'}")
+        undecided = "".join(f"; not decided on seed {seed}: {why}" for seed, why in s["undecided"])
+        lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {flags or 'none'}{undecided}")
     stopped = [r for r in doc["runs"] if r.get("error")]
     if stopped:
         lines += ["", "## Runs that stopped (reported, not dropped)", ""]

@@ -19,8 +19,8 @@ import numpy as np
 
 from .data import Record
 from .errors import ObsnlError
-from .identify import (DEFAULT_GRID, PAPER_ERRORS, SEED_GUESS, Practical, Setup, Tuning, coordinates, make_data,
-                       make_filter, output_misfit, practical_identifiability, run_passes, tune)
+from .identify import (DEFAULT_GRID, DIVERGED, PAPER_ERRORS, SEED_GUESS, Practical, Setup, Tuning, coordinates,
+                       make_data, make_filter, output_misfit, practical_identifiability, run_passes, tune)
 from .ukf import Trajectory
 from .ukf_step import INTERVENTIONS
 
@@ -29,10 +29,10 @@ __all__ = ["RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_b
 
 #: Noise seeds of the tuning (never reported): 1000, 1001, ...; five by default.
 TUNING_SEEDS = 1000
-#: A run whose free-run output misfit exceeds this many times the stated output noise level has
-#: diverged (the noise floor of the misfit is 1x); it is redone with the next configuration of the
-#: tuning ranking, at most ``FALLBACKS`` times. Uses the measured data only, never the truth.
-DIVERGED = 10.0
+#: A reported run whose free-run output misfit exceeds ``DIVERGED`` times the stated output noise
+#: level (:data:`obsnl.identify.DIVERGED`; the noise floor of the misfit is 1x) has diverged; it is
+#: redone with the next configuration of the tuning ranking, at most ``FALLBACKS`` times. Uses the
+#: measured data only, never the truth.
 FALLBACKS = 2
 
 
@@ -53,6 +53,7 @@ class RunResult:
     error: str = ""
     interventions: Mapping[str, int] = field(default_factory=dict)
     redone: tuple[Mapping[str, Any], ...] = ()
+    passes_run: int | None = None  # fewer than ``passes`` when an estimate could not be simulated
 
     @property
     def failed(self) -> bool:
@@ -71,7 +72,10 @@ class RunResult:
                 "seconds": _num(self.seconds), "repairs": self.repairs, "interventions": dict(self.interventions),
                 "implicit_sigma_point_steps": self.implicit,
                 "output_misfit": _num(self.misfit), "error": self.error,
-                "practically_unidentifiable": list(self.practical.flagged) if self.practical else [],
+                "passes_run": self.passes if self.passes_run is None else self.passes_run,
+                # None: not decided (the run stopped, or its estimate diverged: see practical_identifiability)
+                "practically_unidentifiable": (list(self.practical.flagged)
+                                               if self.practical and not self.practical.inconclusive else None),
                 "practical_identifiability": self.practical.to_dict() if self.practical else None,
                 "redone": [dict(a) for a in self.redone]}
 
@@ -173,12 +177,14 @@ def _reported_run(setup: Setup, f: Any, data: Any, name: str, k: int, seed: int,
                          seconds=float("nan"), repairs=0, implicit=0, misfit=float("nan"), practical=None,
                          error=str(exc)), None
     theta = trs[-1].theta[-1]
+    misfit = output_misfit(setup, theta, data)
     return RunResult(
         method=name, passes=k, seed=seed, tuning=tuning, theta=tuple(float(v) for v in theta),
         seconds=float(sum(t.seconds for t in trs)), repairs=sum(t.total_repairs for t in trs),
-        implicit=int(sum(t.implicit.sum() for t in trs)), misfit=output_misfit(setup, theta, data),
-        interventions=_interventions(trs),
-        practical=practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0)), trs
+        implicit=int(sum(t.implicit.sum() for t in trs)), misfit=misfit, interventions=_interventions(trs),
+        passes_run=len(trs),
+        practical=practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0,
+                                            misfit=misfit)), trs
 
 
 def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int = 5, passes: int = 3,

@@ -11,7 +11,7 @@ import pytest
 
 from obsnl.branch_table import BranchTable
 from obsnl.cli import main
-from obsnl.identify import (SEED_GUESS, Tuning, coordinates, make_data, make_filter, output_misfit,
+from obsnl.identify import (DIVERGED, SEED_GUESS, Tuning, coordinates, make_data, make_filter, output_misfit,
                             practical_identifiability, run_passes)
 from obsnl.report import table2_markdown
 from obsnl.reproduction import reproduce, seed_setup, write_reproduction
@@ -84,6 +84,11 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
     unsim = json.loads(json.dumps(doc))  # ran to the end, but its estimate cannot be simulated
     unsim["runs"][0]["output_misfit"] = None
     assert "| - (seed 0: the estimate cannot be simulated) |" in table2_markdown(unsim)
+    assert all(r["passes_run"] == r["passes"] for r in doc["runs"])
+    undecided = json.loads(json.dumps(doc))  # a diverged estimate: flags not decided, and said so
+    undecided["runs"][0].update(practically_unidentifiable=None)
+    undecided["runs"][0]["practical_identifiability"]["inconclusive"] = "the filter diverged"
+    assert "not decided on seed 0: the filter diverged" in table2_markdown(undecided)
     files = write_reproduction(rep, tmp_path)
     names = {f.name for f in files}
     assert {"table2.json", "table2.md", "table2.tex", "fig2_1pass.png", "fig3_2passes.png"} <= names
@@ -139,3 +144,38 @@ def test_identify_command(tmp_path, capsys):
     bad.write_text("time_s,accel_m_s2\n0,1\n0.01,nan\n0.02,1\n")
     assert main(["identify", model, "--record", str(bad)]) == 2
     assert "NaN/inf" in capsys.readouterr().err
+
+
+def test_practical_identifiability_is_not_decided_at_a_diverged_estimate(setup):
+    # sensitivities taken at a wrong model say nothing about what the record informs: at an estimate
+    # whose free-run output is far from the measured one (stiffness 3x off, far above the 10x-noise
+    # line) nothing may be flagged, and the reason must be given; at the truth c' is flagged (DESIGN.md)
+    f = make_filter(setup, "ukf")
+    data = make_data(setup, 0)
+    (tr,), _ = run_passes(setup, f, data, TUNING, passes=1)
+    at_truth = practical_identifiability(setup, setup.theta_true, data, first=tr, prior_std=TUNING.s0)
+    assert not at_truth.inconclusive and "c_p" in at_truth.flagged
+    wrong = setup.theta_true.copy()
+    wrong[list(setup.model.parameters).index("k_m")] *= 3.0
+    assert output_misfit(setup, wrong, data) > DIVERGED * setup.noise
+    prac = practical_identifiability(setup, wrong, data, first=tr, prior_std=TUNING.s0)
+    assert prac.flagged == () and "diverged" in prac.inconclusive
+    assert prac.to_dict()["inconclusive"] == prac.inconclusive and json.dumps(prac.to_dict())  # no NaN in JSON
+    unsim = practical_identifiability(setup, setup.theta_true, data, first=tr, prior_std=TUNING.s0,
+                                      misfit=float("inf"))
+    assert unsim.flagged == () and "cannot be simulated" in unsim.inconclusive
+
+
+def test_a_diverged_first_pass_holds_nothing_and_an_unsimulable_one_ends_the_run(setup, monkeypatch):
+    import obsnl.identify as ident
+
+    f = make_filter(setup, "ukf")
+    data = make_data(setup, 0)
+    trs, fixed = run_passes(setup, f, data, TUNING, passes=2)  # converged: c' held after pass 1
+    assert len(trs) == 2 and "c_p" in fixed
+    monkeypatch.setattr(ident, "output_misfit", lambda *a, **k: 1.0)  # pass 1 "diverged" (1000x noise)
+    trs, fixed = run_passes(setup, f, data, TUNING, passes=2)
+    assert len(trs) == 2 and fixed == ()  # nothing held at its guess on a diverged pass
+    monkeypatch.setattr(ident, "output_misfit", lambda *a, **k: float("inf"))  # cannot be simulated
+    trs, fixed = run_passes(setup, f, data, TUNING, passes=3)
+    assert len(trs) == 1 and fixed == ()
