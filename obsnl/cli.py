@@ -323,6 +323,9 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
     p.add_argument("--samples", type=int, default=None, help="use only the first samples of the record")
     p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
+    p.add_argument("--replicates", type=int, default=0,
+                   help="Monte-Carlo replicates of the practical-identifiability check (a parametric bootstrap at "
+                        "the estimate: the whole protocol again on fresh noise; 0: off, the default; 32 in reproduce)")
     p.add_argument("--out", default=None, help="output folder for identify.json (default: print only)")
     p.add_argument("--force", action="store_true", help="overwrite an existing identify.json")
     p.set_defaults(func=_cmd_identify)
@@ -332,13 +335,15 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     from .branch_table import load_branch_table
     from .codegen import to_casadi
     from .data import read_record
-    from .identify import SEED_GUESS, Setup, Tuning, coordinates, make_data, make_filter, output_misfit, \
-        practical_identifiability, run_passes
+    from .identify import SEED_GUESS, Setup, Tuning, coordinates, make_data, make_filter, monte_carlo, \
+        output_misfit, practical_identifiability, run_passes
 
     if args.method == "dukf" and not args.table:
         raise _Exit(2, "--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL`)")
     if args.passes < 1 or args.s0 <= 0 or args.noise <= 0 or not args.gate > 0:
         raise _Exit(2, "--passes must be >= 1, --s0, --noise and --gate > 0")
+    if args.replicates < 0 or 0 < args.replicates < 3:
+        raise _Exit(2, "--replicates must be 0 (off) or at least 3")
     model = _load(args.model)
     table = load_branch_table(args.table) if args.table else None
     if table is not None:  # refuse a table made for another model before compiling anything
@@ -375,6 +380,9 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     theta = trs[-1].theta[-1]
     misfit = output_misfit(setup, theta, data)
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=args.s0, misfit=misfit)
+    if args.replicates and not prac.inconclusive:
+        prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=args.passes,
+                                            replicates=args.replicates, seed=args.seed))
     err = 100 * (theta - setup.theta_true) / abs(setup.theta_true)
     doc = {"model": model.name, "record": record.to_dict(), "method": args.method, "seed": args.seed,
            "noise_ratio": args.noise, "tuning": tuning.to_dict(), "passes": args.passes,
@@ -392,6 +400,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         lines.append(f"  stopped after pass {len(trs)}: its estimate cannot be simulated (the filter diverged)")
     if prac.inconclusive:
         lines.append(f"  practical identifiability not decided: {prac.inconclusive}")
+    lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}" for q, why in prac.undecided.items()]
     for q in num.parameters:
         d = doc["parameters"][q]
         note = f"  poorly informed: {prac.reasons[q]}" if q in prac.reasons else ""
@@ -418,6 +427,9 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--passes", type=int, default=3, help="passes of the refined protocol (default: 3)")
     p.add_argument("--samples", type=int, default=None, help="use only the first samples (quick runs)")
     p.add_argument("--no-jit", action="store_true", help="do not compile the filters to C (slower runs)")
+    p.add_argument("--replicates", type=int, default=None,
+                   help="Monte-Carlo replicates of the practical-identifiability check per reported run "
+                        "(default: 32; 0: off)")
     p.add_argument("--out", default=None, help="output folder (default: reports/identification)")
     p.add_argument("--force", action="store_true", help="overwrite files in a non-default --out")
     p.set_defaults(func=_cmd_reproduce)
@@ -429,6 +441,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     if args.seeds < 1 or args.tuning_seeds < 1 or args.passes < 1:
         raise _Exit(2, "--seeds, --tuning-seeds and --passes must be at least 1")
+    if args.replicates is not None and (args.replicates < 0 or 0 < args.replicates < 3):
+        raise _Exit(2, "--replicates must be 0 (off) or at least 3")
     record = read_record(args.record) if args.record else None
     default = Path("reports/identification") / (record.name if record is not None else "")
     out = Path(args.out) if args.out else default
@@ -442,7 +456,8 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         bar = None
     try:
         rep = reproduce(record=record, seeds=args.seeds, tuning_seeds=args.tuning_seeds, passes=args.passes,
-                        jit=not args.no_jit, samples=args.samples, progress=bar)
+                        jit=not args.no_jit, samples=args.samples, progress=bar,
+                        **({} if args.replicates is None else {"replicates": args.replicates}))
     finally:
         if bar is not None:
             bar.close()
