@@ -584,6 +584,7 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
             "flag_counts": {p: sum(p in (r["practically_unidentifiable"] or ()) for r in runs) for p in params},
             "flag_counts_linearised": {p: sum(p in _linearised_flags(r) for r in runs) for p in params},
             "spread": _mean_spread(runs, params),
+            "yield": _yield_errors(runs, doc["experiment"]["truth"]),
             "undecided": [(r["seed"], (r.get("practical_identifiability") or {}).get("inconclusive") or r.get("error")
                            or "no estimate") for r in runs if r["practically_unidentifiable"] is None],
             "seconds": float(np.mean(np.array([r["seconds"] for r in runs], float))),
@@ -595,6 +596,21 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
             "redone": [(r["seed"], r["redone"], r["tuning"]) for r in every if r.get("redone")],
             "failed": [(r["seed"], r["error"]) for r in failed],
         }
+    return out
+
+
+def _yield_errors(runs: Sequence[Mapping[str, Any]], truth: Mapping[str, float]) -> dict[str, np.ndarray] | None:
+    """|error| in % of the yield displacements ``|Delta_i|**(-1/(2N))`` per run (the direction the seed
+    model's data inform along the Delta-N ridge, DESIGN.md); None for a model without Delta1, Delta2, N."""
+    if not {"Delta1", "Delta2", "N"} <= set(truth):
+        return None
+    out = {}
+    for d in ("Delta1", "Delta2"):
+        true = abs(truth[d]) ** (-1 / (2 * truth["N"]))
+        est = np.array([abs(r["parameters"][d]["estimate"]) ** (-1 / (2 * r["parameters"]["N"]["estimate"]))
+                        if r["parameters"][d]["estimate"] is not None and r["parameters"]["N"]["estimate"] else np.nan
+                        for r in runs], float)
+        out[d] = np.abs(100 * (est - true) / true)
     return out
 
 
@@ -673,6 +689,16 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
             if passes == 1:
                 cells += [f"{paper['ukf'][p]:.2f}", f"{paper['dukf'][p]:.2f}"]
             lines.append("| " + " | ".join(cells) + " |")
+        if all(summ[(m, passes)]["yield"] for m in methods):  # the combinations the ridge leaves informed
+            for d in ("Delta1", "Delta2"):
+                true = abs(exp["truth"][d]) ** (-1 / (2 * exp["truth"]["N"]))
+                cells = [f"abs({_T2_MD[d]})^(-1/2N) (yield displ.)", f"{true:.4g}", "-"]
+                for m in methods:
+                    e = summ[(m, passes)]["yield"][d]
+                    cells += ["-", f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"]
+                if passes == 1:
+                    cells += ["-", "-"]
+                lines.append("| " + " | ".join(cells) + " |")
         lines += ["", "| filter | tuning (s0, q_theta, q_x, gate) | s per run | s per pass | repairs | interventions "
                       "(all seeds) | implicit sigma-point steps | output misfit | 5 % goal (worst seed, unflagged) "
                       "| 5 % goal, linearised flags only |",

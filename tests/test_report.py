@@ -7,6 +7,7 @@ so these tests check the formatting independently of the engines.
 from __future__ import annotations
 
 import json
+import math
 import re
 import shutil
 import subprocess
@@ -135,3 +136,29 @@ def test_smooth_model_single_column():
     md = report.to_markdown(r)
     assert "| Condition | `true` |" in md and "| Unidentifiable | none |" in md
     latex_structure_ok(report.to_latex(r), 1)
+
+
+def test_table2_shows_the_yield_displacements_the_ridge_leaves_informed():
+    # DESIGN.md: Delta_i = (beta +- gamma) / r_y^(2N), so a move along the Delta-N ridge that keeps
+    # |Delta_i|^(-1/(2N)) fixed changes Delta_i but not the yield displacement: the row must read 0
+    # for Delta1 while Delta1 itself is 10 % off; c' etc. untouched
+    from pathlib import Path
+
+    doc = json.loads((Path(__file__).parents[1] / "reports" / "identification" / "table2.json").read_text())
+    truth = doc["experiment"]["truth"]
+    runs = [r for r in doc["runs"] if r["method"] == "ukf" and r["passes"] == 1]
+    for r in runs:
+        p = r["parameters"]
+        d1 = truth["Delta1"] * 1.1
+        n = truth["N"] * math.log(abs(d1)) / math.log(abs(truth["Delta1"]))
+        p["Delta1"].update(estimate=d1, error_percent=10.0)
+        p["N"].update(estimate=n, error_percent=100 * (n / truth["N"] - 1))
+        p["Delta2"].update(estimate=truth["Delta2"], error_percent=0.0)
+    doc["runs"] = runs
+    rows = [ln for ln in report.table2_markdown(doc).splitlines() if "yield displ." in ln]
+    assert len(rows) == 2
+    cells = [c.strip() for c in rows[0].split("|")]
+    assert cells[1].startswith("abs(Δ1)") and float(cells[5]) == 0.0 and float(cells[6]) == 0.0
+    true2 = abs(truth["Delta2"]) ** (-1 / (2 * truth["N"]))
+    est2 = abs(truth["Delta2"]) ** (-1 / (2 * runs[0]["parameters"]["N"]["estimate"]))
+    assert float([c.strip() for c in rows[1].split("|")][5]) == pytest.approx(100 * abs(est2 / true2 - 1), abs=0.006)
