@@ -371,7 +371,7 @@ class Spread:
 
 
 def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *, passes: int,
-                replicates: int = 16, seed: int = 0, confidence: float = 0.99,
+                replicates: int = 32, seed: int = 0, confidence: float = 0.99,
                 progress: Callable[[], None] | None = None) -> Spread:
     """Spread of the whole identification protocol at the estimate ``theta`` (no true value used).
 
@@ -392,8 +392,10 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
     data
         The measured record (its input is the replicates' input; the noise levels come from it).
     replicates
-        Number of replicates (16: a parameter whose spread is twice the limit is flagged with
-        probability above 0.99, one at half the limit is never flagged).
+        Number of replicates. With 32 and ``confidence=0.99`` (chi-square, Gaussian estimates): a
+        parameter whose true spread is at the limit is flagged with probability at most 0.005, one at
+        twice the limit is flagged with probability 0.997, one at half the limit is cleared (neither
+        flagged nor undecided) with probability 0.998; in between it may be named undecided.
     seed
         Noise seed of the replicates.
     confidence
