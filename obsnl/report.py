@@ -622,9 +622,13 @@ def _linearised_flags(run: Mapping[str, Any]) -> Sequence[str]:
 
 def _mean_spread(runs: Sequence[Mapping[str, Any]], params: Sequence[str]) -> list[float] | None:
     """Mean Monte-Carlo relative std per parameter over the runs that have one (None: no run has)."""
-    rows = [((r.get("practical_identifiability") or {}).get("monte_carlo") or {}).get("relative_std") for r in runs]
-    rows = [[np.nan if v is None else v for v in row] for row in rows if row]
-    return list(np.nanmean(np.array(rows, float), axis=0)) if rows else None
+    mcs = [(r.get("practical_identifiability") or {}).get("monte_carlo") or {} for r in runs]
+    rows = [[np.nan if v is None or p in mc.get("held", ()) else v for p, v in zip(params, mc["relative_std"])]
+            for mc in mcs if mc.get("relative_std")]  # held at the guess: no spread to show
+    if not rows:
+        return None
+    a = np.array(rows, float)
+    return [float(np.nanmean(c)) if np.isfinite(c).any() else float("nan") for c in a.T]
 
 
 def _t2_flagged(s: Mapping[str, Any], p: str, key: str = "flag_counts") -> bool:
@@ -724,8 +728,8 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
         flags = ", ".join(f"{_T2_MD.get(p, p)} {c}/{len(s['seeds'])}" for p, c in s["flag_counts"].items() if c)
         undecided = "".join(f"; not decided on seed {seed}: {why}" for seed, why in s["undecided"])
         spread = ("; Monte-Carlo std (mean over seeds) " + ", ".join(
-            f"{_T2_MD.get(p, p)} {100 * v:.2g} %" for p, v in zip(s["parameters"], s["spread"]) if np.isfinite(v))
-                  if s["spread"] else "")
+            f"{_T2_MD.get(p, p)} " + (f"{100 * v:.2g} %" if np.isfinite(v) else "held")
+            for p, v in zip(s["parameters"], s["spread"])) if s["spread"] else "")
         lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {flags or 'none'}{undecided}{spread}")
     stopped = [r for r in doc["runs"] if r.get("error")]
     if stopped:
