@@ -136,6 +136,13 @@ def test_identify_command(tmp_path, capsys):
     assert doc["method"] == "dukf" and "c_p" in doc["parameters"]
     assert main(args) == 2  # never overwrite without --force
     assert "--force" in capsys.readouterr().err
+    mc_out = tmp_path / "mc"  # the Monte-Carlo check from the command line: 3 replicates, all accounted for
+    assert main(["identify", model, "--record", str(CSV), "--samples", "500", "--passes", "1", "--replicates", "3",
+                 "--out", str(mc_out)]) == 0
+    prac = json.loads((mc_out / "identify.json").read_text())["practical_identifiability"]
+    assert prac["monte_carlo"]["replicates"] + prac["monte_carlo"]["diverged"] == 3
+    assert main(["identify", model, "--record", str(CSV), "--replicates", "2"]) == 2
+    assert "--replicates" in capsys.readouterr().err
     assert main(["identify", model, "--record", str(CSV), "--method", "dukf"]) == 2
     other = tmp_path / "bw.json"
     d = paper_table1()
