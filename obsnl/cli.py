@@ -12,6 +12,7 @@ import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from .errors import ObsnlError
 
@@ -381,8 +382,14 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     misfit = output_misfit(setup, theta, data)
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=args.s0, misfit=misfit)
     if args.replicates and not prac.inconclusive:
-        prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=args.passes,
-                                            replicates=args.replicates, seed=args.seed))
+        bar = _progress("monte-carlo", args.replicates, "replicate")
+        try:
+            prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=args.passes,
+                                                replicates=args.replicates, seed=args.seed,
+                                                progress=(lambda: bar.update(1)) if bar is not None else None))
+        finally:
+            if bar is not None:
+                bar.close()
     err = 100 * (theta - setup.theta_true) / abs(setup.theta_true)
     doc = {"model": model.name, "record": record.to_dict(), "method": args.method, "seed": args.seed,
            "noise_ratio": args.noise, "tuning": tuning.to_dict(), "passes": args.passes,
@@ -409,6 +416,15 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     if args.out:
         write_output(json.dumps(doc, indent=1), str(Path(args.out) / "identify.json"), force=args.force)
     return 0
+
+
+def _progress(desc: str, total: int | None, unit: str) -> Any:
+    """A progress bar on stderr (tqdm), or None when tqdm is missing."""
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        return None
+    return tqdm(desc=desc, total=total, unit=unit, file=sys.stderr)
 
 
 def _add_reproduce(sub: argparse._SubParsersAction) -> None:
@@ -448,12 +464,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else default
     if args.out and not args.force and (out / "table2.json").exists():
         raise _Exit(2, f"{out / 'table2.json'} exists; pass --force to overwrite it")
-    try:
-        from tqdm import tqdm
-
-        bar = tqdm(desc="reproduce", unit="run", file=sys.stderr)
-    except ImportError:  # pragma: no cover
-        bar = None
+    bar = _progress("reproduce", None, "run")
     try:
         rep = reproduce(record=record, seeds=args.seeds, tuning_seeds=args.tuning_seeds, passes=args.passes,
                         jit=not args.no_jit, samples=args.samples, progress=bar,
