@@ -208,10 +208,11 @@ def _gain_setup(T=400, noise=0.01):
 
 
 def test_monte_carlo_spread_matches_least_squares_theory():
-    # y_k = g (u_k - w_k) + v_k with sigma_u = eps rms(u), sigma_y = eps rms(y) = eps g rms(u): the least-
-    # squares estimate of g has relative std eps sqrt(2/T) (Ljung 1999, ch. 7, linear regression with the
-    # input noise in the residual). The 99 % interval of the Monte-Carlo std must contain it (seeded;
-    # probability 1 % that it would not), and the decision against a limit must follow the interval.
+    # y_k = g (u_k - w_k) + v_k with sigma_u = eps rms(u), sigma_y = eps rms(y) = eps g rms(u): a linear
+    # regression whose residual variance is sigma^2 = sigma_y^2 + g^2 sigma_u^2, so the least-squares
+    # estimate of g has variance sigma^2 / sum u^2, i.e. relative std eps sqrt(2/T). The 99 % interval of
+    # the Monte-Carlo std must contain it (seeded; probability 1 % that it would not), and the decision
+    # against a limit must follow the interval.
     from obsnl.identify import monte_carlo
 
     setup = _gain_setup()
