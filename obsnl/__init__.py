@@ -44,6 +44,9 @@ _LAZY: dict[str, str] = {
     "UKF": "ukf", "Estimate": "ukf", "Trajectory": "ukf", "DUKF": "dukf",
     "Record": "data", "read_record": "data", "add_noise": "data", "simulate": "simulate",
     "reproduce": "reproduction", "Reproduction": "reproduction",
+    "Setup": "identify", "Tuning": "identify", "make_data": "identify", "make_filter": "identify",
+    "run_passes": "identify", "output_misfit": "identify", "practical_identifiability": "identify",
+    "monte_carlo": "identify",
     # symmetries, identifiable combinations, reparametrizations
     "symmetries": "symmetry", "Symmetry": "symmetry", "Symmetries": "symmetry",
     "reparametrize": "reparam", "Reparametrization": "reparam",
