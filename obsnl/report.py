@@ -763,9 +763,20 @@ def table2_latex(doc: Mapping[str, Any]) -> str:
             mark = r"$^\dagger$" if _t2_flagged(s, p) else ""
             cells += [f"{s['mean_abs_error'][i]:.2f}{mark}", f"{s['worst_abs_error'][i]:.2f}{mark}"]
         rows.append(" & ".join(cells) + r" \\")
+    if all(summ[key]["yield"] for key in keys):  # the combinations the Delta-N ridge leaves informed
+        rows.append(r"\midrule")
+        for d in ("Delta1", "Delta2"):
+            true = abs(exp["truth"][d]) ** (-1 / (2 * exp["truth"]["N"]))
+            cells = [rf"$|{_T2_TEX[d].strip('$')}|^{{-1/2N}}$", f"{true:.3g}", "--"]
+            for key in keys:
+                e = summ[key]["yield"][d]
+                cells += [f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"]
+            rows.append(" & ".join(cells) + r" \\")
     return "\n".join([
         r"\begin{table}[ht]", r"\centering",
         rf"\caption{{Table 2 analog ({_tex_escape(exp['record']['name'])}, {100 * exp['noise_ratio']:g}\,\% noise, "
-        rf"{len(summ[keys[0]]['seeds'])} seeds). $^\dagger$ practically unidentifiable on this record.}}",
+        rf"{len(summ[keys[0]]['seeds'])} seeds). $^\dagger$ practically unidentifiable on this record"
+        + (r"; last rows: the yield displacements $|\Delta_i|^{-1/2N}$, which the record pins along the "
+           r"$\Delta$--$N$ ridge" if all(summ[key]["yield"] for key in keys) else "") + ".}",
         rf"\begin{{tabular}}{{{cols}}}", r"\toprule", head, sub, r"\midrule", *rows, r"\bottomrule",
         r"\end{tabular}", r"\end{table}"]) + "\n"

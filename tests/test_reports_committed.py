@@ -116,3 +116,21 @@ def test_every_catalogue_branch_table_validates(path):
     t.check_model(states=[s.name for s in m.states], parameters=[s.name for s in m.parameters],
                   inputs=[s.name for s in m.inputs], outputs=list(m.output_names),
                   switching_count=len(t.switching), fingerprint=m.fingerprint)
+
+
+@pytest.mark.parametrize("folder", ["", "northridge1994_LOS000_femap695_ngawest1_accel"])
+def test_committed_table2_latex_compiles(folder, tmp_path):
+    # the identification table (with its yield-displacement rows) as a user would \input it
+    here = ROOT / "reports" / "identification" / folder
+    tex = (here / "table2.tex").read_text()
+    assert tex.count(r"\begin{tabular}") == 1 and r"|\Delta_1|^{-1/2N}" in tex
+    doc = json.loads((here / "table2.json").read_text())  # the committed renderings are today's
+    assert tex == report.table2_latex(doc) and (here / "table2.md").read_text() == report.table2_markdown(doc)
+    if shutil.which("pdflatex") is None:
+        pytest.skip("no LaTeX engine installed; the structural check ran")
+    (tmp_path / "t.tex").write_text(tex)
+    (tmp_path / "doc.tex").write_text("\\documentclass{article}\n\\usepackage{booktabs}\n\\begin{document}\n"
+                                      "\\input{t.tex}\n\\end{document}\n")
+    proc = subprocess.run(["pdflatex", "-interaction=nonstopmode", "-halt-on-error", "doc.tex"], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout[-2000:]
