@@ -242,6 +242,12 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
     out: list[Trajectory] = []
     fixed: tuple[str, ...] = ()
     for k in range(passes):
+        bad = [p for p, v in zip(filt.names[nx:], Pth) if not (np.isfinite(v) and v > 0)]
+        if bad and k == 0:
+            raise EstimatorError(f"the prior std s0 must be a positive number, got {tuning.s0!r}")
+        if bad:  # the previous pass ended with a collapsed parameter covariance: no prior for this one
+            raise EstimatorError(f"pass {k} ended with a non-positive or non-finite variance of {bad}: the filter's "
+                                 f"covariance collapsed; lower the random walk q_theta or run fewer passes")
         est = f.initial(x0=setup.x0, theta0=theta, P0=np.concatenate([Px, Pth]))
         tr = f.run(est, data.y, data.u)
         out.append(tr)
@@ -540,7 +546,7 @@ def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, fi
     crb = np.sqrt(np.clip(np.diag(np.linalg.pinv(F, rcond=1e-12)), 0, None))
     sens = np.sqrt(np.mean(S ** 2, axis=0))
     nx = m.nx
-    post = np.sqrt(np.diag(first.P[-1])[nx:]) / prior_std
+    post = np.sqrt(np.clip(np.diag(first.P[-1])[nx:], 0, None)) / prior_std
     # posterior ratios are per filter coordinate; with log coordinates they are per parameter
     post = post if len(post) == m.np else np.full(m.np, np.nan)
     reasons = {}

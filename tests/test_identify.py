@@ -231,3 +231,28 @@ def test_monte_carlo_spread_matches_least_squares_theory():
     assert prac.with_spread(sp, limit=2 * sp.upper[0]).flagged == () and not prac.with_spread(
         sp, limit=2 * sp.upper[0]).undecided
     assert json.dumps(mid.to_dict())  # JSON-ready
+
+
+def test_a_collapsed_covariance_between_passes_is_a_clear_error(setup, monkeypatch):
+    # a pass that ends with a non-positive parameter variance leaves no prior for the next one: the
+    # run must stop with an error naming the coordinate and the fix, not deep inside the filter
+    import dataclasses
+
+    from obsnl.errors import EstimatorError
+    from obsnl.ukf import UKF
+
+    real = UKF.run
+
+    def collapsed(self, est0, ys, us, **kw):
+        tr = real(self, est0, ys, us, **kw)
+        P = tr.P.copy()
+        P[-1, -1, -1] = -1e-30  # log_N
+        return dataclasses.replace(tr, P=P)
+
+    f = make_filter(setup, "ukf")
+    data = make_data(setup, 0)
+    monkeypatch.setattr(UKF, "run", collapsed)
+    with pytest.raises(EstimatorError, match=r"pass 1 ended with a non-positive .*log_N.*q_theta"):
+        run_passes(setup, f, data, TUNING, passes=2)
+    with pytest.raises(EstimatorError, match="s0 must be a positive number"):
+        run_passes(setup, f, data, Tuning(0.0, 0.0, 1.0), passes=1)
