@@ -1,11 +1,11 @@
 """Simulate a compiled model over a record: the "truth" of an identification experiment.
 
 The input is interpolated linearly between samples; the whole record is one casadi ``mapaccum``
-call. The default discretisation (RK4 with 100 substeps per sample; a step in which a switching
-function changes sign redone with 8x the substeps) is converged far below the 0.1 % measurement
-noise of the seed experiment for the damage-healing model (the switching of the healing operator
-makes its right-hand side discontinuous, so fixed-step methods converge only to first order
-there; ``tests/test_seed_models.py`` checks the default against scipy's LSODA).
+call. The default discretisation (RK4 with 100 substeps per sample; a substep in which a switching
+function across which the field can jump changes sign redone with 8 finer ones) is converged far
+below the 0.1 % measurement noise of the seed experiment for the damage-healing model (the switching
+of the healing operator makes its right-hand side discontinuous, so fixed-step methods converge only
+to first order there; ``tests/test_seed_models.py`` checks the default against scipy's LSODA).
 """
 
 from __future__ import annotations
