@@ -182,11 +182,8 @@ class NumericModel:
                                [fns[method](x, p, u0, u1), ca.SX(flag), ca.SX(0.0)], names_in, names_out)
         X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         U0, U1 = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu)
-        xr, crossed = fns["rk4_track"](X, P, U0, U1)
-        stiff = fns["stiff"](X, xr, P, U0, U1, threshold)
-        xf = ca.if_else(crossed, fns["rk4_fine"](X, P, U0, U1), xr, True)
-        xn = ca.if_else(stiff, fns["ros2_fine"](X, P, U0, U1), xf, True)
-        refined = ca.logic_and(crossed, ca.logic_not(stiff))
+        xr, stiff, refined = fns["probe"](X, P, U0, U1, threshold)
+        xn = ca.if_else(ca.logic_or(stiff, refined), fns["fine"](X, P, U0, U1, stiff), xr, True)
         return ca.Function(f"step_auto{n}", [X, P, U0, U1], [xn, stiff, refined], names_in, names_out)
 
     def integrators(self, dt: float, *, substeps: int, scale: Any = None, jit: bool = False,
@@ -195,8 +192,12 @@ class NumericModel:
         ``substeps``; ``rk4_fine``, RK4 with every substep in which a watched switching function
         (``jumps``) changes sign split into ``refine``; ``ros2_fine``, ROS2 with ``refine * substeps``; ``rk4_track``
         ``(x, p, u0, u1) -> (x_next, crossed)`` (RK4 that also says whether a switching function
-        changed sign between two substeps) and ``stiff(x, x_rk4, p, u0, u1, threshold) -> 0/1``
-        (the test of ``method="auto"``)."""
+        changed sign between two substeps) and ``stiff(x, x_rk4, p, u0, u1, threshold) -> 0/1``.
+
+        The rule of ``method="auto"``, shared by :meth:`step` and the filters' step: ``probe(x, p, u0,
+        u1, threshold) -> (x_rk4, stiff, refine)`` (``refine``: a watched crossing and not stiff) and,
+        only where one of the two flags is set, ``fine(x, p, u0, u1, stiff) -> x_next`` (ROS2 with
+        ``refine * substeps`` if stiff, else RK4 with the crossing substep refined)."""
         n, nf = int(substeps), int(substeps) * int(refine)
         opts = jit_options() if jit else {}
         x, xr, p = ca.SX.sym("x", self.nx), ca.SX.sym("xr", self.nx), ca.SX.sym("p", self.np)
@@ -217,6 +218,16 @@ class NumericModel:
         rho = dt / n * _perron_bound(Js, self.nx)
         stiff = ca.logic_or(rho > thr, ca.logic_not(ca.mmax(ca.fabs(xr)) < 1e150))
         out["stiff"] = ca.Function("stiff", [x, xr, p, u0, u1, thr], [stiff], opts)
+        x_rk4, crossed = out["rk4_track"](x, p, u0, u1)
+        is_stiff = out["stiff"](x, x_rk4, p, u0, u1, thr)
+        out["probe"] = ca.Function("probe", [x, p, u0, u1, thr],
+                                   [x_rk4, is_stiff, ca.logic_and(crossed, ca.logic_not(is_stiff))],
+                                   names_in + ["threshold"], ["x_rk4", "stiff", "refine"], opts)
+        X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
+        U0, U1, S = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu), ca.MX.sym("stiff")
+        out["fine"] = ca.Function("fine", [X, P, U0, U1, S],  # MX: only the chosen integrator runs
+                                  [ca.if_else(S, out["ros2_fine"](X, P, U0, U1), out["rk4_fine"](X, P, U0, U1), True)],
+                                  names_in + ["stiff"], ["x_next"])
         return out
 
     def _refined(self, dt: float, n: int, refine: int, opts: Mapping[str, Any]) -> ca.Function:

@@ -119,9 +119,7 @@ def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Fu
     sc = ca.DM(np.asarray(scale, float))
     xc, th = zc[:nx] * sc, coords.forward(zc[nx:])
     if method == "auto":
-        xr, crossed = fns["rk4_track"](xc, th, u0, u1)
-        stiff = fns["stiff"](xc, xr, th, u0, u1, 2.0)
-        crossed = ca.logic_and(crossed, ca.logic_not(stiff))
+        xr, stiff, crossed = fns["probe"](xc, th, u0, u1, 2.0)
     else:
         xr, stiff, crossed = fns[method](xc, th, u0, u1), ca.SX(0), ca.SX(0)
     prop = ca.Function("prop", [zc, u0, u1], [ca.vertcat(xr / sc, zc[nx:]), stiff, crossed])
@@ -137,10 +135,8 @@ def _fallback_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca
     sc = ca.DM(np.asarray(scale, float))
     zM, xM, sM, cM = ca.MX.sym("zc", L), ca.MX.sym("xr", L), ca.MX.sym("stiff"), ca.MX.sym("crossed")
     u0M, u1M = ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_)
-    xc, th = zM[:nx] * sc, coords.forward(zM[nx:])
-    fine = ca.vertcat(fns["rk4_fine"](xc, th, u0M, u1M) / sc, zM[nx:])
-    implicit = ca.vertcat(fns["ros2_fine"](xc, th, u0M, u1M) / sc, zM[nx:])
-    out = ca.if_else(sM, implicit, ca.if_else(cM, fine, xM, True), True)
+    fine = ca.vertcat(fns["fine"](zM[:nx] * sc, coords.forward(zM[nx:]), u0M, u1M, sM) / sc, zM[nx:])
+    out = ca.if_else(ca.logic_or(sM, cM), fine, xM, True)
     return ca.Function("fallback", [zM, xM, sM, cM, u0M, u1M], [out]).map(npts)
 
 
