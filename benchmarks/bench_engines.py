@@ -4,7 +4,7 @@ Plain script (no pytest):
 
     python benchmarks/bench_engines.py [--out reports/benchmarks/engines.md] [--timeout 120] [--repeat 3]
 
-For each model it times ``obsnl.analyze`` (randomized test, the default fast path) and, when the
+For each model it times ``obsnl.observability.analyze`` (randomized test, the default fast path) and, when the
 ``symident`` package is importable, ``symident.detect`` on the same model in the same run (best of
 ``--repeat`` in-process runs for obsnl after one warm-up; symident in a fresh worker process per
 call with a time limit, ``--seed-runs`` calls on the seed models). For the two seed models it also
@@ -43,7 +43,7 @@ SEED_EXPECTED = {  # seed paper 000_d24855f97fc8bdd4.txt: 3.2 (original, N unkno
 
 def _cases() -> list[Path]:
     cases = sorted((ROOT / "tests" / "data" / "peer_cases").glob("*.json"))
-    return cases + [ROOT / "models" / "damage_healing.toml", ROOT / "models" / "damage_healing_reparam.toml"]
+    return cases + [ROOT / "obsnl" / "catalogue" / "damage_healing.toml", ROOT / "obsnl" / "catalogue" / "damage_healing_reparam.toml"]
 
 
 # --------------------------------------------------------------------------- obsnl
@@ -55,7 +55,7 @@ def run_obsnl(path: Path, repeat: int) -> dict:
     res = None
     for _ in range(repeat + 1):
         t0 = time.perf_counter()
-        res = obsnl.analyze(model, method="sedoglavic", seed=0)
+        res = obsnl.observability.analyze(model, method="sedoglavic", seed=0)
         times.append(time.perf_counter() - t0)
     per_branch = {b.label: set(b.unobservable) for b in res.branches}
     inconclusive = any(b.verdict.value == "inconclusive" for b in res.branches)
@@ -70,18 +70,18 @@ _STAGE_CODE = r"""
 import json, time
 t0 = time.perf_counter()
 import obsnl
-try:  # this tree: bound sizes in obsnl.exact
-    from obsnl.exact import bound_sizes as _bound_args
+try:  # this tree: bound sizes in obsnl.algebra.bounds
+    from obsnl.algebra.bounds import bound_sizes as _bound_args
 except ImportError:  # older checkouts
-    from obsnl.analyze import _bound_args
-from obsnl.augment import rationalize
-from obsnl.decompose import decompose
-from obsnl.sedoglavic import sedoglavic_block
-from obsnl.series import make_problem
+    from obsnl.observability.analyze import _bound_args
+from obsnl.algebra.augment import rationalize
+from obsnl.observability.decompose import decompose
+from obsnl.observability.sedoglavic import sedoglavic_block
+from obsnl.algebra.series import make_problem
 out = {"import": time.perf_counter() - t0}
 model = obsnl.load_model(PATH)
 t0 = time.perf_counter()
-obsnl.analyze(model, method="sedoglavic", seed=0)
+obsnl.observability.analyze(model, method="sedoglavic", seed=0)
 out["first"] = time.perf_counter() - t0
 best = {"split": 1e9, "prepare": 1e9, "series": 1e9, "total": 1e9}
 for rep in range(REPEAT):
@@ -99,7 +99,7 @@ for rep in range(REPEAT):
         t["series"] += time.perf_counter() - t2
         t["prepare"] += t2 - t1
     t0 = time.perf_counter()
-    obsnl.analyze(model, method="sedoglavic", seed=0)
+    obsnl.observability.analyze(model, method="sedoglavic", seed=0)
     t["total"] = time.perf_counter() - t0
     best = {k: min(best[k], t[k]) for k in best}
 out.update(best)
@@ -283,7 +283,7 @@ def main(argv: list[str] | None = None) -> int:
         symident_version = None
     import obsnl  # warm the imports before timing
 
-    obsnl.analyze(obsnl.load_model(ROOT / "tests" / "data" / "peer_cases" / "si_if_chain.json"), seed=0)
+    obsnl.observability.analyze(obsnl.load_model(ROOT / "tests" / "data" / "peer_cases" / "si_if_chain.json"), seed=0)
     rows = []
     for path in _cases():
         if args.only and args.only not in path.stem:
@@ -340,7 +340,7 @@ def main(argv: list[str] | None = None) -> int:
         f"- median ratio over the {len(ratios)} models both tools analysed: "
         + ("-" if med is None else f"{med:.1f}"),
     ]
-    stage_lines, stages = _stage_section([ROOT / "models" / f"{m}.toml" for m in SEED_EXPECTED], args)
+    stage_lines, stages = _stage_section([ROOT / "obsnl" / "catalogue" / f"{m}.toml" for m in SEED_EXPECTED], args)
     for r in seed_rows:
         rt = "-" if r["ratio"] is None else f"{r['ratio']:.1f}"
         first = stages.get(r["model"], {}).get("first")

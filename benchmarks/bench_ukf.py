@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 
 import obsnl
-from obsnl.codegen import numpy_model
-from obsnl.identify import Tuning, _noise, make_data, make_filter
-from obsnl.reproduction import seed_model_path, seed_setup
+from obsnl.estimation.codegen import numpy_model
+from obsnl.estimation.experiments import Tuning, _noise, make_data, make_filter
+from obsnl.studies.seed_paper import seed_model_path, seed_setup
 
 TUNING = Tuning(0.1, 0.0, 1.0)
 

@@ -1,7 +1,7 @@
 """obsnl: observability and identifiability of nonlinear, non-smooth mechanical models,
 and the estimators that use that analysis."""
 
-from .errors import (
+from obsnl.errors import (
     AnalysisError,
     DataError,
     EstimatorError,
@@ -11,16 +11,16 @@ from .errors import (
     ParseError,
     TableError,
 )
-from .branches import Branch, split_branches
-from .model import Model
-from .parse import load_model
+from obsnl.model.branches import Branch, split_branches
+from obsnl.model.core import Model
+from obsnl.model.files import load_model
 
 # the observability engines (imported eagerly: these functions share their modules' names)
-from .analyze import analyze
-from .decompose import decompose, dependency_graph
-from .lie import orc
-from .results import AnalysisResult, BranchResult, Verdict
-from .sedoglavic import sedoglavic
+from obsnl.observability.analyze import analyze
+from obsnl.observability.decompose import decompose, dependency_graph
+from obsnl.observability.smooth import orc, sedoglavic
+from obsnl import report  # noqa: E402  (registers the notebook renderers of results)
+from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
 
 __version__ = "0.1.0"
 
@@ -28,30 +28,30 @@ __version__ = "0.1.0"
 # command line start fast: name -> module that defines it.
 _LAZY: dict[str, str] = {
     # linear observability, extended observers, observer bank (seed 001_d0508a78c5399696.txt)
-    "LinearSystem": "linear", "as_linear_system": "linear", "system_scaling": "linear",
-    "kalman_rank": "linear", "hautus": "linear", "ObsVerdict": "linear",
-    "integrator": "observer", "oscillator": "observer", "extend": "observer",
-    "extended_observability": "observer", "riccati_gain": "observer", "place_gain": "observer",
-    "simulate_observer": "observer",
-    "build_bank": "bank", "ObserverBank": "bank", "calibrate_thresholds": "bank", "decide": "bank",
-    "BankVerdict": "bank", "run_link_study": "bank",
-    "build_cantilever": "beam", "load_link_spec": "beam", "BreathingCrack": "beam",
+    "LinearSystem": "linear.systems", "as_linear_system": "linear.systems", "system_scaling": "linear.systems",
+    "kalman_rank": "linear.systems", "hautus": "linear.systems", "ObsVerdict": "linear.systems",
+    "integrator": "linear.observer", "oscillator": "linear.observer", "extend": "linear.observer",
+    "extended_observability": "linear.observer", "riccati_gain": "linear.observer", "place_gain": "linear.observer",
+    "simulate_observer": "linear.observer",
+    "build_bank": "linear.bank", "ObserverBank": "linear.bank", "calibrate_thresholds": "linear.bank", "decide": "linear.bank",
+    "BankVerdict": "linear.bank", "run_link_study": "linear.bank",
+    "build_cantilever": "studies.cantilever", "load_link_spec": "studies.cantilever", "BreathingCrack": "studies.cantilever",
     # branch tables (the estimators' contract)
-    "BranchTable": "branch_table", "load_branch_table": "branch_table",
+    "BranchTable": "observability.branch_table", "load_branch_table": "observability.branch_table",
     # estimators: codegen (the sympy -> casadi bridge), UKF, DUKF, records, identification
-    "to_casadi": "codegen", "NumericModel": "codegen", "ParameterMap": "codegen",
-    "parameter_map": "codegen", "log_map": "codegen",
-    "UKF": "ukf", "Estimate": "ukf", "Trajectory": "ukf", "DUKF": "dukf",
-    "Record": "data", "read_record": "data", "add_noise": "data", "simulate": "simulate",
-    "reproduce": "reproduction", "Reproduction": "reproduction",
-    "Setup": "identify", "Tuning": "identify", "make_data": "identify", "make_filter": "identify",
-    "run_passes": "identify", "output_misfit": "identify", "practical_identifiability": "identify",
-    "monte_carlo": "identify",
+    "to_casadi": "estimation.codegen", "NumericModel": "estimation.codegen", "ParameterMap": "estimation.codegen",
+    "parameter_map": "estimation.codegen", "log_map": "estimation.codegen",
+    "UKF": "estimation.ukf", "Estimate": "estimation.ukf", "Trajectory": "estimation.ukf", "DUKF": "estimation.dukf",
+    "Record": "estimation.records", "read_record": "estimation.records", "add_noise": "estimation.records", "simulate": "estimation.simulate",
+    "reproduce": "studies.seed_paper", "Reproduction": "studies.seed_paper",
+    "Setup": "estimation.experiments", "Tuning": "estimation.experiments", "make_data": "estimation.experiments", "make_filter": "estimation.experiments",
+    "run_passes": "estimation.experiments", "output_misfit": "estimation.experiments", "practical_identifiability": "estimation.experiments",
+    "monte_carlo": "estimation.experiments",
     # symmetries, identifiable combinations, reparametrizations
-    "symmetries": "symmetry", "Symmetry": "symmetry", "Symmetries": "symmetry",
-    "reparametrize": "reparam", "Reparametrization": "reparam",
-    "identifiable_functions": "identifiable", "IdentifiableFunctions": "identifiable",
-    "same_field": "fields", "FieldComparison": "fields", "model_to_toml": "writer",
+    "symmetries": "recombination.symmetry", "Symmetry": "recombination.symmetry", "Symmetries": "recombination.symmetry",
+    "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrize",
+    "identifiable_functions": "recombination.identifiable", "IdentifiableFunctions": "recombination.identifiable",
+    "same_field": "recombination.fields", "FieldComparison": "recombination.fields", "model_to_toml": "model.files",
 }
 
 

@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from .errors import ObsnlError
+from obsnl.errors import ObsnlError
 
 __all__ = ["main"]
 
@@ -27,7 +27,7 @@ class _Exit(Exception):
 
 
 def _load(path: str):
-    from .parse import load_model
+    from obsnl.model.files import load_model
 
     return load_model(path)
 
@@ -83,7 +83,7 @@ def _add_branches(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_branches(args: argparse.Namespace) -> int:
-    from .branches import split_branches
+    from obsnl.model.branches import split_branches
 
     model = _load(args.model)
     branches = split_branches(model)
@@ -128,13 +128,13 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_analyze(args: argparse.Namespace) -> int:
-    from .analyze import analyze
+    from obsnl.observability.analyze import analyze
 
     if args.output and args.output != "-" and Path(args.output).exists() and not args.force:
         raise _Exit(2, f"{args.output} exists; pass --force to overwrite it")
     model = _load(args.model)
     result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds)
-    from .report import render
+    from obsnl.report.tables import render
 
     write_output(render(result, model, args.format), args.output, force=args.force)
     stuck = [b for b in result.branches if b.verdict.value == "inconclusive"]
@@ -164,7 +164,7 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from .report import write_report
+    from obsnl.report.tables import write_report
 
     models = [_load(m) for m in args.models]
     results = write_report(models, args.out, method=args.method, seed=args.seed, force=args.force,
@@ -189,10 +189,10 @@ def _add_bank(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_bank(args: argparse.Namespace) -> int:
-    from .bank import run_link_study
-    from .beam import load_link_spec
-    from .plots import FIGURE_PREFIX, plot_bank_forces
-    from .report import bank_table_markdown
+    from obsnl.linear.bank import run_link_study
+    from obsnl.studies.cantilever import load_link_spec
+    from obsnl.report.figures import FIGURE_PREFIX, plot_bank_forces
+    from obsnl.report.tables import bank_table_markdown
 
     if args.seeds < 1:
         raise _Exit(2, f"--seeds must be at least 1, got {args.seeds}")
@@ -230,8 +230,8 @@ def _add_symmetries(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_symmetries(args: argparse.Namespace) -> int:
-    from .branches import split_branches
-    from .symmetry import symmetries
+    from obsnl.model.branches import split_branches
+    from obsnl.recombination.symmetry import symmetries
 
     model = _load(args.model)
     out = []
@@ -270,7 +270,7 @@ def _add_reparametrize(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_reparametrize(args: argparse.Namespace) -> int:
-    from .reparam import reparametrize
+    from obsnl.recombination.reparametrize import reparametrize
 
     model = _load(args.model)
     names = {}
@@ -333,10 +333,10 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from .branch_table import load_branch_table
-    from .codegen import to_casadi
-    from .data import read_record
-    from .identify import SEED_GUESS, Setup, Tuning, coordinates, make_data, make_filter, monte_carlo, \
+    from obsnl.observability.branch_table import load_branch_table
+    from obsnl.estimation.codegen import to_casadi
+    from obsnl.estimation.records import read_record
+    from obsnl.estimation.experiments import SEED_GUESS, Setup, Tuning, coordinates, make_data, make_filter, monte_carlo, \
         output_misfit, practical_identifiability, run_passes
 
     if args.method == "dukf" and not args.table:
@@ -348,7 +348,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     model = _load(args.model)
     table = load_branch_table(args.table) if args.table else None
     if table is not None:  # refuse a table made for another model before compiling anything
-        from .branches import switching_functions
+        from obsnl.model.branches import switching_functions
 
         table.check_model(states=[v.name for v in model.states], parameters=[v.name for v in model.parameters],
                           inputs=[v.name for v in model.inputs], outputs=list(model.output_names),
@@ -452,8 +452,8 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from .data import read_record
-    from .reproduction import reproduce, write_reproduction
+    from obsnl.estimation.records import read_record
+    from obsnl.studies.seed_paper import reproduce, write_reproduction
 
     if args.seeds < 1 or args.tuning_seeds < 1 or args.passes < 1:
         raise _Exit(2, "--seeds, --tuning-seeds and --passes must be at least 1")

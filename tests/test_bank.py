@@ -1,4 +1,4 @@
-"""The observer bank (obsnl.bank): decision logic, and the scoring of observer_bank.md section 2.6.
+"""The observer bank (obsnl.linear.bank): decision logic, and the scoring of observer_bank.md section 2.6.
 
 The scoring runs the section 2.5 scenarios once (module fixture) with three evaluation noise
 seeds; thresholds come from healthy runs with three *other* seeds.
@@ -11,7 +11,7 @@ import json
 import numpy as np
 import pytest
 
-from obsnl.bank import (
+from obsnl.linear.bank import (
     BankRun,
     BankVerdict,
     build_bank,
@@ -20,10 +20,10 @@ from obsnl.bank import (
     run_link_study,
     sliding_rms,
 )
-from obsnl.beam import build_cantilever
+from obsnl.studies.cantilever import build_cantilever
 from obsnl.cli import main
 from obsnl.errors import AnalysisError, DataError
-from obsnl.observer import integrator
+from obsnl.linear.observer import integrator
 
 EVAL_SEEDS = (0, 1, 2)
 

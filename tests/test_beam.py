@@ -1,4 +1,4 @@
-"""The benchmark link (obsnl.beam) against analytic beam theory and the facts of observer_bank.md 2.1-2.3."""
+"""The benchmark link (obsnl.studies.cantilever) against analytic beam theory and the facts of observer_bank.md 2.1-2.3."""
 
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from obsnl.beam import DEFAULT_LINK_FILE, BreathingCrack, build_cantilever, element_channels, load_link_spec
+from obsnl.studies.cantilever import DEFAULT_LINK_FILE, BreathingCrack, build_cantilever, element_channels, load_link_spec
 from obsnl.errors import DataError, ModelError
 
 #: beta_n L of a clamped-free Euler-Bernoulli beam (roots of cos x cosh x = -1)

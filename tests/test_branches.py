@@ -8,8 +8,8 @@ import sympy as sp
 
 import obsnl
 from obsnl import Model
-from obsnl.branches import field_jumps, split_branches, switching_functions
-from obsnl.model import NONSMOOTH_FUNCTIONS
+from obsnl.model.branches import field_jumps, split_branches, switching_functions
+from obsnl.model.core import NONSMOOTH_FUNCTIONS
 
 from .conftest import MODEL_FILES, MODELS
 

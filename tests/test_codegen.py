@@ -12,7 +12,7 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import obsnl
-from obsnl.codegen import log_map, numpy_model, parameter_map, to_casadi
+from obsnl.estimation.codegen import log_map, numpy_model, parameter_map, to_casadi
 from obsnl.errors import ModelError, NotSupportedError, TableError
 
 from .conftest import MODEL_FILES, MODELS
@@ -133,7 +133,7 @@ def test_step_across_a_jump_of_the_vector_field_is_refined():
 def test_perron_bound_bounds_the_spectral_radius():
     # Collatz-Wielandt: an upper bound of rho(|J|) >= rho(J), never above the infinity norm (of
     # |J| + eps) it starts from; deterministic random matrices (seed 3), exact property, no error probability
-    from obsnl.numeric import _perron_bound
+    from obsnl.estimation.numeric import _perron_bound
     A = ca.SX.sym("A", 5, 5)
     bound = ca.Function("b", [A], [_perron_bound(A, 5)])
     rng = np.random.default_rng(3)
@@ -166,7 +166,7 @@ def test_parameter_map_round_trip_and_dependencies():
 def test_jit_scratch_files_stay_out_of_the_working_directory(tmp_path, monkeypatch):
     # casadi's shell compiler writes its C source to the working directory unless told otherwise;
     # a user's folder must not collect jit_tmp*.c files (a killed run would leave them behind)
-    from obsnl.numeric import jit_directory, jit_options
+    from obsnl.estimation.numeric import jit_directory, jit_options
 
     monkeypatch.chdir(tmp_path)
     x = ca.SX.sym("x")

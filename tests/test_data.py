@@ -7,10 +7,10 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from obsnl.data import G, Record, add_noise, read_at2, read_csv, read_record, rms
+from obsnl.estimation.records import G, Record, add_noise, read_at2, read_csv, read_record, rms
 from obsnl.errors import DataError
 
-DATA = resources.files("obsnl").joinpath("data")
+DATA = resources.files("obsnl").joinpath("studies/data")
 
 
 def test_shipped_csv_and_at2_agree():

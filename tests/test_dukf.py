@@ -10,12 +10,12 @@ import numpy as np
 import pytest
 
 import obsnl
-from obsnl.branch_table import BranchTable
-from obsnl.codegen import log_map, to_casadi
-from obsnl.data import read_record
-from obsnl.dukf import DUKF
+from obsnl.observability.branch_table import BranchTable
+from obsnl.estimation.codegen import log_map, to_casadi
+from obsnl.estimation.records import read_record
+from obsnl.estimation.dukf import DUKF
 from obsnl.errors import EstimatorError, TableError
-from obsnl.identify import SEED_GUESS, coordinates
+from obsnl.estimation.experiments import SEED_GUESS, coordinates
 
 from .conftest import MODELS
 from .test_branch_table import paper_table1
@@ -87,8 +87,8 @@ def test_covariance_stays_positive_semidefinite_by_construction(cross):
 
 
 def test_a_record_with_many_switches_needs_no_repair():
-    rec = read_record(MODELS.parent / "obsnl" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(700)
-    from obsnl.simulate import simulate
+    rec = read_record(MODELS.parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(700)
+    from obsnl.estimation.simulate import simulate
 
     sim = simulate(NUM, theta=NUM.nominal(NUM.parameters), x0=np.zeros(5), u=rec.accel, dt=rec.dt)
     f = _dukf().with_options(R=1e-11, Q=np.diag(np.r_[np.full(5, 1e-8), np.zeros(9)]))

@@ -25,7 +25,7 @@ from obsnl import (
     orc,
     sedoglavic,
 )
-from obsnl.exact import failure_bound
+from obsnl.algebra.bounds import failure_bound
 from tests.conftest import MODELS, PEER_CASES
 
 ORACLE_CASES = [

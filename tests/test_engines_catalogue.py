@@ -2,7 +2,7 @@
 
 Expected answers are read from the case files (``expected``, ``expected_unknown_inputs``), never from
 obsnl's own output. The randomized verdicts use fixed seeds; every run asserts the reported lower
-bound on the probability of a right answer (>= 0.99, Sedoglavic's Prop. 3.3, see obsnl.exact), so a
+bound on the probability of a right answer (>= 0.99, Sedoglavic's Prop. 3.3, see obsnl.algebra.bounds), so a
 spurious failure has probability below 1e-2 per case and in practice far below (full-rank results
 are certificates; unobservable ones are confirmed by a second independent run).
 """

@@ -1,11 +1,11 @@
 """The fast paths of the randomized test against plain references.
 
-- :mod:`obsnl.modp` (products, matrix products, incremental echelon form) against Python integers
+- :mod:`obsnl.algebra.modp` (products, matrix products, incremental echelon form) against Python integers
   and python-flint.
-- :class:`obsnl.taylor.Stepper` (every order of every node at once through the tangent map)
+- :class:`obsnl.algebra.taylor.Stepper` (every order of every node at once through the tangent map)
   against a plain per-node, per-order Taylor recursion written here, on random models with every
   kind of operation and atom, known and unknown inputs and given initial values.
-- :func:`obsnl.branches.derived_model` (branches and blocks without re-parsing) against the
+- :func:`obsnl.model.branches.derived_model` (branches and blocks without re-parsing) against the
   validated construction, field by field.
 """
 
@@ -20,10 +20,10 @@ import sympy as sp
 from flint import nmod_mat
 
 from obsnl import Model, decompose, load_model, split_branches
-from obsnl.augment import rationalize
-from obsnl.exact import classify
-from obsnl.modp import Echelon, MatMod, mulmod
-from obsnl.series import Field, Resample, _initial_jets, _random_point, make_problem, random_prime, run_series
+from obsnl.algebra.augment import rationalize
+from obsnl.algebra.bounds import classify
+from obsnl.algebra.modp import Echelon, MatMod, mulmod
+from obsnl.algebra.series import Field, Resample, _initial_jets, _random_point, make_problem, random_prime, run_series
 from tests.conftest import MODELS, PEER_CASES
 
 P50 = int(sp.prevprime(2**50))

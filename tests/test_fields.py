@@ -1,4 +1,4 @@
-"""same_field and the modular Jacobian helpers (obsnl.fields)."""
+"""same_field and the modular Jacobian helpers (obsnl.recombination.fields)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import sympy as sp
 
 import obsnl
 from obsnl.errors import NotSupportedError, ObsnlError
-from obsnl.fields import PRIME, jacobian_mod_p, rank_mod_p, rational_reconstruction, same_field
+from obsnl.recombination.fields import PRIME, jacobian_mod_p, rank_mod_p, rational_reconstruction, same_field
 
 
 def test_textbook_groups_generate_the_same_field_as_m_c_k():
@@ -95,8 +95,8 @@ def test_exported_from_the_package():
     assert obsnl.same_field is same_field
 
 
-@pytest.mark.parametrize("module", ["obsnl.fields", "obsnl.writer", "obsnl.symmetry", "obsnl.reparam",
-                                    "obsnl.identifiable"])
+@pytest.mark.parametrize("module", ["obsnl.recombination.fields", "obsnl.model.files", "obsnl.recombination.symmetry", "obsnl.recombination.reparametrize",
+                                    "obsnl.recombination.identifiable"])
 def test_docstring_examples(module):
     import doctest
     import importlib

@@ -10,17 +10,17 @@ import numpy as np
 import pytest
 
 import obsnl
-from obsnl.branch_table import BranchTable
+from obsnl.observability.branch_table import BranchTable
 from obsnl.cli import main
-from obsnl.identify import (DIVERGED, SEED_GUESS, Tuning, coordinates, make_data, make_filter, output_misfit,
+from obsnl.estimation.experiments import (DIVERGED, SEED_GUESS, Tuning, coordinates, make_data, make_filter, output_misfit,
                             practical_identifiability, run_passes)
-from obsnl.report import table2_markdown
-from obsnl.reproduction import reproduce, seed_setup, write_reproduction
+from obsnl.report.tables import table2_markdown
+from obsnl.studies.seed_paper import reproduce, seed_setup, write_reproduction
 
 from .conftest import MODELS
 from .test_branch_table import paper_table1
 
-CSV = MODELS.parent / "obsnl" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+CSV = MODELS.parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
 TUNING = Tuning(0.2, 1e-9, 1.0)
 
 
@@ -104,7 +104,7 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
 def test_a_diverged_reported_run_is_redone_with_the_next_tuning(monkeypatch):
     # the first reported run (UKF, seed 0) is made to look diverged (misfit 1000x the noise level):
     # it must be redone with the second configuration of the ranking, the attempt kept and shown
-    import obsnl.reproduction as repro
+    import obsnl.studies.seed_paper as repro
 
     real, calls = repro.output_misfit, []
 
@@ -180,7 +180,7 @@ def test_practical_identifiability_is_not_decided_at_a_diverged_estimate(setup):
 
 
 def test_a_diverged_first_pass_holds_nothing_and_an_unsimulable_one_ends_the_run(setup, monkeypatch):
-    import obsnl.identify as ident
+    import obsnl.estimation.experiments as ident
 
     f = make_filter(setup, "ukf")
     data = make_data(setup, 0)
@@ -196,9 +196,9 @@ def test_a_diverged_first_pass_holds_nothing_and_an_unsimulable_one_ends_the_run
 
 def _gain_setup(T=400, noise=0.01):
     """y = g u (a gauge of unknown gain) and a state driven by u: ordinary least squares in disguise."""
-    from obsnl.codegen import to_casadi
-    from obsnl.data import Record
-    from obsnl.identify import Setup
+    from obsnl.estimation.codegen import to_casadi
+    from obsnl.estimation.records import Record
+    from obsnl.estimation.experiments import Setup
 
     model = obsnl.Model(name="gain", states=["x"], parameters=["g"], inputs=["u"], equations={"x": "u - x"},
                         outputs={"y": "g*u"})
@@ -213,7 +213,7 @@ def test_monte_carlo_spread_matches_least_squares_theory():
     # estimate of g has variance sigma^2 / sum u^2, i.e. relative std eps sqrt(2/T). The 99 % interval of
     # the Monte-Carlo std must contain it (seeded; probability 1 % that it would not), and the decision
     # against a limit must follow the interval.
-    from obsnl.identify import monte_carlo
+    from obsnl.estimation.experiments import monte_carlo
 
     setup = _gain_setup()
     f = make_filter(setup, "ukf")
@@ -239,7 +239,7 @@ def test_a_collapsed_covariance_between_passes_is_a_clear_error(setup, monkeypat
     import dataclasses
 
     from obsnl.errors import EstimatorError
-    from obsnl.ukf import UKF
+    from obsnl.estimation.ukf import UKF
 
     real = UKF.run
 

@@ -1,33 +1,140 @@
-"""Import layering (style anchors part (c)): the numeric layer never imports sympy; codegen is the only
-module that imports both sympy and casadi."""
+"""The package's import graph (built from the source with ``ast``): layers along the data flow, no
+circles between modules or between subpackages, a small top level, short files; the numeric layer never
+imports sympy and codegen is the only module that imports both sympy and casadi."""
 
 from __future__ import annotations
 
 import ast
 from pathlib import Path
 
+import networkx as nx
 import pytest
 
 PKG = Path(__file__).resolve().parents[1] / "obsnl"
-NUMERIC = ["numeric", "ukf", "ukf_step", "trajectory", "dukf", "data", "identify", "reproduction", "simulate", "plots"]
+
+#: Rank of each room along the data flow: a module may import only rooms of a lower rank, or its own room.
+LAYERS = {
+    "errors": 0,
+    "model": 1, "linear": 1,
+    "algebra": 2,
+    "observability": 3,
+    "recombination": 4, "estimation": 4,
+    "report": 5,
+    "studies": 6,
+    "batch": 7,
+    "cli": 8, "__init__": 8, "__main__": 9,
+}
+#: What the estimators may read of the observability room (DESIGN.md: only through the branch table).
+ESTIMATION_READS = {"obsnl.observability.branch_table", "obsnl.observability.signature"}
+
+
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(PKG.parent).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {_module_name(p): p for p in sorted(PKG.rglob("*.py"))}
+
+
+def _room(module: str) -> str:
+    parts = module.split(".")
+    if len(parts) == 1:
+        return "__init__"
+    return parts[1]
 
 
 def _imports(module: str) -> set[str]:
-    tree = ast.parse((PKG / f"{module}.py").read_text(encoding="utf-8"))
-    names: set[str] = set()
+    """Every obsnl module (and third-party top-level package) that ``module`` imports, at any depth."""
+    path = MODULES[module]
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    package = module if path.name == "__init__.py" else module.rsplit(".", 1)[0]
+    out: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
-            names.update(a.name.split(".")[0] for a in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            names.add(node.module.split(".")[0])
-    return names
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")
+                base = base[: len(base) - node.level + 1]
+                mod = ".".join(base + ([node.module] if node.module else []))
+            else:
+                mod = node.module or ""
+            for a in node.names:
+                full = f"{mod}.{a.name}"
+                out.add(full if full in MODULES else mod)
+    return out
+
+
+def _graph() -> nx.DiGraph:
+    g = nx.DiGraph()
+    g.add_nodes_from(MODULES)
+    for m in MODULES:
+        for target in _imports(m):
+            if target in MODULES and target != m and not m.startswith(target + "."):
+                g.add_edge(m, target)
+            elif target.startswith("obsnl.") and target not in MODULES:
+                raise AssertionError(f"{m} imports {target}, which does not exist")
+    return g
+
+
+def test_no_circles_between_modules():
+    g = _graph()
+    cycles = list(nx.simple_cycles(g))
+    assert cycles == [], f"import circles: {cycles[:3]}"
+
+
+def test_no_circles_between_rooms():
+    g = _graph()
+    rooms = nx.DiGraph()
+    for a, b in g.edges:
+        if _room(a) != _room(b):
+            rooms.add_edge(_room(a), _room(b))
+    assert list(nx.simple_cycles(rooms)) == []
+
+
+def test_imports_point_down_the_data_flow():
+    g = _graph()
+    wrong = []
+    for a, b in g.edges:
+        ra, rb = _room(a), _room(b)
+        if ra == rb or a == "obsnl" or b == "obsnl":
+            continue
+        if LAYERS[rb] >= LAYERS[ra]:
+            wrong.append(f"{a} -> {b}")
+        if ra == "estimation" and rb == "observability" and b not in ESTIMATION_READS:
+            wrong.append(f"{a} -> {b} (the estimators read the analysis only through the branch table)")
+    assert wrong == []
+
+
+def test_every_room_has_a_layer():
+    assert {_room(m) for m in MODULES} <= set(LAYERS)
+
+
+def test_small_top_level_and_short_files():
+    top = [p for p in PKG.glob("*.py")]
+    assert len(top) <= 8, [p.name for p in top]
+    long = {m: n for m, p in MODULES.items() if (n := len(p.read_text(encoding="utf-8").splitlines())) > 500}
+    assert long == {}
+
+
+def test_the_package_is_grouped_into_subpackages():
+    rooms = {p.name for p in PKG.iterdir() if (p / "__init__.py").is_file()}
+    assert {"model", "algebra", "observability", "recombination", "estimation", "linear", "report",
+            "studies"} <= rooms
+
+
+def _third_party(module: str) -> set[str]:
+    return {n.split(".")[0] for n in _imports(module)}
+
+
+NUMERIC = sorted(m for m in MODULES if _room(m) == "estimation" and m != "obsnl.estimation.codegen")
 
 
 @pytest.mark.parametrize("module", NUMERIC)
 def test_numeric_modules_never_import_sympy(module):
-    assert "sympy" not in _imports(module)
+    assert "sympy" not in _third_party(module)
 
 
 def test_only_codegen_imports_both_sympy_and_casadi():
-    both = sorted(p.stem for p in PKG.glob("*.py") if {"sympy", "casadi"} <= _imports(p.stem))
-    assert both == ["codegen"]
+    both = sorted(m for m in MODULES if {"sympy", "casadi"} <= _third_party(m))
+    assert both == ["obsnl.estimation.codegen"]

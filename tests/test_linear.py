@@ -1,4 +1,4 @@
-"""Kalman rank, Hautus test, extended systems, gains and observer simulation (obsnl.linear, obsnl.observer).
+"""Kalman rank, Hautus test, extended systems, gains and observer simulation (obsnl.linear.systems, obsnl.linear.observer).
 
 Expected answers come from constructions with a known answer (Kalman decomposition with k
 unobservable states, chains of integrators), from analytic solutions, from the facts stated
@@ -13,10 +13,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from obsnl.beam import build_cantilever
+from obsnl.studies.cantilever import build_cantilever
 from obsnl.errors import AnalysisError, DataError
-from obsnl.linear import LinearSystem, ObsVerdict, as_linear_system, hautus, kalman_rank, system_scaling
-from obsnl.observer import (
+from obsnl.linear.systems import LinearSystem, ObsVerdict, as_linear_system, hautus, kalman_rank, system_scaling
+from obsnl.linear.observer import (
     extend,
     extended_observability,
     integrator,

@@ -16,9 +16,9 @@ import obsnl
 from obsnl import Model
 from obsnl.cli import main
 from obsnl.errors import ModelError
-from obsnl.fields import same_field
-from obsnl.reparam import reparametrize
-from obsnl.writer import model_to_toml
+from obsnl.recombination.fields import same_field
+from obsnl.recombination.reparametrize import reparametrize
+from obsnl.model.files import model_to_toml
 
 from .conftest import MODEL_FILES, MODELS, PEER_CASES
 
@@ -83,7 +83,7 @@ def test_written_seed_model_loads_and_is_observable(seed, tmp_path):
     assert m2 == r.model
     names = [s.name for s in m2.states + m2.parameters]
     assert set(m2.definitions) == set(names)
-    res = obsnl.analyze(m2, method="sedoglavic", seed=0)
+    res = obsnl.observability.analyze(m2, method="sedoglavic", seed=0)
     assert res.to_dict()["overall"]["unobservable"] == []
 
 
@@ -210,7 +210,7 @@ def test_state_only_scaling_goes_to_the_functions_route():
 
 
 def test_identifiable_functions_standalone():
-    from obsnl.identifiable import identifiable_functions
+    from obsnl.recombination.identifiable import identifiable_functions
 
     path = PEER_CASES / "si_bench_hiv2.json"
     m = obsnl.load_model(path)

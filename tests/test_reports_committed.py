@@ -20,8 +20,8 @@ import pytest
 
 import obsnl
 from obsnl import report
-from obsnl.analyze import analyze
-from obsnl.branch_table import BranchTable, load_branch_table, schema
+from obsnl.observability.analyze import analyze
+from obsnl.observability.branch_table import BranchTable, load_branch_table, schema
 
 from .conftest import MODEL_FILES, MODELS, PEER_CASE_FILES, ROOT
 from .test_report import latex_structure_ok

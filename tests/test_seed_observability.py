@@ -4,7 +4,7 @@ Expected sets are the paper's (see DESIGN.md): the original model (14) loses sig
 L, E, sigma_y, c_eta, c, h, beta, gamma in every branch (transcendence degree 4), and w_h as well in
 (b), (d) (degree 5); the reparametrized model (16) loses only Delta2 in (a), (c) and Delta1, w_h in
 (b), (d). The Table 1 result depends on keeping the transcendental constraint w0 = |r - eta'|^(2N)
-(obsnl.augment): with a free initial value of the power, Delta1 * w would have a scaling symmetry and
+(obsnl.algebra.augment): with a free initial value of the power, Delta1 * w would have a scaling symmetry and
 Delta1 would look unidentifiable. Seeds are fixed; each result asserts its probability bound >= 0.99.
 """
 

@@ -1,4 +1,4 @@
-"""Generators of the unobservable directions (obsnl.symmetry).
+"""Generators of the unobservable directions (obsnl.recombination.symmetry).
 
 Expected answers: the seed paper 000_d24855f97fc8bdd4.txt (§3.2 and Table 1: unobservable sets and
 transcendence degrees of branches (a)-(d); beta, gamma enter as beta + gamma in (a), (c) and as
@@ -16,8 +16,8 @@ import sympy as sp
 import obsnl
 from obsnl import Model
 from obsnl.errors import NotSupportedError
-from obsnl.proofs import ANY, verify_generator, weight
-from obsnl.symmetry import symmetries
+from obsnl.recombination.proofs import ANY, verify_generator, weight
+from obsnl.recombination.symmetry import symmetries
 
 from .conftest import MODELS, PEER_CASES
 
@@ -166,8 +166,8 @@ def test_errors_and_serialisation():
 
 
 def test_dimension_and_unobservable_sets_agree_with_the_engine(seed_branches):
-    # cross-method oracle: the symmetry search's own Jacobian vs obsnl.analyze (Sedoglavic engine)
-    res = obsnl.analyze(obsnl.load_model(MODELS / "damage_healing.toml"), method="sedoglavic", seed=0)
+    # cross-method oracle: the symmetry search's own Jacobian vs obsnl.observability.analyze (Sedoglavic engine)
+    res = obsnl.observability.analyze(obsnl.load_model(MODELS / "damage_healing.toml"), method="sedoglavic", seed=0)
     engine = {b.label: b for b in res.branches}
     for b, s in seed_branches:
         assert set(s.unobservable) == set(engine[b.label].unobservable), b.label

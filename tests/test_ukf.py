@@ -8,9 +8,9 @@ import pytest
 from scipy.linalg import expm
 
 import obsnl
-from obsnl.codegen import log_map, to_casadi
+from obsnl.estimation.codegen import log_map, to_casadi
 from obsnl.errors import DataError, EstimatorError
-from obsnl.ukf import UKF
+from obsnl.estimation.ukf import UKF
 
 A = np.array([[0.0, 1.0], [-4.0, -0.4]])
 B = np.array([[0.0], [1.0]])
@@ -85,7 +85,7 @@ def _osc_filter(**kw):
 def test_trajectory_shapes_and_parameter_estimation():
     f = _osc_filter()
     rng = np.random.default_rng(3)  # simulated record, fixed seed
-    from obsnl.simulate import simulate
+    from obsnl.estimation.simulate import simulate
 
     u = rng.normal(size=400)
     sim = simulate(f.model, theta=[4.0, 0.5], x0=[0.0, 0.0], u=u, dt=0.05)

@@ -1,0 +1,473 @@
+"""Non-rational terms rewritten over augmented functions ("atoms"): the rewriting itself.
+
+:class:`Rewriter` walks sympy expressions and replaces every symbolic or fractional power, ``exp``,
+``log``, ``sin``/``cos``, ``atan`` (``tan``, ``tanh``, ``sinh``, ``cosh`` through them) by an atom
+symbol, so that the expressions become rational over the variables and the atoms. The rules, the
+table of derivative rules and initial values, and why the answer is exact (Ax's theorem) are in
+:mod:`obsnl.algebra.augment`, which applies the rewriting to a model (:func:`obsnl.algebra.augment.rationalize`).
+:func:`rewrite` applies it to free expressions (the random-point evaluations of
+:mod:`obsnl.algebra.jets`), and :meth:`Rewriter.extend` to further expressions over the atoms of an
+earlier rewriting, so that, e.g., ``x**N`` in a candidate function is the square root of the atom
+``x**(2*N)`` of the model rather than an unrelated one.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import sympy as sp
+
+from obsnl.errors import ModelError, NotSupportedError
+from obsnl.model.core import NONSMOOTH_FUNCTIONS
+
+__all__ = ["Atom", "Rewriter", "rewrite"]
+
+_KINDS = ("exp", "log", "atan", "root", "sin", "cos", "const")
+
+
+@dataclass(frozen=True)
+class Atom:
+    """One augmented function.
+
+    Attributes
+    ----------
+    symbol
+        The stand-in symbol used in the rational system.
+    kind
+        ``"exp"``, ``"log"``, ``"atan"``, ``"root"``, ``"sin"``, ``"cos"`` or ``"const"`` (a
+        transcendental number such as ``log(2)`` or ``pi``).
+    arg
+        The argument ``g`` (rational in the model's symbols and earlier atoms); the base for a
+        root; the number itself for a constant.
+    q
+        Degree of a root (``g**(1/q)``), else 0.
+    partner
+        For ``sin``/``cos``: the symbol of the other function of the pair.
+    time_varying
+        True when the atom depends on a state or an input.
+    """
+
+    symbol: sp.Symbol
+    kind: str
+    arg: sp.Expr
+    q: int = 0
+    partner: sp.Symbol | None = None
+    time_varying: bool = True
+
+    @property
+    def text(self) -> str:
+        if self.kind == "root":
+            return f"({self.arg})**(1/{self.q})"
+        if self.kind == "const":
+            return str(self.arg)
+        if self.kind == "log":  # a real logarithm of either sign of its argument (module docstring)
+            return f"log|{self.arg}|"
+        return f"{self.kind}({self.arg})"
+
+
+
+
+# --------------------------------------------------------------------------- helpers
+def _factor_fraction(g: sp.Expr):
+    """``g`` as a rational number, or ((c, factors) of the numerator, (c, factors) of the denominator)."""
+    g = sp.together(g)
+    if g == 0:
+        raise ModelError("log(0) in the model")
+    if g.is_Rational:
+        return sp.Rational(g)
+    out = []
+    for part in sp.fraction(g):
+        try:
+            c, factors = sp.factor_list(sp.expand(part))
+        except (sp.PolynomialError, NotImplementedError):  # pragma: no cover - defensive
+            c, factors = sp.Integer(1), [(part, 1)]
+        out.append((sp.Rational(c), tuple(factors)))
+    return tuple(out)
+
+
+def _rational_gcd(values: Sequence[sp.Rational]) -> sp.Rational:
+    nums = [abs(int(v.p)) for v in values]
+    dens = [int(v.q) for v in values]
+    g = 0
+    for n in nums:
+        g = math.gcd(g, n)
+    lcm = 1
+    for d in dens:
+        lcm = lcm * d // math.gcd(lcm, d)
+    return sp.Rational(g, lcm)
+
+
+def _to_exact(e: sp.Expr) -> sp.Expr:
+    if e.has(sp.Float):
+        return e.xreplace({f: sp.nsimplify(f, rational=True) for f in e.atoms(sp.Float)})
+    return e
+
+
+class Rewriter:
+    """Walks expressions, creating atoms: :meth:`rat` per expression, then :meth:`finalize` once.
+
+    Parameters
+    ----------
+    declared
+        The symbols the expressions may use (monomials of exponents and angles are products of them).
+    time_symbols
+        The symbols that vary in time (states and inputs); an atom depending on one varies too.
+    factor_cache
+        Factorizations of logarithm arguments shared with other rewritings (one analysis).
+    unit
+        Make the atom of a monomial ``m`` ``exp(u m)`` (``sin(u m)``) with ``u`` dividing 1 as well as
+        every coefficient met, so that expressions rewritten later (:meth:`extend`) with integer
+        coefficients are powers of it (``x**(2*N)`` becomes ``exp(N log x)**2``). Default: ``u`` the
+        gcd of the coefficients (fewer, lower-degree atoms for the engines).
+    """
+
+    def __init__(self, declared: Iterable[sp.Symbol], time_symbols: Iterable[sp.Symbol] = (),
+                 factor_cache: dict | None = None, unit: bool = False) -> None:
+        self.unit = unit
+        self.factor_cache = {} if factor_cache is None else factor_cache
+        self.declared = set(declared)
+        self.time_symbols = set(time_symbols)
+        self.atoms: dict[sp.Symbol, Atom] = {}
+        self.by_key: dict[tuple, sp.Symbol] = {}
+        self.counter = 0
+        # provisional exponentials / trig functions keyed by (monomial, coefficient)
+        self.prov_exp: dict[tuple[sp.Expr, sp.Rational], sp.Symbol] = {}
+        self.orientation: set[sp.Expr] = set()
+        self.prov_exp_inv: dict[sp.Symbol, tuple[sp.Expr, sp.Rational]] = {}
+        self.prov_trig: dict[tuple[str, sp.Expr, sp.Rational], sp.Symbol] = {}
+        self.used_terms: list[object] = []  # sympy terms or (base, exponent); printed once, in the notes
+        self.memo: dict[sp.Expr, sp.Expr] = {}
+        self.log_memo: dict[sp.Expr, sp.Expr] = {}
+        # monomials whose exponential / sine-cosine pair exists: m -> (u, exp(u m)) / (u, sin, cos)
+        self.fixed_exp: dict[sp.Expr, tuple[sp.Rational, sp.Symbol]] = {}
+        self.fixed_trig: dict[sp.Expr, tuple[sp.Rational, sp.Symbol, sp.Symbol]] = {}
+        self.subs: dict[sp.Symbol, sp.Expr] = {}  # provisional symbols -> expressions over atoms
+
+    # ----------------------------------------------------------------- atoms
+    def _new(self, kind: str, arg: sp.Expr, *, q: int = 0, name: str | None = None) -> sp.Symbol:
+        key = (kind, arg, q)
+        if key in self.by_key:
+            return self.by_key[key]
+        sym = sp.Symbol(f"_{name or kind}{self.counter}", real=True)
+        self.counter += 1
+        self.by_key[key] = sym
+        self.atoms[sym] = Atom(sym, kind, arg, q=q, time_varying=self._varies(arg) if kind != "const" else False)
+        return sym
+
+    def _varies(self, e: sp.Expr) -> bool:
+        for s in e.free_symbols:
+            if s in self.time_symbols:
+                return True
+            if s in self.atoms and self.atoms[s].time_varying:
+                return True
+        return False
+
+    def const(self, value: sp.Expr) -> sp.Symbol:
+        return self._new("const", value, name="c")
+
+    # ----------------------------------------------------------------- walk
+    def add(self, e: sp.Expr) -> sp.Expr:
+        """Rewrite one expression (floats made exact); provisional symbols remain until :meth:`finalize`."""
+        return self.rat(_to_exact(sp.sympify(e)))
+
+    def rat(self, e: sp.Expr) -> sp.Expr:
+        if e.is_Symbol or e.is_Rational:
+            return e
+        if e not in self.memo:  # subexpressions recur (the seed model has |sigma - eta|**(2N) thrice)
+            self.memo[e] = self._rat(e)
+        return self.memo[e]
+
+    def _rat(self, e: sp.Expr) -> sp.Expr:
+        if e.is_Number:  # Float
+            return _to_exact(e)
+        if e is sp.pi:
+            return self.const(sp.pi)
+        if e.is_NumberSymbol or e is sp.I or e.has(sp.I):
+            raise NotSupportedError(f"the constant {e} is not supported; write its value as a rational number")
+        if isinstance(e, (sp.Add, sp.Mul)):
+            return e.func(*[self.rat(a) for a in e.args])
+        if isinstance(e, sp.Pow):
+            return self.power(self.rat(e.base), _to_exact(e.exp))
+        if isinstance(e, sp.exp):
+            return self.exp_of(self.rat(e.args[0]))
+        if isinstance(e, sp.log):
+            if len(e.args) != 1:
+                return self.rat(sp.log(e.args[0]) / sp.log(e.args[1]))
+            return self.log_of(self.rat(e.args[0]))
+        if isinstance(e, (sp.sin, sp.cos)):
+            return self.trig(type(e).__name__, self.rat(e.args[0]))
+        if isinstance(e, sp.tan):
+            return self.trig("sin", self.rat(e.args[0])) / self.trig("cos", self.rat(e.args[0]))
+        if isinstance(e, (sp.tanh, sp.sinh, sp.cosh)):
+            return self.rat(e.rewrite(sp.exp))
+        if isinstance(e, sp.atan):
+            g = self.rat(e.args[0])
+            self.used_terms.append(e)
+            return self._new("atan", g)
+        if isinstance(e, NONSMOOTH_FUNCTIONS):
+            raise NotSupportedError(
+                f"{type(e).__name__} in {e} is not smooth; split the model into branches first "
+                f"(obsnl.split_branches, or obsnl.observability.analyze which does it)"
+            )
+        name = getattr(e.func, "__name__", type(e).__name__)
+        raise NotSupportedError(
+            f"the function {name} (in {e}) is not supported by the exact engines; supported are rational "
+            f"functions, powers, exp, log, sqrt, sin, cos, tan, tanh, sinh, cosh, atan"
+        )
+
+    def power(self, base: sp.Expr, ex: sp.Expr) -> sp.Expr:
+        if ex.is_Integer:
+            return base**ex
+        if ex.is_Rational:
+            self.used_terms.append((base, ex))
+            return self.root_power(base, ex)
+        if not ex.free_symbols:
+            raise NotSupportedError(f"the irrational exponent in ({base})**({ex}) is not supported; use a rational number")
+        self.used_terms.append((base, ex))
+        # b**(c0 + e') = b**c0 * exp(e' log b): the rational part stays algebraic in b itself
+        c0, rest = self.rat(ex).as_coeff_Add()
+        out = base**c0 if c0.is_Integer else self.root_power(base, c0)
+        return out * self.exp_of(rest * self.log_of(base))
+
+    def root_power(self, base: sp.Expr, ex: sp.Rational) -> sp.Expr:
+        p, q = int(ex.p), int(ex.q)
+        s, t = divmod(p, q)  # base**(p/q) = base**s * (base**(1/q))**t
+        if base.is_Rational and base >= 0:
+            root = sp.Integer(int(base.p)) ** sp.Rational(1, q) / sp.Integer(int(base.q)) ** sp.Rational(1, q)
+            if root.is_Rational:
+                return base**s * root**t
+        w = self._new("root", base, q=q)
+        return base**s * w**t
+
+    def log_of(self, g: sp.Expr) -> sp.Expr:
+        """``log|g|`` over log atoms of irreducible factors and logarithms of primes."""
+        if g not in self.log_memo:
+            self.log_memo[g] = self._log_of(g)
+        return self.log_memo[g]
+
+    def _log_of(self, g: sp.Expr) -> sp.Expr:
+        if g not in self.factor_cache:  # shared by the branches of one analysis
+            self.factor_cache[g] = _factor_fraction(g)
+        parts = self.factor_cache[g]
+        if not isinstance(parts, tuple):
+            return self.log_number(parts)
+        out = sp.Integer(0)
+        for (c, factors), sign in zip(parts, (1, -1)):
+            for f, k in factors:
+                # one atom per factor up to sign, the orientation first seen (log|-f| = log|f|)
+                if (-f) in self.orientation and f not in self.orientation:
+                    f = -f
+                self.orientation.add(f)
+                if f in self.prov_exp_inv:  # log(exp(c*m)) = c*m
+                    m, cc = self.prov_exp_inv[f]
+                    out += sign * k * cc * m
+                    continue
+                out += sign * k * self._new("log", f)
+            out += sign * self.log_number(c)
+        return out
+
+    def log_number(self, c: sp.Rational) -> sp.Expr:
+        """``log|c|`` as a combination of logarithms of primes (random stand-ins)."""
+        c = abs(sp.Rational(c))
+        if c == 1:
+            return sp.Integer(0)
+        out = sp.Integer(0)
+        for prime, e in sp.factorint(int(c.p)).items():
+            out += e * self.const(sp.log(prime, evaluate=False))
+        for prime, e in sp.factorint(int(c.q)).items():
+            out -= e * self.const(sp.log(prime, evaluate=False))
+        return out
+
+    def _terms(self, g: sp.Expr, what: str) -> list[tuple[sp.Rational, sp.Expr]]:
+        out: list[tuple[sp.Rational, sp.Expr]] = []
+        for term in sp.Add.make_args(sp.expand(g)):
+            c, m = term.as_coeff_Mul()
+            if not c.is_Rational:  # pragma: no cover - numbers are exact here
+                raise NotSupportedError(f"the coefficient {c} in {what} is not rational")
+            for b, k in m.as_powers_dict().items():
+                if m == 1:
+                    break
+                if not (b.is_Symbol and (b in self.declared or b in self.atoms)) or not sp.sympify(k).is_Integer:
+                    raise NotSupportedError(
+                        f"the term {term} of {what} is not a monomial in the model's variables; obsnl needs "
+                        f"exponent and angle arguments that are sums of monomials (e.g. -E_a/(R*T), N*log(x)); "
+                        f"introduce a state for this quantity instead"
+                    )
+            out.append((sp.Rational(c), m))
+        return out
+
+    def exp_of(self, g: sp.Expr) -> sp.Expr:
+        out = sp.Integer(1)
+        for c, m in self._terms(g, f"exp({g})"):
+            if c == 0:
+                continue
+            if m in self.atoms and self.atoms[m].kind == "log":  # exp(c*log f) = f**c
+                out *= self.power(self.atoms[m].arg, c) if not c.is_Integer else self.atoms[m].arg ** c
+                continue
+            key = (m, c)
+            if key not in self.prov_exp:
+                self.prov_exp[key] = sp.Symbol(f"_pexp{len(self.prov_exp)}", real=True)
+                self.prov_exp_inv[self.prov_exp[key]] = key
+            out *= self.prov_exp[key]
+        return out
+
+    def trig(self, kind: str, g: sp.Expr) -> sp.Expr:
+        terms = self._terms(g, f"{kind}({g})")
+        if not terms:
+            return sp.Integer(0) if kind == "sin" else sp.Integer(1)
+
+        def one(k: str, c: sp.Rational, m: sp.Expr) -> sp.Symbol:
+            key = (k, m, c)
+            if key not in self.prov_trig:
+                self.prov_trig[key] = sp.Symbol(f"_p{k}{len(self.prov_trig)}", real=True)
+            return self.prov_trig[key]
+
+        s, co = one("sin", *terms[0]), one("cos", *terms[0])
+        for c, m in terms[1:]:  # addition formulas
+            s2, c2 = one("sin", c, m), one("cos", c, m)
+            s, co = s * c2 + co * s2, co * c2 - s * s2
+        return s if kind == "sin" else co
+
+    # ----------------------------------------------------------------- second pass
+    def finalize(self) -> dict[sp.Symbol, sp.Expr]:
+        """Group provisional exponentials and trig functions by monomial; the substitution map."""
+        subs = self._substitute_arguments(self._group(list(self.prov_exp), list(self.prov_trig)))
+        # time variation after substitution (arguments may now reference other atoms)
+        for _ in range(len(self.atoms) + 1):
+            for sym, a in list(self.atoms.items()):
+                if a.kind == "const":
+                    continue
+                tv = self._varies(a.arg)
+                if tv != a.time_varying:
+                    self.atoms[sym] = Atom(sym, a.kind, a.arg, q=a.q, partner=a.partner, time_varying=tv)
+        self.subs = subs
+        return subs
+
+    def _group(self, exp_keys: Sequence[tuple], trig_keys: Sequence[tuple]) -> dict[sp.Symbol, sp.Expr]:
+        """One exponential ``exp(u m)`` per monomial ``m`` (``u`` the gcd of the coefficients), one
+        sine-cosine pair likewise; a monomial that already has its atom keeps it (:meth:`extend`)."""
+        subs: dict[sp.Symbol, sp.Expr] = {}
+        groups: dict[sp.Expr, list[sp.Rational]] = {}
+        for (m, c) in exp_keys:
+            groups.setdefault(m, []).append(c)
+        for m, cs in groups.items():
+            if m not in self.fixed_exp:
+                u = _rational_gcd(cs + [sp.Integer(1)] if self.unit else cs)
+                e = self._new("exp", u * m)
+                self.fixed_exp[m] = (u, e)
+                self.prov_exp_inv[e] = (m, u)
+            u, e = self.fixed_exp[m]
+            for c in cs:  # exp(c m) = exp(u m)**(c/u): a power, or a root of the existing atom
+                r = c / u
+                subs[self.prov_exp[(m, c)]] = e ** int(r) if r.is_Integer else self.root_power(e, r)
+        tgroups: dict[sp.Expr, list[sp.Rational]] = {}
+        for (_, m, c) in trig_keys:
+            tgroups.setdefault(m, []).append(c)
+        X = sp.Dummy("X")
+        for m, cs in tgroups.items():
+            if m not in self.fixed_trig:
+                u = _rational_gcd(cs + [sp.Integer(1)] if self.unit else cs)
+                s = self._new("sin", u * m)
+                co = self._new("cos", u * m)
+                self.atoms[s] = Atom(s, "sin", u * m, partner=co, time_varying=self.atoms[s].time_varying)
+                self.atoms[co] = Atom(co, "cos", u * m, partner=s, time_varying=self.atoms[co].time_varying)
+                self.fixed_trig[m] = (u, s, co)
+            u, s, co = self.fixed_trig[m]
+            for key in trig_keys:
+                k, mm, c = key
+                if mm != m:
+                    continue
+                n = c / u
+                if not n.is_Integer:
+                    raise NotSupportedError(f"{k}({c * m}) is a fraction of the angle {u * m} of an existing "
+                                            f"sine-cosine pair; not supported")
+                expr = sp.expand_trig((sp.sin if k == "sin" else sp.cos)(int(n) * X))
+                subs[self.prov_trig[key]] = expr.xreplace({sp.sin(X): s, sp.cos(X): co})
+        return subs
+
+    def _substitute_arguments(self, subs: dict[sp.Symbol, sp.Expr]) -> dict[sp.Symbol, sp.Expr]:
+        """Atom arguments may hold provisional symbols: substitute until stable."""
+        for _ in range(len(self.atoms) + 2):
+            changed = False
+            for sym, a in list(self.atoms.items()):
+                new_arg = a.arg.xreplace(subs) if a.kind != "const" else a.arg
+                if new_arg != a.arg:
+                    changed = True
+                    self.atoms[sym] = Atom(sym, a.kind, new_arg, q=a.q, partner=a.partner,
+                                           time_varying=a.time_varying)
+            subs = {k: v.xreplace(subs) for k, v in subs.items()}
+            if not changed:
+                break
+        return subs
+
+    # ----------------------------------------------------------------- more expressions, same atoms
+    def seed(self, atoms: Iterable[Atom]) -> None:
+        """Start from the atoms of an earlier rewriting: :meth:`extend` reuses them, never regroups them."""
+        top = -1
+        for a in atoms:
+            self.atoms[a.symbol] = a
+            self.by_key[(a.kind, a.arg, a.q)] = a.symbol
+            if a.kind == "log":
+                self.orientation.add(a.arg)
+            elif a.kind == "exp":
+                u, m = a.arg.as_coeff_Mul()
+                self.fixed_exp[m] = (u, a.symbol)
+                self.prov_exp_inv[a.symbol] = (m, u)
+            elif a.kind == "sin":
+                u, m = a.arg.as_coeff_Mul()
+                self.fixed_trig[m] = (u, a.symbol, a.partner)
+            digits = re.search(r"(\d+)$", a.symbol.name)
+            top = max(top, int(digits.group(1)) if digits else -1)
+        self.counter = max(self.counter, top + 1)
+
+    def extend(self, exprs: Iterable[sp.Expr]) -> list[sp.Expr]:
+        """Rewrite further expressions; atoms already made keep their meaning (and their values).
+
+        An exponential of a monomial that already has one becomes a power or a root of it, so that
+        the values drawn for the first stay consistent; new monomials and factors get new atoms.
+        """
+        n_exp, n_trig = len(self.prov_exp), len(self.prov_trig)
+        out = [self.add(e) for e in exprs]
+        subs = self._group(list(self.prov_exp)[n_exp:], list(self.prov_trig)[n_trig:])
+        self.subs = self._substitute_arguments({**self.subs, **subs})
+        return [e.xreplace(self.subs) for e in out]
+
+    def ordered_atoms(self) -> tuple[Atom, ...]:
+        done: list[Atom] = []
+        placed: set[sp.Symbol] = set()
+        pending = dict(self.atoms)
+        while pending:
+            progress = False
+            for sym, a in list(pending.items()):
+                deps = {s for s in a.arg.free_symbols if s in self.atoms} if a.kind != "const" else set()
+                deps.discard(sym)
+                if a.partner is not None:
+                    deps.discard(a.partner)
+                if deps <= placed:
+                    done.append(a)
+                    placed.add(sym)
+                    del pending[sym]
+                    progress = True
+            if not progress:  # pragma: no cover - arguments are built bottom-up
+                raise NotSupportedError("circular definition among non-rational terms")
+        return tuple(done)
+
+
+def rewrite(exprs: Iterable[sp.Expr], symbols: Iterable[sp.Symbol]) -> tuple[list[sp.Expr], tuple[Atom, ...]]:
+    """Free expressions over ``symbols`` as rational expressions over the symbols and new atoms.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> a, b = sp.symbols("a b", real=True)
+    >>> exprs, atoms = rewrite([a**b, sp.sqrt(a)], [a, b])
+    >>> [x.kind for x in atoms], exprs
+    (['log', 'root', 'exp'], [_exp2, _root1])
+    """
+    rw = Rewriter(symbols)
+    out = [rw.add(e) for e in exprs]
+    subs = rw.finalize()
+    return [e.xreplace(subs) for e in out], rw.ordered_atoms()

@@ -1,0 +1,120 @@
+"""The discontinuous UKF (DUKF) of Chatzis & Chatzi (Front. Built Environ. 3:56, 2017), driven by a branch table.
+
+In each step the branch is evaluated at the estimated mean (the signs of the table's switching
+functions); the parameter coordinates the table marks unidentifiable in that branch are *frozen*:
+no sigma-point spread, no update, no process noise. Every sigma point still goes through the full
+non-smooth model. On a switching surface (a switching function within ``band`` of 0) the previous
+step's mask is kept; the first step starts with everything active.
+
+Which coordinates freeze. The table speaks of model parameters; the filter may estimate other
+coordinates (:class:`~obsnl.estimation.codegen.ParameterMap`). A coordinate is frozen in a branch when every
+model parameter that depends on it is unidentifiable there: with log coordinates this is the
+table itself; with yield-displacement coordinates ``Delta_i = ±r_yi**(-2N)`` the coordinate
+``r_yi`` freezes with ``Delta_i`` and ``N`` (which also moves the active ``Delta``) stays active.
+
+The frozen-active covariance (``cross``). Putting the frozen rows and columns of the covariance
+back after an update of the active block gives an indefinite matrix. Two rules keep it positive
+semidefinite *by construction*:
+
+``"regression"`` (default, variant (i) of the design notes)
+    The frozen block ``U`` is regressed on the prior active block ``A``, ``U = B A + e`` with
+    ``B = P_UA P_AA^-1`` and ``e`` independent of everything the step does. Then the predicted
+    cross-covariance is ``P_AU- = T P_AU`` with ``T = C_{A-A} P_AA^-1`` (statistical linearisation
+    through the same sigma points), ``P_Uy = B C_{Ay}``, and the update uses the gain with zero
+    rows for ``U``: ``P+ = P- - K P_zy^T - P_zy K^T + K P_yy K^T``. With covariance weights
+    ``>= 0`` the joint second-moment matrix of ``(A, A-, y, U)`` is a sum of PSD terms, so ``P-``
+    and ``P+`` are PSD whatever the gain; ``P_UU`` is untouched and the correlations survive until
+    ``U`` is released.
+``"zero"`` (variant (ii))
+    ``P_AU = 0`` while frozen: block-diagonal, PSD, but the correlations are forgotten.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from obsnl.observability.branch_table import BranchTable
+from obsnl.errors import EstimatorError, TableError
+from obsnl.estimation.ukf import UKF
+
+__all__ = ["DUKF"]
+
+
+@dataclass(frozen=True, eq=False)
+class DUKF(UKF):
+    """UKF that freezes, in each branch, the coordinates the branch table marks unidentifiable.
+
+    Parameters
+    ----------
+    table
+        The branch table (:func:`obsnl.observability.branch_table.load_branch_table`); it must be made for this
+        model (names, fingerprint, switching functions), else :class:`~obsnl.errors.TableError`.
+    cross
+        ``"regression"`` (default) or ``"zero"``: the rule for the frozen-active covariance
+        (module docstring).
+    band
+        A switching function counts as signed only beyond ``band`` (scalar or one per switching
+        function); inside the band the previous mask is kept (against chattering). Default 0.
+    **UKF options
+        As :class:`obsnl.UKF`.
+    """
+
+    table: BranchTable | None = None
+    cross: str = "regression"
+    band: Any = 0.0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        t = self.table
+        if not isinstance(t, BranchTable):
+            raise TableError("the DUKF needs a branch table: table=load_branch_table(path)")
+        m = self.model
+        t.check_model(states=m.states, parameters=m.parameters, inputs=m.inputs, outputs=m.outputs,
+                      switching_count=len(m.switching), fingerprint=m.fingerprint)
+        if tuple(t.switching) != tuple(m.switching):
+            raise TableError(f"the table's switching functions {list(t.switching)} differ from the compiled model's "
+                             f"{list(m.switching)}; compile with to_casadi(model, switching=table.switching)")
+        if self.cross not in ("regression", "zero"):
+            raise EstimatorError(f"unknown cross-covariance rule {self.cross!r}; use 'regression' or 'zero'")
+        band = np.broadcast_to(np.asarray(self.band, float), (len(t.switching),)).copy()
+        if np.any(band < 0) or not np.all(np.isfinite(band)):
+            raise EstimatorError(f"band must be >= 0, got {self.band!r}")
+        object.__setattr__(self, "band", band)
+
+    def frozen_coordinates(self, signs: Sequence[int]) -> tuple[bool, ...]:
+        """For the filter coordinates (states, then parameter coordinates): frozen in this branch?"""
+        frozen_params = {p for p, f in zip(self.model.parameters, self.table.frozen_mask(signs)) if f}
+        coords = tuple(bool(dep) and set(dep) <= frozen_params for dep in self.coordinates.depends)
+        return (False,) * self.model.nx + coords
+
+    def _extra_key(self) -> tuple:
+        return (id(self.table), self.cross, tuple(self.band))
+
+    def _cross(self) -> str:
+        return self.cross
+
+    def _active_and_signs(self, z: ca.MX, u: ca.MX, prev: ca.MX) -> tuple[ca.MX, ca.MX]:
+        g = self._switching_at(z, u)
+        matched, active = 0, 0
+        for b in self.table.branches:
+            hit = 1
+            for j, s in enumerate(b.signs):
+                hit = ca.logic_and(hit, s * g[j] > self.band[j])
+            mask = 1.0 - np.asarray(self.frozen_coordinates(b.signs), float)
+            active = active + hit * ca.DM(mask)
+            matched = matched + hit
+        return active + (1 - matched) * prev, ca.sign(g)
+
+    def branch_labels(self, signs: np.ndarray) -> list[str]:
+        """Branch label per row of ``Trajectory.signs`` (``""`` on a switching surface)."""
+        lookup = {tuple(b.signs): b.label for b in self.table.branches}
+        out = []
+        for row in np.atleast_2d(signs):
+            key = tuple(int(v) for v in row) if np.all(np.isfinite(row)) else None
+            out.append(lookup.get(key, ""))
+        return out

@@ -1,0 +1,357 @@
+"""Unscented Kalman filter for joint state-parameter estimation, one filter step as one casadi Function.
+
+The filter state is ``z = [x / state_scale; phi]``: scaled model states and parameter coordinates
+``phi`` (``theta = coordinates.forward(phi)``, e.g. log parameters, so values from 1e-3 to 1e10
+live together). Parameters are constant states with an optional random walk (``Q``).
+
+One step (predict with ``u_k -> u_{k+1}``, update with ``y_{k+1}``) is one casadi Function built by
+:mod:`obsnl.estimation.ukf_step` (scaled sigma points, ``alpha=1, beta=2, kappa=0`` by default so that every
+covariance weight is ``>= 0``; every sigma point through the full non-smooth discrete model;
+sigma points redrawn for the update, so that on a linear model the filter is exactly the Kalman
+filter). ``run`` wraps the step in ``mapaccum``: one call for a whole record; with ``jit=True`` the
+whole step is compiled to C (about 30-50 s once, then a few times faster).
+
+The step takes a mask of *active* coordinates; the UKF passes all ones, the DUKF
+(:mod:`obsnl.estimation.dukf`) the mask of the current branch (see there for the frozen-block rule).
+
+Interventions (counted per step and kind in :class:`Trajectory`, never silent; rules in
+:mod:`obsnl.estimation.ukf_step`): floored Cholesky pivots, replaced sigma points, the innovation gate
+(``gate``), rejected updates (non-finite or indefinite: the prediction is kept), held steps (the
+prediction is not finite: the previous estimate is kept), means put back into ``bounds``, standard
+deviations capped at ``cap``. No step can produce NaN or inf from a finite start; ``run`` still
+checks and raises :class:`~obsnl.errors.EstimatorError` if one ever did.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from obsnl.errors import DataError, EstimatorError
+from obsnl.estimation.numeric import NumericModel, ParameterMap, jit_options
+from obsnl.estimation.trajectory import Estimate, Trajectory
+from obsnl.estimation.ukf_step import INTERVENTIONS, build_step
+
+__all__ = ["UKF", "Estimate", "Trajectory", "check_inputs"]
+
+
+def check_inputs(ys: Any, us: Any, *, ny: int, nu: int) -> tuple[np.ndarray, np.ndarray]:
+    """Validate a record for a filter: shapes ``(T, ny)``, ``(T, nu)``, finite values.
+
+    Raises
+    ------
+    DataError
+        Wrong shapes, too short, or NaN/inf (naming the first bad sample).
+    """
+    ys = np.asarray(ys, float)
+    us = np.asarray(us, float)
+    ys = ys.reshape(-1, 1) if ys.ndim == 1 and ny == 1 else ys
+    us = us.reshape(-1, 1) if us.ndim == 1 and nu == 1 else us
+    if ys.ndim != 2 or ys.shape[1] != ny:
+        raise DataError(f"outputs must have shape (T, {ny}), got {ys.shape}")
+    if us.ndim != 2 or us.shape[1] != nu:
+        raise DataError(f"inputs must have shape (T, {nu}), got {us.shape}")
+    if len(ys) != len(us):
+        raise DataError(f"outputs have {len(ys)} samples but inputs {len(us)}; give one of each per sample")
+    if len(ys) < 2:
+        raise DataError("a record needs at least 2 samples")
+    for name, arr in (("outputs", ys), ("inputs", us)):
+        bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
+        if bad.size:
+            raise DataError(f"{name} contain NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
+                            f"clean or interpolate the record first")
+    return ys, us
+
+
+# --------------------------------------------------------------------------- the filter
+def _identity_map(names: Sequence[str]) -> ParameterMap:
+    p = ca.SX.sym("p", len(names))
+    f = ca.Function("identity", [p], [p])
+    return ParameterMap(names=tuple(names), parameters=tuple(names), forward=f, inverse=f,
+                        depends=tuple((n,) for n in names))
+
+
+def _matrix(value: Any, n: int, what: str) -> np.ndarray:
+    arr = np.asarray(value, float)
+    if arr.ndim == 0:
+        arr = arr * np.eye(n)
+    elif arr.ndim == 1:
+        arr = np.diag(arr)
+    if arr.shape != (n, n):
+        raise EstimatorError(f"{what} must be a scalar, a diagonal of length {n} or a {n}x{n} matrix; got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise EstimatorError(f"{what} contains NaN/inf")
+    if not np.allclose(arr, arr.T, rtol=1e-10, atol=0.0):
+        raise EstimatorError(f"{what} must be symmetric")
+    if np.linalg.eigvalsh(arr).min() < -1e-12 * max(1.0, np.abs(arr).max()):
+        raise EstimatorError(f"{what} must be positive semidefinite (smallest eigenvalue "
+                             f"{np.linalg.eigvalsh(arr).min():.3g})")
+    return arr
+
+
+@dataclass(frozen=True, eq=False)
+class UKF:
+    """Scaled unscented Kalman filter for joint state-parameter estimation (frozen configuration).
+
+    Parameters
+    ----------
+    model
+        The compiled model (:func:`obsnl.estimation.codegen.to_casadi`).
+    dt
+        Sampling interval of the records it will filter.
+    coordinates
+        Parameter coordinates (:func:`obsnl.estimation.codegen.log_map`, :func:`obsnl.estimation.codegen.parameter_map`);
+        default: the parameters themselves.
+    state_scale
+        Filter states are ``x / state_scale`` (default 1).
+    Q, R
+        Process noise per step (``L x L`` in filter coordinates, or its diagonal) and measurement
+        noise covariance (``ny x ny``). Changing them with :meth:`with_options` does not recompile.
+    alpha, beta, kappa
+        Scaled unscented transform (default ``1, 2, 0``: all covariance weights ``>= 0``).
+    method, substeps, refine
+        Discrete step of the model (:meth:`obsnl.estimation.codegen.NumericModel.step`): RK4 with ``substeps``
+        (default 4); a sigma point whose step is stiff for RK4 is redone with ROS2 and
+        ``refine * substeps``, one whose step crosses a switching function across which the field
+        can jump with that substep split into ``refine`` (default 8).
+    jit
+        Compile the step to C (needs a C compiler; off by default).
+    fixed
+        Parameters held at their initial value (no spread, no update, no noise), e.g. parameters
+        found practically unidentifiable; the coordinates that move only them are frozen.
+    gate
+        Innovation gate: beyond this Mahalanobis distance the gain is scaled down (Huber-type,
+        :mod:`obsnl.estimation.ukf_step`); default ``inf`` (off). Changing it does not recompile.
+    cap
+        Ceiling of the standard deviations in filter coordinates (scalar or one per coordinate;
+        default ``inf``, off); larger ones are scaled down by a congruence (PSD kept) and counted.
+    bounds
+        ``(lo, hi)`` in filter coordinates (``-inf``/``inf`` allowed): the valid region. A mean that an
+        update takes outside is put back on the edge and counted as a repair (a filter diverging
+        along a direction the data do not yet inform otherwise runs to ``exp`` overflow).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from obsnl import Model, UKF
+    >>> from obsnl.estimation.codegen import to_casadi
+    >>> m = Model(name="osc", states=["x", "v"], parameters=["k"], inputs=["u"],
+    ...           equations={"x": "v", "v": "u - k*x - v"}, outputs={"y": "x"})
+    >>> f = UKF(to_casadi(m), dt=0.1, Q=1e-8, R=1e-4)
+    >>> est = f.initial(x0=[0.0, 0.0], theta0=[4.0], P0=[1e-6, 1e-6, 1.0])
+    >>> est = f.step(est, y=[0.0], u0=[1.0], u1=[1.0])
+    >>> est.z.shape
+    (3,)
+    """
+
+    model: NumericModel
+    dt: float
+    coordinates: ParameterMap | None = None
+    state_scale: Any = None
+    Q: Any = 0.0
+    R: Any = None
+    alpha: float = 1.0
+    beta: float = 2.0
+    kappa: float = 0.0
+    method: str = "auto"
+    substeps: int = 4
+    refine: int = 8
+    jit: bool = False
+    fixed: tuple[str, ...] = ()
+    bounds: Any = None
+    gate: float = float("inf")
+    cap: Any = float("inf")
+    cache: dict = field(default_factory=dict, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
+        if not (np.isfinite(self.dt) and self.dt > 0):
+            raise EstimatorError(f"dt must be a positive number, got {self.dt!r}")
+        coords = self.coordinates or _identity_map(self.model.parameters)
+        if coords.parameters != self.model.parameters:
+            raise EstimatorError(f"coordinates are for parameters {list(coords.parameters)}, the model has "
+                                 f"{list(self.model.parameters)}")
+        set_("coordinates", coords)
+        scale = np.ones(self.model.nx) if self.state_scale is None else np.asarray(self.state_scale, float)
+        if scale.shape != (self.model.nx,) or not np.all(np.isfinite(scale)) or np.any(scale <= 0):
+            raise EstimatorError(f"state_scale must be {self.model.nx} positive numbers, got {self.state_scale!r}")
+        set_("state_scale", scale)
+        set_("Q", _matrix(self.Q, self.size, "Q"))
+        if self.R is None:
+            raise EstimatorError("give the measurement noise covariance R (ny x ny, or a scalar)")
+        set_("R", _matrix(self.R, self.model.ny, "R"))
+        if np.linalg.eigvalsh(self.R).min() <= 0:
+            raise EstimatorError("R must be positive definite")
+        unknown = set(self.fixed) - set(self.model.parameters)
+        if unknown:
+            raise EstimatorError(f"fixed names {sorted(unknown)} are not parameters of {self.model.name!r}")
+        set_("fixed", tuple(self.fixed))
+        if self.bounds is not None:
+            lo, hi = (np.broadcast_to(np.asarray(b, float), (self.size,)).copy() for b in self.bounds)
+            if np.any(np.isnan(lo)) or np.any(np.isnan(hi)) or np.any(lo >= hi):
+                raise EstimatorError("bounds must be (lo, hi) with lo < hi for every filter coordinate")
+            set_("bounds", (lo, hi))
+        for k in ("substeps", "refine"):
+            v = getattr(self, k)
+            if not (isinstance(v, (int, np.integer)) and v >= 1):
+                raise EstimatorError(f"{k} must be a whole number >= 1, got {v!r}")
+        if not self.gate > 0:
+            raise EstimatorError(f"gate must be > 0 (inf: off), got {self.gate!r}")
+        cap = np.broadcast_to(np.asarray(self.cap, float), (self.size,)).copy()
+        if np.any(np.isnan(cap)) or np.any(cap <= 0):
+            raise EstimatorError("cap must be > 0 (inf: off) for every filter coordinate")
+        set_("cap", cap)
+        if not (self.alpha > 0 and self.size + self.kappa > 0):
+            raise EstimatorError(f"need alpha > 0 and L + kappa > 0 (alpha={self.alpha}, kappa={self.kappa})")
+
+    # ------------------------------------------------------------------ sizes, coordinates
+    @property
+    def size(self) -> int:
+        """Length ``L`` of the filter state (states + parameter coordinates)."""
+        return self.model.nx + len(self.coordinates.names)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.model.states + self.coordinates.names
+
+    def with_options(self, **changes: Any) -> UKF:
+        """A copy with some options changed (compiled functions are reused where possible)."""
+        return replace(self, **changes)
+
+    def to_z(self, x: Any, theta: Any) -> np.ndarray:
+        return np.concatenate([np.asarray(x, float) / self.state_scale, self.coordinates.to_phi(theta)])
+
+    def split(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Model states and parameters of filter means ``z`` (``(L,)`` or ``(T, L)``)."""
+        z = np.atleast_2d(z)
+        nx = self.model.nx
+        th = np.asarray(self.coordinates.forward.map(len(z))(z[:, nx:].T)).T
+        return z[:, :nx] * self.state_scale, th
+
+    def initial(self, *, x0: Any, theta0: Any, P0: Any) -> Estimate:
+        """The starting estimate from model states, model parameters and ``P0`` in filter coordinates."""
+        x0, theta0 = np.asarray(x0, float), np.asarray(theta0, float)
+        if x0.shape != (self.model.nx,) or theta0.shape != (self.model.np,):
+            raise EstimatorError(f"x0 needs {self.model.nx} values and theta0 {self.model.np}")
+        z = self.to_z(x0, theta0)
+        if not np.all(np.isfinite(z)):
+            raise EstimatorError(f"theta0 {theta0.tolist()} is outside the coordinates' domain (e.g. a log of "
+                                 f"a value <= 0)")
+        P = _matrix(P0, self.size, "P0")
+        if np.linalg.eigvalsh(P).min() <= 0:
+            raise EstimatorError("P0 must be positive definite")
+        x, th = self.split(z)
+        return Estimate(k=0, z=z, P=P, x=x[0], theta=th[0], active=self.allowed)
+
+    # ------------------------------------------------------------------ compiled functions
+    def _key(self) -> tuple:
+        return (id(self.model), id(self.coordinates), self.dt, tuple(self.state_scale), self.method,
+                self.substeps, self.refine, self.jit, type(self).__name__) + self._extra_key()
+
+    def _extra_key(self) -> tuple:
+        return ()
+
+    def _active_and_signs(self, z: ca.MX, u: ca.MX, prev: ca.MX) -> tuple[ca.MX, ca.MX]:
+        """Active mask and switching-function signs at the mean (UKF: everything active)."""
+        return ca.MX(ca.DM.ones(self.size)), ca.sign(self._switching_at(z, u))
+
+    def _switching_at(self, z: ca.MX, u: ca.MX) -> ca.MX:
+        nx = self.model.nx
+        return self.model.g(z[:nx] * ca.DM(self.state_scale), self.coordinates.forward(z[nx:]), u)
+
+    def _cross(self) -> str:
+        return "zero"  # nothing is ever frozen in the UKF: both rules coincide, "zero" is cheaper
+
+    def _compiled(self) -> ca.Function:
+        key = self._key()
+        if key not in self.cache:
+            core = build_step(self.model, self.coordinates, self.dt, state_scale=self.state_scale,
+                              method=self.method, substeps=self.substeps, cross=self._cross(),
+                              refine=self.refine)
+            L, m, nu, ny = self.size, len(self.model.switching), self.model.nu, self.model.ny
+            z, P, prev = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("prev", L)
+            u0, u1, y = ca.MX.sym("u0", nu), ca.MX.sym("u1", nu), ca.MX.sym("y", ny)
+            Q, R, hyp = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny), ca.MX.sym("hyp", 4)
+            allowed = ca.MX.sym("allowed", L)
+            act, signs = self._active_and_signs(z, u0, prev)
+            act = act * allowed
+            lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
+            zn, Pn, yp, nuv, S, rep, imp, fine = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap)
+            opts = jit_options() if self.jit else {}
+            self.cache[key] = ca.Function(
+                "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap],
+                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine], opts)
+        return self.cache[key]
+
+    def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        if self.bounds is None:
+            return np.full(self.size, -np.inf), np.full(self.size, np.inf)
+        return self.bounds
+
+    @property
+    def allowed(self) -> np.ndarray:
+        """1 for coordinates the filter may estimate, 0 for those held fixed (``fixed``)."""
+        held = set(self.fixed)
+        return np.array([0.0 if dep and set(dep) <= held else 1.0
+                         for dep in ((),) * self.model.nx + self.coordinates.depends])
+
+    def _hyp(self) -> np.ndarray:
+        return np.array([self.alpha, self.beta, self.kappa, self.gate], float)
+
+    # ------------------------------------------------------------------ filtering
+    def step(self, est: Estimate, *, y: Any, u0: Any, u1: Any) -> Estimate:
+        """One step: predict from ``u0`` to ``u1`` over ``dt``, update with the measurement ``y``."""
+        ys, us = check_inputs(np.vstack([np.reshape(y, (1, -1))] * 2), np.vstack([np.reshape(u0, (1, -1)),
+                              np.reshape(u1, (1, -1))]), ny=self.model.ny, nu=self.model.nu)
+        out = self._compiled()(est.z, est.P, est.active, us[0], us[1], ys[1], self.Q, self.R, self._hyp(),
+                               self.allowed, *self._bounds(), self.cap)
+        z, P = np.asarray(out[0]).ravel(), np.asarray(out[1])
+        if not (np.all(np.isfinite(z)) and np.all(np.isfinite(P))):
+            raise EstimatorError(f"the filter produced NaN/inf at step {est.k + 1}; lower P0/Q, use method='ros2' "
+                                 f"or more substeps")
+        x, th = self.split(z)
+        return Estimate(k=est.k + 1, z=z, P=P, x=x[0], theta=th[0], active=np.asarray(out[2]).ravel())
+
+    def run(self, est0: Estimate, ys: Any, us: Any, *, t: Any = None) -> Trajectory:
+        """Filter a whole record (``ys[0]`` is the sample of ``est0``; it is not used).
+
+        Returns
+        -------
+        Trajectory
+            Estimates at every sample; raises :class:`~obsnl.errors.EstimatorError` at the first NaN.
+        """
+        ys, us = check_inputs(ys, us, ny=self.model.ny, nu=self.model.nu)
+        T, L = len(ys), self.size
+        fn = self._compiled()
+        key = ("mapaccum", self._key(), T)
+        if key not in self.cache:
+            self.cache[key] = fn.mapaccum("run", T - 1, 3, {})
+        tic = time.perf_counter()
+        out = self.cache[key](est0.z, est0.P, est0.active, us[:-1].T, us[1:].T, ys[1:].T, self.Q, self.R,
+                              self._hyp(), self.allowed, *self._bounds(), self.cap)
+        seconds = time.perf_counter() - tic
+        Z = np.vstack([est0.z, np.asarray(out[0]).T])
+        Ps = np.concatenate([est0.P[None], np.asarray(out[1]).T.reshape(T - 1, L, L).transpose(0, 2, 1)])
+        bad = np.flatnonzero(~(np.all(np.isfinite(Z), axis=1) & np.all(np.isfinite(Ps), axis=(1, 2))))
+        if bad.size:
+            raise EstimatorError(f"the filter produced NaN/inf at step {bad[0]} of {T}; lower P0/Q, use "
+                                 f"method='ros2' or more substeps")
+        nan_row = lambda a: np.vstack([np.full((1, a.shape[0]), np.nan), a.T])  # noqa: E731
+        ny = self.model.ny
+        S = np.concatenate([np.full((1, ny, ny), np.nan), np.asarray(out[5]).T.reshape(T - 1, ny, ny)])
+        signs = np.asarray(out[8]).T if len(self.model.switching) else np.zeros((T - 1, 0))
+        X, TH = self.split(Z)
+        return Trajectory(
+            t=np.arange(T) * self.dt if t is None else np.asarray(t, float), z=Z, P=Ps, x=X, theta=TH,
+            y_pred=nan_row(np.asarray(out[3])), innovations=nan_row(np.asarray(out[4])), S=S,
+            signs=np.vstack([signs, np.full((1, signs.shape[1]), np.nan)]) if signs.size else signs,
+            active=np.vstack([est0.active, np.asarray(out[2]).T]),
+            interventions=np.vstack([np.zeros((1, len(INTERVENTIONS))), np.asarray(out[6]).T]).astype(int),
+            implicit=np.concatenate([[0], np.asarray(out[7]).ravel()]).astype(int),
+            refined=np.concatenate([[0], np.asarray(out[9]).ravel()]).astype(int),
+            seconds=seconds, names=self.names, parameters=self.model.parameters, states=self.model.states)

@@ -1,0 +1,442 @@
+"""Extended (disturbance / PI) observers: fictitious force models, their Hautus test, gains, simulation.
+
+An unknown force ``n(t)`` entering the plant through ``N_R`` is approximated by a signal
+model ``n ~ H v``, ``dv/dt = V v`` (integrator or oscillator). Appending ``v`` to the state
+gives the extended system ``A_e = [[A, N_R H], [0, V]]``, ``C_e = [C, 0]``; an identity
+observer of that system estimates the force as ``n_hat = H v_hat`` (P. C. Mueller's
+disturbance observer, the PI observer of Soeffker et al.; the seed paper
+``001_d0508a78c5399696.txt`` eqs. (14)-(27)).
+
+Whether this works is decided by the Hautus test of the extended pair, split as in the
+research notes observer_bank.md section 1.4: the plant test at ``lam`` in spec(A) \\ spec(V);
+at ``lam`` in spec(V) the rank of ``G(lam) = C (lam I - A)^-1 N_R H`` restricted to the
+eigenvectors of V (which needs at least as many measurements as force channels, p >= s);
+the full block matrix where the spectra meet.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.signal
+
+from obsnl.errors import AnalysisError, DataError
+from obsnl.linear.systems import (
+    DEFAULT_RTOL,
+    DEFAULT_WEAK_RTOL,
+    HautusResult,
+    LinearSystem,
+    ObsVerdict,
+    _matrix,
+    as_linear_system,
+    distinct_eigenvalues,
+    hautus,
+    system_scaling,
+)
+
+__all__ = [
+    "FictitiousModel",
+    "integrator",
+    "oscillator",
+    "ExtendedSystem",
+    "extend",
+    "ChannelTest",
+    "ExtendedObservability",
+    "extended_observability",
+    "ObserverDesign",
+    "riccati_gain",
+    "place_gain",
+    "ObserverRun",
+    "simulate_observer",
+    "zoh",
+    "run_discrete",
+]
+
+
+# --------------------------------------------------------------------------- fictitious models
+@dataclass(frozen=True, eq=False)
+class FictitiousModel:
+    """Signal model ``n = H v``, ``dv/dt = V v`` of ``s`` force channels with ``q`` states."""
+
+    V: np.ndarray
+    H: np.ndarray
+    kind: str
+
+    def __post_init__(self) -> None:
+        V = _matrix(self.V, "V")
+        if V.shape[0] != V.shape[1]:
+            raise DataError(f"V must be square, got shape {V.shape}")
+        object.__setattr__(self, "V", V)
+        object.__setattr__(self, "H", _matrix(self.H, "H", cols=V.shape[0]))
+
+    @property
+    def q(self) -> int:
+        return self.V.shape[0]
+
+    @property
+    def s(self) -> int:
+        return self.H.shape[0]
+
+
+def integrator(s: int = 1) -> FictitiousModel:
+    """Integrator model (constant or slowly varying force): ``V = 0``, ``H = I`` with ``s`` channels."""
+    if int(s) < 1:
+        raise DataError(f"the number of force channels s must be >= 1, got {s}")
+    return FictitiousModel(np.zeros((s, s)), np.eye(s), "integrator")
+
+
+def oscillator(omegas: Sequence[float], s: int = 1, *, bias: bool = True) -> FictitiousModel:
+    """Oscillator model: per channel a bias (optional) plus one harmonic oscillator per ``omega`` (rad/s).
+
+    Each oscillator is ``[[0, 1], [-omega^2, 0]]`` read out by ``[1, 0]``; blocks are stacked
+    per channel, so ``q = s (bias + 2 len(omegas))``.
+    """
+    om = [float(w) for w in omegas]
+    if int(s) < 1 or any(not np.isfinite(w) or w <= 0 for w in om) or (not om and not bias):
+        raise DataError("oscillator needs s >= 1 and positive finite frequencies (or bias=True)")
+    blocks = ([np.zeros((1, 1))] if bias else []) + [np.array([[0.0, 1.0], [-w * w, 0.0]]) for w in om]
+    hrow = np.array(([1.0] if bias else []) + [1.0, 0.0] * len(om))
+    V = sla.block_diag(*(blocks * s))
+    H = sla.block_diag(*([hrow[None, :]] * s))
+    return FictitiousModel(V, H, "oscillator")
+
+
+# --------------------------------------------------------------------------- extended system
+@dataclass(frozen=True, eq=False)
+class ExtendedSystem:
+    """Plant plus fictitious model: ``A_e = [[A, N_R H], [0, V]]``, ``B_e = [B; 0]``, ``C_e = [C, 0]``."""
+
+    plant: LinearSystem
+    N_R: np.ndarray
+    model: FictitiousModel
+    A: np.ndarray
+    B: np.ndarray
+    C: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return self.plant.n_states
+
+    @property
+    def q(self) -> int:
+        return self.model.q
+
+    @property
+    def s(self) -> int:
+        return self.model.s
+
+    def force(self, xe: np.ndarray) -> np.ndarray:
+        """Force estimate ``H v`` from extended states (..., n + q) -> (..., s)."""
+        return np.asarray(xe)[..., self.n:] @ self.model.H.T
+
+
+def extend(system: Any, N_R: Any, model: FictitiousModel) -> ExtendedSystem:
+    """Extend a plant (``.A, .B, .C`` object, tuple) by the fictitious model acting through ``N_R`` (n x s).
+
+    Examples
+    --------
+    >>> ext = extend(([[0, 1], [-1, -0.1]], [[0], [1]], [[1, 0]]), [[0], [1]], integrator(1))
+    >>> ext.A.shape, ext.C.shape
+    ((3, 3), (1, 3))
+    """
+    plant = as_linear_system(system)
+    n, q = plant.n_states, model.q
+    N = _matrix(N_R, "N_R", rows=n)
+    if N.shape[1] != model.s:
+        raise DataError(f"N_R has {N.shape[1]} columns but the fictitious model has s = {model.s} channels")
+    A = np.block([[plant.A, N @ model.H], [np.zeros((q, n)), model.V]])
+    B = np.vstack([plant.B, np.zeros((q, plant.n_inputs))])
+    C = np.hstack([plant.C, np.zeros((plant.n_outputs, q))])
+    return ExtendedSystem(plant, N, model, A, B, C)
+
+
+@dataclass(frozen=True)
+class ChannelTest:
+    """Hautus test at an eigenvalue ``lam`` of V.
+
+    ``method`` is ``"G"`` (rank of ``G(lam) H Z``, Z the eigenvectors of V at lam) or
+    ``"block"`` (full extended PBH matrix, used when lam is also an eigenvalue of A).
+    ``singular_values`` are those of the tested matrix; ``condition`` is sigma_max/sigma_min of G.
+    """
+
+    eigenvalue: complex
+    method: str
+    singular_values: tuple[float, ...]
+    deficiency: int
+    condition: float
+
+    def to_dict(self) -> dict:
+        lam = complex(self.eigenvalue)
+        return {"eigenvalue": [lam.real, lam.imag], "method": self.method, "singular_values": list(self.singular_values),
+                "deficiency": self.deficiency, "condition": self.condition}
+
+
+@dataclass(frozen=True)
+class ExtendedObservability:
+    """Outcome of :func:`extended_observability` (see the module docstring for the case split)."""
+
+    n_outputs: int
+    n_channels: int
+    plant: HautusResult
+    channels: tuple[ChannelTest, ...]
+    verdict: ObsVerdict
+    detectable: bool
+    reason: str
+    weak_cond: float
+
+    @property
+    def enough_outputs(self) -> bool:
+        """The necessary condition p >= s (independent measurements >= modelled force channels)."""
+        return self.n_outputs >= self.n_channels
+
+    @property
+    def observable(self) -> bool:
+        return self.verdict is not ObsVerdict.UNOBSERVABLE
+
+    def to_dict(self) -> dict:
+        return {"verdict": self.verdict.value, "observable": self.observable, "detectable": self.detectable,
+                "reason": self.reason, "n_outputs": self.n_outputs, "n_channels": self.n_channels,
+                "enough_outputs": self.enough_outputs, "weak_cond": self.weak_cond,
+                "channels": [c.to_dict() for c in self.channels], "plant": self.plant.to_dict()}
+
+
+def extended_observability(system: Any, N_R: Any, model: FictitiousModel, *, rtol: float = DEFAULT_RTOL,
+                           weak_rtol: float = DEFAULT_WEAK_RTOL, weak_cond: float = 1e2,
+                           scaling: str = "balance", output_scale: Any = None) -> ExtendedObservability:
+    """Hautus test of the extended pair ``(A_e, C_e)``, split by eigenvalue (observer_bank.md section 1.4).
+
+    Parameters
+    ----------
+    system, N_R, model
+        Plant (``.A, .B, .C`` object or tuple), force distribution (n x s), fictitious model.
+    rtol, weak_rtol, scaling
+        As in :func:`obsnl.linear.systems.hautus`; ``rtol`` is also the relative rank tolerance for ``G``.
+    weak_cond
+        A channel test with ``cond(G(lam)) > weak_cond`` makes the verdict "weakly observable".
+    output_scale
+        Optional per-output scale (e.g. the noise level) dividing the rows of ``G`` before its
+        condition number is taken; ranks do not depend on it, the condition number does.
+
+    Returns
+    -------
+    ExtendedObservability
+        ``verdict`` is unobservable when p < s (checked first), when a plant eigenvalue fails
+        the PBH test, or when ``G(lam)`` loses rank at an eigenvalue of V.
+
+    Examples
+    --------
+    >>> plant = ([[0, 1], [-1, -0.1]], [[0], [1]], [[1, 0]])
+    >>> extended_observability(plant, [[0, 0], [1, 1]], integrator(2)).reason
+    'p = 1 independent measurements < s = 2 modelled force channels'
+    """
+    ext = extend(system, N_R, model)
+    A, C, n, q, s = ext.plant.A, ext.plant.C, ext.n, ext.q, ext.s
+    sv_c = np.linalg.svd(C, compute_uv=False)
+    p = int(np.sum(sv_c > rtol * max(sv_c.max(initial=0.0), np.finfo(float).tiny)))
+    wscale = np.ones(C.shape[0]) if output_scale is None else np.asarray(output_scale, dtype=float).ravel()
+    if wscale.shape != (C.shape[0],) or np.any(~np.isfinite(wscale)) or np.any(wscale <= 0):
+        raise DataError(f"output_scale needs {C.shape[0]} positive finite numbers, one per output")
+    lam_v = distinct_eigenvalues(model.V)
+    lam_a = distinct_eigenvalues(A)
+    tol_a = 1e-9 * max(np.linalg.norm(A, 2), 1.0)
+    plant_lams = [lam for lam in lam_a if np.min(np.abs(lam_v - lam), initial=np.inf) > tol_a]
+    plant = hautus(ext.plant, eigenvalues=plant_lams, rtol=rtol, weak_rtol=weak_rtol, scaling=scaling)
+    channels: list[ChannelTest] = []
+    for lam in lam_v:
+        Z = sla.null_space(lam * np.eye(q) - model.V.astype(complex), rcond=1e-10)
+        if np.min(np.abs(lam_a - lam)) > tol_a:
+            G = C @ np.linalg.solve(lam * np.eye(n) - A, ext.N_R @ model.H @ Z)
+            sv = np.linalg.svd(G / wscale[:, None], compute_uv=False)
+            defic = Z.shape[1] - int(np.sum(sv > rtol * max(sv.max(initial=0.0), np.finfo(float).tiny)))
+            cond = float(sv[0] / sv[-1]) if sv.size and sv[-1] > 0 and defic == 0 else float("inf")
+            channels.append(ChannelTest(complex(lam), "G", tuple(float(x) for x in sv), defic, cond))
+        else:
+            sc = system_scaling(ext.A, ext.C, method=scaling)
+            Ae, Ce = sc.apply(ext.A, ext.C)
+            scale = np.linalg.norm(np.vstack([Ae, Ce]), 2)
+            sv = np.linalg.svd(np.vstack([lam * np.eye(n + q) - Ae, Ce]), compute_uv=False)
+            defic = int(np.sum(sv <= rtol * scale))
+            channels.append(ChannelTest(complex(lam), "block", (float(sv[-1]),), defic, float("nan")))
+    reasons = []
+    if p < s:
+        reasons.append(f"p = {p} independent measurements < s = {s} modelled force channels")
+    bad_plant = [t for t in plant.tests if t.deficiency]
+    if bad_plant:
+        reasons.append(f"plant unobservable at {len(bad_plant)} eigenvalue(s), e.g. {bad_plant[0].eigenvalue:.4g}")
+    bad_ch = [c for c in channels if c.deficiency]
+    if bad_ch and p >= s:
+        reasons.append(f"force channels unobservable at lam = {bad_ch[0].eigenvalue:.4g} (rank of G(lam) < s)")
+    weak = [c for c in channels if c.method == "G" and c.condition > weak_cond]
+    if reasons:
+        verdict = ObsVerdict.UNOBSERVABLE
+    elif weak or plant.verdict is ObsVerdict.WEAK:
+        verdict = ObsVerdict.WEAK
+        reasons.append(f"cond(G(lam)) = {weak[0].condition:.3g} > {weak_cond:g}" if weak
+                       else f"plant PBH margin {plant.margin:.2e} < {weak_rtol:g}")
+    else:
+        verdict = ObsVerdict.OBSERVABLE
+    detectable = not bad_ch and p >= s and all(t.eigenvalue.real < 0 for t in bad_plant)
+    return ExtendedObservability(p, s, plant, tuple(channels), verdict, detectable, "; ".join(reasons), weak_cond)
+
+
+# --------------------------------------------------------------------------- gains
+@dataclass(frozen=True, eq=False)
+class ObserverDesign:
+    """An observer gain ``L`` for an extended system and what it does.
+
+    ``eigenvalues`` are those of ``A_e - L C_e``; ``force_eigenvalues`` the ``q`` of them with
+    the largest participation of the fictitious states; ``residual`` the relative Riccati
+    residual (NaN for pole placement).
+    """
+
+    L: np.ndarray
+    method: str
+    eigenvalues: np.ndarray
+    force_eigenvalues: np.ndarray
+    residual: float
+
+    @property
+    def stable(self) -> bool:
+        return bool(np.all(self.eigenvalues.real < 0))
+
+    def to_dict(self) -> dict:
+        c = lambda z: [[float(v.real), float(v.imag)] for v in z]  # noqa: E731
+        return {"method": self.method, "stable": self.stable, "eigenvalues": c(self.eigenvalues),
+                "force_eigenvalues": c(self.force_eigenvalues), "residual": self.residual,
+                "gain_norm": float(np.linalg.norm(self.L, 2))}
+
+
+def _design(ext: ExtendedSystem, L: np.ndarray, method: str, residual: float) -> ObserverDesign:
+    Acl = ext.A - L @ ext.C
+    w, vl, vr = sla.eig(Acl, left=True, right=True)
+    vl = vl / np.conj(np.sum(np.conj(vl) * vr, axis=0))[None, :]
+    part = np.abs(vl * vr)
+    frac = part[ext.n:].sum(axis=0) / part.sum(axis=0)
+    idx = np.argsort(-frac)[: ext.q]
+    bad = int(np.sum(w.real >= -1e-9 * np.abs(w).max(initial=1.0)))
+    if bad:
+        raise AnalysisError(f"the {method} gain leaves {bad} observer eigenvalue(s) unstable or on the imaginary "
+                            "axis; check extended_observability (an unobservable fictitious mode?)")
+    return ObserverDesign(L, method, w, w[idx], residual)
+
+
+def riccati_gain(ext: ExtendedSystem, *, R: Any, q_x: float = 1.0, q_v: float = 1.0, Q: Any = None) -> ObserverDesign:
+    """Stationary Kalman-Bucy gain: ``A_e P + P A_e^T - P C_e^T R^-1 C_e P + Q = 0``, ``L = P C_e^T R^-1``.
+
+    Parameters
+    ----------
+    ext
+        The extended system.
+    R
+        Output weight (p x p, or a vector of variances).
+    q_x, q_v
+        ``Q = blkdiag(q_x I_n, q_v I_q)`` unless ``Q`` is given; ``q_v`` is the random-walk
+        intensity of the fictitious states and sets how fast the force estimate follows.
+
+    Raises
+    ------
+    AnalysisError
+        scipy cannot isolate the stable subspace (unobservable fictitious modes) or the gain
+        is not stabilising.
+    """
+    nq, p = ext.A.shape[0], ext.C.shape[0]
+    Rm = np.diag(np.asarray(R, dtype=float)) if np.ndim(R) == 1 else _matrix(R, "R")
+    if Rm.shape != (p, p) or not np.all(np.isfinite(Rm)):
+        raise DataError(f"R must be {p} x {p} (or {p} variances) and finite")
+    if Q is None:
+        Qm = np.diag(np.r_[np.full(ext.n, float(q_x)), np.full(ext.q, float(q_v))])
+    else:
+        Qm = _matrix(Q, "Q", rows=nq, cols=nq)
+    Qm, Rm = (Qm + Qm.T) / 2, (Rm + Rm.T) / 2
+    try:
+        P = sla.solve_continuous_are(ext.A.T, ext.C.T, Qm, Rm)
+    except (np.linalg.LinAlgError, ValueError) as exc:
+        raise AnalysisError(f"the observer Riccati equation has no stabilising solution ({exc}); "
+                            "check extended_observability and that Q excites the fictitious states") from exc
+    L = np.linalg.solve(Rm, ext.C @ P).T
+    res = ext.A @ P + P @ ext.A.T - P @ ext.C.T @ np.linalg.solve(Rm, ext.C @ P) + Qm
+    rel = float(np.linalg.norm(res) / max(np.linalg.norm(Qm), np.linalg.norm(ext.A @ P), 1e-300))
+    return _design(ext, L, "riccati", rel)
+
+
+def place_gain(ext: ExtendedSystem, poles: Any, *, method: str = "YT") -> ObserverDesign:
+    """Observer gain by pole placement on the dual pair: ``L = place(A_e^T, C_e^T, poles)^T``.
+
+    The MIMO gain is not unique, and YT cannot place a pole more often than rank(C); prefer
+    :func:`riccati_gain` for large, stiff systems.
+    """
+    poles = np.asarray(poles, dtype=complex).ravel()
+    if poles.size != ext.A.shape[0]:
+        raise DataError(f"give {ext.A.shape[0]} poles (one per extended state), got {poles.size}")
+    try:
+        res = scipy.signal.place_poles(ext.A.T, ext.C.T, poles, method=method)
+    except ValueError as exc:
+        raise AnalysisError(f"pole placement failed: {exc}") from exc
+    return _design(ext, np.real(res.gain_matrix.T), "place", float("nan"))
+
+
+# --------------------------------------------------------------------------- simulation
+def zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """Exact zero-order-hold discretisation ``(Phi, Gamma)`` of ``dx/dt = A x + B u`` with step ``dt``."""
+    n, m = A.shape[0], B.shape[1]
+    big = np.zeros((n + m, n + m))
+    big[:n, :n], big[:n, n:] = A, B
+    E = sla.expm(big * dt)
+    return E[:n, :n], E[:n, n:]
+
+
+def run_discrete(Phi: np.ndarray, g: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
+    """States of ``x[k+1] = Phi x[k] + g[k]`` for k = 0..N-2 (returns N x n, ``x[0] = x0``)."""
+    x = np.zeros((g.shape[0], Phi.shape[0]))
+    if x0 is not None:
+        x[0] = x0
+    PhiT = np.ascontiguousarray(Phi.T)
+    for k in range(g.shape[0] - 1):
+        x[k + 1] = x[k] @ PhiT + g[k]
+    return x
+
+
+@dataclass(frozen=True, eq=False)
+class ObserverRun:
+    """Observer outputs per sample: extended state ``xhat`` (N, n+q), force ``nhat`` (N, s),
+    output residual ``residual = y - C xhat`` (N, p)."""
+
+    xhat: np.ndarray
+    nhat: np.ndarray
+    residual: np.ndarray
+
+
+def _samples(a: Any, name: str, cols: int, rows: int | None = None) -> np.ndarray:
+    a = np.asarray(a, dtype=float)
+    if a.ndim == 1 and cols == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[1] != cols or (rows is not None and a.shape[0] != rows):
+        want = f"({rows if rows is not None else 'N'}, {cols})"
+        raise DataError(f"{name} has shape {a.shape}, expected {want}: one row per sample")
+    if not np.all(np.isfinite(a)):
+        raise DataError(f"{name} contains NaN or inf; clean or interpolate the samples first")
+    return a
+
+
+def observer_matrices(ext: ExtendedSystem, L: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
+    """ZOH matrices of the observer ``dx/dt = (A_e - L C_e) x + [B_e, L] [u; y]``."""
+    if not dt > 0:
+        raise DataError(f"the time step dt must be positive, got {dt}")
+    return zoh(ext.A - L @ ext.C, np.hstack([ext.B, L]), dt)
+
+
+def simulate_observer(ext: ExtendedSystem, L: Any, *, dt: float, u: Any, y: Any, x0: Any = None) -> ObserverRun:
+    """Run the extended observer on sampled inputs ``u`` (N, m) and outputs ``y`` (N, p).
+
+    The observer is discretised exactly (zero-order hold of ``u`` and ``y`` over each step).
+    """
+    y = _samples(y, "y", ext.C.shape[0])
+    u = _samples(u, "u", ext.B.shape[1], rows=y.shape[0]) if ext.B.shape[1] else np.zeros((y.shape[0], 0))
+    L = _matrix(L, "L", rows=ext.A.shape[0])
+    Phi, Gam = observer_matrices(ext, L, dt)
+    xhat = run_discrete(Phi, np.hstack([u, y]) @ Gam.T, None if x0 is None else np.asarray(x0, dtype=float))
+    return ObserverRun(xhat, ext.force(xhat), y - xhat @ ext.C.T)

@@ -1,0 +1,595 @@
+"""Split a non-smooth model into smooth branches (Chatzis et al., as in the seed paper §3.1).
+
+A *switching function* is the argument of ``sign``/``Abs``/``Heaviside``, the difference of the
+two sides of a ``Piecewise`` condition, or a pairwise difference of ``Max``/``Min`` arguments.
+Each is factored; the sign of a product or power follows from its factors, so
+``sign((sigma - eta)*x2)`` adds no switching function beyond ``sigma - eta`` and ``x2``.
+A branch fixes the sign of every switching function; inside it every non-smooth function is
+replaced by its analytic extension (``sign(g) -> ±1``, ``Abs(g) -> ±g``, ...). Sign patterns that
+no point satisfies are dropped (exactly by linear programming when the switching functions are
+affine, by a search for a witness point otherwise). Nested non-smooth functions are resolved
+level by level.
+
+Branches are ordered in reflected Gray-code order over the switching functions (neighbours differ
+across one switching surface); for the seed model this is the paper's order (a)-(d).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import itertools
+import string
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from obsnl.errors import ModelError, NotSupportedError
+from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
+
+__all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of"]
+
+_MAX_SWITCHING = 12  # 2**12 sign patterns per level at most
+_FIELDS = {f.name for f in dataclasses.fields(Model)}
+
+
+@dataclass(frozen=True)
+class Branch:
+    """One smooth branch of a model.
+
+    Attributes
+    ----------
+    label
+        Short label: ``"a"``, ``"b"``, ... in Gray-code order (``"smooth"`` for a smooth model).
+    switching
+        The switching functions, in order.
+    signs
+        The sign (+1 or -1) of each switching function in this branch.
+    model
+        The smooth model valid in this branch (no sign/Abs/Heaviside/Piecewise/Max/Min left).
+    witness
+        A point (name -> value) inside the branch, found while checking feasibility.
+    """
+
+    label: str
+    switching: tuple[sp.Expr, ...]
+    signs: tuple[int, ...]
+    model: Model
+    witness: Mapping[str, float] = field(default_factory=dict, compare=False)
+
+    @property
+    def relations(self) -> tuple[sp.Rel, ...]:
+        """The guard as sympy relations, e.g. ``(sigma - eta > 0, x2 < 0)``."""
+        return tuple(sp.StrictGreaterThan(g, 0) if s > 0 else sp.StrictLessThan(g, 0)
+                     for g, s in zip(self.switching, self.signs))
+
+    @property
+    def guard(self) -> sp.Basic:
+        """The guard as one sympy boolean over the model's symbols (``True`` for a smooth model)."""
+        return sp.And(*self.relations) if self.switching else sp.true
+
+    @property
+    def guard_text(self) -> str:
+        """The guard as text that sympy reads back, e.g. ``"(sigma - eta > 0) & (x2 < 0)"``.
+
+        ``"true"`` for a smooth model; a single relation has no parentheses (``"v > 0"``).
+        """
+        if not self.switching:
+            return "true"
+        rels = [f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(self.switching, self.signs)]
+        return rels[0] if len(rels) == 1 else " & ".join(f"({r})" for r in rels)
+
+    def contains(self, point: Mapping[str, float]) -> bool:
+        """True when ``point`` (name -> value) lies strictly inside this branch."""
+        for g, s in zip(self.switching, self.signs):
+            val = float(g.xreplace({sym: point[sym.name] for sym in g.free_symbols}))
+            if not s * val > 0:
+                return False
+        return True
+
+
+@dataclass(frozen=True)
+class DroppedPattern:
+    """A sign pattern with no point in it (why it was dropped)."""
+
+    switching: tuple[sp.Expr, ...]
+    signs: tuple[int, ...]
+    reason: str
+
+
+def expr_text(g: sp.Expr) -> str:
+    """Plain text of ``g`` with positive terms first (``sigma - eta``, not ``-eta + sigma``)."""
+    if not isinstance(g, sp.Add):
+        return sp.sstr(g)
+    terms = sorted(g.args, key=lambda t: (t.could_extract_minus_sign(), sp.default_sort_key(t)))
+    out = ""
+    for i, t in enumerate(terms):
+        if t.could_extract_minus_sign():
+            body = sp.sstr(-t)
+            body = f"({body})" if isinstance(-t, sp.Add) else body
+            out += f" - {body}" if i else f"-{body}"
+        else:
+            out += f" + {sp.sstr(t)}" if i else sp.sstr(t)
+    return out
+
+
+# --------------------------------------------------------------------------- switching functions
+def _innermost_nonsmooth(exprs: Sequence[sp.Basic]) -> list[sp.Basic]:
+    """Non-smooth function applications whose arguments are smooth, in order of appearance."""
+    found: list[sp.Basic] = []
+    seen: set[sp.Basic] = set()
+    for e in exprs:
+        for node in sp.preorder_traversal(e):
+            if isinstance(node, NONSMOOTH_FUNCTIONS) and node not in seen:
+                if not any(a.has(*NONSMOOTH_FUNCTIONS) for a in _arguments(node)):
+                    seen.add(node)
+                    found.append(node)
+    return found
+
+
+def _arguments(node: sp.Basic) -> list[sp.Basic]:
+    if isinstance(node, sp.Piecewise):
+        out: list[sp.Basic] = []
+        for e, c in node.args:
+            out.extend([e, c])
+        return out
+    if isinstance(node, sp.Heaviside):
+        return [node.args[0]]
+    return list(node.args)
+
+
+def _raw_switching(node: sp.Basic) -> list[sp.Expr]:
+    """The raw switching expressions of one non-smooth application."""
+    if isinstance(node, (sp.sign, sp.Abs, sp.Heaviside)):
+        return [node.args[0]]
+    if isinstance(node, (sp.Max, sp.Min)):
+        return [a - b for a, b in itertools.combinations(node.args, 2)]
+    if isinstance(node, sp.Piecewise):
+        out = []
+        for _, cond in node.args:
+            out.extend(_relations_of(cond))
+        return out
+    raise NotSupportedError(f"cannot split at {node}")  # pragma: no cover - guarded by callers
+
+
+def _relations_of(cond: sp.Basic) -> list[sp.Expr]:
+    if cond in (sp.true, sp.false) or isinstance(cond, bool):
+        return []
+    if isinstance(cond, (sp.StrictGreaterThan, sp.GreaterThan, sp.StrictLessThan, sp.LessThan)):
+        return [cond.lhs - cond.rhs]
+    if isinstance(cond, (sp.Eq, sp.Ne)):
+        raise NotSupportedError(
+            f"Piecewise condition {cond} is an equality; equalities hold on a set of measure zero and "
+            f"are not switching surfaces; write the condition with < or >"
+        )
+    if isinstance(cond, (sp.And, sp.Or, sp.Not)):
+        out = []
+        for a in cond.args:
+            out.extend(_relations_of(a))
+        return out
+    raise NotSupportedError(f"Piecewise condition {cond} is not a combination of <, >, <=, >=")
+
+
+def _canonical(f: sp.Expr) -> tuple[int, sp.Expr]:
+    """(sign, f') with f = sign * f' and f' in a canonical orientation."""
+    f = sp.expand(f) if f.is_Add else f
+    if f.could_extract_minus_sign():
+        return -1, -f
+    return 1, f
+
+
+def _factor_signs(g: sp.Expr) -> tuple[int, list[sp.Expr]]:
+    """Write sign(g) = c * prod(sign(f_j)) with canonical irreducible factors f_j (odd powers only)."""
+    g = sp.together(g)
+    num, den = sp.fraction(g)
+    const = 1
+    factors: list[sp.Expr] = []
+    for part in (num, den):
+        try:
+            c, flist = sp.factor_list(part)
+        except (sp.PolynomialError, NotImplementedError, TypeError, ValueError):
+            c, flist = 1, [(p, 1) for p in sp.Mul.make_args(sp.factor_terms(part))]
+        c = sp.sympify(c)
+        if c.is_number:
+            if c == 0:
+                raise ModelError(f"the switching function {g} is identically zero")
+            const *= 1 if c > 0 else -1
+        else:  # pragma: no cover - factor_list returns numeric content
+            flist = [(c, 1)] + list(flist)
+        for f, k in flist:
+            if f.is_number:
+                const *= 1 if (f > 0 or k % 2 == 0) else -1
+                continue
+            if isinstance(f, sp.Pow) and f.exp.is_number and f.exp.is_integer:
+                base, k = f.base, k * int(f.exp)
+                f = base
+            if f.is_positive:
+                continue
+            if k % 2 == 0:
+                continue  # an even power has a known sign off the surface f = 0
+            s, fc = _canonical(f)
+            const *= s
+            if fc not in factors:
+                factors.append(fc)
+            else:  # f appears twice with odd powers: sign squared
+                factors.remove(fc)
+    return const, factors
+
+
+def switching_functions(model: Model) -> tuple[sp.Expr, ...]:
+    """The switching functions of the outermost level of ``model`` (empty for a smooth model).
+
+    Declared ``model.switching`` come first, in their order and orientation; others follow in
+    order of appearance.
+    """
+    return _switching_of(list(model.rhs) + list(model.output_exprs), model.switching)
+
+
+def _factored(g: sp.Expr, memo: dict | None) -> tuple[int, list[sp.Expr]]:
+    """:func:`_factor_signs` remembered for one split (the same arguments recur in every branch)."""
+    if memo is None:
+        return _factor_signs(g)
+    if g not in memo:
+        memo[g] = _factor_signs(g)
+    c, factors = memo[g]
+    return c, list(factors)
+
+
+def _switching_of(exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr],
+                  memo: dict | None = None) -> tuple[sp.Expr, ...]:
+    found: list[sp.Expr] = []
+    for node in _innermost_nonsmooth(exprs):
+        for raw in _raw_switching(node):
+            _, factors = _factored(raw, memo)
+            for f in factors:
+                if f not in found:
+                    found.append(f)
+    order = [d for d in declared if _canonical(d)[1] in found]
+    taken = {_canonical(d)[1] for d in order}
+    order.extend(f for f in found if f not in taken)
+    return tuple(order)
+
+
+# --------------------------------------------------------------------------- resolution in a branch
+def _sign_in(g: sp.Expr, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> int:
+    """The sign of ``g`` in the branch where ``switching`` have ``signs``."""
+    c, factors = _factored(g, memo)
+    canon = {_canonical(sw)[1]: (_canonical(sw)[0], s) for sw, s in zip(switching, signs)}
+    out = c
+    for f in factors:
+        if f not in canon:  # pragma: no cover - every factor is a switching function
+            raise ModelError(f"internal: {f} is not among the switching functions")
+        orient, s = canon[f]
+        out *= orient * s
+    return out
+
+
+def _truth(cond: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> bool:
+    if cond is sp.true or cond is True:
+        return True
+    if cond is sp.false or cond is False:
+        return False
+    if isinstance(cond, (sp.StrictGreaterThan, sp.GreaterThan)):
+        return _sign_in(cond.lhs - cond.rhs, switching, signs, memo) > 0
+    if isinstance(cond, (sp.StrictLessThan, sp.LessThan)):
+        return _sign_in(cond.lhs - cond.rhs, switching, signs, memo) < 0
+    if isinstance(cond, sp.And):
+        return all(_truth(a, switching, signs, memo) for a in cond.args)
+    if isinstance(cond, sp.Or):
+        return any(_truth(a, switching, signs, memo) for a in cond.args)
+    if isinstance(cond, sp.Not):
+        return not _truth(cond.args[0], switching, signs, memo)
+    raise NotSupportedError(f"Piecewise condition {cond} is not supported")  # pragma: no cover
+
+
+def _resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> sp.Expr:
+    if isinstance(node, sp.sign):
+        return sp.Integer(_sign_in(node.args[0], switching, signs, memo))
+    if isinstance(node, sp.Abs):
+        return _sign_in(node.args[0], switching, signs, memo) * node.args[0]
+    if isinstance(node, sp.Heaviside):
+        return sp.Integer(1 if _sign_in(node.args[0], switching, signs, memo) > 0 else 0)
+    if isinstance(node, (sp.Max, sp.Min)):
+        want = 1 if isinstance(node, sp.Max) else -1
+        for a in node.args:
+            if all(want * _sign_in(a - b, switching, signs, memo) > 0 for b in node.args if b is not a):
+                return a
+        raise ModelError(f"cannot resolve {node} in a branch")  # pragma: no cover
+    if isinstance(node, sp.Piecewise):
+        for e, c in node.args:
+            if _truth(c, switching, signs, memo):
+                return e
+        raise ModelError(
+            f"Piecewise {node} has no branch for the sign pattern "
+            f"{dict(zip(map(str, switching), signs))}; add a final (value, True) pair"
+        )
+    raise NotSupportedError(f"cannot resolve {node}")  # pragma: no cover
+
+
+# --------------------------------------------------------------------------- feasibility
+def _gray(k: int) -> list[tuple[int, ...]]:
+    """Reflected Gray code over k signs, +1 first; the first function is the slowest."""
+    out = []
+    for i in range(2**k):
+        g = i ^ (i >> 1)
+        out.append(tuple(-1 if (g >> (k - 1 - j)) & 1 else 1 for j in range(k)))
+    return out
+
+
+def _affine(g: sp.Expr, syms: Sequence[sp.Symbol], memo: dict | None = None) -> tuple[list[float], float] | None:
+    """(coefficients of ``syms``, constant) when ``g`` is affine in ``syms`` with numeric coefficients."""
+    key = (g, tuple(syms))
+    if memo is not None and key in memo:
+        return memo[key]
+    try:
+        poly = sp.Poly(g, *syms)
+        ok = poly.total_degree() <= 1 and all(c.is_number for c in poly.coeffs())
+    except sp.PolynomialError:
+        ok = False
+    out = ([float(poly.coeff_monomial(v)) for v in syms], float(poly.coeff_monomial(1))) if ok else None
+    if memo is not None:
+        memo[key] = out
+    return out
+
+
+def _feasible_lp(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol],
+                 coeffs: Sequence[tuple[list[float], float]]) -> dict[str, float] | None:
+    n = len(syms)
+    A = np.array([c[0] for c in coeffs], dtype=float).reshape(len(conds), n)
+    b0 = np.array([c[1] for c in coeffs], dtype=float)
+    signs = np.array([s for _, s in conds], dtype=float)
+    if n and np.linalg.matrix_rank(A) == len(conds):
+        # independent affine forms: every sign pattern holds somewhere; A z + b = signs is solvable
+        z = np.linalg.lstsq(A, signs - b0, rcond=None)[0]
+        return {v.name: float(x) for v, x in zip(syms, z)}
+    from scipy.optimize import linprog
+
+    A_ub, b_ub = [], []
+    for (g, s), a, b in zip(conds, A, b0):
+        # s*(a.z + b) >= t  <=>  -s*a.z + t <= s*b
+        A_ub.append(np.concatenate([-s * a, [1.0]]))
+        b_ub.append(s * b)
+    c = np.zeros(n + 1)
+    c[-1] = -1.0
+    bounds = [(-1e3, 1e3)] * n + [(None, 1.0)]
+    res = linprog(c, A_ub=np.array(A_ub), b_ub=np.array(b_ub), bounds=bounds, method="highs")
+    if res.status == 0 and -res.fun > 1e-9:
+        return {v.name: float(x) for v, x in zip(syms, res.x[:n])}
+    return None
+
+
+def _feasible_search(
+    conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol], rng: np.random.Generator
+) -> dict[str, float] | None:
+    fn = sp.lambdify(list(syms), [g for g, _ in conds], modules="numpy")
+    signs = np.array([s for _, s in conds], dtype=float)
+    n = len(syms)
+    for scale in (1.0, 10.0, 0.1, 100.0):
+        z = rng.standard_normal((4000, n)) * scale
+        with np.errstate(all="ignore"):
+            vals = np.array([np.broadcast_to(np.asarray(v, dtype=float), (z.shape[0],)) for v in fn(*z.T)])
+        ok = np.all(signs[:, None] * vals > 0, axis=0) & np.all(np.isfinite(vals), axis=0)
+        if ok.any():
+            i = int(np.argmax(ok))
+            return {v.name: float(x) for v, x in zip(syms, z[i])}
+    from scipy.optimize import minimize
+
+    def loss(x: np.ndarray) -> float:
+        with np.errstate(all="ignore"):
+            v = np.array(fn(*x), dtype=float)
+        if not np.all(np.isfinite(v)):
+            return 1e6
+        return float(np.sum(np.maximum(0.0, 1e-3 - signs * v) ** 2))
+
+    for _ in range(20):
+        res = minimize(loss, rng.standard_normal(n), method="Nelder-Mead", options={"maxiter": 2000})
+        x = res.x
+        with np.errstate(all="ignore"):
+            v = np.array(fn(*x), dtype=float)
+        if np.all(np.isfinite(v)) and np.all(signs * v > 0):
+            return {s.name: float(xi) for s, xi in zip(syms, x)}
+    return None
+
+
+def _feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
+              memo: dict | None = None) -> tuple[dict[str, float] | None, str]:
+    syms = sorted(set().union(*(g.free_symbols for g, _ in conds)), key=lambda s: s.name) if conds else []
+    if not conds:
+        return {}, ""
+    coeffs = [_affine(g, syms, memo) for g, _ in conds]
+    if all(c is not None for c in coeffs):
+        w = _feasible_lp(conds, syms, coeffs)
+        return w, "" if w is not None else "the affine sign conditions contradict each other (linear program)"
+    w = _feasible_search(conds, syms, rng)
+    return w, "" if w is not None else "no point satisfies the sign conditions (random and local search)"
+
+
+# --------------------------------------------------------------------------- splitting
+def derived_model(base: Model, **changes: Any) -> Model:
+    """``base.replace(**changes)`` for changes made of ``base``'s own validated parts, without re-parsing.
+
+    :meth:`Model.replace` validates every expression again, and validation prints each one (about
+    15 ms per branch of the seed model, as much as analysing the branch). The models derived here
+    only substitute signs into ``base``'s expressions (branches) or keep subsets of its names and
+    expressions (blocks of :mod:`obsnl.observability.decompose`): the symbols are ``base``'s own and no
+    non-smooth function or undeclared name can appear, so re-validation cannot fail. Mappings are
+    keyed like the validated model's (``equations`` and ``initial_condition_values`` by symbol,
+    ``outputs`` by name) and frozen the same way; tests compare every field with ``replace``.
+    """
+    new = copy.copy(base)
+    for key, value in changes.items():
+        if key not in _FIELDS:
+            raise TypeError(f"derived_model: unknown field {key!r}")
+        if isinstance(value, Mapping):
+            value = MappingProxyType(dict(value))
+        elif isinstance(value, list):
+            value = tuple(value)
+        object.__setattr__(new, key, value)
+    return new
+
+
+def _labels(n: int) -> list[str]:
+    letters = string.ascii_lowercase
+    out = []
+    for i in range(n):
+        if i < 26:
+            out.append(letters[i])
+        else:
+            out.append(letters[i // 26 - 1] + letters[i % 26])
+    return out
+
+
+def split_branches(
+    model: Model, *, seed: int = 0, with_dropped: bool = False
+) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
+    """Split ``model`` into its smooth branches.
+
+    Parameters
+    ----------
+    model
+        Any model; a smooth one gives a single branch labelled ``"smooth"``.
+    seed
+        Seed of the witness search used for non-affine switching functions.
+    with_dropped
+        Also return the sign patterns dropped as contradictory.
+
+    Returns
+    -------
+    tuple[Branch, ...] or (tuple[Branch, ...], tuple[DroppedPattern, ...])
+
+    Raises
+    ------
+    NotSupportedError
+        More than 12 switching functions at one level, or an unsupported Piecewise condition.
+
+    Examples
+    --------
+    >>> from obsnl import Model, split_branches
+    >>> m = Model(name="coulomb", states=["x", "v"], parameters=["k", "mu"], inputs=["u"],
+    ...           equations={"x": "v", "v": "u - k*x - mu*sign(v)"}, outputs={"y": "x"})
+    >>> [(b.label, b.guard_text) for b in split_branches(m)]
+    [('a', 'v > 0'), ('b', 'v < 0')]
+    """
+    rng = np.random.default_rng(seed)
+    exprs = list(model.rhs) + list(model.output_exprs)
+    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
+        branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
+        return (branches, ()) if with_dropped else branches
+    found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float]]] = []
+    dropped: list[DroppedPattern] = []
+    _split_level(exprs, model.switching, (), (), {}, rng, found, dropped, {})
+    labels = _labels(len(found))
+    n_rhs = len(model.states)
+    branches = []
+    for label, (sw, signs, new_exprs, witness) in zip(labels, found):
+        eqs = dict(zip(model.states, new_exprs[:n_rhs]))
+        outs = dict(zip(model.output_names, new_exprs[n_rhs:]))
+        sub = derived_model(model, name=f"{model.name}[{label}]", equations=eqs, outputs=outs, switching=())
+        branches.append(Branch(label, sw, signs, sub, witness))
+    result = tuple(branches)
+    return (result, tuple(dropped)) if with_dropped else result
+
+
+def _split_level(
+    exprs: list[sp.Expr],
+    declared: Sequence[sp.Expr],
+    outer_sw: tuple[sp.Expr, ...],
+    outer_signs: tuple[int, ...],
+    witness: dict[str, float],
+    rng: np.random.Generator,
+    found: list,
+    dropped: list,
+    memo: dict,
+) -> None:
+    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
+        found.append((outer_sw, outer_signs, exprs, witness))
+        return
+    sw = _switching_of(exprs, declared, memo)
+    if len(sw) > _MAX_SWITCHING:
+        raise NotSupportedError(
+            f"{len(sw)} switching functions at one level ({2 ** len(sw)} sign patterns); at most "
+            f"{_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
+        )
+    nodes = _innermost_nonsmooth(exprs)
+    for signs in _gray(len(sw)):
+        all_sw = outer_sw + sw
+        all_signs = outer_signs + signs
+        witness, reason = _feasible(list(zip(all_sw, all_signs)), rng, memo)
+        if witness is None:
+            dropped.append(DroppedPattern(all_sw, all_signs, reason))
+            continue
+        repl = {node: _resolve(node, sw, signs, memo) for node in nodes}
+        new_exprs = [e.xreplace(repl) for e in exprs]
+        _split_level(new_exprs, declared, all_sw, all_signs, witness, rng, found, dropped, memo)
+
+
+#: Above this many switching functions :func:`field_jumps` does not split the model (all may jump).
+_MAX_JUMP_CHECK = 6
+
+
+def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
+    """For each switching function ``g``: may the vector field jump where ``g`` crosses 0?
+
+    ``False`` only when it is proved continuous there: for every two branches whose sign patterns
+    differ in ``g`` alone, the difference of their vector fields vanishes identically on ``g = 0``
+    (``g`` solved for one of its states or parameters, then cancelled). Anything not proved, a
+    nested split, a switching function that cannot be solved, or a model with more than
+    ``_MAX_JUMP_CHECK`` switching functions (the check splits the model), counts as a jump. Used by the
+    discrete steps to refine only the substeps where the field really jumps (for the seed model
+    ``r - eta'``, where the healing term switches, but not ``x2``, where every switched term
+    carries a factor ``x2``).
+    """
+    switching = list(switching)
+    if len(switching) > _MAX_JUMP_CHECK:
+        return (True,) * len(switching)
+    try:
+        branches = split_branches(model)
+    except (ModelError, NotSupportedError):
+        return (True,) * len(switching)
+    if len(branches) < 2 or any(b.switching != branches[0].switching for b in branches):
+        return (True,) * len(switching)
+    sw = list(branches[0].switching)
+    by_signs = {b.signs: b for b in branches}
+    out = []
+    for g in switching:
+        j = next((i for i, s in enumerate(sw) if sp.expand(s - g) == 0 or sp.expand(s + g) == 0), None)
+        out.append(True if j is None else not _continuous_across(g, j, by_signs, model))
+    return tuple(out)
+
+
+def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model) -> bool:
+    """Whether the branch fields on the two sides of ``g = 0`` (``g`` the ``j``-th switching
+    function) agree identically on ``g = 0`` for every pair of neighbouring branches."""
+    sol = None
+    for s in [s for s in list(model.states) + list(model.parameters) if s in g.free_symbols]:
+        try:
+            roots = sp.solve(g, s)
+        except NotImplementedError:  # pragma: no cover - sympy cannot solve it
+            continue
+        if len(roots) == 1:
+            sol = (s, roots[0])
+            break
+    if sol is None:
+        return False
+    pairs = 0
+    for signs, b in by_signs.items():
+        other = by_signs.get(signs[:j] + (-1,) + signs[j + 1:]) if signs[j] > 0 else None
+        if other is None:
+            continue
+        pairs += 1
+        for fa, fb in zip(b.model.rhs, other.model.rhs):
+            if sp.cancel(sp.together((fa - fb).subs(*sol))) != 0:
+                return False
+    return pairs > 0
+
+
+def branch_of(branches: Sequence[Branch], point: Mapping[str, float]) -> Branch | None:
+    """The branch containing ``point`` (None on a switching surface or outside every branch)."""
+    for b in branches:
+        if b.contains(point):
+            return b
+    return None

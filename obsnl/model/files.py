@@ -1,0 +1,193 @@
+"""Model files: read a TOML or JSON file into a :class:`~obsnl.model.core.Model`, write a model back as
+TOML (no dependency; ``load_model(model_to_toml(m))`` gives an equal model), and find the models packaged
+with obsnl (``obsnl/catalogue``)."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from obsnl.errors import ParseError
+from obsnl.model.core import Model
+
+__all__ = ["read_model_file", "load_model", "catalogue_path", "model_to_toml"]
+
+
+def read_model_file(path: str | Path) -> dict[str, Any]:
+    """Read a TOML or JSON model file into a plain dictionary (no validation yet).
+
+    Raises
+    ------
+    ParseError
+        The file is missing, has an unknown extension, or is not valid TOML/JSON.
+    """
+    p = Path(path)
+    if not p.exists():
+        raise ParseError(f"model file {str(p)!r} does not exist")
+    if p.is_dir():
+        raise ParseError(f"{str(p)!r} is a directory; give a .toml or .json model file")
+    suffix = p.suffix.lower()
+    try:
+        raw = p.read_bytes()
+    except OSError as exc:
+        raise ParseError(f"cannot read {str(p)!r}: {exc.strerror}") from None
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ParseError(f"{str(p)!r} is not UTF-8 text") from None
+    if suffix == ".toml":
+        import tomllib
+
+        try:
+            data = tomllib.loads(text)
+        except tomllib.TOMLDecodeError as exc:
+            raise ParseError(f"{str(p)!r} is not valid TOML: {exc}") from None
+    elif suffix == ".json":
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ParseError(f"{str(p)!r} is not valid JSON: {exc}") from None
+    else:
+        raise ParseError(f"{str(p)!r}: unknown model file type {suffix!r}; use .toml or .json")
+    if not isinstance(data, dict):
+        raise ParseError(f"{str(p)!r}: the top level must be a table/object of model keys")
+    return data
+
+
+def catalogue_path(name: str) -> Path:
+    """The file of a model packaged with obsnl (``obsnl/catalogue/NAME.toml``).
+
+    Parameters
+    ----------
+    name
+        The model's file name without ``.toml`` (``damage_healing``, ``bouc_wen``, ...).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ParseError
+        No packaged model has that name (the message lists them).
+
+    Examples
+    --------
+    >>> catalogue_path("coulomb_friction").name
+    'coulomb_friction.toml'
+    """
+    from importlib import resources
+
+    folder = Path(str(resources.files("obsnl").joinpath("catalogue")))
+    names = sorted(p.stem for p in folder.glob("*.toml"))
+    if name not in names:
+        raise ParseError(f"no packaged model {name!r}; choose one of {', '.join(names)}")
+    return folder / f"{name}.toml"
+
+
+def load_model(path: str | Path) -> Model:
+    """Load a model from a TOML or JSON file.
+
+    The keys are those of ``shared/peer_cases/*.json``: ``name, description, source,
+    states, parameters, inputs, outputs {name: expr}, equations {state: rhs}`` and the
+    optional ``known_constants, known_initial_conditions, initial_condition_values,
+    unknown_inputs``; obsnl adds the optional ``latex`` (symbol -> LaTeX), ``values``
+    (nominal numbers), ``switching`` (order of switching functions) and ``definitions``
+    (new symbol -> expression in the symbols of another model).
+
+    Parameters
+    ----------
+    path
+        A ``.toml`` or ``.json`` file.
+
+    Returns
+    -------
+    Model
+
+    Raises
+    ------
+    ParseError, ModelError
+        With the file name and the offending key or expression.
+
+    Examples
+    --------
+    >>> import obsnl
+    >>> m = obsnl.load_model("models/coulomb_friction.toml")  # doctest: +SKIP
+    """
+    data = read_model_file(path)
+    try:
+        return Model.from_dict(data)
+    except ParseError as exc:
+        raise ParseError(f"{Path(path).name}: {exc}") from None
+
+
+# ----------------------------------------------------------------------------- writing
+
+_BARE = re.compile(r"^[A-Za-z0-9_-]+$")
+_TABLES = ("outputs", "equations", "initial_condition_values", "definitions", "latex", "values")
+
+
+def _key(k: str) -> str:
+    return k if _BARE.match(k) else json.dumps(k)
+
+
+def _value(v: Any) -> str:
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ValueError(f"cannot write the non-finite number {v!r}")
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v, ensure_ascii=False)  # JSON string escapes are valid TOML basic strings
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_value(x) for x in v) + "]"
+    raise TypeError(f"cannot write {type(v).__name__} to TOML")
+
+
+def model_to_toml(model: Model, *, header: str = "") -> str:
+    """The model as a TOML model file.
+
+    Parameters
+    ----------
+    model
+        Any model; its ``to_dict()`` keys are written, scalars and lists first, then tables.
+    header
+        Comment lines put at the top (each line gets a ``#``).
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="decay", states=["x"], parameters=["a"], equations={"x": "-a*x"}, outputs={"y": "x"})
+    >>> print(model_to_toml(m))
+    name = "decay"
+    states = ["x"]
+    parameters = ["a"]
+    inputs = []
+    unknown_inputs = []
+    known_constants = []
+    <BLANKLINE>
+    [outputs]
+    y = "x"
+    <BLANKLINE>
+    [equations]
+    x = "-a*x"
+    <BLANKLINE>
+    """
+    d = model.to_dict()
+    lines = [f"# {line}".rstrip() for line in header.splitlines()]
+    for k, v in d.items():
+        if k not in _TABLES:
+            lines.append(f"{_key(k)} = {_value(v)}")
+    for k in _TABLES:
+        if k in d and isinstance(d[k], Mapping):
+            lines.append("")
+            lines.append(f"[{k}]")
+            lines.extend(f"{_key(str(a))} = {_value(b)}" for a, b in d[k].items())
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,242 @@
+"""The branch table: per-branch observability as data, read by the estimators.
+
+This is the contract between the analysis and the DUKF (schema ``obsnl.branch-table/1``,
+shipped as ``obsnl/schemas/branch_table.schema.json``). It is written by
+:func:`obsnl.report.tables.branch_table` (symbolic side) and read here without sympy, so the numeric
+estimators can load it. A table that fails the schema, contradicts itself, or was made for
+another model is refused with a :class:`~obsnl.errors.TableError` that says what is wrong.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+from obsnl.errors import TableError
+
+__all__ = ["SCHEMA_ID", "BranchEntry", "BranchTable", "load_branch_table", "schema"]
+
+SCHEMA_ID = "obsnl.branch-table/1"
+
+
+def schema() -> dict[str, Any]:
+    """The JSON Schema of a branch table."""
+    text = resources.files("obsnl").joinpath("schemas/branch_table.schema.json").read_text(encoding="utf-8")
+    return json.loads(text)
+
+
+@dataclass(frozen=True)
+class BranchEntry:
+    """One branch of a table: its sign pattern and what is (un)identifiable in it."""
+
+    label: str
+    guard: str
+    signs: tuple[int, ...]
+    observable: tuple[str, ...]
+    unobservable: tuple[str, ...]
+    absent: tuple[str, ...]
+    identifiable_parameters: tuple[str, ...]
+    unidentifiable_parameters: tuple[str, ...]
+    transcendence_degree: int
+    verdict: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "label": self.label,
+            "guard": self.guard,
+            "signs": list(self.signs),
+            "observable": list(self.observable),
+            "unobservable": list(self.unobservable),
+            "absent": list(self.absent),
+            "identifiable_parameters": list(self.identifiable_parameters),
+            "unidentifiable_parameters": list(self.unidentifiable_parameters),
+            "transcendence_degree": self.transcendence_degree,
+            "verdict": self.verdict,
+        }
+
+
+@dataclass(frozen=True)
+class BranchTable:
+    """A validated branch table (see the module docstring)."""
+
+    model: str
+    fingerprint: str
+    states: tuple[str, ...]
+    parameters: tuple[str, ...]
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    switching: tuple[str, ...]
+    method: str
+    seed: int | None
+    probability: float | None
+    branches: tuple[BranchEntry, ...]
+    overall_observable: tuple[str, ...]
+    overall_unobservable: tuple[str, ...]
+
+    # ------------------------------------------------------------------ io
+    @classmethod
+    def from_dict(cls, data: Any) -> BranchTable:
+        """Validate ``data`` against the schema and its own consistency, then build the table."""
+        import jsonschema
+
+        if not isinstance(data, Mapping):
+            raise TableError("a branch table must be a JSON object; this one is not")
+        if data.get("schema") != SCHEMA_ID:
+            raise TableError(
+                f"not a branch table of schema {SCHEMA_ID!r} (found schema={data.get('schema')!r}); "
+                f"write one with `obsnl analyze MODEL --format json-table -o TABLE.json`"
+            )
+        try:
+            jsonschema.validate(dict(data), schema())
+        except jsonschema.ValidationError as exc:
+            where = "/".join(str(p) for p in exc.absolute_path) or "(top level)"
+            raise TableError(f"branch table fails its schema at {where}: {exc.message}") from None
+        table = cls(
+            model=data["model"],
+            fingerprint=data["fingerprint"],
+            states=tuple(data["states"]),
+            parameters=tuple(data["parameters"]),
+            inputs=tuple(data["inputs"]),
+            outputs=tuple(data["outputs"]),
+            switching=tuple(data["switching"]),
+            method=data["method"],
+            seed=data["seed"],
+            probability=data["probability"],
+            branches=tuple(
+                BranchEntry(
+                    label=b["label"], guard=b["guard"], signs=tuple(b["signs"]),
+                    observable=tuple(b["observable"]), unobservable=tuple(b["unobservable"]),
+                    absent=tuple(b["absent"]), identifiable_parameters=tuple(b["identifiable_parameters"]),
+                    unidentifiable_parameters=tuple(b["unidentifiable_parameters"]),
+                    transcendence_degree=b["transcendence_degree"], verdict=b["verdict"],
+                )
+                for b in data["branches"]
+            ),
+            overall_observable=tuple(data["overall"]["observable"]),
+            overall_unobservable=tuple(data["overall"]["unobservable"]),
+        )
+        table._check_consistency()
+        return table
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "schema": SCHEMA_ID,
+            "model": self.model,
+            "fingerprint": self.fingerprint,
+            "states": list(self.states),
+            "parameters": list(self.parameters),
+            "inputs": list(self.inputs),
+            "outputs": list(self.outputs),
+            "switching": list(self.switching),
+            "method": self.method,
+            "seed": self.seed,
+            "probability": self.probability,
+            "branches": [b.to_dict() for b in self.branches],
+            "overall": {"observable": list(self.overall_observable), "unobservable": list(self.overall_unobservable)},
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), indent=2) + "\n"
+
+    # ------------------------------------------------------------------ checks
+    def _check_consistency(self) -> None:
+        variables = set(self.states) | set(self.parameters)
+        params = set(self.parameters)
+        labels = [b.label for b in self.branches]
+        if len(set(labels)) != len(labels):
+            raise TableError(f"branch labels repeat: {labels}")
+        patterns = set()
+        for b in self.branches:
+            where = f"branch {b.label!r}"
+            if len(b.signs) != len(self.switching):
+                raise TableError(
+                    f"{where} has {len(b.signs)} signs for {len(self.switching)} switching functions"
+                )
+            if b.signs in patterns:
+                raise TableError(f"{where} repeats the sign pattern of another branch")
+            patterns.add(b.signs)
+            for key in ("observable", "unobservable", "absent", "identifiable_parameters",
+                        "unidentifiable_parameters"):
+                unknown = set(getattr(b, key)) - variables
+                if unknown:
+                    raise TableError(f"{where}: {key} names {sorted(unknown)}, which are not states or parameters")
+            if set(b.observable) & set(b.unobservable):
+                raise TableError(f"{where}: {sorted(set(b.observable) & set(b.unobservable))} are both "
+                                 f"observable and unobservable")
+            if not set(b.absent) <= set(b.unobservable):
+                raise TableError(f"{where}: absent variables must also be unobservable")
+            if set(b.identifiable_parameters) | set(b.unidentifiable_parameters) != params or (
+                set(b.identifiable_parameters) & set(b.unidentifiable_parameters)
+            ):
+                raise TableError(
+                    f"{where}: identifiable_parameters and unidentifiable_parameters must split the "
+                    f"parameters {sorted(params)} exactly"
+                )
+            if set(b.unidentifiable_parameters) != set(b.unobservable) & params:
+                raise TableError(f"{where}: unidentifiable_parameters disagree with unobservable")
+
+    def check_model(self, *, states: Sequence[str], parameters: Sequence[str], inputs: Sequence[str],
+                    outputs: Sequence[str], switching_count: int, fingerprint: str) -> None:
+        """Refuse the table unless it was made for this model (names, order, fingerprint).
+
+        Raises
+        ------
+        TableError
+            Naming the first difference and how to regenerate the table.
+        """
+        fix = "regenerate it with `obsnl analyze MODEL --format json-table -o TABLE.json`"
+        for key, mine in (("states", states), ("parameters", parameters), ("inputs", inputs),
+                          ("outputs", outputs)):
+            theirs = getattr(self, key)
+            if tuple(mine) != tuple(theirs):
+                raise TableError(
+                    f"the branch table was made for model {self.model!r} with {key} {list(theirs)}, "
+                    f"but this model has {list(mine)}; {fix}"
+                )
+        if switching_count != len(self.switching):
+            raise TableError(
+                f"the branch table has {len(self.switching)} switching functions, the model "
+                f"{switching_count}; {fix}"
+            )
+        if fingerprint != self.fingerprint:
+            raise TableError(
+                f"the branch table's fingerprint {self.fingerprint[:12]}... does not match this model's "
+                f"{fingerprint[:12]}... (the equations differ); {fix}"
+            )
+
+    # ------------------------------------------------------------------ use
+    def entry(self, signs: Sequence[int]) -> BranchEntry:
+        """The branch with this sign pattern."""
+        key = tuple(int(s) for s in signs)
+        for b in self.branches:
+            if b.signs == key:
+                return b
+        raise TableError(f"no branch of the table has the sign pattern {list(key)}")
+
+    def frozen_mask(self, signs: Sequence[int]) -> tuple[bool, ...]:
+        """For the parameters in table order: True where the parameter is unidentifiable in that branch."""
+        entry = self.entry(signs)
+        frozen = set(entry.unidentifiable_parameters)
+        return tuple(p in frozen for p in self.parameters)
+
+
+def load_branch_table(path: str | Path) -> BranchTable:
+    """Read and validate a branch table JSON file.
+
+    Raises
+    ------
+    TableError
+        Missing file, invalid JSON, schema violation or an inconsistent table.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise TableError(f"branch table {str(p)!r} does not exist")
+    try:
+        data = json.loads(p.read_text(encoding="utf-8"))
+    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        raise TableError(f"branch table {str(p)!r} is not valid JSON: {exc}") from None
+    return BranchTable.from_dict(data)

@@ -1,0 +1,210 @@
+"""Result values of the observability analyses: frozen, JSON-ready, rendered only in ``report``.
+
+A :class:`BranchResult` is the verdict for one smooth branch; an :class:`AnalysisResult` gathers
+the branches of one model and their union (a variable is observable for the non-smooth system
+when it is observable in at least one branch, Chatzis et al. 2015).
+"""
+
+from __future__ import annotations
+
+import enum
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+__all__ = ["Verdict", "BranchResult", "AnalysisResult"]
+
+
+#: Notebook renderers (format -> function of a result), filled by :mod:`obsnl.report` when it is
+#: imported (``import obsnl`` does): results never import the report, the report registers itself.
+DISPLAY: dict[str, Any] = {}
+
+
+class Verdict(str, enum.Enum):
+    """Outcome of a test: every variable decided, some unobservable, or not decided (with a reason)."""
+
+    OBSERVABLE = "observable"
+    UNOBSERVABLE = "unobservable"
+    INCONCLUSIVE = "inconclusive"
+
+
+@dataclass(frozen=True)
+class BranchResult:
+    """Observability of one smooth branch.
+
+    Attributes
+    ----------
+    label, guard
+        The branch label and its guard as text (``"true"`` for a smooth model).
+    observable, unobservable
+        Names of states (initial values) and parameters, in model order. Variables that do not
+        appear in the branch's equations are unobservable and also listed in ``absent``.
+    absent
+        Variables that do not appear in this branch's equations or outputs.
+    rank, size
+        Rank of the observability-identifiability Jacobian and the number of unknowns.
+    transcendence_degree
+        ``size - rank``: how many unknowns must be known for all the others to be observable
+        (absent variables count, as the seed paper counts w_h in branches (b), (d)).
+    seconds
+        Wall time of this branch's analysis.
+    verdict
+        :class:`Verdict`; ``INCONCLUSIVE`` comes with ``reason`` and then the lists hold only
+        what was decided (undecided variables are in ``undecided``).
+    order
+        Number of Lie derivatives (ORC) or power-series terms (randomized test) used.
+    method
+        ``"orc"`` or ``"sedoglavic"``.
+    unknown_inputs
+        Classes of unknown inputs ``{"observable": [...], "unobservable": [...]}`` when the model has some.
+    notes
+        Plain-text notes: what was decomposed, augmented non-rational terms and what that means.
+    signs
+        The sign of each switching function of the model in this branch (empty for a smooth model).
+    """
+
+    label: str
+    guard: str
+    observable: tuple[str, ...]
+    unobservable: tuple[str, ...]
+    absent: tuple[str, ...]
+    rank: int
+    size: int
+    transcendence_degree: int
+    seconds: float
+    verdict: Verdict = Verdict.OBSERVABLE
+    reason: str = ""
+    undecided: tuple[str, ...] = ()
+    order: int | None = None
+    method: str = ""
+    unknown_inputs: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
+    signs: tuple[int, ...] = ()
+
+    def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
+        """The branch as JSON-ready data.
+
+        The default keys are exactly those of ``obsnl analyze --format json``: ``label, guard,
+        observable, unobservable, absent, rank, size, transcendence_degree, seconds``.
+        ``extended=True`` adds ``verdict, reason, undecided, order, method, unknown_inputs, notes``.
+        """
+        d: dict[str, Any] = {
+            "label": self.label,
+            "guard": self.guard,
+            "observable": list(self.observable),
+            "unobservable": list(self.unobservable),
+            "absent": list(self.absent),
+            "rank": self.rank,
+            "size": self.size,
+            "transcendence_degree": self.transcendence_degree,
+            "seconds": self.seconds,
+        }
+        if extended:
+            d.update(
+                verdict=self.verdict.value,
+                reason=self.reason,
+                undecided=list(self.undecided),
+                order=self.order,
+                method=self.method,
+                unknown_inputs={k: list(v) for k, v in self.unknown_inputs.items()},
+                notes=list(self.notes),
+            )
+        return d
+
+
+@dataclass(frozen=True)
+class AnalysisResult:
+    """Observability of a model, branch by branch, and the union over branches.
+
+    Attributes
+    ----------
+    model
+        Model name.
+    method
+        ``"orc"``, ``"sedoglavic"`` (or ``"auto"`` resolved to one of them per branch).
+    seed
+        Seed of the random point (randomized methods), else None.
+    probability
+        Guaranteed lower bound of the probability that every verdict is right (randomized
+        methods), None for deterministic ones.
+    seconds
+        Wall time of the whole analysis.
+    branches
+        One :class:`BranchResult` per branch.
+    variables
+        All unknowns in model order (states, then parameters).
+    switching
+        The model's switching functions as text (empty for a smooth model).
+    parameters
+        The model's parameters (to tell them from states in reports and branch tables).
+    latex
+        LaTeX names of symbols (from the model file), for reports.
+    """
+
+    model: str
+    method: str
+    seed: int | None
+    probability: float | None
+    seconds: float
+    branches: tuple[BranchResult, ...]
+    variables: tuple[str, ...] = ()
+    switching: tuple[str, ...] = ()
+    parameters: tuple[str, ...] = ()
+    latex: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def overall_observable(self) -> tuple[str, ...]:
+        """Observable in at least one branch, in model order."""
+        obs = set().union(*(b.observable for b in self.branches)) if self.branches else set()
+        order = self.variables or tuple(sorted(obs))
+        return tuple(v for v in order if v in obs)
+
+    @property
+    def overall_unobservable(self) -> tuple[str, ...]:
+        """Unobservable in every branch, in model order."""
+        obs = set(self.overall_observable)
+        und = set().union(*(b.undecided for b in self.branches)) if self.branches else set()
+        order = self.variables or tuple(sorted(set().union(*(b.unobservable for b in self.branches))))
+        return tuple(v for v in order if v not in obs and v not in und)
+
+    @property
+    def verdict(self) -> Verdict:
+        """OBSERVABLE when the union is everything, INCONCLUSIVE when a branch could not decide."""
+        if any(b.verdict is Verdict.INCONCLUSIVE for b in self.branches) and not (
+            set(self.variables) <= set(self.overall_observable)
+        ):
+            return Verdict.INCONCLUSIVE
+        return Verdict.OBSERVABLE if not self.overall_unobservable else Verdict.UNOBSERVABLE
+
+    def branch(self, label: str) -> BranchResult:
+        """The result of the branch labelled ``label``."""
+        for b in self.branches:
+            if b.label == label:
+                return b
+        raise KeyError(f"no branch {label!r}; branches are {[b.label for b in self.branches]}")
+
+    def _repr_markdown_(self) -> str | None:
+        """Notebook display: the Markdown table, drawn by the renderer that :mod:`obsnl.report` registers."""
+        render = DISPLAY.get("md")
+        return render(self) if render is not None else None
+
+    def _repr_latex_(self) -> str | None:
+        """Notebook display: the LaTeX table (without its environment), drawn by :mod:`obsnl.report`."""
+        render = DISPLAY.get("tex")
+        return render(self) if render is not None else None
+
+    def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
+        """JSON-ready data with exactly the keys of ``obsnl analyze --format json``:
+        ``model, method, seed, probability, seconds, branches, overall``."""
+        return {
+            "model": self.model,
+            "method": self.method,
+            "seed": self.seed,
+            "probability": self.probability,
+            "seconds": self.seconds,
+            "branches": [b.to_dict(extended=extended) for b in self.branches],
+            "overall": {
+                "observable": list(self.overall_observable),
+                "unobservable": list(self.overall_unobservable),
+            },
+        }

@@ -1,0 +1,309 @@
+"""One smooth model, one engine: the common body of the per-branch analysis and of :func:`orc` and
+:func:`sedoglavic`.
+
+A model's variables absent from its equations are unobservable and absent (they count in the
+transcendence degree, as the seed paper counts ``w_h`` in branches (b), (d)); the output-reachable
+submodel is split into independent blocks (:mod:`obsnl.observability.decompose`); each block is
+rationalized (:mod:`obsnl.algebra.augment`) and analysed by the chosen engine: ``"orc"``
+(:mod:`obsnl.observability.orc`, symbolic Lie derivatives evaluated mod p) or ``"sedoglavic"``
+(:mod:`obsnl.observability.sedoglavic`, power series mod p). ``"auto"`` uses the ORC on tiny blocks
+(at most 6 unknowns, with a short time budget) and the series engine otherwise.
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Sequence
+
+from obsnl.algebra.augment import rationalize
+from obsnl.algebra.bounds import BlockOutcome, bound_sizes
+from obsnl.algebra.series import make_problem
+from obsnl.errors import AnalysisError, ModelError
+from obsnl.model.core import Model
+from obsnl.observability.decompose import decompose as _decompose
+from obsnl.observability.orc import orc_block
+from obsnl.observability.results import BranchResult, Verdict
+from obsnl.observability.sedoglavic import sedoglavic_block
+
+__all__ = ["METHODS", "analyze_smooth", "orc", "sedoglavic"]
+
+METHODS = ("auto", "orc", "sedoglavic")
+_AUTO_ORC_SIZE = 6
+_AUTO_ORC_SECONDS = 1.0
+
+
+def _check(model: Model, method: str, seed: int | None, max_seconds: float | None, prob: float,
+           unknown_input_derivatives: int, input_derivatives: int | None) -> None:
+    if not isinstance(model, Model):
+        raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.load_model")
+    if method not in METHODS:
+        raise AnalysisError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or seed < 0):
+        raise AnalysisError(f"seed must be a non-negative integer or None, got {seed!r}")
+    if max_seconds is not None and not (isinstance(max_seconds, (int, float)) and max_seconds > 0):
+        raise AnalysisError(f"max_seconds must be a positive number or None, got {max_seconds!r}")
+    if not (isinstance(prob, float | int) and 0 < prob < 1):
+        raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
+    if not isinstance(unknown_input_derivatives, int) or unknown_input_derivatives < 0:
+        raise AnalysisError(f"unknown_input_derivatives must be a non-negative integer, got {unknown_input_derivatives!r}")
+    if input_derivatives is not None and (not isinstance(input_derivatives, int) or input_derivatives < 0):
+        raise AnalysisError(f"input_derivatives must be a non-negative integer or None, got {input_derivatives!r}")
+    if not model.outputs:
+        raise AnalysisError(f"model {model.name!r} has no outputs; add at least one measured quantity")
+    states = set(model.states)
+    unknowns = states | set(model.parameters) | set(model.unknown_inputs)
+    for name, expr in model.outputs.items():
+        if not (expr.free_symbols & unknowns):
+            raise AnalysisError(
+                f"output {name!r} = {expr} of model {model.name!r} depends on no state, parameter or unknown "
+                f"input; it carries no information: remove it or write what it measures"
+            )
+    if not any(expr.free_symbols & states for expr in model.outputs.values()):
+        raise AnalysisError(
+            f"no output of model {model.name!r} depends on a state; measure at least one state"
+        )
+
+
+def _unknown_names(model: Model) -> tuple[str, ...]:
+    known = set(model.known_initial_conditions)
+    return tuple(s.name for s in model.states if s not in known) + tuple(s.name for s in model.parameters)
+
+
+def _variable_names(model: Model) -> tuple[str, ...]:
+    """Reported variables: every state (a known initial value is observable) and parameter."""
+    return tuple(s.name for s in model.states) + tuple(s.name for s in model.parameters)
+
+
+def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | None, target: float,
+               unknown_input_derivatives: int, input_derivatives: int | None,
+               factor_cache: dict | None = None) -> tuple[BlockOutcome, object]:
+    rational = rationalize(block, factor_cache=factor_cache)
+    problem = make_problem(rational, unknown_input_derivatives=unknown_input_derivatives,
+                           input_derivatives=input_derivatives)
+    bargs = bound_sizes(problem)
+    if method == "auto":
+        if problem.size <= _AUTO_ORC_SIZE:
+            budget = time.perf_counter() + _AUTO_ORC_SECONDS
+            dl = budget if deadline is None else min(budget, deadline)
+            out = orc_block(problem, seed=seed_key, deadline=dl, bound_args=bargs, target=target)
+            if not out.inconclusive or (deadline is not None and time.perf_counter() >= deadline):
+                return out, problem
+        method = "sedoglavic"
+    if method == "orc":
+        return orc_block(problem, seed=seed_key, deadline=deadline, bound_args=bargs, target=target), problem
+    return sedoglavic_block(problem, seed=seed_key, deadline=deadline, bound_args=bargs, target=target), problem
+
+
+def _branch_result(
+    label: str, guard: str, bmodel: Model, variables: Sequence[str], *, method: str, seed: int,
+    deadline: float | None, target: float, decompose: bool, unknown_input_derivatives: int,
+    input_derivatives: int | None, factor_cache: dict | None = None,
+) -> tuple[BranchResult, float]:
+    t0 = time.perf_counter()
+    appear: set[str] = set()
+    for e in list(bmodel.rhs) + list(bmodel.output_exprs) + list(bmodel.initial_condition_values.values()):
+        appear |= {s.name for s in e.free_symbols}
+    known = {s.name for s in bmodel.known_initial_conditions}
+    absent = tuple(v for v in variables if v not in appear and v not in known)
+    notes: list[str] = []
+    if decompose:
+        dec = _decompose(bmodel)
+        unreachable, blocks = set(dec.unreachable), dec.blocks
+        notes.extend(dec.report)
+    else:
+        unreachable, blocks = set(), (bmodel,)
+    w_names = [w.name for w in bmodel.unknown_inputs]
+    n_w_cols = unknown_input_derivatives + 1
+    size = len(variables) + len(w_names) * n_w_cols
+    rank = len(known)  # a known initial value adds its unit row
+    unobs: set[str] = set(unreachable) | set(absent)
+    undecided: set[str] = set()
+    reasons: list[str] = []
+    failure = 0.0
+    orders: list[int] = []
+    methods: list[str] = []
+    for i, block in enumerate(blocks):
+        if deadline is not None and time.perf_counter() >= deadline:
+            out = BlockOutcome(method=method, columns=tuple(_unknown_names(block)),
+                               reason="time limit reached before this block was analysed")
+            problem = None
+        else:
+            out, problem = _run_block(block, method=method, seed_key=f"{seed}:{label}:{i}", deadline=deadline,
+                                      target=target, unknown_input_derivatives=unknown_input_derivatives,
+                                      input_derivatives=input_derivatives, factor_cache=factor_cache)
+        methods.append(out.method)
+        if out.inconclusive:
+            reasons.append(out.reason)
+            undecided |= {c for c in _unknown_names(block)} | {w.name for w in block.unknown_inputs}
+            continue
+        rank += out.rank
+        unobs |= set(out.unobservable)
+        failure += out.failure
+        orders.append(out.order)
+        notes.extend(out.notes)
+        if problem is not None:
+            notes.extend(n for n in problem.rational.notes if n not in notes)
+            if problem.specific:
+                notes.append(
+                    "specific initial values: the rank bound on the number of derivatives does not hold; "
+                    f"{problem.order_bound()} series terms / derivative orders were the limit"
+                )
+    unobs -= undecided
+    observable = tuple(v for v in variables if v not in unobs and v not in undecided)
+    unobservable = tuple(v for v in variables if v in unobs)
+    ui = {}
+    if w_names:
+        ui = {
+            "observable": tuple(w for w in w_names if w not in unobs and w not in undecided),
+            "unobservable": tuple(w for w in w_names if w in unobs),
+        }
+        notes.append(
+            f"unknown inputs are polynomials in t with {unknown_input_derivatives} non-zero derivative(s) "
+            f"(their Taylor coefficients are unknowns and count in size and rank)"
+        )
+    if bmodel.inputs:
+        notes.append("known inputs are generic" if input_derivatives is None else
+                     f"known inputs have {input_derivatives} non-zero derivative(s)")
+    if absent:
+        notes.append("absent from this branch (unobservable, counted in the transcendence degree): " + ", ".join(absent))
+    # rank contribution of unreachable unknown-input columns is zero; absent variables are unreachable
+    verdict = Verdict.INCONCLUSIVE if reasons else (Verdict.UNOBSERVABLE if unobservable else Verdict.OBSERVABLE)
+    used = sorted(set(methods)) or [method]
+    br = BranchResult(
+        label=label,
+        guard=guard,
+        observable=observable,
+        unobservable=unobservable,
+        absent=absent,
+        rank=rank,
+        size=size,
+        transcendence_degree=size - rank,  # with an inconclusive block: of what was decided
+        seconds=round(time.perf_counter() - t0, 6),
+        verdict=verdict,
+        reason="; ".join(reasons),
+        undecided=tuple(v for v in variables if v in undecided),
+        order=max(orders) if orders else None,
+        method="+".join(used),
+        unknown_inputs=ui,
+        notes=tuple(notes),
+    )
+    return br, failure
+
+
+def _fresh_seed(seed: int | None) -> int:
+    return seed if seed is not None else random.SystemRandom().randrange(2**31)
+
+
+def analyze_smooth(
+    model: Model,
+    *,
+    method: str,
+    seed: int | None = None,
+    max_seconds: float | None = None,
+    prob: float = 0.99,
+    unknown_input_derivatives: int = 1,
+    input_derivatives: int | None = None,
+    decompose: bool = True,
+) -> BranchResult:
+    """One smooth model, one engine: the common body of :func:`obsnl.orc` and :func:`obsnl.observability.sedoglavic`."""
+    _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
+    if not model.is_smooth:
+        raise ModelError(
+            f"model {model.name!r} is not smooth; use obsnl.observability.analyze (which splits it into branches) or "
+            f"obsnl.split_branches"
+        )
+    t0 = time.perf_counter()
+    deadline = None if max_seconds is None else t0 + float(max_seconds)
+    br, _ = _branch_result("smooth", "true", model, _variable_names(model), method=method, seed=_fresh_seed(seed),
+                           deadline=deadline, target=1 - prob, decompose=decompose,
+                           unknown_input_derivatives=unknown_input_derivatives,
+                           input_derivatives=input_derivatives)
+    return br
+
+
+def orc(
+    model: Model,
+    *,
+    seed: int | None = None,
+    max_seconds: float | None = None,
+    unknown_input_derivatives: int = 1,
+    input_derivatives: int | None = None,
+    decompose: bool = True,
+) -> BranchResult:
+    """Hermann-Krener observability rank condition of a smooth model (extended Lie derivatives).
+
+    Parameters
+    ----------
+    model
+        A smooth :class:`~obsnl.model.core.Model` (use :func:`obsnl.observability.analyze` for non-smooth ones).
+    seed
+        Seed of the random prime and point; None draws one.
+    max_seconds
+        Time limit (symbolic Lie derivatives swell); reaching it gives ``INCONCLUSIVE``.
+    unknown_input_derivatives, input_derivatives, decompose
+        As in :func:`obsnl.observability.analyze`.
+
+    Returns
+    -------
+    BranchResult
+        ``order`` is the number of Lie derivatives used.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="decay", states=["x"], parameters=["a", "b"],
+    ...           equations={"x": "-a*b*x"}, outputs={"y": "x"})
+    >>> r = orc(m, seed=1)
+    >>> r.unobservable, r.order
+    (('a', 'b'), 2)
+    """
+    return analyze_smooth(model, method="orc", seed=seed, max_seconds=max_seconds,
+                          unknown_input_derivatives=unknown_input_derivatives,
+                          input_derivatives=input_derivatives, decompose=decompose)
+
+
+def sedoglavic(
+    model: Model,
+    *,
+    seed: int | None = None,
+    max_seconds: float | None = None,
+    unknown_input_derivatives: int = 1,
+    input_derivatives: int | None = None,
+    decompose: bool = True,
+) -> BranchResult:
+    """Sedoglavic's randomized observability test of a smooth model.
+
+    Parameters
+    ----------
+    model
+        A smooth :class:`~obsnl.model.core.Model` (split non-smooth models with
+        :func:`obsnl.split_branches`, or use :func:`obsnl.observability.analyze`).
+    seed
+        Seed of every random choice (prime, point, inputs); None draws one and reports it.
+    max_seconds
+        Time limit; reaching it gives an ``INCONCLUSIVE`` verdict, never an unobservable one.
+    unknown_input_derivatives
+        Number of non-zero derivatives of each unknown input (STRIKE-GOLDD ``nnzDerW``).
+    input_derivatives
+        Number of non-zero derivatives of the known inputs (None: generic inputs).
+    decompose
+        Analyse the output-reachable submodel and its independent blocks separately.
+
+    Returns
+    -------
+    BranchResult
+        Label ``"smooth"``, guard ``"true"``.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="decay", states=["x"], parameters=["a", "b"],
+    ...           equations={"x": "-a*b*x"}, outputs={"y": "x"})
+    >>> r = sedoglavic(m, seed=1)
+    >>> r.observable, r.unobservable, r.transcendence_degree
+    (('x',), ('a', 'b'), 1)
+    """
+    return analyze_smooth(model, method="sedoglavic", seed=seed, max_seconds=max_seconds,
+                          unknown_input_derivatives=unknown_input_derivatives,
+                          input_derivatives=input_derivatives, decompose=decompose)

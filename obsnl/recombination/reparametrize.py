@@ -1,0 +1,384 @@
+"""Identifiable reparametrizations from the symmetry generators, branch by branch, merged.
+
+Algorithm (algorithms.md §4.2, step C, extended to non-smooth models):
+
+1. Split the model into branches and find the generators of each (:func:`obsnl.symmetries`).
+2. The scalings shared by *every* branch form a group whose Hubert-Labahn invariants are the new
+   coordinates (:func:`obsnl.recombination.invariants.scaling_section`; exponents may depend on ``N``).
+3. Every other generator is pushed forward to these coordinates; a translation there is kept.
+   Translations common to all branches are divided out (linear invariants); those of some branches
+   only are kept as *branch-adapted* coordinates: ``Delta1 = beta' + gamma'`` (identifiable in the
+   branches where only ``beta + gamma`` acts) next to ``Delta2 = beta' - gamma'``. Thus a
+   combination identifiable in one branch and another identifiable in another both survive.
+4. The new model is the old one on the section (pivots = 1, translation pivots = 0), the equation
+   of a new state ``s = phi(z)`` being ``L_f(phi)`` there. It is verified symbolically, branch by
+   branch, and its observability is checked independently by the engine (``analyze_smooth``).
+
+Pivots are divided by: the section assumes them positive (as physical moduli, lengths and masses are).
+A smooth model whose generators are not all translations and scalings, or that has directions with
+no closed form, gets its identifiable functions from :func:`obsnl.recombination.identifiable.identifiable_functions`.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import flint
+import sympy as sp
+
+from obsnl.model.branches import split_branches
+from obsnl.errors import ModelError
+from obsnl.recombination.invariants import (adapted_forms, coordinates, pushforward, scaling_section, section_map, span_intersection,
+                         translation_invariants)
+from obsnl.observability.smooth import analyze_smooth
+from obsnl.model.core import Model
+from obsnl.model.parse import make_symbol
+from obsnl.recombination.proofs import verify_reparametrization
+from obsnl.recombination.symmetry import Symmetries, Symmetry, symmetries
+from obsnl.model.files import model_to_toml
+
+__all__ = ["Reparametrization", "reparametrize"]
+
+
+@dataclass(frozen=True)
+class Reparametrization:
+    """A proposed identifiable reparametrization.
+
+    Attributes
+    ----------
+    model
+        The new model (states and parameters are the new coordinates; ``definitions`` holds each
+        new symbol in the old ones).
+    mapping
+        ``{new name: expression in the old symbols}``.
+    section
+        ``{old name: expression in the new symbols}`` on the section (pivots 1, translation pivots 0).
+    pivots
+        Old parameters normalised away (scaling pivots set to 1, translation pivots to 0).
+    functions
+        Identifiable functions of the old symbols that generate the field of identifiable functions
+        (smooth models; for a non-smooth model the coordinates identifiable in at least one branch).
+    complete
+        True when ``functions`` generate the whole field of identifiable functions (checked again at
+        an independent random point for a smooth model; for a non-smooth model: every unobservable
+        direction of every branch got a closed form and the new model is observable).
+    observable
+        Every coordinate of the new model is observable in at least one of its branches.
+    method
+        How ``functions`` were obtained: ``"symmetries"`` or ``"symmetries+..."`` (see
+        :func:`obsnl.recombination.identifiable.identifiable_functions`).
+    branches
+        The :class:`obsnl.Symmetries` of each branch of the original model.
+    unobservable
+        Per branch of the new model, its unobservable coordinates.
+    verified
+        The new model's equations and outputs were checked symbolically against the old ones.
+    divided
+        The group divided out, one generator per pivot (scalings in rref form over the pivots, e.g.
+        the seed model's ``L``-scaling ``L d/dL - sigma d/dsigma - ...``), as text.
+    """
+
+    model: Model
+    original: str
+    mapping: Mapping[str, sp.Expr]
+    section: Mapping[str, sp.Expr]
+    pivots: tuple[str, ...]
+    functions: tuple[sp.Expr, ...]
+    complete: bool
+    observable: bool
+    method: str
+    branches: tuple[Symmetries, ...]
+    unobservable: Mapping[str, tuple[str, ...]]
+    verified: bool
+    notes: tuple[str, ...] = ()
+    seconds: float = 0.0
+    divided: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"original": self.original, "model": self.model.name,
+                "mapping": {k: sp.sstr(v) for k, v in self.mapping.items()},
+                "section": {k: sp.sstr(v) for k, v in self.section.items()}, "pivots": list(self.pivots),
+                "functions": [sp.sstr(f) for f in self.functions], "complete": self.complete,
+                "observable": self.observable,
+                "method": self.method, "verified": self.verified,
+                "unobservable": {k: list(v) for k, v in self.unobservable.items()},
+                "branches": [b.to_dict() for b in self.branches], "notes": list(self.notes),
+                "divided": list(self.divided),
+                "seconds": self.seconds}
+
+    def to_toml(self) -> str:
+        """The new model as a model file (loads with :func:`obsnl.load_model`)."""
+        return model_to_toml(self.model, header=f"Identifiable reparametrization of '{self.original}' "
+                                                f"(obsnl.reparametrize). New symbols are defined in [definitions].")
+
+
+# --------------------------------------------------------------------------- helpers
+def _numeric_rows(rows, V, exps) -> flint.fmpq_mat | None:
+    """Weight rows at a random integer value of the exponent parameters (for span membership)."""
+    at = {e: 1009 + 2 * i for i, e in enumerate(exps)}
+    try:
+        vals = [[sp.Rational(sp.sympify(x).subs(at)) for x in r] for r in rows]
+    except TypeError:
+        return None
+    return flint.fmpq_mat(len(vals), len(V), [flint.fmpq(int(x.p), int(x.q)) for r in vals for x in r])
+
+
+def _piecewise_tidy(e: sp.Expr) -> sp.Expr:
+    """``a + b*sign(g)`` -> ``Piecewise((a + b, g > 0), (a - b, True))`` when that reads shorter."""
+    def fix(node: sp.Basic) -> sp.Basic:
+        if not isinstance(node, sp.Add):
+            return node
+        signs = [s for s in node.atoms(sp.sign) if node.coeff(s) != 0]
+        for s in signs:
+            coll = sp.collect(node, s, evaluate=False)
+            if set(coll) - {s, sp.Integer(1)} or s not in coll:
+                continue
+            a, b = coll.get(sp.Integer(1), 0), coll[s]
+            if not (sp.sympify(a).free_symbols and sp.sympify(b).free_symbols):
+                continue
+            pw = sp.Piecewise((sp.factor_terms(a + b), s.args[0] > 0), (sp.factor_terms(a - b), True))
+            if sp.count_ops(pw) < sp.count_ops(node):
+                return pw
+        return node
+
+    return e.replace(lambda n: isinstance(n, sp.Add), fix)
+
+
+def _value_of(expr: sp.Expr, values: Mapping[str, float]) -> float | None:
+    if not all(s.name in values for s in expr.free_symbols):
+        return None
+    try:
+        v = complex(expr.subs({s: sp.Float(values[s.name], 30) for s in expr.free_symbols}).evalf(30))
+    except (TypeError, ValueError, ZeroDivisionError):
+        return None
+    return float(v.real) if abs(v.imag) < 1e-12 * max(1.0, abs(v.real)) and v.real == v.real else None
+
+
+# --------------------------------------------------------------------------- the proposal
+def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence[str] = (),
+                  names: Mapping[str, str] | None = None, seed: int = 0, degree: int = 1) -> Reparametrization:
+    """Propose identifiable combinations and write the model in them.
+
+    Parameters
+    ----------
+    model
+        Any model (smooth or non-smooth; unknown inputs are not supported).
+    keep
+        Parameters that must not be pivots (they stay, possibly rescaled).
+    eliminate
+        Parameters to use as scaling pivots (normalised to 1), e.g. ``["E", "L", "sigma_y"]``.
+    names
+        Renaming of the proposed symbols, e.g. ``{"sigma_p": "r", "A_m_p": "k_m"}``.
+    seed
+        Seed of every random point (error probabilities: see :func:`obsnl.symmetries`).
+    degree
+        Ansatz degree of the symmetry search (1 affine, 2 quadratic).
+
+    Returns
+    -------
+    Reparametrization
+
+    Examples
+    --------
+    >>> from obsnl import Model, reparametrize
+    >>> m = Model(name="scaled", states=["x"], parameters=["a", "b", "c"], inputs=["u"],
+    ...           equations={"x": "a*x + b*u"}, outputs={"y": "c*x"})
+    >>> {k: str(v) for k, v in reparametrize(m).mapping.items()}
+    {'x_p': 'x/b', 'a': 'a', 'c_p': 'b*c'}
+    """
+    t0 = time.perf_counter()
+    names = dict(names or {})
+    syms = model.symbols
+    keep_s = [model.symbol(k) for k in keep]
+    elim_s = [model.symbol(k) for k in eliminate]
+    branches = split_branches(model, seed=seed)
+    per = tuple(symmetries(b.model, seed=seed + i, degree=degree) for i, b in enumerate(branches))
+    notes: list[str] = []
+    kic = set(model.known_initial_conditions)
+    V = [s for s in model.states if s not in kic] + list(model.parameters)
+    exps = sorted({syms[e] for s in per for e in s.exponents}, key=lambda s: s.name)
+
+    # 2. common scalings and their section
+    common = None
+    for s in per:
+        rows = [[sp.cancel(g.components.get(v.name, 0) / v) for v in V] for g in s.of_kind("scaling")]
+        common = rows if common is None else span_intersection(common, rows)
+    hidden = set().union(*(set(s.unobservable) for s in per)) if per else set()
+    measured = set().union(*(e.free_symbols for e in model.output_exprs))
+    for x in model.states:
+        if x.name not in hidden:
+            measured |= model.equations[x].free_symbols
+    try:
+        sec = scaling_section([dict(zip(V, r)) for r in (common or [])], V, model.parameters, exponents=exps,
+                              keep=keep_s, eliminate=elim_s, avoid=[p for p in model.parameters if p in measured])
+    except ModelError as exc:
+        if elim_s or keep_s:
+            raise
+        notes.append(f"the common scalings were not divided out: {exc}")
+        common, sec = [], scaling_section([], V, model.parameters)
+    coords = [(v, sec.invariants.get(v, v)) for v in V if v not in sec.pivots]
+
+    # 3. other generators pushed forward
+    branch_vecs: list[list[dict]] = []
+    unmerged = 0
+    common_num = _numeric_rows(common or [], V, exps)
+    for s in per:
+        vecs = []
+        for g in s.generators:
+            comp = {syms[k]: c for k, c in g.components.items()}
+            if g.kind == "scaling" and common_num is not None:
+                row = _numeric_rows([[sp.cancel(comp.get(v, 0) / v) for v in V]], V, exps)
+                if (common_num.nrows() and row is not None and
+                        flint.fmpq_mat(common_num.tolist() + row.tolist()).rank() == common_num.rank()):
+                    continue  # in the divided group: it does not move the invariants
+            pf = pushforward(comp, coords)
+            if pf is None:
+                unmerged += 1
+            elif pf:
+                vecs.append(pf)
+        branch_vecs.append(vecs)
+    common_t = None
+    for vecs in branch_vecs:
+        rows = [[v.get(y, 0) for y, _ in coords] for v in vecs]
+        common_t = rows if common_t is None else span_intersection(common_t, rows)
+    ys = [y for y, _ in coords]
+    unit_states = [y for y in ys if y in model.states and [int(y == z) for z in ys] in (common_t or [])]
+    tpiv, tinv = translation_invariants([dict(zip(ys, r)) for r in (common_t or [])], ys,
+                                        list(model.parameters) + unit_states)
+    if any(p in model.states and p not in unit_states for p in tpiv):
+        notes.append("a common translation moves states only; it was not divided out")
+        tpiv, tinv = [], {}
+    rest = [y for y in ys if y not in tpiv]
+    rvecs = []  # branch translations in the remaining coordinates (y_j - sum c y_piv)
+    for vecs in branch_vecs:
+        rv = []
+        for v in vecs:
+            w = {y: sp.expand(tinv[y].xreplace({q: v.get(q, 0) for q in ys}) if y in tinv else v.get(y, 0))
+                 for y in rest}
+            if any(w.values()):
+                rv.append(w)
+        rvecs.append(rv)
+    forms = adapted_forms(rvecs, rest)
+
+    # 4. new coordinates, the section, the new model (a Delta that enters only negated is flipped)
+    flips: set[str] = set()
+    for _ in range(2):
+        internal = coordinates(coords, rest, tinv, forms, V, flips)
+        unknown = set(names) - {nm for nm, _, _ in internal}
+        if unknown:
+            raise ModelError(f"names renames {sorted(unknown)[0]!r}, which is not a proposed symbol; proposed: "
+                             f"{', '.join(nm for nm, _, _ in internal)}")
+        new = [(names.get(nm, nm), phi, lin) for nm, phi, lin in internal]
+        section = section_map(new, rest, tpiv, sec, V, kic)
+        built = _build(model, new, section, notes)
+        deltas = {names.get(nm, nm): nm for nm, _, _ in internal if nm.startswith("Delta")}
+        neg = _negated_only(built, list(deltas))
+        if not neg:
+            break
+        flips |= {deltas[n] for n in neg}
+    if unmerged:
+        notes.append(f"{unmerged} generator(s) are neither translations nor scalings in the invariant "
+                     f"coordinates; their directions remain in the new model")
+    new_branches = split_branches(built, seed=seed)
+    verified = verify_reparametrization(built, {nm: phi for nm, phi, _ in new}, branches, new_branches)
+    unobs = {}
+    for b in new_branches:  # the engine checks our proposal independently (obsnl.analyze_smooth)
+        res = analyze_smooth(b.model, method="sedoglavic", seed=seed)
+        unobs[b.label] = tuple(res.unobservable) + tuple(res.undecided)
+        if res.reason:
+            notes.append(f"branch {b.label} of the new model: {res.reason}")
+    nowhere = set.intersection(*(set(v) for v in unobs.values())) if unobs else set()
+    missing = sum(s.missing for s in per)
+    complete = not nowhere and not missing and not unmerged
+    mapping = {nm: phi for nm, phi, _ in new}
+    mapping.update({x.name: x for x in model.known_initial_conditions})
+    functions = tuple(mapping.values())
+    method = "symmetries"
+    if len(branches) == 1 and not complete:
+        from obsnl.recombination.identifiable import identifiable_functions
+
+        idf = identifiable_functions(model, seed=seed, symmetries=per[0], invariants=[phi for _, phi, _ in new])
+        functions, method, complete = idf.functions, idf.method, idf.complete
+        notes.extend(idf.notes)
+    for b, s in zip(branches, per):
+        if s.missing:
+            notes.append(f"branch {b.label}: {s.missing} unobservable direction(s) without a closed form remain")
+    if nowhere:
+        notes.append(f"unobservable in every branch of the new model: {', '.join(sorted(nowhere))}")
+    divided = [str(Symmetry("scaling", {v.name: w * v for v, w in row.items()})) for row in sec.weights]
+    divided += [str(Symmetry("translation", {y.name: c for y, c in zip(ys, r) if c != 0})) for r in (common_t or [])
+                if tpiv]
+    return Reparametrization(built, model.name, mapping, {k.name: v for k, v in section.items()},
+                             tuple(p.name for p in list(sec.pivots) + list(tpiv)), functions, complete,
+                             not nowhere, method, per, unobs, verified, tuple(notes), time.perf_counter() - t0,
+                             tuple(divided))
+
+
+def _negated_only(model: Model, deltas: Sequence[str]) -> set[str]:
+    """Delta symbols that appear only as ``-Delta`` in the Piecewise values of ``model``."""
+    out = set()
+    pieces = [a for e in list(model.rhs) + list(model.output_exprs) for pw in e.atoms(sp.Piecewise)
+              for a, _ in pw.args]
+    for nm in deltas:
+        s = make_symbol(nm)
+        if any(a == -s for a in pieces) and not any(a == s for a in pieces):
+            out.add(nm)
+    return out
+
+
+def _latex_of(model: Model, nm: str) -> str | None:
+    if nm in model.latex:
+        return model.latex[nm]
+    if nm.endswith("_p") and nm[:-2] in model.latex:
+        return model.latex[nm[:-2]] + "'"
+    if nm.startswith("Delta") and nm[5:].isdigit():
+        return f"\\Delta_{{{nm[5:]}}}"
+    return None
+
+
+def _build(model: Model, new: list, section: Mapping[sp.Symbol, sp.Expr], notes: list[str]) -> Model:
+    kic = list(model.known_initial_conditions)
+    states_set = set(model.states)
+    eqs: dict[str, sp.Expr] = {}
+    params: list[str] = []
+    defs: dict[str, str] = {}
+    for nm, phi, _ in new:
+        defs[nm] = sp.sstr(phi)
+        if phi.free_symbols & states_set:
+            rhs = sp.Add(*[sp.diff(phi, x) * model.equations[x] for x in model.states if phi.has(x)])
+            eqs[nm] = _piecewise_tidy(rhs.xreplace(section))
+        else:
+            params.append(nm)
+    for x in kic:
+        eqs[x.name] = _piecewise_tidy(model.equations[x].xreplace(section))
+        defs[x.name] = x.name
+    order = [x.name for x in model.states]
+    state_names = sorted(eqs, key=lambda n: order.index(n) if n in order else len(order))
+    outs = {k: _piecewise_tidy(v.xreplace(section)) for k, v in model.outputs.items()}
+    switching = [g.xreplace(section) for g in model.switching]
+    switching = [g for g in switching if g.free_symbols]
+    latex = {nm: t for nm in list(eqs) + params + [s.name for s in model.inputs + model.known_constants]
+             if (t := _latex_of(model, nm)) is not None}
+    values: dict[str, float] = {}
+    for nm, phi, _ in new:
+        v = _value_of(phi, model.values)
+        if v is not None:
+            values[nm] = v
+    for s in list(model.inputs) + list(model.known_constants) + kic:
+        if s.name in model.values:
+            values[s.name] = model.values[s.name]
+    icv = {s.name: v.xreplace(section) for s, v in model.initial_condition_values.items()}
+    pivots = [k.name for k, v in section.items() if v == 1 and k in model.parameters]
+    desc = (f"Identifiable reparametrization of '{model.name}' proposed by obsnl.reparametrize: scaling pivots "
+            f"{', '.join(pivots) or 'none'} set to 1 (assumed positive); every new symbol is defined in "
+            f"[definitions] in terms of the symbols of '{model.name}'.")
+    return Model(name=f"{model.name}_reparam", states=state_names, parameters=params,
+                 inputs=[s.name for s in model.inputs], known_constants=[s.name for s in model.known_constants],
+                 equations=eqs, outputs=outs, switching=switching, known_initial_conditions=[s.name for s in kic],
+                 initial_condition_values=icv, description=desc, source=model.source, latex=latex,
+                 values=values, definitions=defs)
+
+

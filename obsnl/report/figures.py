@@ -1,0 +1,129 @@
+"""Figures (matplotlib, Agg): the identification experiment after the seed paper's Figures 2 and 3,
+and the observer bank's crack forces.
+
+``figure2``: (a) the ground motion, (b) measured and estimated displacement (UKF and DUKF).
+``figure3``: the estimated/true ratio of every parameter over time, one panel per filter.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+__all__ = ["figure2", "figure3", "plot_bank_forces", "FIGURE_PREFIX"]
+
+#: Bank figures are written as ``<FIGURE_PREFIX><scenario>.png``.
+FIGURE_PREFIX = "forces_"
+
+_LATEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h": r"$w_h$", "c_p": r"$c'$",
+          "h_p": r"$h'$", "Delta1": r"$\Delta_1$", "Delta2": r"$\Delta_2$", "N": r"$N$"}
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _save(plt, fig, path: str | Path) -> Path:
+    fig.tight_layout()
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=130)
+    plt.close(fig)
+    return out
+
+
+def figure2(path: str | Path, *, t: np.ndarray, accel: np.ndarray, y_measured: np.ndarray,
+            estimates: Mapping[str, np.ndarray], title: str = "") -> Path:
+    """(a) record, (b) measured vs estimated displacement; ``estimates`` maps a label to ``y`` per sample."""
+    plt = _plt()
+    fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
+    ax[0].plot(t, accel, lw=0.7, color="k")
+    ax[0].set_ylabel(r"$\ddot{x}_g$ (m/s$^2$)")
+    ax[0].set_title("(a) ground acceleration" + (f": {title}" if title else ""), fontsize=10)
+    ax[1].plot(t, 1e3 * np.ravel(y_measured), lw=1.6, color="0.75", label="measured")
+    for (label, y), style in zip(estimates.items(), ("-", "--", ":")):
+        ax[1].plot(t, 1e3 * np.ravel(y), style, lw=0.8, label=label)
+    ax[1].set_ylabel(r"$x_1$ (mm)")
+    ax[1].set_xlabel("t (s)")
+    ax[1].set_title("(b) measured and estimated displacement", fontsize=10)
+    ax[1].legend(fontsize=8, loc="upper right")
+    return _save(plt, fig, path)
+
+
+def figure3(path: str | Path, *, t: np.ndarray, panels: Mapping[str, np.ndarray], truth: np.ndarray,
+            parameters: Sequence[str], flagged: Sequence[str] = (), ylim: tuple[float, float] = (0.0, 4.0)) -> Path:
+    """Estimated/true ratio over time; ``panels`` maps a title to ``theta`` ``(T, np)``.
+
+    Parameters flagged as practically unidentifiable are drawn dashed and marked in the legend.
+    """
+    plt = _plt()
+    fig, axes = plt.subplots(len(panels), 1, figsize=(8, 3.2 * len(panels)), sharex=True, squeeze=False)
+    cmap = plt.get_cmap("tab10")
+    for ax, (title, theta) in zip(axes[:, 0], panels.items()):
+        ratio = np.asarray(theta) / np.asarray(truth)
+        for i, p in enumerate(parameters):
+            name = _LATEX.get(p, p) + (" (poorly informed)" if p in flagged else "")
+            ax.plot(t, ratio[:, i], "--" if p in flagged else "-", lw=1.0, color=cmap(i % 10), label=name)
+        ax.axhline(1.0, color="k", lw=0.6)
+        ax.set_ylim(*ylim)
+        ax.set_ylabel("estimated / true")
+        ax.set_title(title, fontsize=10)
+        ax.legend(fontsize=7, ncol=5, loc="upper right")
+    axes[-1, 0].set_xlabel("t (s)")
+    return _save(plt, fig, path)
+
+
+# ---- observer bank
+def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list[Path]:
+    """One PNG per scenario: estimated crack forces (first seed) and their sliding RMS against tau.
+
+    Parameters
+    ----------
+    study
+        A :class:`obsnl.linear.bank.LinkStudy` (its ``traces`` hold the time series).
+    out_dir
+        Folder for ``forces_<scenario>.png`` (created if needed; existing files are replaced,
+        the caller decides whether that is allowed).
+    every
+        Plot every ``every``-th sample (the figures stay small).
+    """
+    plt = _plt()
+    from obsnl.linear.bank import sliding_rms
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    thr, st = study.thresholds, study.settings
+    paths = []
+    for name, (t, nhat, n_true) in study.traces.items():
+        nwin = int(round(thr.window / (t[1] - t[0])))
+        srms = sliding_rms(nhat, nwin)
+        fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7.5, 4.8), sharex=True, constrained_layout=True)
+        sl = slice(None, None, max(1, int(every)))
+        ax1.plot(t[sl], n_true[sl], color="0.6", lw=0.8, label="true (dipole projection)")
+        for j, lab in enumerate(thr.labels):
+            ax1.plot(t[sl], nhat[sl, j], lw=0.8, label=f"n̂ obs {lab}")
+            line, = ax2.plot(t[sl], srms[sl, j], lw=1.0, label=f"obs {lab}")
+            ax2.axhline(thr.tau[j], color=line.get_color(), ls="--", lw=0.8)
+        for ax in (ax1, ax2):
+            if name != "healthy":
+                ax.axvline(st["onset"], color="k", lw=0.6, ls=":")
+            ax.grid(alpha=0.3)
+        ax1.set_ylabel("crack force [N·m]")
+        ax1.set_title(f"{name}: estimated crack forces (seed {st['evaluation_seeds'][0]})", fontsize=10)
+        ax1.legend(fontsize=7, ncol=4, loc="upper left")
+        ax2.set_ylabel(f"{thr.window:g}-s RMS [N·m]")
+        ax2.set_xlabel("time [s]")
+        ax2.legend(fontsize=7, ncol=3, loc="upper left", title="dashed: tau", title_fontsize=7)
+        path = out / f"{FIGURE_PREFIX}{name}.png"
+        fig.savefig(path, dpi=80)
+        plt.close(fig)
+        paths.append(path)
+    return paths
