@@ -55,7 +55,7 @@ def run_obsnl(path: Path, repeat: int) -> dict:
     res = None
     for _ in range(repeat + 1):
         t0 = time.perf_counter()
-        res = obsnl.observability.analyze(model, method="sedoglavic", seed=0)
+        res = obsnl.analyze(model, method="sedoglavic", seed=0)
         times.append(time.perf_counter() - t0)
     per_branch = {b.label: set(b.unobservable) for b in res.branches}
     inconclusive = any(b.verdict.value == "inconclusive" for b in res.branches)
@@ -81,7 +81,7 @@ from obsnl.algebra.series import make_problem
 out = {"import": time.perf_counter() - t0}
 model = obsnl.load_model(PATH)
 t0 = time.perf_counter()
-obsnl.observability.analyze(model, method="sedoglavic", seed=0)
+obsnl.analyze(model, method="sedoglavic", seed=0)
 out["first"] = time.perf_counter() - t0
 best = {"split": 1e9, "prepare": 1e9, "series": 1e9, "total": 1e9}
 for rep in range(REPEAT):
@@ -99,7 +99,7 @@ for rep in range(REPEAT):
         t["series"] += time.perf_counter() - t2
         t["prepare"] += t2 - t1
     t0 = time.perf_counter()
-    obsnl.observability.analyze(model, method="sedoglavic", seed=0)
+    obsnl.analyze(model, method="sedoglavic", seed=0)
     t["total"] = time.perf_counter() - t0
     best = {k: min(best[k], t[k]) for k in best}
 out.update(best)
@@ -283,7 +283,7 @@ def main(argv: list[str] | None = None) -> int:
         symident_version = None
     import obsnl  # warm the imports before timing
 
-    obsnl.observability.analyze(obsnl.load_model(ROOT / "tests" / "data" / "peer_cases" / "si_if_chain.json"), seed=0)
+    obsnl.analyze(obsnl.load_model(ROOT / "tests" / "data" / "peer_cases" / "si_if_chain.json"), seed=0)
     rows = []
     for path in _cases():
         if args.only and args.only not in path.stem:

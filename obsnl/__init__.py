@@ -19,7 +19,7 @@ from obsnl.model.files import load_model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.decompose import decompose, dependency_graph
 from obsnl.observability.smooth import orc, sedoglavic
-from obsnl import report  # noqa: E402  (registers the notebook renderers of results)
+from obsnl import report  # noqa: F401  (registers the notebook renderers of results)
 from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
 
 __version__ = "0.1.0"
@@ -34,7 +34,7 @@ _LAZY: dict[str, str] = {
     "extended_observability": "linear.observer", "riccati_gain": "linear.observer", "place_gain": "linear.observer",
     "simulate_observer": "linear.observer",
     "build_bank": "linear.bank", "ObserverBank": "linear.bank", "calibrate_thresholds": "linear.bank", "decide": "linear.bank",
-    "BankVerdict": "linear.bank", "run_link_study": "linear.bank",
+    "BankVerdict": "linear.bank", "run_link_study": "studies.link_study",
     "build_cantilever": "studies.cantilever", "load_link_spec": "studies.cantilever", "BreathingCrack": "studies.cantilever",
     # branch tables (the estimators' contract)
     "BranchTable": "observability.branch_table", "load_branch_table": "observability.branch_table",
@@ -45,7 +45,7 @@ _LAZY: dict[str, str] = {
     "Record": "estimation.records", "read_record": "estimation.records", "add_noise": "estimation.records", "simulate": "estimation.simulate",
     "reproduce": "studies.seed_paper", "Reproduction": "studies.seed_paper",
     "Setup": "estimation.experiments", "Tuning": "estimation.experiments", "make_data": "estimation.experiments", "make_filter": "estimation.experiments",
-    "run_passes": "estimation.experiments", "output_misfit": "estimation.experiments", "practical_identifiability": "estimation.experiments",
+    "run_passes": "estimation.experiments", "output_misfit": "estimation.experiments", "practical_identifiability": "estimation.practical",
     "monte_carlo": "estimation.experiments",
     # symmetries, identifiable combinations, reparametrizations
     "symmetries": "recombination.symmetry", "Symmetry": "recombination.symmetry", "Symmetries": "recombination.symmetry",

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -136,7 +135,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds)
     from obsnl.report.tables import render
 
-    write_output(render(result, model, args.format), args.output, force=args.force)
+    write_output(render(result, args.format), args.output, force=args.force)
     stuck = [b for b in result.branches if b.verdict.value == "inconclusive"]
     if stuck:
         b = stuck[0]
@@ -164,10 +163,10 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from obsnl.report.tables import write_report
+    from obsnl.batch import report_models
 
     models = [_load(m) for m in args.models]
-    results = write_report(models, args.out, method=args.method, seed=args.seed, force=args.force,
+    results = report_models(models, args.out, method=args.method, seed=args.seed, force=args.force,
                            max_seconds=args.max_seconds)
     print(f"wrote {len(results)} table(s) with index.md and timings.md to {args.out}")
     return 0
@@ -189,10 +188,10 @@ def _add_bank(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_bank(args: argparse.Namespace) -> int:
-    from obsnl.linear.bank import run_link_study
+    from obsnl.studies.link_study import run_link_study
     from obsnl.studies.cantilever import load_link_spec
     from obsnl.report.figures import FIGURE_PREFIX, plot_bank_forces
-    from obsnl.report.tables import bank_table_markdown
+    from obsnl.report.bank import bank_table_markdown
 
     if args.seeds < 1:
         raise _Exit(2, f"--seeds must be at least 1, got {args.seeds}")
@@ -333,89 +332,50 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from obsnl.observability.branch_table import load_branch_table
     from obsnl.estimation.codegen import to_casadi
+    from obsnl.estimation.experiments import Tuning
+    from obsnl.estimation.identify import simulation_study
     from obsnl.estimation.records import read_record
-    from obsnl.estimation.experiments import SEED_GUESS, Setup, Tuning, coordinates, make_data, make_filter, monte_carlo, \
-        output_misfit, practical_identifiability, run_passes
+    from obsnl.model.signature import ModelSignature
+    from obsnl.observability.branch_table import load_branch_table
+    from obsnl.report.identification import identify_text
 
-    if args.method == "dukf" and not args.table:
-        raise _Exit(2, "--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL`)")
-    if args.passes < 1 or args.s0 <= 0 or args.noise <= 0 or not args.gate > 0:
-        raise _Exit(2, "--passes must be >= 1, --s0, --noise and --gate > 0")
-    if args.replicates < 0 or 0 < args.replicates < 3:
-        raise _Exit(2, "--replicates must be 0 (off) or at least 3")
     model = _load(args.model)
     table = load_branch_table(args.table) if args.table else None
     if table is not None:  # refuse a table made for another model before compiling anything
-        from obsnl.model.branches import switching_functions
-
-        table.check_model(states=[v.name for v in model.states], parameters=[v.name for v in model.parameters],
-                          inputs=[v.name for v in model.inputs], outputs=list(model.output_names),
-                          switching_count=len(switching_functions(model)), fingerprint=model.fingerprint)
+        table.signature.check(ModelSignature.of(model))
     num = to_casadi(model, switching=table.switching if table else None)
-    guess = {k: v for k, v in SEED_GUESS.items() if k in num.parameters}
-    for item in args.guess:
+    guess = _guesses(args.guess, num.parameters, model)
+    record = read_record(args.record)
+    if args.samples:
+        record = record.head(args.samples)
+    bar = _progress("monte-carlo", args.replicates, "replicate") if args.replicates else None
+    try:
+        doc = simulation_study(num, record, guess=guess, method=args.method, table=table, seed=args.seed,
+                               noise=args.noise, tuning=Tuning(args.s0, args.q_theta, args.q_x, args.gate),
+                               passes=args.passes, replicates=args.replicates, jit=args.jit,
+                               progress=(lambda: bar.update(1)) if bar is not None else None)
+    finally:
+        if bar is not None:
+            bar.close()
+    write_output(identify_text(doc), None, force=False)
+    if args.out:
+        write_output(json.dumps(doc, indent=1), str(Path(args.out) / "identify.json"), force=args.force)
+    return 0
+
+
+def _guesses(items: Sequence[str], parameters: Sequence[str], model: Any) -> dict[str, float]:
+    """``--guess P=V`` items over the guesses of the model file's ``[guess]`` table (if any)."""
+    guess = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in parameters}
+    for item in items:
         name, _, value = item.partition("=")
-        if name not in num.parameters:
-            raise _Exit(2, f"--guess {item!r}: {name!r} is not a parameter of {model.name} ({', '.join(num.parameters)})")
+        if name not in parameters:
+            raise _Exit(2, f"--guess {item!r}: {name!r} is not a parameter of {model.name} ({', '.join(parameters)})")
         try:
             guess[name] = float(value)
         except ValueError:
             raise _Exit(2, f"--guess {item!r}: {value!r} is not a number") from None
-    missing = [q for q in num.parameters if q not in guess]
-    if missing:
-        raise _Exit(2, f"no initial guess for {missing}; give --guess {missing[0]}=VALUE")
-    truth = {q: num.values.get(q) for q in num.parameters}
-    if any(v is None for v in truth.values()):
-        raise _Exit(2, f"{args.model} needs [values] for every parameter (the truth of the simulation)")
-    record = read_record(args.record)
-    if args.samples:
-        record = record.head(args.samples)
-    setup = Setup(model=num, record=record, truth=truth, guess=guess, noise=args.noise, jit=args.jit,
-                  coordinates=coordinates(num, "log", reference=guess))
-    filt = make_filter(setup, args.method, table=table)
-    data = make_data(setup, args.seed)
-    tuning = Tuning(args.s0, args.q_theta, args.q_x, args.gate)
-    trs, _ = run_passes(setup, filt, data, tuning, passes=args.passes)
-    theta = trs[-1].theta[-1]
-    misfit = output_misfit(setup, theta, data)
-    prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=args.s0, misfit=misfit)
-    if args.replicates and not prac.inconclusive:
-        bar = _progress("monte-carlo", args.replicates, "replicate")
-        try:
-            prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=args.passes,
-                                                replicates=args.replicates, seed=args.seed,
-                                                progress=(lambda: bar.update(1)) if bar is not None else None))
-        finally:
-            if bar is not None:
-                bar.close()
-    err = 100 * (theta - setup.theta_true) / abs(setup.theta_true)
-    doc = {"model": model.name, "record": record.to_dict(), "method": args.method, "seed": args.seed,
-           "noise_ratio": args.noise, "tuning": tuning.to_dict(), "passes": args.passes,
-           "parameters": {q: {"true": float(t), "guess": guess[q], "estimate": float(e), "error_percent": float(r)}
-                          for q, t, e, r in zip(num.parameters, setup.theta_true, theta, err)},
-           "seconds": float(sum(t.seconds for t in trs)), "repairs": int(sum(t.total_repairs for t in trs)),
-           "interventions": {k: sum(t.counts()[k] for t in trs) for k in trs[0].counts()},
-           "implicit_sigma_point_steps": int(sum(t.implicit.sum() for t in trs)),
-           "passes_run": len(trs), "output_misfit": misfit if math.isfinite(misfit) else None,
-           "practically_unidentifiable": None if prac.inconclusive else list(prac.flagged),
-           "practical_identifiability": prac.to_dict()}
-    lines = [f"{args.method.upper()} on {model.name}, {record.name}, seed {args.seed}, {args.passes} pass(es): "
-             f"{doc['seconds']:.2f} s, {doc['repairs']} repairs"]
-    if len(trs) < args.passes:
-        lines.append(f"  stopped after pass {len(trs)}: its estimate cannot be simulated (the filter diverged)")
-    if prac.inconclusive:
-        lines.append(f"  practical identifiability not decided: {prac.inconclusive}")
-    lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}" for q, why in prac.undecided.items()]
-    for q in num.parameters:
-        d = doc["parameters"][q]
-        note = f"  poorly informed: {prac.reasons[q]}" if q in prac.reasons else ""
-        lines.append(f"  {q:10s} true {d['true']:<11.4g} estimate {d['estimate']:<11.4g} error {d['error_percent']:7.2f} %{note}")
-    write_output("\n".join(lines), None, force=False)
-    if args.out:
-        write_output(json.dumps(doc, indent=1), str(Path(args.out) / "identify.json"), force=args.force)
-    return 0
+    return guess
 
 
 def _progress(desc: str, total: int | None, unit: str) -> Any:
@@ -457,8 +417,6 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
 
     if args.seeds < 1 or args.tuning_seeds < 1 or args.passes < 1:
         raise _Exit(2, "--seeds, --tuning-seeds and --passes must be at least 1")
-    if args.replicates is not None and (args.replicates < 0 or 0 < args.replicates < 3):
-        raise _Exit(2, "--replicates must be 0 (off) or at least 3")
     record = read_record(args.record) if args.record else None
     default = Path("reports/identification") / (record.name if record is not None else "")
     out = Path(args.out) if args.out else default

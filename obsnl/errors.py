@@ -16,11 +16,14 @@ __all__ = [
     "DataError",
     "TableError",
     "EstimatorError",
+    "OptionError",
+    "OutputError",
 ]
 
 
 class ObsnlError(Exception):
-    """Base class of every error obsnl raises on purpose."""
+    """Base class of every error obsnl raises on purpose (never raised itself: each error is one of the
+    subclasses below, which also derive from the built-in they refine)."""
 
 
 class ModelError(ObsnlError, ValueError):
@@ -49,3 +52,12 @@ class TableError(ObsnlError, ValueError):
 
 class EstimatorError(ObsnlError, RuntimeError):
     """A filter cannot continue: a covariance stopped being positive definite, a NaN appeared."""
+
+
+class OptionError(ObsnlError, ValueError):
+    """An option or argument has a value obsnl does not accept (unknown format, replicates 2, ...)."""
+
+
+class OutputError(ObsnlError, OSError):
+    """Output cannot be written as asked: the file exists (pass ``--force``), a name is not a plain file
+    name, a path would leave the folder the user named, a symlink would be followed."""

@@ -17,10 +17,10 @@ from obsnl.linear.bank import (
     build_bank,
     calibrate_thresholds,
     decide,
-    run_link_study,
     sliding_rms,
 )
 from obsnl.studies.cantilever import build_cantilever
+from obsnl.studies.link_study import run_link_study
 from obsnl.cli import main
 from obsnl.errors import AnalysisError, DataError
 from obsnl.linear.observer import integrator

@@ -15,7 +15,8 @@ from obsnl.estimation.codegen import log_map, to_casadi
 from obsnl.estimation.records import read_record
 from obsnl.estimation.dukf import DUKF
 from obsnl.errors import EstimatorError, TableError
-from obsnl.estimation.experiments import SEED_GUESS, coordinates
+from obsnl.estimation.setup import coordinates
+from obsnl.studies.seed_paper import SEED_GUESS
 
 from .conftest import MODELS
 from .test_branch_table import paper_table1

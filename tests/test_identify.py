@@ -12,10 +12,10 @@ import pytest
 import obsnl
 from obsnl.observability.branch_table import BranchTable
 from obsnl.cli import main
-from obsnl.estimation.experiments import (DIVERGED, SEED_GUESS, Tuning, coordinates, make_data, make_filter, output_misfit,
+from obsnl.estimation.experiments import (DIVERGED, Tuning, coordinates, make_data, make_filter, output_misfit,
                             practical_identifiability, run_passes)
-from obsnl.report.tables import table2_markdown
-from obsnl.studies.seed_paper import reproduce, seed_setup, write_reproduction
+from obsnl.report.identification import table2_markdown
+from obsnl.studies.seed_paper import SEED_GUESS, reproduce, seed_setup, write_reproduction
 
 from .conftest import MODELS
 from .test_branch_table import paper_table1

@@ -83,7 +83,7 @@ def test_written_seed_model_loads_and_is_observable(seed, tmp_path):
     assert m2 == r.model
     names = [s.name for s in m2.states + m2.parameters]
     assert set(m2.definitions) == set(names)
-    res = obsnl.observability.analyze(m2, method="sedoglavic", seed=0)
+    res = obsnl.analyze(m2, method="sedoglavic", seed=0)
     assert res.to_dict()["overall"]["unobservable"] == []
 
 

@@ -63,7 +63,7 @@ def test_analyze_result_renders_the_paper_table_without_the_model():
     # analyze() carries the branch signs, switching functions, parameters and LaTeX names, so the
     # notebook display of a bare result merges and conditions the columns as the paper's Table 1
     m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
-    r = obsnl.observability.analyze(m, seed=3)
+    r = obsnl.analyze(m, seed=3)
     assert [b.signs for b in r.branches] == [b.signs for b in obsnl.split_branches(m)]
     assert r.switching == ("r - eta_p", "x2") and r.parameters[0] == "k_m" and r.latex["Delta1"] == r"\Delta_1"
     md = r._repr_markdown_()

@@ -19,6 +19,7 @@ import jsonschema
 import pytest
 
 import obsnl
+import obsnl.batch
 from obsnl import report
 from obsnl.observability.analyze import analyze
 from obsnl.observability.branch_table import BranchTable, load_branch_table, schema
@@ -33,7 +34,7 @@ SEED_MODELS = [MODELS / "damage_healing_reparam.toml", MODELS / "damage_healing.
 
 def test_committed_tables_are_what_obsnl_report_writes_today(tmp_path):
     models = [obsnl.load_model(p) for p in SEED_MODELS]
-    report.write_report(models, tmp_path, method="auto", seed=0)
+    obsnl.batch.report_models(models, tmp_path, method="auto", seed=0)
     for m in models:
         for ext in ("md", "tex", "json"):
             fresh = (tmp_path / f"{m.name}.{ext}").read_text()
@@ -115,7 +116,7 @@ def test_golden_renderings_of_a_peer_case():
 @pytest.mark.parametrize("path", PEER_CASE_FILES + MODEL_FILES, ids=lambda p: p.stem)
 def test_every_catalogue_branch_table_validates(path):
     m = obsnl.load_model(path)
-    doc = json.loads(report.render(analyze(m, seed=1), m, "json-table"))
+    doc = json.loads(report.render(analyze(m, seed=1), "json-table"))
     jsonschema.validate(doc, schema())
     t = BranchTable.from_dict(doc)
     t.check_model(states=[s.name for s in m.states], parameters=[s.name for s in m.parameters],

@@ -167,7 +167,7 @@ def test_errors_and_serialisation():
 
 def test_dimension_and_unobservable_sets_agree_with_the_engine(seed_branches):
     # cross-method oracle: the symmetry search's own Jacobian vs obsnl.observability.analyze (Sedoglavic engine)
-    res = obsnl.observability.analyze(obsnl.load_model(MODELS / "damage_healing.toml"), method="sedoglavic", seed=0)
+    res = obsnl.analyze(obsnl.load_model(MODELS / "damage_healing.toml"), method="sedoglavic", seed=0)
     engine = {b.label: b for b in res.branches}
     for b, s in seed_branches:
         assert set(s.unobservable) == set(engine[b.label].unobservable), b.label

@@ -20,7 +20,9 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
-from obsnl.model.branches import expr_text, field_jumps, switching_functions
+from obsnl.model.branches import field_jumps
+from obsnl.model.signature import ModelSignature
+from obsnl.model.switching import expr_text, switching_functions
 from obsnl.errors import ModelError, NotSupportedError, TableError
 from obsnl.model.core import Model
 from obsnl.estimation.numeric import NumericModel, ParameterMap, jit_options
@@ -174,11 +176,12 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
     args, names = [xs, ps, us], ["x", "p", "u"]
     values = {k: float(v) for k, v in (model.values or {}).items()}
     return NumericModel(
-        name=model.name, fingerprint=model.fingerprint,
-        states=tuple(s.name for s in model.states), parameters=tuple(s.name for s in model.parameters),
-        inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.outputs),
-        switching=tuple(expr_text(g) if isinstance(g, sp.Basic) else str(g) for g in
-                        (gs if switching is None else switching)),
+        signature=ModelSignature(
+            name=model.name, fingerprint=model.fingerprint,
+            states=tuple(s.name for s in model.states), parameters=tuple(s.name for s in model.parameters),
+            inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.outputs),
+            switching=tuple(expr_text(g) if isinstance(g, sp.Basic) else str(g) for g in
+                            (gs if switching is None else switching))),
         values=MappingProxyType(values),
         jumps=field_jumps(model, gs) if gs else (),
         f=ca.Function("f", args, [fx], names, ["xdot"]),

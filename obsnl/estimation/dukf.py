@@ -73,12 +73,7 @@ class DUKF(UKF):
         t = self.table
         if not isinstance(t, BranchTable):
             raise TableError("the DUKF needs a branch table: table=load_branch_table(path)")
-        m = self.model
-        t.check_model(states=m.states, parameters=m.parameters, inputs=m.inputs, outputs=m.outputs,
-                      switching_count=len(m.switching), fingerprint=m.fingerprint)
-        if tuple(t.switching) != tuple(m.switching):
-            raise TableError(f"the table's switching functions {list(t.switching)} differ from the compiled model's "
-                             f"{list(m.switching)}; compile with to_casadi(model, switching=table.switching)")
+        t.signature.check(self.model.signature, exact_switching=True)
         if self.cross not in ("regression", "zero"):
             raise EstimatorError(f"unknown cross-covariance rule {self.cross!r}; use 'regression' or 'zero'")
         band = np.broadcast_to(np.asarray(self.band, float), (len(t.switching),)).copy()

@@ -41,6 +41,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import ModelError
+from obsnl.model.signature import ModelSignature
 
 __all__ = ["NumericModel", "ParameterMap", "jit_options", "jit_directory", "GAMMA_ROS2"]
 
@@ -85,21 +86,18 @@ class NumericModel:
         ``g(x, p, u)`` (in the order and orientation of ``switching``).
     jac_x, jac_u
         ``df/dx`` and ``df/du`` (derivatives of ``sign`` are 0), for implicit steps.
-    fingerprint, name, states, parameters, inputs, outputs, switching, values
-        The model's identity (the branch table must carry the same fingerprint), names,
-        switching functions as text, and its nominal values.
+    signature
+        The model's identity (:class:`~obsnl.model.signature.ModelSignature`: name, fingerprint,
+        names in order, switching functions as text); the branch table must carry the same.
+        ``name``, ``fingerprint``, ``states``, ... read it.
+    values
+        The model's nominal values.
     jumps
         For each switching function, whether the vector field may jump where it crosses 0
         (:func:`obsnl.model.branches.field_jumps`; empty: all may). Only these crossings are refined.
     """
 
-    name: str
-    fingerprint: str
-    states: tuple[str, ...]
-    parameters: tuple[str, ...]
-    inputs: tuple[str, ...]
-    outputs: tuple[str, ...]
-    switching: tuple[str, ...]
+    signature: ModelSignature
     values: Mapping[str, float]
     f: ca.Function = field(repr=False)
     h: ca.Function = field(repr=False)
@@ -107,6 +105,34 @@ class NumericModel:
     jac_x: ca.Function = field(repr=False)
     jac_u: ca.Function = field(repr=False)
     jumps: tuple[bool, ...] = ()
+
+    @property
+    def name(self) -> str:
+        return self.signature.name
+
+    @property
+    def fingerprint(self) -> str:
+        return self.signature.fingerprint
+
+    @property
+    def states(self) -> tuple[str, ...]:
+        return self.signature.states
+
+    @property
+    def parameters(self) -> tuple[str, ...]:
+        return self.signature.parameters
+
+    @property
+    def inputs(self) -> tuple[str, ...]:
+        return self.signature.inputs
+
+    @property
+    def outputs(self) -> tuple[str, ...]:
+        return self.signature.outputs
+
+    @property
+    def switching(self) -> tuple[str, ...]:
+        return self.signature.switching
 
     @property
     def nx(self) -> int:
@@ -304,9 +330,7 @@ class NumericModel:
         return xi, crossed
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "fingerprint": self.fingerprint, "states": list(self.states),
-                "parameters": list(self.parameters), "inputs": list(self.inputs),
-                "outputs": list(self.outputs), "switching": list(self.switching)}
+        return self.signature.to_dict()
 
 
 def _perron_bound(A: ca.SX, n: int, iterations: int = 3) -> ca.SX:

@@ -29,7 +29,7 @@ NONSMOOTH_FUNCTIONS: tuple[type, ...] = (sp.sign, sp.Abs, sp.Heaviside, sp.Piece
 MODEL_KEYS: tuple[str, ...] = (
     "name", "description", "source", "states", "parameters", "inputs", "unknown_inputs",
     "known_constants", "outputs", "equations", "known_initial_conditions",
-    "initial_condition_values", "switching", "latex", "values", "definitions",
+    "initial_condition_values", "switching", "latex", "values", "guess", "definitions",
 )
 #: Keys kept as metadata without interpretation (the published answers of a peer case, notes).
 METADATA_KEYS: tuple[str, ...] = (
@@ -118,6 +118,9 @@ class Model:
     values
         Nominal numbers ``{name: value}`` for parameters and initial states (simulation,
         true values of an identification experiment).
+    guess
+        Initial guesses ``{parameter: value}`` of an identification (``obsnl identify``; ``--guess``
+        overrides them).
     definitions
         ``{name: expression}`` defining symbols of this model in terms of another model's
         symbols (written by :func:`obsnl.reparametrize`).
@@ -151,6 +154,7 @@ class Model:
     switching: tuple[sp.Expr, ...] = ()
     latex: Mapping[str, str] = field(default_factory=dict)
     values: Mapping[str, float] = field(default_factory=dict)
+    guess: Mapping[str, float] = field(default_factory=dict)
     definitions: Mapping[str, str] = field(default_factory=dict)
     metadata: Mapping[str, Any] = field(default_factory=dict)
 
@@ -280,18 +284,24 @@ class Model:
             if not isinstance(v, str):
                 raise ModelError(f"latex.{k} must be a string")
         set_("latex", _frozen(latex))
-        values: dict[str, float] = {}
-        for k, v in dict(self.values or {}).items():
-            if k not in seen:
-                raise ModelError(f"values gives a number for undeclared symbol {k!r}{_close(k, list(seen))}")
-            try:
-                fv = float(v)
-            except (TypeError, ValueError):
-                raise ModelError(f"values.{k} must be a number, got {v!r}") from None
-            if fv != fv or fv in (float("inf"), float("-inf")):
-                raise ModelError(f"values.{k} is not finite ({v!r})")
-            values[k] = fv
-        set_("values", _frozen(values))
+        for key in ("values", "guess"):
+            table = getattr(self, key) or {}
+            if not isinstance(table, Mapping):
+                raise ModelError(f"'{key}' must be a table of numbers {{name: value}}, got {type(table).__name__}")
+            numbers: dict[str, float] = {}
+            for k, v in dict(table).items():
+                if k not in seen:
+                    raise ModelError(f"{key} gives a number for undeclared symbol {k!r}{_close(k, list(seen))}")
+                if key == "guess" and k not in {s.name for s in self.parameters}:
+                    raise ModelError(f"guess.{k}: only parameters have guesses; remove it")
+                try:
+                    fv = float(v)
+                except (TypeError, ValueError, OverflowError):
+                    raise ModelError(f"{key}.{k} must be a number, got {v!r}") from None
+                if fv != fv or fv in (float("inf"), float("-inf")):
+                    raise ModelError(f"{key}.{k} is not finite ({v!r})")
+                numbers[k] = fv
+            set_(key, _frozen(numbers))
         defs: dict[str, str] = {}
         for k, v in dict(self.definitions or {}).items():
             if k not in seen:
@@ -349,6 +359,8 @@ class Model:
             d["latex"] = dict(self.latex)
         if self.values:
             d["values"] = dict(self.values)
+        if self.guess:
+            d["guess"] = dict(self.guess)
         if self.definitions:
             d["definitions"] = dict(self.definitions)
         return d

@@ -14,7 +14,10 @@ from typing import Any
 from obsnl.errors import ParseError
 from obsnl.model.core import Model
 
-__all__ = ["read_model_file", "load_model", "catalogue_path", "model_to_toml"]
+__all__ = ["read_model_file", "load_model", "catalogue_path", "model_to_toml", "PACKAGED"]
+
+#: Prefix of a packaged model's name where a file name is expected (``obsnl:bouc_wen``).
+PACKAGED = "obsnl:"
 
 
 def read_model_file(path: str | Path) -> dict[str, Any]:
@@ -102,7 +105,8 @@ def load_model(path: str | Path) -> Model:
     Parameters
     ----------
     path
-        A ``.toml`` or ``.json`` file.
+        A ``.toml`` or ``.json`` file, or ``obsnl:NAME`` for a model packaged with obsnl
+        (:func:`catalogue_path`).
 
     Returns
     -------
@@ -116,8 +120,11 @@ def load_model(path: str | Path) -> Model:
     Examples
     --------
     >>> import obsnl
-    >>> m = obsnl.load_model("models/coulomb_friction.toml")  # doctest: +SKIP
+    >>> obsnl.load_model("obsnl:coulomb_friction").states
+    (x, v)
     """
+    if isinstance(path, str) and path.startswith(PACKAGED):
+        path = catalogue_path(path[len(PACKAGED):])
     data = read_model_file(path)
     try:
         return Model.from_dict(data)
@@ -128,7 +135,7 @@ def load_model(path: str | Path) -> Model:
 # ----------------------------------------------------------------------------- writing
 
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
-_TABLES = ("outputs", "equations", "initial_condition_values", "definitions", "latex", "values")
+_TABLES = ("outputs", "equations", "initial_condition_values", "definitions", "latex", "values", "guess")
 
 
 def _key(k: str) -> str:

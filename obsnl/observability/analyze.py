@@ -17,8 +17,10 @@ from __future__ import annotations
 import time
 from dataclasses import replace
 
-from obsnl.model.branches import expr_text, split_branches
+from obsnl.model.branches import split_branches
+from obsnl.model.switching import expr_text
 from obsnl.model.core import Model
+from obsnl.model.signature import ModelSignature
 from obsnl.observability.results import AnalysisResult, BranchResult
 from obsnl.observability.smooth import METHODS, _branch_result, _check, _fresh_seed, _variable_names
 
@@ -108,4 +110,9 @@ def analyze(
         switching=tuple(expr_text(g) for g in branches[0].switching) if branches else (),
         parameters=tuple(p.name for p in model.parameters),
         latex=dict(model.latex),
+        signature=ModelSignature(name=model.name, fingerprint=model.fingerprint,
+                                 states=tuple(s.name for s in model.states),
+                                 parameters=tuple(p.name for p in model.parameters),
+                                 inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.output_names),
+                                 switching=tuple(expr_text(g) for g in branches[0].switching) if branches else ()),
     )

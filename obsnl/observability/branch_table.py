@@ -2,7 +2,7 @@
 
 This is the contract between the analysis and the DUKF (schema ``obsnl.branch-table/1``,
 shipped as ``obsnl/schemas/branch_table.schema.json``). It is written by
-:func:`obsnl.report.tables.branch_table` (symbolic side) and read here without sympy, so the numeric
+:meth:`BranchTable.from_result` from an analysis result and read here without sympy, so the numeric
 estimators can load it. A table that fails the schema, contradicts itself, or was made for
 another model is refused with a :class:`~obsnl.errors.TableError` that says what is wrong.
 """
@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from obsnl.errors import TableError
+from obsnl.model.signature import TABLE_FIX, ModelSignature
 
 __all__ = ["SCHEMA_ID", "BranchEntry", "BranchTable", "load_branch_table", "schema"]
 
@@ -179,34 +180,62 @@ class BranchTable:
             if set(b.unidentifiable_parameters) != set(b.unobservable) & params:
                 raise TableError(f"{where}: unidentifiable_parameters disagree with unobservable")
 
+    @property
+    def signature(self) -> ModelSignature:
+        """The signature of the model the table was made for."""
+        return ModelSignature(name=self.model, fingerprint=self.fingerprint, states=tuple(self.states),
+                              parameters=tuple(self.parameters), inputs=tuple(self.inputs),
+                              outputs=tuple(self.outputs), switching=tuple(self.switching))
+
     def check_model(self, *, states: Sequence[str], parameters: Sequence[str], inputs: Sequence[str],
                     outputs: Sequence[str], switching_count: int, fingerprint: str) -> None:
         """Refuse the table unless it was made for this model (names, order, fingerprint).
+
+        A keyword form of ``table.signature.check(ModelSignature.of(model))``.
 
         Raises
         ------
         TableError
             Naming the first difference and how to regenerate the table.
         """
-        fix = "regenerate it with `obsnl analyze MODEL --format json-table -o TABLE.json`"
-        for key, mine in (("states", states), ("parameters", parameters), ("inputs", inputs),
-                          ("outputs", outputs)):
-            theirs = getattr(self, key)
-            if tuple(mine) != tuple(theirs):
-                raise TableError(
-                    f"the branch table was made for model {self.model!r} with {key} {list(theirs)}, "
-                    f"but this model has {list(mine)}; {fix}"
-                )
-        if switching_count != len(self.switching):
-            raise TableError(
-                f"the branch table has {len(self.switching)} switching functions, the model "
-                f"{switching_count}; {fix}"
-            )
-        if fingerprint != self.fingerprint:
-            raise TableError(
-                f"the branch table's fingerprint {self.fingerprint[:12]}... does not match this model's "
-                f"{fingerprint[:12]}... (the equations differ); {fix}"
-            )
+        other = ModelSignature(name="", fingerprint=fingerprint, states=tuple(states), parameters=tuple(parameters),
+                               inputs=tuple(inputs), outputs=tuple(outputs), switching=("",) * switching_count)
+        self.signature.check(other, fix=TABLE_FIX)
+
+    @classmethod
+    def from_result(cls, result: Any) -> BranchTable:
+        """The branch table of an analysis result (:class:`~obsnl.observability.results.AnalysisResult`).
+
+        The result must carry its model's signature and each branch's sign pattern (``obsnl.analyze``
+        records both). The table is validated like any table read from disk.
+
+        Raises
+        ------
+        TableError
+            The result carries no signature or no sign pattern.
+        """
+        sig = getattr(result, "signature", None)
+        if sig is None:
+            raise TableError("this result carries no model signature; analyse the model with obsnl.analyze")
+        params = sig.parameters
+        entries = []
+        for b in result.branches:
+            if not b.signs and sig.switching:
+                raise TableError(f"branch {b.label!r} carries no sign pattern; analyse the model with obsnl.analyze")
+            entries.append(BranchEntry(
+                label=b.label, guard=b.guard, signs=tuple(b.signs),
+                observable=tuple(b.observable), unobservable=tuple(b.unobservable), absent=tuple(b.absent),
+                identifiable_parameters=tuple(p for p in params if p not in b.unobservable),
+                unidentifiable_parameters=tuple(p for p in params if p in b.unobservable),
+                transcendence_degree=b.transcendence_degree, verdict=b.verdict.value,
+            ))
+        table = cls(
+            model=sig.name, fingerprint=sig.fingerprint, states=sig.states, parameters=params,
+            inputs=sig.inputs, outputs=sig.outputs, switching=sig.switching, method=result.method,
+            seed=result.seed, probability=result.probability, branches=tuple(entries),
+            overall_observable=result.overall_observable, overall_unobservable=result.overall_unobservable,
+        )
+        return cls.from_dict(table.to_dict())
 
     # ------------------------------------------------------------------ use
     def entry(self, signs: Sequence[int]) -> BranchEntry:

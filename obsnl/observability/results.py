@@ -12,6 +12,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from obsnl.model.signature import ModelSignature
+
 __all__ = ["Verdict", "BranchResult", "AnalysisResult"]
 
 
@@ -139,6 +141,9 @@ class AnalysisResult:
         The model's parameters (to tell them from states in reports and branch tables).
     latex
         LaTeX names of symbols (from the model file), for reports.
+    signature
+        The analysed model's :class:`~obsnl.model.signature.ModelSignature` (names, order,
+        fingerprint, switching functions): a branch table is written from the result alone.
     """
 
     model: str
@@ -151,6 +156,7 @@ class AnalysisResult:
     switching: tuple[str, ...] = ()
     parameters: tuple[str, ...] = ()
     latex: Mapping[str, str] = field(default_factory=dict)
+    signature: ModelSignature | None = field(default=None, compare=False)
 
     @property
     def overall_observable(self) -> tuple[str, ...]:

@@ -1,11 +1,17 @@
 """Every rendering of obsnl's results: analysis tables (text, Markdown, LaTeX, JSON), the observer-bank
-table, the identification tables and the figures. Nothing here runs an analysis."""
-
-from obsnl.report.tables import *  # noqa: F401,F403
-from obsnl.report.tables import __all__  # noqa: F401
+table, the identification tables, report folders and the figures. Nothing here runs an analysis."""
 
 from obsnl.observability.results import DISPLAY as _DISPLAY
-from obsnl.report.tables import to_latex as _to_latex, to_markdown as _to_markdown
+from obsnl.report.bank import bank_table_markdown
+from obsnl.report.files import report_files, timing_table, write_tables
+from obsnl.report.identification import table2_latex, table2_markdown, table2_summary
+from obsnl.report.tables import *  # noqa: F403
+from obsnl.report.tables import __all__ as _TABLES
+from obsnl.report.tables import to_latex as _to_latex
+from obsnl.report.tables import to_markdown as _to_markdown
+
+__all__ = [*_TABLES, "bank_table_markdown", "report_files", "timing_table", "write_tables", "table2_latex",
+           "table2_markdown", "table2_summary"]
 
 _DISPLAY.setdefault("md", _to_markdown)
 _DISPLAY.setdefault("tex", lambda result: _to_latex(result, environment=False))

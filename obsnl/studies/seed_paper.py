@@ -20,14 +20,27 @@ import numpy as np
 from obsnl.estimation.records import Record
 from obsnl.errors import ObsnlError
 from obsnl.model.files import catalogue_path
-from obsnl.estimation.experiments import (DEFAULT_GRID, DIVERGED, PAPER_ERRORS, SEED_GUESS, Practical, Setup, Tuning, coordinates,
+from obsnl.estimation.experiments import (DEFAULT_GRID, DIVERGED, Practical, Setup, Tuning, coordinates,
                        make_data, make_filter, monte_carlo, output_misfit, practical_identifiability, run_passes,
                        tune)
+from obsnl.estimation.identify import check_replicates
 from obsnl.estimation.ukf import Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS
 
 __all__ = ["RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce",
-           "write_reproduction", "TUNING_SEEDS"]
+           "write_reproduction", "SEED_GUESS", "PAPER_ERRORS", "TUNING_SEEDS"]
+
+#: Initial guesses of Table 2 of the seed paper (DESIGN.md).
+SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
+                                   "w_h": 0.3, "Delta1": 3e10, "Delta2": -6e9}
+#: Errors (%) the seed paper reports in Table 2.
+PAPER_ERRORS: Mapping[str, Mapping[str, float]] = {
+    "dukf": {"k_m": 0.55, "c_dm": 0.01, "c_eta_p": 8.33, "c_p": 17.62, "h_p": 1.99, "N": 0.02, "w_h": 10.54,
+             "Delta1": 11.39, "Delta2": 0.20},
+    "ukf": {"k_m": 4.14, "c_dm": 0.02, "c_eta_p": 5.47, "c_p": 106.48, "h_p": 13.67, "N": 1.28, "w_h": 7.62,
+            "Delta1": 13.93, "Delta2": 15.30},
+}
+
 
 #: Noise seeds of the tuning (never reported): 1000, 1001, ...; five by default.
 TUNING_SEEDS = 1000
@@ -145,10 +158,10 @@ def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
     """The branch table of the seed model from obsnl's analysis, checked against the paper's Table 1."""
     from obsnl.observability.analyze import analyze
     from obsnl.model.files import load_model
-    from obsnl.report.tables import branch_table
+    from obsnl.observability.branch_table import BranchTable
 
     model = load_model(seed_model_path())
-    table = branch_table(analyze(model, seed=seed), model)
+    table = BranchTable.from_result(analyze(model, seed=seed))
     paper = {1: {"Delta2"}, -1: {"Delta1", "w_h"}}  # Table 1: by the sign of (r - eta') x2
     agrees = all(set(b.unidentifiable_parameters) == paper[b.signs[0] * b.signs[1]] for b in table.branches)
     source = (f"obsnl analysis ({table.method}, seed {seed}); "
@@ -227,6 +240,7 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
     progress
         A tqdm-like object (``total``, ``update(n)``) or None.
     """
+    check_replicates(replicates)
     setup = seed_setup(record=record, samples=samples, jit=jit)
     table, source = seed_branch_table()
     filters = {"ukf": make_filter(setup, "ukf"), "dukf": make_filter(setup, "dukf", table=table)}
@@ -284,7 +298,7 @@ def write_reproduction(rep: Reproduction, out: str | Path) -> list[Path]:
     import json
 
     from obsnl.report.figures import figure2, figure3
-    from obsnl.report.tables import table2_latex, table2_markdown, table2_summary
+    from obsnl.report.identification import table2_latex, table2_markdown, table2_summary
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -1,0 +1,125 @@
+"""One identification run of a simulated experiment: the model's ``[values]`` are the truth, the record
+drives it, noise is added to input and output, the UKF or the DUKF estimates, and the practical
+identifiability of each parameter is judged at the estimate.
+
+:func:`simulation_study` is what ``obsnl identify`` runs; it returns a plain, JSON-ready document
+(rendered by :func:`obsnl.report.identification.identify_text`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from obsnl.errors import EstimatorError, OptionError
+from obsnl.estimation.codegen import NumericModel
+from obsnl.estimation.experiments import Tuning, make_data, make_filter, monte_carlo, run_passes
+from obsnl.estimation.practical import practical_identifiability
+from obsnl.estimation.records import Record
+from obsnl.estimation.setup import Setup, coordinates, output_misfit
+from obsnl.observability.branch_table import BranchTable
+
+__all__ = ["check_replicates", "simulation_study"]
+
+
+def check_replicates(replicates: int) -> int:
+    """The Monte-Carlo rule, in one place: 0 (off) or at least 3 replicates.
+
+    Parameters
+    ----------
+    replicates
+        The number asked for.
+
+    Returns
+    -------
+    int
+        ``replicates``, checked.
+
+    Raises
+    ------
+    EstimatorError
+        Any other number (a spread of fewer than 3 replicates says nothing).
+
+    Examples
+    --------
+    >>> check_replicates(0), check_replicates(32)
+    (0, 32)
+    """
+    if not isinstance(replicates, int) or isinstance(replicates, bool) or replicates < 0 or 0 < replicates < 3:
+        raise OptionError(f"--replicates must be 0 (off) or at least 3, got {replicates!r}")
+    return replicates
+
+
+def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, float], method: str = "ukf",
+                     table: BranchTable | None = None, seed: int = 0, noise: float = 1e-3,
+                     tuning: Tuning = Tuning(0.2, 0.0, 1.0), passes: int = 3, replicates: int = 0,
+                     jit: bool = False, progress: Callable[[], Any] | None = None) -> dict[str, Any]:
+    """Identify ``num`` from its own simulated response to ``record`` (the truth: ``num.values``).
+
+    Parameters
+    ----------
+    num
+        The compiled model (:func:`obsnl.to_casadi`); ``num.values`` must hold every parameter.
+    record
+        The ground motion (or any single input).
+    guess
+        Initial guess of every parameter.
+    method
+        ``"ukf"`` or ``"dukf"`` (needs ``table``).
+    table
+        The branch table of the model (DUKF).
+    seed, noise
+        Noise seed and noise-to-signal RMS ratio of input and output.
+    tuning, passes
+        Filter tuning and passes over the record.
+    replicates
+        Monte-Carlo replicates of the practical-identifiability check (0: off, else at least 3).
+    jit
+        Compile the filter to C.
+    progress
+        Called once per Monte-Carlo replicate.
+
+    Returns
+    -------
+    dict
+        JSON-ready: parameters (true, guess, estimate, error_percent), cost, misfit, flags.
+
+    Raises
+    ------
+    EstimatorError
+        A missing true value or guess, a bad option.
+    """
+    check_replicates(replicates)
+    if method == "dukf" and table is None:
+        raise EstimatorError("--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL`)")
+    if passes < 1 or tuning.s0 <= 0 or noise <= 0 or not tuning.gate > 0:
+        raise EstimatorError("--passes must be >= 1, --s0, --noise and --gate > 0")
+    missing = [q for q in num.parameters if q not in guess]
+    if missing:
+        raise EstimatorError(f"no initial guess for {missing}; give --guess {missing[0]}=VALUE")
+    truth = {q: num.values.get(q) for q in num.parameters}
+    if any(v is None for v in truth.values()):
+        raise EstimatorError(f"model {num.name!r} needs [values] for every parameter (the truth of the simulation)")
+    setup = Setup(model=num, record=record, truth=truth, guess=dict(guess), noise=noise, jit=jit,
+                  coordinates=coordinates(num, "log", reference=guess))
+    filt = make_filter(setup, method, table=table)
+    data = make_data(setup, seed)
+    trs, _ = run_passes(setup, filt, data, tuning, passes=passes)
+    theta = trs[-1].theta[-1]
+    misfit = output_misfit(setup, theta, data)
+    prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
+    if replicates and not prac.inconclusive:
+        prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates,
+                                            seed=seed, progress=progress))
+    err = 100 * (theta - setup.theta_true) / abs(setup.theta_true)
+    return {"model": num.name, "record": record.to_dict(), "method": method, "seed": seed,
+            "noise_ratio": noise, "tuning": tuning.to_dict(), "passes": passes,
+            "parameters": {q: {"true": float(t), "guess": float(guess[q]), "estimate": float(e), "error_percent": float(r)}
+                           for q, t, e, r in zip(num.parameters, setup.theta_true, theta, err)},
+            "seconds": float(sum(t.seconds for t in trs)), "repairs": int(sum(t.total_repairs for t in trs)),
+            "interventions": {k: sum(t.counts()[k] for t in trs) for k in trs[0].counts()},
+            "implicit_sigma_point_steps": int(sum(t.implicit.sum() for t in trs)),
+            "passes_run": len(trs), "output_misfit": misfit if math.isfinite(misfit) else None,
+            "practically_unidentifiable": None if prac.inconclusive else list(prac.flagged),
+            "practical_identifiability": prac.to_dict()}

@@ -1,0 +1,233 @@
+"""Practical identifiability at an estimate: is a parameter pinned within the 5 % band at 3 sigma by
+these data? By the linearised Cramér-Rao bound (with the input noise), by the filter's posterior
+against its prior, and (:class:`Spread`, from :func:`obsnl.estimation.experiments.monte_carlo`) by the
+Monte-Carlo spread of the whole protocol at the estimate."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from obsnl.errors import EstimatorError
+from obsnl.estimation.records import rms
+from obsnl.estimation.simulate import simulate
+from obsnl.estimation.ukf import Trajectory
+from obsnl.estimation.setup import DIVERGED, Data, Setup, output_misfit
+
+__all__ = ["Practical", "Spread", "fisher", "input_noise_crb", "practical_identifiability", "CRB_LIMIT",
+           "POSTERIOR_LIMIT"]
+
+#: Threshold on the Cramér-Rao standard deviation of log(theta): a parameter whose 3-sigma bound is
+#: wider than the 5 % goal cannot be pinned to it by any unbiased estimator on this record.
+CRB_LIMIT = 0.05 / 3
+#: A filter that kept more than this fraction of its prior standard deviation learnt (almost) nothing.
+POSTERIOR_LIMIT = 0.5
+
+
+@dataclass(frozen=True)
+class Practical:
+    """Practical identifiability of the parameters on one record, at one estimate.
+
+    ``crb``: Cramér-Rao standard deviation of ``log|theta_i|`` (relative error), from the Fisher
+    information of the output sensitivities (central differences of the simulated output in
+    ``log|theta|``) and the output noise; ``sensitivity``: RMS of ``d y / d log|theta_i|`` over the
+    noise std; ``posterior``: the filter's final std over its prior std (first pass). A parameter is
+    flagged when ``crb > CRB_LIMIT`` or ``posterior > POSTERIOR_LIMIT``, and, once a Monte-Carlo spread
+    is joined (:meth:`with_spread`), when the estimator's own spread exceeds the same limit (the
+    linearised bound misses the spread along ridges of a non-smooth response). ``inconclusive`` (non-empty)
+    says why nothing could be decided (the estimate diverged or cannot be simulated); then nothing
+    is flagged and the numbers are NaN.
+    """
+
+    parameters: tuple[str, ...]
+    crb: tuple[float, ...]
+    sensitivity: tuple[float, ...]
+    posterior: tuple[float, ...]
+    flagged: tuple[str, ...]
+    reasons: Mapping[str, str]
+    inconclusive: str = ""
+    spread: Spread | None = None
+    undecided: Mapping[str, str] = field(default_factory=dict)
+    linearised: tuple[str, ...] | None = None  # the flags before the Monte-Carlo criterion was joined
+
+    @property
+    def flagged_linearised(self) -> tuple[str, ...]:
+        """The parameters flagged by the Cramér-Rao and posterior criteria alone."""
+        return self.flagged if self.linearised is None else self.linearised
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"parameters": list(self.parameters), "crb_relative_std": _nums(self.crb),
+                "sensitivity_over_noise": _nums(self.sensitivity), "posterior_over_prior_std": _nums(self.posterior),
+                "flagged": list(self.flagged), "flagged_linearised": list(self.flagged_linearised),
+                "reasons": dict(self.reasons),
+                "inconclusive": self.inconclusive or None, "undecided": dict(self.undecided),
+                "monte_carlo": self.spread.to_dict() if self.spread else None}
+
+    def with_spread(self, spread: Spread, *, limit: float = CRB_LIMIT) -> Practical:
+        """These flags joined with the Monte-Carlo criterion (:class:`Spread`) at the same limit.
+
+        A parameter is flagged when the lower confidence bound of its Monte-Carlo spread exceeds
+        ``limit``; when the interval contains ``limit`` it is *undecided* for that criterion (named,
+        not flagged). Parameters the protocol held at their guess have no spread and keep their flag.
+        """
+        if self.inconclusive:
+            return replace(self, spread=spread)
+        if spread.inconclusive:  # the other criteria stand; the 5 % band of the rest is not decided
+            return replace(self, spread=spread, undecided={
+                p: f"no Monte-Carlo spread: {spread.inconclusive}" for p in self.parameters if p not in self.reasons})
+        reasons, undecided = dict(self.reasons), {}
+        for p, sd, lo, hi in zip(self.parameters, spread.std, spread.lower, spread.upper):
+            if p in spread.held:
+                continue
+            band = (f"Monte-Carlo std of the relative error {100 * sd:.2g} % ({100 * spread.confidence:g} % "
+                    f"interval {100 * lo:.2g}-{100 * hi:.2g} %, {spread.replicates} replicates)")
+            if lo > limit:
+                reasons[p] = "; ".join(filter(None, [reasons.get(p), f"{band} > {100 * limit:.2g} %"]))
+            elif hi > limit and p not in reasons:
+                undecided[p] = f"{band} contains {100 * limit:.2g} %"
+        return replace(self, spread=spread, reasons=reasons, undecided=undecided, linearised=self.flagged_linearised,
+                       flagged=tuple(p for p in self.parameters if p in reasons))
+
+
+def _nums(v: Sequence[float]) -> list[float | None]:
+    """Finite numbers, None for NaN/inf (JSON has no NaN)."""
+    return [float(x) if np.isfinite(x) else None for x in v]
+
+
+@dataclass(frozen=True)
+class Spread:
+    """Monte-Carlo spread of an estimator at an estimate (a parametric bootstrap).
+
+    ``std``: sample standard deviation of ``log|theta_i|`` (the relative error) over the replicates
+    that did not diverge; ``lower``/``upper``: its ``confidence`` interval (chi-square with
+    ``replicates - 1`` degrees of freedom, Gaussian estimates assumed); ``held``: parameters the
+    protocol held at their guess in every replicate (no spread). Replicate ``b`` draws its noise from
+    ``numpy.random.default_rng([seed, b])``. ``inconclusive`` says why no spread could be given.
+    """
+
+    parameters: tuple[str, ...]
+    std: tuple[float, ...]
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    replicates: int
+    diverged: int
+    confidence: float
+    seed: int
+    held: tuple[str, ...] = ()
+    inconclusive: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"parameters": list(self.parameters), "relative_std": _nums(self.std), "lower": _nums(self.lower),
+                "upper": _nums(self.upper), "replicates": self.replicates, "diverged": self.diverged,
+                "confidence": self.confidence, "seed": self.seed, "held": list(self.held),
+                "inconclusive": self.inconclusive or None}
+
+
+def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: float, *, step: float = 1e-2) -> np.ndarray:
+    """Output sensitivities ``(T*ny, np)`` to ``log|theta|``, divided by the noise std ``sigma``.
+
+    Central differences with a 1 % step: the response of the non-smooth model is rough on finer
+    scales (switching instants move), and smaller steps overstate the information several times.
+    """
+    m, dt = setup.model, setup.record.dt
+    cols = []
+    for i in range(m.np):
+        ys = []
+        for s in (step, -step):
+            th = np.array(theta, float)
+            th[i] *= np.exp(s)
+            ys.append(simulate(m, theta=th, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, refine=setup.refine,
+                               jit=setup.jit).y.ravel())
+        cols.append((ys[0] - ys[1]) / (2 * step) / sigma)
+    return np.array(cols).T
+
+
+def input_noise_crb(setup: Setup, theta: np.ndarray | None = None, *, u: np.ndarray | None = None) -> dict[str, Any]:
+    """Cramér-Rao std of ``log|theta_i|`` with the input noise counted (a diagnostic, not a flag).
+
+    The filters and fits see the *measured* input ``u + w``; to first order the output they should
+    reproduce is off by ``-J_u w`` (``J_u = dy/du``, one column per input sample, by central
+    differences of the simulation), so the effective output noise has covariance
+    ``Sigma = sigma_y^2 I + sigma_u^2 J_u J_u^T`` and the Fisher information is ``S^T Sigma^-1 S``
+    (``S = dy/dlog|theta|``). ``crb_output_only`` is the bound with ``sigma_u = 0`` (the one the
+    practical-identifiability flag uses). Costs two simulations per input sample (about a minute).
+    """
+    m, dt = setup.model, setup.record.dt
+    theta = setup.theta_true if theta is None else np.asarray(theta, float)
+    u = setup.record.accel if u is None else np.asarray(u, float)
+    su, sy = setup.noise * rms(u), setup.noise * rms(setup.y_true)
+    S = fisher(setup, theta, u, 1.0)  # raw sensitivities dy/dlog|theta|
+    sim = lambda uu: simulate(m, theta=theta, x0=setup.x0, u=uu, dt=dt, substeps=setup.substeps,  # noqa: E731
+                              refine=setup.refine, jit=setup.jit).y.ravel()
+    Ju = np.zeros((len(S), len(u)))
+    for k in range(len(u)):
+        e = np.zeros_like(u)
+        e[k] = su
+        Ju[:, k] = (sim(u + e) - sim(u - e)) / (2 * su)
+    out = {}
+    for name, cov in (("crb_output_only", sy ** 2 * np.eye(len(S))), ("crb_with_input_noise",
+                                                                       sy ** 2 * np.eye(len(S)) + su ** 2 * Ju @ Ju.T)):
+        F = S.T @ np.linalg.solve(cov, S)
+        out[name] = dict(zip(m.parameters, np.sqrt(np.clip(np.diag(np.linalg.pinv(F, rcond=1e-12)), 0, None))))
+    out["input_noise_output_rms_over_sigma_y"] = float(su * np.sqrt(np.trace(Ju @ Ju.T) / len(S)) / sy)
+    return out
+
+
+def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, first: Trajectory,
+                              prior_std: float, misfit: float | None = None) -> Practical:
+    """Flag the parameters this record cannot pin down (see :class:`Practical`).
+
+    Parameters
+    ----------
+    setup, data
+        The experiment and the measured record.
+    theta
+        The estimate at which the output sensitivities are taken.
+    first
+        The first pass of the filter (its final covariance against ``prior_std``).
+    prior_std
+        The filter's prior std of the log-parameters.
+    misfit
+        The free-run output misfit of ``theta`` if already computed (else computed here). Above
+        ``DIVERGED`` x the noise level, or when ``theta`` cannot be simulated, the result is
+        inconclusive: sensitivities of a diverged estimate say nothing about these data.
+    """
+    m = setup.model
+    misfit = output_misfit(setup, theta, data) if misfit is None else float(misfit)
+    why_not = ""
+    if not np.isfinite(misfit):
+        why_not = "the estimate cannot be simulated (the filter diverged)"
+    elif misfit > DIVERGED * setup.noise:
+        why_not = (f"the estimate's output misfit {misfit:.3g} is above {DIVERGED:g}x the noise level "
+                   f"{setup.noise:g} (the filter did not converge on these data)")
+    if not why_not:
+        try:
+            S = fisher(setup, theta, data.u, setup.noise * rms(data.y))
+        except EstimatorError:
+            why_not = "a perturbed estimate cannot be simulated (no sensitivities)"
+    if why_not:
+        nan = (float("nan"),) * m.np
+        return Practical(parameters=m.parameters, crb=nan, sensitivity=nan, posterior=nan, flagged=(), reasons={},
+                         inconclusive=why_not)
+    F = S.T @ S
+    crb = np.sqrt(np.clip(np.diag(np.linalg.pinv(F, rcond=1e-12)), 0, None))
+    sens = np.sqrt(np.mean(S ** 2, axis=0))
+    nx = m.nx
+    post = np.sqrt(np.clip(np.diag(first.P[-1])[nx:], 0, None)) / prior_std
+    # posterior ratios are per filter coordinate; with log coordinates they are per parameter
+    post = post if len(post) == m.np else np.full(m.np, np.nan)
+    reasons = {}
+    for p, c, r in zip(m.parameters, crb, post):
+        why = []
+        if c > CRB_LIMIT:
+            why.append(f"Cramér-Rao std of the relative error {100 * c:.2g} % > {100 * CRB_LIMIT:.2g} %")
+        if r > POSTERIOR_LIMIT:
+            why.append(f"the filter kept {100 * r:.0f} % of its prior std")
+        if why:
+            reasons[p] = "; ".join(why)
+    return Practical(parameters=m.parameters, crb=tuple(float(c) for c in crb),
+                     sensitivity=tuple(float(s) for s in sens), posterior=tuple(float(r) for r in post),
+                     flagged=tuple(p for p in m.parameters if p in reasons), reasons=reasons)

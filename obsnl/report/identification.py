@@ -1,0 +1,272 @@
+"""The identification tables: the Table 2 analog of the seed paper (Markdown and LaTeX) and its
+summary statistics, rendered from the ``table2.json`` document alone."""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from obsnl.report.tables import tex_escape
+
+__all__ = ["table2_summary", "table2_markdown", "table2_latex", "identify_text"]
+
+
+# Text of the Table 2 analog (seed paper 000_d24855f97fc8bdd4.txt) from the plain ``table2.json``
+# document written by ``obsnl reproduce`` (``obsnl.studies.seed_paper``), so that a committed table2.json
+# can be re-rendered without running anything. Writing files and figures stays in obsnl.studies.seed_paper.
+
+_T2_TEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h": r"$w_h$", "c_p": r"$c'$",
+           "h_p": r"$h'$", "Delta1": r"$\Delta_1$", "Delta2": r"$\Delta_2$", "N": r"$N$"}
+_T2_MD = {"k_m": "k_m", "c_dm": "c_dm", "c_eta_p": "c'_eta", "w_h": "w_h", "c_p": "c'", "h_p": "h'",
+          "Delta1": "Δ1", "Delta2": "Δ2", "N": "N"}
+_T2_METHODS = {"ukf": "UKF", "dukf": "DUKF", "dukf-zero": "DUKF, P_AU = 0"}
+
+
+def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, Any]]:
+    """Per (method, passes): mean estimate, mean and worst |error| per parameter, flags, cost, interventions."""
+    groups: dict[tuple[str, int], list[Mapping[str, Any]]] = {}
+    for r in doc["runs"]:
+        groups.setdefault((r["method"], r["passes"]), []).append(r)
+    out = {}
+    for key, every in groups.items():
+        runs = [r for r in every if not r.get("error")] or every[:1]
+        failed = [r for r in every if r.get("error")]
+        params = list(runs[0]["parameters"])
+        est = np.array([[r["parameters"][p]["estimate"] for p in params] for r in runs], float)
+        err = np.abs(np.array([[r["parameters"][p]["error_percent"] for p in params] for r in runs], float))
+        kinds: Counter[str] = Counter()
+        for r in every:
+            kinds.update(r.get("interventions") or {})
+        out[key] = {
+            "parameters": params, "seeds": [r["seed"] for r in runs], "mean_estimate": est.mean(axis=0),
+            "mean_abs_error": err.mean(axis=0), "worst_abs_error": err.max(axis=0),
+            "worst_seed": [runs[i]["seed"] for i in err.argmax(axis=0)],
+            "flag_counts": {p: sum(p in (r["practically_unidentifiable"] or ()) for r in runs) for p in params},
+            "flag_counts_linearised": {p: sum(p in _linearised_flags(r) for r in runs) for p in params},
+            "spread": _mean_spread(runs, params),
+            "yield": _yield_errors(runs, doc["experiment"]["truth"]),
+            "undecided": [(r["seed"], (r.get("practical_identifiability") or {}).get("inconclusive") or r.get("error")
+                           or "no estimate") for r in runs if r["practically_unidentifiable"] is None],
+            "seconds": float(np.mean(np.array([r["seconds"] for r in runs], float))),
+            "seconds_per_pass": float(np.mean(np.array([r["seconds"] for r in runs], float) / key[1])),
+            "repairs": int(sum(r["repairs"] for r in every)), "interventions": dict(kinds),
+            "implicit": int(sum(r["implicit_sigma_point_steps"] for r in every)),
+            "misfits": [r["output_misfit"] for r in runs],
+            "tuning": max((r["tuning"] for r in every), key=[r["tuning"] for r in every].count),
+            "redone": [(r["seed"], r["redone"], r["tuning"]) for r in every if r.get("redone")],
+            "failed": [(r["seed"], r["error"]) for r in failed],
+        }
+    return out
+
+
+def _yield_displacement(delta: float, n: float) -> float:
+    """``|Delta|**(-1/(2N))``: with ``Delta = (beta +- gamma) / r_y**(2N)`` (DESIGN.md) the yield
+    displacement up to the factor ``|beta +- gamma|**(-1/(2N))``."""
+    return abs(delta) ** (-1 / (2 * n))
+
+
+def _yield_errors(runs: Sequence[Mapping[str, Any]],
+                  truth: Mapping[str, float]) -> dict[str, tuple[float, np.ndarray]] | None:
+    """Per Delta: the true yield displacement and the |error| in % of each run's (the direction the
+    seed model's data inform along the Delta-N ridge); None for a model without Delta1, Delta2, N."""
+    if not {"Delta1", "Delta2", "N"} <= set(truth):
+        return None
+    out = {}
+    for d in ("Delta1", "Delta2"):
+        true = _yield_displacement(truth[d], truth["N"])
+        est = np.array([_yield_displacement(r["parameters"][d]["estimate"], r["parameters"]["N"]["estimate"])
+                        if r["parameters"][d]["estimate"] is not None and r["parameters"]["N"]["estimate"] else np.nan
+                        for r in runs], float)
+        out[d] = (true, np.abs(100 * (est - true) / true))
+    return out
+
+
+def _linearised_flags(run: Mapping[str, Any]) -> Sequence[str]:
+    """The flags of a run by the linearised criteria alone (Cramér-Rao bound, posterior)."""
+    prac = run.get("practical_identifiability") or {}
+    return prac.get("flagged_linearised", run.get("practically_unidentifiable")) or ()
+
+
+def _mean_spread(runs: Sequence[Mapping[str, Any]], params: Sequence[str]) -> list[float] | None:
+    """Mean Monte-Carlo relative std per parameter over the runs that have one (None: no run has)."""
+    mcs = [(r.get("practical_identifiability") or {}).get("monte_carlo") or {} for r in runs]
+    rows = [[np.nan if v is None or p in mc.get("held", ()) else v for p, v in zip(params, mc["relative_std"])]
+            for mc in mcs if mc.get("relative_std")]  # held at the guess: no spread to show
+    if not rows:
+        return None
+    a = np.array(rows, float)
+    return [float(np.nanmean(c)) if np.isfinite(c).any() else float("nan") for c in a.T]
+
+
+def _t2_flagged(s: Mapping[str, Any], p: str, key: str = "flag_counts") -> bool:
+    return s[key][p] * 2 >= len(s["seeds"])
+
+
+def _t2_misfit(s: Mapping[str, Any]) -> str:
+    """Mean output misfit of the runs whose estimate could be simulated; the others are named."""
+    ok = [v for v in s["misfits"] if v is not None and np.isfinite(v)]
+    bad = [seed for seed, v in zip(s["seeds"], s["misfits"]) if v is None or not np.isfinite(v)]
+    text = f"{np.mean(ok):.5f}" if ok else "-"
+    if bad:
+        text += f" (seed {', '.join(map(str, bad))}: the estimate cannot be simulated)"
+    return text
+
+
+def _t2_goal(s: Mapping[str, Any], key: str = "flag_counts") -> str:
+    if s["failed"]:
+        return f"not met ({len(s['failed'])} run(s) stopped: seed {', '.join(str(k) for k, _ in s['failed'])})"
+    worst = [(p, w) for p, w in zip(s["parameters"], s["worst_abs_error"]) if not _t2_flagged(s, p, key)]
+    bad = [f"{_T2_MD.get(p, p)} {w:.1f} %" for p, w in worst if w > 5.0]
+    return "met" if not bad else "not met (" + ", ".join(bad) + ")"
+
+
+def _t2_tuning(t: Mapping[str, Any]) -> str:
+    gate = t.get("gate")
+    return f"{t['s0']:g}, {t['q_theta']:g}, {t['q_x']:g}, {'off' if gate is None else f'{gate:g}'}"
+
+
+def _t2_kinds(s: Mapping[str, Any]) -> str:
+    return ", ".join(f"{k} {v}" for k, v in s["interventions"].items() if v) or "none"
+
+
+def table2_markdown(doc: Mapping[str, Any]) -> str:
+    """The Table 2 analog as Markdown: one table per protocol, then costs, interventions and flags."""
+    summ = table2_summary(doc)
+    exp = doc["experiment"]
+    paper = doc["paper_errors_percent"]
+    lines = [f"# Table 2 analog: {exp['model']} under {exp['record']['name']}", "",
+             f"Noise {100 * exp['noise_ratio']:g} % (RMS) on input and output; branch table: {doc['branch_table']}; "
+             f"tuning seeds {doc['tuning_seeds']} (never reported). Errors are |estimate - true| / |true| in %; "
+             f"mean and worst over the reported seeds that ran to the end. † = flagged practically unidentifiable "
+             f"in at least half of the seeds: these data cannot pin it within 5 % at 3 sigma, by the linearised "
+             f"Cramér-Rao bound, the filter's posterior or the Monte-Carlo spread of the protocol at the estimate "
+             f"(see the flags below). The goal column is given with all flags and with the linearised ones alone.",
+             ""]
+    for passes in sorted({k for _, k in summ}):
+        methods = [m for m in _T2_METHODS if (m, passes) in summ]
+        title = "one pass (the paper's protocol)" if passes == 1 else f"{passes} passes over the record"
+        lines += [f"## {title}", ""]
+        head = "| parameter | true | guess | " + " | ".join(
+            f"{_T2_METHODS[m]} mean est. | {_T2_METHODS[m]} mean % | {_T2_METHODS[m]} worst %" for m in methods)
+        head += " | paper UKF % | paper DUKF % |" if passes == 1 else " |"
+        lines += [head, "|" + "---|" * (head.count("|") - 1)]
+        for i, p in enumerate(summ[(methods[0], passes)]["parameters"]):
+            cells = [_T2_MD.get(p, p), f"{exp['truth'][p]:.4g}", f"{exp['guess'][p]:.4g}"]
+            for m in methods:
+                s = summ[(m, passes)]
+                mark = " †" if _t2_flagged(s, p) else ""
+                cells += [f"{s['mean_estimate'][i]:.4g}", f"{s['mean_abs_error'][i]:.2f}{mark}",
+                          f"{s['worst_abs_error'][i]:.2f}{mark}"]
+            if passes == 1:
+                cells += [f"{paper['ukf'][p]:.2f}", f"{paper['dukf'][p]:.2f}"]
+            lines.append("| " + " | ".join(cells) + " |")
+        if all(summ[(m, passes)]["yield"] for m in methods):  # the combinations the ridge leaves informed
+            for d in ("Delta1", "Delta2"):
+                true = summ[(methods[0], passes)]["yield"][d][0]
+                cells = [f"abs({_T2_MD[d]})^(-1/2N) (yield displ.)", f"{true:.4g}", "-"]
+                for m in methods:
+                    e = summ[(m, passes)]["yield"][d][1]
+                    cells += ["-", f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"]
+                if passes == 1:
+                    cells += ["-", "-"]
+                lines.append("| " + " | ".join(cells) + " |")
+        lines += ["", "| filter | tuning (s0, q_theta, q_x, gate) | s per run | s per pass | repairs | interventions "
+                      "(all seeds) | implicit sigma-point steps | output misfit | 5 % goal (worst seed, unflagged) "
+                      "| 5 % goal, linearised flags only |",
+                  "|---|---|---|---|---|---|---|---|---|---|"]
+        for m in methods:
+            s = summ[(m, passes)]
+            lines.append(f"| {_T2_METHODS[m]} | {_t2_tuning(s['tuning'])} | {s['seconds']:.3f} | "
+                         f"{s['seconds_per_pass']:.3f} | {s['repairs']} | {_t2_kinds(s)} | {s['implicit']} | "
+                         f"{_t2_misfit(s)} | {_t2_goal(s)} | {_t2_goal(s, 'flag_counts_linearised')} |")
+        redone = [(m, r) for m in methods for r in summ[(m, passes)]["redone"]]
+        if redone:
+            factor = doc.get("diverged_factor", 10)
+            lines += ["", f"Redone (the run diverged: it stopped or its output misfit was above {factor:g}x the "
+                          "noise level; the next configuration of the tuning ranking was run instead):", ""]
+            for m, (seed, attempts, final) in redone:
+                tried = "; ".join(f"({_t2_tuning(a['tuning'])}) misfit "
+                                  + (f"{a['output_misfit']:.3g}" if a["output_misfit"] is not None else "inf")
+                                  + (f", {a['error']}" if a["error"] else "") for a in attempts)
+                lines.append(f"- {_T2_METHODS[m]}, seed {seed}: {tried} -> ({_t2_tuning(final)})")
+        lines.append("")
+    lines += ["## Practically unidentifiable (flag counts over seeds)", ""]
+    for (m, k), s in sorted(summ.items()):
+        flags = ", ".join(f"{_T2_MD.get(p, p)} {c}/{len(s['seeds'])}" for p, c in s["flag_counts"].items() if c)
+        undecided = "".join(f"; not decided on seed {seed}: {why}" for seed, why in s["undecided"])
+        spread = ("; Monte-Carlo std (mean over seeds) " + ", ".join(
+            f"{_T2_MD.get(p, p)} " + (f"{100 * v:.2g} %" if np.isfinite(v) else "held")
+            for p, v in zip(s["parameters"], s["spread"])) if s["spread"] else "")
+        lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {flags or 'none'}{undecided}{spread}")
+    stopped = [r for r in doc["runs"] if r.get("error")]
+    if stopped:
+        lines += ["", "## Runs that stopped (reported, not dropped)", ""]
+        lines += [f"- {_T2_METHODS[r['method']]}, {r['passes']} pass(es), seed {r['seed']}: {r['error']}"
+                  for r in stopped]
+    for k in sorted({k for m, k in summ if m == "ukf"}):
+        first = next((r["practical_identifiability"] for r in doc["runs"] if r["method"] == "ukf"
+                      and r["passes"] == k and r.get("practical_identifiability")), {})
+        if first.get("reasons") or first.get("undecided"):
+            lines += ["", f"Reasons (first seed of the UKF, {k} pass(es)):", ""]
+            lines += [f"- {_T2_MD.get(p, p)}: {why}" for p, why in first.get("reasons", {}).items()]
+            lines += [f"- {_T2_MD.get(p, p)}: not decided, {why}" for p, why in (first.get("undecided") or {}).items()]
+    return "\n".join(lines) + "\n"
+
+
+def table2_latex(doc: Mapping[str, Any]) -> str:
+    """The Table 2 analog as a booktabs LaTeX table (one pass and refined, UKF and DUKF, worst seed)."""
+    summ = table2_summary(doc)
+    exp = doc["experiment"]
+    keys = [k for k in sorted(summ, key=lambda k: (k[1], k[0])) if k[0] in ("ukf", "dukf")]
+    cols = "l" + "r" * (2 + 2 * len(keys))
+    head = " & ".join(["", "true", "guess"] + [
+        rf"\multicolumn{{2}}{{c}}{{{_T2_METHODS[m]}, {k} pass{'es' if k > 1 else ''}}}" for m, k in keys]) + r" \\"
+    sub = " & ".join(["", "", ""] + ["mean \\%", "worst \\%"] * len(keys)) + r" \\"
+    rows = []
+    for i, p in enumerate(summ[keys[0]]["parameters"]):
+        cells = [_T2_TEX.get(p, p), f"{exp['truth'][p]:.3g}", f"{exp['guess'][p]:.3g}"]
+        for key in keys:
+            s = summ[key]
+            mark = r"$^\dagger$" if _t2_flagged(s, p) else ""
+            cells += [f"{s['mean_abs_error'][i]:.2f}{mark}", f"{s['worst_abs_error'][i]:.2f}{mark}"]
+        rows.append(" & ".join(cells) + r" \\")
+    if all(summ[key]["yield"] for key in keys):  # the combinations the Delta-N ridge leaves informed
+        rows.append(r"\midrule")
+        for d in ("Delta1", "Delta2"):
+            true = summ[keys[0]]["yield"][d][0]
+            cells = [rf"$|{_T2_TEX[d].strip('$')}|^{{-1/2N}}$", f"{true:.3g}", "--"]
+            for key in keys:
+                e = summ[key]["yield"][d][1]
+                cells += [f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"]
+            rows.append(" & ".join(cells) + r" \\")
+    return "\n".join([
+        r"\begin{table}[ht]", r"\centering",
+        rf"\caption{{Table 2 analog ({tex_escape(exp['record']['name'])}, {100 * exp['noise_ratio']:g}\,\% noise, "
+        rf"{len(summ[keys[0]]['seeds'])} seeds). $^\dagger$ practically unidentifiable on this record"
+        + (r"; last rows: the yield displacements $|\Delta_i|^{-1/2N}$, which the record pins along the "
+           r"$\Delta$--$N$ ridge" if all(summ[key]["yield"] for key in keys) else "") + ".}",
+        rf"\begin{{tabular}}{{{cols}}}", r"\toprule", head, sub, r"\midrule", *rows, r"\bottomrule",
+        r"\end{tabular}", r"\end{table}"]) + "\n"
+
+
+def identify_text(doc: Mapping[str, Any]) -> str:
+    """The summary ``obsnl identify`` prints, from the document of
+    :func:`obsnl.estimation.identify.simulation_study`."""
+    pi = doc.get("practical_identifiability") or {}
+    lines = [f"{doc['method'].upper()} on {doc['model']}, {doc['record']['name']}, seed {doc['seed']}, "
+             f"{doc['passes']} pass(es): {doc['seconds']:.2f} s, {doc['repairs']} repairs"]
+    if doc["passes_run"] < doc["passes"]:
+        lines.append(f"  stopped after pass {doc['passes_run']}: its estimate cannot be simulated (the filter diverged)")
+    if pi.get("inconclusive"):
+        lines.append(f"  practical identifiability not decided: {pi['inconclusive']}")
+    lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}"
+              for q, why in (pi.get("undecided") or {}).items()]
+    reasons = pi.get("reasons") or {}
+    for q, d in doc["parameters"].items():
+        note = f"  poorly informed: {reasons[q]}" if q in reasons else ""
+        lines.append(f"  {q:10s} true {d['true']:<11.4g} estimate {d['estimate']:<11.4g} "
+                     f"error {d['error_percent']:7.2f} %{note}")
+    return "\n".join(lines)
