@@ -1,0 +1,713 @@
+"""The joint verdict of a switched model: what the whole experiment reveals when the parameters are
+shared by every branch (research/switched.md; Tanwani, Shim & Liberzon, IEEE TAC 58(4), 2013 for
+switched linear systems; the nonlinear analogue is the rank of the stacked observability Jacobians
+of the visited modes).
+
+Unknowns: the parameters, shared by all visits, and per visit its private unknowns (the initial
+states at that visit, the Taylor coefficients of the unknown inputs there).
+
+- **Branch visits**, one per visited branch: the gradients of the output Taylor coefficients of the
+  branch's smooth model at the visit's own generic point (own states, own known-input series), all
+  visits in one prime field and at the same parameter values (:func:`obsnl.algebra.series.run_series`
+  with ``p``, ``fixed`` and a shared atom table). Known initial conditions apply as in the
+  per-branch analysis.
+- **Surface visits**, one per pair of visited branches whose sign patterns differ in one switching
+  function ``g`` only: a generic point on ``g = 0`` (every value drawn, then ``g = 0`` solved mod p for
+  one state in which ``g`` is affine with a nonzero coefficient there; all states are free, known
+  initial conditions do not apply). Both sides' output series are evaluated at that point with the
+  same state, parameters, known-input series and unknown-input coefficients. The crossing is
+  *visible* when some output coefficient value differs between the sides: the output then shows the
+  crossing instant, at which the state lies on ``g = 0``. A visible crossing adds the rows of both
+  sides and the gradient of ``g`` (the constraint restricts the unknowns to the surface); an
+  invisible one adds nothing.
+- **Stack.** Per visit, the rows are brought to reduced echelon form with the private columns first;
+  the rows whose pivot lies among the parameter columns are the parameter information the visit
+  carries after its private unknowns are eliminated (``Pi_v``). Their span over all visits is the
+  joint parameter row space ``Pi``. A parameter is jointly identifiable iff its unit vector lies in
+  ``Pi`` (kernel test); a state (or an unknown input) iff its column is independent at some visit
+  given that visit's rows and ``Pi``.
+
+Verdicts and probability. The rank of a matrix at a random point is at most its generic rank, so a
+full column rank is a certificate. For a set ``S`` of visits whose private blocks have full column
+rank at the point, the stack over ``S`` has rank ``sum |private| + rank Pi_S``; when ``Pi_S`` is full
+this is a full column rank, which certifies every parameter and every private unknown of ``S``.
+Every other verdict (observable or not) needs a second independent run (new prime, new point) that
+agrees; runs are added (up to four) while some variable has no two agreeing runs, and a variable
+certified in any run is observable. The failure bound of a run is the sum over its visits (both
+sides of a surface) of Sedoglavic's bound (:func:`obsnl.algebra.bounds.failure_bound`) at that
+prime; agreeing runs multiply. A time limit, or a surface that could not be placed while some
+variable is unobservable, makes the affected verdicts ``inconclusive`` with a reason.
+
+Early stop: the parameter rank only grows as visits are added; once every variable is jointly
+observable the remaining visits are skipped (:attr:`JointResult.visits` says which were used).
+"""
+
+from __future__ import annotations
+
+import random
+import time
+from collections.abc import Mapping, MutableMapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from obsnl.algebra.augment import rationalize
+from obsnl.algebra.bounds import bound_sizes, failure_bound
+from obsnl.algebra.modp import Echelon, Resample, nmod_matrix, nullspace_mod_p, random_prime
+from obsnl.algebra.problem import Problem, make_problem
+from obsnl.algebra.series import TimeUp, run_series
+from obsnl.errors import AnalysisError
+from obsnl.model.branches import Branch, derived_model, expr_text, split_branches
+from obsnl.model.core import Model
+
+__all__ = ["JointResult", "JointVisit", "joint_verdict"]
+
+_MAX_RUNS = 4
+_MAX_PRIMES = 4
+
+
+# --------------------------------------------------------------------------- results
+@dataclass(frozen=True)
+class JointVisit:
+    """One visit of the joint stack.
+
+    Attributes
+    ----------
+    kind
+        ``"branch"`` or ``"surface"``.
+    labels
+        The branch label (branch visit) or the labels of the two sides (surface visit).
+    switching
+        The switching function crossed (surface visits; ``""`` for branch visits).
+    visible
+        Whether the output shows the crossing (surface visits; always True for branch visits).
+        None when the surface could not be placed.
+    parameter_rank
+        Rank of the parameter information the visit carries on its own (its rows with its private
+        unknowns eliminated).
+    rank_gain
+        By how much it raised the joint parameter rank when it was added (in visit order).
+    solved_for
+        The state solved from ``switching = 0`` to place the point on the surface.
+    reason
+        Why a surface was skipped (no state in which the switching function is affine, ...).
+    """
+
+    kind: str
+    labels: tuple[str, ...]
+    switching: str = ""
+    visible: bool | None = True
+    parameter_rank: int = 0
+    rank_gain: int = 0
+    solved_for: str = ""
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "labels": list(self.labels), "switching": self.switching,
+                "visible": self.visible, "parameter_rank": self.parameter_rank, "rank_gain": self.rank_gain,
+                "solved_for": self.solved_for, "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class JointResult:
+    """What the whole experiment reveals when parameters are shared by all branches.
+
+    Attributes
+    ----------
+    model
+        The model's name.
+    observable, unobservable, inconclusive
+        States (initial values) and parameters, in model order. A state is observable when its
+        value at some visit is determined; ``inconclusive`` comes with ``reason``.
+    unknown_inputs
+        ``{"observable": (...), "unobservable": (...)}`` (empty without unknown inputs); undecided
+        unknown inputs are in ``inconclusive``.
+    visits
+        The visits used, in order (:class:`JointVisit`).
+    union_observable
+        Variables observable within a single branch visit on its own (the per-branch union,
+        over the branch visits made; see ``assumptions["union_over"]``).
+    parameter_rank
+        Rank of the joint parameter row space (first run).
+    probability
+        Lower bound on the probability that every decided verdict is right.
+    seed
+        The seed of every random choice.
+    runs
+        Number of independent runs (prime and points).
+    early_stop
+        True when visits were skipped because everything was already observable.
+    reason
+        Why some verdicts are inconclusive (empty otherwise).
+    assumptions
+        What the verdict assumes: unknown-input derivatives, known inputs generic, the visited
+        branches, the surfaces used (visible), invisible and skipped, known initial conditions.
+    seconds
+        Wall time.
+    """
+
+    model: str
+    observable: tuple[str, ...]
+    unobservable: tuple[str, ...]
+    inconclusive: tuple[str, ...]
+    unknown_inputs: Mapping[str, tuple[str, ...]]
+    visits: tuple[JointVisit, ...]
+    union_observable: tuple[str, ...]
+    parameter_rank: int
+    probability: float
+    seed: int
+    runs: int
+    early_stop: bool
+    reason: str
+    assumptions: Mapping[str, Any]
+    seconds: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready dictionary (tuples as lists)."""
+        def plain(v: Any) -> Any:
+            if isinstance(v, Mapping):
+                return {k: plain(x) for k, x in v.items()}
+            if isinstance(v, (tuple, list)):
+                return [plain(x) for x in v]
+            return v
+
+        return {
+            "model": self.model, "observable": list(self.observable), "unobservable": list(self.unobservable),
+            "inconclusive": list(self.inconclusive), "unknown_inputs": plain(self.unknown_inputs),
+            "visits": [v.to_dict() for v in self.visits], "union_observable": list(self.union_observable),
+            "parameter_rank": self.parameter_rank, "probability": self.probability, "seed": self.seed,
+            "runs": self.runs, "early_stop": self.early_stop, "reason": self.reason,
+            "assumptions": plain(self.assumptions), "seconds": self.seconds,
+        }
+
+
+# --------------------------------------------------------------------------- prepared problems
+@dataclass
+class _Prepared:
+    """One smooth model ready for the series: its problem and where its columns are."""
+
+    problem: Problem
+    K: int
+    n_priv: int
+    priv: list[int]  # problem columns that are private to the visit
+    par: list[int]  # problem columns of the model's parameters, in model order
+    bound: dict[str, int]
+
+    @staticmethod
+    def of(model: Model, unknown_input_derivatives: int) -> _Prepared:
+        problem = make_problem(rationalize(model), unknown_input_derivatives=unknown_input_derivatives)
+        col = {c: j for j, c in enumerate(problem.columns)}
+        par = [col[s.name] for s in model.parameters]
+        ps = set(par)
+        priv = [j for j in range(problem.size) if j not in ps]
+        return _Prepared(problem, problem.order_bound(), len(priv), priv, par, bound_sizes(problem))
+
+    def failure(self, p: int) -> float:
+        return failure_bound(p, nfuncs=max(1, self.problem.size), **self.bound)
+
+
+@dataclass
+class _Plan:
+    kind: str
+    labels: tuple[str, ...]
+    sides: list[_Prepared]
+    g: sp.Expr | None = None
+    index: int = -1
+
+
+class _Atoms(MutableMapping):
+    """Atom stand-ins: constant atoms shared by all visits of a run, time-varying ones per visit."""
+
+    def __init__(self, shared: dict) -> None:
+        self.shared, self.local = shared, {}
+
+    def _d(self, key: tuple) -> dict:
+        return self.local if key[3] else self.shared
+
+    def __getitem__(self, key):
+        return self._d(key)[key]
+
+    def __setitem__(self, key, value):
+        self._d(key)[key] = value
+
+    def __delitem__(self, key):
+        del self._d(key)[key]
+
+    def __contains__(self, key):
+        return key in self._d(key)
+
+    def __iter__(self):
+        yield from self.shared
+        yield from self.local
+
+    def __len__(self):
+        return len(self.shared) + len(self.local)
+
+
+class _NewPrime(Exception):
+    """A visit could not be evaluated modulo the run's prime."""
+
+
+# --------------------------------------------------------------------------- modular helpers
+def _rref(R: np.ndarray, p: int) -> np.ndarray:
+    if R.shape[0] == 0 or R.shape[1] == 0:
+        return np.zeros((0, R.shape[1]), dtype=np.int64)
+    X, r = nmod_matrix(R, R.shape[1], p).rref()
+    return np.array([[int(X[i, j]) for j in range(R.shape[1])] for i in range(r)], dtype=np.int64)
+
+
+def _kernel_rows(R: np.ndarray, ncols: int, p: int) -> list[bool]:
+    """Per column: True when some kernel vector of ``R`` is nonzero there (not determined)."""
+    if ncols == 0:
+        return []
+    ker = nullspace_mod_p(R, ncols, p) if R.shape[0] else [[int(i == j) for i in range(ncols)] for j in range(ncols)]
+    return [any(k[j] for k in ker) for j in range(ncols)]
+
+
+def _mod(expr: sp.Expr, values: Mapping[sp.Symbol, int], p: int) -> int | None:
+    """``expr`` at integer ``values`` reduced mod p (None: not a rational number, or a zero denominator)."""
+    v = sp.sympify(expr).xreplace({s: sp.Integer(values[s]) for s in expr.free_symbols if s in values})
+    if not v.is_Rational:
+        return None
+    v = sp.Rational(v)
+    if int(v.q) % p == 0:
+        return None
+    return int(v.p) * pow(int(v.q), -1, p) % p
+
+
+# --------------------------------------------------------------------------- one visit
+@dataclass
+class _VisitData:
+    plan: _Plan
+    rows: np.ndarray  # columns ordered [private | parameters]
+    pi: np.ndarray  # parameter information (rows over the parameter columns)
+    record: JointVisit
+    used: bool = True  # False: an invisible or skipped surface
+
+
+def _strip_ic(model: Model) -> Model:
+    if not model.known_initial_conditions:
+        return model
+    return derived_model(model, known_initial_conditions=(), initial_condition_values={})
+
+
+def _branch_visit(plan: _Plan, p: int, shared: dict, atoms: dict, key: str, deadline: float | None) -> _VisitData:
+    prep = plan.sides[0]
+    run = run_series(prep.problem, random.Random(key), K=prep.K, p=p, deadline=deadline, fixed=shared,
+                     atom_values=_Atoms(atoms))
+    if run.p != p:
+        raise _NewPrime(f"branch {plan.labels[0]}")
+    R = np.vstack(run.rows) if run.rows else np.zeros((0, prep.problem.size), dtype=np.int64)
+    return _finish(plan, R[:, prep.priv + prep.par], prep.n_priv, p, JointVisit("branch", plan.labels))
+
+
+def _surface_visit(plan: _Plan, model: Model, p: int, shared: dict, atoms: dict, key: str,
+                   deadline: float | None) -> _VisitData:
+    g = plan.g
+    a_side, b_side = plan.sides
+    K = max(a_side.K, b_side.K)
+    text = expr_text(g)
+    rng = random.Random(key + ":surface")
+    states = {s: rng.randrange(1, p) for s in model.states}
+    inputs = {u: [rng.randrange(p) for _ in range(K + 1)] for u in model.inputs}
+    record = JointVisit("surface", plan.labels, switching=text, visible=None)
+    if g.free_symbols & set(model.unknown_inputs):
+        return _VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
+                          _replace(record, reason="the switching function depends on an unknown input"), used=False)
+    values: dict[sp.Symbol, int] = dict(shared)
+    values.update(states)
+    values.update({u: c[0] for u, c in inputs.items()})
+    solved = None
+    for s in model.states:
+        if s not in g.free_symbols:
+            continue
+        try:
+            poly = sp.Poly(g, s)
+        except sp.PolynomialError:
+            continue
+        if poly.degree() != 1:
+            continue
+        a, b = poly.coeff_monomial(s), poly.coeff_monomial(1)
+        av, bv = _mod(a, values, p), _mod(b, values, p)
+        if av is None or bv is None or av == 0:
+            continue
+        states[s] = (-bv) * pow(av, -1, p) % p
+        values[s] = states[s]
+        solved = s
+        break
+    if solved is None:
+        return _VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
+                          _replace(record, reason=f"{text} = 0 cannot be solved for a state in which it is affine "
+                                              f"(with a rational, nonzero coefficient at the point)"), used=False)
+    record = _replace(record, solved_for=solved.name)
+    runs = []
+    local: dict = {}  # both sides share the point, so also the time-varying atoms' stand-ins
+    for side in (a_side, b_side):
+        table = _Atoms(atoms)
+        table.local = local
+        run = run_series(side.problem, random.Random(key), K=K, p=p, deadline=deadline, fixed=shared,
+                         states=states, input_series=inputs, atom_values=table)
+        if run.p != p:
+            raise _NewPrime(f"surface {text}")
+        runs.append(run)
+    ra, rb = runs
+    if ra.point.unknown_inputs != rb.point.unknown_inputs:  # pragma: no cover - same stream, same draws
+        raise AnalysisError("internal: the two sides of a surface drew different unknown-input coefficients")
+    visible = any(int(x) != int(y) for va, vb in zip(ra.values, rb.values) for x, y in zip(va, vb))
+    record = _replace(record, visible=visible)
+    cols = a_side.problem.columns
+    if cols != b_side.problem.columns:  # pragma: no cover - both sides are derived from one model
+        raise AnalysisError("internal: the two sides of a surface have different unknowns")
+    if not visible:
+        return _VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
+                          record, used=False)
+    syms = model.symbols
+    grow = []
+    for c in cols:
+        s = syms.get(c)
+        d = _mod(sp.diff(g, s), values, p) if s is not None else 0
+        if d is None:
+            return _VisitData(plan, np.zeros((0, 0), dtype=np.int64),
+                              np.zeros((0, len(model.parameters)), dtype=np.int64),
+                              _replace(record, reason=f"the gradient of {text} is not rational at the point"),
+                              used=False)
+        grow.append(d)
+    R = np.vstack(ra.rows + rb.rows + [np.array([grow], dtype=np.int64)])
+    return _finish(plan, R[:, a_side.priv + a_side.par], a_side.n_priv, p, record)
+
+
+def _replace(v: JointVisit, **kw: Any) -> JointVisit:
+    from dataclasses import replace
+
+    return replace(v, **kw)
+
+
+def _finish(plan: _Plan, R: np.ndarray, n_priv: int, p: int, record: JointVisit) -> _VisitData:
+    E = _rref(R, p)
+    keep = [i for i in range(E.shape[0]) if not E[i, :n_priv].any()]
+    pi = E[keep, n_priv:] if keep else np.zeros((0, R.shape[1] - n_priv), dtype=np.int64)
+    return _VisitData(plan, E, pi, _replace(record, parameter_rank=len(keep)))
+
+
+# --------------------------------------------------------------------------- one run
+@dataclass
+class _Run:
+    p: int
+    visits: list[_VisitData]
+    observable: dict[str, bool]  # reported name -> observable in this run
+    certified: set[str]
+    failure: float
+    pi_rank: int
+    early_stop: bool
+    union: set[str]
+    skipped: list[str] = field(default_factory=list)
+
+
+def _names(model: Model) -> tuple[list[str], list[str], list[str]]:
+    return ([s.name for s in model.states], [s.name for s in model.parameters], [w.name for w in model.unknown_inputs])
+
+
+def _private_names(prep: _Prepared) -> list[str]:
+    return [prep.problem.columns[j] for j in prep.priv]
+
+
+def _classify_visit(v: _VisitData, Pi: np.ndarray, p: int) -> dict[str, bool]:
+    """Private column name -> determined at this visit given its rows and ``Pi``."""
+    prep = v.plan.sides[0]
+    n_priv, n_par = prep.n_priv, len(prep.par)
+    if n_priv == 0:
+        return {}
+    stack = v.rows
+    if Pi.shape[0]:
+        stack = np.vstack([stack, np.hstack([np.zeros((Pi.shape[0], n_priv), dtype=np.int64), Pi])])
+    unobs = _kernel_rows(stack, n_priv + n_par, p)
+    return {c: not unobs[i] for i, c in enumerate(_private_names(prep))}
+
+
+def _one_run(model: Model, plans: list[_Plan], seed: int, run_no: int, deadline: float | None,
+             known: set[str]) -> _Run:
+    states, params, ws = _names(model)
+    reported = states + params + ws
+    for attempt in range(_MAX_PRIMES):
+        rng = random.Random(f"joint:{seed}:{run_no}:{attempt}")
+        p = random_prime(rng)
+        shared = {s: rng.randrange(1, p) for s in list(model.parameters) + list(model.known_constants)}
+        atoms: dict = {}
+        try:
+            return _run_at(model, plans, seed, run_no, attempt, p, shared, atoms, deadline, known, reported)
+        except (_NewPrime, Resample):
+            continue
+    raise AnalysisError(f"model {model.name!r}: no prime of {_MAX_PRIMES} tried gave a usable point for every visit")
+
+
+def _run_at(model: Model, plans: list[_Plan], seed: int, run_no: int, attempt: int, p: int, shared: dict,
+            atoms: dict, deadline: float | None, known: set[str], reported: list[str]) -> _Run:
+    states, params, ws = _names(model)
+    n_par = len(params)
+    ech = Echelon(n_par, p)
+    done: list[_VisitData] = []
+    failure = 0.0
+    early = False
+    union: set[str] = set(known)
+    for i, plan in enumerate(plans):
+        if deadline is not None and time.perf_counter() > deadline:
+            raise TimeUp(f"time limit reached after {i} of {len(plans)} visits")
+        key = f"joint:{seed}:{run_no}:{attempt}:{i}"
+        if plan.kind == "branch":
+            v = _branch_visit(plan, p, shared, atoms, key, deadline)
+        else:
+            v = _surface_visit(plan, model, p, shared, atoms, key, deadline)
+        failure += sum(s.failure(p) for s in plan.sides)
+        gain = 0
+        for r in v.pi:
+            gain += ech.add(r)
+        v.record = _replace(v.record, rank_gain=gain)
+        done.append(v)
+        if plan.kind == "branch":  # the union: this visit on its own
+            alone = _classify_visit(v, np.zeros((0, n_par), dtype=np.int64), p)
+            union |= {c for c, ok in alone.items() if ok and c in states}
+            unobs_par = _kernel_rows(v.pi, n_par, p)
+            union |= {c for c, u in zip(params, unobs_par) if not u}
+        if ech.rank == n_par and i < len(plans) - 1:
+            obs = _classes(done, ech, p, states, params, ws, known)
+            if all(obs.values()):
+                early = True
+                break
+    obs = _classes(done, ech, p, states, params, ws, known)
+    certified = _certified(done, p, n_par, states, params, ws, known)
+    return _Run(p, done, obs, certified, failure, ech.rank, early, union)
+
+
+def _classes(done: list[_VisitData], ech: Echelon, p: int, states: list[str], params: list[str], ws: list[str],
+             known: set[str]) -> dict[str, bool]:
+    Pi = ech.rows if ech.rank else np.zeros((0, len(params)), dtype=np.int64)
+    unobs_par = _kernel_rows(Pi, len(params), p)
+    out = {c: not u for c, u in zip(params, unobs_par)}
+    seen: dict[str, bool] = {c: c in known for c in states}
+    seen.update({w: False for w in ws})
+    for v in done:
+        if not v.used:
+            continue
+        for c, ok in _classify_visit(v, Pi, p).items():
+            if ok and c in seen:
+                seen[c] = True
+    out.update(seen)
+    return out
+
+
+def _certified(done: list[_VisitData], p: int, n_par: int, states: list[str], params: list[str],
+               ws: list[str], known: set[str]) -> set[str]:
+    """Names certified by a full-column-rank sub-stack (see the module docstring)."""
+    S = []
+    for v in done:
+        if not v.used:
+            continue
+        n_priv = v.plan.sides[0].n_priv
+        rank_priv = sum(1 for i in range(v.rows.shape[0]) if v.rows[i, :n_priv].any())
+        if rank_priv == n_priv:
+            S.append(v)
+    e = Echelon(n_par, p)
+    for v in S:
+        for r in v.pi:
+            e.add(r)
+    if e.rank < n_par:
+        return set()
+    out = set(params) | known
+    for v in S:
+        out |= {c for c in _private_names(v.plan.sides[0]) if c in states or c in ws}
+    return out
+
+
+# --------------------------------------------------------------------------- the verdict
+def _select(model: Model, branches: Sequence[str | Branch] | None) -> list[Branch]:
+    if branches is None:
+        return list(split_branches(model))
+    items = list(branches)
+    if all(isinstance(b, Branch) for b in items):
+        return items
+    labels = [b for b in items if isinstance(b, str)]
+    if len(labels) != len(items):
+        raise AnalysisError("branches= must be labels (str) or obsnl Branch objects, not a mixture")
+    every = {b.label: b for b in split_branches(model)}
+    missing = [lb for lb in labels if lb not in every]
+    if missing:
+        raise AnalysisError(f"no branch labelled {', '.join(map(repr, missing))}; the branches are "
+                            f"{', '.join(every)}")
+    return [every[lb] for lb in labels]
+
+
+def _surface_pairs(chosen: list[Branch]) -> list[tuple[Branch, Branch, sp.Expr]]:
+    pairs = []
+    for i, a in enumerate(chosen):
+        da = dict(zip(a.switching, a.signs))
+        for b in chosen[i + 1:]:
+            db = dict(zip(b.switching, b.signs))
+            if set(da) != set(db):
+                continue
+            diff = [g for g in da if da[g] != db[g]]
+            if len(diff) == 1:
+                pairs.append((a, b, diff[0]))
+    return pairs
+
+
+def joint_verdict(
+    model: Model,
+    *,
+    branches: Sequence[str | Branch] | None = None,
+    seed: int = 0,
+    prob: float = 0.99,
+    max_seconds: float | None = None,
+    unknown_input_derivatives: int = 1,
+) -> JointResult:
+    """The joint observability-identifiability verdict of a (switched) model.
+
+    Parameters
+    ----------
+    model
+        Any model; a smooth one has a single branch and its joint verdict is the branch's.
+    branches
+        The visited branches: labels of :func:`obsnl.split_branches` or :class:`obsnl.Branch`
+        objects (a caller's representative branches); None visits every feasible branch.
+    seed
+        Seed of every random choice (primes, points, input series).
+    prob
+        Wanted lower bound on the probability that the decided verdicts are right; runs are added
+        (up to four) while the bound is weaker and two runs can still be combined.
+    max_seconds
+        Time limit; verdicts not decided by then are ``inconclusive``.
+    unknown_input_derivatives
+        Non-zero derivatives of each unknown input (as in :func:`obsnl.analyze`).
+
+    Returns
+    -------
+    JointResult
+
+    Examples
+    --------
+    A relay whose level ``d`` appears only in the switching function: no branch sees ``d``, the
+    visible crossing ``x = d`` reveals it (the union of the branches leaves it out).
+
+    >>> from obsnl import Model
+    >>> m = Model(name="relay", states=["x", "v"], parameters=["k", "s", "d"], inputs=["u"],
+    ...           equations={"x": "v", "v": "u - k*x - s*sign(x - d)"}, outputs={"y": "x"})
+    >>> r = joint_verdict(m, seed=1)
+    >>> r.observable, r.union_observable
+    (('x', 'v', 'k', 's', 'd'), ('x', 'v', 'k', 's'))
+    >>> [(v.kind, v.labels, v.visible) for v in r.visits]
+    [('branch', ('a',), True), ('branch', ('b',), True), ('surface', ('a', 'b'), True)]
+    """
+    if not isinstance(model, Model):
+        raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}")
+    if not (0 < prob < 1):
+        raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
+    if not model.outputs:
+        raise AnalysisError(f"model {model.name!r} has no outputs; nothing is observable")
+    t0 = time.perf_counter()
+    deadline = None if max_seconds is None else t0 + float(max_seconds)
+    chosen = _select(model, branches)
+    if not chosen:
+        raise AnalysisError("no branch to visit")
+    plans: list[_Plan] = [_Plan("branch", (b.label,), [_Prepared.of(b.model, unknown_input_derivatives)])
+                          for b in chosen]
+    stripped: dict[str, _Prepared] = {}
+
+    def side(b: Branch) -> _Prepared:
+        if b.label not in stripped:
+            stripped[b.label] = _Prepared.of(_strip_ic(b.model), unknown_input_derivatives)
+        return stripped[b.label]
+
+    for a, b, g in _surface_pairs(chosen):
+        plans.append(_Plan("surface", (a.label, b.label), [side(a), side(b)], g=g))
+    states, params, ws = _names(model)
+    known = {s.name for s in model.known_initial_conditions}
+    variables = states + params
+    runs: list[_Run] = []
+    reason = ""
+    try:
+        for run_no in range(_MAX_RUNS):
+            runs.append(_one_run(model, plans, seed, run_no, deadline, known))
+            if _decided(runs, prob, states + params + ws) is not None:
+                break
+    except TimeUp as exc:
+        reason = f"time limit reached ({exc}); no verdict from a truncated computation"
+    decided = _decided(runs, prob, states + params + ws, final=True)
+    verdict, failure = decided if decided is not None else ({}, 1.0)
+    first = runs[0] if runs else None
+    skipped = [v.record for v in first.visits if v.record.reason] if first else []
+    names_unobs = [c for c, ok in verdict.items() if ok is False]
+    if skipped and names_unobs:
+        why = "; ".join(f"surface {v.switching} ({'/'.join(v.labels)}): {v.reason}" for v in skipped)
+        reason = "; ".join(x for x in (reason, f"not every surface could be placed ({why})") if x)
+        verdict = {c: (None if ok is False else ok) for c, ok in verdict.items()}
+    undecided = [c for c in states + params + ws if verdict.get(c) is None]
+    if undecided and not reason:
+        reason = f"{len(runs)} random points disagree on {', '.join(undecided)}; no verdict"
+    visits = tuple(v.record for v in first.visits) if first else ()
+    used_surfaces = [f"{v.switching} ({'/'.join(v.labels)})" for v in visits if v.kind == "surface" and v.visible]
+    invisible = [f"{v.switching} ({'/'.join(v.labels)})" for v in visits if v.kind == "surface"
+                 and v.visible is False]
+    assumptions = {
+        "unknown_input_derivatives": unknown_input_derivatives,
+        "known_inputs": "generic (random series, independent per visit; shared by both sides of a surface)",
+        "visited_branches": tuple(b.label for b in chosen),
+        "surfaces_used": tuple(used_surfaces),
+        "surfaces_invisible": tuple(invisible),
+        "surfaces_skipped": tuple(f"{v.switching} ({'/'.join(v.labels)}): {v.reason}" for v in skipped),
+        "known_initial_conditions": ("applied in branch visits; surface visits have free states"
+                                     if model.known_initial_conditions else "none"),
+        "union_over": tuple(v.labels[0] for v in visits if v.kind == "branch"),
+        "parameters": "shared by every visit, at one generic value per run",
+    }
+    return JointResult(
+        model=model.name,
+        observable=tuple(c for c in variables if verdict.get(c) is True),
+        unobservable=tuple(c for c in variables if verdict.get(c) is False),
+        inconclusive=tuple(c for c in variables + ws if verdict.get(c) is None),
+        unknown_inputs={"observable": tuple(w for w in ws if verdict.get(w) is True),
+                        "unobservable": tuple(w for w in ws if verdict.get(w) is False)} if ws else {},
+        visits=visits,
+        union_observable=tuple(c for c in variables if first and c in first.union),
+        parameter_rank=first.pi_rank if first else 0,
+        probability=max(0.0, 1.0 - failure),
+        seed=seed,
+        runs=len(runs),
+        early_stop=bool(first and first.early_stop),
+        reason=reason,
+        assumptions=assumptions,
+        seconds=round(time.perf_counter() - t0, 6),
+    )
+
+
+def _decided(runs: list[_Run], prob: float, names: list[str], final: bool = False
+             ) -> tuple[dict[str, bool | None], float] | None:
+    """Verdicts from the runs so far and their failure bound; None while more runs are wanted.
+
+    A name certified in some run is observable (failure 0). Otherwise the first two runs that agree on
+    it decide it, with the product of their bounds; the overall bound is the largest such product.
+    """
+    if not runs:
+        return None
+    out: dict[str, bool | None] = {}
+    failure = 0.0
+    certified = set().union(*(r.certified for r in runs))
+    pending = False
+    for c in names:
+        if c in certified:
+            out[c] = True
+            continue
+        out[c] = None
+        for i in range(len(runs)):
+            for j in range(i + 1, len(runs)):
+                if runs[i].observable[c] == runs[j].observable[c]:
+                    out[c] = runs[i].observable[c]
+                    failure = max(failure, runs[i].failure * runs[j].failure)
+                    break
+            if out[c] is not None:
+                break
+        if out[c] is None:
+            pending = True
+    if not final and pending and len(runs) < _MAX_RUNS:
+        return None
+    return out, min(1.0, failure)
