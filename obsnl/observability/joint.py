@@ -631,7 +631,7 @@ def joint_verdict(
             if _decided(runs, prob, states + params + ws) is not None:
                 break
     except TimeUp as exc:
-        reason = f"time limit reached ({exc}); no verdict from a truncated computation"
+        reason = f"{exc}; no verdict from a truncated computation"
     decided = _decided(runs, prob, states + params + ws, final=True)
     verdict, failure = decided if decided is not None else ({}, 1.0)
     first = runs[0] if runs else None
