@@ -46,8 +46,9 @@ from __future__ import annotations
 
 import random
 import time
-from collections.abc import Mapping, MutableMapping, Sequence
+from collections.abc import Callable, Mapping, MutableMapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -210,11 +211,17 @@ class _Prepared:
 
 @dataclass
 class _Plan:
+    """A visit to make: its kind, labels and its sides' problems (prepared when first visited, so
+    that an early stop also saves the preparation of the visits it skips)."""
+
     kind: str
     labels: tuple[str, ...]
-    sides: list[_Prepared]
+    makers: list[Callable[[], _Prepared]]
     g: sp.Expr | None = None
-    index: int = -1
+
+    @cached_property
+    def sides(self) -> list[_Prepared]:
+        return [make() for make in self.makers]
 
 
 class _Atoms(MutableMapping):
@@ -451,6 +458,7 @@ def _run_at(model: Model, plans: list[_Plan], seed: int, run_no: int, attempt: i
     failure = 0.0
     early = False
     union: set[str] = set(known)
+    classes = _Classes(p, states, params, ws, known)
     for i, plan in enumerate(plans):
         if deadline is not None and time.perf_counter() > deadline:
             raise TimeUp(f"time limit reached after {i} of {len(plans)} visits")
@@ -471,30 +479,43 @@ def _run_at(model: Model, plans: list[_Plan], seed: int, run_no: int, attempt: i
             unobs_par = _kernel_rows(v.pi, n_par, p)
             union |= {c for c, u in zip(params, unobs_par) if not u}
         if ech.rank == n_par and i < len(plans) - 1:
-            obs = _classes(done, ech, p, states, params, ws, known)
+            obs = classes.update(done, ech)
             if all(obs.values()):
                 early = True
                 break
-    obs = _classes(done, ech, p, states, params, ws, known)
+    obs = classes.update(done, ech)
     certified = _certified(done, p, n_par, states, params, ws, known)
     return _Run(p, done, obs, certified, failure, ech.rank, early, union)
 
 
-def _classes(done: list[_VisitData], ech: Echelon, p: int, states: list[str], params: list[str], ws: list[str],
-             known: set[str]) -> dict[str, bool]:
-    Pi = ech.rows if ech.rank else np.zeros((0, len(params)), dtype=np.int64)
-    unobs_par = _kernel_rows(Pi, len(params), p)
-    out = {c: not u for c, u in zip(params, unobs_par)}
-    seen: dict[str, bool] = {c: c in known for c in states}
-    seen.update({w: False for w in ws})
-    for v in done:
-        if not v.used:
-            continue
-        for c, ok in _classify_visit(v, Pi, p).items():
-            if ok and c in seen:
-                seen[c] = True
-    out.update(seen)
-    return out
+class _Classes:
+    """The joint classes of one run, kept up to date as visits are added.
+
+    ``Pi`` only grows, and with it what each visit determines: a visit classified at some rank of
+    ``Pi`` keeps its observable columns, and is classified again only when the rank has grown since
+    (so a run costs one classification per visit once ``Pi`` is full, not one per visit and check).
+    """
+
+    def __init__(self, p: int, states: list[str], params: list[str], ws: list[str], known: set[str]) -> None:
+        self.p, self.params = p, params
+        self.seen: dict[str, bool] = {c: c in known for c in states}
+        self.seen.update({w: False for w in ws})
+        self.at_rank: dict[int, int] = {}  # id of a visit -> rank of Pi at its last classification
+
+    def update(self, done: list[_VisitData], ech: Echelon) -> dict[str, bool]:
+        p, n_par = self.p, len(self.params)
+        Pi = ech.rows if ech.rank else np.zeros((0, n_par), dtype=np.int64)
+        unobs_par = _kernel_rows(Pi, n_par, p)
+        for v in done:
+            if not v.used or self.at_rank.get(id(v), -1) >= ech.rank:
+                continue
+            self.at_rank[id(v)] = ech.rank
+            for c, ok in _classify_visit(v, Pi, p).items():
+                if ok and c in self.seen:
+                    self.seen[c] = True
+        out = {c: not u for c, u in zip(self.params, unobs_par)}
+        out.update(self.seen)
+        return out
 
 
 def _certified(done: list[_VisitData], p: int, n_par: int, states: list[str], params: list[str],
@@ -538,17 +559,18 @@ def _select(model: Model, branches: Sequence[str | Branch] | None) -> list[Branc
     return [every[lb] for lb in labels]
 
 
-def _surface_pairs(chosen: list[Branch]) -> list[tuple[Branch, Branch, sp.Expr]]:
+def _surface_pairs(chosen: list[Branch]) -> list[tuple[int, int, sp.Expr]]:
+    """Pairs of branches (indices) whose sign patterns differ in one switching function, and that function."""
     pairs = []
     for i, a in enumerate(chosen):
         da = dict(zip(a.switching, a.signs))
-        for b in chosen[i + 1:]:
-            db = dict(zip(b.switching, b.signs))
+        for j in range(i + 1, len(chosen)):
+            db = dict(zip(chosen[j].switching, chosen[j].signs))
             if set(da) != set(db):
                 continue
             diff = [g for g in da if da[g] != db[g]]
             if len(diff) == 1:
-                pairs.append((a, b, diff[0]))
+                pairs.append((i, j, diff[0]))
     return pairs
 
 
@@ -609,17 +631,22 @@ def joint_verdict(
     chosen = _select(model, branches)
     if not chosen:
         raise AnalysisError("no branch to visit")
-    plans: list[_Plan] = [_Plan("branch", (b.label,), [_Prepared.of(b.model, unknown_input_derivatives)])
-                          for b in chosen]
-    stripped: dict[str, _Prepared] = {}
+    cache: dict[tuple[int, bool], _Prepared] = {}
 
-    def side(b: Branch) -> _Prepared:
-        if b.label not in stripped:
-            stripped[b.label] = _Prepared.of(_strip_ic(b.model), unknown_input_derivatives)
-        return stripped[b.label]
+    def prepared(i: int, free: bool) -> Callable[[], _Prepared]:
+        """Branch ``i``'s problem; ``free``: known initial conditions dropped (surface visits)."""
+        def make() -> _Prepared:
+            key = (i, free and bool(model.known_initial_conditions))
+            if key not in cache:
+                bm = chosen[i].model
+                cache[key] = _Prepared.of(_strip_ic(bm) if key[1] else bm, unknown_input_derivatives)
+            return cache[key]
+        return make
 
-    for a, b, g in _surface_pairs(chosen):
-        plans.append(_Plan("surface", (a.label, b.label), [side(a), side(b)], g=g))
+    plans: list[_Plan] = [_Plan("branch", (b.label,), [prepared(i, False)]) for i, b in enumerate(chosen)]
+    for i, j, g in _surface_pairs(chosen):
+        plans.append(_Plan("surface", (chosen[i].label, chosen[j].label), [prepared(i, True), prepared(j, True)],
+                           g=g))
     states, params, ws = _names(model)
     known = {s.name for s in model.known_initial_conditions}
     variables = states + params
