@@ -56,7 +56,13 @@ import sympy as sp
 
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import bound_sizes, failure_bound
-from obsnl.algebra.modp import Echelon, Resample, nmod_matrix, nullspace_mod_p, random_prime
+from obsnl.algebra.modp import (
+    Echelon,
+    Resample,
+    nmod_matrix,
+    nullspace_mod_p,
+    random_prime,
+)
 from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.series import TimeUp, run_series
 from obsnl.errors import AnalysisError
