@@ -32,8 +32,9 @@ full column rank is a certificate. For a set ``S`` of visits whose private block
 rank at the point, the stack over ``S`` has rank ``sum |private| + rank Pi_S``; when ``Pi_S`` is full
 this is a full column rank, which certifies every parameter and every private unknown of ``S``.
 Every other verdict (observable or not) needs a second independent run (new prime, new point) that
-agrees; runs are added (up to four) while some variable has no two agreeing runs, and a variable
-certified in any run is observable. The failure bound of a run is the sum over its visits (both
+agrees: an independent column at one point is no certificate (the rest of the stack may have lost
+rank there). Runs are added (up to four) while some variable has no majority of at least two runs
+or the bound is weaker than wanted; a variable certified in any run is observable. The failure bound of a run is the sum over its visits (both
 sides of a surface) of Sedoglavic's bound (:func:`obsnl.algebra.bounds.failure_bound`) at that
 prime; agreeing runs multiply. A time limit, or a surface that could not be placed while some
 variable is unobservable, makes the affected verdicts ``inconclusive`` with a reason.
@@ -332,7 +333,7 @@ def joint_verdict(
         Seed of every random choice (primes, points, input series).
     prob
         Wanted lower bound on the probability that the decided verdicts are right; runs are added
-        (up to four) while the bound is weaker and two runs can still be combined.
+        (up to four) while the bound is weaker or some variable has no majority of two runs or more.
     max_seconds
         Time limit; verdicts not decided by then are ``inconclusive``.
     unknown_input_derivatives
@@ -447,8 +448,11 @@ def _decided(runs: list[_Run], prob: float, names: list[str], final: bool = Fals
              ) -> tuple[dict[str, bool | None], float] | None:
     """Verdicts from the runs so far and their failure bound; None while more runs are wanted.
 
-    A name certified in some run is observable (failure 0). Otherwise the first two runs that agree on
-    it decide it, with the product of their bounds; the overall bound is the largest such product.
+    A name certified in some run is observable (failure 0). Otherwise the class given by at least
+    two runs and by more runs than the other class decides it, with the product of those runs'
+    bounds (each of them must have failed for the verdict to be wrong); the overall bound is the
+    largest such product. More runs are wanted (up to four) while a name is undecided or the bound
+    exceeds ``1 - prob``.
     """
     if not runs:
         return None
@@ -460,17 +464,17 @@ def _decided(runs: list[_Run], prob: float, names: list[str], final: bool = Fals
         if c in certified:
             out[c] = True
             continue
-        out[c] = None
-        for i in range(len(runs)):
-            for j in range(i + 1, len(runs)):
-                if runs[i].observable[c] == runs[j].observable[c]:
-                    out[c] = runs[i].observable[c]
-                    failure = max(failure, runs[i].failure * runs[j].failure)
-                    break
-            if out[c] is not None:
-                break
-        if out[c] is None:
+        votes = {cls: [r for r in runs if r.observable[c] is cls] for cls in (True, False)}
+        win = max(votes, key=lambda cls: len(votes[cls]))
+        if len(votes[win]) >= 2 and len(votes[win]) > len(votes[not win]):
+            out[c] = win
+            f = 1.0
+            for r in votes[win]:
+                f *= r.failure
+            failure = max(failure, f)
+        else:
+            out[c] = None
             pending = True
-    if not final and pending and len(runs) < _MAX_RUNS:
+    if not final and (pending or failure > 1 - prob) and len(runs) < _MAX_RUNS:
         return None
     return out, min(1.0, failure)
