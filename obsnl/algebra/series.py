@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import random
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, MutableMapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,6 +63,7 @@ class SeriesRun:
     point: Point
     orders: int
     full_rank_at: int | None = None
+    values: list[np.ndarray] = field(default_factory=list)  # values[k][i]: value of coefficient k of output i
 
 
 def run_series(
@@ -75,19 +76,30 @@ def run_series(
     stop: Callable[[list[np.ndarray], int], bool] | None = None,
     max_resample: int = 12,
     fixed: Mapping[sp.Symbol, int] | None = None,
+    states: Mapping[sp.Symbol, int] | None = None,
+    input_series: Mapping[sp.Symbol, Sequence[int]] | None = None,
+    atom_values: MutableMapping[tuple, tuple[int, int]] | None = None,
 ) -> SeriesRun:
     """Evaluate the output series of ``problem`` to ``K`` terms at a random point.
 
     ``stop(rows, p)`` is called after each order and may end the computation early (full rank,
     or a stalled rank, see :mod:`obsnl.observability.sedoglavic`); ``full_rank_at`` records where it did.
     ``fixed`` forces the values of some parameters or known constants (the ORC's second point).
+    The joint verdict (:mod:`obsnl.observability.joint`) evaluates several smooth models at one
+    point: ``states`` forces the values of free initial states, ``input_series`` the coefficients of
+    known inputs (missing ones are 0), and ``atom_values`` is a table shared by such calls, keyed
+    ``(kind, argument, q, time_varying)``, giving each atom the stand-in (and angle) already drawn
+    for the same atom, or recording the one drawn now. Every value is drawn first and then replaced,
+    so the random stream, and without these arguments the point, are unchanged.
+    The run also records the values of the output coefficients (``values``).
     Raises :class:`AnalysisError` when every point makes a denominator vanish.
     """
     last: Exception | None = None
+    forced = (states or {}, input_series or {}, atom_values)
     for _ in range(max_resample):
         prime = p if p is not None else random_prime(rng)
         try:
-            return _run_once(problem, Field(prime), rng, K, deadline, stop, fixed or {})
+            return _run_once(problem, Field(prime), rng, K, deadline, stop, fixed or {}, forced)
         except Resample as exc:
             last = exc
             if _ >= 2:  # a non-residue of a fixed number needs another prime
@@ -99,9 +111,11 @@ def run_series(
     )
 
 
-def _random_point(problem: Problem, F: Field, rng: random.Random, K: int, fixed: Mapping[sp.Symbol, int]):
+def _random_point(problem: Problem, F: Field, rng: random.Random, K: int, fixed: Mapping[sp.Symbol, int],
+                  forced: tuple = ({}, {}, None)):
     """Draw parameters, constants, free initial states, input series, unknown-input coefficients and
-    atom stand-ins (always in this order, so that a seed gives the same point for any engine)."""
+    atom stand-ins (always in this order, so that a seed gives the same point for any engine), then
+    apply the values forced by ``forced = (states, input series, atom table)`` (see :func:`run_series`)."""
     model, rat, p = problem.model, problem.rational, F.p
     values: dict[sp.Symbol, int] = {}
     for s in model.parameters + model.known_constants:
@@ -119,6 +133,23 @@ def _random_point(problem: Problem, F: Field, rng: random.Random, K: int, fixed:
                 for w in model.unknown_inputs}
     stand_in = {a.symbol: rng.randrange(p) for a in rat.atoms}
     tau = {a.symbol: rng.randrange(p) for a in rat.atoms if a.kind == "sin"}
+    f_states, f_inputs, table = forced
+    for s, v in f_states.items():
+        if s in values and s not in rat.ic_values:
+            values[s] = int(v) % p
+    for u in model.inputs:
+        if u in f_inputs:
+            given = [int(c) % p for c in list(f_inputs[u])[:K + 1]]
+            inputs[u] = given + [0] * (K + 1 - len(given))
+    if table is not None:
+        for a in rat.atoms:
+            key = (a.kind, a.arg, a.q, a.time_varying)
+            if key in table:
+                stand_in[a.symbol], t = table[key]
+                if a.kind == "sin":
+                    tau[a.symbol] = t
+            else:
+                table[key] = (stand_in[a.symbol], tau.get(a.symbol, 0))
     return values, inputs, w_coeffs, stand_in, tau
 
 
@@ -166,18 +197,20 @@ def _run_once(
     problem: Problem, F: Field, rng: random.Random, K: int, deadline: float | None,
     stop: Callable[[list[np.ndarray], int], bool] | None,
     fixed: Mapping[sp.Symbol, int],
+    forced: tuple = ({}, {}, None),
 ) -> SeriesRun:
     model, lay, p, M = problem.model, problem.layout, F.p, problem.size
-    drawn = _random_point(problem, F, rng, K, fixed)
+    drawn = _random_point(problem, F, rng, K, fixed, forced)
     values, inputs, w_coeffs, _, _ = drawn
     X0 = _initial_jets(problem, F, drawn)
     init = {s: (int(X0[i, 0]), X0[i, 1:].copy()) for s, i in problem.program.leaves.items()}
     point = Point(p=p, values=values, input_series=inputs, unknown_inputs=w_coeffs)
     rows: list[np.ndarray] = [X0[list(lay.out_roots), 1:].copy()]
+    vals: list[np.ndarray] = [X0[list(lay.out_roots), 0].copy()]
     if stop is not None and stop(rows, p):
-        return SeriesRun(p, rows, init, point, 1, full_rank_at=1)
+        return SeriesRun(p, rows, init, point, 1, full_rank_at=1, values=vals)
     if K <= 1:
-        return SeriesRun(p, rows, init, point, len(rows))
+        return SeriesRun(p, rows, init, point, len(rows), values=vals)
     # coefficients k >= 1 of the given sources: known inputs (values only), unknown inputs
     # w = sum_j c_j t^j / j! (value and the gradient on column j)
     given = np.zeros((K, len(lay.input_nodes) + len(lay.winput_nodes), M + 1), dtype=np.int64)
@@ -200,7 +233,8 @@ def _run_once(
             raise TimeUp(f"time limit reached after {k} of {K} series terms")
         stepper.step(k)
         rows.append(stepper.gradients(lay.out_roots, k))
+        vals.append(stepper.values(lay.out_roots, k))
         if stop is not None and stop(rows, p):
             full_at = k + 1
             break
-    return SeriesRun(p, rows, init, point, len(rows), full_rank_at=full_at)
+    return SeriesRun(p, rows, init, point, len(rows), full_rank_at=full_at, values=vals)

@@ -353,3 +353,13 @@ class Stepper:
             elif x in self.rpos:
                 out[r] = self.SS[k, self.rpos[x], 1:]
         return out
+
+    def values(self, nodes: Sequence[int], k: int) -> np.ndarray:
+        """Value part of coefficient ``k`` of ``nodes`` (time-invariant nodes: 0 for ``k >= 1``)."""
+        out = np.zeros(len(nodes), dtype=np.int64)
+        for r, x in enumerate(nodes):
+            if k == 0:
+                out[r] = self.X0[x, 0]
+            elif x in self.rpos:
+                out[r] = self.SS[k, self.rpos[x], 0]
+        return out
