@@ -48,7 +48,7 @@ _LAZY: dict[str, str] = {
     "run_passes": "estimation.experiments", "output_misfit": "estimation.experiments", "practical_identifiability": "estimation.practical",
     "monte_carlo": "estimation.experiments",
     # symmetries, identifiable combinations, reparametrizations
-    "symmetries": "recombination.symmetry", "Symmetry": "recombination.symmetry", "Symmetries": "recombination.symmetry",
+    "symmetries": "observability.symmetry", "Symmetry": "observability.symmetry", "Symmetries": "observability.symmetry",
     "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrize",
     "identifiable_functions": "recombination.identifiable", "IdentifiableFunctions": "recombination.identifiable",
     "same_field": "recombination.fields", "FieldComparison": "recombination.fields", "model_to_toml": "model.files",

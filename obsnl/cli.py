@@ -121,6 +121,12 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
                    help="observability engine (default: auto)")
     p.add_argument("--seed", type=int, default=None, help="seed of the random choices (default: drawn and reported)")
     p.add_argument("--max-seconds", type=float, default=None, help="time limit of the whole analysis")
+    p.add_argument("--branches", default=None, metavar="LABELS",
+                   help="visit only these branches (comma-separated labels, e.g. a,c); default: every feasible branch")
+    p.add_argument("--record", default=None, metavar="FILE",
+                   help="simulate the model's [values] under this record (.csv or .AT2; it drives the model's one "
+                   "input) and analyse the branches and crossings it visits: what this experiment reveals")
+    p.add_argument("--no-joint", action="store_true", help="skip the joint verdict (per-branch results and union only)")
     p.add_argument("-o", "--output", default=None, metavar="FILE", help="write to FILE instead of stdout")
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
     p.set_defaults(func=_cmd_analyze)
@@ -132,7 +138,11 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     if args.output and args.output != "-" and Path(args.output).exists() and not args.force:
         raise _Exit(2, f"{args.output} exists; pass --force to overwrite it")
     model = _load(args.model)
-    result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds)
+    labels = [s.strip() for s in args.branches.split(",") if s.strip()] if args.branches else None
+    visits = _record_visits(model, args.record) if args.record else None
+    result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds, branches=labels,
+                     visited=visits.patterns if visits else None, crossings=visits.crossings if visits else None,
+                     joint=not args.no_joint)
     from obsnl.report.tables import render
 
     write_output(render(result, args.format), args.output, force=args.force)
@@ -142,6 +152,21 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
         more = f" (and {len(stuck) - 1} more branch(es))" if len(stuck) > 1 else ""
         raise _Exit(2, f"branch ({b.label}) is inconclusive: {b.reason}{more}")
     return 0
+
+
+def _record_visits(model: Any, path: str) -> Any:
+    """The sign patterns a simulation of the model's [values] under the record at ``path`` visits."""
+    import numpy as np
+
+    from obsnl.estimation.records import read_record
+    from obsnl.observability.visited import visited_patterns
+
+    if len(model.inputs) != 1:
+        raise _Exit(2, f"--record drives one input, model {model.name!r} has {len(model.inputs)}; give a model with "
+                    "one known input")
+    rec = read_record(path)
+    t = rec.dt * np.arange(len(rec.accel))
+    return visited_patterns(model, t, {model.inputs[0].name: rec.accel})
 
 
 # --------------------------------------------------------------------------- report
@@ -230,7 +255,7 @@ def _add_symmetries(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_symmetries(args: argparse.Namespace) -> int:
     from obsnl.model.branches import split_branches
-    from obsnl.recombination.symmetry import symmetries
+    from obsnl.observability.symmetry import symmetries
 
     model = _load(args.model)
     out = []

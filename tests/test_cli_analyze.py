@@ -9,7 +9,9 @@ import pytest
 from obsnl.cli import main
 from tests.conftest import MODELS, PEER_CASES
 
-TOP_KEYS = {"model", "method", "seed", "probability", "seconds", "branches", "overall"}
+# issue 14: "overall" is the joint verdict, "union" the per-branch union, "joint" its visits and assumptions,
+# "visited" how the branches were chosen
+TOP_KEYS = {"model", "method", "seed", "probability", "seconds", "branches", "overall", "union", "joint", "visited"}
 BRANCH_KEYS = {"label", "guard", "observable", "unobservable", "absent", "rank", "size", "transcendence_degree",
                "seconds"}
 
@@ -19,13 +21,16 @@ def test_json_has_exactly_the_issue_keys_and_the_published_answer(capsys) -> Non
     assert main(["analyze", str(case), "--format", "json", "--seed", "5", "--method", "sedoglavic"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert set(doc) == TOP_KEYS
-    assert set(doc["overall"]) == {"observable", "unobservable"}
+    assert set(doc["overall"]) == {"rule", "observable", "unobservable", "inconclusive", "reason", "unknown_inputs"}
+    assert set(doc["union"]) == {"observable", "unobservable"}
     assert doc["seed"] == 5 and doc["method"] == "sedoglavic" and doc["probability"] >= 0.99
     for b in doc["branches"]:
         assert set(b) == BRANCH_KEYS
     expected = json.loads(case.read_text())["expected"]
     assert set(doc["overall"]["unobservable"]) == set(expected["nonidentifiable"])
     assert set(doc["overall"]["observable"]) == set(expected["identifiable"])
+    # a smooth model: the joint verdict and the union agree
+    assert doc["union"]["unobservable"] == doc["overall"]["unobservable"]
 
 
 def test_seed_model_json_branches(capsys) -> None:
@@ -39,7 +44,7 @@ def test_seed_model_json_branches(capsys) -> None:
 def test_text_format(capsys) -> None:
     assert main(["analyze", str(MODELS / "coulomb_friction.toml"), "--seed", "2"]) == 0
     out = capsys.readouterr().out
-    assert "overall unobservable" in out and "(a) v > 0" in out
+    assert "union unobservable" in out and "joint unobservable" in out and "(a) v > 0" in out
 
 
 def test_output_file_and_force(tmp_path, capsys) -> None:

@@ -29,7 +29,13 @@ import sympy as sp
 
 from obsnl.errors import ModelError, NotSupportedError
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.switching import innermost_nonsmooth, resolve, switching_of, expr_text, switching_functions
+from obsnl.model.switching import (
+    expr_text,
+    innermost_nonsmooth,
+    resolve,
+    switching_functions,
+    switching_of,
+)
 
 __all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of"]
 

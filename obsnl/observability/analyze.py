@@ -1,4 +1,9 @@
-"""``analyze``: observability of every smooth branch of a model, and their union.
+"""``analyze``: observability of every smooth branch of a model, their union, and the joint verdict.
+
+The per-branch results and their union are the seed paper's rule (Chatzis, Chatzi & Smyth 2015);
+the joint verdict (:mod:`obsnl.observability.joint`) is what the visited branches and the visible
+switching surfaces reveal together, parameters being shared. Which branches are visited is decided by
+:mod:`obsnl.observability.selection` (every feasible branch by default).
 
 Per branch (:func:`obsnl.split_branches`): variables absent from the branch's equations are listed
 as unobservable and absent (they count in the transcendence degree, as the seed paper counts
@@ -15,14 +20,26 @@ no unobservable verdict ever comes from a truncated computation.
 from __future__ import annotations
 
 import time
+from collections.abc import Mapping, Sequence
 from dataclasses import replace
 
-from obsnl.model.branches import split_branches
-from obsnl.model.switching import expr_text
 from obsnl.model.core import Model
 from obsnl.model.signature import ModelSignature
+from obsnl.model.switching import expr_text
+from obsnl.observability.joint import joint_verdict
+from obsnl.observability.joint_certify import (
+    certify_by_symmetry,
+    undecided_beyond_visits,
+)
 from obsnl.observability.results import AnalysisResult, BranchResult
-from obsnl.observability.smooth import METHODS, _branch_result, _check, _fresh_seed, _variable_names
+from obsnl.observability.selection import select_branches
+from obsnl.observability.smooth import (
+    METHODS,
+    _branch_result,
+    _check,
+    _fresh_seed,
+    _variable_names,
+)
 
 __all__ = ["analyze", "METHODS"]
 
@@ -37,8 +54,12 @@ def analyze(
     unknown_input_derivatives: int = 1,
     input_derivatives: int | None = None,
     decompose: bool = True,
+    branches: Sequence[str] | None = None,
+    visited: Mapping[tuple[int, ...], float] | None = None,
+    crossings: Mapping[str, int] | None = None,
+    joint: bool = True,
 ) -> AnalysisResult:
-    """Observability and identifiability of every branch of ``model``.
+    """Observability and identifiability of every branch of ``model``, their union and the joint verdict.
 
     Parameters
     ----------
@@ -59,11 +80,23 @@ def analyze(
         Non-zero derivatives of the known inputs (None: generic inputs).
     decompose
         Use the exact dependency-graph decomposition (:mod:`obsnl.observability.decompose`).
+    branches
+        Labels of the branches to visit (default: every feasible branch; representative branches
+        when the model has more than 12 switching functions, see :mod:`obsnl.model.representatives`).
+    visited
+        Sign patterns a record visits, with the seconds spent in each
+        (:func:`obsnl.observability.visited.visited_patterns`); overrides ``branches``.
+    crossings
+        Crossings per switching function seen with ``visited`` (reported only).
+    joint
+        Also compute the joint verdict (default True).
 
     Returns
     -------
     AnalysisResult
-        One :class:`~obsnl.observability.results.BranchResult` per branch, the union, the seed and the bound.
+        One :class:`~obsnl.observability.results.BranchResult` per visited branch, the union, the joint
+        verdict (:class:`~obsnl.observability.joint.JointResult`), how the branches were chosen, the
+        seed and the bound.
 
     Raises
     ------
@@ -80,25 +113,39 @@ def analyze(
     >>> res = analyze(m, seed=0)
     >>> [(b.label, b.unobservable) for b in res.branches]
     [('a', ()), ('b', ())]
+    >>> res.joint.unobservable
+    ()
     """
     _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     seed = _fresh_seed(seed)
     variables = _variable_names(model)
-    branches = split_branches(model)
-    n_blocks_guess = max(1, len(branches))
+    chosen, how = select_branches(model, labels=branches, patterns=visited, crossings=crossings, seed=seed)
+    n_blocks_guess = max(1, len(chosen))
     target = (1 - prob) / n_blocks_guess
     results: list[BranchResult] = []
     failure = 0.0
     factor_cache: dict = {}  # branches share their logarithm arguments (|sigma - eta| in the seed model)
-    for b in branches:
+    for b in chosen:
         br, f = _branch_result(b.label, b.guard_text, b.model, variables, method=method, seed=seed,
                                deadline=deadline, target=target, decompose=decompose,
                                unknown_input_derivatives=unknown_input_derivatives,
                                input_derivatives=input_derivatives, factor_cache=factor_cache)
         results.append(replace(br, signs=tuple(b.signs)))
         failure += f
+    verdict = None
+    if joint:
+        left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+        verdict = joint_verdict(model, branches=chosen, seed=seed, prob=prob, max_seconds=left,
+                                unknown_input_derivatives=unknown_input_derivatives)
+        representatives = how.how == "representatives"
+        if representatives and verdict.unobservable:  # a verdict about the model, not decided by the visits
+            verdict = undecided_beyond_visits(verdict, how.note)
+        if verdict.inconclusive and (deadline is None or time.perf_counter() < deadline):
+            verdict = certify_by_symmetry(verdict, model, chosen, seed=seed,
+                                          kinds=("scaling", "translation") if representatives else None)
+    switching = tuple(expr_text(g) for g in chosen[0].switching) if chosen else ()
     return AnalysisResult(
         model=model.name,
         method=method,
@@ -107,12 +154,14 @@ def analyze(
         seconds=round(time.perf_counter() - t0, 6),
         branches=tuple(results),
         variables=variables,
-        switching=tuple(expr_text(g) for g in branches[0].switching) if branches else (),
+        switching=switching,
         parameters=tuple(p.name for p in model.parameters),
         latex=dict(model.latex),
         signature=ModelSignature(name=model.name, fingerprint=model.fingerprint,
                                  states=tuple(s.name for s in model.states),
                                  parameters=tuple(p.name for p in model.parameters),
                                  inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.output_names),
-                                 switching=tuple(expr_text(g) for g in branches[0].switching) if branches else ()),
+                                 switching=switching),
+        joint=verdict,
+        visited=how,
     )

@@ -1,7 +1,7 @@
 """The observability Jacobian of a smooth model at one random point mod p, kept for reuse.
 
 The engine (:mod:`obsnl.observability.sedoglavic`) turns the Jacobian into verdicts. The symmetry search, the
-identifiable functions and the reparametrization (:mod:`obsnl.recombination.symmetry`, :mod:`obsnl.recombination.identifiable`,
+identifiable functions and the reparametrization (:mod:`obsnl.observability.symmetry`, :mod:`obsnl.recombination.identifiable`,
 :mod:`obsnl.recombination.reparametrize`) need the Jacobian itself: its columns, rows, rank and kernel, the point, the
 prime and the values of the non-rational atoms, and gradients of further expressions at that same
 point. :func:`observability_jacobian` computes it with the engine's own power series
@@ -27,14 +27,21 @@ import sympy as sp
 
 from obsnl.algebra.atoms import Atom, Rewriter
 from obsnl.algebra.augment import rationalize
-from obsnl.algebra.jets import AtomJet, atom_deps, atom_expressions, atom_roots, evaluate, topological_order
-from obsnl.errors import AnalysisError, NotSupportedError
 from obsnl.algebra.bounds import bound_sizes, failure_bound
-from obsnl.model.core import Model
+from obsnl.algebra.jets import (
+    AtomJet,
+    atom_deps,
+    atom_expressions,
+    atom_roots,
+    evaluate,
+    topological_order,
+)
 from obsnl.algebra.modp import Field, Resample, nullspace_mod_p
 from obsnl.algebra.problem import make_problem
 from obsnl.algebra.series import SeriesRun, run_series
 from obsnl.algebra.slp import compile_program
+from obsnl.errors import AnalysisError, NotSupportedError
+from obsnl.model.core import Model
 
 __all__ = ["ModularJacobian", "observability_jacobian"]
 

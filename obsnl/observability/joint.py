@@ -478,3 +478,4 @@ def _decided(runs: list[_Run], prob: float, names: list[str], final: bool = Fals
     if not final and (pending or failure > 1 - prob) and len(runs) < _MAX_RUNS:
         return None
     return out, min(1.0, failure)
+

@@ -28,6 +28,7 @@ from obsnl.algebra.series import run_series
 from obsnl.errors import AnalysisError
 from obsnl.model.branches import derived_model, expr_text
 from obsnl.model.core import Model
+from obsnl.observability.sedoglavic import RankTracker, stall_safe
 
 __all__ = [
     "JointVisit",
@@ -205,8 +206,9 @@ def strip_ic(model: Model) -> Model:
 
 def branch_visit(plan: Plan, p: int, shared: dict, atoms: dict, key: str, deadline: float | None) -> VisitData:
     prep = plan.sides[0]
+    tracker = RankTracker(prep.problem.size, stall=stall_safe(prep.problem))  # the visit's own rank stops growing
     run = run_series(prep.problem, random.Random(key), K=prep.K, p=p, deadline=deadline, fixed=shared,
-                     atom_values=_Atoms(atoms))
+                     atom_values=_Atoms(atoms), stop=tracker)
     if run.p != p:
         raise NewPrime(f"branch {plan.labels[0]}")
     R = np.vstack(run.rows) if run.rows else np.zeros((0, prep.problem.size), dtype=np.int64)
@@ -254,11 +256,17 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
     record = replace_visit(record, solved_for=solved.name)
     runs = []
     local: dict = {}  # both sides share the point, so also the time-varying atoms' stand-ins
-    for side in (a_side, b_side):
+    for label, side in zip(plan.labels, (a_side, b_side)):
         table = _Atoms(atoms)
         table.local = local
-        run = run_series(side.problem, random.Random(key), K=K, p=p, deadline=deadline, fixed=shared,
-                         states=states, input_series=inputs, atom_values=table)
+        try:
+            run = run_series(side.problem, random.Random(key), K=K, p=p, deadline=deadline, fixed=shared,
+                             states=states, input_series=inputs, atom_values=table)
+        except AnalysisError as exc:  # e.g. |g|**N with N unknown: its logarithm is singular on g = 0
+            return VisitData(plan, np.zeros((0, 0), dtype=np.int64),
+                             np.zeros((0, len(model.parameters)), dtype=np.int64),
+                             replace_visit(record, reason=f"the field of side {label} is singular on {text} = 0 "
+                                                          f"({str(exc).rsplit('(', 1)[-1].rstrip(');')})"), used=False)
         if run.p != p:
             raise NewPrime(f"surface {text}")
         runs.append(run)

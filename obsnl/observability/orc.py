@@ -32,10 +32,10 @@ import numpy as np
 import sympy as sp
 
 from obsnl.algebra.augment import atom_rates
-from obsnl.errors import NotSupportedError
 from obsnl.algebra.bounds import BlockOutcome, classify, failure_bound
 from obsnl.algebra.modp import nmod_matrix, rank_mod_p
 from obsnl.algebra.series import Problem, Resample, TimeUp, random_prime, run_series
+from obsnl.errors import NotSupportedError
 
 if TYPE_CHECKING:
     pass

@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from obsnl.model.signature import ModelSignature
+from obsnl.observability.joint import JointResult
+from obsnl.observability.selection import Visited
 
 __all__ = ["Verdict", "BranchResult", "AnalysisResult"]
 
@@ -144,6 +146,17 @@ class AnalysisResult:
     signature
         The analysed model's :class:`~obsnl.model.signature.ModelSignature` (names, order,
         fingerprint, switching functions): a branch table is written from the result alone.
+    joint
+        The joint verdict (:class:`~obsnl.observability.joint.JointResult`): what the visited
+        branches and visible switching surfaces reveal together, parameters shared. None when not
+        computed.
+    visited
+        How the analysed branches were chosen (:class:`~obsnl.observability.selection.Visited`).
+
+    The per-branch union is :attr:`overall_observable` / :attr:`overall_unobservable` (also named
+    :attr:`union_observable` / :attr:`union_unobservable`: the seed paper's rule); the joint verdict is
+    :attr:`joint`. In ``obsnl analyze --format json``, ``overall`` is the joint verdict and ``union``
+    the per-branch union.
     """
 
     model: str
@@ -157,6 +170,18 @@ class AnalysisResult:
     parameters: tuple[str, ...] = ()
     latex: Mapping[str, str] = field(default_factory=dict)
     signature: ModelSignature | None = field(default=None, compare=False)
+    joint: JointResult | None = field(default=None, compare=False)
+    visited: Visited | None = field(default=None, compare=False)
+
+    @property
+    def union_observable(self) -> tuple[str, ...]:
+        """Observable in at least one visited branch (the per-branch union), in model order."""
+        return self.overall_observable
+
+    @property
+    def union_unobservable(self) -> tuple[str, ...]:
+        """Unobservable in every visited branch, in model order."""
+        return self.overall_unobservable
 
     @property
     def overall_observable(self) -> tuple[str, ...]:
@@ -201,16 +226,29 @@ class AnalysisResult:
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
         """JSON-ready data with exactly the keys of ``obsnl analyze --format json``:
-        ``model, method, seed, probability, seconds, branches, overall``."""
-        return {
+        ``model, method, seed, probability, seconds, branches, union, overall, joint, visited``.
+
+        ``overall`` is the joint verdict (observable, unobservable, inconclusive, with the reason)
+        when it was computed, else the per-branch union; ``union`` is always the per-branch union;
+        ``joint`` holds the joint verdict's visits, probability and assumptions."""
+        union = {"observable": list(self.overall_observable), "unobservable": list(self.overall_unobservable)}
+        out: dict[str, Any] = {
             "model": self.model,
             "method": self.method,
             "seed": self.seed,
             "probability": self.probability,
             "seconds": self.seconds,
             "branches": [b.to_dict(extended=extended) for b in self.branches],
-            "overall": {
-                "observable": list(self.overall_observable),
-                "unobservable": list(self.overall_unobservable),
-            },
+            "union": union,
         }
+        j = self.joint
+        if j is None:
+            out["overall"] = {**union, "rule": "union"}
+        else:
+            out["overall"] = {"rule": "joint", "observable": list(j.observable), "unobservable": list(j.unobservable),
+                              "inconclusive": list(j.inconclusive), "reason": j.reason,
+                              "unknown_inputs": {k: list(v) for k, v in j.unknown_inputs.items()}}
+            out["joint"] = j.to_dict()
+        if self.visited is not None:
+            out["visited"] = self.visited.to_dict()
+        return out

@@ -40,32 +40,59 @@ from obsnl.algebra.series import Problem, TimeUp, run_series
 if TYPE_CHECKING:
     pass
 
-__all__ = ["sedoglavic_block"]
+__all__ = ["sedoglavic_block", "RankTracker", "stall_safe"]
 
 _MAX_RUNS = 4
 
 
-class _Tracker:
-    """Rank of the Jacobian rows seen so far (an incremental echelon basis mod p); stops at full rank."""
+class RankTracker:
+    """Rank of the Jacobian rows seen so far (an incremental echelon basis mod p); stops at full rank,
+    and, when ``stall`` holds, at the first order that adds no rank.
 
-    def __init__(self, M: int) -> None:
+    The stall rule (``stall=True``) is used only when every initial state is an unknown, no initial
+    value is specific and there is no unknown input: then the rank of the Jacobian grows at every
+    order until it stops for good (:meth:`obsnl.algebra.problem.Problem.order_bound`: if the outputs'
+    ``j``-th coefficients depend on the lower ones, differentiating along the flow gives the same for
+    ``j + 1``), so an order that adds nothing ends the growth. A stall at a special point could only
+    make the rank look smaller; such a verdict is unobservable and, as every unobservable verdict,
+    needs a second independent run that agrees.
+    """
+
+    def __init__(self, M: int, *, stall: bool = False) -> None:
         self.M = M
         self.basis: Echelon | None = None
         self.seen = 0
+        self.stall = stall
+        self.stalled = False
 
     def __call__(self, rows: list[np.ndarray], p: int) -> bool:
         if self.basis is None or self.basis.p != p:  # a new prime after a resample
             self.basis, self.seen = Echelon(self.M, p), 0
+        before = self.basis.rank
         for block in rows[self.seen:]:
             for r in block:
                 self.basis.add(r)
+        grew = self.basis.rank > before
+        new_orders = len(rows) - self.seen
         self.seen = len(rows)
-        return self.basis.rank == self.M
+        if self.basis.rank == self.M:
+            return True
+        if self.stall and len(rows) >= 2 and new_orders == 1 and not grew:
+            self.stalled = True
+            return True
+        return False
+
+
+def stall_safe(problem: Problem) -> bool:
+    """True when the stall rule of :class:`RankTracker` holds for ``problem`` (every initial state
+    unknown, none specific, no unknown input)."""
+    model = problem.model
+    return not (model.known_initial_conditions or problem.specific or model.unknown_inputs)
 
 
 def _one_run(problem: Problem, rng: random.Random, deadline: float | None):
     """One run: rank and per-column classes of the Jacobian at one random point (exact, mod p)."""
-    tracker = _Tracker(problem.size)
+    tracker = RankTracker(problem.size, stall=stall_safe(problem))
     run = run_series(problem, rng, K=problem.order_bound(), deadline=deadline, stop=tracker)
     tracker(run.rows, run.p)  # rows the stop rule has not seen (none, unless it was never called)
     return run, tracker.basis.rank, tracker.basis.unobservable()

@@ -38,7 +38,7 @@ from obsnl.errors import AnalysisError, NotSupportedError
 from obsnl.observability.jacobian import ModularJacobian, observability_jacobian
 from obsnl.model.core import Model
 from obsnl.algebra.modp import PRIME, nullspace_mod_p, rank_mod_p, rational_reconstruction
-from obsnl.recombination.symmetry import Symmetries, _monomials, symmetries as find_symmetries
+from obsnl.observability.symmetry import Symmetries, _monomials, symmetries as find_symmetries
 
 __all__ = ["IdentifiableFunctions", "identifiable_functions"]
 

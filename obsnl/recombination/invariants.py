@@ -31,7 +31,7 @@ import sympy as sp
 
 from obsnl.errors import ModelError
 from obsnl.model.parse import make_symbol
-from obsnl.recombination.proofs import canonical
+from obsnl.observability.proofs import canonical
 
 __all__ = ["ScalingSection", "scaling_section", "span_intersection", "translation_invariants", "adapted_forms",
            "pushforward", "coordinates", "section_map"]

@@ -36,8 +36,8 @@ from obsnl.recombination.invariants import (adapted_forms, coordinates, pushforw
 from obsnl.observability.smooth import analyze_smooth
 from obsnl.model.core import Model
 from obsnl.model.parse import make_symbol
-from obsnl.recombination.proofs import verify_reparametrization
-from obsnl.recombination.symmetry import Symmetries, Symmetry, symmetries
+from obsnl.observability.proofs import verify_reparametrization
+from obsnl.observability.symmetry import Symmetries, Symmetry, symmetries
 from obsnl.model.files import model_to_toml
 
 __all__ = ["Reparametrization", "reparametrize"]

@@ -14,8 +14,8 @@ from collections.abc import Mapping, Sequence
 
 import sympy as sp
 
-from obsnl.model.branches import Branch
 from obsnl.errors import NotSupportedError
+from obsnl.model.branches import Branch
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.parse import make_symbol
 

@@ -32,13 +32,19 @@ from typing import Any
 
 import sympy as sp
 
-from obsnl.observability.decompose import output_reachable
 from obsnl.algebra.jets import Expressions
+from obsnl.algebra.modp import (
+    PRIME,
+    Resample,
+    nullspace_mod_p,
+    rank_mod_p,
+    rational_reconstruction,
+)
 from obsnl.errors import NotSupportedError
-from obsnl.observability.jacobian import ModularJacobian, observability_jacobian
 from obsnl.model.core import Model
-from obsnl.algebra.modp import PRIME, Resample, nullspace_mod_p, rank_mod_p, rational_reconstruction
-from obsnl.recombination.proofs import verify_generator
+from obsnl.observability.decompose import output_reachable
+from obsnl.observability.jacobian import ModularJacobian, observability_jacobian
+from obsnl.observability.proofs import verify_generator
 
 __all__ = ["Symmetry", "Symmetries", "symmetries"]
 
