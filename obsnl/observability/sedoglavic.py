@@ -35,7 +35,7 @@ import numpy as np
 
 from obsnl.algebra.bounds import BlockOutcome, failure_bound
 from obsnl.algebra.modp import Echelon
-from obsnl.algebra.series import Problem, TimeUp, run_series
+from obsnl.algebra.series import Problem, TimeUp, prime_density, run_series
 
 if TYPE_CHECKING:
     pass
@@ -109,8 +109,8 @@ def sedoglavic_block(
             if len(runs) < 2:
                 continue
             failure = 1.0
-            for rr in runs:
-                failure *= failure_bound(rr.p, nfuncs=M, **(bound_args or {}))
+            for rr in runs:  # primes restricted to those with the model's roots of numbers: divide by their density
+                failure *= min(1.0, failure_bound(rr.p, nfuncs=M, **(bound_args or {})) / prime_density(problem))
             if failure <= target or run_no == _MAX_RUNS - 1:
                 out.rank = best
                 out.unobservable = frozenset(c for c, u in zip(problem.columns, classes) if u)
