@@ -121,6 +121,10 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
                    help="observability engine (default: auto)")
     p.add_argument("--seed", type=int, default=None, help="seed of the random choices (default: drawn and reported)")
     p.add_argument("--max-seconds", type=float, default=None, help="time limit of the whole analysis")
+    p.add_argument("--unknown-input-derivatives", default=None, metavar="K|arbitrary",
+                   help="what the unknown inputs are: 'arbitrary' (any function of time) or K, polynomials in t "
+                   "with K non-zero derivatives (STRIKE-GOLDD nnzDerW; 0 = constants). Default: the model "
+                   "file's unknown_input_derivatives, else arbitrary")
     p.add_argument("-o", "--output", default=None, metavar="FILE", help="write to FILE instead of stdout")
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
     p.set_defaults(func=_cmd_analyze)
@@ -132,7 +136,8 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     if args.output and args.output != "-" and Path(args.output).exists() and not args.force:
         raise _Exit(2, f"{args.output} exists; pass --force to overwrite it")
     model = _load(args.model)
-    result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds)
+    result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds,
+                     unknown_input_derivatives=args.unknown_input_derivatives)
     from obsnl.report.tables import render
 
     write_output(render(result, args.format), args.output, force=args.force)

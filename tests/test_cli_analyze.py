@@ -9,9 +9,9 @@ import pytest
 from obsnl.cli import main
 from tests.conftest import MODELS, PEER_CASES
 
-TOP_KEYS = {"model", "method", "seed", "probability", "seconds", "branches", "overall"}
+TOP_KEYS = {"model", "method", "seed", "probability", "seconds", "branches", "overall", "verdict", "assumptions"}
 BRANCH_KEYS = {"label", "guard", "observable", "unobservable", "absent", "rank", "size", "transcendence_degree",
-               "seconds"}
+               "seconds", "verdict"}
 
 
 def test_json_has_exactly_the_issue_keys_and_the_published_answer(capsys) -> None:

@@ -22,9 +22,10 @@ from obsnl.model.switching import expr_text
 from obsnl.model.core import Model
 from obsnl.model.signature import ModelSignature
 from obsnl.observability.results import AnalysisResult, BranchResult
-from obsnl.observability.smooth import METHODS, _branch_result, _check, _fresh_seed, _variable_names
+from obsnl.observability.smooth import (METHODS, _branch_result, _check, _fresh_seed, _variable_names,
+                                       resolve_unknown_input_derivatives)
 
-__all__ = ["analyze", "METHODS"]
+__all__ = ["analyze", "assumptions", "METHODS"]
 
 
 def analyze(
@@ -34,7 +35,7 @@ def analyze(
     seed: int | None = None,
     max_seconds: float | None = None,
     prob: float = 0.99,
-    unknown_input_derivatives: int = 1,
+    unknown_input_derivatives: int | str | None = None,
     input_derivatives: int | None = None,
     decompose: bool = True,
 ) -> AnalysisResult:
@@ -54,7 +55,10 @@ def analyze(
         Wanted lower bound on the probability that every verdict is right; more independent runs
         are made while a block's bound is weaker (up to a few; the result reports what was reached).
     unknown_input_derivatives
-        Non-zero derivatives of each unknown input (STRIKE-GOLDD ``nnzDerW``, default 1).
+        What the unknown inputs are: ``"arbitrary"`` (any function of time: each Taylor coefficient
+        the test reads is a new unknown, see :func:`obsnl.algebra.problem.arbitrary_terms`) or ``K``
+        (polynomials with K non-zero derivatives, STRIKE-GOLDD ``nnzDerW``; 0: constants). None (the
+        default): the model's ``unknown_input_derivatives`` key, else ``"arbitrary"``.
     input_derivatives
         Non-zero derivatives of the known inputs (None: generic inputs).
     decompose
@@ -63,7 +67,8 @@ def analyze(
     Returns
     -------
     AnalysisResult
-        One :class:`~obsnl.observability.results.BranchResult` per branch, the union, the seed and the bound.
+        One :class:`~obsnl.observability.results.BranchResult` per branch, the union, the seed, the bound
+        and the ``assumptions`` the verdicts rest on (unknown and known inputs, initial conditions).
 
     Raises
     ------
@@ -82,6 +87,7 @@ def analyze(
     [('a', ()), ('b', ())]
     """
     _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
+    unknown_input_derivatives = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     seed = _fresh_seed(seed)
@@ -115,4 +121,29 @@ def analyze(
                                  parameters=tuple(p.name for p in model.parameters),
                                  inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.output_names),
                                  switching=tuple(expr_text(g) for g in branches[0].switching) if branches else ()),
+        assumptions=assumptions(model, unknown_input_derivatives, input_derivatives),
     )
+
+
+def assumptions(model: Model, unknown_input_derivatives: int | str, input_derivatives: int | None) -> dict:
+    """What an analysis of ``model`` assumes, as JSON-ready data (:attr:`AnalysisResult.assumptions`).
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="m", states=["x"], parameters=["a"], unknown_inputs=["w"],
+    ...           equations={"x": "-a*x + w"}, outputs={"y": "x"})
+    >>> assumptions(m, "arbitrary", None)["unknown_input_derivatives"]
+    'arbitrary'
+    """
+    known = model.known_initial_conditions
+    return {
+        "unknown_input_derivatives": unknown_input_derivatives if model.unknown_inputs else None,
+        "known_inputs": None if not model.inputs else (
+            "generic" if input_derivatives is None else f"polynomial of degree {input_derivatives}"),
+        "initial_conditions": {
+            "unknown": [s.name for s in model.states if s not in known],
+            "known_generic": [s.name for s in known if s not in model.initial_condition_values],
+            "known_values": {s.name: str(v) for s, v in model.initial_condition_values.items()},
+        },
+    }

@@ -86,10 +86,14 @@ class BranchResult:
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
         """The branch as JSON-ready data.
 
-        The default keys are exactly those of ``obsnl analyze --format json``: ``label, guard,
-        observable, unobservable, absent, rank, size, transcendence_degree, seconds``.
-        ``extended=True`` adds ``verdict, reason, undecided, order, method, unknown_inputs, notes``.
+        The default keys are those of ``obsnl analyze --format json``: ``label, guard, observable,
+        unobservable, absent, rank, size, transcendence_degree, seconds, verdict``, with
+        ``unknown_inputs`` (``{"observable": [...], "unobservable": [...]}``) when the model has
+        some, and ``reason, undecided`` for an inconclusive branch, whose ``transcendence_degree`` is
+        None (nothing is claimed for what was not decided). ``extended=True`` adds ``reason,
+        undecided, order, method, unknown_inputs, notes`` always.
         """
+        inconclusive = self.verdict is Verdict.INCONCLUSIVE
         d: dict[str, Any] = {
             "label": self.label,
             "guard": self.guard,
@@ -98,12 +102,16 @@ class BranchResult:
             "absent": list(self.absent),
             "rank": self.rank,
             "size": self.size,
-            "transcendence_degree": self.transcendence_degree,
+            "transcendence_degree": None if inconclusive else self.transcendence_degree,
             "seconds": self.seconds,
+            "verdict": self.verdict.value,
         }
+        if self.unknown_inputs:
+            d["unknown_inputs"] = {k: list(v) for k, v in self.unknown_inputs.items()}
+        if inconclusive:
+            d.update(reason=self.reason, undecided=list(self.undecided))
         if extended:
             d.update(
-                verdict=self.verdict.value,
                 reason=self.reason,
                 undecided=list(self.undecided),
                 order=self.order,
@@ -144,6 +152,11 @@ class AnalysisResult:
     signature
         The analysed model's :class:`~obsnl.model.signature.ModelSignature` (names, order,
         fingerprint, switching functions): a branch table is written from the result alone.
+    assumptions
+        What the verdicts assume (JSON-ready): ``unknown_input_derivatives`` (``"arbitrary"``, a
+        number ``K`` or None without unknown inputs), ``known_inputs`` (``"generic"``, ``"polynomial
+        of degree d"`` or None without known inputs), ``initial_conditions`` (``{"unknown": [...],
+        "known_generic": [...], "known_values": {state: value}}``).
     """
 
     model: str
@@ -157,6 +170,7 @@ class AnalysisResult:
     parameters: tuple[str, ...] = ()
     latex: Mapping[str, str] = field(default_factory=dict)
     signature: ModelSignature | None = field(default=None, compare=False)
+    assumptions: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def overall_observable(self) -> tuple[str, ...]:
@@ -182,6 +196,22 @@ class AnalysisResult:
             return Verdict.INCONCLUSIVE
         return Verdict.OBSERVABLE if not self.overall_unobservable else Verdict.UNOBSERVABLE
 
+    @property
+    def unknown_inputs(self) -> dict[str, tuple[str, ...]]:
+        """Classes of the unknown inputs over the branches (observable in at least one branch;
+        unobservable in every branch that decided; undecided ones in neither); empty without any."""
+        names: list[str] = []
+        for b in self.branches:
+            for v in b.unknown_inputs.values():
+                names += [n for n in v if n not in names]
+        if not names and not any(b.unknown_inputs for b in self.branches):
+            return {}
+        obs = {n for b in self.branches for n in b.unknown_inputs.get("observable", ())}
+        unobs = {n for b in self.branches for n in b.unknown_inputs.get("unobservable", ())}
+        stuck = any(b.verdict is Verdict.INCONCLUSIVE for b in self.branches)
+        return {"observable": tuple(n for n in names if n in obs),
+                "unobservable": tuple(n for n in names if n in unobs and n not in obs and not stuck)}
+
     def branch(self, label: str) -> BranchResult:
         """The result of the branch labelled ``label``."""
         for b in self.branches:
@@ -200,17 +230,29 @@ class AnalysisResult:
         return render(self) if render is not None else None
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
-        """JSON-ready data with exactly the keys of ``obsnl analyze --format json``:
-        ``model, method, seed, probability, seconds, branches, overall``."""
+        """JSON-ready data with the keys of ``obsnl analyze --format json``: ``model, method, seed,
+        probability, seconds, branches, overall, verdict, assumptions``.
+
+        ``overall`` has ``observable, unobservable`` and, when the model has unknown inputs,
+        ``unknown_inputs``. ``probability`` is None when the verdict is inconclusive (no bound is
+        claimed for what was not decided).
+        """
+        verdict = self.verdict
+        overall: dict[str, Any] = {
+            "observable": list(self.overall_observable),
+            "unobservable": list(self.overall_unobservable),
+        }
+        ui = self.unknown_inputs
+        if ui:
+            overall["unknown_inputs"] = {k: list(v) for k, v in ui.items()}
         return {
             "model": self.model,
             "method": self.method,
             "seed": self.seed,
-            "probability": self.probability,
+            "probability": None if verdict is Verdict.INCONCLUSIVE else self.probability,
             "seconds": self.seconds,
             "branches": [b.to_dict(extended=extended) for b in self.branches],
-            "overall": {
-                "observable": list(self.overall_observable),
-                "unobservable": list(self.overall_unobservable),
-            },
+            "overall": overall,
+            "verdict": verdict.value,
+            "assumptions": dict(self.assumptions),
         }
