@@ -16,8 +16,9 @@ transcendence degree (rank deficit), see :mod:`obsnl.algebra.bounds`.
   (``x(0) = 0``) ``2*dim + n`` terms are used (see :meth:`obsnl.algebra.series.Problem.order_bound`).
 - **Known inputs** are generic: random series with every coefficient random (or the first
   ``input_derivatives + 1`` only). **Unknown inputs** ``w`` are polynomials of degree
-  ``unknown_input_derivatives`` with unknown coefficients (STRIKE-GOLDD's ``nnzDerW``); ``w`` is
-  observable when its value ``w(0)`` is.
+  ``unknown_input_derivatives`` with unknown coefficients (STRIKE-GOLDD's ``nnzDerW``), or, when
+  arbitrary, have as many unknown Taylor coefficients as series terms are read
+  (:func:`obsnl.algebra.problem.arbitrary_terms`); ``w`` is observable when its value ``w(0)`` is.
 - **Known initial conditions** are not unknowns: without a value they are generic (random), with a
   value (a number, or an expression in parameters and known constants) they take it exactly.
   Known constants are generic (random).
