@@ -127,6 +127,10 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
                    help="simulate the model's [values] under this record (.csv or .AT2; it drives the model's one "
                    "input) and analyse the branches and crossings it visits: what this experiment reveals")
     p.add_argument("--no-joint", action="store_true", help="skip the joint verdict (per-branch results and union only)")
+    p.add_argument("--unknown-input-derivatives", default=None, metavar="K|arbitrary",
+                   help="what the unknown inputs are: 'arbitrary' (any function of time) or K, polynomials in t "
+                   "with K non-zero derivatives (STRIKE-GOLDD nnzDerW; 0 = constants). Default: the model "
+                   "file's unknown_input_derivatives, else arbitrary")
     p.add_argument("-o", "--output", default=None, metavar="FILE", help="write to FILE instead of stdout")
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
     p.set_defaults(func=_cmd_analyze)
@@ -142,7 +146,7 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     visits = _record_visits(model, args.record) if args.record else None
     result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds, branches=labels,
                      visited=visits.patterns if visits else None, crossings=visits.crossings if visits else None,
-                     joint=not args.no_joint)
+                     joint=not args.no_joint, unknown_input_derivatives=args.unknown_input_derivatives)
     from obsnl.report.tables import render
 
     write_output(render(result, args.format), args.output, force=args.force)

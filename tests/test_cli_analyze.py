@@ -10,10 +10,11 @@ from obsnl.cli import main
 from tests.conftest import MODELS, PEER_CASES
 
 # issue 14: "overall" is the joint verdict, "union" the per-branch union, "joint" its visits and assumptions,
-# "visited" how the branches were chosen
-TOP_KEYS = {"model", "method", "seed", "probability", "seconds", "branches", "overall", "union", "joint", "visited"}
+# "visited" how the branches were chosen; issue 17: "verdict" and "assumptions"
+TOP_KEYS = {"model", "method", "seed", "probability", "seconds", "branches", "overall", "union", "joint", "visited",
+            "verdict", "assumptions"}
 BRANCH_KEYS = {"label", "guard", "observable", "unobservable", "absent", "rank", "size", "transcendence_degree",
-               "seconds"}
+               "seconds", "verdict"}
 
 
 def test_json_has_exactly_the_issue_keys_and_the_published_answer(capsys) -> None:
@@ -22,7 +23,7 @@ def test_json_has_exactly_the_issue_keys_and_the_published_answer(capsys) -> Non
     doc = json.loads(capsys.readouterr().out)
     assert set(doc) == TOP_KEYS
     assert set(doc["overall"]) == {"rule", "observable", "unobservable", "inconclusive", "reason", "unknown_inputs"}
-    assert set(doc["union"]) == {"observable", "unobservable"}
+    assert set(doc["union"]) == {"observable", "unobservable", "verdict"}
     assert doc["seed"] == 5 and doc["method"] == "sedoglavic" and doc["probability"] >= 0.99
     for b in doc["branches"]:
         assert set(b) == BRANCH_KEYS

@@ -235,12 +235,31 @@ class Rewriter:
     def root_power(self, base: sp.Expr, ex: sp.Rational) -> sp.Expr:
         p, q = int(ex.p), int(ex.q)
         s, t = divmod(p, q)  # base**(p/q) = base**s * (base**(1/q))**t
-        if base.is_Rational and base >= 0:
-            root = sp.Integer(int(base.p)) ** sp.Rational(1, q) / sp.Integer(int(base.q)) ** sp.Rational(1, q)
-            if root.is_Rational:
-                return base**s * root**t
+        if base.is_Rational and base > 0:
+            return self.number_power(sp.Rational(base), ex)
         w = self._new("root", base, q=q)
         return base**s * w**t
+
+    def number_power(self, base: sp.Rational, ex: sp.Rational) -> sp.Expr:
+        """``base**ex`` of a positive rational number, over roots of prime numbers.
+
+        ``(42/5)**(17/10) = 2**(17/10) 3**(17/10) 7**(17/10) / 5**(17/10)``: each prime ``r`` with a
+        fractional exponent ``a/b`` gives the atom ``r**(1/b)`` to the power ``a`` (integer parts stay
+        rational). The roots of distinct primes satisfy no relation but their defining equations
+        (Besicovitch), so the engines may evaluate them modulo any prime in which they exist
+        (:func:`obsnl.algebra.series.draw_prime`): the computation is exact in their number field.
+        """
+        out: sp.Expr = sp.Integer(1)
+        parts = [(r, e) for r, e in sp.factorint(int(base.p)).items()]
+        parts += [(r, -e) for r, e in sp.factorint(int(base.q)).items()]
+        for r, e in parts:
+            ee = sp.Rational(e) * ex
+            whole = sp.floor(ee)
+            frac = ee - whole
+            out *= sp.Integer(r) ** whole
+            if frac:
+                out *= self._new("root", sp.Integer(r), q=int(frac.q)) ** int(frac.p)
+        return out
 
     def log_of(self, g: sp.Expr) -> sp.Expr:
         """``log|g|`` over log atoms of irreducible factors and logarithms of primes."""

@@ -190,14 +190,16 @@ def _specific_initial_values(
         elif a.kind == "root":
             if g0 == 0:
                 raise ModelError(f"({a.arg})**(1/{a.q}) is 0 at the given initial conditions (not differentiable)")
-            out[a.symbol] = b._new("root", g0, q=a.q)  # the root of a number, taken mod p
+            out[a.symbol] = (b.number_power(g0, sp.Rational(1, a.q)) if g0 > 0  # roots of primes, exact
+                             else b._new("root", g0, q=a.q))
     return out
 
 
 def _notes(atoms: Sequence[Atom], used: Sequence[object], initial: Mapping[sp.Symbol, sp.Expr]) -> tuple[str, ...]:
     if not atoms:
         return ()
-    dyn = [a for a in atoms if a.kind != "const"]
+    numbers = [a for a in atoms if a.kind == "root" and a.arg.is_Integer]
+    dyn = [a for a in atoms if a.kind != "const" and a not in numbers]
     consts = [a for a in atoms if a.kind == "const"]
     lines = []
     seen: list[str] = []
@@ -218,6 +220,13 @@ def _notes(atoms: Sequence[Atom], used: Sequence[object], initial: Mapping[sp.Sy
         lines.append(
             "transcendental constants replaced by random stand-ins: " + ", ".join(a.text for a in consts)
             + (" (more than one: exact under Schanuel's conjecture)" if len(consts) > 1 else " (exact)")
+        )
+    if numbers:
+        lines.append(
+            "roots of numbers, exact: " + ", ".join(a.text for a in numbers) + " (roots of primes, "
+            "computed modulo primes p = 3 mod 4 in which each exists, as the root that is a square mod p, so "
+            "that roots of one number with different degrees agree; the probability bound is divided by the "
+            "density of such primes)"
         )
     if initial:
         lines.append(

@@ -89,6 +89,11 @@ class Field:
         x = int(x) % self.p
         if x == 0:
             raise Resample("root of zero")
+        h = (self.p - 1) // 2
+        if self.p % 4 == 3 and math.gcd(q, h) == 1 and pow(x, h, self.p) == 1:
+            # the one root that is a square: the squares form a group of odd order h, on which
+            # r -> r**q is a bijection; so roots of one number of different degrees agree
+            return pow(x, pow(q, -1, h), self.p)
         g = math.gcd(q, self.p - 1)
         if g == 1:
             return pow(x, pow(q, -1, self.p - 1), self.p)

@@ -18,10 +18,11 @@ import sympy as sp
 from obsnl.algebra.augment import Rationalized
 from obsnl.algebra.jets import atom_deps, atom_expressions, atom_roots, topological_order
 from obsnl.model.core import Model
+from obsnl.model.unknown_inputs import ARBITRARY
 from obsnl.algebra.slp import Program, compile_program
 from obsnl.algebra.taylor import Plan, make_plan
 
-__all__ = ["Problem", "make_problem", "Layout"]
+__all__ = ["Problem", "make_problem", "arbitrary_terms", "Layout"]
 
 
 @dataclass(frozen=True)
@@ -54,6 +55,7 @@ class Problem:
     dim: int
     unknown_input_derivatives: int
     input_derivatives: int | None
+    arbitrary: bool = False  # unknown inputs are any function of time (see make_problem)
     program: Program = field(repr=False, compare=False, default=None)  # type: ignore[assignment]
     leaves: tuple[sp.Symbol, ...] = field(repr=False, compare=False, default=())
     layout: Layout = field(repr=False, compare=False, default=None)  # type: ignore[assignment]
@@ -82,6 +84,8 @@ class Problem:
         specific initial values even the ``dim`` argument fails; obsnl then uses ``2*dim + n``
         terms and says so in the notes.
         """
+        if self.arbitrary:  # the inputs' coefficients were sized to this number of terms (make_problem)
+            return self.unknown_input_derivatives + 1
         if self.specific:
             return 2 * self.dim + len(self.model.states)
         if not self.model.known_initial_conditions:
@@ -89,11 +93,45 @@ class Problem:
         return self.dim
 
 
-def make_problem(
-    rational: Rationalized, *, unknown_input_derivatives: int = 1, input_derivatives: int | None = None
-) -> Problem:
-    """Columns, order bound and compiled program of a rationalized smooth model."""
+def arbitrary_terms(rational: Rationalized) -> int:
+    """Number ``N`` of series terms (and of unknown Taylor coefficients per unknown input) used when
+    the unknown inputs are arbitrary functions of time.
+
+    The output coefficients of orders ``0..N-1`` depend on an input's Taylor coefficients of orders
+    ``0..N-1`` only, so taking these ``N`` coefficients as unknowns (and the later ones as zero) is,
+    for a test that reads ``N`` terms, the same as an arbitrary analytic input: the truncation is
+    invisible. ``N = n + 1`` with ``n`` the dimension of the augmented system without the inputs
+    (states, parameters, augmented functions), ``2 n + n_x + 1`` with specific initial values.
+
+    Why this ``N``: an observable (identifiable) verdict is a certificate at any ``N`` (a nonzero
+    minor). An unobservable one needs enough terms. For a linear model ``N = n + 1`` is the classical
+    bound: the information the outputs give about the state modulo the unknown inputs is a chain of
+    subspaces (the weakly unobservable subspace recursion) that grows by one output derivative per
+    step until it stops for good, after at most ``n`` steps. For a nonlinear model obsnl applies the
+    same count to the augmented system at the generic point; the reports name ``N`` (this is an
+    assumption there, not a theorem: the generic-known-input argument of :meth:`Problem.order_bound`
+    does not carry over, because each new output derivative also brings a new input coefficient).
+    """
     model = rational.model
+    n = len(model.states) + len(model.parameters) + len(rational.atoms)
+    specific = any(v.is_Rational for v in rational.ic_values.values())
+    return (2 * n + len(model.states) + 1) if specific else n + 1
+
+
+def make_problem(
+    rational: Rationalized, *, unknown_input_derivatives: int | str = 1, input_derivatives: int | None = None
+) -> Problem:
+    """Columns, order bound and compiled program of a rationalized smooth model.
+
+    ``unknown_input_derivatives`` is ``K`` (each unknown input a polynomial with K non-zero
+    derivatives: K + 1 unknown coefficients) or ``"arbitrary"`` (:func:`arbitrary_terms` coefficients
+    and as many series terms).
+    """
+    model = rational.model
+    arbitrary = unknown_input_derivatives == ARBITRARY
+    if arbitrary:
+        unknown_input_derivatives = arbitrary_terms(rational) - 1 if model.unknown_inputs else 0
+    assert isinstance(unknown_input_derivatives, int)
     known = set(model.known_initial_conditions)
     cols: list[str] = [s.name for s in model.states if s not in known]
     cols += [s.name for s in model.parameters]
@@ -118,7 +156,8 @@ def make_problem(
     program = compile_program(exprs, leaves)
     return Problem(rational=rational, columns=tuple(cols), variables=variables, input_columns=inp_cols,
                    specific=specific, dim=dim, unknown_input_derivatives=unknown_input_derivatives,
-                   input_derivatives=input_derivatives, program=program, leaves=leaves,
+                   input_derivatives=input_derivatives, arbitrary=arbitrary and bool(model.unknown_inputs),
+                   program=program, leaves=leaves,
                    layout=_layout(rational, program))
 
 

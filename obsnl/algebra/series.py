@@ -21,6 +21,7 @@ a rank.
 
 from __future__ import annotations
 
+import math
 import random
 import time
 from collections.abc import Callable, Mapping, MutableMapping, Sequence
@@ -35,7 +36,8 @@ from obsnl.algebra.modp import Field, Resample, random_prime
 from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.taylor import Stepper
 
-__all__ = ["Problem", "make_problem", "Field", "random_prime", "Point", "SeriesRun", "run_series", "Resample"]
+__all__ = ["Problem", "make_problem", "Field", "random_prime", "Point", "SeriesRun", "run_series", "Resample",
+           "draw_prime", "prime_density"]
 
 
 class TimeUp(Exception):
@@ -97,7 +99,7 @@ def run_series(
     last: Exception | None = None
     forced = (states or {}, input_series or {}, atom_values)
     for _ in range(max_resample):
-        prime = p if p is not None else random_prime(rng)
+        prime = p if p is not None else draw_prime(problem, rng)
         try:
             return _run_once(problem, Field(prime), rng, K, deadline, stop, fixed or {}, forced)
         except Resample as exc:
@@ -109,6 +111,51 @@ def run_series(
         f"model {problem.model.name!r}: a denominator (or the argument of a root/log) vanishes at every "
         f"random point tried ({last}); check the model and the given initial conditions"
     )
+
+
+def _number_roots(problem: Problem) -> list[tuple[int, int]]:
+    return [(int(a.arg), a.q) for a in problem.rational.atoms if a.kind == "root" and a.arg.is_Integer]
+
+
+def _admissible(p: int, roots: list[tuple[int, int]]) -> bool:
+    h = (p - 1) // 2
+    return p % 4 == 3 and all(math.gcd(q, h) == 1 and pow(r, h, p) == 1 for r, q in roots)
+
+
+def draw_prime(problem: Problem, rng: random.Random, *, tries: int = 20000) -> int:
+    """A random prime for ``problem``: any prime, or, when the model has roots of numbers
+    (:meth:`obsnl.algebra.atoms.Rewriter.number_power`), one in which each of them exists and is taken
+    as the root that is a square mod p (:meth:`obsnl.algebra.modp.Field.root`): ``p = 3 mod 4``, every
+    root's prime a square mod p, and every degree prime to ``(p-1)/2``. Such a prime is a prime of
+    degree one of the roots' number field, so the computation stays exact; :func:`prime_density`
+    says how many primes qualify.
+    """
+    roots = _number_roots(problem)
+    if not roots:
+        return random_prime(rng)
+    for _ in range(tries):
+        p = random_prime(rng)
+        if _admissible(p, roots):
+            return p
+    raise AnalysisError(f"model {problem.model.name!r}: no prime found in which the roots of numbers "
+                        f"{sorted(set(roots))} exist; write these constants as rational numbers")
+
+
+def prime_density(problem: Problem) -> float:
+    """Density among all primes of those :func:`draw_prime` accepts (1 without roots of numbers).
+
+    By Dirichlet and quadratic reciprocity, ``p = 3 mod 4`` and each of ``k`` distinct primes being a
+    square mod p are independent conditions of density 1/2 each; an odd prime ``l`` dividing a degree
+    must not divide ``(p-1)/2``, density ``(l-2)/(l-1)``.
+    """
+    roots = _number_roots(problem)
+    if not roots:
+        return 1.0
+    dens = 0.5 ** (1 + len({r for r, _ in roots}))
+    odd = {int(l) for _, q in roots for l in sp.primefactors(q) if l != 2}
+    for l in odd:
+        dens *= (l - 2) / (l - 1)
+    return dens
 
 
 def _random_point(problem: Problem, F: Field, rng: random.Random, K: int, fixed: Mapping[sp.Symbol, int],

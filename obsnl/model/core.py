@@ -18,6 +18,7 @@ from typing import Any
 import sympy as sp
 
 from obsnl.errors import ModelError, ParseError
+from obsnl.model.unknown_inputs import check_unknown_input_derivatives
 from obsnl.model.parse import make_symbol, parse_expression
 
 __all__ = ["Model", "NONSMOOTH_FUNCTIONS"]
@@ -30,6 +31,7 @@ MODEL_KEYS: tuple[str, ...] = (
     "name", "description", "source", "states", "parameters", "inputs", "unknown_inputs",
     "known_constants", "outputs", "equations", "known_initial_conditions",
     "initial_condition_values", "switching", "latex", "values", "guess", "definitions",
+    "unknown_input_derivatives",
 )
 #: Keys kept as metadata without interpretation (the published answers of a peer case, notes).
 METADATA_KEYS: tuple[str, ...] = (
@@ -126,6 +128,10 @@ class Model:
         symbols (written by :func:`obsnl.reparametrize`).
     metadata
         Anything else a file carried (published answers of a peer case, notes).
+    unknown_input_derivatives
+        What the unknown inputs are assumed to be: ``"arbitrary"`` (any analytic function of time) or
+        ``K``, a polynomial in t with K non-zero derivatives (STRIKE-GOLDD's ``nnzDerW``; 0 = a
+        constant). None (not stated): the analyses assume ``"arbitrary"``.
 
     Examples
     --------
@@ -157,6 +163,7 @@ class Model:
     guess: Mapping[str, float] = field(default_factory=dict)
     definitions: Mapping[str, str] = field(default_factory=dict)
     metadata: Mapping[str, Any] = field(default_factory=dict)
+    unknown_input_derivatives: int | str | None = None
 
     # ------------------------------------------------------------------ validation
     def __post_init__(self) -> None:
@@ -313,6 +320,8 @@ class Model:
             defs[k] = v
         set_("definitions", _frozen(defs))
         set_("metadata", _frozen(dict(self.metadata or {})))
+        set_("unknown_input_derivatives", check_unknown_input_derivatives(self.unknown_input_derivatives,
+                                                                          allow_none=True))
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -363,6 +372,8 @@ class Model:
             d["guess"] = dict(self.guess)
         if self.definitions:
             d["definitions"] = dict(self.definitions)
+        if self.unknown_input_derivatives is not None:
+            d["unknown_input_derivatives"] = self.unknown_input_derivatives
         return d
 
     def replace(self, **changes: Any) -> Model:

@@ -33,15 +33,10 @@ from obsnl.observability.joint_certify import (
 )
 from obsnl.observability.results import AnalysisResult, BranchResult
 from obsnl.observability.selection import select_branches
-from obsnl.observability.smooth import (
-    METHODS,
-    _branch_result,
-    _check,
-    _fresh_seed,
-    _variable_names,
-)
+from obsnl.observability.smooth import (METHODS, _branch_result, _check, _fresh_seed, _variable_names,
+                                       resolve_unknown_input_derivatives)
 
-__all__ = ["analyze", "METHODS"]
+__all__ = ["analyze", "assumptions", "METHODS"]
 
 
 def analyze(
@@ -51,7 +46,7 @@ def analyze(
     seed: int | None = None,
     max_seconds: float | None = None,
     prob: float = 0.99,
-    unknown_input_derivatives: int = 1,
+    unknown_input_derivatives: int | str | None = None,
     input_derivatives: int | None = None,
     decompose: bool = True,
     branches: Sequence[str] | None = None,
@@ -75,7 +70,10 @@ def analyze(
         Wanted lower bound on the probability that every verdict is right; more independent runs
         are made while a block's bound is weaker (up to a few; the result reports what was reached).
     unknown_input_derivatives
-        Non-zero derivatives of each unknown input (STRIKE-GOLDD ``nnzDerW``, default 1).
+        What the unknown inputs are: ``"arbitrary"`` (any function of time: each Taylor coefficient
+        the test reads is a new unknown, see :func:`obsnl.algebra.problem.arbitrary_terms`) or ``K``
+        (polynomials with K non-zero derivatives, STRIKE-GOLDD ``nnzDerW``; 0: constants). None (the
+        default): the model's ``unknown_input_derivatives`` key, else ``"arbitrary"``.
     input_derivatives
         Non-zero derivatives of the known inputs (None: generic inputs).
     decompose
@@ -96,7 +94,8 @@ def analyze(
     AnalysisResult
         One :class:`~obsnl.observability.results.BranchResult` per visited branch, the union, the joint
         verdict (:class:`~obsnl.observability.joint.JointResult`), how the branches were chosen, the
-        seed and the bound.
+        seed, the bound and the ``assumptions`` the verdicts rest on (unknown and known inputs,
+        initial conditions).
 
     Raises
     ------
@@ -117,6 +116,7 @@ def analyze(
     ()
     """
     _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
+    unknown_input_derivatives = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     seed = _fresh_seed(seed)
@@ -164,4 +164,29 @@ def analyze(
                                  switching=switching),
         joint=verdict,
         visited=how,
+        assumptions=assumptions(model, unknown_input_derivatives, input_derivatives),
     )
+
+
+def assumptions(model: Model, unknown_input_derivatives: int | str, input_derivatives: int | None) -> dict:
+    """What an analysis of ``model`` assumes, as JSON-ready data (:attr:`AnalysisResult.assumptions`).
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="m", states=["x"], parameters=["a"], unknown_inputs=["w"],
+    ...           equations={"x": "-a*x + w"}, outputs={"y": "x"})
+    >>> assumptions(m, "arbitrary", None)["unknown_input_derivatives"]
+    'arbitrary'
+    """
+    known = model.known_initial_conditions
+    return {
+        "unknown_input_derivatives": unknown_input_derivatives if model.unknown_inputs else None,
+        "known_inputs": None if not model.inputs else (
+            "generic" if input_derivatives is None else f"polynomial of degree {input_derivatives}"),
+        "initial_conditions": {
+            "unknown": [s.name for s in model.states if s not in known],
+            "known_generic": [s.name for s in known if s not in model.initial_condition_values],
+            "known_values": {s.name: str(v) for s, v in model.initial_condition_values.items()},
+        },
+    }

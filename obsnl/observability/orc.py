@@ -34,7 +34,7 @@ import sympy as sp
 from obsnl.algebra.augment import atom_rates
 from obsnl.algebra.bounds import BlockOutcome, classify, failure_bound
 from obsnl.algebra.modp import nmod_matrix, rank_mod_p
-from obsnl.algebra.series import Problem, Resample, TimeUp, random_prime, run_series
+from obsnl.algebra.series import Problem, Resample, TimeUp, draw_prime, run_series
 from obsnl.errors import NotSupportedError
 
 if TYPE_CHECKING:
@@ -269,7 +269,7 @@ def orc_block(
     bound = problem.order_bound()
     try:
         for _attempt in range(6):
-            p = random_prime(rng)
+            p = draw_prime(problem, rng)
             try:
                 first = run_series(problem, rng, K=1, p=p)
                 known = {c: first.point.values[c] for c in problem.model.known_constants}

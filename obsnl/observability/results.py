@@ -88,10 +88,14 @@ class BranchResult:
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
         """The branch as JSON-ready data.
 
-        The default keys are exactly those of ``obsnl analyze --format json``: ``label, guard,
-        observable, unobservable, absent, rank, size, transcendence_degree, seconds``.
-        ``extended=True`` adds ``verdict, reason, undecided, order, method, unknown_inputs, notes``.
+        The default keys are those of ``obsnl analyze --format json``: ``label, guard, observable,
+        unobservable, absent, rank, size, transcendence_degree, seconds, verdict``, with
+        ``unknown_inputs`` (``{"observable": [...], "unobservable": [...]}``) when the model has
+        some, and ``reason, undecided`` for an inconclusive branch, whose ``transcendence_degree`` is
+        None (nothing is claimed for what was not decided). ``extended=True`` adds ``reason,
+        undecided, order, method, unknown_inputs, notes`` always.
         """
+        inconclusive = self.verdict is Verdict.INCONCLUSIVE
         d: dict[str, Any] = {
             "label": self.label,
             "guard": self.guard,
@@ -100,12 +104,16 @@ class BranchResult:
             "absent": list(self.absent),
             "rank": self.rank,
             "size": self.size,
-            "transcendence_degree": self.transcendence_degree,
+            "transcendence_degree": None if inconclusive else self.transcendence_degree,
             "seconds": self.seconds,
+            "verdict": self.verdict.value,
         }
+        if self.unknown_inputs:
+            d["unknown_inputs"] = {k: list(v) for k, v in self.unknown_inputs.items()}
+        if inconclusive:
+            d.update(reason=self.reason, undecided=list(self.undecided))
         if extended:
             d.update(
-                verdict=self.verdict.value,
                 reason=self.reason,
                 undecided=list(self.undecided),
                 order=self.order,
@@ -157,6 +165,11 @@ class AnalysisResult:
     :attr:`union_observable` / :attr:`union_unobservable`: the seed paper's rule); the joint verdict is
     :attr:`joint`. In ``obsnl analyze --format json``, ``overall`` is the joint verdict and ``union``
     the per-branch union.
+    assumptions
+        What the verdicts assume (JSON-ready): ``unknown_input_derivatives`` (``"arbitrary"``, a
+        number ``K`` or None without unknown inputs), ``known_inputs`` (``"generic"``, ``"polynomial
+        of degree d"`` or None without known inputs), ``initial_conditions`` (``{"unknown": [...],
+        "known_generic": [...], "known_values": {state: value}}``).
     """
 
     model: str
@@ -182,6 +195,7 @@ class AnalysisResult:
     def union_unobservable(self) -> tuple[str, ...]:
         """Unobservable in every visited branch, in model order."""
         return self.overall_unobservable
+    assumptions: Mapping[str, Any] = field(default_factory=dict)
 
     @property
     def overall_observable(self) -> tuple[str, ...]:
@@ -207,6 +221,33 @@ class AnalysisResult:
             return Verdict.INCONCLUSIVE
         return Verdict.OBSERVABLE if not self.overall_unobservable else Verdict.UNOBSERVABLE
 
+    @property
+    def overall_verdict(self) -> Verdict:
+        """The joint verdict's class when it was computed (INCONCLUSIVE when some variable is not
+        decided), else the union's :attr:`verdict`."""
+        j = self.joint
+        if j is None:
+            return self.verdict
+        if j.inconclusive:
+            return Verdict.INCONCLUSIVE
+        return Verdict.UNOBSERVABLE if j.unobservable else Verdict.OBSERVABLE
+
+    @property
+    def unknown_inputs(self) -> dict[str, tuple[str, ...]]:
+        """Classes of the unknown inputs over the branches (observable in at least one branch;
+        unobservable in every branch that decided; undecided ones in neither); empty without any."""
+        names: list[str] = []
+        for b in self.branches:
+            for v in b.unknown_inputs.values():
+                names += [n for n in v if n not in names]
+        if not names and not any(b.unknown_inputs for b in self.branches):
+            return {}
+        obs = {n for b in self.branches for n in b.unknown_inputs.get("observable", ())}
+        unobs = {n for b in self.branches for n in b.unknown_inputs.get("unobservable", ())}
+        stuck = any(b.verdict is Verdict.INCONCLUSIVE for b in self.branches)
+        return {"observable": tuple(n for n in names if n in obs),
+                "unobservable": tuple(n for n in names if n in unobs and n not in obs and not stuck)}
+
     def branch(self, label: str) -> BranchResult:
         """The result of the branch labelled ``label``."""
         for b in self.branches:
@@ -225,21 +266,35 @@ class AnalysisResult:
         return render(self) if render is not None else None
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
-        """JSON-ready data with exactly the keys of ``obsnl analyze --format json``:
-        ``model, method, seed, probability, seconds, branches, union, overall, joint, visited``.
+        """JSON-ready data with the keys of ``obsnl analyze --format json``: ``model, method, seed,
+        probability, seconds, branches, union, overall, verdict, assumptions, joint, visited``.
 
-        ``overall`` is the joint verdict (observable, unobservable, inconclusive, with the reason)
-        when it was computed, else the per-branch union; ``union`` is always the per-branch union;
-        ``joint`` holds the joint verdict's visits, probability and assumptions."""
-        union = {"observable": list(self.overall_observable), "unobservable": list(self.overall_unobservable)}
+        ``union`` is the per-branch union (``observable, unobservable``, with ``unknown_inputs`` when
+        the model has some, and its ``verdict``); ``overall`` is the joint verdict when it was computed
+        (``rule: "joint"``, with ``inconclusive`` and the ``reason``), else the union (``rule: "union"``);
+        ``verdict`` is the overall one; ``joint`` holds the joint verdict's visits, probability and
+        assumptions. ``probability`` is None when the verdict is inconclusive (no bound is claimed for
+        what was not decided).
+        """
+        union: dict[str, Any] = {
+            "observable": list(self.overall_observable),
+            "unobservable": list(self.overall_unobservable),
+        }
+        ui = self.unknown_inputs
+        if ui:
+            union["unknown_inputs"] = {k: list(v) for k, v in ui.items()}
+        union["verdict"] = self.verdict.value
+        verdict = self.overall_verdict
         out: dict[str, Any] = {
             "model": self.model,
             "method": self.method,
             "seed": self.seed,
-            "probability": self.probability,
+            "probability": None if verdict is Verdict.INCONCLUSIVE else self.probability,
             "seconds": self.seconds,
             "branches": [b.to_dict(extended=extended) for b in self.branches],
             "union": union,
+            "verdict": verdict.value,
+            "assumptions": dict(self.assumptions),
         }
         j = self.joint
         if j is None:

@@ -16,8 +16,9 @@ transcendence degree (rank deficit), see :mod:`obsnl.algebra.bounds`.
   (``x(0) = 0``) ``2*dim + n`` terms are used (see :meth:`obsnl.algebra.series.Problem.order_bound`).
 - **Known inputs** are generic: random series with every coefficient random (or the first
   ``input_derivatives + 1`` only). **Unknown inputs** ``w`` are polynomials of degree
-  ``unknown_input_derivatives`` with unknown coefficients (STRIKE-GOLDD's ``nnzDerW``); ``w`` is
-  observable when its value ``w(0)`` is.
+  ``unknown_input_derivatives`` with unknown coefficients (STRIKE-GOLDD's ``nnzDerW``), or, when
+  arbitrary, have as many unknown Taylor coefficients as series terms are read
+  (:func:`obsnl.algebra.problem.arbitrary_terms`); ``w`` is observable when its value ``w(0)`` is.
 - **Known initial conditions** are not unknowns: without a value they are generic (random), with a
   value (a number, or an expression in parameters and known constants) they take it exactly.
   Known constants are generic (random).
@@ -35,7 +36,7 @@ import numpy as np
 
 from obsnl.algebra.bounds import BlockOutcome, failure_bound
 from obsnl.algebra.modp import Echelon
-from obsnl.algebra.series import Problem, TimeUp, run_series
+from obsnl.algebra.series import Problem, TimeUp, prime_density, run_series
 
 if TYPE_CHECKING:
     pass
@@ -136,8 +137,8 @@ def sedoglavic_block(
             if len(runs) < 2:
                 continue
             failure = 1.0
-            for rr in runs:
-                failure *= failure_bound(rr.p, nfuncs=M, **(bound_args or {}))
+            for rr in runs:  # primes restricted to those with the model's roots of numbers: divide by their density
+                failure *= min(1.0, failure_bound(rr.p, nfuncs=M, **(bound_args or {})) / prime_density(problem))
             if failure <= target or run_no == _MAX_RUNS - 1:
                 out.rank = best
                 out.unobservable = frozenset(c for c, u in zip(problem.columns, classes) if u)

@@ -21,12 +21,13 @@ from obsnl.algebra.bounds import BlockOutcome, bound_sizes
 from obsnl.algebra.series import make_problem
 from obsnl.errors import AnalysisError, ModelError
 from obsnl.model.core import Model
+from obsnl.model.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
 from obsnl.observability.decompose import decompose as _decompose
 from obsnl.observability.orc import orc_block
 from obsnl.observability.results import BranchResult, Verdict
 from obsnl.observability.sedoglavic import sedoglavic_block
 
-__all__ = ["METHODS", "analyze_smooth", "orc", "sedoglavic"]
+__all__ = ["METHODS", "analyze_smooth", "orc", "sedoglavic", "resolve_unknown_input_derivatives"]
 
 METHODS = ("auto", "orc", "sedoglavic")
 _AUTO_ORC_SIZE = 6
@@ -34,7 +35,7 @@ _AUTO_ORC_SECONDS = 1.0
 
 
 def _check(model: Model, method: str, seed: int | None, max_seconds: float | None, prob: float,
-           unknown_input_derivatives: int, input_derivatives: int | None) -> None:
+           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> None:
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.load_model")
     if method not in METHODS:
@@ -45,8 +46,11 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
         raise AnalysisError(f"max_seconds must be a positive number or None, got {max_seconds!r}")
     if not (isinstance(prob, float | int) and 0 < prob < 1):
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
-    if not isinstance(unknown_input_derivatives, int) or unknown_input_derivatives < 0:
-        raise AnalysisError(f"unknown_input_derivatives must be a non-negative integer, got {unknown_input_derivatives!r}")
+    if unknown_input_derivatives is not None:
+        try:
+            check_unknown_input_derivatives(unknown_input_derivatives)
+        except ModelError as exc:
+            raise AnalysisError(str(exc)) from None
     if input_derivatives is not None and (not isinstance(input_derivatives, int) or input_derivatives < 0):
         raise AnalysisError(f"input_derivatives must be a non-negative integer or None, got {input_derivatives!r}")
     if not model.outputs:
@@ -65,6 +69,14 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
         )
 
 
+def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> int | str:
+    """The unknown-input assumption in force: ``value`` if given, else the model's
+    ``unknown_input_derivatives`` key, else ``"arbitrary"`` (any function of time)."""
+    if value is None:
+        value = model.unknown_input_derivatives
+    return ARBITRARY if value is None else check_unknown_input_derivatives(value)
+
+
 def _unknown_names(model: Model) -> tuple[str, ...]:
     known = set(model.known_initial_conditions)
     return tuple(s.name for s in model.states if s not in known) + tuple(s.name for s in model.parameters)
@@ -76,7 +88,7 @@ def _variable_names(model: Model) -> tuple[str, ...]:
 
 
 def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | None, target: float,
-               unknown_input_derivatives: int, input_derivatives: int | None,
+               unknown_input_derivatives: int | str, input_derivatives: int | None,
                factor_cache: dict | None = None) -> tuple[BlockOutcome, object]:
     rational = rationalize(block, factor_cache=factor_cache)
     problem = make_problem(rational, unknown_input_derivatives=unknown_input_derivatives,
@@ -97,7 +109,7 @@ def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | No
 
 def _branch_result(
     label: str, guard: str, bmodel: Model, variables: Sequence[str], *, method: str, seed: int,
-    deadline: float | None, target: float, decompose: bool, unknown_input_derivatives: int,
+    deadline: float | None, target: float, decompose: bool, unknown_input_derivatives: int | str,
     input_derivatives: int | None, factor_cache: dict | None = None,
 ) -> tuple[BranchResult, float]:
     t0 = time.perf_counter()
@@ -114,8 +126,10 @@ def _branch_result(
     else:
         unreachable, blocks = set(), (bmodel,)
     w_names = [w.name for w in bmodel.unknown_inputs]
-    n_w_cols = unknown_input_derivatives + 1
-    size = len(variables) + len(w_names) * n_w_cols
+    arbitrary = unknown_input_derivatives == ARBITRARY
+    # K + 1 coefficients per unknown input; arbitrary inputs: those of each block's problem (added below)
+    size = len(variables) + (0 if arbitrary else len(w_names) * (int(unknown_input_derivatives) + 1))
+    terms: list[int] = []
     rank = len(known)  # a known initial value adds its unit row
     unobs: set[str] = set(unreachable) | set(absent)
     undecided: set[str] = set()
@@ -133,6 +147,9 @@ def _branch_result(
                                       target=target, unknown_input_derivatives=unknown_input_derivatives,
                                       input_derivatives=input_derivatives, factor_cache=factor_cache)
         methods.append(out.method)
+        if arbitrary and problem is not None and problem.arbitrary:
+            size += problem.size - len(problem.variables)
+            terms.append(problem.order_bound())
         if out.inconclusive:
             reasons.append(out.reason)
             undecided |= {c for c in _unknown_names(block)} | {w.name for w in block.unknown_inputs}
@@ -158,10 +175,18 @@ def _branch_result(
             "observable": tuple(w for w in w_names if w not in unobs and w not in undecided),
             "unobservable": tuple(w for w in w_names if w in unobs),
         }
-        notes.append(
-            f"unknown inputs are polynomials in t with {unknown_input_derivatives} non-zero derivative(s) "
-            f"(their Taylor coefficients are unknowns and count in size and rank)"
-        )
+        if arbitrary:
+            notes.append(
+                "unknown inputs are arbitrary functions of time: each series term brings a new unknown "
+                f"Taylor coefficient of each input ({', '.join(map(str, sorted(set(terms)))) or 'no'} terms "
+                "read; these coefficients count in size and rank; see obsnl.algebra.problem.arbitrary_terms)"
+            )
+        else:
+            notes.append(
+                f"unknown inputs are polynomials in t with {unknown_input_derivatives} non-zero derivative(s) "
+                f"(STRIKE-GOLDD nnzDerW = {unknown_input_derivatives}; their Taylor coefficients are unknowns "
+                f"and count in size and rank)"
+            )
     if bmodel.inputs:
         notes.append("known inputs are generic" if input_derivatives is None else
                      f"known inputs have {input_derivatives} non-zero derivative(s)")
@@ -178,7 +203,7 @@ def _branch_result(
         absent=absent,
         rank=rank,
         size=size,
-        transcendence_degree=size - rank,  # with an inconclusive block: of what was decided
+        transcendence_degree=size - rank,  # not reported for an inconclusive branch (see BranchResult.to_dict)
         seconds=round(time.perf_counter() - t0, 6),
         verdict=verdict,
         reason="; ".join(reasons),
@@ -202,7 +227,7 @@ def analyze_smooth(
     seed: int | None = None,
     max_seconds: float | None = None,
     prob: float = 0.99,
-    unknown_input_derivatives: int = 1,
+    unknown_input_derivatives: int | str | None = None,
     input_derivatives: int | None = None,
     decompose: bool = True,
 ) -> BranchResult:
@@ -217,7 +242,8 @@ def analyze_smooth(
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     br, _ = _branch_result("smooth", "true", model, _variable_names(model), method=method, seed=_fresh_seed(seed),
                            deadline=deadline, target=1 - prob, decompose=decompose,
-                           unknown_input_derivatives=unknown_input_derivatives,
+                           unknown_input_derivatives=resolve_unknown_input_derivatives(
+                               model, unknown_input_derivatives),
                            input_derivatives=input_derivatives)
     return br
 
@@ -227,7 +253,7 @@ def orc(
     *,
     seed: int | None = None,
     max_seconds: float | None = None,
-    unknown_input_derivatives: int = 1,
+    unknown_input_derivatives: int | str | None = None,
     input_derivatives: int | None = None,
     decompose: bool = True,
 ) -> BranchResult:
@@ -268,7 +294,7 @@ def sedoglavic(
     *,
     seed: int | None = None,
     max_seconds: float | None = None,
-    unknown_input_derivatives: int = 1,
+    unknown_input_derivatives: int | str | None = None,
     input_derivatives: int | None = None,
     decompose: bool = True,
 ) -> BranchResult:
@@ -284,7 +310,9 @@ def sedoglavic(
     max_seconds
         Time limit; reaching it gives an ``INCONCLUSIVE`` verdict, never an unobservable one.
     unknown_input_derivatives
-        Number of non-zero derivatives of each unknown input (STRIKE-GOLDD ``nnzDerW``).
+        ``K``: each unknown input a polynomial with K non-zero derivatives (STRIKE-GOLDD ``nnzDerW``);
+        ``"arbitrary"``: any function of time; None: the model's ``unknown_input_derivatives`` key,
+        else ``"arbitrary"``.
     input_derivatives
         Number of non-zero derivatives of the known inputs (None: generic inputs).
     decompose

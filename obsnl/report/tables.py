@@ -212,7 +212,7 @@ def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult)
             return "$" + _latex_expr(group.condition_expr, result) + "$"
         return f"`{group.condition}`"
     if row == "degree":
-        return str(group.degree)
+        return "not decided" if group.branches[0].verdict is Verdict.INCONCLUSIVE else str(group.degree)
     names = group.observable if row == "observable" else group.unobservable
     if row == "unobservable" and group.branches[0].undecided:
         names = tuple(names) + tuple(f"{n}?" for n in group.branches[0].undecided)
@@ -237,9 +237,59 @@ def _header_line(result: AnalysisResult) -> str:
     bits = [f"method {result.method}"]
     if result.seed is not None:
         bits.append(f"seed {result.seed}")
-    if result.probability is not None:
+    if result.verdict is Verdict.INCONCLUSIVE:
+        bits.append("inconclusive: no probability bound claimed")
+    elif result.probability is not None:
         bits.append(f"every verdict right with probability >= {probability_text(result.probability)}")
     return ", ".join(bits)
+
+
+def assumption_texts(result: AnalysisResult) -> list[str]:
+    """The assumptions of ``result`` (:attr:`AnalysisResult.assumptions`) as short sentences.
+
+    Examples
+    --------
+    >>> from obsnl import Model, analyze
+    >>> m = Model(name="m", states=["x"], parameters=["a"], unknown_inputs=["w"],
+    ...           equations={"x": "-a*x + w"}, outputs={"y": "x"})
+    >>> assumption_texts(analyze(m, seed=1, unknown_input_derivatives=0))
+    ['unknown inputs constant (K = 0, STRIKE-GOLDD nnzDerW)', 'initial conditions unknown and generic']
+    """
+    a = result.assumptions
+    out: list[str] = []
+    k = a.get("unknown_input_derivatives")
+    if k == "arbitrary":
+        out.append("unknown inputs arbitrary functions of time")
+    elif k is not None:
+        shape = "constant" if k == 0 else f"polynomials in t with {k} non-zero derivative(s)"
+        out.append(f"unknown inputs {shape} (K = {k}, STRIKE-GOLDD nnzDerW)")
+    if a.get("known_inputs"):
+        out.append(f"known inputs {a['known_inputs']}")
+    ic = a.get("initial_conditions")
+    if ic:
+        parts = []
+        if ic.get("unknown"):
+            parts.append("unknown and generic" if not (ic.get("known_generic") or ic.get("known_values"))
+                         else f"unknown for {_names(ic['unknown'])}")
+        if ic.get("known_generic"):
+            parts.append(f"known and generic for {_names(ic['known_generic'])}")
+        if ic.get("known_values"):
+            parts.append("given: " + ", ".join(f"{k}(0) = {v}" for k, v in ic["known_values"].items()))
+        out.append("initial conditions " + "; ".join(parts))
+    return out
+
+
+def _verdict_lines(result: AnalysisResult) -> list[str]:
+    """Verdict overall and of the unknown inputs (Markdown/LaTeX captions share it)."""
+    lines = [f"Verdict: {result.verdict.value}." if result.joint is None else
+             f"Verdict: {result.overall_verdict.value} (joint); {result.verdict.value} (union over branches)."]
+    ui = result.unknown_inputs
+    if ui:
+        lines.append(f"Unknown inputs observable: {_names(ui['observable'])}; "
+                     f"unobservable: {_names(ui['unobservable'])}.")
+    if result.assumptions:
+        lines.append("Assumptions: " + "; ".join(assumption_texts(result)) + ".")
+    return lines
 
 
 def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, title: str | None = None) -> str:
@@ -264,6 +314,7 @@ def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, t
     inconclusive = [b for b in result.branches if b.verdict is Verdict.INCONCLUSIVE]
     for b in inconclusive:
         lines.append(f"Branch ({b.label}) is inconclusive: {b.reason}")
+    lines += _verdict_lines(result)
     return "\n".join(lines) + "\n"
 
 
@@ -297,10 +348,16 @@ def to_text(result: AnalysisResult) -> str:
     """A plain-text summary for terminals (``obsnl analyze --format text``)."""
     prob = (f"P(all verdicts right) >= {probability_text(result.probability)}" if result.probability is not None
             else "deterministic")
+    if result.verdict is Verdict.INCONCLUSIVE:
+        prob = "no probability bound (not every verdict was decided)"
     lines = [f"{result.model}: method {result.method}, seed {result.seed}, {prob}, {result.seconds:.3f} s"]
+    for text in assumption_texts(result):
+        lines.append(f"  assumes: {text}")
     for b in result.branches:
-        lines.append(f"  ({b.label}) {b.guard}  [{b.method or result.method}, rank {b.rank}/{b.size}, "
-                     f"transcendence degree {b.transcendence_degree}, {b.seconds:.3f} s]")
+        degree = ("transcendence degree not decided" if b.verdict is Verdict.INCONCLUSIVE
+                  else f"rank {b.rank}/{b.size}, transcendence degree {b.transcendence_degree}")
+        lines.append(f"  ({b.label}) {b.guard}  [{b.method or result.method}, {degree}, {b.seconds:.3f} s]  "
+                     f"{b.verdict.value}")
         if b.verdict is Verdict.INCONCLUSIVE:
             lines.append(f"      INCONCLUSIVE: {b.reason}")
             if b.undecided:
@@ -330,6 +387,9 @@ def to_text(result: AnalysisResult) -> str:
             lines.append(f"      ({label}) {sec:.3f} s")
         for g, n in result.visited.crossings.items():
             lines.append(f"      crossings of {g} = 0: {n}")
+    for k, v in result.unknown_inputs.items():
+        lines.append(f"  union unknown inputs {k}: {_names(v)}")
+    lines.append(f"  verdict (union): {result.verdict.value}; overall: {result.overall_verdict.value}")
     return "\n".join(lines) + "\n"
 
 
@@ -427,7 +487,8 @@ def to_latex(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, capt
     joint = (f" Joint verdict (branches and visible switching surfaces together, parameters shared): "
              f"{tex_escape(joint_text(result))}." if result.joint is not None else "")
     cap = caption or (f"Observability of the model {tex_escape(result.model)} by branch "
-                      f"({header}). Union over branches: {tex_escape(union_text(result))}.{joint}")
+                      f"({header}). Union over branches: {tex_escape(union_text(result))}.{joint} "
+                      + " ".join(tex_escape(t) for t in _verdict_lines(result)))
     lab = label or f"tab:obsnl-{re.sub(r'[^A-Za-z0-9-]+', '-', result.model)}"
     head = ["% generated by obsnl; needs \\usepackage{booktabs}", "\\begin{table}[htbp]", "\\centering",
             f"\\caption{{{cap}}}", f"\\label{{{lab}}}"]
