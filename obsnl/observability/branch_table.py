@@ -77,6 +77,7 @@ class BranchTable:
     branches: tuple[BranchEntry, ...]
     overall_observable: tuple[str, ...]
     overall_unobservable: tuple[str, ...]
+    joint: Mapping[str, tuple[str, ...]] | None = None
 
     # ------------------------------------------------------------------ io
     @classmethod
@@ -119,6 +120,7 @@ class BranchTable:
             ),
             overall_observable=tuple(data["overall"]["observable"]),
             overall_unobservable=tuple(data["overall"]["unobservable"]),
+            joint=({k: tuple(v) for k, v in data["joint"].items()} if data.get("joint") is not None else None),
         )
         table._check_consistency()
         return table
@@ -138,7 +140,22 @@ class BranchTable:
             "probability": self.probability,
             "branches": [b.to_dict() for b in self.branches],
             "overall": {"observable": list(self.overall_observable), "unobservable": list(self.overall_unobservable)},
+            **({"joint": {k: list(self.joint[k]) for k in ("observable", "unobservable", "inconclusive")}}
+               if self.joint is not None else {}),
         }
+
+    @property
+    def frozen_everywhere(self) -> tuple[str, ...]:
+        """Parameters unidentifiable in every branch: a DUKF that freezes per branch never moves them."""
+        return tuple(p for p in self.parameters if all(p in b.unidentifiable_parameters for b in self.branches))
+
+    @property
+    def jointly_identifiable_but_frozen(self) -> tuple[str, ...]:
+        """Parameters the joint verdict identifies that every branch freezes (Bouc-Wen beta, gamma): the
+        per-branch DUKF cannot learn them; a reparametrization (``obsnl reparametrize``) can."""
+        if self.joint is None:
+            return ()
+        return tuple(p for p in self.frozen_everywhere if p in self.joint["observable"])
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=2) + "\n"
@@ -234,6 +251,9 @@ class BranchTable:
             inputs=sig.inputs, outputs=sig.outputs, switching=sig.switching, method=result.method,
             seed=result.seed, probability=result.probability, branches=tuple(entries),
             overall_observable=result.overall_observable, overall_unobservable=result.overall_unobservable,
+            joint=(None if getattr(result, "joint", None) is None else
+                   {"observable": result.joint.observable, "unobservable": result.joint.unobservable,
+                    "inconclusive": result.joint.inconclusive}),
         )
         return cls.from_dict(table.to_dict())
 

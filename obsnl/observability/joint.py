@@ -55,7 +55,7 @@ import numpy as np
 import sympy as sp
 
 from obsnl.algebra.modp import Echelon, Resample, random_prime
-from obsnl.algebra.series import TimeUp
+from obsnl.algebra.series import TimeUp, draw_prime
 from obsnl.errors import AnalysisError
 from obsnl.model.branches import Branch, split_branches
 from obsnl.model.core import Model
@@ -176,7 +176,7 @@ def _one_run(model: Model, plans: list[Plan], seed: int, run_no: int, deadline: 
     reported = states + params + ws
     for attempt in range(_MAX_PRIMES):
         rng = random.Random(f"joint:{seed}:{run_no}:{attempt}")
-        p = random_prime(rng)
+        p = draw_prime(plans[0].sides[0].problem, rng) if plans else random_prime(rng)  # roots of numbers exist mod p
         shared = {s: rng.randrange(1, p) for s in list(model.parameters) + list(model.known_constants)}
         atoms: dict = {}
         try:
