@@ -317,6 +317,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
                    "named are estimated from their high-frequency residual (default in a study: 0.001)")
     p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
     p.add_argument("--allow-unidentifiable", action="store_true", help="run despite the structural verdict")
+    p.add_argument("--hold", action="store_true", help="measured data: hold poorly informed parameters at their guess")
     p.add_argument("--seed", type=int, default=0, help="noise seed of a study and the Monte-Carlo (default: 0)")
     for flag, what in (("--s0", "prior std of log-parameters"), ("--q-theta", "random walk of log-parameters"),
                        ("--q-x", "factor on the state noise"), ("--gate", "innovation gate")):
@@ -356,17 +357,22 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     opts = dict(guess=guess, method=args.method, table=args.table, passes=args.passes, replicates=args.replicates,
                 seed=args.seed, allow_unidentifiable=args.allow_unidentifiable, jit=args.jit)
     tuned = args.data is not None and tuning is None
-    bar = _progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0), "pass")
-    tick = (lambda: bar.update(1)) if bar is not None else None
+    bars: list[Any] = []  # the bar starts with the first pass (after the checks: a refusal prints one line)
+
+    def tick() -> None:
+        if not bars:
+            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0), "pass"))
+        if bars[0] is not None:
+            bars[0].update(1)
     try:
         if args.data:
-            res = identify(model, args.data, noise=noise, tuning=tuning, progress=tick, **opts)
+            res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick, **opts)
         else:
             res = study(model, args.record, noise=float(plain[-1]) if plain else 1e-3, samples=args.samples,
                         tuning=tuning or Tuning(0.2, 0.0, 1.0), progress=tick, **opts)
     finally:
-        if bar is not None:
-            bar.close()
+        if bars and bars[0] is not None:
+            bars[0].close()
     write_output(identify_text(res.to_dict()), None, force=False)
     if args.out:
         files = write_identification(res, args.out, force=args.force)

@@ -22,7 +22,7 @@ def sdof_force(p=SDOF_TRUE, *, T=500, dt=0.02):
         return [v, (f - p["c"] * v - p["k"] * x - p["kh"] * z) / p["m"],
                 v * (1 - (p["beta"] * np.sign(v * z) + p["gamma"]) * z ** 2)]
 
-    sol = solve_ivp(rhs, (0, t[-1]), [0.0, 0.0, 0.0], method="Radau", t_eval=t, rtol=1e-10, atol=1e-12,
+    sol = solve_ivp(rhs, (0, t[-1]), [0.0, 0.0, 0.0], method="Radau", t_eval=t, rtol=1e-9, atol=1e-11,
                     max_step=dt)
     assert sol.success
     return t, F, sol.y.T

@@ -75,13 +75,16 @@ def _noise(setup: Setup, filt: UKF, data: Data, tuning: Tuning) -> tuple[np.ndar
 
 
 def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int = 3, inflate: float = 16.0,
-               fix_flagged: bool = True, progress: Callable[[], None] | None = None,
+               fix_flagged: bool = True, progress: Callable[[], None] | None = None, hold_below: float | None = None,
                ) -> tuple[tuple[Trajectory, ...], tuple[str, ...]]:
     """Run ``filt`` ``passes`` times over the record (protocol in the module docstring).
 
     Returns the trajectories (fewer than ``passes`` when an estimate could not be simulated, which
     ends the run) and the parameters held at their guess after the first pass. ``progress`` is
-    called after each pass.
+    called after each pass. ``hold_below``: hold the flagged parameters only after the first pass
+    whose output misfit is at most this many times the noise level (the filter has reached the noise
+    floor; before that, a parameter's information is judged at a wrong model), instead of after
+    the first pass whenever it did not diverge.
     """
     Q, R = _noise(setup, filt, data, tuning)
     f = filt.with_options(Q=Q, R=R, gate=tuning.gate)
@@ -90,6 +93,7 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
     Px = np.full(nx, 1e-8)  # the record starts at rest
     out: list[Trajectory] = []
     fixed: tuple[str, ...] = ()
+    held_once = False
     for k in range(passes):
         bad = [p for p, v in zip(filt.names[nx:], Pth) if not (np.isfinite(v) and v > 0)]
         if bad and k == 0:
@@ -108,7 +112,9 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
         misfit = output_misfit(setup, theta, data)
         if not np.isfinite(misfit):  # no later pass can start from an estimate that cannot be simulated
             break
-        if k == 0 and fix_flagged:
+        ready = k == 0 if hold_below is None else (not held_once and misfit <= hold_below * setup.noise_level)
+        if ready and fix_flagged:
+            held_once = True
             prac = practical_identifiability(setup, theta, data, first=tr, prior_std=tuning.s0, misfit=misfit)
             fixed = prac.flagged  # empty when the pass diverged (inconclusive)
             f = f.with_options(fixed=fixed)

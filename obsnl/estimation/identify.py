@@ -40,8 +40,11 @@ from obsnl.estimation.ukf import Trajectory
 from obsnl.observability.branch_table import BranchTable
 
 __all__ = ["check_replicates", "simulation_study", "identify_measured", "Identification", "ParameterEstimate",
-           "MEASURED_GRID", "FIT_SUBSTEPS", "clean_json"]
+           "MEASURED_GRID", "FIT_SUBSTEPS", "HOLD_BELOW", "clean_json", "error_of"]
 
+#: Parameters flagged as poorly informed are held at their guess after the first pass whose output misfit is
+#: at most this many times the output noise level (the filter has reached the noise floor).
+HOLD_BELOW = 2.0
 #: RK4 substeps per sample of the convergence check, the fit and the truth of a simulation study.
 FIT_SUBSTEPS = 32
 #: Tuning grid of measured data (prior std of the log-parameters, state noise factor): 4 configurations,
@@ -185,8 +188,21 @@ class Identification:
             "practical_identifiability": dict(self.practical), "assumptions": list(self.assumptions)})
 
 
+def error_of(estimate: float | None, true: float) -> tuple[float | None, str | None]:
+    """The error of an estimate: per cent of the truth, or absolute where the truth is 0 (never inf).
+
+    Examples
+    --------
+    >>> error_of(1.1, 1.0)[1], error_of(0.25, 0.0), error_of(None, 2.0)
+    ('percent', (0.25, 'absolute'), (None, None))
+    """
+    if estimate is None:
+        return None, None
+    return (100 * (estimate - true) / abs(true), "percent") if true != 0 else (estimate - true, "absolute")
+
+
 def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, grid: Sequence[Tuning], passes: int,
-         replicates: int, seed: int, progress: Callable[[], Any] | None,
+         replicates: int, seed: int, progress: Callable[[], Any] | None, hold: bool = True,
          ) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
     """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner."""
     check_replicates(replicates)
@@ -208,7 +224,8 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
             if progress:
                 progress()
     tuning = min(scores, key=lambda s: s[1])[0] if scores else grid[0]
-    trs, held = run_passes(setup, filt, data, tuning, passes=passes, progress=progress)
+    trs, held = run_passes(setup, filt, data, tuning, passes=passes, progress=progress, hold_below=HOLD_BELOW,
+                           fix_flagged=hold)
     theta = trs[-1].theta[-1]
     misfit = output_misfit(setup, theta, data)
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
@@ -228,7 +245,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
     params = []
     for i, p in enumerate(m.parameters):
         is_held = p in held
-        why = [f"held at its guess after pass 1 (poorly informed by the first pass)"] if is_held else []
+        why = ["held at its guess: poorly informed once the filter had reached the noise floor"] if is_held else []
         if p in prac.reasons:
             why.append(prac.reasons[p])
         est = None if is_held else float(theta[i])
@@ -236,8 +253,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         err = kind = tru = None
         if truth is not None:
             tru = float(truth[i])
-            if est is not None:
-                err, kind = ((100 * (est - tru) / abs(tru), "percent") if tru != 0 else (est - tru, "absolute"))
+            err, kind = error_of(est, tru)
         params.append(ParameterEstimate(name=p, guess=float(setup.guess[p]), estimate=est, std=std, held=is_held,
                                         flagged=is_held or p in prac.flagged, reason="; ".join(why) or None,
                                         true=tru, error=err, error_kind=kind))
@@ -267,6 +283,8 @@ _COMMON = ("the model is right: its equations describe the structure, its known 
            f"fit: NRMSE of the model simulated at the estimate ({FIT_SUBSTEPS} RK4 substeps per sample) against "
            f"the measurement; the run counts as converged when the RMS of the NRMSEs is at most {DIVERGED:g}x "
            f"the output noise level",
+           f"held: after the first pass whose output misfit is at most {HOLD_BELOW:g}x the noise level, the "
+           "parameters flagged there are put back to their guess and no longer estimated",
            "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
            "posterior against its prior, and the Monte-Carlo spread when --replicates is given)")
 
@@ -274,7 +292,8 @@ _COMMON = ("the model is right: its equations describe the structure, its known 
 def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, float], method: str = "ukf",
                       table: BranchTable | None = None, noise: Mapping[str, float] | None = None,
                       grid: Sequence[Tuning] = MEASURED_GRID, passes: int = 3, replicates: int = 0, seed: int = 0,
-                      jit: bool = False, progress: Callable[[], Any] | None = None) -> Identification:
+                      jit: bool = False, hold: bool = False,
+                      progress: Callable[[], Any] | None = None) -> Identification:
     """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
 
     Parameters
@@ -297,6 +316,9 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         and their noise seed.
     jit
         Compile the filter to C.
+    hold
+        Hold the parameters flagged once the filter reached the noise floor at their guess (default:
+        off; every parameter is estimated in every pass and the flags are judged at the end).
     progress
         Called after every pass (tuning passes included: ``len(grid) + passes`` calls when tuning).
 
@@ -335,7 +357,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                   coordinates=coordinates(num, "log", reference=guess))
     d = Data(seed=None, u=data.u, y=data.y)
     tuning, scores, trs, held, prac, misfit = _run(setup, d, method=method, table=table, grid=grid, passes=passes,
-                                                   replicates=replicates, seed=seed, progress=progress)
+                                                   replicates=replicates, seed=seed, progress=progress, hold=hold)
     how = ("tuned without any true value: each configuration of the grid ran one pass, the smallest free-run "
            "output misfit won" if len(grid) > 1 else "one tuning, as given")
     return _result(setup, d, mode="measured", method=method, passes=passes, tuning=tuning, scores=scores, trs=trs,

@@ -139,7 +139,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
              guess: Mapping[str, float] | None = None, noise: Mapping[str, float] | None = None, method: str = "ukf",
              table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
              tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool = False,
-             progress: Callable[[], Any] | None = None) -> Identification:
+             hold: bool = False, progress: Callable[[], Any] | None = None) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
     Parameters
@@ -163,6 +163,9 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         Run although the structural analysis calls a parameter unidentifiable.
     jit
         Compile the filter to C.
+    hold
+        Hold poorly informed parameters at their guess once the filter reaches the noise floor
+        (:func:`obsnl.estimation.identify.identify_measured`; default off).
     progress
         Called after every filter pass.
 
@@ -196,7 +199,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed)
     res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
                             grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
-                            replicates=replicates, seed=seed, jit=jit, progress=progress)
+                            replicates=replicates, seed=seed, jit=jit, hold=hold, progress=progress)
     return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
 
 
