@@ -94,6 +94,14 @@ class Record:
 
 
 def check_times(t: np.ndarray, where: str) -> float:
+    """The even step of the sample times ``t``; a :class:`~obsnl.errors.DataError` naming the sample where
+    time does not increase or the step is irregular (``where`` names the record in the message).
+
+    Examples
+    --------
+    >>> check_times(np.array([0.0, 0.1, 0.2]), "demo")
+    0.1
+    """
     if len(t) < 2:
         raise DataError(f"{where}: need at least 2 samples")
     d = np.diff(t)
