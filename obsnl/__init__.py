@@ -47,6 +47,8 @@ _LAZY: dict[str, str] = {
     "Setup": "estimation.experiments", "Tuning": "estimation.experiments", "make_data": "estimation.experiments", "make_filter": "estimation.experiments",
     "run_passes": "estimation.experiments", "output_misfit": "estimation.experiments", "practical_identifiability": "estimation.practical",
     "monte_carlo": "estimation.experiments",
+    "identify": "studies.identify", "Identification": "estimation.identify", "read_measured": "estimation.measured",
+    "Measured": "estimation.measured",
     # symmetries, identifiable combinations, reparametrizations
     "symmetries": "observability.symmetry", "Symmetry": "observability.symmetry", "Symmetries": "observability.symmetry",
     "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrize",

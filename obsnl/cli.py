@@ -329,82 +329,84 @@ def _cmd_reparametrize(args: argparse.Namespace) -> int:
 # --------------------------------------------------------------------------- identify, reproduce
 def _add_identify(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "identify",
-        help="identify a model's parameters from a simulated noisy response to a ground motion (UKF or DUKF)",
-        description="Simulate MODEL with its [values] (the truth) under the ground motion RECORD, add Gaussian noise "
-        "(--noise of the RMS, --seed) to input and output, and estimate states and parameters with the UKF or the "
-        "DUKF (which freezes, branch by branch, the parameters the branch TABLE marks unidentifiable). Writes "
-        "DIR/identify.json (estimates, errors, practical identifiability) and prints a summary.",
-    )
-    p.add_argument("model", help="model file (.toml or .json) with [values] for every parameter")
+        "identify", help="identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
+        description="Analyse MODEL (a structurally unidentifiable parameter stops the run), then estimate its "
+        "parameters with the UKF or the DUKF from --data (CSV: time_s or t, one column per model input and output) "
+        "or, as a simulation study, from the model's [values] driven by --record. Guesses: the model's [guess] table, "
+        "then --guess. Writes DIR/identify.json, fit.png and traces.png with --out.")
+    p.add_argument("model", help="model file (.toml or .json)")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--data", help="measured inputs and outputs (.csv)")
+    src.add_argument("--record", help="simulation study: ground motion (.csv or PEER .AT2) driving the [values]")
     p.add_argument("--table", help="branch table JSON (required for --method dukf)")
-    p.add_argument("--record", required=True, help="ground motion: .csv (time_s,accel_m_s2) or PEER .AT2")
     p.add_argument("--method", choices=("ukf", "dukf"), default="ukf", help="filter (default: ukf)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
-    p.add_argument("--noise", type=float, default=1e-3, help="noise-to-signal RMS ratio (default: 0.001)")
-    p.add_argument("--guess", action="append", default=[], metavar="P=V",
-                   help="initial guess of a parameter (repeatable; default: the seed paper's Table 2 guesses)")
-    p.add_argument("--s0", type=float, default=0.2, help="prior std of log-parameters (default: 0.2)")
-    p.add_argument("--q-theta", type=float, default=0.0, help="random walk of log-parameters per step (default: 0)")
-    p.add_argument("--q-x", type=float, default=1.0, help="factor on the state noise from the input noise (default: 1)")
-    p.add_argument("--gate", type=float, default=float("inf"),
-                   help="innovation gate: Mahalanobis distance beyond which the gain is scaled down (default: off)")
+    p.add_argument("--guess", action="append", default=[], metavar="P=V", help="initial guess (repeatable)")
+    p.add_argument("--noise", action="append", default=[], metavar="NAME=RATIO",
+                   help="noise-to-signal RMS ratio of a channel (repeatable) or RATIO for all; measured channels not "
+                   "named are estimated from their high-frequency residual (default in a study: 0.001)")
     p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
-    p.add_argument("--samples", type=int, default=None, help="use only the first samples of the record")
+    p.add_argument("--allow-unidentifiable", action="store_true", help="run despite the structural verdict")
+    p.add_argument("--hold", action="store_true", help="measured data: hold poorly informed parameters at their guess")
+    p.add_argument("--seed", type=int, default=0, help="noise seed of a study and the Monte-Carlo (default: 0)")
+    for flag, what in (("--s0", "prior std of log-parameters"), ("--q-theta", "random walk of log-parameters"),
+                       ("--q-x", "factor on the state noise"), ("--gate", "innovation gate")):
+        p.add_argument(flag, type=float, default=None, help=f"{what} (default: tuned on measured data)")
+    p.add_argument("--samples", type=int, default=None, help="use only the first samples of a --record")
     p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
-    p.add_argument("--replicates", type=int, default=0,
-                   help="Monte-Carlo replicates of the practical-identifiability check (a parametric bootstrap at "
-                        "the estimate: the whole protocol again on fresh noise; 0: off, the default; 32 in reproduce)")
-    p.add_argument("--out", default=None, help="output folder for identify.json (default: print only)")
-    p.add_argument("--force", action="store_true", help="overwrite an existing identify.json")
+    p.add_argument("--replicates", type=int, default=0, help="Monte-Carlo replicates (0: off, else >= 3)")
+    p.add_argument("--out", default=None, metavar="DIR", help="output folder (default: print only)")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.set_defaults(func=_cmd_identify)
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from obsnl.estimation.codegen import to_casadi
     from obsnl.estimation.experiments import Tuning
-    from obsnl.estimation.identify import simulation_study
-    from obsnl.estimation.records import read_record
-    from obsnl.model.signature import ModelSignature
-    from obsnl.observability.branch_table import load_branch_table
+    from obsnl.estimation.identify import MEASURED_GRID
     from obsnl.report.identification import identify_text
+    from obsnl.studies.identify import IDENTIFY_FILES, identify, parse_assignments, study, write_identification
 
+    taken = [Path(args.out) / f for f in IDENTIFY_FILES if args.out and (Path(args.out) / f).exists()]
+    if taken and not args.force:
+        raise _Exit(2, f"{taken[0]} exists; pass --force to overwrite it")
     model = _load(args.model)
-    table = load_branch_table(args.table) if args.table else None
-    if table is not None:  # refuse a table made for another model before compiling anything
-        table.signature.check(ModelSignature.of(model))
-    num = to_casadi(model, switching=table.switching if table else None)
-    guess = _guesses(args.guess, num.parameters, model)
-    record = read_record(args.record)
-    if args.samples:
-        record = record.head(args.samples)
-    bar = _progress("monte-carlo", args.replicates, "replicate") if args.replicates else None
+    names = [s.name for s in model.parameters]
+    guess = parse_assignments(args.guess, names, option="--guess", what="parameter")
+    channels = [s.name for s in model.inputs] + list(model.outputs)
+    plain = [v for v in args.noise if "=" not in v]
     try:
-        doc = simulation_study(num, record, guess=guess, method=args.method, table=table, seed=args.seed,
-                               noise=args.noise, tuning=Tuning(args.s0, args.q_theta, args.q_x, args.gate),
-                               passes=args.passes, replicates=args.replicates, jit=args.jit,
-                               progress=(lambda: bar.update(1)) if bar is not None else None)
+        noise = {c: float(plain[-1]) for c in channels} if plain else {}
+    except ValueError:
+        raise _Exit(2, f"--noise {plain[-1]!r}: give NAME=RATIO or one RATIO for every channel") from None
+    named = [v for v in args.noise if "=" in v]
+    noise.update(parse_assignments(named, channels, option="--noise", what="model input or output"))
+    if args.record and named:
+        raise _Exit(2, "a simulation study (--record) takes one --noise RATIO for every channel")
+    t = (args.s0, args.q_theta, args.q_x, args.gate)
+    tuning = None if t == (None,) * 4 else Tuning(*(d if v is None else v for v, d in zip(t, (0.2, 0.0, 1.0, float("inf")))))
+    opts = dict(guess=guess, method=args.method, table=args.table, passes=args.passes, replicates=args.replicates,
+                seed=args.seed, allow_unidentifiable=args.allow_unidentifiable, jit=args.jit)
+    tuned = args.data is not None and tuning is None
+    bars: list[Any] = []  # the bar starts with the first pass (after the checks: a refusal prints one line)
+
+    def tick() -> None:
+        if not bars:
+            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0), "pass"))
+        if bars[0] is not None:
+            bars[0].update(1)
+    try:
+        if args.data:
+            res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick, **opts)
+        else:
+            res = study(model, args.record, noise=float(plain[-1]) if plain else 1e-3, samples=args.samples,
+                        tuning=tuning or Tuning(0.2, 0.0, 1.0), progress=tick, **opts)
     finally:
-        if bar is not None:
-            bar.close()
-    write_output(identify_text(doc), None, force=False)
+        if bars and bars[0] is not None:
+            bars[0].close()
+    write_output(identify_text(res.to_dict()), None, force=False)
     if args.out:
-        write_output(json.dumps(doc, indent=1), str(Path(args.out) / "identify.json"), force=args.force)
+        files = write_identification(res, args.out, force=args.force)
+        print(f"wrote {', '.join(str(f) for f in files)}")
     return 0
-
-
-def _guesses(items: Sequence[str], parameters: Sequence[str], model: Any) -> dict[str, float]:
-    """``--guess P=V`` items over the guesses of the model file's ``[guess]`` table (if any)."""
-    guess = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in parameters}
-    for item in items:
-        name, _, value = item.partition("=")
-        if name not in parameters:
-            raise _Exit(2, f"--guess {item!r}: {name!r} is not a parameter of {model.name} ({', '.join(parameters)})")
-        try:
-            guess[name] = float(value)
-        except ValueError:
-            raise _Exit(2, f"--guess {item!r}: {value!r} is not a number") from None
-    return guess
 
 
 def _progress(desc: str, total: int | None, unit: str) -> Any:

@@ -133,7 +133,7 @@ def test_identify_command(tmp_path, capsys):
             "--samples", "500", "--passes", "1", "--out", str(tmp_path)]
     assert main(args) == 0
     doc = json.loads((tmp_path / "identify.json").read_text())
-    assert doc["method"] == "dukf" and "c_p" in doc["parameters"]
+    assert doc["method"] == "dukf" and "c_p" in [p["name"] for p in doc["parameters"]]
     assert main(args) == 2  # never overwrite without --force
     assert "--force" in capsys.readouterr().err
     mc_out = tmp_path / "mc"  # the Monte-Carlo check from the command line: 3 replicates, all accounted for

@@ -41,3 +41,17 @@ def test_identification_example_runs(monkeypatch, capsys):
     out = capsys.readouterr().out
     flagged = re.search(r"poorly informed: \((.*?)\) held", out).group(1)
     assert "'c_p'" in flagged and "'k_m'" not in flagged
+
+
+def test_measured_identification_example_runs(tmp_path, monkeypatch, capsys):
+    # the README's measured-data example: data from scipy's Radau with the true values written in the
+    # snippet (c 0.6, k 25, kh 40, beta 150, gamma 250); every parameter within 5 % and the fit near the 1 % noise
+    (example,) = [b for b in _blocks("python") if "obsnl.identify(" in b]
+    monkeypatch.chdir(tmp_path)
+    scope: dict = {}
+    exec(compile(example, "README.md", "exec"), scope)
+    res = scope["res"]
+    truth = {"c": 0.6, "k": 25.0, "kh": 40.0, "beta": 150.0, "gamma": 250.0}
+    for p in res.parameters:
+        assert not p.held and abs(p.estimate - truth[p.name]) <= 0.05 * truth[p.name], p
+    assert res.fit["disp"] < 5.0 and "fit NRMSE" in capsys.readouterr().out

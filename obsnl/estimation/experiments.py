@@ -44,7 +44,6 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from obsnl.errors import EstimatorError, ObsnlError, OptionError
-from obsnl.estimation.records import rms
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import UKF, Trajectory
 from obsnl.estimation.practical import Practical, Spread, practical_identifiability
@@ -58,7 +57,7 @@ __all__ = ["Tuning", "DEFAULT_GRID", "Setup", "Data", "Practical", "coordinates"
 
 def _noise(setup: Setup, filt: UKF, data: Data, tuning: Tuning) -> tuple[np.ndarray, np.ndarray]:
     m, dt = setup.model, setup.record.dt
-    su, sy = setup.noise * rms(data.u), setup.noise * rms(data.y)
+    su, sy = setup.noise_std(data)
     step = m.step(dt, method="rk4", substeps=setup.substeps)
     x0, th, u0 = setup.x0, setup.theta_guess, np.zeros(m.nu)
     base = np.asarray(step(x0, th, u0, u0)[0]).ravel()
@@ -68,19 +67,24 @@ def _noise(setup: Setup, filt: UKF, data: Data, tuning: Tuning) -> tuple[np.ndar
         e[j] = 1.0
         for a, b in ((e, u0), (u0, e)):
             g = (np.asarray(step(x0, th, a, b)[0]).ravel() - base) / filt.state_scale
-            Qx += su ** 2 * np.outer(g, g)
+            Qx += su[j] ** 2 * np.outer(g, g)
     Q = np.zeros((filt.size, filt.size))
     Q[:m.nx, :m.nx] = tuning.q_x * Qx
     Q[m.nx:, m.nx:] = tuning.q_theta * np.eye(filt.size - m.nx)
-    return Q, np.eye(m.ny) * sy ** 2
+    return Q, np.diag(np.maximum(sy, 1e-300) ** 2)
 
 
 def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int = 3, inflate: float = 16.0,
-               fix_flagged: bool = True) -> tuple[tuple[Trajectory, ...], tuple[str, ...]]:
+               fix_flagged: bool = True, progress: Callable[[], None] | None = None, hold_below: float | None = None,
+               ) -> tuple[tuple[Trajectory, ...], tuple[str, ...]]:
     """Run ``filt`` ``passes`` times over the record (protocol in the module docstring).
 
     Returns the trajectories (fewer than ``passes`` when an estimate could not be simulated, which
-    ends the run) and the parameters held at their guess after the first pass.
+    ends the run) and the parameters held at their guess after the first pass. ``progress`` is
+    called after each pass. ``hold_below``: hold the flagged parameters only after the first pass
+    whose output misfit is at most this many times the noise level (the filter has reached the noise
+    floor; before that, a parameter's information is judged at a wrong model), instead of after
+    the first pass whenever it did not diverge.
     """
     Q, R = _noise(setup, filt, data, tuning)
     f = filt.with_options(Q=Q, R=R, gate=tuning.gate)
@@ -89,6 +93,7 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
     Px = np.full(nx, 1e-8)  # the record starts at rest
     out: list[Trajectory] = []
     fixed: tuple[str, ...] = ()
+    held_once = False
     for k in range(passes):
         bad = [p for p, v in zip(filt.names[nx:], Pth) if not (np.isfinite(v) and v > 0)]
         if bad and k == 0:
@@ -99,13 +104,17 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
         est = f.initial(x0=setup.x0, theta0=theta, P0=np.concatenate([Px, Pth]))
         tr = f.run(est, data.y, data.u)
         out.append(tr)
+        if progress:
+            progress()
         theta, Pth = tr.theta[-1].copy(), inflate * np.diag(tr.P[-1])[nx:]
         if k == passes - 1:
             break
         misfit = output_misfit(setup, theta, data)
         if not np.isfinite(misfit):  # no later pass can start from an estimate that cannot be simulated
             break
-        if k == 0 and fix_flagged:
+        ready = k == 0 if hold_below is None else (not held_once and misfit <= hold_below * setup.noise_level)
+        if ready and fix_flagged:
+            held_once = True
             prac = practical_identifiability(setup, theta, data, first=tr, prior_std=tuning.s0, misfit=misfit)
             fixed = prac.flagged  # empty when the pass diverged (inconclusive)
             f = f.with_options(fixed=fixed)
@@ -163,7 +172,7 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
                          refine=setup.refine, jit=setup.jit).y
     except EstimatorError:
         return Spread(replicates=0, diverged=0, inconclusive="the estimate cannot be simulated", **blank)
-    su, sy = setup.noise * rms(data.u), setup.noise * rms(data.y)
+    su, sy = setup.noise_std(data)
     logs, held, diverged = [], set(m.parameters), 0
     for b in range(replicates):
         rng = np.random.default_rng([seed, b])
@@ -172,7 +181,7 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
         try:
             trs, fixed = run_passes(setup, filt, rep, tuning, passes=passes)
             est = trs[-1].theta[-1]
-            ok = len(trs) == passes and output_misfit(setup, est, rep) <= DIVERGED * setup.noise
+            ok = len(trs) == passes and output_misfit(setup, est, rep) <= DIVERGED * setup.noise_level
         except ObsnlError:
             ok = False
         if ok:

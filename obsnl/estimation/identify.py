@@ -1,26 +1,56 @@
-"""One identification run of a simulated experiment: the model's ``[values]`` are the truth, the record
-drives it, noise is added to input and output, the UKF or the DUKF estimates, and the practical
-identifiability of each parameter is judged at the estimate.
+"""One identification run, from measured data or from a simulated experiment, as one result value.
 
-:func:`simulation_study` is what ``obsnl identify`` runs; it returns a plain, JSON-ready document
-(rendered by :func:`obsnl.report.identification.identify_text`).
+:func:`identify_measured` estimates a compiled model's parameters from measured inputs and outputs
+(no true value anywhere): noise per channel given or estimated (:func:`obsnl.estimation.measured.estimate_noise`),
+the filter tuned by the free-run output misfit over a small grid, several passes
+(:func:`obsnl.estimation.experiments.run_passes`), practical identifiability at the estimate, the fit of
+the model simulated at the estimate. :func:`simulation_study` runs the same protocol on the model's own
+simulated response to a record (the model's ``[values]`` are the truth) and adds true values and errors.
+
+Both return an :class:`Identification` (frozen; :meth:`Identification.to_dict` is ``identify.json``).
+The structural analysis that comes first is done by the caller (:func:`obsnl.studies.identify.identify`;
+the estimators read the analysis only through the branch table).
+
+Reporting rules: a parameter held at its guess after the first pass (poorly informed) is reported as
+held, with ``estimate`` and ``std`` ``null``, and counted in ``held``, never as an estimate; a
+relative error with a zero truth is given as an absolute error instead; no NaN or inf reaches the JSON.
+The convergence check and the fit simulate with ``FIT_SUBSTEPS`` RK4 substeps per sample, and the
+truth of a simulation study is made with the same integrator, so that a converged run is never called
+diverged by a discretisation mismatch.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
-from obsnl.errors import EstimatorError, OptionError
+import numpy as np
+
+from obsnl.errors import EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
 from obsnl.estimation.experiments import Tuning, make_data, make_filter, monte_carlo, run_passes
+from obsnl.estimation.measured import NOISE_FLOOR, Measured, estimate_noise
 from obsnl.estimation.practical import practical_identifiability
 from obsnl.estimation.records import Record
-from obsnl.estimation.setup import Setup, coordinates, output_misfit
+from obsnl.estimation.setup import DIVERGED, Data, Setup, coordinates, output_misfit
+from obsnl.estimation.simulate import simulate
+from obsnl.estimation.ukf import Trajectory
 from obsnl.observability.branch_table import BranchTable
 
-__all__ = ["check_replicates", "simulation_study"]
+__all__ = ["check_replicates", "simulation_study", "identify_measured", "Identification", "ParameterEstimate",
+           "MEASURED_GRID", "FIT_SUBSTEPS", "HOLD_BELOW", "clean_json", "error_of"]
+
+#: Parameters flagged as poorly informed are held at their guess after the first pass whose output misfit is
+#: at most this many times the output noise level (the filter has reached the noise floor).
+HOLD_BELOW = 2.0
+#: RK4 substeps per sample of the convergence check, the fit and the truth of a simulation study.
+FIT_SUBSTEPS = 32
+#: Tuning grid of measured data (prior std of the log-parameters, state noise factor): 4 configurations,
+#: each run for one pass; the smallest free-run output misfit wins (no true value used).
+MEASURED_GRID: tuple[Tuning, ...] = (Tuning(0.3, 0.0, 1.0), Tuning(0.5, 0.0, 1.0), Tuning(0.3, 0.0, 100.0),
+                                     Tuning(0.5, 0.0, 100.0))
 
 
 def check_replicates(replicates: int) -> int:
@@ -38,7 +68,7 @@ def check_replicates(replicates: int) -> int:
 
     Raises
     ------
-    EstimatorError
+    OptionError
         Any other number (a spread of fewer than 3 replicates says nothing).
 
     Examples
@@ -51,10 +81,295 @@ def check_replicates(replicates: int) -> int:
     return replicates
 
 
+def clean_json(x: Any) -> Any:
+    """``x`` with every non-finite float replaced by ``None`` (JSON has no NaN or Infinity).
+
+    Examples
+    --------
+    >>> clean_json({"a": [1.0, float("inf")], "b": float("nan")})
+    {'a': [1.0, None], 'b': None}
+    """
+    if isinstance(x, Mapping):
+        return {k: clean_json(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [clean_json(v) for v in x]
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One parameter: the estimate and its posterior std, or ``held`` at its guess (then both ``None``).
+
+    ``flagged``: poorly informed by these data (practical identifiability, with ``reason``). In a
+    simulation study ``true`` and ``error`` (per cent of the truth, or absolute where the truth is 0:
+    ``error_kind``) are set.
+    """
+
+    name: str
+    guess: float
+    estimate: float | None
+    std: float | None
+    held: bool
+    flagged: bool
+    reason: str | None = None
+    true: float | None = None
+    error: float | None = None
+    error_kind: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {"name": self.name, "estimate": self.estimate, "std": self.std, "held": self.held,
+             "held_at": self.guess if self.held else None, "flagged": self.flagged, "reason": self.reason,
+             "guess": self.guess}
+        if self.true is not None:
+            d.update(true=self.true, error=self.error, error_kind=self.error_kind)
+        return clean_json(d)
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """The result of one identification run (``identify.json`` is :meth:`to_dict`).
+
+    ``fit``: NRMSE in per cent per output, ``100 RMS(simulated - measured) / RMS(measured)``, of the
+    model simulated at the estimate under the measured input (held parameters at their guess).
+    ``traces``, ``t``, ``y_measured``, ``y_fit`` feed the figures and are not in the JSON.
+    """
+
+    model: str
+    mode: str
+    method: str
+    parameters: tuple[ParameterEstimate, ...]
+    fit: Mapping[str, float | None]
+    passes: int
+    passes_run: int
+    seconds: float
+    converged: bool
+    output_misfit: float | None
+    noise: Mapping[str, Mapping[str, Any]]
+    tuning: Tuning
+    tuning_scores: tuple[tuple[Tuning, float], ...]
+    data: Mapping[str, Any]
+    practical: Mapping[str, Any]
+    assumptions: tuple[str, ...]
+    repairs: int = 0
+    structural: Mapping[str, Any] = field(default_factory=dict)
+    seed: int | None = None
+    traces: tuple[Trajectory, ...] = field(default=(), repr=False)
+    t: np.ndarray = field(default=None, repr=False)
+    y_measured: np.ndarray = field(default=None, repr=False)
+    y_fit: np.ndarray = field(default=None, repr=False)
+    outputs: tuple[str, ...] = ()
+
+    @property
+    def held(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters if p.held)
+
+    @property
+    def flagged(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters if p.flagged)
+
+    def estimates(self) -> dict[str, float | None]:
+        """``{name: estimate}`` (``None`` for a held parameter)."""
+        return {p.name: p.estimate for p in self.parameters}
+
+    def to_dict(self) -> dict[str, Any]:
+        return clean_json({
+            "schema": "obsnl.identify/1", "model": self.model, "mode": self.mode, "method": self.method,
+            "passes": self.passes, "passes_run": self.passes_run, "seconds": self.seconds, "seed": self.seed,
+            "held": len(self.held), "flagged": list(self.flagged),
+            "parameters": [p.to_dict() for p in self.parameters], "fit": dict(self.fit),
+            "converged": self.converged, "output_misfit": self.output_misfit, "noise": dict(self.noise),
+            "tuning": self.tuning.to_dict(),
+            "tuning_scores": [{**t.to_dict(), "output_misfit": s} for t, s in self.tuning_scores],
+            "data": dict(self.data), "structural": dict(self.structural), "repairs": self.repairs,
+            "practical_identifiability": dict(self.practical), "assumptions": list(self.assumptions)})
+
+
+def error_of(estimate: float | None, true: float) -> tuple[float | None, str | None]:
+    """The error of an estimate: per cent of the truth, or absolute where the truth is 0 (never inf).
+
+    Examples
+    --------
+    >>> error_of(1.1, 1.0)[1], error_of(0.25, 0.0), error_of(None, 2.0)
+    ('percent', (0.25, 'absolute'), (None, None))
+    """
+    if estimate is None:
+        return None, None
+    return (100 * (estimate - true) / abs(true), "percent") if true != 0 else (estimate - true, "absolute")
+
+
+def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, grid: Sequence[Tuning], passes: int,
+         replicates: int, seed: int, progress: Callable[[], Any] | None, hold: bool = True,
+         ) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
+    """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner."""
+    check_replicates(replicates)
+    if passes < 1:
+        raise OptionError(f"--passes must be at least 1, got {passes}")
+    if method == "dukf" and table is None:
+        raise OptionError("--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL --format json-table`)")
+    if any(not (t.s0 > 0 and t.gate > 0) for t in grid):
+        raise OptionError("--s0 and --gate must be > 0")
+    filt = make_filter(setup, method, table=table)
+    scores = []
+    if len(grid) > 1:
+        for t in grid:
+            try:
+                (tr,), _ = run_passes(setup, filt, data, t, passes=1, fix_flagged=False)
+                scores.append((t, output_misfit(setup, tr.theta[-1], data)))
+            except ObsnlError:
+                scores.append((t, float("inf")))
+            if progress:
+                progress()
+    tuning = min(scores, key=lambda s: s[1])[0] if scores else grid[0]
+    trs, held = run_passes(setup, filt, data, tuning, passes=passes, progress=progress, hold_below=HOLD_BELOW,
+                           fix_flagged=hold)
+    theta = trs[-1].theta[-1]
+    misfit = output_misfit(setup, theta, data)
+    prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
+    if replicates and not prac.inconclusive:
+        prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates,
+                                            seed=seed))
+    return tuning, tuple(scores), trs, held, prac, misfit
+
+
+def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tuning: Tuning, scores: tuple,
+            trs: tuple[Trajectory, ...], held: tuple[str, ...], prac: Any, misfit: float, noise: Mapping,
+            data_dict: Mapping, assumptions: Sequence[str], seed: int | None) -> Identification:
+    m = setup.model
+    theta = trs[-1].theta[-1]
+    var = np.diag(trs[-1].P[-1])[m.nx:]
+    truth = None if setup.truth is None else setup.theta_true
+    params = []
+    for i, p in enumerate(m.parameters):
+        is_held = p in held
+        why = ["held at its guess: poorly informed once the filter had reached the noise floor"] if is_held else []
+        if p in prac.reasons:
+            why.append(prac.reasons[p])
+        est = None if is_held else float(theta[i])
+        std = None if is_held or len(var) != m.np else float(abs(theta[i]) * math.sqrt(max(var[i], 0.0)))
+        err = kind = tru = None
+        if truth is not None:
+            tru = float(truth[i])
+            err, kind = error_of(est, tru)
+        params.append(ParameterEstimate(name=p, guess=float(setup.guess[p]), estimate=est, std=std, held=is_held,
+                                        flagged=is_held or p in prac.flagged, reason="; ".join(why) or None,
+                                        true=tru, error=err, error_kind=kind))
+    per = output_misfit(setup, theta, data, per_output=True)
+    try:
+        y_fit = simulate(m, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt,
+                         substeps=setup.fit_substeps or setup.substeps, refine=setup.refine).y
+    except EstimatorError:
+        y_fit = np.full(np.shape(setup.y_true), np.nan)
+    converged = bool(math.isfinite(misfit) and misfit <= DIVERGED * setup.noise_level and len(trs) == passes)
+    return Identification(
+        model=m.name, mode=mode, method=method, parameters=tuple(params),
+        fit={o: float(100 * v) for o, v in zip(m.outputs, per)}, passes=passes, passes_run=len(trs),
+        seconds=float(sum(t.seconds for t in trs)), converged=converged,
+        output_misfit=misfit if math.isfinite(misfit) else None, noise=noise, tuning=tuning, tuning_scores=scores,
+        data=data_dict, practical=prac.to_dict(), assumptions=tuple(assumptions),
+        repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
+        y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs)
+
+
+_COMMON = ("the model is right: its equations describe the structure, its known constants are right",
+           "measurement noise is white, Gaussian and independent between channels; its level per channel is "
+           "given under 'noise'",
+           "parameters are estimated as log|theta| with the sign of the guess; each stays within a factor 100 of "
+           "its guess",
+           "std: the filter's posterior std after the last pass (optimistic: the record is reused over passes)",
+           f"fit: NRMSE of the model simulated at the estimate ({FIT_SUBSTEPS} RK4 substeps per sample) against "
+           f"the measurement; the run counts as converged when the RMS of the NRMSEs is at most {DIVERGED:g}x "
+           f"the output noise level",
+           f"held: after the first pass whose output misfit is at most {HOLD_BELOW:g}x the noise level, the "
+           "parameters flagged there are put back to their guess and no longer estimated",
+           "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
+           "posterior against its prior, and the Monte-Carlo spread when --replicates is given)")
+
+
+def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, float], method: str = "ukf",
+                      table: BranchTable | None = None, noise: Mapping[str, float] | None = None,
+                      grid: Sequence[Tuning] = MEASURED_GRID, passes: int = 3, replicates: int = 0, seed: int = 0,
+                      jit: bool = False, hold: bool = False,
+                      progress: Callable[[], Any] | None = None) -> Identification:
+    """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
+
+    Parameters
+    ----------
+    num
+        The compiled model (:func:`obsnl.to_casadi`).
+    data
+        Measured inputs and outputs (:func:`obsnl.estimation.measured.read_measured`), named as in the model.
+    guess
+        Initial guess of every parameter.
+    method, table
+        ``"ukf"`` or ``"dukf"`` (needs the branch table).
+    noise
+        Noise-to-signal RMS ratio per channel (input or output name); the others are estimated from
+        the data (:func:`obsnl.estimation.measured.estimate_noise`), floored at ``NOISE_FLOOR``.
+    grid
+        Tuning configurations, run one pass each; the smallest output misfit wins (one: no tuning).
+    passes, replicates, seed
+        Passes over the record; Monte-Carlo replicates of the practical-identifiability check (0: off)
+        and their noise seed.
+    jit
+        Compile the filter to C.
+    hold
+        Hold the parameters flagged once the filter reached the noise floor at their guess (default:
+        off; every parameter is estimated in every pass and the flags are judged at the end).
+    progress
+        Called after every pass (tuning passes included: ``len(grid) + passes`` calls when tuning).
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    OptionError
+        A missing guess, a bad option, noise for an unknown channel.
+    DataError
+        Data whose channels are not the model's.
+    """
+    if data.inputs != num.inputs or data.outputs != num.outputs:
+        raise OptionError(f"the data have inputs {list(data.inputs)} and outputs {list(data.outputs)}, model "
+                          f"{num.name!r} has {list(num.inputs)} and {list(num.outputs)}")
+    missing = [q for q in num.parameters if q not in guess]
+    if missing:
+        raise OptionError(f"no initial guess for {missing}; give --guess {missing[0]}=VALUE or a [guess] table")
+    given = dict(noise or {})
+    bad = [f"{k}={v!r}" for k, v in given.items() if not (isinstance(v, (int, float)) and 0 < v < 1)]
+    if bad:
+        raise OptionError(f"--noise {bad[0]}: a noise-to-signal ratio must lie in (0, 1)")
+    levels: dict[str, dict[str, Any]] = {}
+    for names, arr in ((num.inputs, data.u), (num.outputs, data.y)):
+        for j, c in enumerate(names):
+            if c in given:
+                levels[c] = {"ratio": float(given[c]), "source": "given"}
+            else:
+                r, note = estimate_noise(arr[:, j])
+                levels[c] = {"ratio": max(r, NOISE_FLOOR), "estimate": r,
+                             "source": f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else "")}
+    setup = Setup(model=num, record=data.record(), truth=None, guess=dict(guess), jit=jit, y_true=data.y,
+                  channel_noise={c: v["ratio"] for c, v in levels.items()}, fit_substeps=FIT_SUBSTEPS,
+                  coordinates=coordinates(num, "log", reference=guess))
+    d = Data(seed=None, u=data.u, y=data.y)
+    tuning, scores, trs, held, prac, misfit = _run(setup, d, method=method, table=table, grid=grid, passes=passes,
+                                                   replicates=replicates, seed=seed, progress=progress, hold=hold)
+    how = ("tuned without any true value: each configuration of the grid ran one pass, the smallest free-run "
+           "output misfit won" if len(grid) > 1 else "one tuning, as given")
+    return _result(setup, d, mode="measured", method=method, passes=passes, tuning=tuning, scores=scores, trs=trs,
+                   held=held, prac=prac, misfit=misfit, noise=levels, data_dict=data.to_dict(), seed=seed,
+                   assumptions=_COMMON + (how, "the structure starts at rest (initial states from the model file, "
+                                          "else 0)"))
+
+
 def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, float], method: str = "ukf",
                      table: BranchTable | None = None, seed: int = 0, noise: float = 1e-3,
                      tuning: Tuning = Tuning(0.2, 0.0, 1.0), passes: int = 3, replicates: int = 0,
-                     jit: bool = False, progress: Callable[[], Any] | None = None) -> dict[str, Any]:
+                     jit: bool = False, progress: Callable[[], Any] | None = None) -> Identification:
     """Identify ``num`` from its own simulated response to ``record`` (the truth: ``num.values``).
 
     Parameters
@@ -62,15 +377,13 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     num
         The compiled model (:func:`obsnl.to_casadi`); ``num.values`` must hold every parameter.
     record
-        The ground motion (or any single input).
+        The record driving the model's inputs (one column per input).
     guess
         Initial guess of every parameter.
-    method
+    method, table
         ``"ukf"`` or ``"dukf"`` (needs ``table``).
-    table
-        The branch table of the model (DUKF).
     seed, noise
-        Noise seed and noise-to-signal RMS ratio of input and output.
+        Noise seed and noise-to-signal RMS ratio of inputs and outputs.
     tuning, passes
         Filter tuning and passes over the record.
     replicates
@@ -78,48 +391,35 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     jit
         Compile the filter to C.
     progress
-        Called once per Monte-Carlo replicate.
+        Called after every pass.
 
     Returns
     -------
-    dict
-        JSON-ready: parameters (true, guess, estimate, error_percent), cost, misfit, flags.
+    Identification
+        With true values and errors (per cent; absolute where the truth is 0).
 
     Raises
     ------
-    EstimatorError
+    OptionError
         A missing true value or guess, a bad option.
     """
-    check_replicates(replicates)
-    if method == "dukf" and table is None:
-        raise EstimatorError("--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL`)")
-    if passes < 1 or tuning.s0 <= 0 or noise <= 0 or not tuning.gate > 0:
-        raise EstimatorError("--passes must be >= 1, --s0, --noise and --gate > 0")
     missing = [q for q in num.parameters if q not in guess]
     if missing:
-        raise EstimatorError(f"no initial guess for {missing}; give --guess {missing[0]}=VALUE")
+        raise OptionError(f"no initial guess for {missing}; give --guess {missing[0]}=VALUE")
     truth = {q: num.values.get(q) for q in num.parameters}
     if any(v is None for v in truth.values()):
-        raise EstimatorError(f"model {num.name!r} needs [values] for every parameter (the truth of the simulation)")
+        raise OptionError(f"model {num.name!r} needs [values] for every parameter (the truth of the simulation)")
+    if not (math.isfinite(noise) and noise > 0):
+        raise OptionError(f"--noise must be a ratio > 0, got {noise!r}")
     setup = Setup(model=num, record=record, truth=truth, guess=dict(guess), noise=noise, jit=jit,
-                  coordinates=coordinates(num, "log", reference=guess))
-    filt = make_filter(setup, method, table=table)
+                  fit_substeps=FIT_SUBSTEPS, coordinates=coordinates(num, "log", reference=guess))
     data = make_data(setup, seed)
-    trs, _ = run_passes(setup, filt, data, tuning, passes=passes)
-    theta = trs[-1].theta[-1]
-    misfit = output_misfit(setup, theta, data)
-    prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
-    if replicates and not prac.inconclusive:
-        prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates,
-                                            seed=seed, progress=progress))
-    err = 100 * (theta - setup.theta_true) / abs(setup.theta_true)
-    return {"model": num.name, "record": record.to_dict(), "method": method, "seed": seed,
-            "noise_ratio": noise, "tuning": tuning.to_dict(), "passes": passes,
-            "parameters": {q: {"true": float(t), "guess": float(guess[q]), "estimate": float(e), "error_percent": float(r)}
-                           for q, t, e, r in zip(num.parameters, setup.theta_true, theta, err)},
-            "seconds": float(sum(t.seconds for t in trs)), "repairs": int(sum(t.total_repairs for t in trs)),
-            "interventions": {k: sum(t.counts()[k] for t in trs) for k in trs[0].counts()},
-            "implicit_sigma_point_steps": int(sum(t.implicit.sum() for t in trs)),
-            "passes_run": len(trs), "output_misfit": misfit if math.isfinite(misfit) else None,
-            "practically_unidentifiable": None if prac.inconclusive else list(prac.flagged),
-            "practical_identifiability": prac.to_dict()}
+    tuning_, scores, trs, held, prac, misfit = _run(setup, data, method=method, table=table, grid=(tuning,),
+                                                    passes=passes, replicates=replicates, seed=seed, progress=progress)
+    levels = {c: {"ratio": noise, "source": "given (simulated)"} for c in num.inputs + num.outputs}
+    return _result(setup, data, mode="simulation", method=method, passes=passes, tuning=tuning_, scores=scores,
+                   trs=trs, held=held, prac=prac, misfit=misfit, noise=levels, data_dict=record.to_dict(), seed=seed,
+                   assumptions=_COMMON + (f"simulation study: the truth is the model's [values], simulated with "
+                                          f"{FIT_SUBSTEPS} RK4 substeps per sample (the integrator of the convergence "
+                                          f"check), Gaussian noise seed {seed}",
+                                          "errors: per cent of the truth; absolute where the truth is 0"))

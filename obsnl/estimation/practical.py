@@ -126,8 +126,9 @@ class Spread:
                 "inconclusive": self.inconclusive or None}
 
 
-def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: float, *, step: float = 1e-2) -> np.ndarray:
-    """Output sensitivities ``(T*ny, np)`` to ``log|theta|``, divided by the noise std ``sigma``.
+def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: Any, *, step: float = 1e-2) -> np.ndarray:
+    """Output sensitivities ``(T*ny, np)`` to ``log|theta|``, divided by the noise std ``sigma`` (a
+    number, or one per output).
 
     Central differences with a 1 % step: the response of the non-smooth model is rough on finer
     scales (switching instants move), and smaller steps overstate the information several times.
@@ -140,8 +141,8 @@ def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: float, *, step
             th = np.array(theta, float)
             th[i] *= np.exp(s)
             ys.append(simulate(m, theta=th, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, refine=setup.refine,
-                               jit=setup.jit).y.ravel())
-        cols.append((ys[0] - ys[1]) / (2 * step) / sigma)
+                               jit=setup.jit).y)
+        cols.append(((ys[0] - ys[1]) / (2 * step) / np.asarray(sigma, float)).ravel())
     return np.array(cols).T
 
 
@@ -200,12 +201,12 @@ def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, fi
     why_not = ""
     if not np.isfinite(misfit):
         why_not = "the estimate cannot be simulated (the filter diverged)"
-    elif misfit > DIVERGED * setup.noise:
+    elif misfit > DIVERGED * setup.noise_level:
         why_not = (f"the estimate's output misfit {misfit:.3g} is above {DIVERGED:g}x the noise level "
-                   f"{setup.noise:g} (the filter did not converge on these data)")
+                   f"{setup.noise_level:.3g} (the filter did not converge on these data)")
     if not why_not:
         try:
-            S = fisher(setup, theta, data.u, setup.noise * rms(data.y))
+            S = fisher(setup, theta, data.u, setup.noise_std(data)[1])
         except EstimatorError:
             why_not = "a perturbed estimate cannot be simulated (no sensitivities)"
     if why_not:

@@ -17,7 +17,7 @@ import numpy as np
 
 from obsnl.errors import DataError
 
-__all__ = ["Record", "read_record", "read_csv", "read_at2", "add_noise", "rms", "G"]
+__all__ = ["Record", "check_times", "read_record", "read_csv", "read_at2", "add_noise", "rms", "G"]
 
 #: Standard gravity (m/s² per g), used to convert AT2 files.
 G = 9.80665
@@ -33,7 +33,8 @@ class Record:
     name
         Short name (the file stem).
     accel
-        Samples (m/s²), shape ``(T,)``.
+        Samples, shape ``(T,)`` (one input, a ground motion in m/s²) or ``(T, nu)`` (one column per input,
+        named in ``channels``).
     dt
         Sampling interval (s).
     source
@@ -45,12 +46,13 @@ class Record:
     dt: float
     source: str = ""
     notes: tuple[str, ...] = field(default=())
+    channels: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         a = np.asarray(self.accel, float)
-        if a.ndim != 1 or len(a) < 2:
-            raise DataError(f"record {self.name!r}: need a 1-d series of at least 2 samples, got shape {a.shape}")
-        bad = np.flatnonzero(~np.isfinite(a))
+        if a.ndim not in (1, 2) or len(a) < 2:
+            raise DataError(f"record {self.name!r}: need a series of at least 2 samples, got shape {a.shape}")
+        bad = np.flatnonzero(~np.all(np.isfinite(a.reshape(len(a), -1)), axis=1))
         if bad.size:
             raise DataError(f"record {self.name!r}: NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
                             f"clean the record first")
@@ -70,7 +72,7 @@ class Record:
         """The first ``n`` samples."""
         if n < 2:
             raise DataError(f"head({n}): need at least 2 samples")
-        return Record(self.name, self.accel[:n], self.dt, self.source, self.notes)
+        return Record(self.name, self.accel[:n], self.dt, self.source, self.notes, self.channels)
 
     def resampled(self, dt: float) -> Record:
         """The record at interval ``dt`` (polyphase resampling with an anti-alias filter)."""
@@ -81,16 +83,25 @@ class Record:
         ratio = Fraction(self.dt / dt).limit_denominator(1000)
         if abs(float(ratio) - self.dt / dt) > 1e-9 * self.dt / dt:
             raise DataError(f"cannot resample from dt={self.dt} to dt={dt}: not a ratio of small integers")
-        a = resample_poly(self.accel, ratio.numerator, ratio.denominator)
+        a = resample_poly(self.accel, ratio.numerator, ratio.denominator, axis=0)
         return Record(self.name, a, dt, self.source,
-                      self.notes + (f"resampled from dt={self.dt:g} s to {dt:g} s (polyphase, x{ratio})",))
+                      self.notes + (f"resampled from dt={self.dt:g} s to {dt:g} s (polyphase, x{ratio})",), self.channels)
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "dt": self.dt, "samples": len(self), "source": self.source,
-                "notes": list(self.notes), "pga_m_s2": float(np.max(np.abs(self.accel)))}
+                "notes": list(self.notes), "pga_m_s2": float(np.max(np.abs(self.accel))),
+                **({"channels": list(self.channels)} if self.channels else {})}
 
 
-def _check_times(t: np.ndarray, where: str) -> float:
+def check_times(t: np.ndarray, where: str) -> float:
+    """The even step of the sample times ``t``; a :class:`~obsnl.errors.DataError` naming the sample where
+    time does not increase or the step is irregular (``where`` names the record in the message).
+
+    Examples
+    --------
+    >>> check_times(np.array([0.0, 0.1, 0.2]), "demo")
+    0.1
+    """
     if len(t) < 2:
         raise DataError(f"{where}: need at least 2 samples")
     d = np.diff(t)
@@ -149,7 +160,7 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
     bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
     if bad.size:
         raise DataError(f"{str(p)!r} line {bad[0] + 2}: NaN/inf value ({bad.size} bad rows); clean the record first")
-    dt = _check_times(arr[:, 0], str(p))
+    dt = check_times(arr[:, 0], str(p))
     return Record(p.stem, arr[:, 1], dt, source=p.name)
 
 

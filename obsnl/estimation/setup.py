@@ -62,11 +62,20 @@ DEFAULT_GRID: tuple[Tuning, ...] = tuple(Tuning(s, q, x, g) for g, s, q, x in it
 
 @dataclass(frozen=True, eq=False)
 class Setup:
-    """An identification experiment: compiled model, record, truth, guesses, noise, filter options."""
+    """An identification experiment: compiled model, record, truth, guesses, noise, filter options.
+
+    ``record`` holds the input samples (``(T,)`` for one input, ``(T, nu)`` for several). ``truth`` is
+    ``None`` for measured data: then ``y_true`` must be the measured outputs (nothing is simulated).
+    ``noise`` is the noise-to-signal RMS ratio of every channel; ``channel_noise`` overrides it per
+    named input or output. ``fit_substeps``: the integrator (RK4 substeps per sample, with the same
+    refinement) of the free-run output misfit, the convergence check and the fit; default: the
+    filter's own (``substeps``). When set, a simulated truth is made with the same integrator, so that
+    the check compares like with like and a converged run is never called diverged.
+    """
 
     model: NumericModel
     record: Record
-    truth: Mapping[str, float]
+    truth: Mapping[str, float] | None
     guess: Mapping[str, float]
     noise: float = 1e-3
     coordinates: ParameterMap | None = None
@@ -75,33 +84,61 @@ class Setup:
     jit: bool = False
     y_true: np.ndarray = field(default=None, repr=False)
     x0: np.ndarray = field(default=None, repr=False)
+    channel_noise: Mapping[str, float] | None = None
+    fit_substeps: int | None = None
 
     def __post_init__(self) -> None:
         m = self.model
         for what, vals in (("truth", self.truth), ("guess", self.guess)):
-            missing = [p for p in m.parameters if p not in vals]
+            if vals is None and what == "truth" and self.y_true is not None:
+                continue
+            missing = [p for p in m.parameters if p not in (vals or {})]
             if missing:
                 raise OptionError(f"{what} lacks values for {missing}")
+        unknown = sorted(set(self.channel_noise or {}) - set(m.inputs) - set(m.outputs))
+        if unknown:
+            raise OptionError(f"noise given for {unknown}, which are not inputs or outputs of {m.name!r} "
+                              f"({', '.join(m.inputs + m.outputs)})")
         if self.coordinates is None:
             object.__setattr__(self, "coordinates", coordinates(m, "log", reference=self.guess))
         x0 = np.array([float(m.values.get(s, 0.0)) for s in m.states])
         object.__setattr__(self, "x0", x0)
         if self.y_true is None:
-            sim = simulate(m, theta=self.theta_true, x0=x0, u=self.record.accel, dt=self.record.dt)
+            fine = {} if self.fit_substeps is None else {"substeps": self.fit_substeps, "refine": self.refine}
+            sim = simulate(m, theta=self.theta_true, x0=x0, u=self.record.accel, dt=self.record.dt, **fine)
             object.__setattr__(self, "y_true", sim.y)
 
     @property
     def theta_true(self) -> np.ndarray:
+        if self.truth is None:
+            raise OptionError("measured data have no true values")
         return np.array([float(self.truth[p]) for p in self.model.parameters])
 
     @property
     def theta_guess(self) -> np.ndarray:
         return np.array([float(self.guess[p]) for p in self.model.parameters])
 
+    def ratios(self, names: tuple[str, ...]) -> np.ndarray:
+        """Noise-to-signal RMS ratio of each named channel."""
+        given = dict(self.channel_noise or {})
+        return np.array([float(given.get(n, self.noise)) for n in names])
+
+    @property
+    def noise_level(self) -> float:
+        """The output noise-to-signal ratio (RMS over the outputs): the misfit of a perfect model."""
+        return float(np.sqrt(np.mean(self.ratios(self.model.outputs) ** 2)))
+
+    def noise_std(self, data: Data) -> tuple[np.ndarray, np.ndarray]:
+        """Absolute noise standard deviations ``(sigma_u (nu,), sigma_y (ny,))`` on these data."""
+        col = lambda a: np.sqrt(np.mean(np.asarray(a, float).reshape(len(a), -1) ** 2, axis=0))  # noqa: E731
+        return self.ratios(self.model.inputs) * col(data.u), self.ratios(self.model.outputs) * col(data.y)
+
     def to_dict(self) -> dict[str, Any]:
-        return {"model": self.model.name, "record": self.record.to_dict(), "truth": dict(self.truth),
-                "guess": dict(self.guess), "noise_ratio": self.noise, "coordinates": self.coordinates.to_dict(),
-                "substeps": self.substeps, "refine": self.refine,
+        return {"model": self.model.name, "record": self.record.to_dict(),
+                "truth": None if self.truth is None else dict(self.truth),
+                "guess": dict(self.guess), "noise_ratio": self.noise, "channel_noise": dict(self.channel_noise or {}),
+                "coordinates": self.coordinates.to_dict(),
+                "substeps": self.substeps, "refine": self.refine, "fit_substeps": self.fit_substeps,
                 "integrator": "RK4; a substep in which a switching function across which the field can jump "
                               "changes sign redone with refine finer ones; ROS2 (refine x the substeps) where stiff"}
 
@@ -131,7 +168,7 @@ def coordinates(model: NumericModel, kind: str = "log", *, reference: Mapping[st
 class Data:
     """One noisy realisation of the experiment."""
 
-    seed: int
+    seed: int | None
     u: np.ndarray
     y: np.ndarray
 
@@ -163,11 +200,20 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
     raise OptionError(f"unknown filter {kind!r}; use 'ukf' or 'dukf'")
 
 
-def output_misfit(setup: Setup, theta: np.ndarray, data: Data) -> float:
-    """RMS of (simulated - measured output) / RMS(measured output); simulation under the measured input."""
+def output_misfit(setup: Setup, theta: np.ndarray, data: Data, *, per_output: bool = False) -> Any:
+    """Free-run output misfit: the model simulated at ``theta`` under the measured input (integrator:
+    ``setup.fit_substeps``, default the filter's), against the measured output.
+
+    Per output ``j``: ``RMS(sim_j - y_j) / RMS(y_j)``; returned as the RMS over the outputs (one output:
+    that ratio), or the per-output array with ``per_output=True``; ``inf`` where the model cannot be
+    simulated at ``theta``.
+    """
     try:
-        sim = simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps,
-                       refine=setup.refine, jit=setup.jit)
+        sim = simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt,
+                       substeps=setup.fit_substeps or setup.substeps, refine=setup.refine, jit=setup.jit)
     except EstimatorError:
-        return float("inf")
-    return rms(sim.y - data.y) / rms(data.y)
+        out = np.full(setup.model.ny, np.inf)
+    else:
+        y = np.asarray(data.y, float).reshape(len(sim.y), -1)
+        out = np.sqrt(np.mean((sim.y - y) ** 2, axis=0)) / np.maximum(np.sqrt(np.mean(y ** 2, axis=0)), 1e-300)
+    return out if per_output else float(np.sqrt(np.mean(out ** 2)))

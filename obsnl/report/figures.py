@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["figure2", "figure3", "plot_bank_forces", "FIGURE_PREFIX"]
+__all__ = ["figure2", "figure3", "plot_fit", "plot_traces", "plot_bank_forces", "FIGURE_PREFIX"]
 
 #: Bank figures are written as ``<FIGURE_PREFIX><scenario>.png``.
 FIGURE_PREFIX = "forces_"
@@ -78,6 +78,57 @@ def figure3(path: str | Path, *, t: np.ndarray, panels: Mapping[str, np.ndarray]
         ax.set_title(title, fontsize=10)
         ax.legend(fontsize=7, ncol=5, loc="upper right")
     axes[-1, 0].set_xlabel("t (s)")
+    return _save(plt, fig, path)
+
+
+# ---- identification of a structure (obsnl identify)
+def plot_fit(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
+             outputs: Sequence[str], fit: Mapping[str, float | None]) -> Path:
+    """Measured vs simulated (model at the estimate) output, one panel per output, NRMSE in the title."""
+    plt = _plt()
+    fig, axes = plt.subplots(len(outputs), 1, figsize=(8, 2.4 * len(outputs) + 0.6), sharex=True, squeeze=False)
+    for j, (ax, name) in enumerate(zip(axes[:, 0], outputs)):
+        ax.plot(t, measured[:, j], lw=1.4, color="0.7", label="measured")
+        ax.plot(t, simulated[:, j], lw=0.8, color="C0", label="simulated at the estimate")
+        nrmse = fit.get(name)
+        ax.set_title(f"{name}: NRMSE " + (f"{nrmse:.2f} %" if nrmse is not None and np.isfinite(nrmse) else "-"),
+                     fontsize=10)
+        ax.set_ylabel(name)
+        ax.legend(fontsize=7, loc="upper right")
+    axes[-1, 0].set_xlabel("t (s)")
+    return _save(plt, fig, path)
+
+
+def plot_traces(path: str | Path, *, traces: Sequence[Any], truth: Mapping[str, float] | None = None,
+                held: Sequence[str] = (), flagged: Sequence[str] = ()) -> Path:
+    """Each parameter's estimate over the passes (one after the other) with its +-2 sigma band (log
+    coordinates: ``theta exp(+-2 sigma)``); true value dotted where known; held parameters marked."""
+    plt = _plt()
+    params = traces[0].parameters
+    nx = len(traces[0].states)
+    dt = float(traces[0].t[1] - traces[0].t[0])
+    theta = np.vstack([tr.theta for tr in traces])
+    sd = np.sqrt(np.clip(np.vstack([np.diagonal(tr.P, axis1=1, axis2=2)[:, nx:] for tr in traces]), 0, None))
+    t = np.arange(len(theta)) * dt
+    cols = 2 if len(params) > 3 else 1
+    rows = -(-len(params) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(8, 1.9 * rows + 0.6), sharex=True, squeeze=False)
+    for i, p in enumerate(params):
+        ax = axes[i // cols, i % cols]
+        ax.plot(t, theta[:, i], lw=0.9, color="C0")
+        if sd.shape[1] == len(params):
+            ax.fill_between(t, theta[:, i] * np.exp(-2 * sd[:, i]), theta[:, i] * np.exp(2 * sd[:, i]),
+                            color="C0", alpha=0.2, lw=0)
+        if truth and p in truth:
+            ax.axhline(truth[p], color="k", lw=0.7, ls=":")
+        for k in range(1, len(traces)):
+            ax.axvline(k * len(traces[0].t) * dt, color="0.6", lw=0.5)
+        tag = " (held at its guess)" if p in held else " (poorly informed)" if p in flagged else ""
+        ax.set_title(_LATEX.get(p, p) + tag, fontsize=9)
+    for j in range(len(params), rows * cols):
+        axes[j // cols, j % cols].set_visible(False)
+    for ax in axes[-1, :]:
+        ax.set_xlabel("time over the passes (s)")
     return _save(plt, fig, path)
 
 

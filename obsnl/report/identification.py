@@ -253,20 +253,44 @@ def table2_latex(doc: Mapping[str, Any]) -> str:
 
 
 def identify_text(doc: Mapping[str, Any]) -> str:
-    """The summary ``obsnl identify`` prints, from the document of
-    :func:`obsnl.estimation.identify.simulation_study`."""
+    """The summary ``obsnl identify`` prints, from ``identify.json``
+    (:meth:`obsnl.estimation.identify.Identification.to_dict`).
+
+    Examples
+    --------
+    >>> doc = {"method": "ukf", "model": "m", "mode": "measured", "data": {"name": "d"}, "passes": 1,
+    ...        "passes_run": 1, "seconds": 0.5, "converged": True, "held": 0, "fit": {"y": 1.234},
+    ...        "practical_identifiability": {}, "parameters": [{"name": "k", "estimate": 2.0, "std": 0.01,
+    ...        "held": False, "flagged": False, "reason": None, "guess": 3.0}]}
+    >>> print(identify_text(doc))
+    UKF on m, measured data d, 1 pass(es), 0.50 s: converged
+      k          estimate 2          std 0.01
+      fit (NRMSE): y 1.23 %
+    """
     pi = doc.get("practical_identifiability") or {}
-    lines = [f"{doc['method'].upper()} on {doc['model']}, {doc['record']['name']}, seed {doc['seed']}, "
-             f"{doc['passes']} pass(es): {doc['seconds']:.2f} s, {doc['repairs']} repairs"]
+    state = "converged" if doc.get("converged") else "NOT converged (the output misfit is above the divergence line)"
+    lines = [f"{doc['method'].upper()} on {doc['model']}, {doc['mode']} data {doc['data'].get('name', '')}, "
+             f"{doc['passes']} pass(es), {doc['seconds']:.2f} s: {state}"]
     if doc["passes_run"] < doc["passes"]:
         lines.append(f"  stopped after pass {doc['passes_run']}: its estimate cannot be simulated (the filter diverged)")
     if pi.get("inconclusive"):
         lines.append(f"  practical identifiability not decided: {pi['inconclusive']}")
     lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}"
               for q, why in (pi.get("undecided") or {}).items()]
-    reasons = pi.get("reasons") or {}
-    for q, d in doc["parameters"].items():
-        note = f"  poorly informed: {reasons[q]}" if q in reasons else ""
-        lines.append(f"  {q:10s} true {d['true']:<11.4g} estimate {d['estimate']:<11.4g} "
-                     f"error {d['error_percent']:7.2f} %{note}")
+    for d in doc["parameters"]:
+        head = f"  {d['name']:10s} "
+        if "true" in d:
+            head += f"true {d['true']:<11.4g} "
+        if d["held"]:
+            lines.append(head + f"held at its guess {d['held_at']:.4g} (not estimated): {d['reason']}")
+            continue
+        std = "-" if d["std"] is None else f"{d['std']:<9.2g}"
+        head += f"estimate {d['estimate']:<10.4g} std {std}"
+        if d.get("error") is not None:
+            head += f" error {d['error']:.2f} %" if d["error_kind"] == "percent" else f" error {d['error']:.3g} (absolute)"
+        lines.append(head.rstrip() + (f"  poorly informed: {d['reason']}" if d["flagged"] else ""))
+    if doc.get("held"):
+        lines.append(f"  {doc['held']} parameter(s) held at their guess")
+    fit = ", ".join(f"{k} {v:.2f} %" if v is not None else f"{k} -" for k, v in doc["fit"].items())
+    lines.append(f"  fit (NRMSE): {fit}")
     return "\n".join(lines)

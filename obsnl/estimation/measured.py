@@ -1,0 +1,215 @@
+"""Measured data: a table of the model's inputs and outputs against time, and their noise levels.
+
+A measured record is a CSV with a header: a time column (``time_s`` or ``t``) and one column per model
+input and per model output, named as in the model (extra columns are ignored; units are the
+user's). :func:`read_measured` reads and validates it; :func:`measured` does the same for columns the
+caller already holds (a mapping of name to samples).
+
+Noise levels not given are estimated from the data by :func:`estimate_noise`: the high-frequency
+residual of each channel, from its finite differences (a white noise of std ``s`` has ``k``-th
+differences of variance ``C(2k, k) s^2``; a signal sampled well above its band contributes almost
+nothing to them). Assumption, stated in every result: the channel is oversampled (its content well
+below the Nyquist frequency); for a broadband channel the estimate is an upper bound, and it is said so.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from math import comb
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from obsnl.errors import DataError
+from obsnl.estimation.records import Record, check_times
+
+__all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS"]
+
+#: Accepted names of the time column (seconds).
+TIME_COLUMNS = ("time_s", "t")
+#: Smallest noise-to-signal ratio a filter is given: one that trusts its model more than this is brittle.
+NOISE_FLOOR = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class Measured:
+    """Measured inputs ``u`` ``(T, nu)`` and outputs ``y`` ``(T, ny)`` at an even step ``dt``."""
+
+    name: str
+    dt: float
+    inputs: tuple[str, ...]
+    outputs: tuple[str, ...]
+    u: np.ndarray
+    y: np.ndarray
+    source: str = ""
+
+    @property
+    def t(self) -> np.ndarray:
+        return np.arange(len(self.y)) * self.dt
+
+    def record(self) -> Record:
+        """The inputs as a :class:`~obsnl.estimation.records.Record` (one column per input)."""
+        return Record(self.name, self.u if self.u.shape[1] > 1 else self.u[:, 0], self.dt, self.source,
+                      channels=self.inputs)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "source": self.source, "dt": self.dt, "samples": len(self.y),
+                "inputs": list(self.inputs), "outputs": list(self.outputs)}
+
+
+def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequence[str], name: str = "data",
+             source: str = "") -> Measured:
+    """Measured data from columns (a time column and one per input and output).
+
+    Parameters
+    ----------
+    columns
+        ``{name: samples}``; the time column is ``time_s`` or ``t``; extra columns are ignored.
+    inputs, outputs
+        The model's input and output names, in model order.
+    name, source
+        Labels of the record.
+
+    Returns
+    -------
+    Measured
+
+    Raises
+    ------
+    DataError
+        No time column, a missing column (named), NaN/inf (column and sample named), a time that does
+        not increase or is irregular, fewer than 3 samples.
+
+    Examples
+    --------
+    >>> m = measured({"t": [0, 0.1, 0.2], "f": [0, 1, 0], "x": [0, 0.1, 0.3]}, inputs=["f"], outputs=["x"])
+    >>> m.u.shape, m.y.shape, m.dt
+    ((3, 1), (3, 1), 0.1)
+    """
+    where = f"data {source or name!r}"
+    tname = next((c for c in TIME_COLUMNS if c in columns), None)
+    if tname is None:
+        raise DataError(f"{where}: no time column; name it 'time_s' (seconds) or 't'")
+    missing = [c for c in (*inputs, *outputs) if c not in columns]
+    if missing:
+        raise DataError(f"{where}: no column for {', '.join(repr(c) for c in missing)}; add one per model input "
+                        f"and output, named as in the model ({', '.join((*inputs, *outputs))})")
+    arrays = {}
+    for c in (tname, *inputs, *outputs):
+        try:
+            a = np.asarray(columns[c], float)
+        except (TypeError, ValueError):
+            raise DataError(f"{where}: column {c!r} is not numeric") from None
+        if a.ndim != 1:
+            raise DataError(f"{where}: column {c!r} must be one series, got shape {a.shape}")
+        bad = np.flatnonzero(~np.isfinite(a))
+        if bad.size:
+            raise DataError(f"{where}: column {c!r} has NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
+                            f"clean or interpolate the record first")
+        arrays[c] = a
+    lengths = {len(a) for a in arrays.values()}
+    if len(lengths) != 1:
+        raise DataError(f"{where}: the columns have different lengths {sorted(lengths)}")
+    if lengths.pop() < 3:
+        raise DataError(f"{where}: need at least 3 samples")
+    dt = check_times(arrays[tname], where)
+    col = lambda names: np.column_stack([arrays[c] for c in names]) if names else np.zeros((len(arrays[tname]), 0))  # noqa: E731
+    return Measured(name=name, dt=dt, inputs=tuple(inputs), outputs=tuple(outputs), u=col(inputs), y=col(outputs),
+                    source=source)
+
+
+def read_measured(path: str | Path, *, inputs: Sequence[str], outputs: Sequence[str]) -> Measured:
+    """Read a measured record (CSV with header; see the module docstring).
+
+    Parameters
+    ----------
+    path
+        The CSV file.
+    inputs, outputs
+        The model's input and output names: the columns read (others are ignored).
+
+    Returns
+    -------
+    Measured
+
+    Raises
+    ------
+    DataError
+        A missing file or column, a non-numeric cell (line and column named), NaN, a bad time column.
+
+    Examples
+    --------
+    >>> import tempfile, os
+    >>> p = os.path.join(tempfile.mkdtemp(), "d.csv")
+    >>> _ = open(p, "w").write("time_s,f,x,note\\n0,0,0,a\\n0.1,1,0.1,b\\n0.2,0,0.3,c\\n")
+    >>> read_measured(p, inputs=["f"], outputs=["x"]).y.ravel().tolist()
+    [0.0, 0.1, 0.3]
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise DataError(f"data {str(p)!r} does not exist")
+    lines = [ln for ln in p.read_text(encoding="utf-8").splitlines() if ln.strip()]
+    if len(lines) < 2:
+        raise DataError(f"data {str(p)!r}: need a header line and samples")
+    header = [h.strip() for h in lines[0].split(",")]
+    wanted = [c for c in (*TIME_COLUMNS, *inputs, *outputs) if c in header]
+    idx = {c: header.index(c) for c in wanted}
+    cols: dict[str, list[float]] = {c: [] for c in wanted}
+    for n, line in enumerate(lines[1:], start=2):
+        cells = line.split(",")
+        if len(cells) != len(header):
+            raise DataError(f"data {str(p)!r} line {n}: {len(cells)} fields, the header has {len(header)}")
+        for c, i in idx.items():
+            try:
+                cols[c].append(float(cells[i]))
+            except ValueError:
+                raise DataError(f"data {str(p)!r} line {n}: column {c!r} is not a number: {cells[i].strip()!r}") from None
+    return measured(cols, inputs=inputs, outputs=outputs, name=p.stem, source=p.name)
+
+
+def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float, str]:
+    """Noise-to-signal RMS ratio of one channel, from its high-frequency residual.
+
+    For each order ``k`` the noise std is estimated robustly from the ``k``-th differences,
+    ``s_k = MAD(diff^k x) / 0.6745 / sqrt(C(2k, k))`` (exact for white Gaussian noise); the smallest
+    ``s_k`` is taken (the signal's share of the differences falls with ``k`` for an oversampled
+    channel). When the ``s_k`` disagree by more than 50 % the signal is not oversampled enough and the
+    estimate is only an upper bound: the note says so.
+
+    Parameters
+    ----------
+    x
+        The samples of one channel.
+    orders
+        Difference orders tried.
+
+    Returns
+    -------
+    tuple
+        ``(ratio, note)``: noise std over the RMS of ``x``, and how it was obtained.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> t = np.arange(4000) * 0.01
+    >>> x = np.sin(2 * np.pi * 0.5 * t)
+    >>> r, note = estimate_noise(x + 0.02 * np.sqrt(0.5) * rng.standard_normal(t.size))
+    >>> round(r, 3)
+    0.02
+    """
+    x = np.asarray(x, float)
+    scale = float(np.sqrt(np.mean(x ** 2)))
+    if scale == 0:
+        return NOISE_FLOOR, "a zero channel: noise set to the floor"
+    est = []
+    for k in orders:
+        d = np.diff(x, k)
+        est.append(float(np.median(np.abs(d - np.median(d))) / 0.6745 / np.sqrt(comb(2 * k, k))))
+    s = min(est)
+    spread = max(est) / max(s, 1e-300)
+    note = f"from the differences of orders {list(orders)} (noise std {s:.3g})"
+    if spread > 1.5:
+        note += f"; they disagree by a factor {spread:.2g}: the channel is not oversampled, this is an upper bound"
+    return s / scale, note

@@ -1,0 +1,263 @@
+"""Identify a structure: the structural analysis first, then the filter (``obsnl identify``, ``obsnl.identify``).
+
+:func:`identify` takes a model and its measured data (a CSV file, columns, or
+:class:`~obsnl.estimation.measured.Measured`), refuses a parameter that the model's structure cannot
+reveal (unless ``allow_unidentifiable``) and runs :func:`obsnl.estimation.identify.identify_measured`.
+:func:`study` does the same for a simulated experiment (the model's ``[values]`` driven by a record).
+:func:`write_identification` writes ``identify.json`` and the figures into a folder.
+
+The structural verdict is read through :func:`structurally_unidentifiable`, in one place: the joint
+verdict of the analysis (``result.joint.unobservable``) where the analysis has one, else the per-branch
+union (a parameter unobservable in every branch). The union is stricter than the joint verdict: a
+parameter seen in each branch only within a combination (Bouc-Wen ``beta sign + gamma``) is
+unobservable in every branch and yet revealed by the branches together.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+from obsnl.errors import AnalysisError, OptionError, OutputError
+from obsnl.estimation.codegen import to_casadi
+from obsnl.estimation.experiments import Tuning
+from obsnl.estimation.identify import MEASURED_GRID, Identification, identify_measured, simulation_study
+from obsnl.estimation.measured import Measured, measured, read_measured
+from obsnl.estimation.records import Record, read_record
+from obsnl.model.core import Model
+from obsnl.model.files import load_model
+from obsnl.model.signature import ModelSignature
+from obsnl.observability.analyze import analyze
+from obsnl.observability.branch_table import BranchTable
+
+__all__ = ["identify", "study", "structurally_unidentifiable", "write_identification", "parse_assignments",
+           "IDENTIFY_FILES"]
+
+#: What :func:`write_identification` writes into its folder.
+IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png")
+
+
+def structurally_unidentifiable(result: Any, parameters: Sequence[str]) -> tuple[tuple[str, ...], str]:
+    """The ``parameters`` the analysis calls structurally unidentifiable, and which verdict said so.
+
+    Parameters
+    ----------
+    result
+        An :class:`~obsnl.AnalysisResult`; when it has a joint verdict (an attribute ``joint`` with
+        ``unobservable``) that is used, else the per-branch union (``overall_unobservable``).
+    parameters
+        The names to check.
+
+    Returns
+    -------
+    tuple
+        ``(names, "joint" | "union")``.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace
+    >>> structurally_unidentifiable(SimpleNamespace(overall_unobservable=("z", "b")), ["a", "b"])
+    (('b',), 'union')
+    >>> joint = SimpleNamespace(unobservable=())
+    >>> structurally_unidentifiable(SimpleNamespace(overall_unobservable=("b",), joint=joint), ["a", "b"])
+    ((), 'joint')
+    """
+    joint = getattr(result, "joint", None)
+    if joint is not None and hasattr(joint, "unobservable"):
+        bad, kind = set(joint.unobservable), "joint"
+    else:
+        bad, kind = set(result.overall_unobservable), "union"
+    return tuple(p for p in parameters if p in bad), kind
+
+
+def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str, what: str) -> dict[str, float]:
+    """``NAME=VALUE`` items as a mapping; one-line errors naming a wrong name or value.
+
+    Examples
+    --------
+    >>> parse_assignments(["k=2.5"], ["k", "c"], option="--guess", what="parameter")
+    {'k': 2.5}
+    """
+    out = {}
+    for item in items:
+        name, eq, value = item.partition("=")
+        name = name.strip()
+        if not eq or name not in names:
+            raise OptionError(f"{option} {item!r}: {name!r} is not a {what} ({', '.join(names)}); write NAME=VALUE")
+        try:
+            out[name] = float(value)
+        except ValueError:
+            raise OptionError(f"{option} {item!r}: {value!r} is not a number") from None
+    return out
+
+
+def _model(model: Model | str | Path) -> Model:
+    return model if isinstance(model, Model) else load_model(model)
+
+
+def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mapping[str, float] | None,
+             allow_unidentifiable: bool, seed: int) -> tuple[Any, dict[str, float], BranchTable | None, dict]:
+    """Table check, structural analysis (refusal), compilation, guesses."""
+    if isinstance(table, (str, Path)):
+        from obsnl.observability.branch_table import load_branch_table
+
+        table = load_branch_table(table)
+    if table is not None:  # a table made for another model is refused before anything runs
+        table.signature.check(ModelSignature.of(model))
+    names = tuple(s.name for s in model.parameters)
+    result = analyze(model, seed=seed)
+    bad, kind = structurally_unidentifiable(result, names)
+    structural = {"verdict": kind, "unidentifiable": list(bad), "allowed": bool(bad and allow_unidentifiable),
+                  "undecided": sorted(set().union(*(b.undecided for b in result.branches)) & set(names)),
+                  "branches": len(result.branches)}
+    if bad and not allow_unidentifiable:
+        which = "the joint verdict" if kind == "joint" else "every branch"
+        raise AnalysisError(
+            f"{', '.join(bad)} of {model.name!r} {'is' if len(bad) == 1 else 'are'} structurally unidentifiable "
+            f"from its outputs ({which}); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` "
+            f"and identify NEW.toml, or pass --allow-unidentifiable")
+    num = to_casadi(model, switching=table.switching if table else None)
+    g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
+    g.update(guess or {})
+    return num, g, table, structural
+
+
+def _structural_note(structural: Mapping[str, Any]) -> tuple[str, ...]:
+    bad = structural["unidentifiable"]
+    if not bad:
+        return (f"structural analysis ({structural['verdict']} verdict over {structural['branches']} branches): "
+                f"every parameter identifiable",)
+    return (f"structural analysis ({structural['verdict']} verdict over {structural['branches']} branches) calls "
+            f"{', '.join(bad)} unidentifiable; run anyway (--allow-unidentifiable): their estimates rest on what the "
+            f"data reveal beyond that verdict, judge them by the practical-identifiability flags",)
+
+
+def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str | Path, *,
+             guess: Mapping[str, float] | None = None, noise: Mapping[str, float] | None = None, method: str = "ukf",
+             table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
+             tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool = False,
+             hold: bool = False, progress: Callable[[], Any] | None = None) -> Identification:
+    """Identify a structure's parameters from its measured inputs and outputs.
+
+    Parameters
+    ----------
+    model
+        A :class:`~obsnl.Model` or a model file.
+    data
+        A CSV file (time column ``time_s`` or ``t``, one column per model input and output, named as
+        in the model), ``{column: samples}``, or :class:`~obsnl.estimation.measured.Measured`.
+    guess
+        Initial guesses (default: the model file's ``[guess]`` table; these override it).
+    noise
+        Noise-to-signal RMS ratio per channel; channels not named are estimated from the data.
+    method, table
+        ``"ukf"`` or ``"dukf"`` (with the model's branch table, a file or a value).
+    passes, replicates, seed
+        Passes over the record; Monte-Carlo replicates (0: off) and their seed (also the analysis seed).
+    tuning
+        One filter configuration; default: tuned over ``MEASURED_GRID`` by the output misfit.
+    allow_unidentifiable
+        Run although the structural analysis calls a parameter unidentifiable.
+    jit
+        Compile the filter to C.
+    hold
+        Hold poorly informed parameters at their guess once the filter reaches the noise floor
+        (:func:`obsnl.estimation.identify.identify_measured`; default off).
+    progress
+        Called after every filter pass.
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    AnalysisError
+        A structurally unidentifiable parameter (named), unless ``allow_unidentifiable``.
+    DataError, OptionError, TableError
+        Bad data, options, or a branch table made for another model.
+
+    Examples
+    --------
+    >>> import obsnl
+    >>> m = obsnl.Model(name="drift", states=["x"], parameters=["a", "b"], inputs=["u"],
+    ...                 equations={"x": "(a + b)*u"}, outputs={"y": "x"})
+    >>> obsnl.identify(m, {"t": [0, 1, 2], "u": [1, 1, 1], "y": [0, 1, 2]}, guess={"a": 1, "b": 1})
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.AnalysisError: a, b of 'drift' are structurally unidentifiable from its outputs (every branch); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` and identify NEW.toml, or pass --allow-unidentifiable
+    """
+    model = _model(model)
+    ins, outs = [s.name for s in model.inputs], list(model.outputs)
+    if isinstance(data, (str, Path)):
+        data = read_measured(data, inputs=ins, outputs=outs)
+    elif not isinstance(data, Measured):
+        data = measured(data, inputs=ins, outputs=outs)
+    num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed)
+    res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
+                            grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
+                            replicates=replicates, seed=seed, jit=jit, hold=hold, progress=progress)
+    return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
+
+
+def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapping[str, float] | None = None,
+          noise: float = 1e-3, method: str = "ukf", table: BranchTable | str | Path | None = None, passes: int = 3,
+          replicates: int = 0, seed: int = 0, tuning: Tuning = Tuning(0.2, 0.0, 1.0), samples: int | None = None,
+          allow_unidentifiable: bool = False, jit: bool = False,
+          progress: Callable[[], Any] | None = None) -> Identification:
+    """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
+
+    Same structural check as :func:`identify`; see
+    :func:`obsnl.estimation.identify.simulation_study` for the rest.
+
+    Examples
+    --------
+    >>> callable(study)
+    True
+    """
+    model = _model(model)
+    record = read_record(record) if isinstance(record, (str, Path)) else record
+    if samples:
+        record = record.head(samples)
+    if len(model.inputs) != 1:
+        raise OptionError(f"a simulation study drives one input with --record; {model.name!r} has "
+                          f"{[s.name for s in model.inputs]}: give measured data with --data")
+    num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed)
+    res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise, tuning=tuning,
+                           passes=passes, replicates=replicates, jit=jit, progress=progress)
+    return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
+
+
+def write_identification(result: Identification, out: str | Path, *, force: bool = False) -> list[Path]:
+    """Write ``identify.json``, ``fit.png`` (measured vs simulated per output) and ``traces.png``
+    (parameter traces over the passes with +-2 sigma bands) into the folder ``out``.
+
+    Raises
+    ------
+    OutputError
+        ``out`` is a file, or one of the files exists and ``force`` is not set.
+
+    Examples
+    --------
+    >>> IDENTIFY_FILES[0]
+    'identify.json'
+    """
+    from obsnl.report.figures import plot_fit, plot_traces
+
+    folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise OutputError(f"{folder} is a file; give a folder")
+    taken = [folder / f for f in IDENTIFY_FILES if (folder / f).exists()]
+    if taken and not force:
+        raise OutputError(f"{taken[0]} exists; pass --force to overwrite it")
+    folder.mkdir(parents=True, exist_ok=True)
+    path = folder / "identify.json"
+    path.write_text(json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    truth = {p.name: p.true for p in result.parameters if p.true is not None}
+    return [path, plot_fit(folder / "fit.png", t=result.t, measured=result.y_measured, simulated=result.y_fit,
+                           outputs=result.outputs, fit=result.fit),
+            plot_traces(folder / "traces.png", traces=result.traces, truth=truth,
+                        held=result.held, flagged=result.flagged)]
