@@ -33,17 +33,15 @@ def sdof_csv(tmp_path_factory):
 def test_sdof_bouc_wen_from_measured_force_and_displacement(sdof_csv, tmp_path, capsys):
     # 1 % noise on force and displacement; noise levels NOT given: estimated from the data; guesses 30-50 % off
     # ([guess] of the model file). The per-branch union calls beta, gamma unobservable (each branch sees
-    # beta*sign + gamma only), so the run needs --allow-unidentifiable (the joint verdict will not).
+    # beta*sign + gamma only); the joint verdict (both kinds of branch together) identifies them, so the
+    # run goes ahead without --allow-unidentifiable.
     out = tmp_path / "run"
     args = ["identify", str(SDOF), "--data", str(sdof_csv), "--out", str(out)]
-    assert main(args) == 2
-    err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "beta, gamma" in err and "obsnl reparametrize" in err
-    assert main(args + ["--allow-unidentifiable"]) == 0
+    assert main(args) == 0
     doc = json.loads((out / "identify.json").read_text())
     assert {(out / f).is_file() for f in ("fit.png", "traces.png")} == {True}
     assert doc["mode"] == "measured" and doc["converged"] and doc["held"] == 0
-    assert doc["structural"]["unidentifiable"] == ["beta", "gamma"] and doc["structural"]["allowed"]
+    assert doc["structural"]["unidentifiable"] == [] and doc["structural"]["verdict"] == "joint"
     for p in doc["parameters"]:
         assert set(p) >= {"name", "estimate", "std", "held", "flagged", "reason"}
         assert not p["flagged"] and p["std"] > 0
@@ -52,7 +50,7 @@ def test_sdof_bouc_wen_from_measured_force_and_displacement(sdof_csv, tmp_path, 
     for ch in ("F", "x_meas"):  # estimated noise levels: the 1 % that was added, within a fifth
         assert doc["noise"][ch]["ratio"] == pytest.approx(0.01, rel=0.2) and "estimated" in doc["noise"][ch]["source"]
     assert any("structural analysis" in a for a in doc["assumptions"])
-    assert main(args + ["--allow-unidentifiable"]) == 2  # never overwrite without --force
+    assert main(args) == 2  # never overwrite without --force
     assert "--force" in capsys.readouterr().err
 
 

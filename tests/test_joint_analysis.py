@@ -131,3 +131,43 @@ def test_representatives_never_claim_an_unobservable_verdict_for_the_model():
     assert r.visited.how == "representatives"
     assert "w" not in r.joint.unobservable and "b" not in r.joint.unobservable
     assert {"w", "b"} <= set(r.joint.inconclusive) and "not decided" in r.joint.reason
+
+
+def test_dukf_refuses_parameters_that_every_branch_freezes_but_the_joint_verdict_identifies(tmp_path, capsys):
+    # one Bouc-Wen storey (n = 2, A = 1): z' = v (1 - (beta*sign(v*z) + gamma) z^2); every branch sees only
+    # beta*s + gamma (s = +1 or -1), so every branch freezes both, while the two kinds of branch together
+    # identify both: a per-branch DUKF can never learn them (switched.md section 5)
+    model = tmp_path / "storey.toml"
+    model.write_text('''name = "storey"
+states = ["x", "v", "z"]
+parameters = ["c", "k", "kh", "beta", "gamma"]
+inputs = ["ag"]
+[outputs]
+a = "-c*v - k*x - kh*z"
+[equations]
+x = "v"
+v = "-ag - c*v - k*x - kh*z"
+z = "v - beta*Abs(v)*Abs(z)*z - gamma*v*z**2"
+[values]
+c = 0.3
+k = 9.0
+kh = 3.0
+beta = 20.0
+gamma = 10.0
+[guess]
+c = 0.4
+k = 8.0
+kh = 2.5
+beta = 15.0
+gamma = 12.0
+''')
+    table = tmp_path / "table.json"
+    assert main(["analyze", str(model), "--seed", "0", "--format", "json-table", "-o", str(table)]) == 0
+    doc = json.loads(table.read_text())
+    assert set(doc["overall"]["unobservable"]) == {"beta", "gamma"} and doc["joint"]["unobservable"] == []
+    capsys.readouterr()
+    record = MODELS.parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+    code = main(["identify", str(model), "--record", str(record), "--method", "dukf", "--table", str(table),
+                 "--samples", "100"])
+    err = capsys.readouterr().err
+    assert code == 2 and "beta, gamma" in err and "obsnl reparametrize" in err and len(err.strip().splitlines()) == 1

@@ -13,7 +13,7 @@ def _blocks(lang: str) -> list[str]:
 
 
 def test_python_example_runs(tmp_path, monkeypatch, capsys):
-    (example,) = [b for b in _blocks("python") if "obsnl.Model(" in b]
+    (example,) = [b for b in _blocks("python") if "obsnl.Model(" in b and "reparametrize" in b]
     monkeypatch.chdir(tmp_path)
     exec(compile(example, "README.md", "exec"), {})
     out = capsys.readouterr().out

@@ -33,7 +33,7 @@ from obsnl.model.signature import ModelSignature
 from obsnl.observability.analyze import analyze
 from obsnl.observability.branch_table import BranchTable
 
-__all__ = ["identify", "study", "structurally_unidentifiable", "write_identification", "parse_assignments",
+__all__ = ["identify", "study", "structurally_unidentifiable", "frozen_but_jointly_identifiable", "write_identification", "parse_assignments",
            "IDENTIFY_FILES"]
 
 #: What :func:`write_identification` writes into its folder.
@@ -99,7 +99,8 @@ def _model(model: Model | str | Path) -> Model:
 
 
 def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mapping[str, float] | None,
-             allow_unidentifiable: bool, seed: int) -> tuple[Any, dict[str, float], BranchTable | None, dict]:
+             allow_unidentifiable: bool, seed: int, method: str = "ukf"
+             ) -> tuple[Any, dict[str, float], BranchTable | None, dict]:
     """Table check, structural analysis (refusal), compilation, guesses."""
     if isinstance(table, (str, Path)):
         from obsnl.observability.branch_table import load_branch_table
@@ -119,10 +120,40 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
             f"{', '.join(bad)} of {model.name!r} {'is' if len(bad) == 1 else 'are'} structurally unidentifiable "
             f"from its outputs ({which}); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` "
             f"and identify NEW.toml, or pass --allow-unidentifiable")
+    frozen = frozen_but_jointly_identifiable(table, result) if method == "dukf" else ()
+    structural["frozen_by_the_dukf"] = list(frozen)
+    if frozen and not allow_unidentifiable:
+        raise AnalysisError(
+            f"{', '.join(frozen)} of {model.name!r} {'is' if len(frozen) == 1 else 'are'} identifiable only jointly: "
+            f"every branch of the table freezes {'it' if len(frozen) == 1 else 'them'}, so the DUKF would hold "
+            f"{'it' if len(frozen) == 1 else 'them'} at the guess; reparametrize with `obsnl reparametrize MODEL -o "
+            f"NEW.toml` (the seed paper's Delta1, Delta2), use --method ukf, or pass --allow-unidentifiable")
     num = to_casadi(model, switching=table.switching if table else None)
     g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
     g.update(guess or {})
     return num, g, table, structural
+
+
+def frozen_but_jointly_identifiable(table: BranchTable | None, result: Any) -> tuple[str, ...]:
+    """Parameters every branch of ``table`` freezes (unidentifiable in each branch) that the joint verdict
+    of ``result`` (an analysis of the same model) identifies: a per-branch DUKF cannot learn them.
+
+    Parameters
+    ----------
+    table
+        The DUKF's branch table (None: nothing is frozen).
+    result
+        An :class:`~obsnl.observability.results.AnalysisResult` with its joint verdict.
+
+    Returns
+    -------
+    tuple of str
+    """
+    if table is None:
+        return ()
+    joint = table.joint["observable"] if table.joint is not None else (
+        result.joint.observable if getattr(result, "joint", None) is not None else ())
+    return tuple(p for p in table.frozen_everywhere if p in joint)
 
 
 def _structural_note(structural: Mapping[str, Any]) -> tuple[str, ...]:
@@ -188,7 +219,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     >>> obsnl.identify(m, {"t": [0, 1, 2], "u": [1, 1, 1], "y": [0, 1, 2]}, guess={"a": 1, "b": 1})
     Traceback (most recent call last):
     ...
-    obsnl.errors.AnalysisError: a, b of 'drift' are structurally unidentifiable from its outputs (every branch); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` and identify NEW.toml, or pass --allow-unidentifiable
+    obsnl.errors.AnalysisError: a, b of 'drift' are structurally unidentifiable from its outputs (the joint verdict); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` and identify NEW.toml, or pass --allow-unidentifiable
     """
     model = _model(model)
     ins, outs = [s.name for s in model.inputs], list(model.outputs)
@@ -196,7 +227,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         data = read_measured(data, inputs=ins, outputs=outs)
     elif not isinstance(data, Measured):
         data = measured(data, inputs=ins, outputs=outs)
-    num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed)
+    num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
     res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
                             grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
                             replicates=replicates, seed=seed, jit=jit, hold=hold, progress=progress)
@@ -225,7 +256,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     if len(model.inputs) != 1:
         raise OptionError(f"a simulation study drives one input with --record; {model.name!r} has "
                           f"{[s.name for s in model.inputs]}: give measured data with --data")
-    num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed)
+    num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
     res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise, tuning=tuning,
                            passes=passes, replicates=replicates, jit=jit, progress=progress)
     return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
