@@ -33,7 +33,8 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import DataError, EstimatorError
-from obsnl.estimation.numeric import NumericModel, ParameterMap, jit_options
+from obsnl.estimation.jitcache import jit_compile
+from obsnl.estimation.numeric import NumericModel, ParameterMap
 from obsnl.estimation.trajectory import Estimate, Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS, build_step
 
@@ -282,10 +283,10 @@ class UKF:
             act = act * allowed
             lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
             zn, Pn, yp, nuv, S, rep, imp, fine = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap)
-            opts = jit_options() if self.jit else {}
-            self.cache[key] = ca.Function(
+            fn = ca.Function(
                 "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap],
-                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine], opts)
+                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine])
+            self.cache[key] = jit_compile(fn) if self.jit else fn  # compiled once per machine, then from disk
         return self.cache[key]
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
