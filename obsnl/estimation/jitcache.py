@@ -62,7 +62,7 @@ def cache_directory() -> Path:
         except FileExistsError:
             pass
     st = os.lstat(base)
-    fix = f"remove it or set OBSNL_CACHE_DIR to a private folder"
+    fix = "remove it or set OBSNL_CACHE_DIR to a private folder"
     if stat.S_ISLNK(st.st_mode):
         raise OutputError(f"the compiled-filter cache {base} is a symbolic link; {fix}")
     if not stat.S_ISDIR(st.st_mode):
