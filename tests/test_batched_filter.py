@@ -16,7 +16,7 @@ from obsnl.estimation.codegen import log_map
 from obsnl.estimation.records import read_record
 from obsnl.estimation.ukf import UKF
 
-from .conftest import MODELS, ROOT
+from .conftest import ROOT
 from .test_dukf import GUESS, MODEL, NUM, SCALE, _dukf
 from .test_seed_models import _simulate
 

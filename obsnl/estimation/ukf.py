@@ -327,7 +327,7 @@ class UKF:
             Estimates at every sample; raises :class:`~obsnl.errors.EstimatorError` at the first NaN.
         """
         ys, us = check_inputs(ys, us, ny=self.model.ny, nu=self.model.nu)
-        T, L = len(ys), self.size
+        T = len(ys)
         fn = self._compiled()
         key = ("mapaccum", self._key(), T)
         if key not in self.cache:
