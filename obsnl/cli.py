@@ -159,7 +159,7 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the random point (default: 0)")
     p.add_argument("--max-seconds", type=float, default=None, help="time limit per branch")
     p.add_argument("--force", action="store_true", help="overwrite existing report files")
-    _add_executor(p)
+    _add_executor(p, workers=1)  # small analyses: processes cost more than they save (benchmarks/bench_report.py)
     p.set_defaults(func=_cmd_report)
 
 
@@ -409,8 +409,9 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=_cmd_reproduce)
 
 
-def _add_executor(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--workers", type=int, default=None, help="local processes (default: one per core; 1: none)")
+def _add_executor(p: argparse.ArgumentParser, workers: int | None = None) -> None:
+    p.add_argument("--workers", type=int, default=workers,
+                   help=f"local processes (default: {workers or 'one per core'}; 1: none)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
 
 
