@@ -325,6 +325,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
                         "the estimate: the whole protocol again on fresh noise; 0: off, the default; 32 in reproduce)")
     p.add_argument("--out", default=None, help="output folder for identify.json (default: print only)")
     p.add_argument("--force", action="store_true", help="overwrite an existing identify.json")
+    _add_executor(p)
     p.set_defaults(func=_cmd_identify)
 
 
@@ -351,7 +352,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
         doc = simulation_study(num, record, guess=guess, method=args.method, table=table, seed=args.seed,
                                noise=args.noise, tuning=Tuning(args.s0, args.q_theta, args.q_x, args.gate),
                                passes=args.passes, replicates=args.replicates, jit=args.jit,
-                               progress=(lambda: bar.update(1)) if bar is not None else None)
+                               progress=(lambda: bar.update(1)) if bar is not None else None,
+                               executor=_executor(args), source=model.to_dict())
     finally:
         if bar is not None:
             bar.close()

@@ -8,16 +8,21 @@ identifiability of each parameter is judged at the estimate.
 
 from __future__ import annotations
 
+import json
 import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
+import numpy as np
+
 from obsnl.errors import EstimatorError, OptionError
 from obsnl.estimation.codegen import NumericModel
-from obsnl.estimation.experiments import Tuning, make_data, make_filter, monte_carlo, run_passes
+from obsnl.estimation.experiments import (Tuning, make_data, make_filter, mc_replicates, mc_spread, mc_truth,
+                                          run_passes)
 from obsnl.estimation.practical import practical_identifiability
 from obsnl.estimation.records import Record
 from obsnl.estimation.setup import Setup, coordinates, output_misfit
+from obsnl.executor import Executor
 from obsnl.observability.branch_table import BranchTable
 
 __all__ = ["check_replicates", "simulation_study"]
@@ -54,7 +59,8 @@ def check_replicates(replicates: int) -> int:
 def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, float], method: str = "ukf",
                      table: BranchTable | None = None, seed: int = 0, noise: float = 1e-3,
                      tuning: Tuning = Tuning(0.2, 0.0, 1.0), passes: int = 3, replicates: int = 0,
-                     jit: bool = False, progress: Callable[[], Any] | None = None) -> dict[str, Any]:
+                     jit: bool = False, progress: Callable[[], Any] | None = None,
+                     executor: Executor | None = None, source: Mapping[str, Any] | None = None) -> dict[str, Any]:
     """Identify ``num`` from its own simulated response to ``record`` (the truth: ``num.values``).
 
     Parameters
@@ -79,6 +85,11 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
         Compile the filter to C.
     progress
         Called once per Monte-Carlo replicate.
+    executor, source
+        Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`; default: this process)
+        in batches of 8; a task carries ``source``, the model's specification (``Model.to_dict()``
+        of the model that ``num`` was compiled from), never ``num``. Replicate ``b`` draws its noise
+        from ``[seed, b]``: the spread does not depend on the executor.
 
     Returns
     -------
@@ -110,8 +121,24 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     misfit = output_misfit(setup, theta, data)
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
     if replicates and not prac.inconclusive:
-        prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates,
-                                            seed=seed, progress=progress))
+        y_hat = mc_truth(setup, theta, data)
+        if y_hat is None:
+            outcomes = []
+        elif executor is None or executor.kind == "serial":
+            outcomes = mc_replicates(setup, filt, data, y_hat, tuning, passes=passes, seed=seed,
+                                     indices=range(replicates), progress=progress)
+        else:
+            if source is None:
+                raise OptionError("replicates on an executor need source=Model.to_dict() of the model (tasks carry "
+                                  "the model's specification, not the compiled model)")
+            spec = (dict(source), None if table is None else table.to_json(), record, dict(guess), noise, jit, method)
+            tasks = [(spec, tuple(map(float, theta)), tuning, passes, seed, seed, tuple(range(lo, min(replicates, lo + 8))))
+                     for lo in range(0, replicates, 8)]
+            chunks = executor.map(_replicates_task, tasks, done=(lambda i, r: [progress() for _ in r])
+                                  if progress else None)
+            outcomes = [o for chunk in chunks for o in chunk]
+        prac = prac.with_spread(mc_spread(setup, outcomes, replicates=replicates, seed=seed,
+                                          simulated=y_hat is not None))
     err = 100 * (theta - setup.theta_true) / abs(setup.theta_true)
     return {"model": num.name, "record": record.to_dict(), "method": method, "seed": seed,
             "noise_ratio": noise, "tuning": tuning.to_dict(), "passes": passes,
@@ -123,3 +150,32 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
             "passes_run": len(trs), "output_misfit": misfit if math.isfinite(misfit) else None,
             "practically_unidentifiable": None if prac.inconclusive else list(prac.flagged),
             "practical_identifiability": prac.to_dict()}
+
+
+_STUDIES: dict[str, tuple[Setup, Any]] = {}
+
+
+def _replicates_task(task: tuple) -> list[tuple]:
+    """Monte-Carlo replicates of :func:`simulation_study` from the experiment's specification."""
+    import hashlib
+    import pickle
+
+    from obsnl.estimation.codegen import to_casadi
+    from obsnl.model.core import Model
+
+    spec, theta, tuning, passes, seed, mc_seed, indices = task
+    key = hashlib.sha256(pickle.dumps(spec)).hexdigest()
+    if key not in _STUDIES:
+        source, table_json, record, guess, noise, jit, method = spec
+        table = None if table_json is None else BranchTable.from_dict(json.loads(table_json))
+        num = to_casadi(Model.from_dict(source), switching=table.switching if table else None)
+        truth = {q: num.values.get(q) for q in num.parameters}
+        setup = Setup(model=num, record=record, truth=truth, guess=guess, noise=noise, jit=jit,
+                      coordinates=coordinates(num, "log", reference=guess))
+        _STUDIES.clear()
+        _STUDIES[key] = (setup, make_filter(setup, method, table=table))
+    setup, filt = _STUDIES[key]
+    data = make_data(setup, seed)
+    y_hat = mc_truth(setup, np.asarray(theta), data)
+    return [] if y_hat is None else mc_replicates(setup, filt, data, y_hat, tuning, passes=passes, seed=mc_seed,
+                                                  indices=indices)
