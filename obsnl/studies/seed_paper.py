@@ -134,11 +134,12 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
     stage("analysis")
     table, source = seed_branch_table()
     spec = Spec(record=record, samples=samples, jit=jit, table_json=table.to_json())
-    stage("building the filters (compiled code from the disk cache, else compiled once)")
+    stage("building the experiment")
     ctx = context(spec)  # the workers build the same from the spec
     setup, filters = ctx["setup"], ctx["filters"]
     compile_seconds = {}
-    for name, f in filters.items():
+    for i, (name, f) in enumerate(filters.items()):
+        stage(f"building the {name} filter ({i + 1}/{len(filters)}; from the disk cache, else compiled once: ~1 min)")
         tic = time.perf_counter()
         f._compiled()
         compile_seconds[name] = time.perf_counter() - tic
