@@ -4,4 +4,5 @@ import sys
 
 from obsnl.cli import main
 
-sys.exit(main())
+if __name__ == "__main__":  # worker processes (spawn) import this module without running the command line
+    sys.exit(main())

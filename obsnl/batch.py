@@ -9,6 +9,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from obsnl.errors import OutputError
+from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.results import AnalysisResult
@@ -17,8 +18,15 @@ from obsnl.report.files import report_files, write_tables
 __all__ = ["report_models"]
 
 
+def _analyze_task(task: tuple[dict, str, int, float | None]) -> AnalysisResult:
+    """One model of a report, from its specification (``Model.to_dict``)."""
+    spec, method, seed, max_seconds = task
+    return analyze(Model.from_dict(spec), method=method, seed=seed, max_seconds=max_seconds)
+
+
 def report_models(models: Sequence[Model], out: str | Path, *, method: str = "auto", seed: int = 0,
-                  force: bool = False, max_seconds: float | None = None) -> tuple[AnalysisResult, ...]:
+                  force: bool = False, max_seconds: float | None = None,
+                  executor: Executor | None = None) -> tuple[AnalysisResult, ...]:
     """Analyse ``models`` and write one table per model (``.md``, ``.tex``, ``.json``), ``index.md``
     and ``timings.md`` into ``out``.
 
@@ -32,6 +40,9 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
         As :func:`obsnl.analyze` (one seed for every model).
     force
         Overwrite existing files.
+    executor
+        Where the models are analysed (:class:`obsnl.executor.Executor`; default: this process). A
+        task carries the model's specification (``Model.to_dict()``) and the seed.
 
     Returns
     -------
@@ -48,6 +59,9 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
     existing = [str(t) for t in targets if t.exists() or t.is_symlink()]
     if existing and not force:
         raise OutputError(f"{existing[0]} exists; pass --force to overwrite the report")
-    results = tuple(analyze(m, method=method, seed=seed, max_seconds=max_seconds) for m in models)
+    if executor is None or executor.kind == "serial":
+        results = tuple(analyze(m, method=method, seed=seed, max_seconds=max_seconds) for m in models)
+    else:
+        results = tuple(executor.map(_analyze_task, [(m.to_dict(), method, seed, max_seconds) for m in models]))
     write_tables(results, out, force=True)
     return results

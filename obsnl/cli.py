@@ -188,6 +188,7 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the random point (default: 0)")
     p.add_argument("--max-seconds", type=float, default=None, help="time limit per branch")
     p.add_argument("--force", action="store_true", help="overwrite existing report files")
+    _add_executor(p, workers=1)  # small analyses: processes cost more than they save (benchmarks/bench_report.py)
     p.set_defaults(func=_cmd_report)
 
 
@@ -196,7 +197,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
     models = [_load(m) for m in args.models]
     results = report_models(models, args.out, method=args.method, seed=args.seed, force=args.force,
-                           max_seconds=args.max_seconds)
+                           max_seconds=args.max_seconds, executor=_executor(args))
     print(f"wrote {len(results)} table(s) with index.md and timings.md to {args.out}")
     return 0
 
@@ -238,8 +239,6 @@ def _cmd_bank(args: argparse.Namespace) -> int:
     figs = plot_bank_forces(study, out)
     print(f"wrote {out / 'bank.json'}, {out / 'bank.md'} and {len(figs)} force plots")
     return 0
-
-
 
 
 # --------------------------------------------------------------------------- symmetries, reparametrize
@@ -322,8 +321,6 @@ def _cmd_reparametrize(args: argparse.Namespace) -> int:
     for n in r.notes:
         print(f"  note: {n}")
     return 0
-
-
 
 
 # --------------------------------------------------------------------------- identify, reproduce
@@ -439,7 +436,20 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
                         "(default: 32; 0: off)")
     p.add_argument("--out", default=None, help="output folder (default: reports/identification)")
     p.add_argument("--force", action="store_true", help="overwrite files in a non-default --out")
+    _add_executor(p)
     p.set_defaults(func=_cmd_reproduce)
+
+
+def _add_executor(p: argparse.ArgumentParser, workers: int | None = None) -> None:
+    p.add_argument("--workers", type=int, default=workers,
+                   help=f"local processes (default: {workers or 'one per core'}; 1: none)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
+
+
+def _executor(args: argparse.Namespace) -> Any:
+    from obsnl.executor import Executor
+
+    return Executor(scheduler=args.scheduler, workers=args.workers)
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
@@ -456,7 +466,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     bar = _progress("reproduce", None, "run")
     try:
         rep = reproduce(record=record, seeds=args.seeds, tuning_seeds=args.tuning_seeds, passes=args.passes,
-                        jit=not args.no_jit, samples=args.samples, progress=bar,
+                        jit=not args.no_jit, samples=args.samples, progress=bar, executor=_executor(args),
                         **({} if args.replicates is None else {"replicates": args.replicates}))
     finally:
         if bar is not None:
@@ -464,10 +474,6 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     files = write_reproduction(rep, out)
     print(f"wrote {len(files)} files to {out}: " + ", ".join(f.name for f in files))
     return 0
-
-
-
-
 
 
 #: Subcommands in the order ``obsnl --help`` lists them.

@@ -18,3 +18,20 @@ def test_import_does_not_load_the_numeric_stack():
     code = "import sys, obsnl; print(sorted(m for m in ('casadi', 'matplotlib', 'scipy.signal') if m in sys.modules))"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120).stdout.strip()
     assert out == "[]"
+
+
+HEAVY = ('casadi', 'matplotlib', 'scipy', 'networkx', 'jsonschema', 'tqdm', 'dask', 'distributed')
+
+
+def test_import_and_analyze_command_load_only_what_they_need():
+    # `import obsnl` and `obsnl analyze` of a small model need sympy, numpy and flint only
+    code = ("import sys, io, contextlib, obsnl.cli\n"
+            "before = sorted(m for m in %r if m in sys.modules)\n"
+            "with contextlib.redirect_stdout(io.StringIO()):\n"
+            "    try:\n"
+            "        obsnl.cli.main(['analyze', 'obsnl:coulomb_friction'])\n"
+            "    except SystemExit:\n"
+            "        pass\n"
+            "print(before, sorted(m for m in %r if m in sys.modules))" % (HEAVY, HEAVY))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert out.stdout.strip() == "[] []", out.stderr

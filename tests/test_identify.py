@@ -104,7 +104,7 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
 def test_a_diverged_reported_run_is_redone_with_the_next_tuning(monkeypatch):
     # the first reported run (UKF, seed 0) is made to look diverged (misfit 1000x the noise level):
     # it must be redone with the second configuration of the ranking, the attempt kept and shown
-    import obsnl.studies.seed_paper as repro
+    import obsnl.studies.seed_tasks as repro  # the reported runs (run as tasks of reproduce)
 
     real, calls = repro.output_misfit, []
 

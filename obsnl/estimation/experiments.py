@@ -52,7 +52,7 @@ from obsnl.estimation.setup import (BOUND, DEFAULT_GRID, DIVERGED, STATE_CAP, Da
 
 __all__ = ["Tuning", "DEFAULT_GRID", "Setup", "Data", "Practical", "coordinates", "make_data", "make_filter",
            "run_passes", "output_misfit", "practical_identifiability", "tune", "DIVERGED", "BOUND", "STATE_CAP",
-           "Spread", "monte_carlo"]
+           "Spread", "monte_carlo", "mc_truth", "mc_replicates", "mc_spread", "tune_one"]
 
 
 def _noise(setup: Setup, filt: UKF, data: Data, tuning: Tuning) -> tuple[np.ndarray, np.ndarray]:
@@ -158,23 +158,33 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
     progress
         Called once per replicate.
     """
-    from scipy.stats import chi2
-
-    m = setup.model
     if replicates < 3:
         raise OptionError(f"monte_carlo needs at least 3 replicates, got {replicates}")
     if not 0 < confidence < 1:
         raise OptionError(f"confidence must lie in (0, 1), got {confidence}")
-    nan = (float("nan"),) * m.np
-    blank = dict(parameters=m.parameters, std=nan, lower=nan, upper=nan, confidence=confidence, seed=seed)
+    y_hat = mc_truth(setup, theta, data)
+    outcomes = [] if y_hat is None else mc_replicates(setup, filt, data, y_hat, tuning, passes=passes, seed=seed,
+                                                      indices=range(replicates), progress=progress)
+    return mc_spread(setup, outcomes, replicates=replicates, seed=seed, confidence=confidence,
+                     simulated=y_hat is not None)
+
+
+def mc_truth(setup: Setup, theta: np.ndarray, data: Data) -> np.ndarray | None:
+    """The replicates' noise-free output: the model at ``theta`` under the measured input (None: it cannot be simulated)."""
     try:
-        y_hat = simulate(m, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps,
-                         refine=setup.refine, jit=setup.jit).y
+        return simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps,
+                        refine=setup.refine, jit=setup.jit).y
     except EstimatorError:
-        return Spread(replicates=0, diverged=0, inconclusive="the estimate cannot be simulated", **blank)
+        return None
+
+
+def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning: Tuning, *, passes: int, seed: int,
+                  indices: Sequence[int], progress: Callable[[], None] | None = None) -> list[tuple]:
+    """Replicates ``indices`` of :func:`monte_carlo` (replicate ``b`` draws its noise from ``[seed, b]``, so
+    any split of the indices over workers gives the same outcomes): ``(log|estimate| or None, held)``."""
     su, sy = setup.noise_std(data)
-    logs, held, diverged = [], set(m.parameters), 0
-    for b in range(replicates):
+    out = []
+    for b in indices:
         rng = np.random.default_rng([seed, b])
         rep = Data(seed=seed, u=data.u + su * rng.standard_normal(data.u.shape),
                    y=y_hat + sy * rng.standard_normal(y_hat.shape))
@@ -184,14 +194,28 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
             ok = len(trs) == passes and output_misfit(setup, est, rep) <= DIVERGED * setup.noise_level
         except ObsnlError:
             ok = False
-        if ok:
-            logs.append(np.log(np.abs(est)))
-            held &= set(fixed)
-        else:
-            diverged += 1
+        out.append((np.log(np.abs(est)), tuple(fixed)) if ok else (None, ()))
         if progress:
             progress()
-    n = len(logs)
+    return out
+
+
+def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed: int, confidence: float = 0.99,
+              simulated: bool = True) -> Spread:
+    """The :class:`Spread` of the replicates' outcomes (in replicate order) from :func:`mc_replicates`."""
+    from scipy.stats import chi2
+
+    m = setup.model
+    nan = (float("nan"),) * m.np
+    blank = dict(parameters=m.parameters, std=nan, lower=nan, upper=nan, confidence=confidence, seed=seed)
+    if not simulated:
+        return Spread(replicates=0, diverged=0, inconclusive="the estimate cannot be simulated", **blank)
+    logs = [lg for lg, _ in outcomes if lg is not None]
+    held = set(m.parameters)
+    for lg, fixed in outcomes:
+        if lg is not None:
+            held &= set(fixed)
+    n, diverged = len(logs), len(outcomes) - len(logs)
     if n < 3 or diverged * 4 > replicates:
         return Spread(replicates=n, diverged=diverged, **blank,
                       inconclusive=f"the estimator diverged on {diverged} of {replicates} replicates")
@@ -211,13 +235,18 @@ def tune(setup: Setup, filt: UKF, seeds: Sequence[int], *, grid: Sequence[Tuning
     datas = [make_data(setup, s) for s in seeds]
     for t in grid:
         for d in datas:
-            try:
-                trs, _ = run_passes(setup, filt, d, t, passes=passes)
-                got = {1: output_misfit(setup, trs[0].theta[-1], d), passes: output_misfit(setup, trs[-1].theta[-1], d)}
-            except ObsnlError:
-                got = {1: float("inf"), passes: float("inf")}
+            got = tune_one(setup, filt, d, t, passes=passes)
             for k, v in got.items():
                 scores[k].setdefault(t, []).append(v)
             if progress:
                 progress()
     return {k: {t: float(np.mean(v)) for t, v in s.items()} for k, s in scores.items()}
+
+
+def tune_one(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int) -> dict[int, float]:
+    """Output misfit of one configuration on one record after 1 pass and after ``passes`` (inf: it failed)."""
+    try:
+        trs, _ = run_passes(setup, filt, data, tuning, passes=passes)
+        return {1: output_misfit(setup, trs[0].theta[-1], data), passes: output_misfit(setup, trs[-1].theta[-1], data)}
+    except ObsnlError:
+        return {1: float("inf"), passes: float("inf")}

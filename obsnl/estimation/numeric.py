@@ -41,6 +41,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import ModelError
+from obsnl.estimation.jitcache import jit_compile
 from obsnl.model.signature import ModelSignature
 
 __all__ = ["NumericModel", "ParameterMap", "jit_options", "jit_directory", "GAMMA_ROS2"]
@@ -225,17 +226,18 @@ class NumericModel:
         only where one of the two flags is set, ``fine(x, p, u0, u1, stiff) -> x_next`` (ROS2 with
         ``refine * substeps`` if stiff, else RK4 with the crossing substep refined)."""
         n, nf = int(substeps), int(substeps) * int(refine)
-        opts = jit_options() if jit else {}
+        opts = {"jit": True} if jit else {}  # marker: compiled through the disk cache (jitcache)
+        c = jit_compile if jit else (lambda f: f)  # noqa: E731
         x, xr, p = ca.SX.sym("x", self.nx), ca.SX.sym("xr", self.nx), ca.SX.sym("p", self.np)
         u0, u1, thr = ca.SX.sym("u0", self.nu), ca.SX.sym("u1", self.nu), ca.SX.sym("threshold")
         names_in = ["x", "p", "u0", "u1"]
-        out = {m: ca.Function(f"{m}{n}", [x, p, u0, u1], [self._integrate(m, x, p, u0, u1, dt, n)[0]], names_in,
-                              ["x_next"], opts) for m in ("rk4", "ros2")}
+        out = {m: c(ca.Function(f"{m}{n}", [x, p, u0, u1], [self._integrate(m, x, p, u0, u1, dt, n)[0]], names_in,
+                                ["x_next"])) for m in ("rk4", "ros2")}
         out["rk4_fine"] = self._refined(dt, n, int(refine), opts)
         out["ros2_fine"] = self._looped("ros2", dt, nf, opts)
         xt, crossed = self._integrate("rk4", x, p, u0, u1, dt, n, track=True)
-        out["rk4_track"] = ca.Function(f"rk4_track{n}", [x, p, u0, u1], [xt, crossed], names_in,
-                                       ["x_next", "crossed"], opts)
+        out["rk4_track"] = c(ca.Function(f"rk4_track{n}", [x, p, u0, u1], [xt, crossed], names_in,
+                                         ["x_next", "crossed"]))
         d = np.ones(self.nx) if scale is None else np.asarray(scale, float)
 
         ratio = ca.DM(np.outer(1.0 / d, d) if scale is not None else np.ones((self.nx, self.nx)))
@@ -243,12 +245,12 @@ class NumericModel:
         Js = ca.if_else(ca.fabs(Js) < 1e300, ca.fabs(Js), 1e300)
         rho = dt / n * _perron_bound(Js, self.nx)
         stiff = ca.logic_or(rho > thr, ca.logic_not(ca.mmax(ca.fabs(xr)) < 1e150))
-        out["stiff"] = ca.Function("stiff", [x, xr, p, u0, u1, thr], [stiff], opts)
+        out["stiff"] = c(ca.Function("stiff", [x, xr, p, u0, u1, thr], [stiff]))
         x_rk4, crossed = out["rk4_track"](x, p, u0, u1)
         is_stiff = out["stiff"](x, x_rk4, p, u0, u1, thr)
-        out["probe"] = ca.Function("probe", [x, p, u0, u1, thr],
-                                   [x_rk4, is_stiff, ca.logic_and(crossed, ca.logic_not(is_stiff))],
-                                   names_in + ["threshold"], ["x_rk4", "stiff", "refine"], opts)
+        out["probe"] = c(ca.Function("probe", [x, p, u0, u1, thr],
+                                     [x_rk4, is_stiff, ca.logic_and(crossed, ca.logic_not(is_stiff))],
+                                     names_in + ["threshold"], ["x_rk4", "stiff", "refine"]))
         X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         U0, U1, S = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu), ca.MX.sym("stiff")
         out["fine"] = ca.Function("fine", [X, P, U0, U1, S],  # MX: only the chosen integrator runs
@@ -287,7 +289,8 @@ class NumericModel:
         frac = ca.DM(np.arange(n + 1)[None, :] / n)
         us = ca.mtimes(U0, 1 - frac) + ca.mtimes(U1, frac)
         xs = loop(X, P, us[:, :n], us[:, 1:])
-        return ca.Function(name, [X, P, U0, U1], [xs[:, n - 1]], ["x", "p", "u0", "u1"], ["x_next"], opts)
+        f = ca.Function(name, [X, P, U0, U1], [xs[:, n - 1]], ["x", "p", "u0", "u1"], ["x_next"])
+        return jit_compile(f) if opts.get("jit") else f
 
     def _integrate(self, method: str, x: ca.SX, p: ca.SX, u0: ca.SX, u1: ca.SX, dt: float, n: int,
                    track: bool = False) -> tuple[ca.SX, ca.SX]:

@@ -18,7 +18,8 @@ import numpy as np
 import casadi as ca
 
 from obsnl.errors import DataError, EstimatorError
-from obsnl.estimation.numeric import NumericModel, jit_options
+from obsnl.estimation.jitcache import jit_compile
+from obsnl.estimation.numeric import NumericModel
 
 __all__ = ["Simulation", "simulate"]
 
@@ -50,7 +51,7 @@ def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, 
         if jit:  # one step in C; the fallbacks stay conditional (evaluated only where needed)
             X, P = ca.MX.sym("x", model.nx), ca.MX.sym("p", model.np)
             U0, U1 = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
-            step = ca.Function(step.name(), [X, P, U0, U1], step(X, P, U0, U1), jit_options())
+            step = jit_compile(ca.Function(step.name(), [X, P, U0, U1], step(X, P, U0, U1)))
         _RUNS[key] = (model, step.mapaccum(T - 1))  # keeps the model alive: its id stays unique
         if len(_RUNS) > 64:
             _RUNS.pop(next(iter(_RUNS)))

@@ -33,7 +33,8 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import DataError, EstimatorError
-from obsnl.estimation.numeric import NumericModel, ParameterMap, jit_options
+from obsnl.estimation.jitcache import jit_compile
+from obsnl.estimation.numeric import NumericModel, ParameterMap
 from obsnl.estimation.trajectory import Estimate, Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS, build_step
 
@@ -282,10 +283,10 @@ class UKF:
             act = act * allowed
             lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
             zn, Pn, yp, nuv, S, rep, imp, fine = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap)
-            opts = jit_options() if self.jit else {}
-            self.cache[key] = ca.Function(
+            fn = ca.Function(
                 "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap],
-                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine], opts)
+                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine])
+            self.cache[key] = jit_compile(fn) if self.jit else fn  # compiled once per machine, then from disk
         return self.cache[key]
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -326,7 +327,7 @@ class UKF:
             Estimates at every sample; raises :class:`~obsnl.errors.EstimatorError` at the first NaN.
         """
         ys, us = check_inputs(ys, us, ny=self.model.ny, nu=self.model.nu)
-        T, L = len(ys), self.size
+        T = len(ys)
         fn = self._compiled()
         key = ("mapaccum", self._key(), T)
         if key not in self.cache:
@@ -334,7 +335,63 @@ class UKF:
         tic = time.perf_counter()
         out = self.cache[key](est0.z, est0.P, est0.active, us[:-1].T, us[1:].T, ys[1:].T, self.Q, self.R,
                               self._hyp(), self.allowed, *self._bounds(), self.cap)
-        seconds = time.perf_counter() - tic
+        return self._trajectory(est0, [np.asarray(o) for o in out], T, t, time.perf_counter() - tic)
+
+    def run_batch(self, est0s: Sequence[Estimate], ys: Sequence[Any], us: Sequence[Any], *,
+                  filters: Sequence[UKF] | None = None) -> list[Trajectory | EstimatorError]:
+        """Many runs over records of one length in one compiled call (casadi ``map`` over the runs).
+
+        Run ``i`` starts at ``est0s[i]`` on ``ys[i]``, ``us[i]`` with the options (Q, R, gate, fixed,
+        bounds, cap) of ``filters[i]`` (default: this filter); the filters must share this filter's
+        compiled step (same model, coordinates, dt, scale, method, substeps; only run-time options
+        may differ). The numbers equal those of :meth:`run` one at a time.
+
+        Returns
+        -------
+        list
+            A :class:`Trajectory` per run, or the :class:`~obsnl.errors.EstimatorError` that
+            :meth:`run` would have raised for that run.
+        """
+        filters = list(filters) if filters is not None else [self] * len(est0s)
+        if not (len(filters) == len(est0s) == len(ys) == len(us)) or not est0s:
+            raise EstimatorError("run_batch needs one start estimate, record and filter per run (and at least one run)")
+        if any(f._key() != self._key() for f in filters):
+            raise EstimatorError("run_batch: every filter must share this filter's compiled step (same model, "
+                                 "coordinates, dt, scale, method and substeps)")
+        data = [check_inputs(y, u, ny=self.model.ny, nu=self.model.nu) for y, u in zip(ys, us)]
+        T, n = len(data[0][0]), len(data)
+        if any(len(y) != T for y, _ in data):
+            raise EstimatorError("run_batch needs records of one length")
+        key = ("batch", self._key(), T, n)
+        if key not in self.cache:
+            step = self._compiled()
+            acc = step.mapaccum("run", T - 1, 3, {})
+            # one run with its options given once (not per step), then mapped over the runs
+            ins = [ca.MX.sym(f"i{j}", *(step.size_in(j) if j not in (3, 4, 5) else acc.size_in(j)))
+                   for j in range(step.n_in())]
+            one = ca.Function("one_run", ins, acc(*ins))
+            self.cache[key] = one.map(n, "serial")
+        cols = lambda rows: np.hstack(rows)  # noqa: E731 - runs side by side, as casadi's map wants them
+        args = [cols([e.z[:, None] for e in est0s]), cols([e.P for e in est0s]),
+                cols([e.active[:, None] for e in est0s]), cols([u[:-1].T for _, u in data]),
+                cols([u[1:].T for _, u in data]), cols([y[1:].T for y, _ in data]),
+                cols([f.Q for f in filters]), cols([f.R for f in filters]), cols([f._hyp()[:, None] for f in filters]),
+                cols([f.allowed[:, None] for f in filters]), cols([f._bounds()[0][:, None] for f in filters]),
+                cols([f._bounds()[1][:, None] for f in filters]), cols([f.cap[:, None] for f in filters])]
+        tic = time.perf_counter()
+        out = [np.asarray(o) for o in self.cache[key](*args)]
+        seconds = (time.perf_counter() - tic) / n
+        result: list[Trajectory | EstimatorError] = []
+        for i in range(n):
+            part = [np.hsplit(o, n)[i] if o.size else o for o in out]
+            try:
+                result.append(filters[i]._trajectory(est0s[i], part, T, None, seconds))
+            except EstimatorError as exc:
+                result.append(exc)
+        return result
+
+    def _trajectory(self, est0: Estimate, out: list[np.ndarray], T: int, t: Any, seconds: float) -> Trajectory:
+        L = self.size
         Z = np.vstack([est0.z, np.asarray(out[0]).T])
         Ps = np.concatenate([est0.P[None], np.asarray(out[1]).T.reshape(T - 1, L, L).transpose(0, 2, 1)])
         bad = np.flatnonzero(~(np.all(np.isfinite(Z), axis=1) & np.all(np.isfinite(Ps), axis=(1, 2))))

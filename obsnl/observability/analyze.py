@@ -10,8 +10,9 @@ as unobservable and absent (they count in the transcendence degree, as the seed 
 ``w_h`` in branches (b), (d)); the output-reachable submodel is split into independent blocks
 (:mod:`obsnl.observability.decompose`); each block is rationalized (:mod:`obsnl.algebra.augment`) and analysed by the
 chosen engine: ``"orc"`` (:mod:`obsnl.observability.orc`, symbolic Lie derivatives evaluated mod p) or
-``"sedoglavic"`` (:mod:`obsnl.observability.sedoglavic`, power series mod p). ``"auto"`` uses the ORC on tiny
-blocks (at most 6 unknowns, with a short time budget) and the series engine otherwise.
+``"sedoglavic"`` (:mod:`obsnl.observability.sedoglavic`, power series mod p). ``"auto"`` uses the series engine,
+and the ORC (with a short time budget) only on a small block (at most 6 unknowns) that the series
+engine left undecided.
 
 A time limit or a disagreement of random points gives ``Verdict.INCONCLUSIVE`` with a reason;
 no unobservable verdict ever comes from a truncated computation.

@@ -18,21 +18,17 @@ from typing import Any
 import numpy as np
 
 from obsnl.estimation.records import Record
-from obsnl.errors import ObsnlError
-from obsnl.model.files import catalogue_path
-from obsnl.estimation.experiments import (DEFAULT_GRID, DIVERGED, Practical, Setup, Tuning, coordinates,
-                       make_data, make_filter, monte_carlo, output_misfit, practical_identifiability, run_passes,
-                       tune)
+from obsnl.estimation.experiments import (DEFAULT_GRID, DIVERGED, Setup, Tuning, make_data, mc_spread)
+from obsnl.executor import Executor
+from obsnl.studies.seed_tasks import (FALLBACKS, SEED_GUESS, RunResult, Spec, context, replicates_task,
+                                      reported_task, reported_with_fallbacks, seed_model_path, seed_setup,
+                                      tuning_task)
 from obsnl.estimation.identify import check_replicates
 from obsnl.estimation.ukf import Trajectory
-from obsnl.estimation.ukf_step import INTERVENTIONS
 
 __all__ = ["RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce",
-           "write_reproduction", "SEED_GUESS", "PAPER_ERRORS", "TUNING_SEEDS"]
+           "write_reproduction", "SEED_GUESS", "PAPER_ERRORS", "TUNING_SEEDS", "reported_with_fallbacks"]
 
-#: Initial guesses of Table 2 of the seed paper (DESIGN.md).
-SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
-                                   "w_h": 0.3, "Delta1": 3e10, "Delta2": -6e9}
 #: Errors (%) the seed paper reports in Table 2.
 PAPER_ERRORS: Mapping[str, Mapping[str, float]] = {
     "dukf": {"k_m": 0.55, "c_dm": 0.01, "c_eta_p": 8.33, "c_p": 17.62, "h_p": 1.99, "N": 0.02, "w_h": 10.54,
@@ -44,59 +40,12 @@ PAPER_ERRORS: Mapping[str, Mapping[str, float]] = {
 
 #: Noise seeds of the tuning (never reported): 1000, 1001, ...; five by default.
 TUNING_SEEDS = 1000
-#: A reported run whose free-run output misfit exceeds ``DIVERGED`` times the stated output noise
-#: level (:data:`obsnl.estimation.experiments.DIVERGED`; the noise floor of the misfit is 1x) has diverged; it is
-#: redone with the next configuration of the tuning ranking, at most ``FALLBACKS`` times. Uses the
-#: measured data only, never the truth.
-FALLBACKS = 2
 #: Monte-Carlo replicates per reported run of the UKF and the DUKF (:func:`obsnl.estimation.experiments.monte_carlo`);
 #: replicate noise seeds ``[MC_SEEDS + seed, b]``, disjoint from the reported and tuning seeds.
 REPLICATES = 32
 MC_SEEDS = 5000
-
-
-@dataclass(frozen=True, eq=False)
-class RunResult:
-    """One reported filter run: final estimate, cost, repairs, misfit, practical identifiability."""
-
-    method: str
-    passes: int
-    seed: int
-    tuning: Tuning
-    theta: tuple[float, ...]
-    seconds: float
-    repairs: int
-    implicit: int
-    misfit: float
-    practical: Practical | None
-    error: str = ""
-    interventions: Mapping[str, int] = field(default_factory=dict)
-    redone: tuple[Mapping[str, Any], ...] = ()
-    passes_run: int | None = None  # fewer than ``passes`` when an estimate could not be simulated
-
-    @property
-    def failed(self) -> bool:
-        """True when the filter stopped (NaN); the run is reported with its error, not dropped."""
-        return bool(self.error)
-
-    def errors(self, truth: np.ndarray) -> np.ndarray:
-        """Error of each parameter in % of its true value."""
-        return 100.0 * (np.asarray(self.theta) - truth) / np.abs(truth)
-
-    def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
-        err = self.errors(truth)
-        return {"method": self.method, "passes": self.passes, "seed": self.seed, "tuning": self.tuning.to_dict(),
-                "parameters": {p: {"true": float(t), "estimate": _num(e), "error_percent": _num(r)}
-                               for p, t, e, r in zip(parameters, truth, self.theta, err)},
-                "seconds": _num(self.seconds), "repairs": self.repairs, "interventions": dict(self.interventions),
-                "implicit_sigma_point_steps": self.implicit,
-                "output_misfit": _num(self.misfit), "error": self.error,
-                "passes_run": self.passes if self.passes_run is None else self.passes_run,
-                # None: not decided (the run stopped, or its estimate diverged: see practical_identifiability)
-                "practically_unidentifiable": (list(self.practical.flagged)
-                                               if self.practical and not self.practical.inconclusive else None),
-                "practical_identifiability": self.practical.to_dict() if self.practical else None,
-                "redone": [dict(a) for a in self.redone]}
+#: Monte-Carlo replicates per task of the executor (any split gives the same replicates).
+MC_CHUNK = 8
 
 
 @dataclass(frozen=True, eq=False)
@@ -125,35 +74,6 @@ class Reproduction:
         }
 
 
-def seed_model_path() -> str:
-    """The packaged ``damage_healing_reparam.toml`` (the model of the seed experiment)."""
-    return str(catalogue_path("damage_healing_reparam"))
-
-
-def seed_setup(*, record: Record | None = None, samples: int | None = None, jit: bool = False,
-               kind: str = "log") -> Setup:
-    """The seed paper's experiment (on another record when given: resampled to 100 Hz, first 2000 samples)."""
-    from importlib import resources
-
-    from obsnl.estimation.codegen import to_casadi
-    from obsnl.estimation.records import read_record
-    from obsnl.model.files import load_model
-
-    here = resources.files("obsnl")
-    model = load_model(seed_model_path())
-    if record is None:
-        record = read_record(str(here.joinpath("studies/data/northridge1994_LOS270_ngawest2_accel.csv")))
-    else:
-        record = record.resampled(0.01)
-        record = record.head(min(len(record), 2000))
-    if samples is not None:
-        record = record.head(samples)
-    num = to_casadi(model)
-    truth = {p: float(model.values[p]) for p in num.parameters}
-    return Setup(model=num, record=record, truth=truth, guess=dict(SEED_GUESS), jit=jit,
-                 coordinates=coordinates(num, kind, reference=SEED_GUESS))
-
-
 def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
     """The branch table of the seed model from obsnl's analysis, checked against the paper's Table 1."""
     from obsnl.observability.analyze import analyze
@@ -169,51 +89,9 @@ def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
     return table, source
 
 
-def _interventions(trs: Sequence[Trajectory]) -> dict[str, int]:
-    return {k: int(sum(t.counts()[k] for t in trs)) for k in INTERVENTIONS}
-
-
-def _num(v: float) -> float | None:
-    """A finite number, or None (JSON has no NaN)."""
-    return float(v) if np.isfinite(v) else None
-
-
-def _diverged(run: RunResult, setup: Setup) -> bool:
-    """The run stopped, or its estimate reproduces the measured output worse than ``DIVERGED`` x noise."""
-    return run.failed or not (run.misfit <= DIVERGED * setup.noise)
-
-
-def _with_spread(run: RunResult, setup: Setup, f: Any, data: Any, replicates: int,
-                 progress: Any) -> RunResult:
-    """The run's practical identifiability joined with the Monte-Carlo spread at its estimate."""
-    spread = monte_carlo(setup, f, np.asarray(run.theta), data, run.tuning, passes=run.passes,
-                         replicates=replicates, seed=MC_SEEDS + run.seed, progress=progress)
-    return replace(run, practical=run.practical.with_spread(spread))
-
-
-def _reported_run(setup: Setup, f: Any, data: Any, name: str, k: int, seed: int,
-                  tuning: Tuning) -> tuple[RunResult, tuple[Trajectory, ...] | None]:
-    """One reported run (``k`` passes) with its misfit and practical identifiability; a stop is a failed run."""
-    try:
-        trs, _ = run_passes(setup, f, data, tuning, passes=k)
-    except ObsnlError as exc:  # reported as a failed run, never dropped
-        return RunResult(method=name, passes=k, seed=seed, tuning=tuning, theta=(float("nan"),) * setup.model.np,
-                         seconds=float("nan"), repairs=0, implicit=0, misfit=float("nan"), practical=None,
-                         error=str(exc)), None
-    theta = trs[-1].theta[-1]
-    misfit = output_misfit(setup, theta, data)
-    return RunResult(
-        method=name, passes=k, seed=seed, tuning=tuning, theta=tuple(float(v) for v in theta),
-        seconds=float(sum(t.seconds for t in trs)), repairs=sum(t.total_repairs for t in trs),
-        implicit=int(sum(t.implicit.sum() for t in trs)), misfit=misfit, interventions=_interventions(trs),
-        passes_run=len(trs),
-        practical=practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0,
-                                            misfit=misfit)), trs
-
-
 def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int = 5, passes: int = 3,
               grid: Sequence[Tuning] = DEFAULT_GRID, jit: bool = True, samples: int | None = None,
-              replicates: int = REPLICATES, progress: Any = None) -> Reproduction:
+              replicates: int = REPLICATES, progress: Any = None, executor: Executor | None = None) -> Reproduction:
     """Table 2 of the seed paper with obsnl's UKF and DUKF (module docstring for the protocol).
 
     Parameters
@@ -231,7 +109,7 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
     grid
         Tuning configurations.
     jit
-        Compile the filters to C.
+        Compile the filters to C (cached on disk: :mod:`obsnl.estimation.jitcache`).
     samples
         Use only the first samples of the record (quick runs).
     replicates
@@ -239,56 +117,77 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
         the DUKF that did not diverge (0: off; the ablation ``dukf-zero`` gets none).
     progress
         A tqdm-like object (``total``, ``update(n)``) or None.
+    executor
+        Where the independent runs go (:class:`obsnl.executor.Executor`; default: this process).
+        Every run's noise is fixed by its own seeds: the result does not depend on the executor.
     """
     check_replicates(replicates)
-    setup = seed_setup(record=record, samples=samples, jit=jit)
-    table, source = seed_branch_table()
-    filters = {"ukf": make_filter(setup, "ukf"), "dukf": make_filter(setup, "dukf", table=table)}
-    ablation = make_filter(setup, "dukf", table=table, cross="zero")
+    executor = executor or Executor(workers=1)
     t_seeds = tuple(range(TUNING_SEEDS, TUNING_SEEDS + tuning_seeds))
     protocols = sorted({1, passes})
-    if progress is not None:
-        progress.total = (len(filters) * len(grid) * tuning_seeds + seeds * (len(filters) + 1) * len(protocols)
-                          + replicates * seeds * len(filters) * len(protocols))
+    names = ("ukf", "dukf")
+    if progress is not None:  # known before anything is built: the bar shows from the start
+        progress.total = (len(names) * len(grid) * tuning_seeds + seeds * (len(names) + 1) * len(protocols)
+                          + replicates * seeds * len(names) * len(protocols))
+        progress.refresh() if hasattr(progress, "refresh") else None
+    stage = (lambda text: progress.set_postfix_str(text)) if hasattr(progress, "set_postfix_str") else (lambda text: None)
+    stage("analysis")
+    table, source = seed_branch_table()
+    spec = Spec(record=record, samples=samples, jit=jit, table_json=table.to_json())
+    stage("building the experiment")
+    ctx = context(spec)  # the workers build the same from the spec
+    setup, filters = ctx["setup"], ctx["filters"]
     compile_seconds = {}
-    for name, f in [*filters.items(), ("dukf-zero", ablation)]:
+    for i, (name, f) in enumerate(filters.items()):
+        stage(f"building the {name} filter ({i + 1}/{len(filters)}; from the disk cache, else compiled once: ~1 min)")
         tic = time.perf_counter()
         f._compiled()
         compile_seconds[name] = time.perf_counter() - tic
-    step = (lambda: progress.update(1)) if progress is not None else None
-    chosen: dict[tuple[str, int], tuple[Tuning, Mapping[Tuning, float]]] = {}
-    for name, f in filters.items():
-        scores = tune(setup, f, t_seeds, grid=grid, passes=passes, progress=step)
-        for k in protocols:
-            sc = scores[k]
-            chosen[(name, k)] = (min(sc, key=lambda t: (sc[t], grid.index(t))), sc)
+    tick = (lambda i, r, n=1: progress.update(n)) if progress is not None else None
+    with executor.session() as session:
+        stage(f"tuning ({executor.kind})")
+        ttasks = [(spec, name, t, s, passes) for name in names for t in grid for s in t_seeds]
+        got = session.map(tuning_task, ttasks, done=tick)
+        chosen: dict[tuple[str, int], tuple[Tuning, Mapping[Tuning, float]]] = {}
+        for name in names:
+            for k in protocols:
+                sc = {t: float(np.mean([g[k] for (_, n, t_, _, _), g in zip(ttasks, got) if n == name and t_ == t]))
+                      for t in grid}
+                chosen[(name, k)] = (min(sc, key=lambda t: (sc[t], grid.index(t))), sc)
+        stage(f"reported runs ({executor.kind})")
+        rtasks = []
+        for name in (*names, "dukf-zero"):
+            for k in protocols:
+                tuned, scores = chosen[("dukf" if name == "dukf-zero" else name, k)]
+                ranking = [tuned] + [t for t in sorted(scores, key=lambda t: (scores[t], grid.index(t))) if t != tuned]
+                rtasks += [(spec, name, k, seed, tuple(ranking), FALLBACKS) for seed in range(seeds)]
+        reported = session.map(reported_task, rtasks, done=tick)
+        stage(f"Monte-Carlo replicates ({executor.kind})")
+        mtasks, owners = [], []
+        for j, ((_, name, k, seed, _, _), (result, _)) in enumerate(zip(rtasks, reported)):
+            if not (replicates and name in names):
+                continue
+            if result.practical is None or result.practical.inconclusive:
+                if progress is not None:
+                    progress.update(replicates)
+                continue
+            for lo in range(0, replicates, MC_CHUNK):
+                mtasks.append((spec, name, seed, result.theta, result.tuning, k, MC_SEEDS + seed,
+                               tuple(range(lo, min(replicates, lo + MC_CHUNK)))))
+                owners.append(j)
+        mc = session.map(replicates_task, mtasks, done=(lambda i, r: progress.update(len(mtasks[i][-1])))
+                         if progress is not None else None)
     runs, trajs = [], {}
-    for name, f in [*filters.items(), ("dukf-zero", ablation)]:
-        for k in protocols:
-            tuned, scores = chosen[("dukf" if name == "dukf-zero" else name, k)]
-            ranking = [tuned] + [t for t in sorted(scores, key=lambda t: (scores[t], grid.index(t))) if t != tuned]
-            for seed in range(seeds):
-                data = make_data(setup, seed)
-                result, trs, redone = None, None, []
-                for tuning in ranking[:1 + FALLBACKS]:
-                    if result is not None:  # the previous attempt diverged: recorded, then redone
-                        redone.append({"tuning": result.tuning.to_dict(), "output_misfit": _num(result.misfit),
-                                       "error": result.error})
-                    result, trs = _reported_run(setup, f, data, name, k, seed, tuning)
-                    if not _diverged(result, setup):
-                        break
-                if redone:  # the discarded attempts travel with the run; if all diverged, the last is reported
-                    result = replace(result, redone=tuple(redone))
-                if replicates and name in filters:
-                    if result.practical is not None and not result.practical.inconclusive:
-                        result = _with_spread(result, setup, f, data, replicates, step)
-                    elif step:
-                        progress.update(replicates)
-                runs.append(result)
-                if seed == 0 and trs is not None:
-                    trajs[(name, k)] = trs
-                if step:
-                    step()
+    for j, ((_, name, k, seed, _, _), (result, trs)) in enumerate(zip(rtasks, reported)):
+        outcomes = [o for i, o in zip(owners, mc) if i == j]
+        if any(i == j for i in owners):
+            flat = [o for chunk in outcomes for o in chunk]
+            spread = mc_spread(setup, flat, replicates=replicates, seed=MC_SEEDS + seed, simulated=bool(flat))
+            result = replace(result, practical=result.practical.with_spread(spread))
+        runs.append(result)
+        if seed == 0 and trs is not None:
+            trajs[(name, k)] = trs
+    stage("done")
     return Reproduction(setup=setup, table=table, table_source=source, tuning=chosen, runs=tuple(runs),
                         trajectories=trajs, tuning_seeds=t_seeds, compile_seconds=compile_seconds)
 

@@ -1,0 +1,152 @@
+"""One executor for independent tasks: in this process, local processes, or a Dask cluster.
+
+Tasks are coarse (a filter run with its tuning, a batch of Monte-Carlo replicates, one model of a
+report) and carry specifications (a model file's text, a record, a branch table's JSON, seeds),
+never compiled objects: a worker rebuilds what it needs once and keeps it for the next task (the
+compiled filters come from the disk cache of :mod:`obsnl.estimation.jitcache`). Every task's
+randomness is fixed by the task itself (its noise seed, or a child of one root seed from
+:func:`spawn_seeds`), so results do not depend on the number or order of workers.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass
+from typing import Any
+
+from obsnl.errors import OptionError
+
+__all__ = ["Executor", "spawn_seeds"]
+
+
+@dataclass(frozen=True)
+class Executor:
+    """Where independent tasks run.
+
+    Parameters
+    ----------
+    scheduler
+        None: this machine; an address (``"tcp://host:8786"``) or a ``distributed.Client``: that Dask
+        cluster (its workers need obsnl installed).
+    workers
+        Local processes when ``scheduler`` is None (None: one per core; 1: in this process, no
+        processes started).
+
+    Examples
+    --------
+    >>> Executor(workers=1).map(abs, [-1, 2, -3])
+    [1, 2, 3]
+    """
+
+    scheduler: Any = None
+    workers: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
+            raise OptionError(f"workers must be a whole number >= 1 or None (one per core), got {self.workers!r}")
+        if self.scheduler is not None and not isinstance(self.scheduler, str) and not hasattr(self.scheduler, "map"):
+            raise OptionError(f"scheduler must be a Dask scheduler address like tcp://host:8786 or a "
+                              f"distributed.Client, got {self.scheduler!r}")
+
+    @property
+    def kind(self) -> str:
+        """``"serial"``, ``"processes"`` or ``"dask"``."""
+        if self.scheduler is not None:
+            return "dask"
+        return "serial" if self.n_workers == 1 else "processes"
+
+    @property
+    def n_workers(self) -> int:
+        return self.workers or os.cpu_count() or 1
+
+    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], *,
+            done: Callable[[int, Any], None] | None = None) -> list[Any]:
+        """``[fn(t) for t in tasks]``, run where this executor says; ``done(i, result)`` as each finishes.
+
+        ``fn`` must be a module-level function (it is pickled by name for processes and Dask).
+        """
+        with self.session() as session:
+            return session.map(fn, tasks, done=done)
+
+    @contextmanager
+    def session(self) -> Iterator[_Session]:
+        """Workers kept for several :meth:`_Session.map` calls (what they built stays built)."""
+        s = _Session(self)
+        try:
+            yield s
+        finally:
+            s.close()
+
+
+class _Session:
+    def __init__(self, ex: Executor) -> None:
+        self.kind, self.pool, self.client, self.own = ex.kind, None, None, False
+        if self.kind == "processes":
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor
+
+            self.pool = ProcessPoolExecutor(max_workers=ex.n_workers, mp_context=mp.get_context("spawn"))
+        elif self.kind == "dask":
+            try:
+                from distributed import Client
+            except ImportError:  # pragma: no cover
+                raise OptionError("--scheduler needs dask.distributed: pip install 'dask[distributed]'") from None
+            self.own = isinstance(ex.scheduler, str)
+            try:
+                self.client = Client(ex.scheduler, timeout="30s") if self.own else ex.scheduler
+            except OSError as exc:
+                raise OptionError(f"cannot reach the Dask scheduler {ex.scheduler!r} ({exc}); start one with "
+                                  f"`dask scheduler` and workers with `dask worker ADDRESS`") from None
+
+    def close(self) -> None:
+        if self.pool is not None:
+            self.pool.shutdown(cancel_futures=True)
+        if self.client is not None and self.own:
+            self.client.close()
+
+    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], *,
+            done: Callable[[int, Any], None] | None = None) -> list[Any]:
+        tasks = list(tasks)
+        results: list[Any] = [None] * len(tasks)
+        if self.kind == "serial":
+            for i, t in enumerate(tasks):
+                results[i] = fn(t)
+                if done:
+                    done(i, results[i])
+            return results
+        if self.kind == "processes":
+            from concurrent.futures import as_completed
+
+            futures = {self.pool.submit(fn, t): i for i, t in enumerate(tasks)}
+            for fut in as_completed(futures):
+                results[futures[fut]] = fut.result()
+                if done:
+                    done(futures[fut], results[futures[fut]])
+            return results
+        from distributed import as_completed as dask_completed
+
+        futures = self.client.map(fn, tasks, pure=False)
+        index = {f.key: i for i, f in enumerate(futures)}
+        for fut in dask_completed(futures):
+            i = index[fut.key]
+            results[i] = fut.result()
+            if done:
+                done(i, results[i])
+        return results
+
+
+def spawn_seeds(root: int, n: int) -> list[int]:
+    """``n`` independent seeds from one root seed (``numpy.random.SeedSequence(root).spawn(n)``).
+
+    Seed ``i`` depends on ``root`` and ``i`` only, never on which worker runs task ``i``.
+
+    Examples
+    --------
+    >>> spawn_seeds(0, 3) == spawn_seeds(0, 5)[:3]
+    True
+    """
+    import numpy as np
+
+    return [int(c.generate_state(1, np.uint64)[0]) for c in np.random.SeedSequence(root).spawn(n)]

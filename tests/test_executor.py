@@ -1,0 +1,82 @@
+"""The executor: the same results in this process, in local processes and on a Dask cluster.
+
+Every task's noise is fixed by its own seeds, so the seed experiment's estimates (the content of
+table2.json) and a report's tables must not depend on where the tasks ran; the expected values here
+are those of the serial run, computed in the same test (the property tested is that equality).
+"""
+
+from __future__ import annotations
+
+import pytest
+
+import obsnl
+import obsnl.batch
+from obsnl.errors import OptionError
+from obsnl.executor import Executor, spawn_seeds
+
+from .conftest import PEER_CASE_FILES, ROOT
+
+
+def _estimates(rep) -> list:
+    doc = rep.to_dict()
+    return [(r["method"], r["passes"], r["seed"], r["tuning"],
+             {p: v["estimate"] for p, v in r["parameters"].items()}, r["output_misfit"],
+             r["practical_identifiability"]) for r in doc["runs"]] + [doc["tuning"]]
+
+
+def _short_reproduction(executor):
+    from obsnl.estimation.setup import DEFAULT_GRID
+    from obsnl.studies.seed_paper import reproduce
+
+    return reproduce(samples=300, seeds=1, tuning_seeds=1, passes=1, grid=DEFAULT_GRID[:2], replicates=3,
+                     jit=False, executor=executor)
+
+
+@pytest.mark.slow
+def test_reproduce_on_a_local_dask_cluster_equals_the_serial_run():
+    distributed = pytest.importorskip("distributed")
+    serial = _short_reproduction(Executor(workers=1))
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        on_dask = _short_reproduction(Executor(scheduler=client))
+    assert _estimates(on_dask) == _estimates(serial)
+    assert len(serial.runs) == 3 and all(r.practical.spread is not None for r in serial.runs[:2])
+
+
+def test_report_in_local_processes_equals_the_serial_report(tmp_path):
+    models = [obsnl.load_model(p) for p in PEER_CASE_FILES[:4]]
+    serial = obsnl.batch.report_models(models, tmp_path / "a", seed=3)
+    parallel = obsnl.batch.report_models(models, tmp_path / "b", seed=3, executor=Executor(workers=2))
+    for m in models:
+        for ext in ("md", "tex", "json"):
+            assert (tmp_path / "a" / f"{m.name}.{ext}").read_text() == (tmp_path / "b" / f"{m.name}.{ext}").read_text()
+    assert [r.overall_unobservable for r in serial] == [r.overall_unobservable for r in parallel]
+
+
+def test_seeds_from_one_root_do_not_depend_on_how_many_are_drawn():
+    assert spawn_seeds(7, 4) == spawn_seeds(7, 9)[:4]
+    assert len(set(spawn_seeds(7, 100))) == 100 and spawn_seeds(7, 2) != spawn_seeds(8, 2)
+
+
+def test_bad_executor_options_are_one_line_errors():
+    with pytest.raises(OptionError, match="workers must be"):
+        Executor(workers=0)
+    with pytest.raises(OptionError, match="scheduler must be"):
+        Executor(scheduler=42)
+
+
+def test_identify_replicates_in_local_processes_equal_the_serial_ones():
+    from obsnl.estimation.codegen import to_casadi
+    from obsnl.estimation.identify import simulation_study
+    from obsnl.estimation.records import read_record
+    from obsnl.studies.seed_paper import SEED_GUESS, seed_model_path
+
+    model = obsnl.load_model(seed_model_path())
+    num = to_casadi(model)
+    record = read_record(ROOT / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(300)
+    kw = dict(guess=dict(SEED_GUESS), seed=4, passes=1, replicates=3, source=model.to_dict())
+    serial = simulation_study(num, record, **kw)
+    parallel = simulation_study(num, record, executor=Executor(workers=2), **kw)
+    assert serial["practical_identifiability"]["monte_carlo"] is not None
+    for key in ("parameters", "practical_identifiability", "output_misfit"):
+        assert parallel[key] == serial[key]
