@@ -25,6 +25,17 @@ class _Exit(Exception):
         self.message = message
 
 
+def _seed(text: str) -> int:
+    """``--seed``: a non-negative integer (numpy's generators refuse negative seeds)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"{value} is negative; give a seed >= 0")
+    return value
+
+
 def _load(path: str):
     from obsnl.model.files import load_model
 
@@ -33,15 +44,13 @@ def _load(path: str):
 
 def write_output(text: str, out: str | None, *, force: bool) -> None:
     """Print ``text`` or write it to ``out``; never overwrite an existing file without ``force``."""
+    from obsnl.report.files import safe_write
+
+    text = text if text.endswith("\n") else text + "\n"
     if out is None or out == "-":
-        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        sys.stdout.write(text.encode("utf-8", "backslashreplace").decode("utf-8"))
         return
-    p = Path(out)
-    if p.exists() and not force:
-        raise _Exit(2, f"{out} exists; pass --force to overwrite it")
-    if p.parent and not p.parent.exists():
-        p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
+    safe_write(out, text, force=force)  # refuses symlinks, folders, a parent that is a file
 
 
 # --------------------------------------------------------------------------- show
@@ -119,7 +128,7 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
                    "branch table read by the DUKF (schema obsnl.branch-table/1)")
     p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
                    help="observability engine (default: auto)")
-    p.add_argument("--seed", type=int, default=None, help="seed of the random choices (default: drawn and reported)")
+    p.add_argument("--seed", type=_seed, default=None, help="seed of the random choices (default: drawn and reported)")
     p.add_argument("--max-seconds", type=float, default=None, help="time limit of the whole analysis")
     p.add_argument("-o", "--output", default=None, metavar="FILE", help="write to FILE instead of stdout")
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
@@ -129,8 +138,10 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
 def _cmd_analyze(args: argparse.Namespace) -> int:
     from obsnl.observability.analyze import analyze
 
-    if args.output and args.output != "-" and Path(args.output).exists() and not args.force:
-        raise _Exit(2, f"{args.output} exists; pass --force to overwrite it")
+    from obsnl.report.files import check_target
+
+    if args.output and args.output != "-":
+        check_target(args.output, force=args.force)
     model = _load(args.model)
     result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds)
     from obsnl.report.tables import render
@@ -156,7 +167,7 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
                    help="observability engine (default: auto)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random point (default: 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the random point (default: 0)")
     p.add_argument("--max-seconds", type=float, default=None, help="time limit per branch")
     p.add_argument("--force", action="store_true", help="overwrite existing report files")
     p.set_defaults(func=_cmd_report)
@@ -224,7 +235,7 @@ def _add_symmetries(sub: argparse._SubParsersAction) -> None:
     p.add_argument("model", help="model file (.toml or .json)")
     p.add_argument("--format", choices=("text", "json"), default="text", help="output format (default: text)")
     p.add_argument("--degree", type=int, choices=(1, 2), default=1, help="ansatz degree (default: 1, affine)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random points (default: 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the random points (default: 0)")
     p.set_defaults(func=_cmd_symmetries)
 
 
@@ -264,7 +275,7 @@ def _add_reparametrize(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--keep", default="", metavar="P,Q", help="parameters that must not be pivots")
     p.add_argument("--name", action="append", default=[], metavar="OLD=NEW",
                    help="rename a proposed symbol (repeatable), e.g. --name sigma_p=r")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random points (default: 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the random points (default: 0)")
     p.set_defaults(func=_cmd_reparametrize)
 
 
@@ -311,7 +322,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--table", help="branch table JSON (required for --method dukf)")
     p.add_argument("--record", required=True, help="ground motion: .csv (time_s,accel_m_s2) or PEER .AT2")
     p.add_argument("--method", choices=("ukf", "dukf"), default="ukf", help="filter (default: ukf)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (default: 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="noise seed (default: 0)")
     p.add_argument("--noise", type=float, default=1e-3, help="noise-to-signal RMS ratio (default: 0.001)")
     p.add_argument("--guess", action="append", default=[], metavar="P=V",
                    help="initial guess of a parameter (repeatable; default: the seed paper's Table 2 guesses)")
@@ -344,6 +355,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     table = load_branch_table(args.table) if args.table else None
     if table is not None:  # refuse a table made for another model before compiling anything
         table.signature.check(ModelSignature.of(model))
+        from obsnl.observability.table_check import check_table; check_table(table, model)  # noqa: E702
     num = to_casadi(model, switching=table.switching if table else None)
     guess = _guesses(args.guess, num.parameters, model)
     record = read_record(args.record)
@@ -420,8 +432,15 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     record = read_record(args.record) if args.record else None
     default = Path("reports/identification") / (record.name if record is not None else "")
     out = Path(args.out) if args.out else default
-    if args.out and not args.force and (out / "table2.json").exists():
-        raise _Exit(2, f"{out / 'table2.json'} exists; pass --force to overwrite it")
+    from obsnl.report.files import check_target
+    from obsnl.studies.seed_paper import REPRODUCTION_FILES
+
+    regenerate = args.out is None  # the default folder holds the committed results and is regenerated on purpose
+    for f in [out / n for n in REPRODUCTION_FILES] + (sorted(out.glob("fig[23]_*.png")) if out.is_dir() else []):
+        check_target(f, force=args.force or regenerate, root=out)
+    if regenerate:
+        print(f"obsnl reproduce: regenerating the default folder {out} (committed results); pass --out DIR to "
+              f"keep them", file=sys.stderr)
     bar = _progress("reproduce", None, "run")
     try:
         rep = reproduce(record=record, seeds=args.seeds, tuning_seeds=args.tuning_seeds, passes=args.passes,

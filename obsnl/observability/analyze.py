@@ -86,7 +86,7 @@ def analyze(
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     seed = _fresh_seed(seed)
     variables = _variable_names(model)
-    branches = split_branches(model)
+    branches = split_branches(model, max_seconds=max_seconds)
     n_blocks_guess = max(1, len(branches))
     target = (1 - prob) / n_blocks_guess
     results: list[BranchResult] = []

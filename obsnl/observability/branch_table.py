@@ -148,6 +148,17 @@ class BranchTable:
         variables = set(self.states) | set(self.parameters)
         params = set(self.parameters)
         labels = [b.label for b in self.branches]
+        if self.probability is not None and not (isinstance(self.probability, (int, float))
+                                                 and 0.0 <= self.probability <= 1.0):
+            raise TableError(f"probability {self.probability!r} is not a number in [0, 1]; {TABLE_FIX}")
+        if len(set(self.switching)) != len(self.switching) or len(self.branches) > 2 ** len(self.switching):
+            raise TableError(f"{len(self.branches)} branches for {len(self.switching)} switching functions; {TABLE_FIX}")
+        obs_union = set().union(*(b.observable for b in self.branches)) if self.branches else set()
+        unobs_all = set(variables).intersection(*(b.unobservable for b in self.branches)) if self.branches else set()
+        if not set(self.overall_observable) <= obs_union or not set(self.overall_unobservable) <= unobs_all or (
+                set(self.overall_observable) & set(self.overall_unobservable)):
+            raise TableError(f"'overall' contradicts the branches (observable must be observable in some branch, "
+                             f"unobservable in every branch); {TABLE_FIX}")
         if len(set(labels)) != len(labels):
             raise TableError(f"branch labels repeat: {labels}")
         patterns = set()
@@ -165,6 +176,11 @@ class BranchTable:
                 unknown = set(getattr(b, key)) - variables
                 if unknown:
                     raise TableError(f"{where}: {key} names {sorted(unknown)}, which are not states or parameters")
+            if not 0 <= b.transcendence_degree <= len(variables):
+                raise TableError(f"{where}: transcendence degree {b.transcendence_degree} is not between 0 and the "
+                                 f"number of states and parameters ({len(variables)})")
+            if b.verdict == "observable" and b.unobservable:
+                raise TableError(f"{where}: verdict 'observable' with unobservable variables {list(b.unobservable)}")
             if set(b.observable) & set(b.unobservable):
                 raise TableError(f"{where}: {sorted(set(b.observable) & set(b.unobservable))} are both "
                                  f"observable and unobservable")
