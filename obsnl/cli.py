@@ -27,12 +27,9 @@ class _Exit(Exception):
 
 def _seed(text: str) -> int:
     """``--seed``: a non-negative integer (numpy's generators refuse negative seeds)."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"{value} is negative; give a seed >= 0")
+    value = int(text) if text.lstrip("-").isdigit() else None
+    if value is None or value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0")
     return value
 
 
@@ -222,8 +219,6 @@ def _cmd_bank(args: argparse.Namespace) -> int:
     return 0
 
 
-
-
 # --------------------------------------------------------------------------- symmetries, reparametrize
 def _add_symmetries(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
@@ -304,8 +299,6 @@ def _cmd_reparametrize(args: argparse.Namespace) -> int:
     for n in r.notes:
         print(f"  note: {n}")
     return 0
-
-
 
 
 # --------------------------------------------------------------------------- identify, reproduce
@@ -452,10 +445,6 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     files = write_reproduction(rep, out)
     print(f"wrote {len(files)} files to {out}: " + ", ".join(f.name for f in files))
     return 0
-
-
-
-
 
 
 #: Subcommands in the order ``obsnl --help`` lists them.

@@ -9,8 +9,6 @@ cannot change: transformations return a new model.
 from __future__ import annotations
 
 import dataclasses
-import keyword
-import re
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -20,7 +18,8 @@ import sympy as sp
 
 from obsnl.errors import ModelError, ParseError
 from obsnl.model.latex import latex_problem
-from obsnl.model.parse import make_symbol, nfkc_problem, parse_expression, shorten
+from obsnl.model.names import check_name as _check_identifier, check_text as _check_text
+from obsnl.model.parse import make_symbol, parse_expression, shorten
 
 __all__ = ["Model", "NONSMOOTH_FUNCTIONS"]
 
@@ -67,32 +66,6 @@ def _name_list(value: Any, key: str) -> tuple[str, ...]:
         _check_identifier(name, key)
         names.append(name)
     return tuple(names)
-
-
-#: A name: a letter or '_' then letters, digits, '_' (Unicode letters allowed, as in the branch-table schema).
-_NAME = re.compile(r"[^\W\d]\w*")
-
-
-def _check_text(value: str, key: str) -> None:
-    """Refuse text that cannot be written back (lone surrogates from a JSON ``\\ud800`` escape)."""
-    try:
-        value.encode("utf-8")
-    except UnicodeEncodeError:
-        raise ModelError(f"'{key}' contains a lone surrogate ({shorten(ascii(value), 40)}); "
-                         f"write it as valid Unicode text") from None
-
-
-def _check_identifier(name: str, key: str) -> None:
-    _check_text(name, key)
-    problem = nfkc_problem(name)
-    if problem:
-        raise ModelError(f"'{key}': {problem}; two spellings of one name are refused")
-    if not name.isidentifier() or not _NAME.fullmatch(name):
-        raise ModelError(f"'{key}': {name!r} is not a valid name (letters, digits and '_', not starting with a digit)")
-    if keyword.iskeyword(name):
-        raise ModelError(f"'{key}': {name!r} is a Python keyword; rename it (e.g. {name + '_'!r})")
-    if name.startswith("__"):
-        raise ModelError(f"'{key}': names starting with '__' are not allowed ({name!r})")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
