@@ -29,12 +29,12 @@ def read_model_file(path: str | Path) -> dict[str, Any]:
         The file is missing, has an unknown extension, or is not valid TOML/JSON.
     """
     p = Path(path)
-    if not p.exists():
-        raise ParseError(f"model file {str(p)!r} does not exist")
-    if p.is_dir():
-        raise ParseError(f"{str(p)!r} is a directory; give a .toml or .json model file")
     suffix = p.suffix.lower()
     try:
+        if not p.exists():
+            raise ParseError(f"model file {str(p)!r} does not exist")
+        if p.is_dir():
+            raise ParseError(f"{str(p)!r} is a directory; give a .toml or .json model file")
         raw = p.read_bytes()
     except OSError as exc:
         raise ParseError(f"cannot read {str(p)!r}: {exc.strerror}") from None

@@ -277,11 +277,16 @@ def load_branch_table(path: str | Path) -> BranchTable:
     TableError
         Missing file, invalid JSON, schema violation or an inconsistent table.
     """
+    from obsnl.errors import ParseError
+    from obsnl.model.files import parse_text  # nesting, duplicate keys, NaN and huge integers refused
+
     p = Path(path)
-    if not p.is_file():
-        raise TableError(f"branch table {str(p)!r} does not exist")
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise TableError(f"branch table {str(p)!r} is not valid JSON: {exc}") from None
+        if not p.is_file():
+            raise TableError(f"branch table {str(p)!r} does not exist")
+        data = parse_text(p.read_bytes().decode("utf-8"), kind="json", where=f"branch table {str(p)!r}")
+    except (ParseError, UnicodeDecodeError) as exc:
+        raise TableError(str(exc) if isinstance(exc, ParseError) else f"branch table {str(p)!r} is not UTF-8") from None
+    except OSError as exc:
+        raise TableError(f"cannot read branch table {str(p)!r}: {exc.strerror or exc}") from None
     return BranchTable.from_dict(data)
