@@ -375,3 +375,19 @@ def test_13_merged_conditions_wrap_one_relation_per_math_group():
     for cell in cond.split("&")[1:]:
         groups = [g for g in cell.split("$")[1::2]]
         assert all("\\vee" not in g and "\\wedge" not in g for g in groups), cell
+
+
+def test_2_orc_honours_the_time_limit_on_a_swelling_model():
+    import time
+
+    from obsnl.observability.analyze import analyze
+
+    # (x + z + a)**100 expanded by sympy took 26 s before the first Lie derivative; flint products of
+    # thousands of terms each cannot be interrupted, so their cost is estimated before they start
+    m = Model.from_dict({"name": "heavy", "states": ["x", "v", "z"], "parameters": ["k", "c", "a"],
+                         "equations": {"x": "v", "v": "-k*x**100 - c*v*(x + z + a)**100",
+                                       "z": "a*(x + v)**99 - z**97"}, "outputs": {"y": "x"}})
+    t0 = time.perf_counter()
+    res = analyze(m, method="orc", seed=0, max_seconds=5)
+    assert time.perf_counter() - t0 < 5 + 3  # 3 s of slack for one uninterruptible step on a loaded machine
+    assert res.branches[0].verdict.value == "inconclusive" and "time limit" in res.branches[0].reason

@@ -49,7 +49,8 @@ def analyze(
     seed
         Seed of all random choices; None draws one (reported in the result).
     max_seconds
-        Time limit for the whole analysis; branches or blocks not finished are ``INCONCLUSIVE``.
+        Time limit for the whole analysis; branches or blocks not finished are ``INCONCLUSIVE``. The split
+        into branches gets at least 2 s of it and raises :class:`~obsnl.errors.AnalysisError` past that.
     prob
         Wanted lower bound on the probability that every verdict is right; more independent runs
         are made while a block's bound is weaker (up to a few; the result reports what was reached).
@@ -86,7 +87,8 @@ def analyze(
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     seed = _fresh_seed(seed)
     variables = _variable_names(model)
-    branches = split_branches(model, max_seconds=max_seconds)
+    # the split is bounded too, with a floor: a tiny limit still yields branches (each then inconclusive)
+    branches = split_branches(model, max_seconds=None if max_seconds is None else max(float(max_seconds), 2.0))
     n_blocks_guess = max(1, len(branches))
     target = (1 - prob) / n_blocks_guess
     results: list[BranchResult] = []
