@@ -206,7 +206,7 @@ def _cmd_bank(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise _Exit(2, f"{args.out} is a file; --out needs a folder")
-    taken = [p for p in (out / "bank.json", out / "bank.md") if p.exists()]
+    taken = [p for p in (out / "bank.json", out / "bank.md") if p.exists() or p.is_symlink()]
     taken += sorted(out.glob(f"{FIGURE_PREFIX}*.png")) if out.is_dir() else []
     if taken and not args.force:
         raise _Exit(2, f"{taken[0]} exists; pass --force to overwrite it")
