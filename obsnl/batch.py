@@ -8,12 +8,11 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from obsnl.errors import OutputError
 from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.results import AnalysisResult
-from obsnl.report.files import report_files, write_tables
+from obsnl.report.files import check_target, report_files, write_tables
 
 __all__ = ["report_models"]
 
@@ -55,10 +54,8 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
         A file to write exists and ``force`` is False (checked before any analysis; nothing is
         written then), or a model name that cannot be a file name.
     """
-    targets = report_files([m.name for m in models], out)
-    existing = [str(t) for t in targets if t.exists() or t.is_symlink()]
-    if existing and not force:
-        raise OutputError(f"{existing[0]} exists; pass --force to overwrite the report")
+    for t in report_files([m.name for m in models], out):
+        check_target(t, force=force, root=out)
     if executor is None or executor.kind == "serial":
         results = tuple(analyze(m, method=method, seed=seed, max_seconds=max_seconds) for m in models)
     else:

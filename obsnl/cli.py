@@ -25,6 +25,14 @@ class _Exit(Exception):
         self.message = message
 
 
+def _seed(text: str) -> int:
+    """``--seed``: a non-negative integer (numpy's generators refuse negative seeds)."""
+    value = int(text) if text.lstrip("-").isdigit() else None
+    if value is None or value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0")
+    return value
+
+
 def _load(path: str):
     from obsnl.model.files import load_model
 
@@ -33,15 +41,13 @@ def _load(path: str):
 
 def write_output(text: str, out: str | None, *, force: bool) -> None:
     """Print ``text`` or write it to ``out``; never overwrite an existing file without ``force``."""
+    from obsnl.report.files import safe_write
+
+    text = text if text.endswith("\n") else text + "\n"
     if out is None or out == "-":
-        sys.stdout.write(text if text.endswith("\n") else text + "\n")
+        sys.stdout.write(text.encode("utf-8", "backslashreplace").decode("utf-8"))
         return
-    p = Path(out)
-    if p.exists() and not force:
-        raise _Exit(2, f"{out} exists; pass --force to overwrite it")
-    if p.parent and not p.parent.exists():
-        p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(text if text.endswith("\n") else text + "\n", encoding="utf-8")
+    safe_write(out, text, force=force)  # refuses symlinks, folders, a parent that is a file
 
 
 # --------------------------------------------------------------------------- show
@@ -119,7 +125,7 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
                    "branch table read by the DUKF (schema obsnl.branch-table/1)")
     p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
                    help="observability engine (default: auto)")
-    p.add_argument("--seed", type=int, default=None, help="seed of the random choices (default: drawn and reported)")
+    p.add_argument("--seed", type=_seed, default=None, help="seed of the random choices (default: drawn and reported)")
     p.add_argument("--max-seconds", type=float, default=None, help="time limit of the whole analysis")
     p.add_argument("--branches", default=None, metavar="LABELS",
                    help="visit only these branches (comma-separated labels, e.g. a,c); default: every feasible branch")
@@ -139,8 +145,10 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
 def _cmd_analyze(args: argparse.Namespace) -> int:
     from obsnl.observability.analyze import analyze
 
-    if args.output and args.output != "-" and Path(args.output).exists() and not args.force:
-        raise _Exit(2, f"{args.output} exists; pass --force to overwrite it")
+    from obsnl.report.files import check_target
+
+    if args.output and args.output != "-":
+        check_target(args.output, force=args.force)
     model = _load(args.model)
     labels = [s.strip() for s in args.branches.split(",") if s.strip()] if args.branches else None
     visits = _record_visits(model, args.record) if args.record else None
@@ -185,7 +193,7 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
                    help="observability engine (default: auto)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random point (default: 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the random point (default: 0)")
     p.add_argument("--max-seconds", type=float, default=None, help="time limit per branch")
     p.add_argument("--force", action="store_true", help="overwrite existing report files")
     _add_executor(p, workers=1)  # small analyses: processes cost more than they save (benchmarks/bench_report.py)
@@ -228,7 +236,7 @@ def _cmd_bank(args: argparse.Namespace) -> int:
     out = Path(args.out)
     if out.exists() and not out.is_dir():
         raise _Exit(2, f"{args.out} is a file; --out needs a folder")
-    taken = [p for p in (out / "bank.json", out / "bank.md") if p.exists()]
+    taken = [p for p in (out / "bank.json", out / "bank.md") if p.exists() or p.is_symlink()]
     taken += sorted(out.glob(f"{FIGURE_PREFIX}*.png")) if out.is_dir() else []
     if taken and not args.force:
         raise _Exit(2, f"{taken[0]} exists; pass --force to overwrite it")
@@ -252,7 +260,7 @@ def _add_symmetries(sub: argparse._SubParsersAction) -> None:
     p.add_argument("model", help="model file (.toml or .json)")
     p.add_argument("--format", choices=("text", "json"), default="text", help="output format (default: text)")
     p.add_argument("--degree", type=int, choices=(1, 2), default=1, help="ansatz degree (default: 1, affine)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random points (default: 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the random points (default: 0)")
     p.set_defaults(func=_cmd_symmetries)
 
 
@@ -292,7 +300,7 @@ def _add_reparametrize(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--keep", default="", metavar="P,Q", help="parameters that must not be pivots")
     p.add_argument("--name", action="append", default=[], metavar="OLD=NEW",
                    help="rename a proposed symbol (repeatable), e.g. --name sigma_p=r")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random points (default: 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="seed of the random points (default: 0)")
     p.set_defaults(func=_cmd_reparametrize)
 
 
@@ -344,7 +352,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
     p.add_argument("--allow-unidentifiable", action="store_true", help="run despite the structural verdict")
     p.add_argument("--hold", action="store_true", help="measured data: hold poorly informed parameters at their guess")
-    p.add_argument("--seed", type=int, default=0, help="noise seed of a study and the Monte-Carlo (default: 0)")
+    p.add_argument("--seed", type=_seed, default=0, help="noise seed of a study and the Monte-Carlo (default: 0)")
     for flag, what in (("--s0", "prior std of log-parameters"), ("--q-theta", "random walk of log-parameters"),
                        ("--q-x", "factor on the state noise"), ("--gate", "innovation gate")):
         p.add_argument(flag, type=float, default=None, help=f"{what} (default: tuned on measured data)")
@@ -461,8 +469,15 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     record = read_record(args.record) if args.record else None
     default = Path("reports/identification") / (record.name if record is not None else "")
     out = Path(args.out) if args.out else default
-    if args.out and not args.force and (out / "table2.json").exists():
-        raise _Exit(2, f"{out / 'table2.json'} exists; pass --force to overwrite it")
+    from obsnl.report.files import check_target
+    from obsnl.studies.seed_paper import REPRODUCTION_FILES
+
+    regenerate = args.out is None  # the default folder holds the committed results and is regenerated on purpose
+    for f in [out / n for n in REPRODUCTION_FILES] + (sorted(out.glob("fig[23]_*.png")) if out.is_dir() else []):
+        check_target(f, force=args.force or regenerate, root=out)
+    if regenerate:
+        print(f"obsnl reproduce: regenerating the default folder {out} (committed results); pass --out DIR to "
+              f"keep them", file=sys.stderr)
     bar = _progress("reproduce", None, "run")
     try:
         rep = reproduce(record=record, seeds=args.seeds, tuning_seeds=args.tuning_seeds, passes=args.passes,

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import getpass
 import os
+import stat
 import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -61,19 +62,60 @@ def jit_options() -> dict[str, Any]:
             "jit_options": {"flags": ["-O3", "-march=native"], "verbose": False, "directory": jit_directory()}}
 
 
+_PRIVATE_JIT: list[str] = []  # a fresh private folder of this process, when the shared one cannot be trusted
+
+
+def _trusted(path: str) -> bool:
+    """A real folder (not a symlink), owned by this user, that nobody else can read or write."""
+    try:
+        st = os.lstat(path)
+    except OSError:
+        return False
+    if stat.S_ISLNK(st.st_mode) or not stat.S_ISDIR(st.st_mode):
+        return False
+    if hasattr(os, "getuid") and st.st_uid != os.getuid():
+        return False
+    return not (os.name == "posix" and st.st_mode & 0o077)
+
+
 def jit_directory() -> str:
-    """The directory of the JIT compiler's scratch files: one per user under the system temp folder.
+    """The directory of the JIT compiler's scratch files: one private folder per user under the system temp
+    folder.
 
     casadi names every file uniquely and deletes it with its Function, so processes can share the
     folder; a process that is killed leaves its files there, not in the user's working directory.
+    The folder is trusted only if it is a real folder (not a symlink), owned by the user, mode 0700;
+    otherwise (someone planted a link or a folder there) a fresh private folder (``tempfile.mkdtemp``) is
+    used for this process, so obsnl never writes or loads compiled code from a folder others control.
+
+    Returns
+    -------
+    str
+        The folder, ending with the path separator.
+
+    Examples
+    --------
+    >>> import os, stat
+    >>> d = jit_directory()
+    >>> stat.S_IMODE(os.lstat(d).st_mode) & 0o077
+    0
     """
     try:
         user = str(os.getuid())
     except AttributeError:  # no uid on Windows
         user = getpass.getuser()
     path = os.path.join(tempfile.gettempdir(), f"obsnl-jit-{user}")
-    os.makedirs(path, mode=0o700, exist_ok=True)
-    return path + os.sep
+    try:
+        os.mkdir(path, 0o700)
+    except FileExistsError:
+        pass
+    except OSError:
+        path = ""
+    if path and _trusted(path):
+        return path + os.sep
+    if not _PRIVATE_JIT:
+        _PRIVATE_JIT.append(tempfile.mkdtemp(prefix="obsnl-jit-"))  # mode 0700, new: nobody else's
+    return _PRIVATE_JIT[0] + os.sep
 
 
 @dataclass(frozen=True, eq=False)

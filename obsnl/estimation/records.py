@@ -130,7 +130,7 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
     p = Path(path)
     if not p.is_file():
         raise DataError(f"record {str(p)!r} does not exist")
-    lines = p.read_text(encoding="utf-8").splitlines()
+    lines = _text(p).splitlines()
     if not lines:
         raise DataError(f"{str(p)!r} is empty")
     header = [h.strip() for h in lines[0].split(",")]
@@ -161,7 +161,23 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
     if bad.size:
         raise DataError(f"{str(p)!r} line {bad[0] + 2}: NaN/inf value ({bad.size} bad rows); clean the record first")
     dt = check_times(arr[:, 0], str(p))
-    return Record(p.stem, arr[:, 1], dt, source=p.name)
+    return _moving(Record(p.stem, arr[:, 1], dt, source=p.name))
+
+
+def _text(p: Path) -> str:
+    try:
+        return p.read_bytes().decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise DataError(f"{str(p)!r} is not UTF-8 text (byte {exc.start}); save the record as UTF-8") from None
+    except OSError as exc:
+        raise DataError(f"cannot read {str(p)!r}: {exc.strerror or exc}") from None
+
+
+def _moving(rec: Record) -> Record:
+    """Refuse a record without motion: every sample 0 gives no excitation (and a zero noise level)."""
+    if not np.any(rec.accel):
+        raise DataError(f"record {rec.name!r}: every sample is 0 (no ground motion); give a record with excitation")
+    return rec
 
 
 _AT2_HEAD = re.compile(r"NPTS\s*=\s*(\d+)\s*,?\s*DT\s*=\s*([0-9.eE+-]+)", re.IGNORECASE)
@@ -172,13 +188,18 @@ def read_at2(path: str | Path) -> Record:
     p = Path(path)
     if not p.is_file():
         raise DataError(f"record {str(p)!r} does not exist")
-    lines = p.read_text(encoding="utf-8", errors="replace").splitlines()
+    lines = _text(p).splitlines()
     if len(lines) < 5:
         raise DataError(f"{str(p)!r}: too short for a PEER AT2 file (4 header lines, then values)")
     mt = _AT2_HEAD.search(lines[3])
     if not mt:
         raise DataError(f"{str(p)!r} line 4: expected 'NPTS= n, DT= dt', got {lines[3].strip()!r}")
-    npts, dt = int(mt.group(1)), float(mt.group(2))
+    try:
+        npts, dt = int(mt.group(1)), float(mt.group(2))
+    except ValueError:
+        raise DataError(f"{str(p)!r} line 4: DT={mt.group(2)!r} is not a number") from None
+    if not (np.isfinite(dt) and dt > 0):
+        raise DataError(f"{str(p)!r} line 4: DT={mt.group(2)!r} must be a positive time step in seconds")
     if "UNITS OF G" not in lines[2].upper():
         raise DataError(f"{str(p)!r} line 3: expected acceleration in units of g, got {lines[2].strip()!r}")
     values: list[float] = []
@@ -194,7 +215,7 @@ def read_at2(path: str | Path) -> Record:
     bad = np.flatnonzero(~np.isfinite(a))
     if bad.size:
         raise DataError(f"{str(p)!r}: NaN/inf at sample {bad[0]}")
-    return Record(p.stem, a, dt, source=f"{p.name}: {lines[1].strip()}")
+    return _moving(Record(p.stem, a, dt, source=f"{p.name}: {lines[1].strip()}"))
 
 
 def read_record(path: str | Path) -> Record:

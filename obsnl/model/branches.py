@@ -19,6 +19,7 @@ from __future__ import annotations
 import copy
 import dataclasses
 import string
+import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -27,7 +28,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from obsnl.errors import ModelError, NotSupportedError
+from obsnl.errors import AnalysisError, ModelError, NotSupportedError
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.switching import (
     expr_text,
@@ -39,7 +40,8 @@ from obsnl.model.switching import (
 
 __all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of"]
 
-_MAX_SWITCHING = 12  # 2**12 sign patterns per level at most
+_MAX_SWITCHING = 12  # switching functions in all (nested ones included): 2**12 sign patterns at most
+_MAX_BRANCHES = 1024  # smooth branches in all
 _FIELDS = {f.name for f in dataclasses.fields(Model)}
 
 
@@ -229,18 +231,19 @@ def derived_model(base: Model, **changes: Any) -> Model:
 
 
 def _labels(n: int) -> list[str]:
-    letters = string.ascii_lowercase
+    """``a, ..., z, aa, ..., az, ba, ..., zz, aaa, ...`` (bijective base 26: a label for any count)."""
     out = []
     for i in range(n):
-        if i < 26:
-            out.append(letters[i])
-        else:
-            out.append(letters[i // 26 - 1] + letters[i % 26])
+        k, label = i + 1, ""
+        while k:
+            k, r = divmod(k - 1, 26)
+            label = string.ascii_lowercase[r] + label
+        out.append(label)
     return out
 
 
 def split_branches(
-    model: Model, *, seed: int = 0, with_dropped: bool = False
+    model: Model, *, seed: int = 0, with_dropped: bool = False, max_seconds: float | None = None
 ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
     """Split ``model`` into its smooth branches.
 
@@ -252,6 +255,8 @@ def split_branches(
         Seed of the witness search used for non-affine switching functions.
     with_dropped
         Also return the sign patterns dropped as contradictory.
+    max_seconds
+        Time limit of the split (None: none).
 
     Returns
     -------
@@ -260,7 +265,10 @@ def split_branches(
     Raises
     ------
     NotSupportedError
-        More than 12 switching functions at one level, or an unsupported Piecewise condition.
+        More than 12 switching functions in all (nested ones included), more than 1024 branches, or
+        an unsupported Piecewise condition.
+    AnalysisError
+        The split took longer than ``max_seconds``.
 
     Examples
     --------
@@ -277,7 +285,8 @@ def split_branches(
         return (branches, ()) if with_dropped else branches
     found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float]]] = []
     dropped: list[DroppedPattern] = []
-    _split_level(exprs, model.switching, (), (), {}, rng, found, dropped, {})
+    deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
+    _split_level(exprs, model.switching, (), (), {}, rng, found, dropped, {"__deadline__": deadline})
     labels = _labels(len(found))
     n_rhs = len(model.states)
     branches = []
@@ -305,13 +314,21 @@ def _split_level(
         found.append((outer_sw, outer_signs, exprs, witness))
         return
     sw = switching_of(exprs, declared, memo)
-    if len(sw) > _MAX_SWITCHING:
+    if len(outer_sw) + len(sw) > _MAX_SWITCHING:
+        n = len(outer_sw) + len(sw)
         raise NotSupportedError(
-            f"{len(sw)} switching functions at one level ({2 ** len(sw)} sign patterns); at most "
-            f"{_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
+            f"{n} switching functions{' (nested ones included)' if outer_sw else ''} ({2 ** n} sign patterns); "
+            f"at most {_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
         )
     nodes = innermost_nonsmooth(exprs)
+    deadline = memo.get("__deadline__")
     for signs in _gray(len(sw)):
+        if deadline is not None and time.perf_counter() > deadline:
+            raise AnalysisError("splitting the model into branches ran past the time limit; raise --max-seconds "
+                                "or smooth some switching functions")
+        if len(found) >= _MAX_BRANCHES:
+            raise NotSupportedError(f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
+                                    f"switching functions (e.g. tanh(v/eps) for sign(v))")
         all_sw = outer_sw + sw
         all_signs = outer_signs + signs
         witness, reason = _feasible(list(zip(all_sw, all_signs)), rng, memo)

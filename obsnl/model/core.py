@@ -9,7 +9,6 @@ cannot change: transformations return a new model.
 from __future__ import annotations
 
 import dataclasses
-import keyword
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -19,7 +18,9 @@ import sympy as sp
 
 from obsnl.errors import ModelError, ParseError
 from obsnl.model.unknown_inputs import check_unknown_input_derivatives
-from obsnl.model.parse import make_symbol, parse_expression
+from obsnl.model.latex import latex_problem
+from obsnl.model.names import check_name as _check_identifier, check_text as _check_text
+from obsnl.model.parse import make_symbol, parse_expression, shorten
 
 __all__ = ["Model", "NONSMOOTH_FUNCTIONS"]
 
@@ -67,15 +68,6 @@ def _name_list(value: Any, key: str) -> tuple[str, ...]:
         _check_identifier(name, key)
         names.append(name)
     return tuple(names)
-
-
-def _check_identifier(name: str, key: str) -> None:
-    if not name.isidentifier():
-        raise ModelError(f"'{key}': {name!r} is not a valid name (letters, digits and '_', not starting with a digit)")
-    if keyword.iskeyword(name):
-        raise ModelError(f"'{key}': {name!r} is a Python keyword; rename it (e.g. {name + '_'!r})")
-    if name.startswith("__"):
-        raise ModelError(f"'{key}': names starting with '__' are not allowed ({name!r})")
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -171,13 +163,23 @@ class Model:
         if not isinstance(self.name, str) or not self.name.strip():
             raise ModelError("the model needs a non-empty 'name'")
         set_("name", self.name.strip())
+        _check_text(self.name, "name")
         for key in ("description", "source"):
             val = getattr(self, key)
             if val is None:
                 val = ""
             if not isinstance(val, str):
                 raise ModelError(f"'{key}' must be text, got {type(val).__name__}")
+            _check_text(val, key)
             set_(key, val)
+        for key in ("outputs", "initial_condition_values", "latex", "values", "guess", "definitions", "metadata"):
+            val = getattr(self, key)
+            if val is not None and not isinstance(val, Mapping):
+                raise ModelError(f"'{key}' must be a table {{name = value}}, got {type(val).__name__} "
+                                 f"{shorten(repr(val), 40)}")
+        if self.switching is not None and not isinstance(self.switching, (str, sp.Basic, list, tuple)):
+            raise ModelError(f"'switching' must be a list of expressions, got {type(self.switching).__name__} "
+                             f"{shorten(repr(self.switching), 40)}")
 
         names: dict[str, tuple[str, ...]] = {role: _name_list(getattr(self, role), role) for role in _ROLES}
         if not names["states"]:
@@ -290,6 +292,9 @@ class Model:
                 raise ModelError(f"latex name given for undeclared symbol {k!r}{_close(k, list(seen) + list(outs))}")
             if not isinstance(v, str):
                 raise ModelError(f"latex.{k} must be a string")
+            problem = latex_problem(v)
+            if problem:
+                raise ModelError(f"latex.{k}: {problem}")
         set_("latex", _frozen(latex))
         for key in ("values", "guess"):
             table = getattr(self, key) or {}

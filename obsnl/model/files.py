@@ -14,7 +14,7 @@ from typing import Any
 from obsnl.errors import ParseError
 from obsnl.model.core import Model
 
-__all__ = ["read_model_file", "load_model", "catalogue_path", "model_to_toml", "PACKAGED"]
+__all__ = ["read_model_file", "parse_text", "load_model", "catalogue_path", "model_to_toml", "PACKAGED"]
 
 #: Prefix of a packaged model's name where a file name is expected (``obsnl:bouc_wen``).
 PACKAGED = "obsnl:"
@@ -29,12 +29,12 @@ def read_model_file(path: str | Path) -> dict[str, Any]:
         The file is missing, has an unknown extension, or is not valid TOML/JSON.
     """
     p = Path(path)
-    if not p.exists():
-        raise ParseError(f"model file {str(p)!r} does not exist")
-    if p.is_dir():
-        raise ParseError(f"{str(p)!r} is a directory; give a .toml or .json model file")
     suffix = p.suffix.lower()
     try:
+        if not p.exists():
+            raise ParseError(f"model file {str(p)!r} does not exist")
+        if p.is_dir():
+            raise ParseError(f"{str(p)!r} is a directory; give a .toml or .json model file")
         raw = p.read_bytes()
     except OSError as exc:
         raise ParseError(f"cannot read {str(p)!r}: {exc.strerror}") from None
@@ -42,23 +42,89 @@ def read_model_file(path: str | Path) -> dict[str, Any]:
         text = raw.decode("utf-8")
     except UnicodeDecodeError:
         raise ParseError(f"{str(p)!r} is not UTF-8 text") from None
-    if suffix == ".toml":
-        import tomllib
-
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ParseError(f"{str(p)!r} is not valid TOML: {exc}") from None
-    elif suffix == ".json":
-        try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ParseError(f"{str(p)!r} is not valid JSON: {exc}") from None
-    else:
+    if suffix not in (".toml", ".json"):
         raise ParseError(f"{str(p)!r}: unknown model file type {suffix!r}; use .toml or .json")
+    data = parse_text(text, kind=suffix[1:], where=repr(str(p)))
     if not isinstance(data, dict):
         raise ParseError(f"{str(p)!r}: the top level must be a table/object of model keys")
     return data
+
+
+#: Deepest nesting of arrays/tables a model file may have (a model needs 3; the parsers recurse).
+MAX_NESTING = 32
+
+
+def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for k, v in pairs:
+        if k in out:
+            raise ParseError(f"the key {k!r} appears twice in one object; keep one")
+        out[k] = v
+    return out
+
+
+def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
+    """Parse TOML or JSON text with the limits obsnl puts on files other people write.
+
+    Refused: nesting deeper than :data:`MAX_NESTING` (checked on the text before the recursive parsers
+    run), a key twice in one JSON object (JSON parsers silently keep the last), integers over 4300
+    digits, ``NaN``/``Infinity`` in JSON.
+
+    Parameters
+    ----------
+    text
+        The file's text.
+    kind
+        ``"toml"`` or ``"json"``.
+    where
+        How to name the file in messages.
+
+    Raises
+    ------
+    ParseError
+        One line naming the problem.
+
+    Examples
+    --------
+    >>> parse_text('{"a": 1, "a": 2}', kind="json")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.ParseError: the file is not valid JSON: the key 'a' appears twice in one object; keep one
+    """
+    depth = deepest = 0
+    for c in text:  # brackets inside strings count too: an over-estimate is harmless here
+        if c in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in "]}":
+            depth -= 1
+    if deepest > MAX_NESTING:
+        raise ParseError(f"{where} nests arrays/tables {deepest} deep (at most {MAX_NESTING}); "
+                         f"a model file needs 3")
+    try:
+        if kind == "toml":
+            import tomllib
+
+            try:
+                return tomllib.loads(text)
+            except tomllib.TOMLDecodeError as exc:
+                raise ParseError(f"{where} is not valid TOML: {exc}") from None
+
+        def constant(name: str) -> Any:
+            raise ParseError(f"{name} is not a number obsnl accepts; write a finite number")
+
+        try:
+            return json.loads(text, object_pairs_hook=_unique_keys, parse_constant=constant)
+        except json.JSONDecodeError as exc:
+            raise ParseError(f"{where} is not valid JSON: {exc}") from None
+    except ParseError as exc:
+        if str(exc).startswith(where):
+            raise
+        raise ParseError(f"{where} is not valid {kind.upper()}: {exc}") from None
+    except RecursionError:
+        raise ParseError(f"{where} is nested too deeply") from None
+    except ValueError as exc:  # e.g. an integer over 4300 digits
+        raise ParseError(f"{where} is not valid {kind.upper()}: {exc}") from None
 
 
 def catalogue_path(name: str) -> Path:

@@ -9,9 +9,12 @@ exact engines never see a float.
 
 from __future__ import annotations
 
+import ast
 import difflib
 import keyword
+import math
 import tokenize
+import unicodedata
 from collections.abc import Iterable, Mapping
 from io import StringIO
 from typing import Any
@@ -26,7 +29,7 @@ from sympy.parsing.sympy_parser import (
 
 from obsnl.errors import ParseError
 
-__all__ = ["ALLOWED_FUNCTIONS", "make_symbol", "parse_expression"]
+__all__ = ["ALLOWED_FUNCTIONS", "make_symbol", "parse_expression", "check_expression_size", "nfkc_problem", "shorten"]
 
 #: Functions a model expression may use, by the name written in the file.
 ALLOWED_FUNCTIONS: dict[str, Any] = {
@@ -69,6 +72,44 @@ _PARSER_GLOBALS: dict[str, Any] = {
 _TRANSFORMS = standard_transformations + (convert_xor, rationalize)
 
 _MAX_EXPRESSION_LENGTH = 20_000
+#: Bounds checked on the text before sympy sees it (sympy would evaluate ``9**9**9`` while parsing).
+MAX_NODES = 4000  # operations and names in one expression
+MAX_DEPTH = 200  # nesting of operations (a sum of n terms nests n deep)
+MAX_DIGITS = 100  # digits of a number literal, and of any constant the expression computes
+MAX_EXPONENT = 100  # |exponent| of a power with a constant exponent
+_SHOWN = 80  # characters of an expression quoted in a message
+
+
+def shorten(text: str, limit: int = _SHOWN) -> str:
+    """``text`` cut to ``limit`` characters (with ``...``) for an error message.
+
+    Examples
+    --------
+    >>> shorten("x + " * 30, 20)
+    'x + x + x + x + x...'
+    """
+    text = text.strip()
+    return text if len(text) <= limit else text[: limit - 3].rstrip() + "..."
+
+
+def nfkc_problem(name: str) -> str | None:
+    """Why ``name`` cannot be a name, if its NFKC form differs from it (Python reads identifiers in NFKC:
+    a fullwidth ``ｘ`` is ``x``, ``ℓ`` is ``l``, the micro sign ``µ`` is the Greek ``μ``), else None.
+
+    Examples
+    --------
+    >>> nfkc_problem("ｘ")
+    "'ｘ' is read as 'x' (Unicode NFKC); write 'x'"
+    >>> nfkc_problem("x") is None
+    True
+    """
+    try:
+        norm = unicodedata.normalize("NFKC", name)
+    except (TypeError, ValueError):
+        return f"{name!r} is not text"
+    if norm != name:
+        return f"{name!r} is read as {norm!r} (Unicode NFKC); write {norm!r}"
+    return None
 
 
 def make_symbol(name: str) -> sp.Symbol:
@@ -88,20 +129,121 @@ def _check_names_token_level(text: str, where: str) -> None:
     try:
         tokens = list(tokenize.generate_tokens(StringIO(text).readline))
     except (tokenize.TokenError, IndentationError, SyntaxError) as exc:
-        raise ParseError(f"{where}: syntax error in {text!r} ({exc}); check brackets and operators") from None
+        raise ParseError(f"{where}: syntax error in {shorten(text)!r} ({exc}); check brackets and operators") from None
     for tok in tokens:
+        if tok.type == tokenize.COMMENT:
+            raise ParseError(f"{where}: '#' in {shorten(text)!r} would cut the expression; remove it")
+        if tok.type == tokenize.NUMBER and sum(c.isdigit() for c in tok.string) > MAX_DIGITS:
+            raise ParseError(f"{where}: a number with more than {MAX_DIGITS} digits in {shorten(text)!r}; "
+                             f"write it with an exponent or scale the model")
+        if tok.type == tokenize.NUMBER and "e" in tok.string.lower() and not tok.string.lower().startswith("0x"):
+            mantissa, _, exponent = tok.string.lower().rstrip("j").partition("e")
+            if exponent.lstrip("+-").replace("_", "").isdigit() and abs(int(exponent.replace("_", ""))) > MAX_DIGITS:
+                raise ParseError(f"{where}: the number {shorten(tok.string, 30)!r} is beyond 1e{MAX_DIGITS} or below "
+                                 f"1e-{MAX_DIGITS}; rescale the model")
         if tok.type == tokenize.NAME:
+            problem = nfkc_problem(tok.string)
+            if problem:
+                raise ParseError(f"{where}: {problem} (in {shorten(text)!r})")
             if keyword.iskeyword(tok.string) and tok.string not in ("True", "False"):
                 raise ParseError(
-                    f"{where}: {tok.string!r} in {text!r} is a Python keyword and cannot be a name; "
+                    f"{where}: {tok.string!r} in {shorten(text)!r} is a Python keyword and cannot be a name; "
                     f"rename it (e.g. {tok.string + '_'!r})"
                 )
             if tok.string.startswith("__"):
-                raise ParseError(f"{where}: the name {tok.string!r} in {text!r} is not allowed; rename it")
+                raise ParseError(f"{where}: the name {tok.string!r} in {shorten(text)!r} is not allowed; rename it")
         elif tok.type == tokenize.OP and tok.string in ("=", ":=", ";", "[", "]", "{", "}", "@", "."):
-            raise ParseError(f"{where}: unexpected {tok.string!r} in {text!r}; write a single sympy expression")
+            raise ParseError(f"{where}: unexpected {tok.string!r} in {shorten(text)!r}; write a single sympy expression")
         elif tok.type == tokenize.STRING:
-            raise ParseError(f"{where}: string literal in {text!r}; write a sympy expression, not a string")
+            raise ParseError(f"{where}: string literal in {shorten(text)!r}; write a sympy expression, not a string")
+
+
+def _const_log10(node: ast.AST, where: str, text: str) -> float | None:
+    """An upper bound of log10|value| of a constant sub-expression (None: not constant); refuses a power
+    with a huge exponent and a constant with more than MAX_DIGITS digits, without computing either."""
+
+    def refuse(what: str) -> ParseError:
+        return ParseError(f"{where}: {what} in {shorten(text)!r}; obsnl refuses exponents above {MAX_EXPONENT} "
+                          f"and constants over {MAX_DIGITS} digits (rescale the model)")
+
+    if isinstance(node, ast.Constant):
+        if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
+            return None
+        v = abs(node.value)
+        return math.log10(v) if v > 0 else -math.inf
+    if isinstance(node, ast.UnaryOp):
+        return _const_log10(node.operand, where, text)
+    if isinstance(node, ast.BinOp):
+        left = _const_log10(node.left, where, text)
+        right = _const_log10(node.right, where, text)
+        if isinstance(node.op, ast.Pow):
+            if right is not None:
+                if right > math.log10(MAX_EXPONENT):
+                    raise refuse("a power with an exponent over " + str(MAX_EXPONENT))
+                if left is None:
+                    return None
+                bound = left * 10 ** right if left > 0 else 0.0
+                if bound > MAX_DIGITS:
+                    raise refuse(f"a constant power with more than {MAX_DIGITS} digits")
+                return bound
+            return None
+        if left is None or right is None:
+            return None
+        if isinstance(node.op, ast.Mult):
+            bound = left + right
+        elif isinstance(node.op, (ast.Div, ast.FloorDiv, ast.Mod)):
+            bound = left
+        else:
+            bound = max(left, right) + 1
+        if bound > MAX_DIGITS:
+            raise refuse(f"a constant with more than {MAX_DIGITS} digits")
+        return bound
+    return None
+
+
+def check_expression_size(text: str, where: str = "expression") -> None:
+    """Refuse an expression whose evaluation could run away, before anything evaluates it.
+
+    The text is read by Python's ``ast`` (``^`` as a power, as obsnl reads it): at most
+    :data:`MAX_NODES` nodes nested at most :data:`MAX_DEPTH` deep, number literals of at most
+    :data:`MAX_DIGITS` digits, constant exponents of at most :data:`MAX_EXPONENT` and constants
+    of at most :data:`MAX_DIGITS` digits (``9**9**9``, ``x**(10**10)``, power towers).
+
+    Raises
+    ------
+    ParseError
+        Naming the bound and the expression (shortened).
+
+    Examples
+    --------
+    >>> check_expression_size("x**2 + 3*y")
+    >>> check_expression_size("9**9**9")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.ParseError: expression: a power with an exponent over 100 in '9**9**9'; obsnl refuses exponents above 100 and constants over 100 digits (rescale the model)
+    """
+    try:
+        tree = ast.parse(text.replace("^", "**"), mode="eval")
+    except RecursionError:
+        raise ParseError(f"{where}: {shorten(text)!r} is nested too deeply; split it") from None
+    except (SyntaxError, ValueError):
+        return  # the parser below reports the syntax error with its own message
+    count = 0
+    stack: list[tuple[ast.AST, int]] = [(tree.body, 1)]
+    while stack:
+        node, depth = stack.pop()
+        count += 1
+        if count > MAX_NODES:
+            raise ParseError(f"{where}: {shorten(text)!r} has more than {MAX_NODES} operations and names; "
+                             f"split it with intermediate states or simplify it")
+        if depth > MAX_DEPTH:
+            raise ParseError(f"{where}: {shorten(text)!r} nests more than {MAX_DEPTH} operations (a sum of n terms "
+                             f"nests n deep); simplify it")
+        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
+    # constant growth: bottom-up bound without evaluating (raises on the first runaway power)
+    for node in ast.walk(tree.body):
+        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow):
+            _const_log10(node, where, text)
 
 
 def parse_expression(
@@ -152,6 +294,9 @@ def parse_expression(
     if isinstance(text, (int, float)):
         if isinstance(text, float) and not (text == text and abs(text) != float("inf")):
             raise ParseError(f"{where}: the number {text!r} is not finite")
+        if isinstance(text, int) and text.bit_length() > MAX_DIGITS * 3.33:
+            raise ParseError(f"{where}: a number with more than {MAX_DIGITS} digits; write it with an exponent "
+                             f"or scale the model")
         return sp.nsimplify(text, rational=True) if isinstance(text, float) else sp.Integer(text)
     if isinstance(text, sp.Basic):
         return _adopt_sympy(text, symbols, where=where, allow_relations=allow_relations, reserved=reserved)
@@ -163,6 +308,7 @@ def parse_expression(
     if len(stripped) > _MAX_EXPRESSION_LENGTH:
         raise ParseError(f"{where}: the expression is longer than {_MAX_EXPRESSION_LENGTH} characters")
     _check_names_token_level(stripped, where)
+    check_expression_size(stripped, where)
     local: dict[str, Any] = {}
     local.update(ALLOWED_FUNCTIONS)
     local.update(_CONSTANTS)
@@ -173,9 +319,12 @@ def parse_expression(
     except ParseError:
         raise
     except (SyntaxError, tokenize.TokenError):
-        raise ParseError(f"{where}: syntax error in {stripped!r}; check brackets and operators") from None
+        raise ParseError(f"{where}: syntax error in {shorten(stripped)!r}; check brackets and operators") from None
+    except RecursionError:
+        raise ParseError(f"{where}: {shorten(stripped)!r} is nested too deeply; simplify it") from None
     except Exception as exc:  # noqa: BLE001 - the door: anything sympy raises becomes our error
-        raise ParseError(f"{where}: cannot read {stripped!r}: {type(exc).__name__}: {exc}") from None
+        raise ParseError(f"{where}: cannot read {shorten(stripped)!r}: {type(exc).__name__}: "
+                         f"{shorten(str(exc))}") from None
     return _adopt_sympy(expr, symbols, where=where, allow_relations=allow_relations, text=stripped, reserved=reserved)
 
 
@@ -190,7 +339,7 @@ def _adopt_sympy(
 ) -> sp.Expr:
 
     def shown() -> str:  # built only when an error is raised: printing every expression is costly
-        return text if text is not None else str(expr)
+        return shorten(text if text is not None else str(expr))
 
     if not isinstance(expr, sp.Basic):
         try:
@@ -220,7 +369,10 @@ def _adopt_sympy(
         if expr.has(bad):
             raise ParseError(f"{where}: {shown()!r} evaluates to {bad} (a division by zero or an infinity)")
     if expr.has(sp.I):
-        raise ParseError(f"{where}: {shown()!r} contains the imaginary unit; declare a symbol 'I' if you meant a variable")
+        hint = ("a log, sqrt or fractional power of a negative constant" if "I" in symbols
+                else "a log, sqrt or fractional power of a negative constant, or the imaginary unit I; declare a "
+                     "symbol 'I' if you meant a variable")
+        raise ParseError(f"{where}: {shown()!r} is complex-valued ({hint}); obsnl models are real")
     # Symbols: declared ones only, matched by name.
     replace: dict[sp.Symbol, sp.Symbol] = {}
     for s in expr.free_symbols:

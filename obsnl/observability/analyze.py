@@ -66,7 +66,8 @@ def analyze(
     seed
         Seed of all random choices; None draws one (reported in the result).
     max_seconds
-        Time limit for the whole analysis; branches or blocks not finished are ``INCONCLUSIVE``.
+        Time limit for the whole analysis; branches or blocks not finished are ``INCONCLUSIVE``. The split
+        into branches gets at least 2 s of it and raises :class:`~obsnl.errors.AnalysisError` past that.
     prob
         Wanted lower bound on the probability that every verdict is right; more independent runs
         are made while a block's bound is weaker (up to a few; the result reports what was reached).
@@ -122,7 +123,9 @@ def analyze(
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     seed = _fresh_seed(seed)
     variables = _variable_names(model)
-    chosen, how = select_branches(model, labels=branches, patterns=visited, crossings=crossings, seed=seed)
+    # the split is bounded too, with a floor: a tiny limit still yields branches (each then inconclusive)
+    chosen, how = select_branches(model, labels=branches, patterns=visited, crossings=crossings, seed=seed,
+                                  max_seconds=None if max_seconds is None else max(float(max_seconds), 2.0))
     n_blocks_guess = max(1, len(chosen))
     target = (1 - prob) / n_blocks_guess
     results: list[BranchResult] = []

@@ -165,6 +165,17 @@ class BranchTable:
         variables = set(self.states) | set(self.parameters)
         params = set(self.parameters)
         labels = [b.label for b in self.branches]
+        if self.probability is not None and not (isinstance(self.probability, (int, float))
+                                                 and 0.0 <= self.probability <= 1.0):
+            raise TableError(f"probability {self.probability!r} is not a number in [0, 1]; {TABLE_FIX}")
+        if len(set(self.switching)) != len(self.switching) or len(self.branches) > 2 ** len(self.switching):
+            raise TableError(f"{len(self.branches)} branches for {len(self.switching)} switching functions; {TABLE_FIX}")
+        obs_union = set().union(*(b.observable for b in self.branches)) if self.branches else set()
+        unobs_all = set(variables).intersection(*(b.unobservable for b in self.branches)) if self.branches else set()
+        if not set(self.overall_observable) <= obs_union or not set(self.overall_unobservable) <= unobs_all or (
+                set(self.overall_observable) & set(self.overall_unobservable)):
+            raise TableError(f"'overall' contradicts the branches (observable must be observable in some branch, "
+                             f"unobservable in every branch); {TABLE_FIX}")
         if len(set(labels)) != len(labels):
             raise TableError(f"branch labels repeat: {labels}")
         patterns = set()
@@ -182,6 +193,11 @@ class BranchTable:
                 unknown = set(getattr(b, key)) - variables
                 if unknown:
                     raise TableError(f"{where}: {key} names {sorted(unknown)}, which are not states or parameters")
+            if not 0 <= b.transcendence_degree <= len(variables):
+                raise TableError(f"{where}: transcendence degree {b.transcendence_degree} is not between 0 and the "
+                                 f"number of states and parameters ({len(variables)})")
+            if b.verdict == "observable" and b.unobservable:
+                raise TableError(f"{where}: verdict 'observable' with unobservable variables {list(b.unobservable)}")
             if set(b.observable) & set(b.unobservable):
                 raise TableError(f"{where}: {sorted(set(b.observable) & set(b.unobservable))} are both "
                                  f"observable and unobservable")
@@ -281,11 +297,16 @@ def load_branch_table(path: str | Path) -> BranchTable:
     TableError
         Missing file, invalid JSON, schema violation or an inconsistent table.
     """
+    from obsnl.errors import ParseError
+    from obsnl.model.files import parse_text  # nesting, duplicate keys, NaN and huge integers refused
+
     p = Path(path)
-    if not p.is_file():
-        raise TableError(f"branch table {str(p)!r} does not exist")
     try:
-        data = json.loads(p.read_text(encoding="utf-8"))
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
-        raise TableError(f"branch table {str(p)!r} is not valid JSON: {exc}") from None
+        if not p.is_file():
+            raise TableError(f"branch table {str(p)!r} does not exist")
+        data = parse_text(p.read_bytes().decode("utf-8"), kind="json", where=f"branch table {str(p)!r}")
+    except (ParseError, UnicodeDecodeError) as exc:
+        raise TableError(str(exc) if isinstance(exc, ParseError) else f"branch table {str(p)!r} is not UTF-8") from None
+    except OSError as exc:
+        raise TableError(f"cannot read branch table {str(p)!r}: {exc.strerror or exc}") from None
     return BranchTable.from_dict(data)

@@ -62,7 +62,8 @@ def _too_many(model: Model) -> bool:
 
 def select_branches(model: Model, *, labels: Sequence[str] | None = None,
                     patterns: Mapping[tuple[int, ...], float] | None = None,
-                    crossings: Mapping[str, int] | None = None, seed: int = 0) -> tuple[list[Branch], Visited]:
+                    crossings: Mapping[str, int] | None = None, seed: int = 0,
+                    max_seconds: float | None = None) -> tuple[list[Branch], Visited]:
     """The branches to analyse, and how they were chosen.
 
     Parameters
@@ -78,6 +79,8 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
         Crossings seen per switching function (text), reported with ``patterns``.
     seed
         Seed of the feasibility search.
+    max_seconds
+        Time limit of the branch split (:func:`obsnl.split_branches`).
 
     Returns
     -------
@@ -98,7 +101,7 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
     (['b'], 'labels', False)
     """
     if patterns is not None:
-        every = _all_or_representatives(model, seed)[0]
+        every = _all_or_representatives(model, seed, max_seconds)[0]
         by_signs = {tuple(b.signs): b for b in every}
         chosen, durations = [], {}
         for signs, seconds in patterns.items():
@@ -111,7 +114,7 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
             how="record", exhaustive=False, durations=durations, crossings=dict(crossings or {}),
             note=(f"the {len(chosen)} branches a simulation under the record visits (time in each and the "
                   f"crossings are listed); the verdicts are what this experiment reveals"))
-    branches, visited = _all_or_representatives(model, seed)
+    branches, visited = _all_or_representatives(model, seed, max_seconds)
     if labels is None:
         return branches, visited
     every = {b.label: b for b in branches}
@@ -124,11 +127,11 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
                            note=f"only the branches {', '.join(b.label for b in chosen)} (--branches)")
 
 
-def _all_or_representatives(model: Model, seed: int) -> tuple[list[Branch], Visited]:
+def _all_or_representatives(model: Model, seed: int, max_seconds: float | None = None) -> tuple[list[Branch], Visited]:
     if _too_many(model):
         reps = representative_branches(model, seed=seed)
         return list(reps.branches), Visited(how="representatives", exhaustive=False, note=reps.describe())
-    branches = list(split_branches(model, seed=seed))
+    branches = list(split_branches(model, seed=seed, max_seconds=max_seconds))
     return branches, Visited(how="all", exhaustive=True,
                              note=f"every feasible branch ({len(branches)})" if len(branches) > 1 else "smooth model")
 

@@ -8,6 +8,7 @@ plain file name (a path separator, ``..``, a leading dot, characters outside let
 
 from __future__ import annotations
 
+import os
 import re
 from collections.abc import Sequence
 from pathlib import Path
@@ -17,9 +18,99 @@ from obsnl.observability.branch_table import SCHEMA_ID
 from obsnl.observability.results import AnalysisResult
 from obsnl.report.tables import to_json, to_latex, to_markdown, union_text
 
-__all__ = ["report_files", "write_tables", "timing_table"]
+__all__ = ["report_files", "write_tables", "timing_table", "check_target", "safe_write"]
 
 _SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,120}$")
+
+
+def check_target(path: str | Path, *, force: bool, root: str | Path | None = None) -> Path:
+    """Check that ``path`` may be written: refuse what would surprise the user.
+
+    Refused: an existing file or a symlink (even a dangling one) without ``force``; a folder; a parent
+    that is a file; a parent folder that is a symlink without ``force``; a path that leaves ``root``
+    (when given). Nothing is created.
+
+    Parameters
+    ----------
+    path
+        The file to write.
+    force
+        Allow replacing an existing file or symlink (the symlink itself is replaced, never followed).
+    root
+        The folder the user named; ``path`` must stay inside it.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    OutputError
+        One line naming the path and the fix.
+
+    Examples
+    --------
+    >>> check_target("out/x.md", force=False, root="out").name
+    'x.md'
+    >>> check_target("out/../x.md", force=False, root="out")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.OutputError: out/../x.md would be written outside out; name a file inside the folder
+    """
+    p = Path(path)
+    if root is not None:
+        base = os.path.realpath(root)
+        if os.path.commonpath([base, os.path.realpath(p.parent) if p.parent != Path("") else base]) != base or \
+                p.name in ("", ".", ".."):
+            raise OutputError(f"{p} would be written outside {root}; name a file inside the folder")
+    if p.is_symlink() and not force:
+        raise OutputError(f"{p} is a symlink; obsnl does not write through links (pass --force to replace the "
+                          f"link by a file)")
+    if p.is_dir() and not p.is_symlink():
+        raise OutputError(f"{p} is a folder; name a file")
+    if p.exists() and not force:
+        raise OutputError(f"{p} exists; pass --force to overwrite it")
+    if root is not None and Path(root).is_symlink() and not force:
+        raise OutputError(f"{root} is a symlink; obsnl does not write through links (pass --force or name the "
+                          f"real folder)")
+    for parent in p.parents:
+        if parent.exists() and not parent.is_dir():
+            raise OutputError(f"{parent} is a file, not a folder; choose another output path")
+    return p
+
+
+def safe_write(path: str | Path, text: str, *, force: bool, root: str | Path | None = None) -> Path:
+    """Write ``text`` to ``path`` after :func:`check_target`; a symlink at ``path`` is replaced, never followed.
+
+    Parameters
+    ----------
+    path, force, root
+        As :func:`check_target`.
+    text
+        UTF-8 text.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    OutputError
+        As :func:`check_target`, or the file cannot be written.
+    """
+    p = check_target(path, force=force, root=root)
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        if p.is_symlink():
+            p.unlink()
+        flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_NOFOLLOW", 0)
+        fd = os.open(p, flags, 0o666)
+        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
+            fh.write(text)
+    except OSError as exc:
+        raise OutputError(f"cannot write {p}: {exc.strerror or exc}") from None
+    return p
 
 
 def timing_table(entries: Sequence[tuple[str, str, int, float]]) -> str:
@@ -110,16 +201,12 @@ def write_tables(results: Sequence[AnalysisResult], out: str | Path, *, force: b
         A file exists and ``force`` is False (nothing is written then), or a bad model name.
     """
     targets = report_files([r.model for r in results], out)
-    existing = [str(t) for t in targets if t.exists() or t.is_symlink()]
-    if existing and not force:
-        raise OutputError(f"{existing[0]} exists; pass --force to overwrite the report")
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    for r in results:
-        (out / f"{r.model}.md").write_text(to_markdown(r), encoding="utf-8")
-        (out / f"{r.model}.tex").write_text(to_latex(r), encoding="utf-8")
-        (out / f"{r.model}.json").write_text(to_json(r), encoding="utf-8")
-    (out / "index.md").write_text(_index(results), encoding="utf-8")
-    (out / "timings.md").write_text(
-        timing_table([(r.model, r.method, len(r.branches), r.seconds) for r in results]), encoding="utf-8")
+    for t in targets:  # every file checked before any is written
+        check_target(t, force=force, root=out)
+    texts = []
+    for r in results:  # everything rendered before anything is written: a rendering error leaves no folder
+        texts += [to_markdown(r), to_latex(r), to_json(r)]
+    texts += [_index(results), timing_table([(r.model, r.method, len(r.branches), r.seconds) for r in results])]
+    for t, text in zip(targets, texts):
+        safe_write(t, text, force=force, root=out)
     return targets

@@ -119,10 +119,13 @@ def _key(b: BranchResult) -> tuple:
 
 
 def _symbols_in(texts: Iterable[str]) -> dict[str, sp.Symbol]:
+    """The names of the symbols in expression texts (function names such as ``exp`` are not symbols)."""
+    from obsnl.model.parse import ALLOWED_FUNCTIONS, make_symbol
+
     names = set()
     for t in texts:
-        names.update(re.findall(r"[A-Za-z_][A-Za-z0-9_]*", t))
-    return {n: sp.Symbol(n, real=True) for n in names}
+        names.update(re.findall(r"[^\W\d]\w*", t))
+    return {n: make_symbol(n) for n in names if n not in ALLOWED_FUNCTIONS and n != "pi"}
 
 
 def branch_groups(result: AnalysisResult) -> tuple[BranchGroup, ...]:
@@ -133,7 +136,9 @@ def branch_groups(result: AnalysisResult) -> tuple[BranchGroup, ...]:
     sw_exprs: list[sp.Expr] = []
     if result.switching:
         loc = _symbols_in(result.switching)
-        sw_exprs = [sp.sympify(t, locals=loc) for t in result.switching]
+        from obsnl.model.parse import parse_expression
+
+        sw_exprs = [parse_expression(t, loc, where="switching function") for t in result.switching]
     all_patterns = [b.signs for b in result.branches]
     out = []
     for members in groups.values():
@@ -209,7 +214,11 @@ def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult)
             if group.factors:
                 prod = " ".join(_latex_factor(f, result, wrap=len(group.factors) > 1) for f in group.factors)
                 return f"${prod} {'>' if group.sign > 0 else '<'} 0$"
-            return "$" + _latex_expr(group.condition_expr, result) + "$"
+            # one math group per relation, so that a long condition wraps inside its p{} column
+            alts = group.condition_expr.args if isinstance(group.condition_expr, sp.Or) else (group.condition_expr,)
+            return " or ".join(
+                ", ".join(f"${_latex_expr(r, result)}$" for r in (a.args if isinstance(a, sp.And) else (a,)))
+                for a in alts)
         return f"`{group.condition}`"
     if row == "degree":
         return "not decided" if group.branches[0].verdict is Verdict.INCONCLUSIVE else str(group.degree)
@@ -432,8 +441,11 @@ def tex_escape(text: str) -> str:
 
 
 def _latex_name(name: str, result: AnalysisResult) -> str:
-    if name in result.latex:
-        return result.latex[name]
+    from obsnl.model.latex import latex_problem
+
+    given = result.latex.get(name)
+    if isinstance(given, str) and latex_problem(given) is None:  # only a whitelisted name reaches the .tex
+        return given
     return sp.latex(sp.Symbol(name))
 
 

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import math
 import re
-import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -103,10 +102,32 @@ def load_link_spec(path: str | Path | None = None) -> LinkSpec:
     p = Path(path) if path is not None else DEFAULT_LINK_FILE
     if not p.is_file():
         raise ModelError(f"link model file {p.name!r} not found; pass the path of cantilever_link.toml")
+    from obsnl.model.files import parse_text
+
     try:
-        doc = tomllib.loads(p.read_text(encoding="utf-8"))
-    except tomllib.TOMLDecodeError as exc:
-        raise ModelError(f"{p.name}: not valid TOML ({exc})") from exc
+        doc = parse_text(p.read_bytes().decode("utf-8"), kind="toml", where=p.name)
+    except UnicodeDecodeError:
+        raise ModelError(f"{p.name} is not UTF-8 text") from None
+    if not isinstance(doc, dict):
+        raise ModelError(f"{p.name}: expected TOML tables [structure], [damping], ...")
+    try:
+        spec = _spec(doc, p)
+    except (TypeError, ValueError, OverflowError, AttributeError) as exc:
+        if isinstance(exc, ModelError):
+            raise
+        raise ModelError(f"{p.name}: a value has the wrong type ({exc}); give numbers as in "
+                         f"cantilever_link.toml") from None
+    bad = [k for k in ("youngs_modulus", "density", "length", "width", "height", "frequency", "zeta")
+           if not (math.isfinite(getattr(spec, k)) and getattr(spec, k) > 0)]
+    bad += [k for k in ("amplitude", "noise", "severity") if not (math.isfinite(getattr(spec, k)) and getattr(spec, k) >= 0)]
+    if spec.n_elements < 1:
+        bad.append("n_elements")
+    if bad:
+        raise ModelError(f"{p.name}: {bad[0]} = {getattr(spec, bad[0])!r} must be a finite positive number")
+    return spec
+
+
+def _spec(doc: dict, p: Path) -> LinkSpec:
     st = _need(doc, "structure", p.name)
     dm = _need(doc, "damping", p.name)
     ex = _need(doc, "excitation", p.name)

@@ -31,6 +31,7 @@ from obsnl.model.core import Model
 from obsnl.model.files import load_model
 from obsnl.model.signature import ModelSignature
 from obsnl.observability.analyze import analyze
+from obsnl.observability.table_check import check_table
 from obsnl.observability.branch_table import BranchTable
 
 __all__ = ["identify", "study", "structurally_unidentifiable", "frozen_but_jointly_identifiable", "write_identification", "parse_assignments",
@@ -106,8 +107,9 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
         from obsnl.observability.branch_table import load_branch_table
 
         table = load_branch_table(table)
-    if table is not None:  # a table made for another model is refused before anything runs
+    if table is not None:  # a table made for another model, or one that contradicts it, is refused first
         table.signature.check(ModelSignature.of(model))
+        check_table(table, model)
     names = tuple(s.name for s in model.parameters)
     result = analyze(model, seed=seed)
     bad, kind = structurally_unidentifiable(result, names)

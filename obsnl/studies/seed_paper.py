@@ -192,6 +192,10 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
                         trajectories=trajs, tuning_seeds=t_seeds, compile_seconds=compile_seconds)
 
 
+#: The text files a reproduction writes (the figures ``fig2_*.png``, ``fig3_*.png`` come on top).
+REPRODUCTION_FILES: tuple[str, ...] = ("table2.json", "table2.md", "table2.tex", "branch_table.json")
+
+
 def write_reproduction(rep: Reproduction, out: str | Path) -> list[Path]:
     """Write ``table2.json/.md/.tex``, ``branch_table.json`` and Figures 2-3 of a reproduction into ``out``."""
     import json
@@ -199,14 +203,13 @@ def write_reproduction(rep: Reproduction, out: str | Path) -> list[Path]:
     from obsnl.report.figures import figure2, figure3
     from obsnl.report.identification import table2_latex, table2_markdown, table2_summary
 
+    from obsnl.report.files import safe_write
+
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
     doc = rep.to_dict()
-    files = [out / "table2.json", out / "table2.md", out / "table2.tex", out / "branch_table.json"]
-    files[0].write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
-    files[1].write_text(table2_markdown(doc), encoding="utf-8")
-    files[2].write_text(table2_latex(doc), encoding="utf-8")
-    files[3].write_text(rep.table.to_json(), encoding="utf-8")  # the DUKF's input, from the analysis
+    texts = [json.dumps(doc, indent=1) + "\n", table2_markdown(doc), table2_latex(doc),
+             rep.table.to_json()]  # the last is the DUKF's input, from the analysis
+    files = [safe_write(out / n, text, force=True, root=out) for n, text in zip(REPRODUCTION_FILES, texts)]
     s = rep.setup
     summ = table2_summary(doc)
     t = s.record.t

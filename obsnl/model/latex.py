@@ -1,0 +1,73 @@
+"""The LaTeX names a model may give its symbols: a safe subset of math-mode LaTeX.
+
+A model file's ``latex`` map goes into the ``.tex`` tables obsnl writes, and model files come from
+other people, so the names are restricted to a whitelist (a blacklist of ``\\input``, ``\\write``,
+``\\catcode``, ... would always miss one): letters, digits, spaces and ``_ ^ { } ' , . + - ( ) | /``,
+balanced braces, and only the control words in :data:`ALLOWED_COMMANDS` (Greek letters, accents,
+font switches). Anything else is refused with the offending part named.
+"""
+
+from __future__ import annotations
+
+import re
+
+__all__ = ["ALLOWED_COMMANDS", "latex_problem"]
+
+_GREEK = (
+    "alpha beta gamma delta epsilon varepsilon zeta eta theta vartheta iota kappa lambda mu nu xi pi varpi "
+    "rho varrho sigma varsigma tau upsilon phi varphi chi psi omega Gamma Delta Theta Lambda Xi Pi Sigma "
+    "Upsilon Phi Psi Omega"
+)
+#: Control words a LaTeX name may use.
+ALLOWED_COMMANDS: frozenset[str] = frozenset(
+    _GREEK.split()
+    + "mathrm mathit mathbf mathsf mathcal mathbb boldsymbol bar hat tilde dot ddot vec check breve widehat "
+      "widetilde overline underline prime ell infty partial nabla star ast dagger circ cdot operatorname".split()
+)
+_ALLOWED_SYMBOLS = {",", ";", "!", " ", "_", "|"}  # \, \; \! \  \_ \| (spacing and escapes)
+_PLAIN = re.compile(r"[A-Za-z0-9 _^{}',.+\-()|/*\\]*")
+_MAX_LENGTH = 200
+
+
+def latex_problem(text: str) -> str | None:
+    """Why ``text`` is not a safe LaTeX name, or None if it is.
+
+    Parameters
+    ----------
+    text
+        A LaTeX name such as ``\\Delta_1`` or ``c'_{\\eta}``.
+
+    Returns
+    -------
+    str or None
+        The problem and the fix, for an error message.
+
+    Examples
+    --------
+    >>> latex_problem(r"\\Delta_1") is None
+    True
+    >>> print(latex_problem(r"\\input{/etc/passwd}"))
+    the control word \\input is not allowed in a LaTeX name; use Greek letters, accents and \\mathrm{...} only
+    """
+    if len(text) > _MAX_LENGTH:
+        return f"longer than {_MAX_LENGTH} characters"
+    if not _PLAIN.fullmatch(text):
+        bad = next(c for c in text if not _PLAIN.fullmatch(c))
+        return (f"the character {bad!r} is not allowed in a LaTeX name (letters, digits, spaces and "
+                f"_ ^ {{ }} ' , . + - ( ) | / * and allowed control words only)")
+    depth = 0
+    for c in text:
+        depth += {"{": 1, "}": -1}.get(c, 0)
+        if depth < 0:
+            return "unbalanced braces ('}' before its '{')"
+    if depth:
+        return "unbalanced braces (a '{' is not closed)"
+    for m in re.finditer(r"\\([A-Za-z]+|.?)", text):
+        word = m.group(1)
+        if word.isalpha() and word in ALLOWED_COMMANDS:
+            continue
+        if len(word) == 1 and word in _ALLOWED_SYMBOLS:
+            continue
+        return (f"the control word \\{word} is not allowed in a LaTeX name; use Greek letters, accents and "
+                f"\\mathrm{{...}} only")
+    return None
