@@ -9,7 +9,7 @@ cannot change: transformations return a new model.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
@@ -20,6 +20,7 @@ from obsnl.errors import ModelError, ParseError
 from obsnl.model.unknown_inputs import check_unknown_input_derivatives
 from obsnl.model.latex import latex_problem
 from obsnl.model.names import check_name as _check_identifier, check_text as _check_text
+from obsnl.model.names import close_name as _close, name_list as _name_list
 from obsnl.model.parse import make_symbol, parse_expression, shorten
 
 __all__ = ["Model", "NONSMOOTH_FUNCTIONS"]
@@ -49,25 +50,6 @@ _ROLE_NAMES = {
 
 def _frozen(d: Mapping) -> Mapping:
     return MappingProxyType(dict(d))
-
-
-def _name_list(value: Any, key: str) -> tuple[str, ...]:
-    if value is None:
-        return ()
-    if isinstance(value, (str, sp.Symbol)):
-        value = [value]
-    if isinstance(value, Mapping) or not isinstance(value, Iterable):
-        raise ModelError(f"'{key}' must be a list of names, got {type(value).__name__}")
-    names: list[str] = []
-    for item in value:
-        if isinstance(item, sp.Symbol):
-            item = item.name
-        if not isinstance(item, str):
-            raise ModelError(f"'{key}' must contain names (strings), got {item!r}")
-        name = item.strip()
-        _check_identifier(name, key)
-        names.append(name)
-    return tuple(names)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -490,13 +472,6 @@ class Model:
             tuple(self.equations[s] for s in self.states), tuple(self.outputs.items()),
             self.known_initial_conditions, tuple(self.initial_condition_values.items()),
         )
-
-
-def _close(name: str, candidates: Iterable[str]) -> str:
-    import difflib
-
-    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
-    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def _expr_text(e: sp.Basic) -> str:

@@ -11,11 +11,15 @@ from __future__ import annotations
 
 import keyword
 import re
+from collections.abc import Iterable, Mapping
+from typing import Any
+
+import sympy as sp
 
 from obsnl.errors import ModelError
 from obsnl.model.parse import nfkc_problem, shorten
 
-__all__ = ["check_name", "check_text"]
+__all__ = ["check_name", "check_text", "name_list", "close_name"]
 
 _NAME = re.compile(r"[^\W\d]\w*")
 
@@ -62,3 +66,31 @@ def check_name(name: str, key: str) -> None:
         raise ModelError(f"'{key}': {name!r} is a Python keyword; rename it (e.g. {name + '_'!r})")
     if name.startswith("__"):
         raise ModelError(f"'{key}': names starting with '__' are not allowed ({name!r})")
+
+
+def name_list(value: Any, key: str) -> tuple[str, ...]:
+    """A list of names from a model key (a name, a list of names or symbols), each checked by :func:`check_name`."""
+    if value is None:
+        return ()
+    if isinstance(value, (str, sp.Symbol)):
+        value = [value]
+    if isinstance(value, Mapping) or not isinstance(value, Iterable):
+        raise ModelError(f"'{key}' must be a list of names, got {type(value).__name__}")
+    names: list[str] = []
+    for item in value:
+        if isinstance(item, sp.Symbol):
+            item = item.name
+        if not isinstance(item, str):
+            raise ModelError(f"'{key}' must contain names (strings), got {item!r}")
+        name = item.strip()
+        check_name(name, key)
+        names.append(name)
+    return tuple(names)
+
+
+def close_name(name: str, candidates: Iterable[str]) -> str:
+    """' (did you mean ...?)' for the closest candidate, or ''."""
+    import difflib
+
+    close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""

@@ -17,11 +17,19 @@ from dataclasses import dataclass, replace
 
 import sympy as sp
 
-from obsnl.observability.branch_table import BranchTable
 from obsnl.errors import OptionError
 from obsnl.model.core import Model
 from obsnl.model.signature import ModelSignature
+from obsnl.observability.branch_table import BranchTable
 from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
+from obsnl.report.sentences import (
+    _names,
+    _verdict_lines,
+    assumption_texts,
+    joint_text,
+    probability_text,
+    union_text,
+)
 
 __all__ = [
     "ROWS",
@@ -200,8 +208,6 @@ def to_json(result: AnalysisResult, model: Model | None = None) -> str:
 
 
 # --------------------------------------------------------------------------- markdown / text
-def _names(names: Sequence[str]) -> str:
-    return ", ".join(names) if names else "none"
 
 
 def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult) -> str:
@@ -231,17 +237,6 @@ def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult)
     return ", ".join(f"${_latex_name(n, result)}$" for n in names) if names else "none"
 
 
-def probability_text(p: float | None) -> str:
-    """A probability bound as text that does not round a near-certainty up to 1."""
-    if p is None:
-        return "deterministic"
-    if p >= 1.0:
-        return "1 (certified)"
-    if p > 0.999:
-        return f"1 - {1.0 - p:.1e}"
-    return f"{p:.4g}"
-
-
 def _header_line(result: AnalysisResult) -> str:
     bits = [f"method {result.method}"]
     if result.seed is not None:
@@ -251,54 +246,6 @@ def _header_line(result: AnalysisResult) -> str:
     elif result.probability is not None:
         bits.append(f"every verdict right with probability >= {probability_text(result.probability)}")
     return ", ".join(bits)
-
-
-def assumption_texts(result: AnalysisResult) -> list[str]:
-    """The assumptions of ``result`` (:attr:`AnalysisResult.assumptions`) as short sentences.
-
-    Examples
-    --------
-    >>> from obsnl import Model, analyze
-    >>> m = Model(name="m", states=["x"], parameters=["a"], unknown_inputs=["w"],
-    ...           equations={"x": "-a*x + w"}, outputs={"y": "x"})
-    >>> assumption_texts(analyze(m, seed=1, unknown_input_derivatives=0))
-    ['unknown inputs constant (K = 0, STRIKE-GOLDD nnzDerW)', 'initial conditions unknown and generic']
-    """
-    a = result.assumptions
-    out: list[str] = []
-    k = a.get("unknown_input_derivatives")
-    if k == "arbitrary":
-        out.append("unknown inputs arbitrary functions of time")
-    elif k is not None:
-        shape = "constant" if k == 0 else f"polynomials in t with {k} non-zero derivative(s)"
-        out.append(f"unknown inputs {shape} (K = {k}, STRIKE-GOLDD nnzDerW)")
-    if a.get("known_inputs"):
-        out.append(f"known inputs {a['known_inputs']}")
-    ic = a.get("initial_conditions")
-    if ic:
-        parts = []
-        if ic.get("unknown"):
-            parts.append("unknown and generic" if not (ic.get("known_generic") or ic.get("known_values"))
-                         else f"unknown for {_names(ic['unknown'])}")
-        if ic.get("known_generic"):
-            parts.append(f"known and generic for {_names(ic['known_generic'])}")
-        if ic.get("known_values"):
-            parts.append("given: " + ", ".join(f"{k}(0) = {v}" for k, v in ic["known_values"].items()))
-        out.append("initial conditions " + "; ".join(parts))
-    return out
-
-
-def _verdict_lines(result: AnalysisResult) -> list[str]:
-    """Verdict overall and of the unknown inputs (Markdown/LaTeX captions share it)."""
-    lines = [f"Verdict: {result.verdict.value}." if result.joint is None else
-             f"Verdict: {result.overall_verdict.value} (joint); {result.verdict.value} (union over branches)."]
-    ui = result.unknown_inputs
-    if ui:
-        lines.append(f"Unknown inputs observable: {_names(ui['observable'])}; "
-                     f"unobservable: {_names(ui['unobservable'])}.")
-    if result.assumptions:
-        lines.append("Assumptions: " + "; ".join(assumption_texts(result)) + ".")
-    return lines
 
 
 def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, title: str | None = None) -> str:
@@ -325,32 +272,6 @@ def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, t
         lines.append(f"Branch ({b.label}) is inconclusive: {b.reason}")
     lines += _verdict_lines(result)
     return "\n".join(lines) + "\n"
-
-
-def joint_text(result: AnalysisResult) -> str:
-    """The joint verdict in one sentence (``""`` when it was not computed)."""
-    j = result.joint
-    if j is None:
-        return ""
-    parts = []
-    if not j.unobservable and not j.inconclusive:
-        parts.append("every state and parameter is observable")
-    else:
-        if j.unobservable:
-            parts.append(f"unobservable: {_names(j.unobservable)}")
-        if j.inconclusive:
-            parts.append(f"not decided: {_names(j.inconclusive)} ({j.reason})")
-    extra = [v for v in j.observable if v not in result.overall_observable]
-    if extra:
-        parts.append(f"observable only jointly: {_names(extra)}")
-    return "; ".join(parts)
-
-
-def union_text(result: AnalysisResult) -> str:
-    unobs = result.overall_unobservable
-    if not unobs and result.verdict is Verdict.OBSERVABLE:
-        return "every state and parameter is observable"
-    return f"unobservable in every branch: {_names(unobs)}"
 
 
 def to_text(result: AnalysisResult) -> str:

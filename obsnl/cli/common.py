@@ -1,0 +1,66 @@
+"""What every command of the command line shares: the one-line exit, option types, model loading,
+writing output (never over a file without ``--force``), progress bars and the executor options."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+
+__all__ = ["write_output"]
+
+
+class _Exit(Exception):
+    def __init__(self, code: int, message: str = "") -> None:
+        super().__init__(message)
+        self.code = code
+        self.message = message
+
+
+def _seed(text: str) -> int:
+    """``--seed``: a non-negative integer (numpy's generators refuse negative seeds)."""
+    value = int(text) if text.lstrip("-").isdigit() else None
+    if value is None or value < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0")
+    return value
+
+
+def _load(path: str):
+    from obsnl.model.files import load_model
+
+    return load_model(path)
+
+
+def write_output(text: str, out: str | None, *, force: bool) -> None:
+    """Print ``text`` or write it to ``out``; never overwrite an existing file without ``force``."""
+    from obsnl.report.files import safe_write
+
+    text = text if text.endswith("\n") else text + "\n"
+    if out is None or out == "-":
+        sys.stdout.write(text.encode("utf-8", "backslashreplace").decode("utf-8"))
+        return
+    safe_write(out, text, force=force)  # refuses symlinks, folders, a parent that is a file
+
+
+def _progress(desc: str, total: int | None, unit: str) -> Any:
+    """A progress bar on stderr (tqdm), or None when tqdm is missing."""
+    try:
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        return None
+    return tqdm(desc=desc, total=total, unit=unit, file=sys.stderr)
+
+
+def _add_executor(p: argparse.ArgumentParser, workers: int | None = None) -> None:
+    p.add_argument("--workers", type=int, default=workers,
+                   help=f"local processes (default: {workers or 'one per core'}; 1: none)")
+    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
+
+
+def _executor(args: argparse.Namespace) -> Any:
+    from obsnl.executor import Executor
+
+    return Executor(scheduler=args.scheduler, workers=args.workers)
+
+

@@ -1,0 +1,191 @@
+"""Commands of the estimation side and the studies: identify, reproduce, bank."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from obsnl.cli.common import _Exit, _add_executor, _executor, _load, _progress, _seed, write_output  # noqa: F401
+
+
+def _add_bank(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "bank",
+        help="run the observer-bank crack benchmark on the cantilever link",
+        description="Run the observer-bank scenarios (healthy link, a breathing crack in each element) with "
+        "several noise seeds; write a localisation table (bank.md), force plots (forces_*.png) and bank.json.",
+    )
+    p.add_argument("--seeds", type=int, default=3, help="noise seeds per scenario (default: 3); thresholds use as many other seeds")
+    p.add_argument("--out", default="reports/bank", help="output folder (default: reports/bank)")
+    p.add_argument("--model", default=None, help="link model file (default: models/cantilever_link.toml)")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.set_defaults(func=_cmd_bank)
+
+
+def _cmd_bank(args: argparse.Namespace) -> int:
+    from obsnl.studies.link_study import run_link_study
+    from obsnl.studies.cantilever import load_link_spec
+    from obsnl.report.figures import FIGURE_PREFIX, plot_bank_forces
+    from obsnl.report.bank import bank_table_markdown
+
+    if args.seeds < 1:
+        raise _Exit(2, f"--seeds must be at least 1, got {args.seeds}")
+    out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise _Exit(2, f"{args.out} is a file; --out needs a folder")
+    taken = [p for p in (out / "bank.json", out / "bank.md") if p.exists() or p.is_symlink()]
+    taken += sorted(out.glob(f"{FIGURE_PREFIX}*.png")) if out.is_dir() else []
+    if taken and not args.force:
+        raise _Exit(2, f"{taken[0]} exists; pass --force to overwrite it")
+    study = run_link_study(seeds=args.seeds, spec=load_link_spec(args.model) if args.model else None)
+    doc = study.to_dict()
+    write_output(json.dumps(doc, indent=2), str(out / "bank.json"), force=True)
+    write_output(bank_table_markdown(doc), str(out / "bank.md"), force=True)
+    figs = plot_bank_forces(study, out)
+    print(f"wrote {out / 'bank.json'}, {out / 'bank.md'} and {len(figs)} force plots")
+    return 0
+
+
+# --------------------------------------------------------------------------- identify, reproduce
+def _add_identify(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "identify", help="identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
+        description="Analyse MODEL (a structurally unidentifiable parameter stops the run), then estimate its "
+        "parameters with the UKF or the DUKF from --data (CSV: time_s or t, one column per model input and output) "
+        "or, as a simulation study, from the model's [values] driven by --record. Guesses: the model's [guess] table, "
+        "then --guess. Writes DIR/identify.json, fit.png and traces.png with --out.")
+    p.add_argument("model", help="model file (.toml or .json)")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--data", help="measured inputs and outputs (.csv)")
+    src.add_argument("--record", help="simulation study: ground motion (.csv or PEER .AT2) driving the [values]")
+    p.add_argument("--table", help="branch table JSON (required for --method dukf)")
+    p.add_argument("--method", choices=("ukf", "dukf"), default="ukf", help="filter (default: ukf)")
+    p.add_argument("--guess", action="append", default=[], metavar="P=V", help="initial guess (repeatable)")
+    p.add_argument("--noise", action="append", default=[], metavar="NAME=RATIO",
+                   help="noise-to-signal RMS ratio of a channel (repeatable) or RATIO for all; measured channels not "
+                   "named are estimated from their high-frequency residual (default in a study: 0.001)")
+    p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
+    p.add_argument("--allow-unidentifiable", action="store_true", help="run despite the structural verdict")
+    p.add_argument("--hold", action="store_true", help="measured data: hold poorly informed parameters at their guess")
+    p.add_argument("--seed", type=_seed, default=0, help="noise seed of a study and the Monte-Carlo (default: 0)")
+    for flag, what in (("--s0", "prior std of log-parameters"), ("--q-theta", "random walk of log-parameters"),
+                       ("--q-x", "factor on the state noise"), ("--gate", "innovation gate")):
+        p.add_argument(flag, type=float, default=None, help=f"{what} (default: tuned on measured data)")
+    p.add_argument("--samples", type=int, default=None, help="use only the first samples of a --record")
+    p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
+    p.add_argument("--replicates", type=int, default=0, help="Monte-Carlo replicates (0: off, else >= 3)")
+    p.add_argument("--out", default=None, metavar="DIR", help="output folder (default: print only)")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.set_defaults(func=_cmd_identify)
+
+
+def _cmd_identify(args: argparse.Namespace) -> int:
+    from obsnl.estimation.experiments import Tuning
+    from obsnl.estimation.identify import MEASURED_GRID
+    from obsnl.report.identification import identify_text
+    from obsnl.studies.identify import IDENTIFY_FILES, identify, parse_assignments, study, write_identification
+
+    taken = [Path(args.out) / f for f in IDENTIFY_FILES if args.out and (Path(args.out) / f).exists()]
+    if taken and not args.force:
+        raise _Exit(2, f"{taken[0]} exists; pass --force to overwrite it")
+    model = _load(args.model)
+    names = [s.name for s in model.parameters]
+    guess = parse_assignments(args.guess, names, option="--guess", what="parameter")
+    channels = [s.name for s in model.inputs] + list(model.outputs)
+    plain = [v for v in args.noise if "=" not in v]
+    try:
+        noise = {c: float(plain[-1]) for c in channels} if plain else {}
+    except ValueError:
+        raise _Exit(2, f"--noise {plain[-1]!r}: give NAME=RATIO or one RATIO for every channel") from None
+    named = [v for v in args.noise if "=" in v]
+    noise.update(parse_assignments(named, channels, option="--noise", what="model input or output"))
+    if args.record and named:
+        raise _Exit(2, "a simulation study (--record) takes one --noise RATIO for every channel")
+    t = (args.s0, args.q_theta, args.q_x, args.gate)
+    tuning = None if t == (None,) * 4 else Tuning(*(d if v is None else v for v, d in zip(t, (0.2, 0.0, 1.0, float("inf")))))
+    opts = dict(guess=guess, method=args.method, table=args.table, passes=args.passes, replicates=args.replicates,
+                seed=args.seed, allow_unidentifiable=args.allow_unidentifiable, jit=args.jit)
+    tuned = args.data is not None and tuning is None
+    bars: list[Any] = []  # the bar starts with the first pass (after the checks: a refusal prints one line)
+
+    def tick() -> None:
+        if not bars:
+            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0), "pass"))
+        if bars[0] is not None:
+            bars[0].update(1)
+    try:
+        if args.data:
+            res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick, **opts)
+        else:
+            res = study(model, args.record, noise=float(plain[-1]) if plain else 1e-3, samples=args.samples,
+                        tuning=tuning or Tuning(0.2, 0.0, 1.0), progress=tick, **opts)
+    finally:
+        if bars and bars[0] is not None:
+            bars[0].close()
+    write_output(identify_text(res.to_dict()), None, force=False)
+    if args.out:
+        files = write_identification(res, args.out, force=args.force)
+        print(f"wrote {', '.join(str(f) for f in files)}")
+    return 0
+
+
+def _add_reproduce(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "reproduce",
+        help="reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
+        description="The whole seed pipeline: analyse the damage-healing model, write its branch table, tune the "
+        "UKF and the DUKF on noise seeds that are not reported, run both on --seeds noise seeds and write "
+        "table2.json/.md/.tex and fig2_*.png, fig3_*.png into --out. The default output folder "
+        "reports/identification (or reports/identification/RECORD with --record) is REGENERATED on every run; "
+        "another --out is never overwritten without --force.",
+    )
+    p.add_argument("--record", default=None, help="another ground motion (.csv or .AT2); resampled to 100 Hz, first 2000 samples")
+    p.add_argument("--seeds", type=int, default=5, help="reported noise seeds 0..K-1 (default: 5)")
+    p.add_argument("--tuning-seeds", type=int, default=5, help="noise seeds used for tuning only (default: 5)")
+    p.add_argument("--passes", type=int, default=3, help="passes of the refined protocol (default: 3)")
+    p.add_argument("--samples", type=int, default=None, help="use only the first samples (quick runs)")
+    p.add_argument("--no-jit", action="store_true", help="do not compile the filters to C (slower runs)")
+    p.add_argument("--replicates", type=int, default=None,
+                   help="Monte-Carlo replicates of the practical-identifiability check per reported run "
+                        "(default: 32; 0: off)")
+    p.add_argument("--out", default=None, help="output folder (default: reports/identification)")
+    p.add_argument("--force", action="store_true", help="overwrite files in a non-default --out")
+    _add_executor(p)
+    p.set_defaults(func=_cmd_reproduce)
+
+
+def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from obsnl.estimation.records import read_record
+    from obsnl.studies.seed_paper import reproduce, write_reproduction
+
+    if args.seeds < 1 or args.tuning_seeds < 1 or args.passes < 1:
+        raise _Exit(2, "--seeds, --tuning-seeds and --passes must be at least 1")
+    record = read_record(args.record) if args.record else None
+    default = Path("reports/identification") / (record.name if record is not None else "")
+    out = Path(args.out) if args.out else default
+    from obsnl.report.files import check_target
+    from obsnl.studies.seed_paper import REPRODUCTION_FILES
+
+    regenerate = args.out is None  # the default folder holds the committed results and is regenerated on purpose
+    for f in [out / n for n in REPRODUCTION_FILES] + (sorted(out.glob("fig[23]_*.png")) if out.is_dir() else []):
+        check_target(f, force=args.force or regenerate, root=out)
+    if regenerate:
+        print(f"obsnl reproduce: regenerating the default folder {out} (committed results); pass --out DIR to "
+              f"keep them", file=sys.stderr)
+    bar = _progress("reproduce", None, "run")
+    try:
+        rep = reproduce(record=record, seeds=args.seeds, tuning_seeds=args.tuning_seeds, passes=args.passes,
+                        jit=not args.no_jit, samples=args.samples, progress=bar, executor=_executor(args),
+                        **({} if args.replicates is None else {"replicates": args.replicates}))
+    finally:
+        if bar is not None:
+            bar.close()
+    files = write_reproduction(rep, out)
+    print(f"wrote {len(files)} files to {out}: " + ", ".join(f.name for f in files))
+    return 0
+
+
+#: Subcommands in the order ``obsnl --help`` lists them.
