@@ -33,8 +33,9 @@ SWITCHED = {
                  {"x": "v", "v": "u - c*v - k*x + (1 - alpha)*k*Max(x - x_y, 0)"}, {"y": "x"}, set(),
                  "elastic branch: c, k; yielded: alpha k, (1 - alpha) k x_y"),
     "saturating": (["x", "v"], ["c", "k", "F_y"], ["u"],
-                   {"x": "v", "v": "u - c*v - Min(Max(k*x, -F_y), F_y)"}, {"y": "x"}, set(),
-                   "elastic branch: k; the level F_y in the saturated branches"),
+                   {"x": "v", "v": "u - c*v - k*x + Max(k*x - F_y, 0) - Max(-k*x - F_y, 0)"}, {"y": "x"}, set(),
+                   "force clipped at +-F_y (k x - Max(k x - F_y, 0) + Max(-k x - F_y, 0)); elastic branch: k; "
+                   "F_y from the clipped branches"),
     "gap": (["x", "v"], ["c", "k", "k_c", "g"], ["u"],
             {"x": "v", "v": "u - c*v - k*x - k_c*Max(x - g, 0)"}, {"y": "x"}, set(),
             "open gap: c, k; closed: k + k_c and k_c g"),
