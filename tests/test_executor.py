@@ -14,7 +14,7 @@ import obsnl.batch
 from obsnl.errors import OptionError
 from obsnl.executor import Executor, spawn_seeds
 
-from .conftest import PEER_CASE_FILES, ROOT
+from .conftest import PEER_CASE_FILES
 
 
 def _estimates(rep) -> list:
@@ -65,18 +65,3 @@ def test_bad_executor_options_are_one_line_errors():
         Executor(scheduler=42)
 
 
-def test_identify_replicates_in_local_processes_equal_the_serial_ones():
-    from obsnl.estimation.codegen import to_casadi
-    from obsnl.estimation.identify import simulation_study
-    from obsnl.estimation.records import read_record
-    from obsnl.studies.seed_paper import SEED_GUESS, seed_model_path
-
-    model = obsnl.load_model(seed_model_path())
-    num = to_casadi(model)
-    record = read_record(ROOT / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(300)
-    kw = dict(guess=dict(SEED_GUESS), seed=4, passes=1, replicates=3, source=model.to_dict())
-    serial = simulation_study(num, record, **kw)
-    parallel = simulation_study(num, record, executor=Executor(workers=2), **kw)
-    assert serial["practical_identifiability"]["monte_carlo"] is not None
-    for key in ("parameters", "practical_identifiability", "output_misfit"):
-        assert parallel[key] == serial[key]

@@ -29,9 +29,9 @@ def check_unknown_input_derivatives(value: Any, *, allow_none: bool = False) -> 
         return None
     if isinstance(value, str) and value.strip().lower() == ARBITRARY:
         return ARBITRARY
-    if isinstance(value, str) and value.strip().isdigit():
+    if isinstance(value, str) and value.strip().isdigit() and len(value.strip()) <= 6:
         return int(value.strip())
-    if isinstance(value, int) and not isinstance(value, bool) and value >= 0:
+    if isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= 10**6:
         return value
     raise ModelError(
         f"unknown_input_derivatives must be \"arbitrary\" (any unknown input) or a non-negative integer K "

@@ -255,6 +255,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples:
         record = record.head(samples)
+    if table is not None and len(model.inputs) != 1:  # a contradicting table is named first
+        _prepare(model, table, guess, True, seed, method)
     if len(model.inputs) != 1:
         raise OptionError(f"a simulation study drives one input with --record; {model.name!r} has "
                           f"{[s.name for s in model.inputs]}: give measured data with --data")
