@@ -142,6 +142,17 @@ def spawn_seeds(root: int, n: int) -> list[int]:
 
     Seed ``i`` depends on ``root`` and ``i`` only, never on which worker runs task ``i``.
 
+    Parameters
+    ----------
+    root : int
+        The root seed.
+    n : int
+        Number of seeds.
+
+    Returns
+    -------
+    list of int
+
     Examples
     --------
     >>> spawn_seeds(0, 3) == spawn_seeds(0, 5)[:3]

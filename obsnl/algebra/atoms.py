@@ -478,6 +478,11 @@ class Rewriter:
 def rewrite(exprs: Iterable[sp.Expr], symbols: Iterable[sp.Symbol]) -> tuple[list[sp.Expr], tuple[Atom, ...]]:
     """Free expressions over ``symbols`` as rational expressions over the symbols and new atoms.
 
+    Parameters
+    ----------
+    exprs, symbols : iterable of sympy.Expr, iterable of sympy.Symbol
+        Expressions to rewrite, and their variables (other free symbols are constants).
+
     Examples
     --------
     >>> import sympy as sp

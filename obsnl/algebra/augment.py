@@ -240,6 +240,23 @@ def atom_rates(rational: Rationalized, input_rates: Mapping[sp.Symbol, sp.Expr])
     """Time derivatives of the atoms along the flow (rational in states, atoms and ``input_rates``).
 
     ``input_rates`` maps each (known or unknown) input symbol to the symbol of its derivative.
+
+    Parameters
+    ----------
+    rational : Rationalized
+        The model rewritten over atoms.
+    input_rates : mapping of sympy.Symbol to sympy.Expr
+        Derivative symbol of each input.
+
+    Returns
+    -------
+    dict of sympy.Symbol to sympy.Expr
+        The time derivative of each atom (0 for constant ones).
+
+    Raises
+    ------
+    NotSupportedError
+        For an atom kind without a rate rule.
     """
     rates: dict[sp.Symbol, sp.Expr] = dict(rational.rhs)
     rates.update(input_rates)

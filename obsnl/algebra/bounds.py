@@ -56,7 +56,20 @@ class BlockOutcome:
 
 
 def classify(J: np.ndarray, p: int) -> tuple[int, list[bool]]:
-    """Rank of ``J`` over GF(p) and, per column, whether the unknown is unobservable (kernel test)."""
+    """Rank of ``J`` over GF(p) and, per column, whether the unknown is unobservable (kernel test).
+
+    Parameters
+    ----------
+    J : numpy.ndarray
+        Integer matrix ``(rows, unknowns)`` with entries in ``[0, p)``.
+    p : int
+        The prime.
+
+    Returns
+    -------
+    tuple
+        ``(rank, unobservable)``: the rank and one bool per column.
+    """
     R, M = J.shape
     if M == 0:
         return 0, []
@@ -65,7 +78,24 @@ def classify(J: np.ndarray, p: int) -> tuple[int, list[bool]]:
 
 
 def failure_bound(p: int, *, n: int, l: int, m: int, r: int, d: int, h: int, nfuncs: int) -> float:
-    """Sedoglavic's Prop. 3.3 failure probability of one run with prime ``p`` (see module doc)."""
+    """Sedoglavic's Prop. 3.3 failure probability of one run with prime ``p`` (see module doc).
+
+    Parameters
+    ----------
+    p : int
+        The prime of the run.
+    n, l, m, r : int
+        Numbers of states, parameters, known inputs and outputs.
+    d, h : int
+        Degree and height bounds of the model (:func:`program_degree_height`).
+    nfuncs : int
+        Number of classified unknowns (the union bound's factor).
+
+    Returns
+    -------
+    float
+        Upper bound of the failure probability, at most 1.
+    """
     n = max(n, 1)
     d = max(d, 1)
     h = max(h, 1)
@@ -114,6 +144,18 @@ def program_degree_height(program: Any, roots: Sequence[int]) -> tuple[int, int]
     ``a b = Pa Pb/(Qa Qb)``, ``a/b = Pa Qb/(Qa Pb)``; degrees add, and ``log2`` of the coefficient
     1-norms (an upper bound of the largest coefficient) add under products. Linear in the program
     size, and never smaller than the true values (a larger ``d``, ``h`` only weakens the bound).
+
+    Parameters
+    ----------
+    program : Program
+        A straight-line program (:func:`obsnl.algebra.slp.compile_program`).
+    roots : sequence of int
+        The nodes whose degree and height are bounded.
+
+    Returns
+    -------
+    tuple of int
+        ``(d, h)``, each at least 1.
     """
     INF = 10**9
     nd: list[tuple[int, int, float, float]] = []  # (deg P, deg Q, log2|P|_1, log2|Q|_1)

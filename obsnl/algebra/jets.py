@@ -69,7 +69,20 @@ def atom_expressions(atoms: Sequence[Atom]) -> list[sp.Expr]:
 
 
 def atom_roots(atoms: Sequence[Atom], roots: Sequence[int]) -> tuple[dict[sp.Symbol, int], dict[sp.Symbol, int]]:
-    """The nodes computing :func:`atom_expressions` (``roots`` in that order): arguments, atan denominators."""
+    """The nodes computing :func:`atom_expressions` (``roots`` in that order): arguments, atan denominators.
+
+    Parameters
+    ----------
+    atoms : sequence of Atom
+        The atoms, in the order given to :func:`atom_expressions`.
+    roots : sequence of int
+        The program nodes of those expressions, in the same order.
+
+    Returns
+    -------
+    tuple of dict
+        ``(argument node per atom symbol, atan denominator node per atan symbol)``.
+    """
     it = iter(roots)
     arg = {a.symbol: next(it) for a in atoms if a.kind != "const"}
     den = {a.symbol: next(it) for a in atoms if a.kind == "atan"}
@@ -78,7 +91,20 @@ def atom_roots(atoms: Sequence[Atom], roots: Sequence[int]) -> tuple[dict[sp.Sym
 
 def topological_order(ops: Sequence[Op], leaf_deps: Mapping[int, Sequence[int]]) -> list[int]:
     """Every node after the nodes it needs: its operands, and for a leaf ``leaf_deps[leaf]`` (an atom
-    after its argument, a state after its given initial value, a cosine after its sine)."""
+    after its argument, a state after its given initial value, a cosine after its sine).
+
+    Parameters
+    ----------
+    ops : sequence of Op
+        The program's nodes.
+    leaf_deps : mapping of int to sequence of int
+        For a leaf node, the nodes that must be computed before it.
+
+    Returns
+    -------
+    list of int
+        Every node index once, each after its dependencies.
+    """
     n = len(ops)
     deps = [list(leaf_deps.get(i, ())) if op.kind == "leaf" else [j for j in (op.a, op.b) if j >= 0]
             for i, op in enumerate(ops)]
@@ -114,6 +140,26 @@ def evaluate(ops: Sequence[Op], topo: Iterable[int], F: Field, M: int, given: Ma
     ``given[leaf]`` is the jet of a leaf, or the node whose jet it copies (a state with a given
     initial value); ``atoms[leaf]`` says how an atom's jet is formed. Other leaves are 0.
     Raises :class:`obsnl.algebra.modp.Resample` on a zero denominator or a root of a non-residue.
+
+    Parameters
+    ----------
+    ops : sequence of Op
+        The program's nodes.
+    topo : iterable of int
+        The nodes to compute, in dependency order (:func:`topological_order`).
+    F : Field
+        The prime field of the computation.
+    M : int
+        Length of each gradient (number of unknowns).
+    given : mapping of int to Jet or int
+        Leaf jets ``(value, gradient)``, or the node a leaf copies.
+    atoms : mapping of int to AtomJet
+        How each atom leaf's jet is formed.
+
+    Returns
+    -------
+    tuple of list
+        ``(values, gradients)`` per node, residues mod ``F.p``.
     """
     p = F.p
     zero = [0] * M

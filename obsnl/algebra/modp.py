@@ -112,7 +112,19 @@ class Field:
 
 
 def random_prime(rng: random.Random, bits: int = PRIME_BITS) -> int:
-    """A random prime in [2**(bits-1), 2**bits)."""
+    """A random prime in [2**(bits-1), 2**bits).
+
+    Parameters
+    ----------
+    rng : random.Random
+        Source of randomness.
+    bits : int
+        Bit length of the prime.
+
+    Returns
+    -------
+    int
+    """
     import sympy as sp
 
     lo = 2 ** (bits - 1)
@@ -122,6 +134,18 @@ def random_prime(rng: random.Random, bits: int = PRIME_BITS) -> int:
 
 def mulmod(a: np.ndarray, b: np.ndarray, p: int) -> np.ndarray:
     """Elementwise ``a*b mod p`` (broadcasting) for int64 ``a, b`` in ``[0, p)``, exact.
+
+    Parameters
+    ----------
+    a, b : numpy.ndarray
+        int64 arrays with entries in ``[0, p)``.
+    p : int
+        Modulus, below ``2**50``.
+
+    Returns
+    -------
+    numpy.ndarray
+        int64 residues in ``[0, p)``.
 
     Examples
     --------
@@ -232,7 +256,21 @@ class Echelon:
 
 # --------------------------------------------------------------------------- whole matrices (flint)
 def nmod_matrix(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int) -> Any:
-    """``rows`` (an int64 array or lists of integers) as a flint ``nmod_mat`` modulo ``p``."""
+    """``rows`` (an int64 array or lists of integers) as a flint ``nmod_mat`` modulo ``p``.
+
+    Parameters
+    ----------
+    rows : numpy.ndarray or sequence of sequence of int
+        Matrix rows.
+    ncols : int
+        Number of columns.
+    p : int
+        Modulus.
+
+    Returns
+    -------
+    flint.nmod_mat
+    """
     from flint import nmod_mat
 
     rows = rows.tolist() if isinstance(rows, np.ndarray) else rows
@@ -241,6 +279,19 @@ def nmod_matrix(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int) 
 
 def rank_mod_p(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int = PRIME) -> int:
     """Rank of an integer matrix modulo ``p``.
+
+    Parameters
+    ----------
+    rows : numpy.ndarray or sequence of sequence of int
+        Matrix rows (may be empty).
+    ncols : int
+        Number of columns.
+    p : int
+        Prime modulus.
+
+    Returns
+    -------
+    int
 
     Examples
     --------
@@ -254,6 +305,20 @@ def rank_mod_p(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int = 
 
 def nullspace_mod_p(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: int = PRIME) -> list[list[int]]:
     """A basis of the right kernel ``{x : rows x = 0}`` mod ``p`` (rref-normalised), as lists.
+
+    Parameters
+    ----------
+    rows : numpy.ndarray or sequence of sequence of int
+        Matrix rows (may be empty: the kernel is everything).
+    ncols : int
+        Number of columns.
+    p : int
+        Prime modulus.
+
+    Returns
+    -------
+    list of list of int
+        Basis vectors of length ``ncols``, residues mod ``p``.
 
     Examples
     --------
@@ -273,6 +338,18 @@ def nullspace_mod_p(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: i
 
 def rational_reconstruction(a: int, p: int = PRIME) -> sp.Rational | None:
     """The rational ``n/d`` with ``n = a d mod p`` and ``|n|, d <= sqrt(p/2)`` (a sympy Rational), or None.
+
+    Parameters
+    ----------
+    a : int
+        A residue mod ``p``.
+    p : int
+        Prime modulus.
+
+    Returns
+    -------
+    sympy.Rational or None
+        None when no fraction within the bound maps to ``a``.
 
     Examples
     --------

@@ -126,6 +126,19 @@ def make_problem(
     ``unknown_input_derivatives`` is ``K`` (each unknown input a polynomial with K non-zero
     derivatives: K + 1 unknown coefficients) or ``"arbitrary"`` (:func:`arbitrary_terms` coefficients
     and as many series terms).
+
+    Parameters
+    ----------
+    rational : Rationalized
+        The smooth model rewritten over atoms (:mod:`obsnl.algebra.augment`).
+    unknown_input_derivatives : int or "arbitrary"
+        Polynomial model of the unknown inputs, as above.
+    input_derivatives : int or None
+        Degree of the known inputs as polynomials (None: generic inputs).
+
+    Returns
+    -------
+    Problem
     """
     model = rational.model
     arbitrary = unknown_input_derivatives == ARBITRARY

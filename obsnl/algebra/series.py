@@ -95,6 +95,36 @@ def run_series(
     so the random stream, and without these arguments the point, are unchanged.
     The run also records the values of the output coefficients (``values``).
     Raises :class:`AnalysisError` when every point makes a denominator vanish.
+
+    Parameters
+    ----------
+    problem : Problem
+        The compiled smooth model (:func:`obsnl.algebra.problem.make_problem`).
+    rng : random.Random
+        Source of the random prime and point.
+    K : int
+        Number of series terms (orders) to compute.
+    p : int or None
+        The prime to use; None draws one with :func:`draw_prime`.
+    deadline : float or None
+        ``time.perf_counter()`` value after which the computation stops; None: no limit.
+    stop : callable or None
+        ``stop(rows, p) -> bool``, called after each order; True ends the run early.
+    max_resample : int
+        How many random points are tried before giving up.
+    fixed, states, input_series, atom_values : mapping or None
+        Forced parameter/constant values, free initial states, known-input coefficients and the
+        shared atom table (all values mod p), as described above.
+
+    Returns
+    -------
+    SeriesRun
+        The prime, Jacobian rows per order, point, ``full_rank_at`` and output coefficient values.
+
+    Raises
+    ------
+    AnalysisError
+        When every point tried makes a denominator vanish.
     """
     last: Exception | None = None
     forced = (states or {}, input_series or {}, atom_values)
@@ -129,6 +159,25 @@ def draw_prime(problem: Problem, rng: random.Random, *, tries: int = 20000) -> i
     root's prime a square mod p, and every degree prime to ``(p-1)/2``. Such a prime is a prime of
     degree one of the roots' number field, so the computation stays exact; :func:`prime_density`
     says how many primes qualify.
+
+    Parameters
+    ----------
+    problem : Problem
+        The compiled model whose roots of numbers constrain the prime.
+    rng : random.Random
+        Source of the random primes.
+    tries : int
+        How many random primes are tested before giving up.
+
+    Returns
+    -------
+    int
+        A prime of :data:`obsnl.algebra.modp.PRIME_BITS` bits admissible for ``problem``.
+
+    Raises
+    ------
+    AnalysisError
+        When no admissible prime is found in ``tries`` draws.
     """
     roots = _number_roots(problem)
     if not roots:

@@ -153,6 +153,18 @@ def compile_program(exprs: Sequence[sp.Expr], leaves: Sequence[sp.Symbol]) -> Pr
 
     The first ``len(leaves)`` nodes are the leaves, in order.
 
+    Parameters
+    ----------
+    exprs : sequence of sympy.Expr
+        Rational expressions to compute; their nodes become ``Program.roots`` in this order.
+    leaves : sequence of sympy.Symbol
+        The input symbols, one leaf node each.
+
+    Returns
+    -------
+    Program
+        The straight-line program (shared subexpressions computed once).
+
     Examples
     --------
     >>> import sympy as sp

@@ -33,7 +33,22 @@ def _load(path: str):
 
 
 def write_output(text: str, out: str | None, *, force: bool) -> None:
-    """Print ``text`` or write it to ``out``; never overwrite an existing file without ``force``."""
+    """Print ``text`` or write it to ``out``; never overwrite an existing file without ``force``.
+
+    Parameters
+    ----------
+    text : str
+        The text (a final newline is added).
+    out : str or None
+        The file, or None / ``"-"`` for standard output.
+    force : bool
+        Overwrite an existing file.
+
+    Raises
+    ------
+    OutputError
+        When the file exists without ``force`` or cannot be written.
+    """
     from obsnl.report.files import safe_write
 
     text = text if text.endswith("\n") else text + "\n"

@@ -244,7 +244,21 @@ def parameter_map(parameters: Sequence[str], forward: Mapping[str, str], inverse
 
 def log_map(parameters: Sequence[str], *, signs: Mapping[str, int] | None = None,
             linear: Sequence[str] = ()) -> ParameterMap:
-    """Log coordinates ``theta = sign * exp(phi)`` (``phi`` named ``log_<p>``); ``linear`` ones kept as is."""
+    """Log coordinates ``theta = sign * exp(phi)`` (``phi`` named ``log_<p>``); ``linear`` ones kept as is.
+
+    Parameters
+    ----------
+    parameters : sequence of str
+        Parameter names.
+    signs : mapping of str to int or None
+        Sign of each parameter (default +1).
+    linear : sequence of str
+        Parameters kept linear (``lin_<p>``).
+
+    Returns
+    -------
+    ParameterMap
+    """
     signs = dict(signs or {})
     fwd, inv = {}, {}
     for p in parameters:
@@ -266,6 +280,19 @@ def numpy_model(model: Model, *, constants: Mapping[str, float] | None = None, s
     ``benchmarks/bench_ukf.py`` and to check :func:`to_casadi`. Arguments may be arrays with the
     sigma points along the last axis; ``jac_x`` drops the Dirac deltas of ``d sign/dx``.
     ``scalar=True`` gives plain-Python functions of floats (``math``), for per-point loops.
+
+    Parameters
+    ----------
+    model : Model
+        The symbolic model.
+    constants : mapping of str to float or None
+        Values of known constants, over the model's ``[values]``.
+    scalar : bool
+        Plain-Python functions instead of NumPy ones.
+
+    Returns
+    -------
+    dict of str to callable
     """
     vals = dict(model.values or {})
     vals.update(constants or {})

@@ -85,6 +85,37 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
     whose output misfit is at most this many times the noise level (the filter has reached the noise
     floor; before that, a parameter's information is judged at a wrong model), instead of after
     the first pass whenever it did not diverge.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    filt : UKF
+        The filter (noise covariances set here).
+    data : Data
+        Measured input and output.
+    tuning : Tuning
+        Filter configuration.
+    passes : int
+        Number of passes.
+    inflate : float
+        Factor on the parameter variances carried into the next pass.
+    fix_flagged : bool
+        Hold poorly informed parameters at their guess after the first pass.
+    progress : callable or None
+        Called after each pass.
+    hold_below : float or None
+        See above.
+
+    Returns
+    -------
+    tuple
+        ``(trajectories, held parameter names)``.
+
+    Raises
+    ------
+    EstimatorError
+        A non-positive prior std, or a collapsed parameter covariance.
     """
     Q, R = _noise(setup, filt, data, tuning)
     f = filt.with_options(Q=Q, R=R, gate=tuning.gate)
@@ -170,7 +201,21 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
 
 
 def mc_truth(setup: Setup, theta: np.ndarray, data: Data) -> np.ndarray | None:
-    """The replicates' noise-free output: the model at ``theta`` under the measured input (None: it cannot be simulated)."""
+    """The replicates' noise-free output: the model at ``theta`` under the measured input (None: it cannot be simulated).
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    theta : numpy.ndarray
+        Parameter values.
+    data : Data
+        Measured input and output (the input is used).
+
+    Returns
+    -------
+    numpy.ndarray or None
+    """
     try:
         return simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps,
                         refine=setup.refine, jit=setup.jit).y
@@ -181,7 +226,34 @@ def mc_truth(setup: Setup, theta: np.ndarray, data: Data) -> np.ndarray | None:
 def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning: Tuning, *, passes: int, seed: int,
                   indices: Sequence[int], progress: Callable[[], None] | None = None) -> list[tuple]:
     """Replicates ``indices`` of :func:`monte_carlo` (replicate ``b`` draws its noise from ``[seed, b]``, so
-    any split of the indices over workers gives the same outcomes): ``(log|estimate| or None, held)``."""
+    any split of the indices over workers gives the same outcomes): ``(log|estimate| or None, held)``.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    filt : UKF
+        The filter.
+    data : Data
+        Measured input and output (the input is perturbed).
+    y_hat : numpy.ndarray
+        Noise-free output of the replicates (:func:`mc_truth`).
+    tuning : Tuning
+        Filter configuration.
+    passes : int
+        Passes per replicate.
+    seed : int
+        Root seed of the replicates.
+    indices : sequence of int
+        The replicates to run.
+    progress : callable or None
+        Called after each replicate.
+
+    Returns
+    -------
+    list of tuple
+        Per replicate ``(log|estimate| or None when it diverged, held parameters)``.
+    """
     su, sy = setup.noise_std(data)
     out = []
     for b in indices:
@@ -202,7 +274,27 @@ def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning
 
 def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed: int, confidence: float = 0.99,
               simulated: bool = True) -> Spread:
-    """The :class:`Spread` of the replicates' outcomes (in replicate order) from :func:`mc_replicates`."""
+    """The :class:`Spread` of the replicates' outcomes (in replicate order) from :func:`mc_replicates`.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    outcomes : sequence of tuple
+        The replicates' outcomes.
+    replicates : int
+        Number of replicates asked for.
+    seed : int
+        Root seed, recorded.
+    confidence : float
+        Level of the chi-square interval of the std.
+    simulated : bool
+        False when the estimate could not be simulated (inconclusive).
+
+    Returns
+    -------
+    Spread
+    """
     from scipy.stats import chi2
 
     m = setup.model
@@ -230,7 +322,28 @@ def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed:
 
 def tune(setup: Setup, filt: UKF, seeds: Sequence[int], *, grid: Sequence[Tuning] = DEFAULT_GRID,
          passes: int = 3, progress: Callable[[], None] | None = None) -> dict[int, dict[Tuning, float]]:
-    """Mean output misfit of every configuration on ``seeds``, after 1 pass and after ``passes``."""
+    """Mean output misfit of every configuration on ``seeds``, after 1 pass and after ``passes``.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    filt : UKF
+        The filter.
+    seeds : sequence of int
+        Noise seeds of the tuning records.
+    grid : sequence of Tuning
+        Configurations to try.
+    passes : int
+        Number of passes.
+    progress : callable or None
+        Called after each configuration and record.
+
+    Returns
+    -------
+    dict
+        ``{1 or passes: {tuning: mean misfit}}``.
+    """
     scores: dict[int, dict[Tuning, list[float]]] = {1: {}, passes: {}}
     datas = [make_data(setup, s) for s in seeds]
     for t in grid:
@@ -244,7 +357,25 @@ def tune(setup: Setup, filt: UKF, seeds: Sequence[int], *, grid: Sequence[Tuning
 
 
 def tune_one(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int) -> dict[int, float]:
-    """Output misfit of one configuration on one record after 1 pass and after ``passes`` (inf: it failed)."""
+    """Output misfit of one configuration on one record after 1 pass and after ``passes`` (inf: it failed).
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    filt : UKF
+        The filter.
+    data : Data
+        Measured input and output.
+    tuning : Tuning
+        The configuration.
+    passes : int
+        Number of passes.
+
+    Returns
+    -------
+    dict of int to float
+    """
     try:
         trs, _ = run_passes(setup, filt, data, tuning, passes=passes)
         return {1: output_misfit(setup, trs[0].theta[-1], data), passes: output_misfit(setup, trs[-1].theta[-1], data)}

@@ -191,6 +191,18 @@ class Identification:
 def error_of(estimate: float | None, true: float) -> tuple[float | None, str | None]:
     """The error of an estimate: per cent of the truth, or absolute where the truth is 0 (never inf).
 
+    Parameters
+    ----------
+    estimate : float or None
+        The estimate (None: none).
+    true : float
+        The true value.
+
+    Returns
+    -------
+    tuple
+        ``(error, "percent" or "absolute")``, or ``(None, None)``.
+
     Examples
     --------
     >>> error_of(1.1, 1.0)[1], error_of(0.25, 0.0), error_of(None, 2.0)

@@ -132,6 +132,23 @@ def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: Any, *, step: 
 
     Central differences with a 1 % step: the response of the non-smooth model is rough on finer
     scales (switching instants move), and smaller steps overstate the information several times.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    theta : numpy.ndarray
+        Parameter values.
+    u : numpy.ndarray
+        Input record.
+    sigma : float or array_like
+        Output noise std.
+    step : float
+        Central-difference step in ``log|theta|``.
+
+    Returns
+    -------
+    numpy.ndarray
     """
     m, dt = setup.model, setup.record.dt
     cols = []
@@ -155,6 +172,20 @@ def input_noise_crb(setup: Setup, theta: np.ndarray | None = None, *, u: np.ndar
     ``Sigma = sigma_y^2 I + sigma_u^2 J_u J_u^T`` and the Fisher information is ``S^T Sigma^-1 S``
     (``S = dy/dlog|theta|``). ``crb_output_only`` is the bound with ``sigma_u = 0`` (the one the
     practical-identifiability flag uses). Costs two simulations per input sample (about a minute).
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    theta : numpy.ndarray or None
+        Parameter values (None: the truth).
+    u : numpy.ndarray or None
+        Input record (None: the record's).
+
+    Returns
+    -------
+    dict
+        The two bounds per parameter and the input noise's share.
     """
     m, dt = setup.model, setup.record.dt
     theta = setup.theta_true if theta is None else np.asarray(theta, float)

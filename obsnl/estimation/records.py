@@ -97,6 +97,23 @@ def check_times(t: np.ndarray, where: str) -> float:
     """The even step of the sample times ``t``; a :class:`~obsnl.errors.DataError` naming the sample where
     time does not increase or the step is irregular (``where`` names the record in the message).
 
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample times (s).
+    where : str
+        Name of the record, used in the messages.
+
+    Returns
+    -------
+    float
+        The mean step (s).
+
+    Raises
+    ------
+    DataError
+        Fewer than 2 samples, time not increasing, or an irregular step.
+
     Examples
     --------
     >>> check_times(np.array([0.0, 0.1, 0.2]), "demo")
@@ -236,6 +253,24 @@ def rms(x: Any) -> float:
 
 def add_noise(signal: Any, *, ratio: float, seed: int | np.random.Generator | None = None) -> np.ndarray:
     """``signal`` plus Gaussian white noise with RMS ``ratio * rms(signal)`` per column.
+
+    Parameters
+    ----------
+    signal : array_like
+        Samples along the first axis, one column per channel.
+    ratio : float
+        Noise-to-signal RMS ratio, non-negative.
+    seed : int, numpy.random.Generator or None
+        Seed or generator of the noise.
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Raises
+    ------
+    DataError
+        When ``ratio`` is negative or not finite.
 
     Examples
     --------

@@ -149,6 +149,24 @@ def coordinates(model: NumericModel, kind: str = "log", *, reference: Mapping[st
     ``"log"``: ``log|theta|`` (the sign taken from ``reference``). ``"yield"``: as ``"log"`` but
     ``Delta1, Delta2`` replaced by the log yield displacements ``log |Delta_i|**(-1/(2N))`` (straightens
     the Delta-N ridge; needs parameters named ``Delta1, Delta2, N``).
+
+    Parameters
+    ----------
+    model : NumericModel
+        The compiled model.
+    kind : str
+        ``"log"`` or ``"yield"``.
+    reference : mapping of str to float
+        A value per parameter giving its sign (and checking the map).
+
+    Returns
+    -------
+    ParameterMap
+
+    Raises
+    ------
+    OptionError
+        For an unknown ``kind``, or ``"yield"`` without a parameter ``N``.
     """
     fwd, inv = {}, {}
     for p in model.parameters:
@@ -174,7 +192,19 @@ class Data:
 
 
 def make_data(setup: Setup, seed: int) -> Data:
-    """Measured input and output: truth plus Gaussian noise (``setup.noise`` x RMS), seeded."""
+    """Measured input and output: truth plus Gaussian noise (``setup.noise`` x RMS), seeded.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    seed : int
+        Seed of the noise.
+
+    Returns
+    -------
+    Data
+    """
     rng = np.random.default_rng(seed)
     u = add_noise(setup.record.accel, ratio=setup.noise, seed=rng)
     y = add_noise(setup.y_true, ratio=setup.noise, seed=rng)
@@ -182,7 +212,28 @@ def make_data(setup: Setup, seed: int) -> Data:
 
 
 def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "regression") -> UKF:
-    """A UKF (``kind="ukf"``) or DUKF (``"dukf"``) for this experiment (noise set per run)."""
+    """A UKF (``kind="ukf"``) or DUKF (``"dukf"``) for this experiment (noise set per run).
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    kind : str
+        ``"ukf"`` or ``"dukf"``.
+    table : BranchTable or None
+        The branch table (DUKF only).
+    cross : str
+        The DUKF cross-covariance rule, ``"regression"`` or ``"zero"``.
+
+    Returns
+    -------
+    UKF
+
+    Raises
+    ------
+    OptionError
+        For an unknown ``kind``.
+    """
     m = setup.model
     sim = simulate(m, theta=setup.theta_guess, x0=setup.x0, u=setup.record.accel, dt=setup.record.dt,
                    substeps=setup.substeps, refine=setup.refine)
@@ -207,6 +258,21 @@ def output_misfit(setup: Setup, theta: np.ndarray, data: Data, *, per_output: bo
     Per output ``j``: ``RMS(sim_j - y_j) / RMS(y_j)``; returned as the RMS over the outputs (one output:
     that ratio), or the per-output array with ``per_output=True``; ``inf`` where the model cannot be
     simulated at ``theta``.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    theta : numpy.ndarray
+        Parameter values.
+    data : Data
+        Measured input and output.
+    per_output : bool
+        Return one ratio per output.
+
+    Returns
+    -------
+    float or numpy.ndarray
     """
     try:
         sim = simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt,

@@ -44,6 +44,18 @@ __all__ = ["UKF", "Estimate", "Trajectory", "check_inputs"]
 def check_inputs(ys: Any, us: Any, *, ny: int, nu: int) -> tuple[np.ndarray, np.ndarray]:
     """Validate a record for a filter: shapes ``(T, ny)``, ``(T, nu)``, finite values.
 
+    Parameters
+    ----------
+    ys, us : array_like
+        Measured outputs and inputs, one row per sample (1-D allowed for one channel).
+    ny, nu : int
+        Numbers of outputs and inputs of the model.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(ys, us)`` as float arrays ``(T, ny)``, ``(T, nu)``.
+
     Raises
     ------
     DataError

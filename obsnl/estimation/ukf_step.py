@@ -235,6 +235,34 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     crossing substep was redone with ``refine`` finer ones because a switching function across which
     the field can jump changed sign inside the step (:mod:`obsnl.estimation.numeric`). Three SX blocks (sigma points, propagation mapped over the sigma points,
     update) joined in an MX Function, so that the fallbacks are only evaluated where needed.
+
+    Parameters
+    ----------
+    model : NumericModel
+        The compiled model.
+    coords : ParameterMap
+        Filter coordinates of the parameters.
+    dt : float
+        Sample step (s).
+    state_scale : numpy.ndarray
+        Typical magnitude of each state.
+    method : str
+        The discrete step: ``"rk4"``, ``"ros2"`` or ``"auto"`` (probe, then the fallback).
+    substeps : int
+        Integrator substeps per sample.
+    cross : str
+        The DUKF cross-covariance rule.
+    refine : int
+        Finer substeps of a crossing substep.
+
+    Returns
+    -------
+    casadi.Function
+
+    Raises
+    ------
+    EstimatorError
+        For an unknown ``cross``.
     """
     if cross not in ("regression", "zero"):
         raise EstimatorError(f"unknown cross-covariance rule {cross!r}; use 'regression' or 'zero'")

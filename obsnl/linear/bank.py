@@ -176,7 +176,25 @@ def build_bank(system: Any, distributions: Mapping[Any, Any], model: FictitiousM
 
 
 def sliding_rms(x: np.ndarray, n: int) -> np.ndarray:
-    """RMS over the last ``n`` samples, per column (NaN until the first full window)."""
+    """RMS over the last ``n`` samples, per column (NaN until the first full window).
+
+    Parameters
+    ----------
+    x : numpy.ndarray
+        Samples along the first axis.
+    n : int
+        Window length in samples.
+
+    Returns
+    -------
+    numpy.ndarray
+        Same shape as ``x``.
+
+    Raises
+    ------
+    DataError
+        When the window is shorter than 1 or longer than the record.
+    """
     x = np.asarray(x, dtype=float)
     if n < 1 or n > x.shape[0]:
         raise DataError(f"window of {n} samples does not fit a record of {x.shape[0]} samples")
@@ -216,6 +234,26 @@ def calibrate_thresholds(healthy: Sequence[BankRun], *, window: float, factor: f
     """Thresholds from healthy runs: ``tau_j = factor * max over runs and time of sliding_rms(nhat_j)``.
 
     Use noise seeds different from the runs you evaluate, and record them in ``seeds``.
+
+    Parameters
+    ----------
+    healthy : sequence of BankRun
+        Runs of one bank on fault-free records.
+    window : float
+        Sliding window length (s).
+    factor : float
+        Margin over the healthy floor, positive.
+    seeds : sequence of int
+        Noise seeds of the healthy runs, recorded in the result.
+
+    Returns
+    -------
+    Thresholds
+
+    Raises
+    ------
+    DataError
+        No runs, a non-positive factor, or runs of different banks.
     """
     if not healthy:
         raise DataError("calibrate_thresholds needs at least one healthy run")

@@ -25,36 +25,12 @@ import scipy.linalg as sla
 import scipy.signal
 
 from obsnl.errors import AnalysisError, DataError
-from obsnl.linear.systems import (
-    DEFAULT_RTOL,
-    DEFAULT_WEAK_RTOL,
-    HautusResult,
-    LinearSystem,
-    ObsVerdict,
-    _matrix,
-    as_linear_system,
-    distinct_eigenvalues,
-    hautus,
-    system_scaling,
-)
+from obsnl.linear.systems import (DEFAULT_RTOL, DEFAULT_WEAK_RTOL, HautusResult, LinearSystem, ObsVerdict, _matrix,
+                                  as_linear_system, distinct_eigenvalues, hautus, system_scaling)
 
-__all__ = [
-    "FictitiousModel",
-    "integrator",
-    "oscillator",
-    "ExtendedSystem",
-    "extend",
-    "ChannelTest",
-    "ExtendedObservability",
-    "extended_observability",
-    "ObserverDesign",
-    "riccati_gain",
-    "place_gain",
-    "ObserverRun",
-    "simulate_observer",
-    "zoh",
-    "run_discrete",
-]
+__all__ = ["FictitiousModel", "integrator", "oscillator", "ExtendedSystem", "extend", "ChannelTest",
+           "ExtendedObservability", "extended_observability", "ObserverDesign", "riccati_gain", "place_gain",
+           "ObserverRun", "simulate_observer", "zoh", "run_discrete"]
 
 
 # --------------------------------------------------------------------------- fictitious models
@@ -94,6 +70,20 @@ def oscillator(omegas: Sequence[float], s: int = 1, *, bias: bool = True) -> Fic
 
     Each oscillator is ``[[0, 1], [-omega^2, 0]]`` read out by ``[1, 0]``; blocks are stacked
     per channel, so ``q = s (bias + 2 len(omegas))``.
+
+    Parameters
+    ----------
+    omegas, s, bias : sequence of float, int, bool
+        Frequencies (rad/s, positive); channels (>= 1); add a bias state per channel.
+
+    Returns
+    -------
+    FictitiousModel
+
+    Raises
+    ------
+    DataError
+        For ``s < 1``, a bad frequency, or no state at all.
     """
     om = [float(w) for w in omegas]
     if int(s) < 1 or any(not np.isfinite(w) or w <= 0 for w in om) or (not om and not bias):
@@ -136,6 +126,20 @@ class ExtendedSystem:
 
 def extend(system: Any, N_R: Any, model: FictitiousModel) -> ExtendedSystem:
     """Extend a plant (``.A, .B, .C`` object, tuple) by the fictitious model acting through ``N_R`` (n x s).
+
+    Parameters
+    ----------
+    system, N_R, model : Any, array_like, FictitiousModel
+        The plant (:func:`~obsnl.linear.systems.as_linear_system`), force input matrix, force model.
+
+    Returns
+    -------
+    ExtendedSystem
+
+    Raises
+    ------
+    DataError
+        When ``N_R`` does not match the plant or the model.
 
     Examples
     --------
@@ -368,6 +372,20 @@ def place_gain(ext: ExtendedSystem, poles: Any, *, method: str = "YT") -> Observ
 
     The MIMO gain is not unique, and YT cannot place a pole more often than rank(C); prefer
     :func:`riccati_gain` for large, stiff systems.
+
+    Parameters
+    ----------
+    ext, poles, method : ExtendedSystem, array_like, str
+        The system; one pole per extended state; the ``scipy.signal.place_poles`` method.
+
+    Returns
+    -------
+    ObserverDesign
+
+    Raises
+    ------
+    DataError, AnalysisError
+        Wrong number of poles; the placement failed.
     """
     poles = np.asarray(poles, dtype=complex).ravel()
     if poles.size != ext.A.shape[0]:
@@ -381,7 +399,17 @@ def place_gain(ext: ExtendedSystem, poles: Any, *, method: str = "YT") -> Observ
 
 # --------------------------------------------------------------------------- simulation
 def zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray]:
-    """Exact zero-order-hold discretisation ``(Phi, Gamma)`` of ``dx/dt = A x + B u`` with step ``dt``."""
+    """Exact zero-order-hold discretisation ``(Phi, Gamma)`` of ``dx/dt = A x + B u`` with step ``dt``.
+
+    Parameters
+    ----------
+    A, B, dt : numpy.ndarray, numpy.ndarray, float
+        System (n x n) and input (n x m) matrices; step (s).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+    """
     n, m = A.shape[0], B.shape[1]
     big = np.zeros((n + m, n + m))
     big[:n, :n], big[:n, n:] = A, B
@@ -390,7 +418,17 @@ def zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray
 
 
 def run_discrete(Phi: np.ndarray, g: np.ndarray, x0: np.ndarray | None = None) -> np.ndarray:
-    """States of ``x[k+1] = Phi x[k] + g[k]`` for k = 0..N-2 (returns N x n, ``x[0] = x0``)."""
+    """States of ``x[k+1] = Phi x[k] + g[k]`` for k = 0..N-2 (returns N x n, ``x[0] = x0``).
+
+    Parameters
+    ----------
+    Phi, g, x0 : numpy.ndarray, numpy.ndarray, numpy.ndarray or None
+        Transition matrix (n x n); forcing per step (N x n); initial state (None: zero).
+
+    Returns
+    -------
+    numpy.ndarray
+    """
     x = np.zeros((g.shape[0], Phi.shape[0]))
     if x0 is not None:
         x[0] = x0
@@ -433,6 +471,17 @@ def simulate_observer(ext: ExtendedSystem, L: Any, *, dt: float, u: Any, y: Any,
     """Run the extended observer on sampled inputs ``u`` (N, m) and outputs ``y`` (N, p).
 
     The observer is discretised exactly (zero-order hold of ``u`` and ``y`` over each step).
+
+    Parameters
+    ----------
+    ext, L, dt : ExtendedSystem, array_like, float
+        The system; observer gain (extended states x outputs); sample step (s).
+    u, y, x0 : array_like, array_like, array_like or None
+        Sampled inputs and outputs; initial estimate (None: zero).
+
+    Returns
+    -------
+    ObserverRun
     """
     y = _samples(y, "y", ext.C.shape[0])
     u = _samples(u, "u", ext.B.shape[1], rows=y.shape[0]) if ext.B.shape[1] else np.zeros((y.shape[0], 0))

@@ -111,6 +111,22 @@ def as_linear_system(system: Any, C: Any = None) -> LinearSystem:
 
     Accepts a python-control ``StateSpace`` (continuous time only), a :class:`LinearSystem`,
     a tuple ``(A, B, C[, D])``, or ``as_linear_system(A, C)``.
+
+    Parameters
+    ----------
+    system : Any
+        A system object, a tuple, or the matrix ``A``.
+    C : array_like or None
+        The output matrix when ``system`` is ``A``.
+
+    Returns
+    -------
+    LinearSystem
+
+    Raises
+    ------
+    DataError
+        For a discrete-time system or an unreadable object.
     """
     if isinstance(system, LinearSystem) and C is None:
         return system

@@ -401,7 +401,19 @@ def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Br
 
 
 def branch_of(branches: Sequence[Branch], point: Mapping[str, float]) -> Branch | None:
-    """The branch containing ``point`` (None on a switching surface or outside every branch)."""
+    """The branch containing ``point`` (None on a switching surface or outside every branch).
+
+    Parameters
+    ----------
+    branches : sequence of Branch
+        The model's branches.
+    point : mapping of str to float
+        Values of the symbols the switching functions use.
+
+    Returns
+    -------
+    Branch or None
+    """
     for b in branches:
         if b.contains(point):
             return b

@@ -27,6 +27,18 @@ _NAME = re.compile(r"[^\W\d]\w*")
 def check_text(value: str, key: str) -> None:
     """Refuse text that cannot be written back (lone surrogates from a JSON ``\\ud800`` escape).
 
+    Parameters
+    ----------
+    value : str
+        The text to check.
+    key : str
+        The model key it came from, named in the message.
+
+    Raises
+    ------
+    ModelError
+        When ``value`` cannot be encoded as UTF-8.
+
     Examples
     --------
     >>> check_text("\\ud800", "name")
@@ -43,6 +55,13 @@ def check_text(value: str, key: str) -> None:
 
 def check_name(name: str, key: str) -> None:
     """Refuse a name that breaks the rule of the module docstring; ``key`` says where it was declared.
+
+    Parameters
+    ----------
+    name : str
+        The name to check.
+    key : str
+        The model key it was declared under, named in the message.
 
     Raises
     ------
@@ -69,7 +88,25 @@ def check_name(name: str, key: str) -> None:
 
 
 def name_list(value: Any, key: str) -> tuple[str, ...]:
-    """A list of names from a model key (a name, a list of names or symbols), each checked by :func:`check_name`."""
+    """A list of names from a model key (a name, a list of names or symbols), each checked by :func:`check_name`.
+
+    Parameters
+    ----------
+    value : Any
+        None, a name, a sympy Symbol, or an iterable of names or symbols.
+    key : str
+        The model key, named in the messages.
+
+    Returns
+    -------
+    tuple of str
+        The stripped names, in order (empty for None).
+
+    Raises
+    ------
+    ModelError
+        When ``value`` is not a list of names or a name breaks the rule.
+    """
     if value is None:
         return ()
     if isinstance(value, (str, sp.Symbol)):
@@ -89,7 +126,19 @@ def name_list(value: Any, key: str) -> tuple[str, ...]:
 
 
 def close_name(name: str, candidates: Iterable[str]) -> str:
-    """' (did you mean ...?)' for the closest candidate, or ''."""
+    """' (did you mean ...?)' for the closest candidate, or ''.
+
+    Parameters
+    ----------
+    name : str
+        The unknown name.
+    candidates : iterable of str
+        The names that exist.
+
+    Returns
+    -------
+    str
+    """
     import difflib
 
     close = difflib.get_close_matches(name, list(candidates), n=1, cutoff=0.6)

@@ -83,6 +83,17 @@ _SHOWN = 80  # characters of an expression quoted in a message
 def shorten(text: str, limit: int = _SHOWN) -> str:
     """``text`` cut to ``limit`` characters (with ``...``) for an error message.
 
+    Parameters
+    ----------
+    text : str
+        The text to show.
+    limit : int
+        Largest length of the result.
+
+    Returns
+    -------
+    str
+
     Examples
     --------
     >>> shorten("x + " * 30, 20)
@@ -208,6 +219,13 @@ def check_expression_size(text: str, where: str = "expression") -> None:
     :data:`MAX_NODES` nodes nested at most :data:`MAX_DEPTH` deep, number literals of at most
     :data:`MAX_DIGITS` digits, constant exponents of at most :data:`MAX_EXPONENT` and constants
     of at most :data:`MAX_DIGITS` digits (``9**9**9``, ``x**(10**10)``, power towers).
+
+    Parameters
+    ----------
+    text : str
+        The expression as written by the user.
+    where : str
+        What the expression is (a key or equation name), used in the message.
 
     Raises
     ------

@@ -160,6 +160,24 @@ def _factored(g: sp.Expr, memo: dict | None) -> tuple[int, list[sp.Expr]]:
 
 def switching_of(exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr],
                   memo: dict | None = None) -> tuple[sp.Expr, ...]:
+    """The distinct switching functions of the non-smooth nodes of ``exprs``, declared ones first.
+
+    Each switching function is factored and reduced to a canonical form; those matching ``declared``
+    come first, in the declared order, then the others in the order found.
+
+    Parameters
+    ----------
+    exprs : sequence of sympy.Basic
+        The expressions (right-hand sides, outputs) to scan.
+    declared : sequence of sympy.Expr
+        Switching functions the model declares, fixing the order.
+    memo : dict or None
+        Cache of factorizations shared between calls.
+
+    Returns
+    -------
+    tuple of sympy.Expr
+    """
     found: list[sp.Expr] = []
     for node in innermost_nonsmooth(exprs):
         for raw in _raw_switching(node):
@@ -206,6 +224,28 @@ def _truth(cond: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], m
 
 
 def resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> sp.Expr:
+    """The smooth expression a non-smooth ``node`` takes where the switching functions have ``signs``.
+
+    Parameters
+    ----------
+    node : sympy.Basic
+        A ``sign``, ``Abs``, ``Heaviside``, ``Max``, ``Min`` or ``Piecewise`` node.
+    switching : sequence of sympy.Expr
+        The model's switching functions.
+    signs : sequence of int
+        The sign (+1 or -1) of each switching function on the branch.
+    memo : dict or None
+        Cache of factorizations shared between calls.
+
+    Returns
+    -------
+    sympy.Expr
+
+    Raises
+    ------
+    ModelError
+        When a ``Piecewise`` has no piece for the sign pattern.
+    """
     if isinstance(node, sp.sign):
         return sp.Integer(_sign_in(node.args[0], switching, signs, memo))
     if isinstance(node, sp.Abs):

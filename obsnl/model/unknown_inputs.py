@@ -20,6 +20,22 @@ ARBITRARY = "arbitrary"
 def check_unknown_input_derivatives(value: Any, *, allow_none: bool = False) -> int | str | None:
     """``"arbitrary"`` or a non-negative integer ``K`` (None too when ``allow_none``); else a ModelError.
 
+    Parameters
+    ----------
+    value : Any
+        ``"arbitrary"`` (any case), a non-negative int, or its decimal text.
+    allow_none : bool
+        Accept None (not given) and return it.
+
+    Returns
+    -------
+    int, "arbitrary" or None
+
+    Raises
+    ------
+    ModelError
+        For any other value.
+
     Examples
     --------
     >>> check_unknown_input_derivatives("Arbitrary"), check_unknown_input_derivatives(1)

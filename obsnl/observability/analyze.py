@@ -175,6 +175,20 @@ def analyze(
 def assumptions(model: Model, unknown_input_derivatives: int | str, input_derivatives: int | None) -> dict:
     """What an analysis of ``model`` assumes, as JSON-ready data (:attr:`AnalysisResult.assumptions`).
 
+    Parameters
+    ----------
+    model : Model
+        The analysed model.
+    unknown_input_derivatives : int or str
+        The unknown-input assumption in force (``K`` or ``"arbitrary"``).
+    input_derivatives : int or None
+        Degree of the known inputs as polynomials, or None (generic inputs).
+
+    Returns
+    -------
+    dict
+        ``unknown_input_derivatives``, ``known_inputs`` and ``initial_conditions``.
+
     Examples
     --------
     >>> from obsnl import Model

@@ -170,7 +170,21 @@ def _rref(R: np.ndarray, p: int) -> np.ndarray:
 
 
 def kernel_rows(R: np.ndarray, ncols: int, p: int) -> list[bool]:
-    """Per column: True when some kernel vector of ``R`` is nonzero there (not determined)."""
+    """Per column: True when some kernel vector of ``R`` is nonzero there (not determined).
+
+    Parameters
+    ----------
+    R : numpy.ndarray
+        Integer rows mod ``p`` (may have no rows).
+    ncols : int
+        Number of columns.
+    p : int
+        Prime modulus.
+
+    Returns
+    -------
+    list of bool
+    """
     if ncols == 0:
         return []
     ker = nullspace_mod_p(R, ncols, p) if R.shape[0] else [[int(i == j) for i in range(ncols)] for j in range(ncols)]
@@ -205,6 +219,32 @@ def strip_ic(model: Model) -> Model:
 
 
 def branch_visit(plan: Plan, p: int, shared: dict, atoms: dict, key: str, deadline: float | None) -> VisitData:
+    """One branch visit: the branch's series at its own point, reduced to private and parameter rows.
+
+    Parameters
+    ----------
+    plan : Plan
+        The visit's plan (one prepared side).
+    p : int
+        The run's prime.
+    shared : dict
+        Parameter and constant values (mod ``p``) shared by all visits.
+    atoms : dict
+        The run's shared atom table.
+    key : str
+        Seed of this visit's random stream.
+    deadline : float or None
+        Time limit passed to :func:`obsnl.algebra.series.run_series`.
+
+    Returns
+    -------
+    VisitData
+
+    Raises
+    ------
+    NewPrime
+        When the series had to change prime.
+    """
     prep = plan.sides[0]
     tracker = RankTracker(prep.problem.size, stall=stall_safe(prep.problem))  # the visit's own rank stops growing
     run = run_series(prep.problem, random.Random(key), K=prep.K, p=p, deadline=deadline, fixed=shared,
@@ -217,6 +257,35 @@ def branch_visit(plan: Plan, p: int, shared: dict, atoms: dict, key: str, deadli
 
 def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, key: str,
                    deadline: float | None) -> VisitData:
+    """One surface visit: both sides of ``plan.g = 0`` at one point on the surface (module docstring).
+
+    Parameters
+    ----------
+    plan : Plan
+        The surface and its two prepared sides.
+    model : Model
+        The non-smooth model.
+    p : int
+        The run's prime.
+    shared : dict
+        Parameter and constant values (mod ``p``) shared by all visits.
+    atoms : dict
+        The run's shared atom table.
+    key : str
+        Seed of this visit's random stream.
+    deadline : float or None
+        Time limit passed to :func:`obsnl.algebra.series.run_series`.
+
+    Returns
+    -------
+    VisitData
+        ``used=False`` with a reason when the surface is invisible or cannot be visited.
+
+    Raises
+    ------
+    NewPrime
+        When a side's series had to change prime.
+    """
     g = plan.g
     a_side, b_side = plan.sides
     K = max(a_side.K, b_side.K)
@@ -312,7 +381,21 @@ def private_names(prep: Prepared) -> list[str]:
 
 
 def classify_visit(v: VisitData, Pi: np.ndarray, p: int) -> dict[str, bool]:
-    """Private column name -> determined at this visit given its rows and ``Pi``."""
+    """Private column name -> determined at this visit given its rows and ``Pi``.
+
+    Parameters
+    ----------
+    v : VisitData
+        The visit.
+    Pi : numpy.ndarray
+        Parameter information rows (over the parameter columns) to add.
+    p : int
+        The run's prime.
+
+    Returns
+    -------
+    dict of str to bool
+    """
     prep = v.plan.sides[0]
     n_priv, n_par = prep.n_priv, len(prep.par)
     if n_priv == 0:

@@ -195,7 +195,27 @@ SECONDS_PER_PAIR = 5e-8
 
 
 def lie_derivatives(system: _System, H: Any, G: Any, *, deadline: float | None) -> Iterator[tuple[Any, int, int]]:
-    """Yield ``(N_k, a, b)`` with ``L^k h = N_k / (G**b Q**a)`` for k = 0, 1, ..."""
+    """Yield ``(N_k, a, b)`` with ``L^k h = N_k / (G**b Q**a)`` for k = 0, 1, ...
+
+    Parameters
+    ----------
+    system : _System
+        The model over the prime field.
+    H, G : flint.nmod_mpoly
+        Numerator and denominator of the output, polynomials mod p.
+    deadline : float or None
+        ``time.perf_counter()`` time limit.
+
+    Yields
+    ------
+    tuple
+        ``(N_k, a, b)``.
+
+    Raises
+    ------
+    TimeUp
+        On the deadline or expression swell.
+    """
     N, a, b = H, 0, 1
     G_const = G.is_constant()
     dG = None if G_const else system.S(G)
@@ -298,7 +318,25 @@ def orc_block(
     bound_args: dict | None = None,
     target: float = 0.01,
 ) -> BlockOutcome:
-    """The ORC on one block; see the module docstring. ``target`` is unused (one prime, see notes)."""
+    """The ORC on one block; see the module docstring. ``target`` is unused (one prime, see notes).
+
+    Parameters
+    ----------
+    problem : Problem
+        The compiled block.
+    seed : object
+        Seed of the random stream.
+    deadline : float or None
+        ``time.perf_counter()`` time limit.
+    bound_args : dict or None
+        Model sizes for the failure bound.
+    target : float
+        Unused.
+
+    Returns
+    -------
+    BlockOutcome
+    """
     M = problem.size
     out = BlockOutcome(method="orc", columns=problem.columns)
     if M == 0:

@@ -34,6 +34,18 @@ def weight(expr: sp.Expr, weights: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr | _An
 
     A proof, term by term, that ``expr(lambda^w z) = lambda^weight expr(z)``; ``sign`` and ``Abs``
     keep the weight of their argument (``lambda > 0``).
+
+    Parameters
+    ----------
+    expr : sympy.Expr
+        The expression.
+    weights : mapping of sympy.Symbol to sympy.Expr
+        Weight ``w_j`` of each scaled symbol (others 0).
+
+    Returns
+    -------
+    sympy.Expr, ANY or None
+        ``ANY`` for 0 (any weight).
     """
     moved = {s for s, w in weights.items() if w != 0}
 
@@ -186,13 +198,38 @@ def is_zero(e: sp.Expr) -> bool:
 
 
 def same(a: sp.Expr, b: sp.Expr) -> bool:
-    """Symbolic equality through the canonical (atom) form, which makes both rational."""
+    """Symbolic equality through the canonical (atom) form, which makes both rational.
+
+    Parameters
+    ----------
+    a, b : sympy.Expr
+        The expressions to compare.
+
+    Returns
+    -------
+    bool
+    """
     d = canonical(a) - canonical(b)
     return d == 0 or sp.cancel(sp.together(d)) == 0
 
 
 def verify_generator(model: Model, kind: str, comp: Mapping[sp.Symbol, sp.Expr]) -> bool:
-    """Symbolic check of the determining equations of one generator."""
+    """Symbolic check of the determining equations of one generator.
+
+    Parameters
+    ----------
+    model : Model
+        A smooth model.
+    kind : str
+        ``"scaling"``, ``"translation"`` or another kind (general Lie symmetry).
+    comp : mapping of sympy.Symbol to sympy.Expr
+        The generator's component per symbol.
+
+    Returns
+    -------
+    bool
+        True when the equations hold symbolically.
+    """
     f = dict(model.equations)
     h = list(model.output_exprs)
     if kind == "scaling":
@@ -219,7 +256,21 @@ def verify_generator(model: Model, kind: str, comp: Mapping[sp.Symbol, sp.Expr])
 
 def verify_reparametrization(new: Model, mapping: Mapping[str, sp.Expr], old_branches: Sequence[Branch],
                              new_branches: Sequence[Branch]) -> bool:
-    """Branch by branch: ``L_f(phi_s) == f~_s(phi)`` for every new state and ``h == h~(phi)``."""
+    """Branch by branch: ``L_f(phi_s) == f~_s(phi)`` for every new state and ``h == h~(phi)``.
+
+    Parameters
+    ----------
+    new : Model
+        The reparametrized model.
+    mapping : mapping of str to sympy.Expr
+        New state name to its expression ``phi`` in the old symbols.
+    old_branches, new_branches : sequence of Branch
+        Branches of the old and new model, in corresponding order.
+
+    Returns
+    -------
+    bool
+    """
     back = {make_symbol(nm): phi for nm, phi in mapping.items()}
     if len(new_branches) != len(old_branches):
         return False

@@ -113,6 +113,24 @@ def sedoglavic_block(
     ``bound_args`` are the sizes for :func:`obsnl.algebra.bounds.failure_bound` (without ``p``); runs are
     added (up to four) until two or more agree and their combined failure bound is at most
     ``target``.
+
+    Parameters
+    ----------
+    problem : Problem
+        The compiled block.
+    seed : object
+        Seed of the random streams.
+    deadline : float or None
+        ``time.perf_counter()`` value after which the block is abandoned.
+    bound_args : dict or None
+        Model sizes for the failure bound.
+    target : float
+        Largest accepted combined failure probability.
+
+    Returns
+    -------
+    BlockOutcome
+        Rank, unobservable columns, runs and failure bound (or a reason when undecided).
     """
     M = problem.size
     out = BlockOutcome(method="sedoglavic", columns=problem.columns)

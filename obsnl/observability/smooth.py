@@ -72,7 +72,24 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
 
 def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> int | str:
     """The unknown-input assumption in force: ``value`` if given, else the model's
-    ``unknown_input_derivatives`` key, else ``"arbitrary"`` (any function of time)."""
+    ``unknown_input_derivatives`` key, else ``"arbitrary"`` (any function of time).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    value : int, str or None
+        The caller's option.
+
+    Returns
+    -------
+    int or "arbitrary"
+
+    Raises
+    ------
+    ModelError
+        When the value is neither ``"arbitrary"`` nor a non-negative integer.
+    """
     if value is None:
         value = model.unknown_input_derivatives
     return ARBITRARY if value is None else check_unknown_input_derivatives(value)
@@ -237,7 +254,38 @@ def analyze_smooth(
     input_derivatives: int | None = None,
     decompose: bool = True,
 ) -> BranchResult:
-    """One smooth model, one engine: the common body of :func:`obsnl.orc` and :func:`obsnl.observability.sedoglavic`."""
+    """One smooth model, one engine: the common body of :func:`obsnl.orc` and :func:`obsnl.observability.sedoglavic`.
+
+    Parameters
+    ----------
+    model : Model
+        A smooth model.
+    method : str
+        ``"orc"`` or ``"sedoglavic"``.
+    seed : int or None
+        Random seed (None: a fresh one).
+    max_seconds : float or None
+        Time limit.
+    prob : float
+        Required probability of a correct answer.
+    unknown_input_derivatives : int, str or None
+        Unknown-input assumption (None: the model's, else ``"arbitrary"``).
+    input_derivatives : int or None
+        Known-input degree (None: generic).
+    decompose : bool
+        Split the model into independent blocks first.
+
+    Returns
+    -------
+    BranchResult
+
+    Raises
+    ------
+    ModelError
+        When the model is not smooth.
+    AnalysisError
+        When an option is invalid.
+    """
     _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
     if not model.is_smooth:
         raise ModelError(

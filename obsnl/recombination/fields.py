@@ -36,6 +36,22 @@ def jacobian_mod_p(exprs: Sequence[sp.Expr], variables: Sequence[sp.Symbol], *, 
     """The Jacobian of ``exprs`` w.r.t. ``variables`` at a random point mod :data:`PRIME` (rows = exprs).
 
     Symbols that are not ``variables`` take random values too (they are constants here).
+
+    Parameters
+    ----------
+    exprs : sequence of sympy.Expr
+        The functions.
+    variables : sequence of sympy.Symbol
+        The differentiation variables (columns).
+    seed : int
+        Seed of the random point.
+    point : mapping of sympy.Symbol to int or None
+        Values to use instead of random ones.
+
+    Returns
+    -------
+    list of list of int
+        Residues mod :data:`PRIME`.
     """
     return _jacobian(_compile(exprs, variables), variables, seed, point)
 

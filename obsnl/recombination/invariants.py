@@ -59,6 +59,15 @@ def span_intersection(a: Sequence[Sequence[sp.Expr]], b: Sequence[Sequence[sp.Ex
     Equal spans (the usual case across branches) are recognised by ranks at two values of the
     exponent parameters (a rank can only drop at a special value, so equal ranks of ``a``, ``b`` and
     ``a + b`` at a value where ``a`` and ``b`` keep their generic rank prove equality there).
+
+    Parameters
+    ----------
+    a, b : sequence of sequence of sympy.Expr
+        Row vectors spanning the two spaces.
+
+    Returns
+    -------
+    list of list of sympy.Expr
     """
     if a and b:
         syms = sorted(set().union(*(sp.sympify(x).free_symbols for r in list(a) + list(b) for x in r)),
@@ -157,6 +166,27 @@ def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: S
     ``avoid``, total exponent size, positions of the pivots in ``variables``); ``avoid`` holds the
     parameters of the measured part of the model, which keeps its parameters when another choice exists.
 
+    Parameters
+    ----------
+    weights : sequence of mapping of sympy.Symbol to sympy.Expr
+        The scaling generators, as weights per symbol.
+    variables : sequence of sympy.Symbol
+        All symbols (states and parameters), in the preferred order.
+    parameters : sequence of sympy.Symbol
+        The symbols that may be pivots.
+    exponents : sequence of sympy.Symbol
+        Symbols allowed in the weights (symbolic exponents).
+    keep : sequence of sympy.Symbol
+        Parameters never used as pivots.
+    eliminate : sequence of sympy.Symbol
+        Parameters that must be pivots.
+    avoid : sequence of sympy.Symbol
+        Parameters used as pivots only when needed.
+
+    Returns
+    -------
+    ScalingSection
+
     Raises
     ------
     ModelError
@@ -214,7 +244,22 @@ def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: S
 # --------------------------------------------------------------------------- translations
 def translation_invariants(vectors: Sequence[Mapping[sp.Symbol, sp.Rational]], coords: Sequence[sp.Symbol],
                            allowed_pivots: Sequence[sp.Symbol]) -> tuple[list[sp.Symbol], dict[sp.Symbol, sp.Expr]]:
-    """Pivots (dropped) and linear invariants ``{coordinate: y_j - sum c y_piv}`` of commuting translations."""
+    """Pivots (dropped) and linear invariants ``{coordinate: y_j - sum c y_piv}`` of commuting translations.
+
+    Parameters
+    ----------
+    vectors : sequence of mapping of sympy.Symbol to sympy.Rational
+        Translation vectors.
+    coords : sequence of sympy.Symbol
+        The coordinates they act on.
+    allowed_pivots : sequence of sympy.Symbol
+        Coordinates preferred as pivots.
+
+    Returns
+    -------
+    tuple
+        ``(pivots, invariants)``.
+    """
     coords = list(coords)
     rows = _basis([[sp.Rational(v.get(c, 0)) for c in coords] for v in vectors])
     if not rows:
@@ -239,6 +284,17 @@ def adapted_forms(branch_vectors: Sequence[Sequence[Mapping[sp.Symbol, sp.Ration
     Returns a basis of forms ``(coefficients, branches where the form is invariant)``: for each
     branch the forms invariant there span (greedily, as far as possible) its whole space of
     invariant forms, so that what is identifiable in a branch is a coordinate.
+
+    Parameters
+    ----------
+    branch_vectors : sequence of sequence of mapping
+        Per branch, its translation vectors.
+    coords : sequence of sympy.Symbol
+        The coordinates.
+
+    Returns
+    -------
+    list of tuple
     """
     moved = [c for c in coords if any(v.get(c, 0) for vs in branch_vectors for v in vs)]
     if not moved:
@@ -291,6 +347,17 @@ def pushforward(comp: Mapping[sp.Symbol, sp.Expr],
     """The translation vector of generator ``comp`` in ``coords`` (None if it is not a translation there).
 
     Returns ``{}`` when the generator does not move the coordinates (it lies in the divided group).
+
+    Parameters
+    ----------
+    comp : mapping of sympy.Symbol to sympy.Expr
+        The generator's component per old symbol.
+    coords : sequence of tuple
+        ``(y, phi)``: each coordinate and its expression in the old symbols.
+
+    Returns
+    -------
+    dict of sympy.Symbol to sympy.Rational or None
     """
     vals = []
     for y, phi in coords:
@@ -315,7 +382,27 @@ def pushforward(comp: Mapping[sp.Symbol, sp.Expr],
 def coordinates(coords: Sequence[tuple[sp.Symbol, sp.Expr]], rest: Sequence[sp.Symbol],
                 tinv: Mapping[sp.Symbol, sp.Expr], forms: Sequence[tuple[Mapping[sp.Symbol, sp.Rational], tuple]],
                 V: Sequence[sp.Symbol], flips: set[str]) -> list[tuple[str, sp.Expr, sp.Expr]]:
-    """The new coordinates ``(name, expression in the old symbols, linear expression in the y)``."""
+    """The new coordinates ``(name, expression in the old symbols, linear expression in the y)``.
+
+    Parameters
+    ----------
+    coords : sequence of tuple
+        ``(y, phi)``: intermediate coordinates and their expressions in the old symbols.
+    rest : sequence of sympy.Symbol
+        Coordinates left after the scaling section.
+    tinv : mapping of sympy.Symbol to sympy.Expr
+        Translation invariants (:func:`translation_invariants`).
+    forms : sequence of tuple
+        Adapted forms (:func:`adapted_forms`).
+    V : sequence of sympy.Symbol
+        Old symbols, fixing the order of the result.
+    flips : set of str
+        Names of ``Delta`` coordinates to take with the opposite sign.
+
+    Returns
+    -------
+    list of tuple
+    """
     phi_y = dict(coords)
     formed = set().union(*(set(f) for f, _ in forms)) if forms else set()
     y_of_new: dict[str, sp.Expr] = {}
@@ -344,7 +431,27 @@ def coordinates(coords: Sequence[tuple[sp.Symbol, sp.Expr]], rest: Sequence[sp.S
 
 def section_map(new: Sequence[tuple[str, sp.Expr, sp.Expr]], rest: Sequence[sp.Symbol], tpiv: Sequence[sp.Symbol],
                 sec: ScalingSection, V: Sequence[sp.Symbol], kic: set[sp.Symbol]) -> dict[sp.Symbol, sp.Expr]:
-    """Old symbols in terms of the new ones on the section (pivots 1, translation pivots 0)."""
+    """Old symbols in terms of the new ones on the section (pivots 1, translation pivots 0).
+
+    Parameters
+    ----------
+    new : sequence of tuple
+        The new coordinates (:func:`coordinates`).
+    rest : sequence of sympy.Symbol
+        Coordinates left after the scaling section.
+    tpiv : sequence of sympy.Symbol
+        Translation pivots (set to 0).
+    sec : ScalingSection
+        The scaling section (pivots set to 1).
+    V : sequence of sympy.Symbol
+        Old symbols.
+    kic : set of sympy.Symbol
+        Known initial conditions, kept as they are.
+
+    Returns
+    -------
+    dict of sympy.Symbol to sympy.Expr
+    """
     rest, tpiv = list(rest), list(tpiv)
     unknown_y = [sp.Dummy(y.name) for y in rest + tpiv]
     to_dummy = dict(zip(rest + tpiv, unknown_y))

@@ -42,7 +42,27 @@ def _save(plt, fig, path: str | Path) -> Path:
 
 def figure2(path: str | Path, *, t: np.ndarray, accel: np.ndarray, y_measured: np.ndarray,
             estimates: Mapping[str, np.ndarray], title: str = "") -> Path:
-    """(a) record, (b) measured vs estimated displacement; ``estimates`` maps a label to ``y`` per sample."""
+    """(a) record, (b) measured vs estimated displacement; ``estimates`` maps a label to ``y`` per sample.
+
+    Parameters
+    ----------
+    path : str or Path
+        The PNG file to write.
+    t : numpy.ndarray
+        Sample times (s).
+    accel : numpy.ndarray
+        Ground acceleration (m/s^2).
+    y_measured : numpy.ndarray
+        Measured displacement (m).
+    estimates : mapping of str to numpy.ndarray
+        Estimated displacement (m) per label.
+    title : str
+        Record name for panel (a).
+
+    Returns
+    -------
+    Path
+    """
     plt = _plt()
     fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
     ax[0].plot(t, accel, lw=0.7, color="k")
@@ -84,7 +104,25 @@ def figure3(path: str | Path, *, t: np.ndarray, panels: Mapping[str, np.ndarray]
 # ---- identification of a structure (obsnl identify)
 def plot_fit(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
              outputs: Sequence[str], fit: Mapping[str, float | None]) -> Path:
-    """Measured vs simulated (model at the estimate) output, one panel per output, NRMSE in the title."""
+    """Measured vs simulated (model at the estimate) output, one panel per output, NRMSE in the title.
+
+    Parameters
+    ----------
+    path : str or Path
+        The PNG file to write.
+    t : numpy.ndarray
+        Sample times (s).
+    measured, simulated : numpy.ndarray
+        Outputs ``(T, ny)``.
+    outputs : sequence of str
+        Output names.
+    fit : mapping of str to float or None
+        NRMSE (%) per output.
+
+    Returns
+    -------
+    Path
+    """
     plt = _plt()
     fig, axes = plt.subplots(len(outputs), 1, figsize=(8, 2.4 * len(outputs) + 0.6), sharex=True, squeeze=False)
     for j, (ax, name) in enumerate(zip(axes[:, 0], outputs)):
@@ -102,7 +140,23 @@ def plot_fit(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated
 def plot_traces(path: str | Path, *, traces: Sequence[Any], truth: Mapping[str, float] | None = None,
                 held: Sequence[str] = (), flagged: Sequence[str] = ()) -> Path:
     """Each parameter's estimate over the passes (one after the other) with its +-2 sigma band (log
-    coordinates: ``theta exp(+-2 sigma)``); true value dotted where known; held parameters marked."""
+    coordinates: ``theta exp(+-2 sigma)``); true value dotted where known; held parameters marked.
+
+    Parameters
+    ----------
+    path : str or Path
+        The PNG file to write.
+    traces : sequence of Trajectory
+        One per pass.
+    truth : mapping of str to float or None
+        True values where known.
+    held, flagged : sequence of str
+        Parameters held at their guess, and poorly informed ones.
+
+    Returns
+    -------
+    Path
+    """
     plt = _plt()
     params = traces[0].parameters
     nx = len(traces[0].states)

@@ -62,7 +62,17 @@ DEFAULT_ROWS: tuple[str, ...] = ("condition", "observable", "unobservable", "deg
 # --------------------------------------------------------------------------- completing a result
 def complete(result: AnalysisResult, model: Model) -> AnalysisResult:
     """Fill what rendering needs (variable order, switching functions, branch signs, LaTeX names)
-    from ``model`` when the result does not carry it."""
+    from ``model`` when the result does not carry it.
+
+    Parameters
+    ----------
+    result, model : AnalysisResult, Model
+        The result and the analysed model.
+
+    Returns
+    -------
+    AnalysisResult
+    """
     from obsnl.model.branches import split_branches
     from obsnl.model.switching import expr_text
 
@@ -196,6 +206,15 @@ def branch_table(result: AnalysisResult, model: Model | None = None) -> BranchTa
 
     The result of :func:`obsnl.analyze` carries its model's signature; a result built by hand needs
     ``model`` (:func:`complete` fills what is missing from it).
+
+    Parameters
+    ----------
+    result, model : AnalysisResult, Model or None
+        The analysis; its model, needed for a result built by hand.
+
+    Returns
+    -------
+    BranchTable
     """
     if model is not None:
         result = complete(result, model)
@@ -203,7 +222,17 @@ def branch_table(result: AnalysisResult, model: Model | None = None) -> BranchTa
 
 
 def to_json(result: AnalysisResult, model: Model | None = None) -> str:
-    """The branch table as JSON text (the estimators' contract)."""
+    """The branch table as JSON text (the estimators' contract).
+
+    Parameters
+    ----------
+    result, model : AnalysisResult, Model or None
+        As for :func:`branch_table`.
+
+    Returns
+    -------
+    str
+    """
     return branch_table(result, model).to_json()
 
 
@@ -249,7 +278,21 @@ def _header_line(result: AnalysisResult) -> str:
 
 
 def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, title: str | None = None) -> str:
-    """A Markdown branch table: one column per group of branches with identical results."""
+    """A Markdown branch table: one column per group of branches with identical results.
+
+    Parameters
+    ----------
+    result : AnalysisResult
+        The analysis.
+    rows : sequence of str
+        Row keys of :data:`ROWS`.
+    title : str or None
+        Heading (default: the model's name).
+
+    Returns
+    -------
+    str
+    """
     _check_rows(rows)
     groups = branch_groups(result)
     lines = [f"### {title or 'Observability of ' + result.model}", "", f"_{_header_line(result)}_", ""]
@@ -338,6 +381,20 @@ def render(result: AnalysisResult, fmt: str) -> str:
     ``json`` is the analysis itself (keys ``model, method, seed, probability, seconds, branches,
     overall``); ``json-table`` is the estimators' branch table (schema ``obsnl.branch-table/1``);
     ``md`` and ``tex`` are the branch tables for documents.
+
+    Parameters
+    ----------
+    result, fmt : AnalysisResult, str
+        The analysis; one of :data:`FORMATS`.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    OptionError
+        For an unknown format.
     """
     if fmt == "text":
         return to_text(result)

@@ -165,6 +165,23 @@ def element_channels(le: float, channels: Sequence[str] = ("moment",)) -> np.nda
     ``"moment"`` is the moment dipole ``[0, -1, 0, 1]/sqrt(2)`` (the load of a uniform
     curvature change, an eigenvector of ``K_e``); ``"shear"`` is ``[2, L, -2, L]`` normalised
     (``K_e [0, 1, 0, 1]`` up to scale). Together they span ``range(K_e)``.
+
+    Parameters
+    ----------
+    le : float
+        Element length (m).
+    channels : sequence of str
+        ``"moment"`` and/or ``"shear"``.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(4, len(channels))``.
+
+    Raises
+    ------
+    ModelError
+        An unknown or no channel.
     """
     cols = []
     for ch in channels:

@@ -77,6 +77,26 @@ def structurally_unidentifiable(result: Any, parameters: Sequence[str]) -> tuple
 def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str, what: str) -> dict[str, float]:
     """``NAME=VALUE`` items as a mapping; one-line errors naming a wrong name or value.
 
+    Parameters
+    ----------
+    items : sequence of str
+        ``NAME=VALUE`` texts.
+    names : sequence of str
+        Allowed names.
+    option : str
+        The option, named in the messages.
+    what : str
+        What the names are, named in the messages.
+
+    Returns
+    -------
+    dict of str to float
+
+    Raises
+    ------
+    OptionError
+        An unknown name, no ``=``, or a value that is not a number.
+
     Examples
     --------
     >>> parse_assignments(["k=2.5"], ["k", "c"], option="--guess", what="parameter")
@@ -246,6 +266,44 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     Same structural check as :func:`identify`; see
     :func:`obsnl.estimation.identify.simulation_study` for the rest.
 
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file.
+    record : Record, str or Path
+        The input record or its file.
+    guess : mapping of str to float or None
+        Initial guesses (over the model's ``[guess]``).
+    noise : float
+        Noise-to-signal RMS ratio.
+    method : str
+        ``"ukf"`` or ``"dukf"``.
+    table : BranchTable, str, Path or None
+        Branch table (DUKF).
+    passes, replicates, seed : int
+        Filter passes, Monte Carlo replicates (0: none) and seed.
+    tuning : Tuning
+        Filter configuration.
+    samples : int or None
+        Use only the first samples of the record.
+    allow_unidentifiable : bool
+        Go on with structurally unidentifiable parameters.
+    jit : bool
+        Compile the filter step.
+    progress : callable or None
+        Progress callback.
+
+    Returns
+    -------
+    Identification
+
+    Raises
+    ------
+    OptionError
+        When the model has not exactly one input.
+    AnalysisError
+        When parameters are structurally unidentifiable and not allowed.
+
     Examples
     --------
     >>> callable(study)
@@ -269,6 +327,19 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
 def write_identification(result: Identification, out: str | Path, *, force: bool = False) -> list[Path]:
     """Write ``identify.json``, ``fit.png`` (measured vs simulated per output) and ``traces.png``
     (parameter traces over the passes with +-2 sigma bands) into the folder ``out``.
+
+    Parameters
+    ----------
+    result : Identification
+        The result.
+    out : str or Path
+        The folder.
+    force : bool
+        Overwrite existing files.
+
+    Returns
+    -------
+    list of Path
 
     Raises
     ------

@@ -197,7 +197,24 @@ REPRODUCTION_FILES: tuple[str, ...] = ("table2.json", "table2.md", "table2.tex",
 
 
 def write_reproduction(rep: Reproduction, out: str | Path) -> list[Path]:
-    """Write ``table2.json/.md/.tex``, ``branch_table.json`` and Figures 2-3 of a reproduction into ``out``."""
+    """Write ``table2.json/.md/.tex``, ``branch_table.json`` and Figures 2-3 of a reproduction into ``out``.
+
+    Parameters
+    ----------
+    rep : Reproduction
+        The reproduction.
+    out : str or Path
+        The folder (existing files are overwritten).
+
+    Returns
+    -------
+    list of Path
+
+    Raises
+    ------
+    OutputError
+        When a file cannot be written.
+    """
     import json
 
     from obsnl.report.figures import figure2, figure3

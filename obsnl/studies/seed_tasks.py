@@ -91,7 +91,23 @@ def seed_model_path() -> str:
 
 def seed_setup(*, record: Record | None = None, samples: int | None = None, jit: bool = False,
                kind: str = "log") -> Setup:
-    """The seed paper's experiment (on another record when given: resampled to 100 Hz, first 2000 samples)."""
+    """The seed paper's experiment (on another record when given: resampled to 100 Hz, first 2000 samples).
+
+    Parameters
+    ----------
+    record : Record or None
+        Another record (None: Northridge 1994).
+    samples : int or None
+        Use only the first samples.
+    jit : bool
+        Compile the filter step.
+    kind : str
+        Filter coordinates (:func:`obsnl.estimation.setup.coordinates`).
+
+    Returns
+    -------
+    Setup
+    """
     from importlib import resources
 
     from obsnl.estimation.codegen import to_casadi
@@ -150,7 +166,30 @@ def _reported_run(setup: Setup, f: Any, data: Any, name: str, k: int, seed: int,
 def reported_with_fallbacks(setup: Setup, f: Any, name: str, k: int, seed: int, ranking: Sequence[Tuning],
                             fallbacks: int = FALLBACKS) -> tuple[RunResult, tuple[Trajectory, ...] | None]:
     """A reported run on noise seed ``seed``; a diverged attempt is recorded and redone with the next
-    configuration of ``ranking``, at most ``fallbacks`` times (if all diverge, the last is reported)."""
+    configuration of ``ranking``, at most ``fallbacks`` times (if all diverge, the last is reported).
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    f : UKF
+        The filter.
+    name : str
+        Method name recorded in the result.
+    k : int
+        Number of passes.
+    seed : int
+        Noise seed.
+    ranking : sequence of Tuning
+        Configurations, best first.
+    fallbacks : int
+        Largest number of redone attempts.
+
+    Returns
+    -------
+    tuple
+        ``(RunResult, trajectories or None)``.
+    """
     data = make_data(setup, seed)
     result, trs, redone = None, None, []
     for tuning in ranking[:1 + fallbacks]:
