@@ -78,6 +78,7 @@ class BranchTable:
     overall_observable: tuple[str, ...]
     overall_unobservable: tuple[str, ...]
     joint: Mapping[str, tuple[str, ...]] | None = None
+    assumptions: Mapping[str, Any] | None = None
 
     # ------------------------------------------------------------------ io
     @classmethod
@@ -121,6 +122,7 @@ class BranchTable:
             overall_observable=tuple(data["overall"]["observable"]),
             overall_unobservable=tuple(data["overall"]["unobservable"]),
             joint=({k: tuple(v) for k, v in data["joint"].items()} if data.get("joint") is not None else None),
+            assumptions=data.get("assumptions"),
         )
         table._check_consistency()
         return table
@@ -142,6 +144,7 @@ class BranchTable:
             "overall": {"observable": list(self.overall_observable), "unobservable": list(self.overall_unobservable)},
             **({"joint": {k: list(self.joint[k]) for k in ("observable", "unobservable", "inconclusive")}}
                if self.joint is not None else {}),
+            **({"assumptions": dict(self.assumptions)} if self.assumptions else {}),
         }
 
     @property
@@ -270,6 +273,7 @@ class BranchTable:
             joint=(None if getattr(result, "joint", None) is None else
                    {"observable": result.joint.observable, "unobservable": result.joint.unobservable,
                     "inconclusive": result.joint.inconclusive}),
+            assumptions=dict(getattr(result, "assumptions", None) or {}) or None,
         )
         return cls.from_dict(table.to_dict())
 
