@@ -73,10 +73,9 @@ def main(argv=None) -> int:
     np.savetxt(data, cols, delimiter=",", header="time_s,xg_dd,a1,a2", comments="", fmt="%.9g")
     structural = obsnl.analyze(model, seed=0)
     tic = time.perf_counter()
-    # the per-branch union calls beta_i, gamma_i unobservable (each branch sees only beta*sign + gamma), so the
-    # run needs --allow-unidentifiable until the joint verdict lands (notes.md)
-    res = obsnl.identify(model, data, noise={"a1": 0.02, "a2": 0.02, "xg_dd": 0.001}, passes=args.passes,
-                         allow_unidentifiable=True)
+    # the per-branch union calls beta_i, gamma_i unobservable (each branch sees only beta*sign + gamma); the
+    # joint verdict identifies them, so the structural check lets the run go ahead without being told to
+    res = obsnl.identify(model, data, noise={"a1": 0.02, "a2": 0.02, "xg_dd": 0.001}, passes=args.passes)
     wall = time.perf_counter() - tic
     files = write_identification(res, out, force=True)
     errs = {p.name: (None if p.estimate is None else 100 * (p.estimate - truth[p.name]) / truth[p.name])
@@ -94,9 +93,10 @@ def main(argv=None) -> int:
         f"Structural analysis: {len(structural.branches)} branches; the per-branch union calls "
         f"{', '.join(structural.overall_unobservable)} unobservable (each branch sees beta_i and gamma_i only as "
         f"beta_i*sign + gamma_i). That is the union's blind spot, not the structure's: the loading and unloading "
-        f"branches together give beta_i + gamma_i and gamma_i - beta_i. Until the joint verdict lands "
-        f"(`result.joint`, used by `obsnl.studies.identify.structurally_unidentifiable` as soon as it exists) "
-        f"this run needs `--allow-unidentifiable`.", "",
+        f"branches together give beta_i + gamma_i and gamma_i - beta_i, and the joint verdict says so: jointly "
+        f"unobservable {', '.join(structural.joint.unobservable) or 'nothing'}, not decided "
+        f"{', '.join(structural.joint.inconclusive) or 'nothing'}. The structural check of `obsnl identify` uses "
+        f"the joint verdict, so this run needs no `--allow-unidentifiable`.", "",
         f"Filter: {res.method.upper()}, tuning {res.tuning.to_dict()} chosen by the output misfit over "
         f"{len(res.tuning_scores)} configurations, {res.passes} passes, {wall:.0f} s wall (tuning, passes, "
         f"practical identifiability and figures; filter passes {res.seconds:.1f} s). Converged: {res.converged}.", "",
