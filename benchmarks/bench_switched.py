@@ -152,6 +152,9 @@ def main() -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--storeys", default="2,3,4,5,6,8,10,20")
     ap.add_argument("--symident-max-storeys", type=int, default=6, help="symident's 4096-pattern limit")
+    ap.add_argument("--models", default=",".join(SWITCHED), help="switched models to run (comma-separated; '' for none)")
+    ap.add_argument("--symident-timeout", type=float, default=600.0,
+                    help="a building symident has not answered within this many seconds (one call) is reported so")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     warnings.simplefilter("ignore")
@@ -165,7 +168,10 @@ def main() -> int:
             "|---|---:|---|---|---:|---|---|---:|---|"]
     print("\n".join(head))
     rows = []
+    chosen = [m for m in args.models.split(",") if m]
     for name, (states, params, inputs, eqs, outs, expected, why) in SWITCHED.items():
+        if name not in chosen:
+            continue
         model = obsnl.Model(name=name, states=states, parameters=params, inputs=inputs, equations=eqs, outputs=outs)
         sym = None
         if symident is not None:

@@ -82,7 +82,7 @@ def analyze(
         Use the exact dependency-graph decomposition (:mod:`obsnl.observability.decompose`).
     branches
         Labels of the branches to visit (default: every feasible branch; representative branches
-        when the model has more than 12 switching functions, see :mod:`obsnl.model.representatives`).
+        when the model has more than 8 switching functions, see :mod:`obsnl.model.representatives`).
     visited
         Sign patterns a record visits, with the seconds spent in each
         (:func:`obsnl.observability.visited.visited_patterns`); overrides ``branches``.
