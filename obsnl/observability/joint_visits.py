@@ -331,11 +331,12 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
         try:
             run = run_series(side.problem, random.Random(key), K=K, p=p, deadline=deadline, fixed=shared,
                              states=states, input_series=inputs, atom_values=table)
-        except AnalysisError as exc:  # e.g. |g|**N with N unknown: its logarithm is singular on g = 0
+        except AnalysisError:  # e.g. |g|**N with N unknown: its logarithm is singular on g = 0
             return VisitData(plan, np.zeros((0, 0), dtype=np.int64),
                              np.zeros((0, len(model.parameters)), dtype=np.int64),
-                             replace_visit(record, reason=f"the field of side {label} is singular on {text} = 0 "
-                                                          f"({str(exc).rsplit('(', 1)[-1].rstrip(');')})"), used=False)
+                             replace_visit(record, reason=f"the field of side {label} is singular on {text} = 0 (a denominator or a "
+                                                          f"logarithm vanishes there, e.g. |g|**N with N unknown)"),
+                             used=False)
         if run.p != p:
             raise NewPrime(f"surface {text}")
         runs.append(run)

@@ -351,8 +351,9 @@ def to_text(result: AnalysisResult) -> str:
         lines.append(f"  joint unobservable:   {_names(j.unobservable)}")
         if j.inconclusive:
             lines.append(f"  joint not decided:    {_names(j.inconclusive)}: {j.reason}")
-        visits = ", ".join(f"{v.kind} {'/'.join(v.labels)}" + ("" if v.visible or v.kind == "branch" else " (invisible)")
-                           for v in j.visits)
+        visits = ", ".join(f"{v.kind} {'/'.join(v.labels)}" + (
+            f" (skipped: {v.reason})" if v.reason else "" if v.visible or v.kind == "branch" else " (invisible)")
+            for v in j.visits)
         lines.append(f"  joint visits:         {visits}; P(right) >= {probability_text(j.probability)}")
     if result.visited is not None and result.visited.how != "all":
         lines.append(f"  visited branches:     {result.visited.note}")
