@@ -7,7 +7,7 @@ carried by an analysis result, the branch table written from it and the compiled
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -55,13 +55,16 @@ class ModelSignature:
     switching: tuple[str, ...]
 
     @classmethod
-    def of(cls, model: Model) -> ModelSignature:
+    def of(cls, model: Model, *, switching: Sequence[str] | None = None) -> ModelSignature:
         """The signature of a :class:`~obsnl.model.core.Model`.
 
         Parameters
         ----------
         model
             Any model, smooth or not.
+        switching
+            The switching functions as text when the caller has them already (the branches' order and
+            orientation); default: :func:`obsnl.model.switching.switching_functions`.
 
         Returns
         -------
@@ -73,7 +76,8 @@ class ModelSignature:
             name=model.name, fingerprint=model.fingerprint,
             states=tuple(s.name for s in model.states), parameters=tuple(s.name for s in model.parameters),
             inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.output_names),
-            switching=tuple(expr_text(g) for g in switching_functions(model)),
+            switching=tuple(switching) if switching is not None else tuple(
+                expr_text(g) for g in switching_functions(model)),
         )
 
     @classmethod

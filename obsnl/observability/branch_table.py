@@ -152,13 +152,22 @@ class BranchTable:
         """Parameters unidentifiable in every branch: a DUKF that freezes per branch never moves them."""
         return tuple(p for p in self.parameters if all(p in b.unidentifiable_parameters for b in self.branches))
 
-    @property
-    def jointly_identifiable_but_frozen(self) -> tuple[str, ...]:
+    def jointly_identifiable_but_frozen(self, joint_observable: Sequence[str] | None = None) -> tuple[str, ...]:
         """Parameters the joint verdict identifies that every branch freezes (Bouc-Wen beta, gamma): the
-        per-branch DUKF cannot learn them; a reparametrization (``obsnl reparametrize``) can."""
-        if self.joint is None:
-            return ()
-        return tuple(p for p in self.frozen_everywhere if p in self.joint["observable"])
+        per-branch DUKF cannot learn them; a reparametrization (``obsnl reparametrize``) can.
+
+        Parameters
+        ----------
+        joint_observable
+            The jointly observable variables (default: the table's own ``joint`` key; none without it).
+
+        Returns
+        -------
+        tuple of str
+        """
+        if joint_observable is None:
+            joint_observable = self.joint["observable"] if self.joint is not None else ()
+        return tuple(p for p in self.frozen_everywhere if p in joint_observable)
 
     def to_json(self) -> str:
         return json.dumps(self.to_dict(), indent=2) + "\n"

@@ -212,6 +212,12 @@ class VisitData:
     used: bool = True  # False: an invisible or skipped surface
 
 
+def _unused(plan: Plan, model: Model, record: JointVisit) -> VisitData:
+    """A surface visit that adds no rows (invisible, or skipped for the reason in ``record``)."""
+    return VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
+                     record, used=False)
+
+
 def strip_ic(model: Model) -> Model:
     if not model.known_initial_conditions:
         return model
@@ -295,8 +301,7 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
     inputs = {u: [rng.randrange(p) for _ in range(K + 1)] for u in model.inputs}
     record = JointVisit("surface", plan.labels, switching=text, visible=None)
     if g.free_symbols & set(model.unknown_inputs):
-        return VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
-                          replace_visit(record, reason="the switching function depends on an unknown input"), used=False)
+        return _unused(plan, model, replace_visit(record, reason="the switching function depends on an unknown input"))
     values: dict[sp.Symbol, int] = dict(shared)
     values.update(states)
     values.update({u: c[0] for u, c in inputs.items()})
@@ -319,9 +324,8 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
         solved = s
         break
     if solved is None:
-        return VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
-                          replace_visit(record, reason=f"{text} = 0 cannot be solved for a state in which it is affine "
-                                              f"(with a rational, nonzero coefficient at the point)"), used=False)
+        return _unused(plan, model, replace_visit(record, reason=f"{text} = 0 cannot be solved for a state in which it is affine "
+                                              f"(with a rational, nonzero coefficient at the point)"))
     record = replace_visit(record, solved_for=solved.name)
     runs = []
     local: dict = {}  # both sides share the point, so also the time-varying atoms' stand-ins
@@ -332,11 +336,8 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
             run = run_series(side.problem, random.Random(key), K=K, p=p, deadline=deadline, fixed=shared,
                              states=states, input_series=inputs, atom_values=table)
         except AnalysisError:  # e.g. |g|**N with N unknown: its logarithm is singular on g = 0
-            return VisitData(plan, np.zeros((0, 0), dtype=np.int64),
-                             np.zeros((0, len(model.parameters)), dtype=np.int64),
-                             replace_visit(record, reason=f"the field of side {label} is singular on {text} = 0 (a denominator or a "
-                                                          f"logarithm vanishes there, e.g. |g|**N with N unknown)"),
-                             used=False)
+            return _unused(plan, model, replace_visit(record, reason=f"the field of side {label} is singular on {text} = 0 (a denominator or a "
+                                                          f"logarithm vanishes there, e.g. |g|**N with N unknown)"))
         if run.p != p:
             raise NewPrime(f"surface {text}")
         runs.append(run)
@@ -349,18 +350,14 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
     if cols != b_side.problem.columns:  # pragma: no cover - both sides are derived from one model
         raise AnalysisError("internal: the two sides of a surface have different unknowns")
     if not visible:
-        return VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
-                          record, used=False)
+        return _unused(plan, model, record)
     syms = model.symbols
     grow = []
     for c in cols:
         s = syms.get(c)
         d = _mod(sp.diff(g, s), values, p) if s is not None else 0
         if d is None:
-            return VisitData(plan, np.zeros((0, 0), dtype=np.int64),
-                              np.zeros((0, len(model.parameters)), dtype=np.int64),
-                              replace_visit(record, reason=f"the gradient of {text} is not rational at the point"),
-                              used=False)
+            return _unused(plan, model, replace_visit(record, reason=f"the gradient of {text} is not rational at the point"))
         grow.append(d)
     R = np.vstack(ra.rows + rb.rows + [np.array([grow], dtype=np.int64)])
     return _finish(plan, R[:, a_side.priv + a_side.par], a_side.n_priv, p, record)

@@ -173,9 +173,9 @@ def frozen_but_jointly_identifiable(table: BranchTable | None, result: Any) -> t
     """
     if table is None:
         return ()
-    joint = table.joint["observable"] if table.joint is not None else (
-        result.joint.observable if getattr(result, "joint", None) is not None else ())
-    return tuple(p for p in table.frozen_everywhere if p in joint)
+    fresh = getattr(result, "joint", None)
+    return table.jointly_identifiable_but_frozen(
+        None if table.joint is not None or fresh is None else fresh.observable)
 
 
 def _structural_note(structural: Mapping[str, Any]) -> tuple[str, ...]:
