@@ -13,7 +13,7 @@ import numpy as np
 
 from obsnl.errors import EstimatorError
 from obsnl.estimation.records import rms
-from obsnl.estimation.simulate import simulate
+from obsnl.estimation.simulate import simulate, simulate_many
 from obsnl.estimation.ukf import Trajectory
 from obsnl.estimation.setup import DIVERGED, Data, Setup, output_misfit
 
@@ -151,15 +151,18 @@ def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: Any, *, step: 
     numpy.ndarray
     """
     m, dt = setup.model, setup.record.dt
-    cols = []
+    thetas = []
     for i in range(m.np):
-        ys = []
         for s in (step, -step):
             th = np.array(theta, float)
             th[i] *= np.exp(s)
-            ys.append(simulate(m, theta=th, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, refine=setup.refine,
-                               jit=setup.jit).y)
-        cols.append(((ys[0] - ys[1]) / (2 * step) / np.asarray(sigma, float)).ravel())
+            thetas.append(th)
+    sims = simulate_many(m, thetas=thetas, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, refine=setup.refine,
+                         jit=setup.jit)
+    for got in sims:
+        if isinstance(got, EstimatorError):
+            raise got
+    cols = [((sims[2 * i].y - sims[2 * i + 1].y) / (2 * step) / np.asarray(sigma, float)).ravel() for i in range(m.np)]
     return np.array(cols).T
 
 

@@ -10,6 +10,7 @@ to first order there; ``tests/test_seed_models.py`` checks the default against s
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,10 +19,11 @@ import numpy as np
 import casadi as ca
 
 from obsnl.errors import DataError, EstimatorError
+from obsnl.estimation.evaluate import call
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.estimation.numeric import NumericModel
 
-__all__ = ["Simulation", "simulate"]
+__all__ = ["Simulation", "simulate", "simulate_many"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -43,19 +45,33 @@ _RUNS: dict[tuple, tuple[NumericModel, ca.Function]] = {}
 
 
 def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, refine: int,
-            jit: bool) -> ca.Function:
-    """``(x0, theta, u0s, u1s) -> X`` over ``T - 1`` steps; with ``jit`` one compiled loop (cached per model)."""
-    key = (id(model), float(dt), int(T), method, int(substeps), int(refine), bool(jit))
+            jit: bool, n: int = 1) -> ca.Function:
+    """``(x0, theta, u0s, u1s) -> X`` over ``T - 1`` steps for ``n`` parameter vectors side by side; with
+    ``jit`` one compiled step (cached per model) looped over the record."""
+    key = (id(model), float(dt), int(T), method, int(substeps), int(refine), bool(jit), int(n))
     if key not in _RUNS:
         step = model.step(dt, method=method, substeps=substeps, refine=refine)
+        X, P = ca.MX.sym("x", model.nx), ca.MX.sym("p", model.np)
+        U0, U1 = ca.MX.sym("u0", model.nu, T - 1), ca.MX.sym("u1", model.nu, T - 1)
         if jit:  # one step in C; the fallbacks stay conditional (evaluated only where needed)
-            X, P = ca.MX.sym("x", model.nx), ca.MX.sym("p", model.np)
-            U0, U1 = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
-            step = jit_compile(ca.Function(step.name(), [X, P, U0, U1], step(X, P, U0, U1)))
-        _RUNS[key] = (model, step.mapaccum(T - 1))  # keeps the model alive: its id stays unique
+            Xs, Ps = ca.MX.sym("x", model.nx), ca.MX.sym("p", model.np)
+            Ua, Ub = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
+            step = jit_compile(ca.Function(step.name(), [Xs, Ps, Ua, Ub], step(Xs, Ps, Ua, Ub)))
+        one = ca.Function("simulation", [X, P, U0, U1], [step.mapaccum(T - 1)(X, P, U0, U1)[0]])
+        _RUNS[key] = (model, one if n == 1 else one.map(n, "serial"))  # keeps the model alive: its id stays unique
         if len(_RUNS) > 64:
             _RUNS.pop(next(iter(_RUNS)))
     return _RUNS[key][1]
+
+
+def _checked_input(model: NumericModel, u: Any) -> np.ndarray:
+    u = np.asarray(u, float)
+    u = u.reshape(-1, 1) if u.ndim == 1 else u
+    if u.ndim != 2 or u.shape[1] != model.nu or len(u) < 2:
+        raise DataError(f"input must have shape (T, {model.nu}) with T >= 2, got {u.shape}")
+    if not np.all(np.isfinite(u)):
+        raise DataError("input contains NaN/inf")
+    return u
 
 
 def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, method: str = "auto",
@@ -85,19 +101,66 @@ def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, met
     EstimatorError
         The simulation left the finite numbers (the parameters make the model unstable).
     """
-    u = np.asarray(u, float)
-    u = u.reshape(-1, 1) if u.ndim == 1 else u
-    if u.ndim != 2 or u.shape[1] != model.nu or len(u) < 2:
-        raise DataError(f"input must have shape (T, {model.nu}) with T >= 2, got {u.shape}")
-    if not np.all(np.isfinite(u)):
-        raise DataError("input contains NaN/inf")
-    theta, x0 = np.asarray(theta, float), np.asarray(x0, float)
-    if theta.shape != (model.np,) or x0.shape != (model.nx,):
+    got = simulate_many(model, thetas=[theta], x0=x0, u=u, dt=dt, method=method, substeps=substeps, refine=refine,
+                        jit=jit)[0]
+    if isinstance(got, EstimatorError):
+        raise got
+    return got
+
+
+def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any, dt: float, method: str = "auto",
+                  substeps: int = 100, refine: int = 8, jit: bool = False) -> list[Simulation | EstimatorError]:
+    """:func:`simulate` for several parameter vectors in one compiled call (the same numbers as one at a time).
+
+    Parameters
+    ----------
+    model : NumericModel
+        Compiled model.
+    thetas : sequence of array_like
+        Parameter vectors (model order).
+    x0 : array_like
+        Initial state.
+    u : array_like
+        Input samples, ``(T,)`` or ``(T, nu)``.
+    dt : float
+        Sampling interval.
+    method : str
+        Discretisation.
+    substeps : int
+        RK4 substeps per sample.
+    refine : int
+        Finer substeps of a crossing substep.
+    jit : bool
+        Compile the step to C.
+
+    Returns
+    -------
+    list
+        Per parameter vector its :class:`Simulation`, or the :class:`~obsnl.errors.EstimatorError` of a
+        simulation that left the finite numbers.
+
+    Raises
+    ------
+    DataError
+        Bad shapes or non-finite input.
+    """
+    u = _checked_input(model, u)
+    thetas = [np.asarray(th, float) for th in thetas]
+    x0 = np.asarray(x0, float)
+    if not thetas or any(th.shape != (model.np,) for th in thetas) or x0.shape != (model.nx,):
         raise DataError(f"theta needs {model.np} values and x0 {model.nx}")
-    run = _runner(model, dt, len(u), method, substeps, refine, jit)
-    X = np.vstack([x0, np.asarray(run(x0, theta, u[:-1].T, u[1:].T)[0]).T])
-    if not np.all(np.isfinite(X)):
-        k = int(np.flatnonzero(~np.all(np.isfinite(X), axis=1))[0])
-        raise EstimatorError(f"the simulation of {model.name!r} left the finite numbers at sample {k}")
-    Y = np.asarray(model.h.map(len(u))(X.T, theta, u.T)).T
-    return Simulation(t=np.arange(len(u)) * dt, x=X, y=Y, states=model.states, outputs=model.outputs)
+    n, T = len(thetas), len(u)
+    run = _runner(model, dt, T, method, substeps, refine, jit, n)
+    Xs = call(run, [np.repeat(x0[:, None], n, axis=1), np.column_stack(thetas), np.tile(u[:-1].T, n),
+                    np.tile(u[1:].T, n)])[0]
+    out: list[Simulation | EstimatorError] = []
+    h = model.h.map(T)
+    for i, th in enumerate(thetas):
+        X = np.vstack([x0, Xs[:, i * (T - 1):(i + 1) * (T - 1)].T])
+        if not np.all(np.isfinite(X)):
+            k = int(np.flatnonzero(~np.all(np.isfinite(X), axis=1))[0])
+            out.append(EstimatorError(f"the simulation of {model.name!r} left the finite numbers at sample {k}"))
+            continue
+        Y = call(h, [X.T, np.repeat(th[:, None], T, axis=1), u.T])[0].T
+        out.append(Simulation(t=np.arange(T) * dt, x=X, y=Y, states=model.states, outputs=model.outputs))
+    return out

@@ -33,6 +33,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import DataError, EstimatorError
+from obsnl.estimation.evaluate import call
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.estimation.numeric import NumericModel, ParameterMap
 from obsnl.estimation.trajectory import Estimate, Trajectory
@@ -339,15 +340,34 @@ class UKF:
             Estimates at every sample; raises :class:`~obsnl.errors.EstimatorError` at the first NaN.
         """
         ys, us = check_inputs(ys, us, ny=self.model.ny, nu=self.model.nu)
-        T = len(ys)
-        fn = self._compiled()
-        key = ("mapaccum", self._key(), T)
-        if key not in self.cache:
-            self.cache[key] = fn.mapaccum("run", T - 1, 3, {})
         tic = time.perf_counter()
-        out = self.cache[key](est0.z, est0.P, est0.active, us[:-1].T, us[1:].T, ys[1:].T, self.Q, self.R,
-                              self._hyp(), self.allowed, *self._bounds(), self.cap)
-        return self._trajectory(est0, [np.asarray(o) for o in out], T, t, time.perf_counter() - tic)
+        out = self._evaluate([est0], [(ys, us)], [self])
+        return self._trajectory(est0, out, len(ys), t, time.perf_counter() - tic)
+
+    def _runs(self, T: int, n: int) -> ca.Function:
+        """``n`` runs over ``T`` samples in one Function: the step looped over the record (``mapaccum``), each
+        run's options given once (not per step), the runs side by side (casadi ``map``)."""
+        key = ("runs", self._key(), T, n)
+        if key not in self.cache:
+            step = self._compiled()
+            acc = step.mapaccum("run", T - 1, 3, {})
+            ins = [ca.MX.sym(f"i{j}", *(step.size_in(j) if j not in (3, 4, 5) else acc.size_in(j)))
+                   for j in range(step.n_in())]
+            one = ca.Function("one_run", ins, acc(*ins))
+            self.cache[key] = one if n == 1 else one.map(n, "serial")
+        return self.cache[key]
+
+    def _evaluate(self, est0s: Sequence[Estimate], data: Sequence[tuple[np.ndarray, np.ndarray]],
+                  filters: Sequence[UKF]) -> list[np.ndarray]:
+        """The raw outputs of the runs (checked records of one length), runs side by side in each output."""
+        cols = lambda rows: np.hstack(rows)  # noqa: E731 - runs side by side, as casadi's map wants them
+        args = [cols([e.z[:, None] for e in est0s]), cols([e.P for e in est0s]),
+                cols([e.active[:, None] for e in est0s]), cols([u[:-1].T for _, u in data]),
+                cols([u[1:].T for _, u in data]), cols([y[1:].T for y, _ in data]),
+                cols([f.Q for f in filters]), cols([f.R for f in filters]), cols([f._hyp()[:, None] for f in filters]),
+                cols([f.allowed[:, None] for f in filters]), cols([f._bounds()[0][:, None] for f in filters]),
+                cols([f._bounds()[1][:, None] for f in filters]), cols([f.cap[:, None] for f in filters])]
+        return call(self._runs(len(data[0][0]), len(data)), args)
 
     def run_batch(self, est0s: Sequence[Estimate], ys: Sequence[Any], us: Sequence[Any], *,
                   filters: Sequence[UKF] | None = None) -> list[Trajectory | EstimatorError]:
@@ -374,24 +394,8 @@ class UKF:
         T, n = len(data[0][0]), len(data)
         if any(len(y) != T for y, _ in data):
             raise EstimatorError("run_batch needs records of one length")
-        key = ("batch", self._key(), T, n)
-        if key not in self.cache:
-            step = self._compiled()
-            acc = step.mapaccum("run", T - 1, 3, {})
-            # one run with its options given once (not per step), then mapped over the runs
-            ins = [ca.MX.sym(f"i{j}", *(step.size_in(j) if j not in (3, 4, 5) else acc.size_in(j)))
-                   for j in range(step.n_in())]
-            one = ca.Function("one_run", ins, acc(*ins))
-            self.cache[key] = one.map(n, "serial")
-        cols = lambda rows: np.hstack(rows)  # noqa: E731 - runs side by side, as casadi's map wants them
-        args = [cols([e.z[:, None] for e in est0s]), cols([e.P for e in est0s]),
-                cols([e.active[:, None] for e in est0s]), cols([u[:-1].T for _, u in data]),
-                cols([u[1:].T for _, u in data]), cols([y[1:].T for y, _ in data]),
-                cols([f.Q for f in filters]), cols([f.R for f in filters]), cols([f._hyp()[:, None] for f in filters]),
-                cols([f.allowed[:, None] for f in filters]), cols([f._bounds()[0][:, None] for f in filters]),
-                cols([f._bounds()[1][:, None] for f in filters]), cols([f.cap[:, None] for f in filters])]
         tic = time.perf_counter()
-        out = [np.asarray(o) for o in self.cache[key](*args)]
+        out = self._evaluate(est0s, data, filters)
         seconds = (time.perf_counter() - tic) / n
         result: list[Trajectory | EstimatorError] = []
         for i in range(n):
