@@ -65,3 +65,49 @@ def test_bad_executor_options_are_one_line_errors():
         Executor(scheduler=42)
 
 
+
+
+def _leaky_identification(executor):
+    """A one-state model identified from scipy data with 4 Monte-Carlo replicates on ``executor``."""
+    import numpy as np
+
+    from obsnl.estimation.experiments import Tuning
+
+    from .radau_data import noisy
+    from .test_identify_measured import _leaky
+
+    t = np.arange(200) * 0.02
+    u = 0.05 * np.sin(2 * np.pi * 0.3 * t) + 0.03 * np.sin(2 * np.pi * 1.1 * t)
+    y = noisy(_leaky(t, u, 2.0, 0.0), 0.01, np.random.default_rng(1))
+    m = obsnl.Model(name="leaky", states=["x"], parameters=["a"], inputs=["u"], equations={"x": "u - a*x"},
+                    outputs={"y": "x"})
+    res = obsnl.identify(m, {"t": t, "u": u, "y": y}, guess={"a": 2.8}, noise={"u": 1e-3, "y": 0.01}, passes=1,
+                         replicates=4, seed=5, tuning=Tuning(0.3, 0.0, 1.0), executor=executor)
+    return res.to_dict()["practical_identifiability"]["monte_carlo"]
+
+
+def test_identify_replicates_in_processes_and_on_dask_equal_the_serial_run():
+    serial = _leaky_identification(Executor(workers=1))
+    assert serial["replicates"] == 4 and serial["relative_std"][0] > 0  # four replicates that converged
+    assert _leaky_identification(Executor(workers=2)) == serial
+    distributed = pytest.importorskip("distributed")
+    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+        assert _leaky_identification(Executor(scheduler=client)) == serial
+
+
+def test_a_model_travels_to_workers_as_its_model_file_dictionary():
+    """Pickling a model pickles its model-file dictionary (plain data): the copy has the same fingerprint
+    and dictionary, for every packaged model and published case that loads."""
+    import pickle
+
+    from .conftest import MODELS
+
+    models = [obsnl.load_model(p) for p in list(PEER_CASE_FILES) + sorted(MODELS.glob("*.toml"))
+              if "cantilever_link" not in str(p)]  # the link study's file is a structure, not a model
+    assert len(models) > 50
+    for m in models:
+        blob = pickle.dumps(m)
+        assert b"sympy" not in blob  # no symbolic objects travel, only text
+        copy = pickle.loads(blob)
+        assert copy.fingerprint == m.fingerprint and copy.to_dict() == m.to_dict()

@@ -77,6 +77,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--samples", type=int, default=None, help="use only the first samples of a --record")
     p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
     p.add_argument("--replicates", type=int, default=0, help="Monte-Carlo replicates (0: off, else >= 3)")
+    _add_executor(p)
     p.add_argument("--out", default=None, metavar="DIR", help="output folder (default: print only)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.set_defaults(func=_cmd_identify)
@@ -107,7 +108,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     t = (args.s0, args.q_theta, args.q_x, args.gate)
     tuning = None if t == (None,) * 4 else Tuning(*(d if v is None else v for v, d in zip(t, (0.2, 0.0, 1.0, float("inf")))))
     opts = dict(guess=guess, method=args.method, table=args.table, passes=args.passes, replicates=args.replicates,
-                seed=args.seed, allow_unidentifiable=args.allow_unidentifiable, jit=args.jit)
+                seed=args.seed, allow_unidentifiable=args.allow_unidentifiable, jit=args.jit, executor=_executor(args))
     tuned = args.data is not None and tuning is None
     bars: list[Any] = []  # the bar starts with the first pass (after the checks: a refusal prints one line)
 

@@ -30,13 +30,15 @@ import numpy as np
 
 from obsnl.errors import EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
-from obsnl.estimation.experiments import Tuning, make_data, make_filter, monte_carlo, run_passes
+from obsnl.estimation.experiments import Tuning, make_data, make_filter, run_passes
 from obsnl.estimation.measured import NOISE_FLOOR, Measured, estimate_noise
 from obsnl.estimation.practical import practical_identifiability
 from obsnl.estimation.records import Record
+from obsnl.estimation.replicates import spread_on
 from obsnl.estimation.setup import DIVERGED, Data, Setup, coordinates, output_misfit
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import Trajectory
+from obsnl.executor import Executor
 from obsnl.observability.branch_table import BranchTable
 
 __all__ = ["check_replicates", "simulation_study", "identify_measured", "Identification", "ParameterEstimate",
@@ -215,7 +217,7 @@ def error_of(estimate: float | None, true: float) -> tuple[float | None, str | N
 
 def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, grid: Sequence[Tuning], passes: int,
          replicates: int, seed: int, progress: Callable[[], Any] | None, hold: bool = True,
-         ) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
+         executor: Executor | None = None) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
     """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner."""
     check_replicates(replicates)
     if passes < 1:
@@ -242,8 +244,8 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
     misfit = output_misfit(setup, theta, data)
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
     if replicates and not prac.inconclusive:
-        prac = prac.with_spread(monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates,
-                                            seed=seed))
+        prac = prac.with_spread(spread_on(executor, setup, filt, theta, data, tuning, method=method, table=table,
+                                          passes=passes, replicates=replicates, seed=seed))
     return tuning, tuple(scores), trs, held, prac, misfit
 
 
@@ -304,8 +306,8 @@ _COMMON = ("the model is right: its equations describe the structure, its known 
 def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, float], method: str = "ukf",
                       table: BranchTable | None = None, noise: Mapping[str, float] | None = None,
                       grid: Sequence[Tuning] = MEASURED_GRID, passes: int = 3, replicates: int = 0, seed: int = 0,
-                      jit: bool = False, hold: bool = False,
-                      progress: Callable[[], Any] | None = None) -> Identification:
+                      jit: bool = False, hold: bool = False, progress: Callable[[], Any] | None = None,
+                      executor: Executor | None = None) -> Identification:
     """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
 
     Parameters
@@ -333,6 +335,9 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         off; every parameter is estimated in every pass and the flags are judged at the end).
     progress
         Called after every pass (tuning passes included: ``len(grid) + passes`` calls when tuning).
+    executor
+        Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`; default: this process);
+        the same numbers on any executor.
 
     Returns
     -------
@@ -369,7 +374,8 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                   coordinates=coordinates(num, "log", reference=guess))
     d = Data(seed=None, u=data.u, y=data.y)
     tuning, scores, trs, held, prac, misfit = _run(setup, d, method=method, table=table, grid=grid, passes=passes,
-                                                   replicates=replicates, seed=seed, progress=progress, hold=hold)
+                                                   replicates=replicates, seed=seed, progress=progress, hold=hold,
+                                                   executor=executor)
     how = ("tuned without any true value: each configuration of the grid ran one pass, the smallest free-run "
            "output misfit won" if len(grid) > 1 else "one tuning, as given")
     return _result(setup, d, mode="measured", method=method, passes=passes, tuning=tuning, scores=scores, trs=trs,
@@ -381,7 +387,8 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
 def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, float], method: str = "ukf",
                      table: BranchTable | None = None, seed: int = 0, noise: float = 1e-3,
                      tuning: Tuning = Tuning(0.2, 0.0, 1.0), passes: int = 3, replicates: int = 0,
-                     jit: bool = False, progress: Callable[[], Any] | None = None) -> Identification:
+                     jit: bool = False, progress: Callable[[], Any] | None = None,
+                     executor: Executor | None = None) -> Identification:
     """Identify ``num`` from its own simulated response to ``record`` (the truth: ``num.values``).
 
     Parameters
@@ -404,6 +411,8 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
         Compile the filter to C.
     progress
         Called after every pass.
+    executor
+        Where the Monte-Carlo replicates run (default: this process).
 
     Returns
     -------
@@ -427,7 +436,8 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
                   fit_substeps=FIT_SUBSTEPS, coordinates=coordinates(num, "log", reference=guess))
     data = make_data(setup, seed)
     tuning_, scores, trs, held, prac, misfit = _run(setup, data, method=method, table=table, grid=(tuning,),
-                                                    passes=passes, replicates=replicates, seed=seed, progress=progress)
+                                                    passes=passes, replicates=replicates, seed=seed, progress=progress,
+                                                    executor=executor)
     levels = {c: {"ratio": noise, "source": "given (simulated)"} for c in num.inputs + num.outputs}
     return _result(setup, data, mode="simulation", method=method, passes=passes, tuning=tuning_, scores=scores,
                    trs=trs, held=held, prac=prac, misfit=misfit, noise=levels, data_dict=record.to_dict(), seed=seed,

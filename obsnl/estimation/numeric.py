@@ -138,6 +138,9 @@ class NumericModel:
     jumps
         For each switching function, whether the vector field may jump where it crosses 0
         (:func:`obsnl.model.branches.field_jumps`; empty: all may). Only these crossings are refined.
+    source
+        ``(model, switching, constants)`` as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
+        otherwise): the specification a worker compiles again (:mod:`obsnl.estimation.replicates`).
     """
 
     signature: ModelSignature
@@ -148,6 +151,7 @@ class NumericModel:
     jac_x: ca.Function = field(repr=False)
     jac_u: ca.Function = field(repr=False)
     jumps: tuple[bool, ...] = ()
+    source: Any = field(default=None, repr=False, compare=False)
 
     @property
     def name(self) -> str:

@@ -334,6 +334,11 @@ class Model:
         kwargs.setdefault("outputs", {})
         return cls(metadata=meta, **kwargs)
 
+    def __reduce__(self) -> tuple[Any, tuple[dict[str, Any]]]:
+        """Pickled as its model-file dictionary (plain data; parsed again on loading): how a model travels to
+        worker processes and Dask workers."""
+        return (type(self).from_dict, (self.to_dict(),))
+
     def to_dict(self) -> dict[str, Any]:
         """The model as a model-file dictionary (expressions as strings); inverse of :meth:`from_dict`."""
         d: dict[str, Any] = {"name": self.name}

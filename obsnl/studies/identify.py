@@ -27,6 +27,7 @@ from obsnl.estimation.experiments import Tuning
 from obsnl.estimation.identify import MEASURED_GRID, Identification, identify_measured, simulation_study
 from obsnl.estimation.measured import Measured, measured, read_measured
 from obsnl.estimation.records import Record, read_record
+from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
 from obsnl.model.signature import ModelSignature
@@ -192,7 +193,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
              guess: Mapping[str, float] | None = None, noise: Mapping[str, float] | None = None, method: str = "ukf",
              table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
              tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool = False,
-             hold: bool = False, progress: Callable[[], Any] | None = None) -> Identification:
+             hold: bool = False, progress: Callable[[], Any] | None = None,
+             executor: Executor | None = None) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
     Parameters
@@ -221,6 +223,9 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         (:func:`obsnl.estimation.identify.identify_measured`; default off).
     progress
         Called after every filter pass.
+    executor
+        Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`: local processes or a Dask
+        cluster; default: this process). The same numbers on any executor.
 
     Returns
     -------
@@ -252,7 +257,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
     res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
                             grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
-                            replicates=replicates, seed=seed, jit=jit, hold=hold, progress=progress)
+                            replicates=replicates, seed=seed, jit=jit, hold=hold, progress=progress,
+                            executor=executor)
     return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
 
 
@@ -260,7 +266,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
           noise: float = 1e-3, method: str = "ukf", table: BranchTable | str | Path | None = None, passes: int = 3,
           replicates: int = 0, seed: int = 0, tuning: Tuning = Tuning(0.2, 0.0, 1.0), samples: int | None = None,
           allow_unidentifiable: bool = False, jit: bool = False,
-          progress: Callable[[], Any] | None = None) -> Identification:
+          progress: Callable[[], Any] | None = None, executor: Executor | None = None) -> Identification:
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
 
     Same structural check as :func:`identify`; see
@@ -292,6 +298,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         Compile the filter step.
     progress : callable or None
         Progress callback.
+    executor : Executor or None
+        Where the Monte-Carlo replicates run (default: this process).
 
     Returns
     -------
@@ -320,7 +328,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
                           f"{[s.name for s in model.inputs]}: give measured data with --data")
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
     res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise, tuning=tuning,
-                           passes=passes, replicates=replicates, jit=jit, progress=progress)
+                           passes=passes, replicates=replicates, jit=jit, progress=progress, executor=executor)
     return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
 
 

@@ -1,0 +1,181 @@
+"""The Monte-Carlo replicates of an identification on an executor (local processes or a Dask cluster).
+
+A task carries a :class:`Recipe` (the symbolic model, the set-up's plain values, the filter's kind
+and the branch table's JSON), the estimate, the record and which replicates to run, never a
+compiled object: a worker rebuilds the experiment once (:func:`rebuild`; compiled filters come from
+the disk cache when ``jit``) and keeps it for its next tasks. Replicate ``b`` draws its noise from
+``[seed, b]`` (:func:`obsnl.estimation.experiments.mc_replicates`), so any split of the replicates
+over any number of workers gives the numbers of the run in one process.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import pickle
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from obsnl.errors import OptionError
+from obsnl.estimation.experiments import Tuning, mc_replicates, mc_spread, mc_truth, monte_carlo
+from obsnl.estimation.practical import Spread
+from obsnl.estimation.setup import Data, Setup, coordinates, make_filter
+from obsnl.estimation.ukf import UKF
+from obsnl.executor import Executor
+
+__all__ = ["Recipe", "recipe_of", "rebuild", "replicates_task", "spread_on"]
+
+#: Replicates per task (any split gives the same replicates).
+CHUNK = 4
+
+_SETUP_FIELDS = ("record", "truth", "guess", "noise", "substeps", "refine", "jit", "y_true", "channel_noise",
+                 "fit_substeps")
+
+
+@dataclass(frozen=True, eq=False)
+class Recipe:
+    """What a worker needs to rebuild an identification experiment: plain data only."""
+
+    model: Any
+    switching: tuple[str, ...] | None
+    constants: Mapping[str, float] | None
+    setup: Mapping[str, Any]
+    method: str
+    table_json: str | None
+
+    @property
+    def key(self) -> str:
+        return hashlib.sha256(pickle.dumps(self)).hexdigest()
+
+
+def recipe_of(setup: Setup, method: str, table: Any) -> Recipe:
+    """The recipe of an experiment whose compiled model came from :func:`obsnl.estimation.codegen.to_casadi`
+    and whose parameters are estimated in log coordinates with the sign of the guesses.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    method : str
+        ``"ukf"`` or ``"dukf"``.
+    table : BranchTable or None
+        The DUKF's branch table.
+
+    Returns
+    -------
+    Recipe
+
+    Raises
+    ------
+    OptionError
+        The compiled model does not say how it was made (built by hand, not by ``to_casadi``).
+    """
+    source = setup.model.source
+    if source is None:
+        raise OptionError(f"the compiled model {setup.model.name!r} was not made by obsnl.to_casadi; run its "
+                          f"replicates in this process (workers=1)")
+    model, switching, constants = source
+    return Recipe(model=model, switching=switching, constants=constants,
+                  setup={k: getattr(setup, k) for k in _SETUP_FIELDS}, method=method,
+                  table_json=None if table is None else table.to_json())
+
+
+_BUILT: dict[str, tuple[Setup, UKF]] = {}
+
+
+def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
+    """The experiment and its filter, built once per process.
+
+    Parameters
+    ----------
+    recipe : Recipe
+        What to build.
+
+    Returns
+    -------
+    tuple
+        ``(Setup, filter)``.
+    """
+    key = recipe.key
+    if key not in _BUILT:
+        from obsnl.estimation.codegen import to_casadi
+        from obsnl.observability.branch_table import BranchTable
+
+        num = to_casadi(recipe.model, switching=recipe.switching, constants=recipe.constants)
+        setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]),
+                      **recipe.setup)
+        table = None if recipe.table_json is None else BranchTable.from_dict(json.loads(recipe.table_json))
+        _BUILT.clear()  # one experiment at a time per worker
+        _BUILT[key] = (setup, make_filter(setup, recipe.method, table=table))
+    return _BUILT[key]
+
+
+def replicates_task(task: tuple[Recipe, tuple[float, ...], np.ndarray, np.ndarray, np.ndarray, Tuning, int, int,
+                                tuple[int, ...]]) -> list[tuple]:
+    """Replicates ``indices`` of one Monte-Carlo check: ``(log|estimate| or None, held)`` per replicate.
+
+    Parameters
+    ----------
+    task : tuple
+        ``(recipe, theta, u, y, y_hat, tuning, passes, seed, indices)``.
+
+    Returns
+    -------
+    list of tuple
+    """
+    recipe, theta, u, y, y_hat, tuning, passes, seed, indices = task
+    setup, filt = rebuild(recipe)
+    return mc_replicates(setup, filt, Data(seed=None, u=u, y=y), y_hat, tuning, passes=passes, seed=seed,
+                         indices=indices)
+
+
+def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *,
+              method: str, table: Any, passes: int, replicates: int, seed: int) -> Spread:
+    """:func:`obsnl.estimation.experiments.monte_carlo` with the replicates on ``executor`` (None or one
+    worker: this process); the same spread whatever the executor.
+
+    Parameters
+    ----------
+    executor : Executor or None
+        Where the replicates run.
+    setup : Setup
+        The experiment.
+    filt : UKF
+        Its filter (used in this process).
+    theta : numpy.ndarray
+        The estimate (the replicates' truth).
+    data : Data
+        The measured record.
+    tuning : Tuning
+        The filter configuration.
+    method : str
+        ``"ukf"`` or ``"dukf"`` (rebuilt by the workers).
+    table : BranchTable or None
+        The DUKF's branch table.
+    passes : int
+        Passes per replicate.
+    replicates : int
+        Number of replicates (at least 3).
+    seed : int
+        Root seed of the replicates.
+
+    Returns
+    -------
+    Spread
+    """
+    if executor is None or executor.kind == "serial":
+        return monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates, seed=seed)
+    if replicates < 3:
+        raise OptionError(f"monte_carlo needs at least 3 replicates, got {replicates}")
+    recipe = recipe_of(setup, method, table)
+    y_hat = mc_truth(setup, theta, data)
+    if y_hat is None:
+        return mc_spread(setup, [], replicates=replicates, seed=seed, simulated=False)
+    th = tuple(float(v) for v in theta)
+    tasks = [(recipe, th, data.u, data.y, y_hat, tuning, passes, seed, tuple(range(lo, min(replicates, lo + CHUNK))))
+             for lo in range(0, replicates, CHUNK)]
+    outcomes = [o for chunk in executor.map(replicates_task, tasks) for o in chunk]
+    return mc_spread(setup, outcomes, replicates=replicates, seed=seed)
