@@ -27,7 +27,7 @@ from obsnl.estimation.ukf import Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS
 from obsnl.model.files import catalogue_path
 
-__all__ = ["Spec", "context", "tuning_task", "reported_task", "replicates_task", "RunResult", "seed_setup",
+__all__ = ["Spec", "context", "compile_task", "tuning_task", "reported_task", "replicates_task", "RunResult", "seed_setup",
            "seed_model_path", "reported_with_fallbacks", "SEED_GUESS", "FALLBACKS"]
 
 #: Initial guesses of Table 2 of the seed paper (DESIGN.md).
@@ -235,6 +235,16 @@ def context(spec: Spec) -> dict[str, Any]:
         _CONTEXTS.clear()  # one experiment at a time per worker
         _CONTEXTS[key] = {"setup": setup, "table": table, "filters": filters}
     return _CONTEXTS[key]
+
+
+def compile_task(task: tuple[Spec, str]) -> float:
+    """Build (JIT: compile into the disk cache, or load from it) one filter of the experiment; its seconds."""
+    import time
+
+    spec, name = task
+    tic = time.perf_counter()
+    context(spec)["filters"][name]._compiled()
+    return time.perf_counter() - tic
 
 
 def tuning_task(task: tuple[Spec, str, Tuning, int, int]) -> dict[int, float]:
