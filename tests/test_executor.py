@@ -111,3 +111,13 @@ def test_a_model_travels_to_workers_as_its_model_file_dictionary():
         assert b"sympy" not in blob  # no symbolic objects travel, only text
         copy = pickle.loads(blob)
         assert copy.fingerprint == m.fingerprint and copy.to_dict() == m.to_dict()
+
+
+def test_a_shallow_copy_of_a_model_does_not_parse_it_again():
+    # derived_model (branches, blocks) copies a validated model and swaps fields: a copy must share the
+    # validated parts, not go through the model-file dictionary that pickling uses
+    import copy
+
+    m = obsnl.load_model("obsnl:damage_healing_reparam")
+    c = copy.copy(m)
+    assert c is not m and c.equations is m.equations and c.fingerprint == m.fingerprint

@@ -334,6 +334,12 @@ class Model:
         kwargs.setdefault("outputs", {})
         return cls(metadata=meta, **kwargs)
 
+    def __copy__(self) -> Model:
+        """A shallow copy of the validated fields (no parse; :func:`obsnl.model.branches.derived_model`)."""
+        new = object.__new__(type(self))
+        new.__dict__.update(self.__dict__)
+        return new
+
     def __reduce__(self) -> tuple[Any, tuple[dict[str, Any]]]:
         """Pickled as its model-file dictionary (plain data; parsed again on loading): how a model travels to
         worker processes and Dask workers."""
