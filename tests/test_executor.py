@@ -81,8 +81,11 @@ def _leaky_identification(executor):
     y = noisy(_leaky(t, u, 2.0, 0.0), 0.01, np.random.default_rng(1))
     m = obsnl.Model(name="leaky", states=["x"], parameters=["a"], inputs=["u"], equations={"x": "u - a*x"},
                     outputs={"y": "x"})
+    ticks = []
     res = obsnl.identify(m, {"t": t, "u": u, "y": y}, guess={"a": 2.8}, noise={"u": 1e-3, "y": 0.01}, passes=1,
-                         replicates=4, seed=5, tuning=Tuning(0.3, 0.0, 1.0), executor=executor)
+                         replicates=4, seed=5, tuning=Tuning(0.3, 0.0, 1.0), executor=executor,
+                         progress=lambda: ticks.append(1))
+    assert len(ticks) == 1 + 4  # one pass, then one step per replicate (the progress bar's total)
     return res.to_dict()["practical_identifiability"]["monte_carlo"]
 
 

@@ -114,7 +114,9 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     def tick() -> None:
         if not bars:
-            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0), "pass"))
+            # passes (tuning passes included), then one step per Monte-Carlo replicate
+            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0) + max(args.replicates, 0),
+                                  "step"))
         if bars[0] is not None:
             bars[0].update(1)
     try:

@@ -245,7 +245,10 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
     if replicates and not prac.inconclusive:
         prac = prac.with_spread(spread_on(executor, setup, filt, theta, data, tuning, method=method, table=table,
-                                          passes=passes, replicates=replicates, seed=seed))
+                                          passes=passes, replicates=replicates, seed=seed, progress=progress))
+    elif replicates and progress:  # not run (the estimate diverged): the count still ends at its total
+        for _ in range(replicates):
+            progress()
     return tuning, tuple(scores), trs, held, prac, misfit
 
 
@@ -334,7 +337,8 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         Hold the parameters flagged once the filter reached the noise floor at their guess (default:
         off; every parameter is estimated in every pass and the flags are judged at the end).
     progress
-        Called after every pass (tuning passes included: ``len(grid) + passes`` calls when tuning).
+        Called after every pass (tuning passes included: ``len(grid) + passes`` calls when tuning) and
+        once per Monte-Carlo replicate.
     executor
         Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`; default: this process);
         the same numbers on any executor.
@@ -410,7 +414,7 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     jit
         Compile the filter to C.
     progress
-        Called after every pass.
+        Called after every pass and once per Monte-Carlo replicate.
     executor
         Where the Monte-Carlo replicates run (default: this process).
 

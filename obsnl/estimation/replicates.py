@@ -13,7 +13,7 @@ from __future__ import annotations
 import hashlib
 import json
 import pickle
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -133,7 +133,8 @@ def replicates_task(task: tuple[Recipe, tuple[float, ...], np.ndarray, np.ndarra
 
 
 def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *,
-              method: str, table: Any, passes: int, replicates: int, seed: int) -> Spread:
+              method: str, table: Any, passes: int, replicates: int, seed: int,
+              progress: Callable[[], Any] | None = None) -> Spread:
     """:func:`obsnl.estimation.experiments.monte_carlo` with the replicates on ``executor`` (None or one
     worker: this process); the same spread whatever the executor.
 
@@ -161,21 +162,27 @@ def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndar
         Number of replicates (at least 3).
     seed : int
         Root seed of the replicates.
+    progress : callable or None
+        Called once per replicate done.
 
     Returns
     -------
     Spread
     """
     if executor is None or executor.kind == "serial":
-        return monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates, seed=seed)
+        return monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates, seed=seed,
+                           progress=progress)
     if replicates < 3:
         raise OptionError(f"monte_carlo needs at least 3 replicates, got {replicates}")
     recipe = recipe_of(setup, method, table)
     y_hat = mc_truth(setup, theta, data)
     if y_hat is None:
+        for _ in range(replicates if progress else 0):
+            progress()
         return mc_spread(setup, [], replicates=replicates, seed=seed, simulated=False)
     th = tuple(float(v) for v in theta)
     tasks = [(recipe, th, data.u, data.y, y_hat, tuning, passes, seed, tuple(range(lo, min(replicates, lo + CHUNK))))
              for lo in range(0, replicates, CHUNK)]
-    outcomes = [o for chunk in executor.map(replicates_task, tasks) for o in chunk]
+    done = (lambda i, chunk: [progress() for _ in chunk]) if progress else None
+    outcomes = [o for chunk in executor.map(replicates_task, tasks, done=done) for o in chunk]
     return mc_spread(setup, outcomes, replicates=replicates, seed=seed)

@@ -222,7 +222,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         Hold poorly informed parameters at their guess once the filter reaches the noise floor
         (:func:`obsnl.estimation.identify.identify_measured`; default off).
     progress
-        Called after every filter pass.
+        Called after every filter pass and once per Monte-Carlo replicate.
     executor
         Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`: local processes or a Dask
         cluster; default: this process). The same numbers on any executor.
