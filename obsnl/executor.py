@@ -10,15 +10,19 @@ randomness is fixed by the task itself (its noise seed, or a child of one root s
 
 from __future__ import annotations
 
+import hashlib
 import os
+import pickle
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 from obsnl.errors import OptionError
 
-__all__ = ["Executor", "spawn_seeds"]
+T = TypeVar("T")
+
+__all__ = ["Executor", "spawn_seeds", "built_once"]
 
 
 @dataclass(frozen=True)
@@ -135,6 +139,40 @@ class _Session:
             if done:
                 done(i, results[i])
         return results
+
+
+_BUILT: dict[str, Any] = {}
+
+
+def built_once(spec: Any, build: Callable[[], T]) -> T:
+    """What ``build()`` makes for the plain-data specification ``spec``, built once per process.
+
+    A worker keeps one experiment at a time (the last one built): tasks of one run share it, a task
+    of another run replaces it. The key is the pickled ``spec``, so equal specifications share.
+
+    Parameters
+    ----------
+    spec : picklable
+        The specification (plain data: no compiled objects).
+    build : callable
+        Makes the object from nothing but ``spec``.
+
+    Returns
+    -------
+    object
+        The object built for ``spec``.
+
+    Examples
+    --------
+    >>> built_once(("demo", 1), lambda: [1]) is built_once(("demo", 1), lambda: [2])
+    True
+    """
+    key = hashlib.sha256(pickle.dumps(spec)).hexdigest()
+    if key not in _BUILT:
+        value = build()
+        _BUILT.clear()  # one experiment at a time per worker
+        _BUILT[key] = value
+    return _BUILT[key]
 
 
 def spawn_seeds(root: int, n: int) -> list[int]:

@@ -10,9 +10,7 @@ over any number of workers gives the numbers of the run in one process.
 
 from __future__ import annotations
 
-import hashlib
 import json
-import pickle
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
@@ -24,7 +22,7 @@ from obsnl.estimation.experiments import Tuning, mc_replicates, mc_spread, mc_tr
 from obsnl.estimation.practical import Spread
 from obsnl.estimation.setup import Data, Setup, coordinates, make_filter
 from obsnl.estimation.ukf import UKF
-from obsnl.executor import Executor
+from obsnl.executor import Executor, built_once
 
 __all__ = ["Recipe", "recipe_of", "rebuild", "replicates_task", "spread_on"]
 
@@ -45,10 +43,6 @@ class Recipe:
     setup: Mapping[str, Any]
     method: str
     table_json: str | None
-
-    @property
-    def key(self) -> str:
-        return hashlib.sha256(pickle.dumps(self)).hexdigest()
 
 
 def recipe_of(setup: Setup, method: str, table: Any) -> Recipe:
@@ -83,11 +77,8 @@ def recipe_of(setup: Setup, method: str, table: Any) -> Recipe:
                   table_json=None if table is None else table.to_json())
 
 
-_BUILT: dict[str, tuple[Setup, UKF]] = {}
-
-
 def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
-    """The experiment and its filter, built once per process.
+    """The experiment and its filter, built once per process (:func:`obsnl.executor.built_once`).
 
     Parameters
     ----------
@@ -99,8 +90,8 @@ def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
     tuple
         ``(Setup, filter)``.
     """
-    key = recipe.key
-    if key not in _BUILT:
+
+    def build() -> tuple[Setup, UKF]:
         from obsnl.estimation.codegen import to_casadi
         from obsnl.observability.branch_table import BranchTable
 
@@ -108,9 +99,9 @@ def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
         setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]),
                       **recipe.setup)
         table = None if recipe.table_json is None else BranchTable.from_dict(json.loads(recipe.table_json))
-        _BUILT.clear()  # one experiment at a time per worker
-        _BUILT[key] = (setup, make_filter(setup, recipe.method, table=table))
-    return _BUILT[key]
+        return setup, make_filter(setup, recipe.method, table=table)
+
+    return built_once(recipe, build)
 
 
 def replicates_task(task: tuple[Recipe, tuple[float, ...], np.ndarray, np.ndarray, np.ndarray, Tuning, int, int,

@@ -9,9 +9,7 @@ task's own seeds, so the results do not depend on where or in which order the ta
 
 from __future__ import annotations
 
-import hashlib
 import json
-import pickle
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -25,6 +23,7 @@ from obsnl.estimation.experiments import (DIVERGED, Practical, Setup, Tuning, co
 from obsnl.estimation.records import Record
 from obsnl.estimation.ukf import Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS
+from obsnl.executor import built_once
 from obsnl.model.files import catalogue_path
 
 __all__ = ["Spec", "context", "compile_task", "tuning_task", "reported_task", "replicates_task", "RunResult", "seed_setup",
@@ -204,8 +203,6 @@ def reported_with_fallbacks(setup: Setup, f: Any, name: str, k: int, seed: int, 
     return result, trs
 
 
-
-
 @dataclass(frozen=True, eq=False)
 class Spec:
     """What a worker needs to rebuild the seed experiment: plain data only."""
@@ -215,26 +212,19 @@ class Spec:
     jit: bool
     table_json: str
 
-    @property
-    def key(self) -> str:
-        return hashlib.sha256(pickle.dumps((self.record, self.samples, self.jit, self.table_json))).hexdigest()
-
-
-_CONTEXTS: dict[str, dict[str, Any]] = {}
-
 
 def context(spec: Spec) -> dict[str, Any]:
-    """``{"setup", "table", "filters"}`` for ``spec``, built once per process."""
-    key = spec.key
-    if key not in _CONTEXTS:
+    """``{"setup", "table", "filters"}`` for ``spec``, built once per process (:func:`obsnl.executor.built_once`)."""
+
+    def build() -> dict[str, Any]:
         from obsnl.observability.branch_table import BranchTable
         setup = seed_setup(record=spec.record, samples=spec.samples, jit=spec.jit)
         table = BranchTable.from_dict(json.loads(spec.table_json))
         filters = {"ukf": make_filter(setup, "ukf"), "dukf": make_filter(setup, "dukf", table=table),
                    "dukf-zero": make_filter(setup, "dukf", table=table, cross="zero")}
-        _CONTEXTS.clear()  # one experiment at a time per worker
-        _CONTEXTS[key] = {"setup": setup, "table": table, "filters": filters}
-    return _CONTEXTS[key]
+        return {"setup": setup, "table": table, "filters": filters}
+
+    return built_once((spec.record, spec.samples, spec.jit, spec.table_json), build)
 
 
 def compile_task(task: tuple[Spec, str]) -> float:
