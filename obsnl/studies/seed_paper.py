@@ -24,6 +24,7 @@ from obsnl.studies.seed_tasks import (FALLBACKS, SEED_GUESS, RunResult, Spec, co
                                       reported_task, reported_with_fallbacks, seed_model_path, seed_setup,
                                       tuning_task)
 from obsnl.estimation.identify import check_replicates
+from obsnl.estimation.replicates import CHUNK
 from obsnl.estimation.ukf import Trajectory
 
 __all__ = ["RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce",
@@ -44,8 +45,9 @@ TUNING_SEEDS = 1000
 #: replicate noise seeds ``[MC_SEEDS + seed, b]``, disjoint from the reported and tuning seeds.
 REPLICATES = 32
 MC_SEEDS = 5000
-#: Monte-Carlo replicates per task of the executor (any split gives the same replicates).
-MC_CHUNK = 8
+#: Monte-Carlo replicates per task of the executor (any split gives the same replicates): the
+#: same chunk as ``identify --replicates``.
+MC_CHUNK = CHUNK
 
 
 @dataclass(frozen=True, eq=False)
