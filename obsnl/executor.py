@@ -100,9 +100,10 @@ class _Session:
             self.own = isinstance(ex.scheduler, str)
             try:
                 self.client = Client(ex.scheduler, timeout="30s") if self.own else ex.scheduler
-            except OSError as exc:
-                raise OptionError(f"cannot reach the Dask scheduler {ex.scheduler!r} ({exc}); start one with "
-                                  f"`dask scheduler` and workers with `dask worker ADDRESS`") from None
+            except (OSError, ValueError) as exc:  # unreachable, or not an address at all
+                raise OptionError(f"cannot reach the Dask scheduler {ex.scheduler!r} ({exc}); give an address like "
+                                  f"tcp://HOST:8786, start one with `dask scheduler` and workers with "
+                                  f"`dask worker ADDRESS`") from None
 
     def close(self) -> None:
         if self.pool is not None:

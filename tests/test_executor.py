@@ -63,8 +63,18 @@ def test_bad_executor_options_are_one_line_errors():
         Executor(workers=0)
     with pytest.raises(OptionError, match="scheduler must be"):
         Executor(scheduler=42)
+    pytest.importorskip("distributed")
+    with pytest.raises(OptionError, match="cannot reach the Dask scheduler 'bogus'.*tcp://HOST:8786"):
+        Executor(scheduler="bogus").map(abs, [1])  # not an address: a one-line error, not a ValueError
 
 
+def test_cli_bad_scheduler_address_exits_2(capsys, tmp_path):
+    from obsnl.cli import main
+
+    pytest.importorskip("distributed")
+    assert main(["report", "obsnl:coulomb_friction", "--out", str(tmp_path / "r"), "--scheduler", "bogus"]) == 2
+    err = capsys.readouterr().err
+    assert "cannot reach the Dask scheduler 'bogus'" in err and "Traceback" not in err and len(err.splitlines()) == 1
 
 
 def _leaky_identification(executor):
