@@ -117,6 +117,15 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
     EstimatorError
         A non-positive prior std, or a collapsed parameter covariance.
     """
+    trs, fixed, _ = _run_passes(setup, filt, data, tuning, passes=passes, inflate=inflate, fix_flagged=fix_flagged,
+                                progress=progress, hold_below=hold_below)
+    return trs, fixed
+
+
+def _run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int, inflate: float = 16.0,
+                fix_flagged: bool = True, progress: Callable[[], None] | None = None, hold_below: float | None = None,
+                ) -> tuple[tuple[Trajectory, ...], tuple[str, ...], dict[int, float]]:
+    """:func:`run_passes`, also returning the output misfits it computed on the way (``{pass index: misfit}``)."""
     Q, R = _noise(setup, filt, data, tuning)
     f = filt.with_options(Q=Q, R=R, gate=tuning.gate)
     nx = setup.model.nx
@@ -124,6 +133,7 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
     Px = np.full(nx, 1e-8)  # the record starts at rest
     out: list[Trajectory] = []
     fixed: tuple[str, ...] = ()
+    misfits: dict[int, float] = {}
     held_once = False
     for k in range(passes):
         bad = [p for p, v in zip(filt.names[nx:], Pth) if not (np.isfinite(v) and v > 0)]
@@ -140,7 +150,7 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
         theta, Pth = tr.theta[-1].copy(), inflate * np.diag(tr.P[-1])[nx:]
         if k == passes - 1:
             break
-        misfit = output_misfit(setup, theta, data)
+        misfit = misfits[k] = output_misfit(setup, theta, data)
         if not np.isfinite(misfit):  # no later pass can start from an estimate that cannot be simulated
             break
         ready = k == 0 if hold_below is None else (not held_once and misfit <= hold_below * setup.noise_level)
@@ -152,7 +162,7 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
             for p in fixed:  # poorly informed: back to the prior guess, not estimated any more
                 theta[setup.model.parameters.index(p)] = setup.guess[p]
             Pth = np.where(f.allowed[nx:] > 0, Pth, tuning.s0 ** 2)
-    return tuple(out), fixed
+    return tuple(out), fixed, misfits
 
 
 def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *, passes: int,
@@ -377,7 +387,8 @@ def tune_one(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int
     dict of int to float
     """
     try:
-        trs, _ = run_passes(setup, filt, data, tuning, passes=passes)
-        return {1: output_misfit(setup, trs[0].theta[-1], data), passes: output_misfit(setup, trs[-1].theta[-1], data)}
+        trs, _, seen = _run_passes(setup, filt, data, tuning, passes=passes)
+        first = seen[0] if 0 in seen else output_misfit(setup, trs[0].theta[-1], data)
+        return {1: first, passes: output_misfit(setup, trs[-1].theta[-1], data)}
     except ObsnlError:
         return {1: float("inf"), passes: float("inf")}

@@ -5,8 +5,11 @@ the compiler flags and the casadi version, and loads the shared library from a p
 cache folder (:func:`cache_directory`), compiling it only when it is not there. The key is the code
 itself: the same model, filter options and record step give the same file, a changed model or
 option a new one, and a stale library can never be loaded. The flags are those of
-:func:`obsnl.estimation.numeric.jit_options` (``-O3 -march=native``, no fast-math), so the numbers
-equal those of casadi's own ``jit`` option. A library is written under a temporary name and renamed
+:func:`obsnl.estimation.numeric.jit_options` (``-O3 -march=native -ffp-contract=off``, no fast-math),
+so the numbers equal those of casadi's own ``jit`` option, and those of casadi's evaluation without
+compiling, bit for bit: with floating-point contraction off the compiler never fuses a product and
+a sum into one rounding (an FMA), so the compiled code rounds every operation as casadi's virtual
+machine does, whatever the compiler inlines. A library is written under a temporary name and renamed
 into place, so processes that compile the same Function at once do not see half-written files.
 """
 
@@ -27,7 +30,7 @@ from obsnl.errors import EstimatorError, OutputError
 __all__ = ["jit_compile", "cache_directory", "FLAGS"]
 
 #: Compiler flags (as :func:`obsnl.estimation.numeric.jit_options`).
-FLAGS = ("-O3", "-march=native")
+FLAGS = ("-O3", "-march=native", "-ffp-contract=off")
 _LOADED: dict[str, ca.Function] = {}
 
 

@@ -42,7 +42,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import ModelError
-from obsnl.estimation.jitcache import jit_compile
+from obsnl.estimation.jitcache import FLAGS, jit_compile
 from obsnl.model.signature import ModelSignature
 
 __all__ = ["NumericModel", "ParameterMap", "jit_options", "jit_directory", "GAMMA_ROS2"]
@@ -55,11 +55,14 @@ def jit_options() -> dict[str, Any]:
 
     ``-O3 -march=native``: the code is compiled on the machine that runs it; on the UKF step of the
     seed model this is about 1.8x faster than ``-O1`` for the same compile time (no fast-math: the
-    NaN/inf guards must keep their meaning). The compiler's scratch files (C source, object, shared
-    library) go to :func:`jit_directory`, never to the working directory.
+    NaN/inf guards must keep their meaning). ``-ffp-contract=off``: no product and sum fused into
+    one rounding, so the compiled Function gives casadi's uncompiled numbers bit for bit (with
+    contraction the last bits depended on what the compiler inlined; the cost is within the
+    noise of a filter pass). The compiler's scratch files (C source, object, shared library) go to
+    :func:`jit_directory`, never to the working directory.
     """
     return {"jit": True, "compiler": "shell",
-            "jit_options": {"flags": ["-O3", "-march=native"], "verbose": False, "directory": jit_directory()}}
+            "jit_options": {"flags": list(FLAGS), "verbose": False, "directory": jit_directory()}}
 
 
 _PRIVATE_JIT: list[str] = []  # a fresh private folder of this process, when the shared one cannot be trusted
@@ -152,6 +155,7 @@ class NumericModel:
     jac_u: ca.Function = field(repr=False)
     jumps: tuple[bool, ...] = ()
     source: Any = field(default=None, repr=False, compare=False)
+    _steps: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # built steps, by options
 
     @property
     def name(self) -> str:
@@ -245,6 +249,14 @@ class NumericModel:
         if int(refine) < 1:
             raise ModelError(f"refine must be at least 1, got {refine!r}")
         n = int(substeps)
+        key = (float(dt), method, n, None if scale is None else np.asarray(scale, float).tobytes(), float(threshold),
+               bool(jit), int(refine))
+        if key not in self._steps:  # building the integrators takes about 50 ms; a step is reused many times
+            self._steps[key] = self._build_step(dt, method, n, scale, threshold, jit, int(refine))
+        return self._steps[key]
+
+    def _build_step(self, dt: float, method: str, n: int, scale: Any, threshold: float, jit: bool,
+                    refine: int) -> ca.Function:
         fns = self.integrators(dt, substeps=n, scale=scale, jit=jit, refine=refine)
         x, p = ca.SX.sym("x", self.nx), ca.SX.sym("p", self.np)
         u0, u1 = ca.SX.sym("u0", self.nu), ca.SX.sym("u1", self.nu)

@@ -64,6 +64,16 @@ def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, 
     return _RUNS[key][1]
 
 
+def _outputs(model: NumericModel, T: int) -> ca.Function:
+    """The output map over ``T`` samples (built once per model and length)."""
+    key = ("h", id(model), int(T))
+    if key not in _RUNS:
+        _RUNS[key] = (model, model.h.map(int(T)))
+        if len(_RUNS) > 64:
+            _RUNS.pop(next(iter(_RUNS)))
+    return _RUNS[key][1]
+
+
 def _checked_input(model: NumericModel, u: Any) -> np.ndarray:
     u = np.asarray(u, float)
     u = u.reshape(-1, 1) if u.ndim == 1 else u
@@ -154,7 +164,7 @@ def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any
     Xs = call(run, [np.repeat(x0[:, None], n, axis=1), np.column_stack(thetas), np.tile(u[:-1].T, n),
                     np.tile(u[1:].T, n)])[0]
     out: list[Simulation | EstimatorError] = []
-    h = model.h.map(T)
+    h = _outputs(model, T)
     for i, th in enumerate(thetas):
         X = np.vstack([x0, Xs[:, i * (T - 1):(i + 1) * (T - 1)].T])
         if not np.all(np.isfinite(X)):

@@ -244,7 +244,10 @@ class UKF:
         """Model states and parameters of filter means ``z`` (``(L,)`` or ``(T, L)``)."""
         z = np.atleast_2d(z)
         nx = self.model.nx
-        th = np.asarray(self.coordinates.forward.map(len(z))(z[:, nx:].T)).T
+        key = ("forward", id(self.coordinates), len(z))
+        if key not in self.cache:  # keeps the coordinates alive with it: their id stays unique
+            self.cache[key] = (self.coordinates, self.coordinates.forward.map(len(z)))
+        th = call(self.cache[key][1], [z[:, nx:].T])[0].T
         return z[:, :nx] * self.state_scale, th
 
     def initial(self, *, x0: Any, theta0: Any, P0: Any) -> Estimate:

@@ -3,7 +3,8 @@
 Sigma points (scaled unscented transform, Julier 2002) from a Cholesky factor over the *active*
 coordinates, every sigma point through the full non-smooth discrete model (``Function.map``; RK4,
 with the implicit ROS2 fallback only for the sigma points where RK4 is unstable, see
-:mod:`obsnl.estimation.codegen`), unscented mean and covariance, the DUKF's frozen-active covariance rule
+:mod:`obsnl.estimation.codegen`; the two sigma points of a frozen coordinate are the mean point bit
+for bit and get its propagation without computing it again), unscented mean and covariance, the DUKF's frozen-active covariance rule
 (:mod:`obsnl.estimation.dukf`), sigma points redrawn from the predicted mean and covariance for the update (so
 that ``Q`` reaches ``P_yy``; on a linear model the filter is then exactly the Kalman filter), a gain
 with the Joseph-like covariance ``P+ = P- - K P_zy^T - P_zy K^T + K P_yy K^T`` (PSD for *any* gain),
@@ -126,18 +127,24 @@ def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Fu
     return sig, prop
 
 
-def _fallback_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], scale: Any,
-                    npts: int) -> ca.Function:
-    """``(X, Xp, stiff, crossed, u0, u1) -> Xp'``: per sigma point, ROS2 (``refine * substeps``) where
-    RK4 was stiff, RK4 with the crossing substep refined where a watched switching function changed
-    sign; evaluated only there."""
+def _point_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], scale: Any,
+                 prop: ca.Function) -> ca.Function:
+    """``(zc, u0, u1, skip, xp0, stiff0, crossed0) -> (zc+, stiff, crossed)``: one sigma point through
+    ``prop`` (RK4 and the probe), then ROS2 (``refine * substeps``) where RK4 was stiff, or RK4 with the
+    crossing substep refined where a watched switching function changed sign; each fallback is
+    evaluated only where needed. ``skip = 1``: the point is the mean point (its coordinate is frozen,
+    so the sigma point equals the mean bit for bit): the mean point's result ``(xp0, stiff0, crossed0)``
+    is copied instead of computed again."""
     nx, L, nu_ = model.nx, model.nx + len(coords.names), model.nu
     sc = ca.DM(np.asarray(scale, float))
-    zM, xM, sM, cM = ca.MX.sym("zc", L), ca.MX.sym("xr", L), ca.MX.sym("stiff"), ca.MX.sym("crossed")
-    u0M, u1M = ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_)
+    zM, u0M, u1M = ca.MX.sym("zc", L), ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_)
+    xr, sM, cM = prop(zM, u0M, u1M)
     fine = ca.vertcat(fns["fine"](zM[:nx] * sc, coords.forward(zM[nx:]), u0M, u1M, sM) / sc, zM[nx:])
-    out = ca.if_else(ca.logic_or(sM, cM), fine, xM, True)
-    return ca.Function("fallback", [zM, xM, sM, cM, u0M, u1M], [out]).map(npts)
+    point = ca.Function("point", [zM, u0M, u1M], [ca.if_else(ca.logic_or(sM, cM), fine, xr, True), sM, cM])
+    skip, x0M, s0M, c0M = ca.MX.sym("skip"), ca.MX.sym("xp0", L), ca.MX.sym("stiff0"), ca.MX.sym("crossed0")
+    done = ca.vertcat(x0M, s0M, c0M)
+    out = ca.if_else(skip, done, ca.vertcat(*point(zM, u0M, u1M)), True)
+    return ca.Function("sigma_point", [zM, u0M, u1M, skip, x0M, s0M, c0M], [out[:L], out[L], out[L + 1]])
 
 
 def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: str) -> ca.Function:
@@ -223,7 +230,8 @@ def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: 
 
 
 def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_scale: np.ndarray,
-               method: str, substeps: int, cross: str = "regression", refine: int = 8) -> ca.Function:
+               method: str, substeps: int, cross: str = "regression", refine: int = 8,
+               skip_frozen: bool = True) -> ca.Function:
     """The filter step ``(z, P, u0, u1, y, active, Q, R, hyp, lo, hi, cap)
     -> (z+, P+, y_pred, nu, S, interventions, implicit, refined)``.
 
@@ -254,6 +262,10 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
         The DUKF cross-covariance rule.
     refine : int
         Finer substeps of a crossing substep.
+    skip_frozen : bool
+        The two sigma points of a frozen coordinate are the mean point (bit for bit: their column
+        of the Cholesky factor is zeroed by the mask); True copies the mean point's propagation to
+        them, False propagates them too (the same numbers, for checking).
 
     Returns
     -------
@@ -271,7 +283,7 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     scale = np.asarray(state_scale, float)
     fns = model.integrators(dt, substeps=substeps, scale=scale, refine=refine)
     sig, prop = _sigma_block(model, coords, fns, scale, method)
-    fix = _fallback_block(model, coords, fns, scale, 2 * L + 1)
+    point = _point_block(model, coords, fns, scale, prop)
     upd = _update_block(model, coords, scale, cross)
 
     z, P, a, hyp = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("active", L), ca.MX.sym("hyp", 4)
@@ -279,9 +291,12 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     Q, R = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny)
     lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
     X, S, n_pivot = sig(z, P, a, hyp)
-    Xp, stiff, crossed = prop.map(2 * L + 1)(X, u0, u1)
+    x0, s0, c0 = point(X[:, 0], u0, u1, 0, ca.MX.zeros(L), 0, 0)  # the mean point
+    # the pair of sigma points of a frozen coordinate is the mean point: copied, not propagated again
+    skip = ca.repmat((1 - a).T, 1, 2) if skip_frozen else ca.MX.zeros(1, 2 * L)
+    Xr, sr, cr = point.map(2 * L)(X[:, 1:], u0, u1, skip, x0, s0, c0)
+    Xp, stiff, crossed = ca.horzcat(x0, Xr), ca.horzcat(s0, sr), ca.horzcat(c0, cr)
     n_implicit, n_refined = ca.sum2(stiff), ca.sum2(crossed)
-    Xp = ca.if_else(n_implicit + n_refined > 0, fix(X, Xp, stiff, crossed, u0, u1), Xp, True)
     zn, Pn, yp, nu, Syy, n_pivot2, counts = upd(z, P, a, hyp, S, Xp, u1, y, Q, R, lo, hi, cap)
     interventions = ca.vertcat(n_pivot + n_pivot2, counts)
     return ca.Function("ukf_step", [z, P, u0, u1, y, a, Q, R, hyp, lo, hi, cap],
