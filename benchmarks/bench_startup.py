@@ -6,8 +6,9 @@ Plain script (no pytest):
     python benchmarks/bench_startup.py [--repeat 7] [--out reports/benchmarks/startup.md]
 
 Each round starts, in this order, ``python -c pass``, ``python -c "import sympy"``,
-``python -c "import obsnl"`` and ``python -m obsnl analyze obsnl:coulomb_friction``; the medians of
-the rounds are reported. Byte-code is written on a first round that is not counted (as after an
+``python -c "import obsnl"``, ``python -m obsnl analyze obsnl:coulomb_friction`` and the same analysis
+through :func:`obsnl.cli.main` with a normal interpreter exit (which frees every object first: what
+:func:`obsnl.cli.run` skips); the medians of the rounds are reported. Byte-code is written on a first round that is not counted (as after an
 installation).
 """
 
@@ -30,6 +31,9 @@ COMMANDS = {
     "import sympy": ["-c", "import sympy"],
     "import obsnl": ["-c", "import obsnl"],
     "obsnl analyze obsnl:coulomb_friction": ["-m", "obsnl", "analyze", "obsnl:coulomb_friction"],
+    # the same command with the interpreter torn down at exit (how the command ended before obsnl.cli.run)
+    "the same, interpreter torn down at exit": ["-c", "import sys; from obsnl.cli import main; "
+                                                "sys.exit(main(sys.argv[1:]))", "analyze", "obsnl:coulomb_friction"],
 }
 
 

@@ -1,8 +1,6 @@
 """``python -m obsnl`` runs the command line."""
 
-import sys
-
-from obsnl.cli import main
+from obsnl.cli import run
 
 if __name__ == "__main__":  # worker processes (spawn) import this module without running the command line
-    sys.exit(main())
+    run()

@@ -73,3 +73,32 @@ def test_console_script_runs_as_module():
     r = subprocess.run([sys.executable, "-m", "obsnl", "branches", str(MODELS / "coulomb_friction.toml")],
                        capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and "(a) v > 0" in r.stdout
+
+
+def _untimed(doc):
+    """The document without its wall-clock fields (``seconds``)."""
+    if isinstance(doc, dict):
+        return {k: _untimed(v) for k, v in doc.items() if "seconds" not in k}
+    return [_untimed(v) for v in doc] if isinstance(doc, list) else doc
+
+
+def test_the_program_ends_without_teardown_but_loses_nothing(tmp_path, capsys):
+    """``obsnl.cli.run`` (the program) skips only the freeing of objects at exit: the printed output, a
+    written file, the exit codes (0, and 2 with its one-line error) and the atexit handlers are those
+    of a normal exit. Expected output: the in-process ``main`` on the same arguments."""
+    model = str(MODELS / "coulomb_friction.toml")
+    code, want, _ = run(["analyze", model, "--seed", "3", "--format", "json"], capsys)
+    assert code == 0
+    prog = ("import atexit, sys; atexit.register(lambda: print('atexit ran', file=sys.stderr)); "
+            "from obsnl.cli import run; run()")
+    r = subprocess.run([sys.executable, "-c", prog, "analyze", model, "--seed", "3", "--format", "json"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "atexit ran" in r.stderr
+    assert _untimed(json.loads(r.stdout)) == _untimed(json.loads(want))  # a pipe is block-buffered: flushed
+    out = tmp_path / "a.json"
+    r = subprocess.run([sys.executable, "-m", "obsnl", "analyze", model, "--seed", "3", "--format", "json",
+                        "-o", str(out)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and _untimed(json.loads(out.read_text())) == _untimed(json.loads(want))
+    r = subprocess.run([sys.executable, "-m", "obsnl", "analyze", str(tmp_path / "missing.toml")],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and r.stderr.count("\n") == 1 and "Traceback" not in r.stderr
