@@ -4,7 +4,9 @@ propagate the sigma points of frozen coordinates changes no bit.
 - Compiled vs uncompiled: the C code is compiled without floating-point contraction
   (``-ffp-contract=off``), so every operation is rounded as casadi's virtual machine rounds it.
   Checked on whole UKF and DUKF runs (the DUKF freezes coordinates by branch, one run holds two
-  parameters fixed, the records cross the switching surfaces, so the refined substeps run too).
+  parameters fixed, the records cross the switching surfaces, so the refined substeps run too), and
+  on the simulations behind the misfits and the sensitivities (one parameter vector so far off that
+  every step needs the implicit fallback).
 - Frozen sigma points: the Cholesky factor of ``A P A + U`` has the unit vector as the column of a
   frozen coordinate (its row and column of ``A P A`` are zero, its diagonal is 1), the mask
   ``A`` zeroes it, so that coordinate's two sigma points are the mean plus and minus an exact zero:
@@ -27,7 +29,7 @@ from obsnl.estimation.codegen import log_map
 from obsnl.estimation.ukf import UKF
 from obsnl.estimation.ukf_step import build_step
 
-from .test_batched_filter import _runs
+from .test_batched_filter import _data, _runs
 from .test_dukf import NUM, SCALE, _dukf
 
 FIELDS = ("z", "P", "active", "innovations", "interventions", "implicit", "refined")
@@ -49,6 +51,29 @@ def test_compiled_filter_runs_equal_uncompiled_runs_bit_for_bit(kind, tmp_path, 
             a, b = getattr(fast, name), getattr(plain, name)
             assert a.tobytes() == b.tobytes(), name  # every bit, the sign of a zero included
     assert plain.refined.sum() > 0  # the records cross a watched switching surface inside a step
+
+
+@pytest.mark.skipif(not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="needs a C compiler")
+def test_compiled_simulations_equal_uncompiled_ones_bit_for_bit(tmp_path, monkeypatch):
+    """The simulations behind the misfits and the sensitivities: several parameter vectors at once,
+    one of them far off (stiff: the implicit fallback runs)."""
+    from obsnl.estimation.simulate import simulate_many
+
+    monkeypatch.setenv("OBSNL_CACHE_DIR", str(tmp_path / "cache"))
+    u, _ = _data()
+    theta = np.array([float(NUM.values[p]) for p in NUM.parameters])
+    thetas = [theta, theta * 1.01, theta * np.r_[np.ones(len(theta) - 3), 1e3, 1.0, 0.3]]
+    runs = {jit: simulate_many(NUM, thetas=thetas, x0=np.zeros(NUM.nx), u=u, dt=0.01, substeps=4, jit=jit)
+            for jit in (True, False)}
+    for a, b in zip(runs[True], runs[False]):
+        assert type(a) is type(b)
+        if not isinstance(a, Exception):
+            assert a.x.tobytes() == b.x.tobytes() and a.y.tobytes() == b.y.tobytes()
+    step, x, implicit = NUM.step(0.01, substeps=4), np.zeros(NUM.nx), 0
+    for k in range(len(u) - 1):  # the third vector takes the implicit fallback (tiny yield displacement)
+        x, flag, _ = step(x, thetas[2], u[k], u[k + 1])
+        implicit += int(flag)
+    assert implicit > 0 and runs[True][0].x.any()
 
 
 def test_frozen_sigma_points_are_copied_without_changing_a_bit():
