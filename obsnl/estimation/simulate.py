@@ -10,7 +10,7 @@ to first order there; ``tests/test_seed_models.py`` checks the default against s
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,12 +44,23 @@ class Simulation:
 _RUNS: dict[tuple, tuple[NumericModel, ca.Function]] = {}
 
 
+def _built(key: tuple, model: NumericModel, build: Callable[[], ca.Function]) -> ca.Function:
+    """``build()`` once per ``key`` of ``model`` (the last 64 kept; the entry keeps the model alive, so
+    its id in the key stays unique)."""
+    key = (id(model), *key)
+    if key not in _RUNS:
+        _RUNS[key] = (model, build())
+        if len(_RUNS) > 64:
+            _RUNS.pop(next(iter(_RUNS)))
+    return _RUNS[key][1]
+
+
 def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, refine: int,
             jit: bool, n: int = 1) -> ca.Function:
     """``(x0, theta, u0s, u1s) -> X`` over ``T - 1`` steps for ``n`` parameter vectors side by side; with
     ``jit`` one compiled step (cached per model) looped over the record."""
-    key = (id(model), float(dt), int(T), method, int(substeps), int(refine), bool(jit), int(n))
-    if key not in _RUNS:
+
+    def build() -> ca.Function:
         step = model.step(dt, method=method, substeps=substeps, refine=refine)
         X, P = ca.MX.sym("x", model.nx), ca.MX.sym("p", model.np)
         U0, U1 = ca.MX.sym("u0", model.nu, T - 1), ca.MX.sym("u1", model.nu, T - 1)
@@ -58,20 +69,14 @@ def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, 
             Ua, Ub = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
             step = jit_compile(ca.Function(step.name(), [Xs, Ps, Ua, Ub], step(Xs, Ps, Ua, Ub)))
         one = ca.Function("simulation", [X, P, U0, U1], [step.mapaccum(T - 1)(X, P, U0, U1)[0]])
-        _RUNS[key] = (model, one if n == 1 else one.map(n, "serial"))  # keeps the model alive: its id stays unique
-        if len(_RUNS) > 64:
-            _RUNS.pop(next(iter(_RUNS)))
-    return _RUNS[key][1]
+        return one if n == 1 else one.map(n, "serial")
+
+    return _built(("run", float(dt), int(T), method, int(substeps), int(refine), bool(jit), int(n)), model, build)
 
 
 def _outputs(model: NumericModel, T: int) -> ca.Function:
     """The output map over ``T`` samples (built once per model and length)."""
-    key = ("h", id(model), int(T))
-    if key not in _RUNS:
-        _RUNS[key] = (model, model.h.map(int(T)))
-        if len(_RUNS) > 64:
-            _RUNS.pop(next(iter(_RUNS)))
-    return _RUNS[key][1]
+    return _built(("h", int(T)), model, lambda: model.h.map(int(T)))
 
 
 def _checked_input(model: NumericModel, u: Any) -> np.ndarray:

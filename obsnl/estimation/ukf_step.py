@@ -128,13 +128,13 @@ def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Fu
 
 
 def _point_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], scale: Any,
-                 prop: ca.Function) -> ca.Function:
-    """``(zc, u0, u1, skip, xp0, stiff0, crossed0) -> (zc+, stiff, crossed)``: one sigma point through
-    ``prop`` (RK4 and the probe), then ROS2 (``refine * substeps``) where RK4 was stiff, or RK4 with the
-    crossing substep refined where a watched switching function changed sign; each fallback is
-    evaluated only where needed. ``skip = 1``: the point is the mean point (its coordinate is frozen,
-    so the sigma point equals the mean bit for bit): the mean point's result ``(xp0, stiff0, crossed0)``
-    is copied instead of computed again."""
+                 prop: ca.Function) -> tuple[ca.Function, ca.Function]:
+    """``(zc, u0, u1) -> (zc+, stiff, crossed)``: one sigma point through ``prop`` (RK4 and the probe),
+    then ROS2 (``refine * substeps``) where RK4 was stiff, or RK4 with the crossing substep refined
+    where a watched switching function changed sign; each fallback is evaluated only where needed.
+    And the same with ``(skip, xp0, stiff0, crossed0)`` appended: ``skip = 1`` means the point is the
+    mean point (its coordinate is frozen, so the sigma point equals the mean bit for bit), whose
+    result ``(xp0, stiff0, crossed0)`` is copied instead of computed again."""
     nx, L, nu_ = model.nx, model.nx + len(coords.names), model.nu
     sc = ca.DM(np.asarray(scale, float))
     zM, u0M, u1M = ca.MX.sym("zc", L), ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_)
@@ -144,7 +144,7 @@ def _point_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Fu
     skip, x0M, s0M, c0M = ca.MX.sym("skip"), ca.MX.sym("xp0", L), ca.MX.sym("stiff0"), ca.MX.sym("crossed0")
     done = ca.vertcat(x0M, s0M, c0M)
     out = ca.if_else(skip, done, ca.vertcat(*point(zM, u0M, u1M)), True)
-    return ca.Function("sigma_point", [zM, u0M, u1M, skip, x0M, s0M, c0M], [out[:L], out[L], out[L + 1]])
+    return point, ca.Function("sigma_point", [zM, u0M, u1M, skip, x0M, s0M, c0M], [out[:L], out[L], out[L + 1]])
 
 
 def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: str) -> ca.Function:
@@ -283,7 +283,7 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     scale = np.asarray(state_scale, float)
     fns = model.integrators(dt, substeps=substeps, scale=scale, refine=refine)
     sig, prop = _sigma_block(model, coords, fns, scale, method)
-    point = _point_block(model, coords, fns, scale, prop)
+    point, or_copy = _point_block(model, coords, fns, scale, prop)
     upd = _update_block(model, coords, scale, cross)
 
     z, P, a, hyp = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("active", L), ca.MX.sym("hyp", 4)
@@ -291,10 +291,10 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
     Q, R = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny)
     lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
     X, S, n_pivot = sig(z, P, a, hyp)
-    x0, s0, c0 = point(X[:, 0], u0, u1, 0, ca.MX.zeros(L), 0, 0)  # the mean point
+    x0, s0, c0 = point(X[:, 0], u0, u1)  # the mean point
     # the pair of sigma points of a frozen coordinate is the mean point: copied, not propagated again
     skip = ca.repmat((1 - a).T, 1, 2) if skip_frozen else ca.MX.zeros(1, 2 * L)
-    Xr, sr, cr = point.map(2 * L)(X[:, 1:], u0, u1, skip, x0, s0, c0)
+    Xr, sr, cr = or_copy.map(2 * L)(X[:, 1:], u0, u1, skip, x0, s0, c0)
     Xp, stiff, crossed = ca.horzcat(x0, Xr), ca.horzcat(s0, sr), ca.horzcat(c0, cr)
     n_implicit, n_refined = ca.sum2(stiff), ca.sum2(crossed)
     zn, Pn, yp, nu, Syy, n_pivot2, counts = upd(z, P, a, hyp, S, Xp, u1, y, Q, R, lo, hi, cap)
