@@ -56,10 +56,25 @@ print(json.dumps({"times": times, "misfits": [got[1], got[3]]}))
 """
 
 
-def _side(root: Path, name: str, repeats: int) -> dict:
+def _side(root: Path, name: str, repeats: int, env: dict[str, str] | None = None) -> dict:
     out = subprocess.run([sys.executable, "-c", CHILD, str(root), name, str(repeats)], capture_output=True,
-                         text=True, check=True)
+                         text=True, check=True, env=env)
     return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def alternate(name: str, sides: dict[str, tuple[Path, dict[str, str] | None]], *, rounds: int,
+              repeats: int) -> tuple[dict[str, list[float]], dict[str, list[float]]]:
+    """Time filter ``name`` on each side (``label: (checkout, environment)``), the sides alternating
+    for ``rounds`` rounds; ``(seconds per run, last misfits)``, each by side label."""
+    times: dict[str, list[float]] = {side: [] for side in sides}
+    misfits: dict[str, list[float]] = {}
+    for r in range(rounds):
+        for side, (root, env) in sides.items():
+            got = _side(root, name, repeats, env)
+            times[side] += got["times"]
+            misfits[side] = got["misfits"]
+            print(f"{name} round {r + 1} {side}: median {statistics.median(got['times']):.3f} s", flush=True)
+    return times, misfits
 
 
 def main() -> None:
@@ -81,15 +96,8 @@ def main() -> None:
             rows = []
             load0 = os.getloadavg()[0]
             for name in ("ukf", "dukf"):
-                times: dict[str, list[float]] = {"this": [], "other": []}
-                misfits = {}
-                for r in range(args.rounds):
-                    for side, root in (("other", other), ("this", ROOT)):
-                        got = _side(root, name, args.repeats)
-                        times[side] += got["times"]
-                        misfits[side] = got["misfits"]
-                        print(f"{name} round {r + 1} {side}: median {statistics.median(got['times']):.3f} s",
-                              flush=True)
+                times, misfits = alternate(name, {"other": (other, None), "this": (ROOT, None)},
+                                           rounds=args.rounds, repeats=args.repeats)
                 a, b = statistics.median(times["other"]), statistics.median(times["this"])
                 rows.append((name, a, b, misfits["other"], misfits["this"]))
             load1 = os.getloadavg()[0]
