@@ -343,6 +343,33 @@ def test_11_reproduce_out_checks_every_file(tmp_path, capsys, existing):
     assert (tmp_path / existing).read_text() == "mine"
 
 
+@pytest.mark.parametrize("option, value, words", [
+    ("--replicates", "2", ["--replicates", "at least 3"]),
+    ("--workers", "0", ["--workers", ">= 1"]),
+    ("--samples", "0", ["--samples", ">= 2"]),
+    ("--samples", "1", ["--samples", ">= 2"]),
+    ("--seeds", "0", ["--seeds", ">= 1"]),
+    ("--tuning-seeds", "-1", ["--tuning-seeds", ">= 1"]),
+])
+def test_11_reproduce_refuses_bad_numbers_before_any_work(tmp_path, capsys, option, value, words):
+    out = tmp_path / "out"
+    code, err = run(capsys, "reproduce", "--out", str(out), "--seeds", "1", "--samples", "50", option, value)
+    one_line_refusal(code, err, *words)
+    assert "run/s" not in err and "0run" not in err, err  # refused before the progress bar started
+    assert not out.exists()
+
+
+def test_11_samples_zero_is_refused_not_read_as_the_whole_record(capsys):
+    from obsnl.errors import DataError
+    from obsnl.studies.identify import study
+
+    record = Path(obsnl.__file__).parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+    code, err = run(capsys, "identify", "obsnl:damage_healing_reparam", "--record", str(record), "--samples", "0")
+    one_line_refusal(code, err, "--samples", ">= 2")
+    with pytest.raises(DataError, match="at least 2"):  # the API: 0 used to mean "all 2000 samples"
+        study("obsnl:damage_healing_reparam", record, samples=0)
+
+
 # ----------------------------------------------------------------------------- 12 clear messages
 @pytest.mark.parametrize("equations, params, words", [
     ({"x": "v", "v": "-k*x + " + "1" * 4400}, ["k"], "digits"),
@@ -391,3 +418,13 @@ def test_2_orc_honours_the_time_limit_on_a_swelling_model():
     res = analyze(m, method="orc", seed=0, max_seconds=5)
     assert time.perf_counter() - t0 < 5 + 3  # 3 s of slack for one uninterruptible step on a loaded machine
     assert res.branches[0].verdict.value == "inconclusive" and "time limit" in res.branches[0].reason
+
+
+def test_10_a_diverged_pass_is_named_with_the_options_that_help(capsys):
+    # The seed model's simulation study on the first 600 samples with the study's default tuning
+    # (s0 = 0.2, no gate): the first pass ends 3000x above the noise level with every parameter
+    # variance at 0. The refusal used to read "covariance collapsed; lower the random walk q_theta"
+    # (q_theta is already 0); it must say the pass diverged and name what helps.
+    record = Path(obsnl.__file__).parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+    code, err = run(capsys, "identify", "obsnl:damage_healing_reparam", "--record", str(record), "--samples", "600")
+    one_line_refusal(code, err, "pass 1 diverged", "--s0", "--gate")

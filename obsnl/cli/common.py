@@ -18,12 +18,21 @@ class _Exit(Exception):
         self.message = message
 
 
-def _seed(text: str) -> int:
-    """``--seed``: a non-negative integer (numpy's generators refuse negative seeds)."""
-    value = int(text) if text.lstrip("-").isdigit() else None
-    if value is None or value < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= 0")
-    return value
+def _at_least(low: int) -> Any:
+    """An argparse type: a whole number ``>= low``, refused at parse time (before any work or bar starts)."""
+
+    def parse(text: str) -> int:
+        value = int(text) if text.strip().lstrip("-").isdigit() else None
+        if value is None or value < low:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= {low}")
+        return value
+
+    parse.__name__ = f"integer >= {low}"
+    return parse
+
+
+#: ``--seed``: a non-negative integer (numpy's generators refuse negative seeds).
+_seed = _at_least(0)
 
 
 def _load(path: str):
@@ -68,7 +77,7 @@ def _progress(desc: str, total: int | None, unit: str) -> Any:
 
 
 def _add_executor(p: argparse.ArgumentParser, workers: int | None = None) -> None:
-    p.add_argument("--workers", type=int, default=workers,
+    p.add_argument("--workers", type=_at_least(1), default=workers,
                    help=f"local processes (default: {workers or 'one per core'}; 1: none)")
     p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
 

@@ -8,7 +8,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from obsnl.cli.common import _Exit, _add_executor, _executor, _load, _progress, _seed, write_output  # noqa: F401
+from obsnl.cli.common import (_Exit, _add_executor, _at_least, _executor, _load, _progress, _seed,  # noqa: F401
+                              write_output)
 
 
 def _add_bank(sub: argparse._SubParsersAction) -> None:
@@ -74,7 +75,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     for flag, what in (("--s0", "prior std of log-parameters"), ("--q-theta", "random walk of log-parameters"),
                        ("--q-x", "factor on the state noise"), ("--gate", "innovation gate")):
         p.add_argument(flag, type=float, default=None, help=f"{what} (default: tuned on measured data)")
-    p.add_argument("--samples", type=int, default=None, help="use only the first samples of a --record")
+    p.add_argument("--samples", type=_at_least(2), default=None, help="use only the first samples of a --record")
     p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
     p.add_argument("--replicates", type=int, default=0, help="Monte-Carlo replicates (0: off, else >= 3)")
     _add_executor(p)
@@ -146,10 +147,10 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
         "another --out is never overwritten without --force.",
     )
     p.add_argument("--record", default=None, help="another ground motion (.csv or .AT2); resampled to 100 Hz, first 2000 samples")
-    p.add_argument("--seeds", type=int, default=5, help="reported noise seeds 0..K-1 (default: 5)")
-    p.add_argument("--tuning-seeds", type=int, default=5, help="noise seeds used for tuning only (default: 5)")
-    p.add_argument("--passes", type=int, default=3, help="passes of the refined protocol (default: 3)")
-    p.add_argument("--samples", type=int, default=None, help="use only the first samples (quick runs)")
+    p.add_argument("--seeds", type=_at_least(1), default=5, help="reported noise seeds 0..K-1 (default: 5)")
+    p.add_argument("--tuning-seeds", type=_at_least(1), default=5, help="noise seeds used for tuning only (default: 5)")
+    p.add_argument("--passes", type=_at_least(1), default=3, help="passes of the refined protocol (default: 3)")
+    p.add_argument("--samples", type=_at_least(2), default=None, help="use only the first samples (quick runs)")
     p.add_argument("--no-jit", action="store_true", help="do not compile the filters to C (slower runs)")
     p.add_argument("--replicates", type=int, default=None,
                    help="Monte-Carlo replicates of the practical-identifiability check per reported run "
@@ -161,11 +162,13 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
+    from obsnl.estimation.identify import check_replicates
     from obsnl.estimation.records import read_record
     from obsnl.studies.seed_paper import reproduce, write_reproduction
 
-    if args.seeds < 1 or args.tuning_seeds < 1 or args.passes < 1:
-        raise _Exit(2, "--seeds, --tuning-seeds and --passes must be at least 1")
+    if args.replicates is not None:
+        check_replicates(args.replicates)
+    executor = _executor(args)  # a bad --workers or --scheduler is refused here, before the bar starts
     record = read_record(args.record) if args.record else None
     default = Path("reports/identification") / (record.name if record is not None else "")
     out = Path(args.out) if args.out else default
@@ -181,7 +184,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     bar = _progress("reproduce", None, "run")
     try:
         rep = reproduce(record=record, seeds=args.seeds, tuning_seeds=args.tuning_seeds, passes=args.passes,
-                        jit=not args.no_jit, samples=args.samples, progress=bar, executor=_executor(args),
+                        jit=not args.no_jit, samples=args.samples, progress=bar, executor=executor,
                         **({} if args.replicates is None else {"replicates": args.replicates}))
     finally:
         if bar is not None:

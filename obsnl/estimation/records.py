@@ -71,7 +71,8 @@ class Record:
     def head(self, n: int) -> Record:
         """The first ``n`` samples."""
         if n < 2:
-            raise DataError(f"head({n}): need at least 2 samples")
+            raise DataError(f"cannot keep the first {n} samples of {self.name!r}: a record needs at least 2 "
+                            f"(ask for 2 or more samples)")
         return Record(self.name, self.accel[:n], self.dt, self.source, self.notes, self.channels)
 
     def resampled(self, dt: float) -> Record:

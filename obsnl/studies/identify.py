@@ -309,6 +309,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     ------
     OptionError
         When the model has not exactly one input.
+    DataError
+        When ``samples`` is below 2 (0 is not read as "the whole record").
     AnalysisError
         When parameters are structurally unidentifiable and not allowed.
 
@@ -319,7 +321,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     """
     model = _model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
-    if samples:
+    if samples is not None:  # 0 is refused by head, never read as "all of them"
         record = record.head(samples)
     if table is not None and len(model.inputs) != 1:  # a contradicting table is named first
         _prepare(model, table, guess, True, seed, method)
