@@ -428,3 +428,13 @@ def test_10_a_diverged_pass_is_named_with_the_options_that_help(capsys):
     record = Path(obsnl.__file__).parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
     code, err = run(capsys, "identify", "obsnl:damage_healing_reparam", "--record", str(record), "--samples", "600")
     one_line_refusal(code, err, "pass 1 diverged", "--s0", "--gate")
+
+
+@pytest.mark.parametrize("option, value", [("--s0", "nan"), ("--s0", "inf"), ("--q-theta", "-1"), ("--q-x", "nan"),
+                                           ("--gate", "0")])
+def test_10_filter_settings_are_refused_by_their_option_name(capsys, option, value):
+    # --q-theta -1 used to end in "Q must be positive semidefinite", NaN in "Q contains NaN/inf"
+    record = Path(obsnl.__file__).parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+    code, err = run(capsys, "identify", "obsnl:damage_healing_reparam", "--record", str(record), "--samples", "50",
+                    option, value)
+    one_line_refusal(code, err, option, value)

@@ -224,8 +224,13 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
         raise OptionError(f"--passes must be at least 1, got {passes}")
     if method == "dukf" and table is None:
         raise OptionError("--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL --format json-table`)")
-    if any(not (t.s0 > 0 and t.gate > 0) for t in grid):
-        raise OptionError("--s0 and --gate must be > 0")
+    for t in grid:  # NaN fails every comparison, so it is refused too
+        for option, value, ok, rule in (("--s0", t.s0, 0 < t.s0 < np.inf, "a number > 0"),
+                                         ("--q-theta", t.q_theta, 0 <= t.q_theta < np.inf, "a number >= 0"),
+                                         ("--q-x", t.q_x, 0 <= t.q_x < np.inf, "a number >= 0"),
+                                         ("--gate", t.gate, t.gate > 0, "a number > 0 (inf: off)")):
+            if not ok:
+                raise OptionError(f"{option} must be {rule}, got {value!r}")
     filt = make_filter(setup, method, table=table)
     scores = []
     if len(grid) > 1:
