@@ -125,6 +125,20 @@ def test_a_diverged_reported_run_is_redone_with_the_next_tuning(monkeypatch):
     assert "- UKF, seed 0: (" in table2_markdown(doc) and "misfit 1 ->" in table2_markdown(doc)
 
 
+def test_a_study_without_a_tuning_is_tuned_like_measured_data():
+    # With one fixed configuration (s0 0.2, no gate) this study diverged in its first pass; without a
+    # tuning the study now picks, as identify does on measured data, the configuration of MEASURED_GRID
+    # with the smallest free-run output misfit after one pass (no true value used).
+    from obsnl.estimation.identify import MEASURED_GRID
+    from obsnl.studies.identify import study
+
+    res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=600)
+    assert [t for t, _ in res.tuning_scores] == list(MEASURED_GRID)
+    best = min(res.tuning_scores, key=lambda ts: ts[1] if np.isfinite(ts[1]) else np.inf)
+    assert res.tuning == best[0]
+    assert res.to_dict()["tuning"] == best[0].to_dict()
+
+
 def test_identify_command(tmp_path, capsys):
     table = tmp_path / "t.json"
     table.write_text(BranchTable.from_dict(paper_table1()).to_json())

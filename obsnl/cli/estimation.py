@@ -74,7 +74,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=_seed, default=0, help="noise seed of a study and the Monte-Carlo (default: 0)")
     for flag, what in (("--s0", "prior std of log-parameters"), ("--q-theta", "random walk of log-parameters"),
                        ("--q-x", "factor on the state noise"), ("--gate", "innovation gate")):
-        p.add_argument(flag, type=float, default=None, help=f"{what} (default: tuned on measured data)")
+        p.add_argument(flag, type=float, default=None, help=f"{what} (default: tuned by the output misfit)")
     p.add_argument("--samples", type=_at_least(2), default=None, help="use only the first samples of a --record")
     p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
     p.add_argument("--replicates", type=int, default=0, help="Monte-Carlo replicates (0: off, else >= 3)")
@@ -110,7 +110,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     tuning = None if t == (None,) * 4 else Tuning(*(d if v is None else v for v, d in zip(t, (0.2, 0.0, 1.0, float("inf")))))
     opts = dict(guess=guess, method=args.method, table=args.table, passes=args.passes, replicates=args.replicates,
                 seed=args.seed, allow_unidentifiable=args.allow_unidentifiable, jit=args.jit, executor=_executor(args))
-    tuned = args.data is not None and tuning is None
+    tuned = tuning is None
     bars: list[Any] = []  # the bar starts with the first pass (after the checks: a refusal prints one line)
 
     def tick() -> None:
@@ -125,7 +125,7 @@ def _cmd_identify(args: argparse.Namespace) -> int:
             res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick, **opts)
         else:
             res = study(model, args.record, noise=float(plain[-1]) if plain else 1e-3, samples=args.samples,
-                        tuning=tuning or Tuning(0.2, 0.0, 1.0), progress=tick, **opts)
+                        tuning=tuning, progress=tick, **opts)
     finally:
         if bars and bars[0] is not None:
             bars[0].close()

@@ -395,7 +395,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
 
 def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, float], method: str = "ukf",
                      table: BranchTable | None = None, seed: int = 0, noise: float = 1e-3,
-                     tuning: Tuning = Tuning(0.2, 0.0, 1.0), passes: int = 3, replicates: int = 0,
+                     tuning: Tuning | None = None, passes: int = 3, replicates: int = 0,
                      jit: bool = False, progress: Callable[[], Any] | None = None,
                      executor: Executor | None = None) -> Identification:
     """Identify ``num`` from its own simulated response to ``record`` (the truth: ``num.values``).
@@ -413,13 +413,14 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     seed, noise
         Noise seed and noise-to-signal RMS ratio of inputs and outputs.
     tuning, passes
-        Filter tuning and passes over the record.
+        Filter tuning (None: chosen from ``MEASURED_GRID`` by the output misfit after one pass, as for
+        measured data; no true value is used) and passes over the record.
     replicates
         Monte-Carlo replicates of the practical-identifiability check (0: off, else at least 3).
     jit
         Compile the filter to C.
     progress
-        Called after every pass and once per Monte-Carlo replicate.
+        Called after every pass (tuning passes included) and once per Monte-Carlo replicate.
     executor
         Where the Monte-Carlo replicates run (default: this process).
 
@@ -444,7 +445,8 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     setup = Setup(model=num, record=record, truth=truth, guess=dict(guess), noise=noise, jit=jit,
                   fit_substeps=FIT_SUBSTEPS, coordinates=coordinates(num, "log", reference=guess))
     data = make_data(setup, seed)
-    tuning_, scores, trs, held, prac, misfit = _run(setup, data, method=method, table=table, grid=(tuning,),
+    grid = MEASURED_GRID if tuning is None else (tuning,)
+    tuning_, scores, trs, held, prac, misfit = _run(setup, data, method=method, table=table, grid=grid,
                                                     passes=passes, replicates=replicates, seed=seed, progress=progress,
                                                     executor=executor)
     levels = {c: {"ratio": noise, "source": "given (simulated)"} for c in num.inputs + num.outputs}

@@ -266,11 +266,21 @@ def identify_text(doc: Mapping[str, Any]) -> str:
     UKF on m, measured data d, 1 pass(es), 0.50 s: converged
       k          estimate 2          std 0.01
       fit (NRMSE): y 1.23 %
+    >>> doc["tuning"] = {"s0": 0.3, "q_theta": 0.0, "q_x": 100.0, "gate": None}
+    >>> doc["tuning_scores"] = [{"s0": 0.3}, {"s0": 0.5}]  # chosen among two (their misfits are in the JSON)
+    >>> print(identify_text(doc).splitlines()[1])
+      tuning: s0 0.3, q_theta 0, q_x 100, gate off (the smallest output misfit after one pass of 2 configurations)
     """
     pi = doc.get("practical_identifiability") or {}
     state = "converged" if doc.get("converged") else "NOT converged (the output misfit is above the divergence line)"
     lines = [f"{doc['method'].upper()} on {doc['model']}, {doc['mode']} data {doc['data'].get('name', '')}, "
              f"{doc['passes']} pass(es), {doc['seconds']:.2f} s: {state}"]
+    scores = doc.get("tuning_scores") or []
+    if len(scores) > 1:
+        t = doc["tuning"]
+        lines.append(f"  tuning: s0 {t['s0']:g}, q_theta {t['q_theta']:g}, q_x {t['q_x']:g}, gate "
+                     f"{'off' if t['gate'] is None else format(t['gate'], 'g')} (the smallest output misfit after "
+                     f"one pass of {len(scores)} configurations)")
     if doc["passes_run"] < doc["passes"]:
         lines.append(f"  stopped after pass {doc['passes_run']}: its estimate cannot be simulated (the filter diverged)")
     if pi.get("inconclusive"):

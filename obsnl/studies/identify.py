@@ -264,7 +264,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
 
 def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapping[str, float] | None = None,
           noise: float = 1e-3, method: str = "ukf", table: BranchTable | str | Path | None = None, passes: int = 3,
-          replicates: int = 0, seed: int = 0, tuning: Tuning = Tuning(0.2, 0.0, 1.0), samples: int | None = None,
+          replicates: int = 0, seed: int = 0, tuning: Tuning | None = None, samples: int | None = None,
           allow_unidentifiable: bool = False, jit: bool = False,
           progress: Callable[[], Any] | None = None, executor: Executor | None = None) -> Identification:
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
@@ -288,8 +288,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         Branch table (DUKF).
     passes, replicates, seed : int
         Filter passes, Monte Carlo replicates (0: none) and seed.
-    tuning : Tuning
-        Filter configuration.
+    tuning : Tuning or None
+        Filter configuration (None: tuned by the output misfit, as for measured data).
     samples : int or None
         Use only the first samples of the record.
     allow_unidentifiable : bool
