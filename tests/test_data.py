@@ -48,6 +48,52 @@ def test_csv_without_time_column(tmp_path):
         read_csv(_csv(tmp_path, ["1,2"], header="a,b"))
 
 
+ROWS = ["0.00,1.0,9.0", "0.01,2.0,8.0", "0.02,1.5,7.0"]
+
+
+@pytest.mark.parametrize("header, match", [
+    ("time_s,vel_m_s,disp_m", "cannot tell the acceleration column"),  # used to drive the model with velocity
+    ("time_ms,accel_m_s2,x", "not in seconds"),  # used to be read as seconds
+    ("time_s,accel,accel", "appears 2 times"),
+    ("time_s,t,accel_m_s2", "2 time columns"),
+])
+def test_record_columns_are_chosen_by_name_or_refused(tmp_path, header, match):
+    with pytest.raises(DataError, match=match):
+        read_csv(_csv(tmp_path, ROWS, header=header))
+
+
+def test_record_acceleration_column_by_name(tmp_path):
+    rec = read_csv(_csv(tmp_path, ROWS, header="time_s,vel_m_s,accel_m_s2"))
+    assert rec.accel.tolist() == [9.0, 8.0, 7.0]  # the acc... column, not the first one after time
+
+
+def test_record_and_data_files_that_are_not_text(tmp_path):
+    from obsnl.estimation.measured import read_measured
+
+    p = tmp_path / "bin.csv"
+    p.write_bytes(bytes(range(256)) * 4)  # not UTF-8: used to end in a UnicodeDecodeError traceback
+    for read in (read_csv, lambda q: read_measured(q, inputs=["f"], outputs=["x"])):
+        with pytest.raises(DataError, match="not UTF-8"):
+            read(p)
+        with pytest.raises(DataError, match="is a folder"):
+            read(tmp_path)
+
+
+@pytest.mark.parametrize("header, match", [
+    ("time_s,f,f,x", "'f' appears 2 times"),  # the first f used to be read, silently
+    ("time_s,t,f,x", "two time columns"),
+    ("time_ms,f,x", "not in seconds"),
+])
+def test_measured_data_columns_are_unambiguous(tmp_path, header, match):
+    from obsnl.estimation.measured import read_measured
+
+    p = tmp_path / "d.csv"
+    n = header.count(",") + 1
+    p.write_text(header + "\n" + "\n".join(",".join(str(0.1 * k + j) for j in range(n)) for k in range(5)) + "\n")
+    with pytest.raises(DataError, match=match):
+        read_measured(p, inputs=["f"], outputs=["x"])
+
+
 def test_at2_validation(tmp_path):
     head = ["PEER NGA STRONG MOTION DATABASE RECORD", "test", "ACCELERATION TIME SERIES IN UNITS OF G",
             "NPTS=   4, DT=   .0100 SEC"]

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import DataError
-from obsnl.estimation.records import Record, check_times
+from obsnl.estimation.records import Record, _text, check_header, check_seconds, check_times
 
 __all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS"]
 
@@ -148,12 +148,16 @@ def read_measured(path: str | Path, *, inputs: Sequence[str], outputs: Sequence[
     [0.0, 0.1, 0.3]
     """
     p = Path(path)
-    if not p.is_file():
-        raise DataError(f"data {str(p)!r} does not exist")
-    lines = [ln for ln in p.read_text(encoding="utf-8").splitlines() if ln.strip()]
+    lines = [ln for ln in _text(p, "data").splitlines() if ln.strip()]
     if len(lines) < 2:
         raise DataError(f"data {str(p)!r}: need a header line and samples")
-    header = [h.strip() for h in lines[0].split(",")]
+    header = check_header([h.strip() for h in lines[0].split(",")], f"data {str(p)!r}")
+    times = [c for c in TIME_COLUMNS if c in header]
+    if len(times) > 1:
+        raise DataError(f"data {str(p)!r}: two time columns {times}; keep one, 'time_s'")
+    for h in header:  # a time column in other units (time_ms) is not read as seconds
+        if h.lower().startswith("time") and h not in TIME_COLUMNS:
+            check_seconds(h, f"data {str(p)!r}")
     wanted = [c for c in (*TIME_COLUMNS, *inputs, *outputs) if c in header]
     idx = {c: header.index(c) for c in wanted}
     cols: dict[str, list[float]] = {c: [] for c in wanted}

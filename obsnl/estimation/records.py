@@ -143,20 +143,29 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
     path
         The file; values in m/s², time in s.
     column
-        Name or index of the acceleration column (default: the first that is not time).
+        Name or index of the acceleration column (default: the one whose name starts with ``acc``, or
+        the only column besides time; anything else is refused, never guessed).
     """
     p = Path(path)
-    if not p.is_file():
-        raise DataError(f"record {str(p)!r} does not exist")
-    lines = _text(p).splitlines()
+    lines = _text(p, "record").splitlines()
     if not lines:
         raise DataError(f"{str(p)!r} is empty")
-    header = [h.strip() for h in lines[0].split(",")]
-    tcol = next((i for i, h in enumerate(header) if h.lower().startswith("time") or h.lower() == "t"), None)
-    if tcol is None:
+    header = check_header([h.strip() for h in lines[0].split(",")], str(p))
+    times = [i for i, h in enumerate(header) if h.lower().startswith("time") or h.lower() == "t"]
+    if not times:
         raise DataError(f"{str(p)!r}: no time column in header {header} (name it 'time_s')")
-    if column is None:
-        acol = next((i for i in range(len(header)) if i != tcol), None)
+    if len(times) > 1:
+        raise DataError(f"{str(p)!r}: {len(times)} time columns {[header[i] for i in times]}; keep one, 'time_s'")
+    tcol = times[0]
+    check_seconds(header[tcol], str(p))
+    if column is None:  # by name: a column called acc..., else the only column besides time
+        others = [i for i in range(len(header)) if i != tcol]
+        named = [i for i in others if header[i].lower().startswith("acc")]
+        pick = named if named else others
+        if len(pick) != 1:
+            raise DataError(f"{str(p)!r}: cannot tell the acceleration column among {[header[i] for i in pick]}; "
+                            f"name it 'accel_m_s2' (or keep only time and acceleration)")
+        acol: int | None = pick[0]
     elif isinstance(column, int):
         acol = column
     else:
@@ -182,13 +191,62 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
     return _moving(Record(p.stem, arr[:, 1], dt, source=p.name))
 
 
-def _text(p: Path) -> str:
+#: Largest record or data file read (bytes): a long measured record of ten channels and a million
+#: samples is about 150 MB as CSV.
+MAX_FILE_BYTES = 1 << 30
+
+
+def _text(p: Path, what: str) -> str:
+    """The UTF-8 text of the file ``p`` (a ``what``: record or data), refused with one line otherwise."""
+    if p.is_dir():
+        raise DataError(f"{what} {str(p)!r} is a folder; give a file")
+    if not p.is_file():
+        raise DataError(f"{what} {str(p)!r} does not exist")
     try:
+        size = p.stat().st_size
+        if size > MAX_FILE_BYTES:
+            raise DataError(f"{what} {str(p)!r} has {size / 2**20:.0f} MiB; obsnl reads at most "
+                            f"{MAX_FILE_BYTES >> 20} MiB (cut the record, or decimate it)")
         return p.read_bytes().decode("utf-8")
     except UnicodeDecodeError as exc:
-        raise DataError(f"{str(p)!r} is not UTF-8 text (byte {exc.start}); save the record as UTF-8") from None
+        raise DataError(f"{what} {str(p)!r} is not UTF-8 text (byte {exc.start}); save it as a UTF-8 CSV") from None
     except OSError as exc:
         raise DataError(f"cannot read {str(p)!r}: {exc.strerror or exc}") from None
+
+
+def check_header(header: list[str], where: str) -> list[str]:
+    """``header`` if no column name repeats (a repeated name would be read from one column, silently).
+
+    Examples
+    --------
+    >>> check_header(["time_s", "F", "F"], "d.csv")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.DataError: d.csv: column 'F' appears 2 times in the header; rename or remove the copies
+    """
+    seen = {h: header.count(h) for h in header}
+    twice = [h for h, n in seen.items() if n > 1]
+    if twice:
+        raise DataError(f"{where}: column {twice[0]!r} appears {seen[twice[0]]} times in the header; rename or "
+                        f"remove the copies")
+    return header
+
+
+def check_seconds(name: str, where: str) -> None:
+    """Refuse a time column whose name gives another unit than seconds (``time_ms``, ``t_min``, ...).
+
+    Examples
+    --------
+    >>> check_seconds("time_s", "d.csv"), check_seconds("t", "d.csv")
+    (None, None)
+    >>> check_seconds("time_ms", "d.csv")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.DataError: d.csv: the time column 'time_ms' is not in seconds; give the time in seconds as 'time_s'
+    """
+    unit = re.split(r"[_\[(\s]+", name.strip().lower().rstrip(")]"), maxsplit=1)[1:]
+    if unit and unit[0] not in ("s", "sec", "secs", "second", "seconds"):
+        raise DataError(f"{where}: the time column {name!r} is not in seconds; give the time in seconds as 'time_s'")
 
 
 def _moving(rec: Record) -> Record:
@@ -204,9 +262,7 @@ _AT2_HEAD = re.compile(r"NPTS\s*=\s*(\d+)\s*,?\s*DT\s*=\s*([0-9.eE+-]+)", re.IGN
 def read_at2(path: str | Path) -> Record:
     """Read a PEER NGA ``.AT2`` file (4 header lines, ``NPTS=..., DT=...``, values in g) into m/s²."""
     p = Path(path)
-    if not p.is_file():
-        raise DataError(f"record {str(p)!r} does not exist")
-    lines = _text(p).splitlines()
+    lines = _text(p, "record").splitlines()
     if len(lines) < 5:
         raise DataError(f"{str(p)!r}: too short for a PEER AT2 file (4 header lines, then values)")
     mt = _AT2_HEAD.search(lines[3])
