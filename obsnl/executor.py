@@ -13,6 +13,8 @@ from __future__ import annotations
 import hashlib
 import os
 import pickle
+import re
+import socket
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -21,6 +23,9 @@ from typing import Any, TypeVar
 from obsnl.errors import OptionError
 
 T = TypeVar("T")
+
+#: A Dask scheduler address: an optional scheme, a host name or address ([...] for IPv6), an optional port.
+_ADDRESS = re.compile(r"^(?:(?P<scheme>tcp|tls)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)(?::(?P<port>\d{1,5}))?$")
 
 __all__ = ["Executor", "spawn_seeds", "built_once"]
 
@@ -53,6 +58,40 @@ class Executor:
         if self.scheduler is not None and not isinstance(self.scheduler, str) and not hasattr(self.scheduler, "map"):
             raise OptionError(f"scheduler must be a Dask scheduler address like tcp://host:8786 or a "
                               f"distributed.Client, got {self.scheduler!r}")
+        if isinstance(self.scheduler, str):
+            _host_port(self.scheduler)
+
+    def probe(self, timeout: float = 5.0) -> Executor:
+        """Refuse, at once, a scheduler address that nothing answers on (before any work starts).
+
+        A TCP connection to the address is opened and closed (at most ``timeout`` seconds); the Dask
+        handshake itself comes with the first task. Local executors and client objects pass as they are.
+
+        Returns
+        -------
+        Executor
+            ``self``.
+
+        Raises
+        ------
+        OptionError
+            The host is unknown or nothing listens at the address.
+
+        Examples
+        --------
+        >>> Executor(workers=1).probe().kind
+        'serial'
+        """
+        if not isinstance(self.scheduler, str):
+            return self
+        host, port = _host_port(self.scheduler)
+        try:
+            socket.create_connection((host, port), timeout=timeout).close()
+        except OSError as exc:
+            raise OptionError(f"cannot reach the Dask scheduler {self.scheduler!r} ({exc.strerror or exc}); start one "
+                              f"with `dask scheduler` and workers with `dask worker ADDRESS`, or leave --scheduler "
+                              f"out to run on this machine") from None
+        return self
 
     @property
     def kind(self) -> str:
@@ -82,6 +121,15 @@ class Executor:
             yield s
         finally:
             s.close()
+
+
+def _host_port(address: str) -> tuple[str, int]:
+    """Host and port of a Dask scheduler address (port 8786 when none is given), or a one-line refusal."""
+    m = _ADDRESS.match(address.strip())
+    if m is None or not 0 < int(m["port"] or 8786) < 65536:
+        raise OptionError(f"--scheduler {address!r} is not a Dask scheduler address; give one like tcp://HOST:8786 "
+                          f"(port 1-65535)")
+    return m["host"].strip("[]"), int(m["port"] or 8786)
 
 
 class _Session:

@@ -11,6 +11,7 @@ import os
 import stat
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import obsnl
@@ -50,6 +51,14 @@ def test_1_report_refuses_model_names_that_leave_the_folder(tmp_path, capsys, na
                     "--out", str(out), "--force")
     one_line_refusal(code, err, "cannot be a file name")
     assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == ["m.json"]
+
+
+@pytest.mark.parametrize("name", ["index", "timings", "Index"])
+def test_1_report_refuses_a_model_whose_table_would_overwrite_the_index(tmp_path, capsys, name):
+    # a model named "index" used to have its table index.md overwritten by the report's index, exit 0
+    code, err = run(capsys, "report", str(model_file(tmp_path, name=name)), "--out", str(tmp_path / "out"))
+    one_line_refusal(code, err, name, "rename the model")
+    assert not (tmp_path / "out").exists()
 
 
 # ----------------------------------------------------------------------------- 2 integer growth
@@ -143,6 +152,55 @@ def test_5_report_folder_that_is_a_symlink_needs_force(tmp_path, capsys):
     code, err = run(capsys, "report", "obsnl:coulomb_friction", "--out", str(tmp_path / "out"))
     one_line_refusal(code, err, "symlink")
     assert list(real.iterdir()) == []
+
+
+REC = Path(obsnl.__file__).parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+FAST_STUDY = ("identify", "obsnl:damage_healing_reparam", "--record", str(REC), "--samples", "100", "--passes", "1",
+              "--s0", "0.2")
+
+
+@pytest.mark.parametrize("name", ["identify.json", "fit.png", "traces.png"])
+def test_5_identify_never_writes_through_a_link_in_its_folder(tmp_path, capsys, name):
+    out = tmp_path / "out"
+    out.mkdir()
+    target = tmp_path / "elsewhere" / "victim"
+    (out / name).symlink_to(target)  # dangling: it used to create the target outside the folder
+    code, err = run(capsys, *FAST_STUDY, "--out", str(out))
+    one_line_refusal(code, err, "symlink", "--force")
+    assert "step/s" not in err and not target.exists()  # refused before the run
+    kept = tmp_path / "kept"
+    kept.write_text("mine")
+    (out / name).unlink()
+    (out / name).symlink_to(kept)
+    code, err = run(capsys, *FAST_STUDY, "--out", str(out), "--force")  # --force replaces the link itself
+    assert code == 0, err
+    assert kept.read_text() == "mine" and not (out / name).is_symlink() and (out / name).stat().st_size > 0
+
+
+def test_5_identify_refuses_a_folder_under_a_file_or_a_linked_folder_before_the_run(tmp_path, capsys):
+    (tmp_path / "afile").write_text("x")
+    code, err = run(capsys, *FAST_STUDY, "--out", str(tmp_path / "afile" / "sub"))
+    one_line_refusal(code, err, "afile", "not a folder")
+    assert "step/s" not in err
+    real = tmp_path / "real"
+    real.mkdir()
+    (tmp_path / "lnk").symlink_to(real)
+    code, err = run(capsys, *FAST_STUDY, "--out", str(tmp_path / "lnk"))
+    one_line_refusal(code, err, "symlink")
+    assert list(real.iterdir()) == []
+
+
+def test_5_figures_replace_a_link_and_keep_its_target(tmp_path):
+    from obsnl.report.figures import plot_fit
+
+    kept = tmp_path / "kept.png"
+    kept.write_bytes(b"mine")
+    (tmp_path / "fit.png").symlink_to(kept)
+    t = np.linspace(0.0, 1.0, 11)
+    plot_fit(tmp_path / "fit.png", t=t, measured=t[:, None], simulated=t[:, None], outputs=["y"], fit={"y": 0.0})
+    assert kept.read_bytes() == b"mine" and not (tmp_path / "fit.png").is_symlink()
+    assert (tmp_path / "fit.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fit.png", "kept.png"]  # no temporary file left
 
 
 # ----------------------------------------------------------------------------- 6 latex
@@ -431,11 +489,32 @@ def test_10_a_diverged_pass_is_named_with_the_options_that_help(capsys):
     one_line_refusal(code, err, "pass 1 diverged", "--s0", "--gate")
 
 
-@pytest.mark.parametrize("option, value", [("--s0", "nan"), ("--s0", "inf"), ("--q-theta", "-1"), ("--q-x", "nan"),
-                                           ("--gate", "0")])
+@pytest.mark.parametrize("option, value", [("--s0", "nan"), ("--s0", "inf"), ("--s0", "1e+300"), ("--s0", "1e-300"),
+                                           ("--q-theta", "-1"), ("--q-x", "nan"), ("--gate", "0")])
 def test_10_filter_settings_are_refused_by_their_option_name(capsys, option, value):
-    # --q-theta -1 used to end in "Q must be positive semidefinite", NaN in "Q contains NaN/inf"
+    # --q-theta -1 used to end in "Q must be positive semidefinite", NaN in "Q contains NaN/inf",
+    # --s0 1e300 in an OverflowError traceback, --s0 1e-300 in "s0 must be a positive number, got 1e-300"
     record = Path(obsnl.__file__).parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
     code, err = run(capsys, "identify", "obsnl:damage_healing_reparam", "--record", str(record), "--samples", "50",
                     option, value)
     one_line_refusal(code, err, option, value)
+
+
+@pytest.mark.parametrize("extra, words", [
+    (["--data", "d.csv", "--samples", "50"], ["--samples", "--record"]),
+    (["--record", str(REC), "--hold"], ["--hold", "--data"]),
+    (["--record", str(REC), "--workers", "2"], ["--workers", "--replicates"]),
+    (["--record", str(REC), "--scheduler", "tcp://127.0.0.1:1"], ["--scheduler", "--replicates"]),
+])
+def test_10_identify_refuses_options_it_would_ignore(capsys, extra, words):
+    code, err = run(capsys, "identify", "obsnl:damage_healing_reparam", *extra)
+    one_line_refusal(code, err, *words)
+
+
+@pytest.mark.parametrize("address, words", [("tcp://127.0.0.1:99999", "port 1-65535"), ("tcp://127.0.0.1:abc", "not a"),
+                                            ("bogus://x", "not a"), ("tcp://127.0.0.1:1", "cannot reach")])
+def test_10_a_bad_scheduler_is_refused_before_the_bar(tmp_path, capsys, address, words):
+    # port 1 on the loopback: nothing listens, the connection is refused at once (no 30 s wait)
+    code, err = run(capsys, "reproduce", "--out", str(tmp_path / "o"), "--samples", "50", "--scheduler", address)
+    one_line_refusal(code, err, words)
+    assert "run/s" not in err and not (tmp_path / "o").exists()

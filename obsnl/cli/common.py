@@ -83,8 +83,9 @@ def _add_executor(p: argparse.ArgumentParser, workers: int | None = None) -> Non
 
 
 def _executor(args: argparse.Namespace) -> Any:
+    """The executor of ``--workers``/``--scheduler``; a scheduler nothing answers on is refused here, before any work."""
     from obsnl.executor import Executor
 
-    return Executor(scheduler=args.scheduler, workers=args.workers)
+    return Executor(scheduler=args.scheduler, workers=args.workers).probe()
 
 

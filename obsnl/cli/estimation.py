@@ -90,9 +90,18 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     from obsnl.report.identification import identify_text
     from obsnl.studies.identify import IDENTIFY_FILES, identify, parse_assignments, study, write_identification
 
-    taken = [Path(args.out) / f for f in IDENTIFY_FILES if args.out and (Path(args.out) / f).exists()]
-    if taken and not args.force:
-        raise _Exit(2, f"{taken[0]} exists; pass --force to overwrite it")
+    for given, option, needs in ((args.samples is not None and args.data, "--samples", "a --record study; cut the "
+                                  "data file instead"),
+                                 (args.hold and args.record, "--hold", "measured data (--data)"),
+                                 ((args.workers is not None or args.scheduler) and args.replicates == 0,
+                                  "--workers/--scheduler", "the Monte-Carlo replicates: add --replicates N (nothing "
+                                  "else of identify runs in parallel)")):
+        if given:  # an option that would be ignored is refused, not dropped silently
+            raise _Exit(2, f"{option} applies to {needs}")
+    if args.out:  # refused before any work: an output folder that cannot take the files
+        from obsnl.report.files import check_folder
+
+        check_folder(args.out, IDENTIFY_FILES, force=args.force)
     model = _load(args.model)
     names = [s.name for s in model.parameters]
     guess = parse_assignments(args.guess, names, option="--guess", what="parameter")

@@ -225,7 +225,8 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
     if method == "dukf" and table is None:
         raise OptionError("--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL --format json-table`)")
     for t in grid:  # NaN fails every comparison, so it is refused too
-        for option, value, ok, rule in (("--s0", t.s0, 0 < t.s0 < np.inf, "a number > 0"),
+        for option, value, ok, rule in (("--s0", t.s0, 1e-6 <= t.s0 <= 10.0, "a number from 1e-6 to 10 (the "
+                                          "prior std of log-parameters: 10 already spans a factor e**10)"),
                                          ("--q-theta", t.q_theta, 0 <= t.q_theta < np.inf, "a number >= 0"),
                                          ("--q-x", t.q_x, 0 <= t.q_x < np.inf, "a number >= 0"),
                                          ("--gate", t.gate, t.gate > 0, "a number > 0 (inf: off)")):

@@ -7,11 +7,14 @@ and the observer bank's crack forces.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from obsnl.errors import OutputError
 
 __all__ = ["figure2", "figure3", "plot_fit", "plot_traces", "plot_bank_forces", "FIGURE_PREFIX"]
 
@@ -31,12 +34,28 @@ def _plt():
     return plt
 
 
-def _save(plt, fig, path: str | Path) -> Path:
-    fig.tight_layout()
+def _save(plt, fig, path: str | Path, *, dpi: int = 130, tight: bool = True) -> Path:
+    """Save ``fig`` as PNG at ``path`` through a temporary file in the same folder, renamed onto ``path``:
+    a symbolic link there is replaced by the file, never written through (the caller has decided, with
+    :func:`obsnl.report.files.check_target`, that ``path`` may be replaced)."""
+    if tight:
+        fig.tight_layout()
     out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=130)
-    plt.close(fig)
+    tmp = None
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = out.parent / f".{out.name}.{os.getpid()}.tmp"  # a new file (O_EXCL), the user's umask applies
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o666)
+        with os.fdopen(fd, "wb") as fh:
+            fig.savefig(fh, dpi=dpi, format="png")
+        os.replace(tmp, out)
+        tmp = None
+    except OSError as exc:
+        raise OutputError(f"cannot write {out}: {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)
     return out
 
 
@@ -227,8 +246,5 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
         ax2.set_ylabel(f"{thr.window:g}-s RMS [N·m]")
         ax2.set_xlabel("time [s]")
         ax2.legend(fontsize=7, ncol=3, loc="upper left", title="dashed: tau", title_fontsize=7)
-        path = out / f"{FIGURE_PREFIX}{name}.png"
-        fig.savefig(path, dpi=80)
-        plt.close(fig)
-        paths.append(path)
+        paths.append(_save(plt, fig, out / f"{FIGURE_PREFIX}{name}.png", dpi=80, tight=False))
     return paths

@@ -18,7 +18,7 @@ from obsnl.observability.branch_table import SCHEMA_ID
 from obsnl.observability.results import AnalysisResult
 from obsnl.report.tables import to_json, to_latex, to_markdown, union_text
 
-__all__ = ["report_files", "write_tables", "timing_table", "check_target", "safe_write"]
+__all__ = ["report_files", "write_tables", "timing_table", "check_target", "check_folder", "safe_write"]
 
 _SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,120}$")
 
@@ -77,6 +77,48 @@ def check_target(path: str | Path, *, force: bool, root: str | Path | None = Non
         if parent.exists() and not parent.is_dir():
             raise OutputError(f"{parent} is a file, not a folder; choose another output path")
     return p
+
+
+def check_folder(out: str | Path, names: Sequence[str], *, force: bool) -> Path:
+    """Check, before any work, that the files ``names`` may be written into the folder ``out``.
+
+    Every file goes through :func:`check_target` (inside ``out``, no link followed, nothing replaced
+    without ``force``), and the folder, or the nearest part of its path that exists, must be a folder
+    this process may write into. Nothing is created.
+
+    Parameters
+    ----------
+    out
+        The folder the user named.
+    names
+        The file names to be written there.
+    force
+        Allow replacing existing files (and links, which are replaced, never followed).
+
+    Returns
+    -------
+    Path
+        ``out``.
+
+    Raises
+    ------
+    OutputError
+        One line naming the path and the fix.
+
+    Examples
+    --------
+    >>> check_folder("new-folder", ["a.json"], force=False).name
+    'new-folder'
+    """
+    folder = Path(out)
+    for name in names:
+        check_target(folder / name, force=force, root=folder)
+    existing = next((q for q in (folder, *folder.parents) if q.exists() or q.is_symlink()), Path("."))
+    if not existing.is_dir():
+        raise OutputError(f"{existing} is a file, not a folder; choose another output folder")
+    if not os.access(existing, os.W_OK | os.X_OK):
+        raise OutputError(f"cannot write into {existing} (permission denied); choose another output folder")
+    return folder
 
 
 def safe_write(path: str | Path, text: str, *, force: bool, root: str | Path | None = None) -> Path:
@@ -156,7 +198,8 @@ def report_files(names: Sequence[str], out: str | Path) -> list[Path]:
     Raises
     ------
     ObsnlError
-        A name that is not a plain file name, or two models with the same name.
+        A name that is not a plain file name, two models with the same name, or a name whose table
+        would overwrite ``index.md`` or ``timings.md``.
 
     Examples
     --------
@@ -173,6 +216,9 @@ def report_files(names: Sequence[str], out: str | Path) -> list[Path]:
                              f"not starting with '.'); rename the model")
     if len(set(names)) != len(names):
         raise OutputError(f"two models share a name ({list(names)}); file names come from model names")
+    for n in names:  # index.md and timings.md are the report's own
+        if n.lower() in ("index", "timings"):
+            raise OutputError(f"model name {n!r} would overwrite the report's own {n.lower()}.md; rename the model")
     out = Path(out)
     files = [out / f"{n}.{ext}" for n in names for ext in ("md", "tex", "json")]
     return files + [out / "index.md", out / "timings.md"]

@@ -21,7 +21,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from obsnl.errors import AnalysisError, OptionError, OutputError
+from obsnl.errors import AnalysisError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.estimation.experiments import Tuning
 from obsnl.estimation.identify import MEASURED_GRID, Identification, identify_measured, simulation_study
@@ -354,7 +354,8 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     Raises
     ------
     OutputError
-        ``out`` is a file, or one of the files exists and ``force`` is not set.
+        ``out`` is a file or a link, cannot be written, or one of the files exists (or is a link) and
+        ``force`` is not set (:func:`obsnl.report.files.check_folder`).
 
     Examples
     --------
@@ -363,15 +364,11 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     """
     from obsnl.report.figures import plot_fit, plot_traces
 
-    folder = Path(out)
-    if folder.exists() and not folder.is_dir():
-        raise OutputError(f"{folder} is a file; give a folder")
-    taken = [folder / f for f in IDENTIFY_FILES if (folder / f).exists()]
-    if taken and not force:
-        raise OutputError(f"{taken[0]} exists; pass --force to overwrite it")
-    folder.mkdir(parents=True, exist_ok=True)
-    path = folder / "identify.json"
-    path.write_text(json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n", encoding="utf-8")
+    from obsnl.report.files import check_folder, safe_write
+
+    folder = check_folder(out, IDENTIFY_FILES, force=force)  # inside out, no link followed, no file replaced unasked
+    path = safe_write(folder / "identify.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n",
+                      force=force, root=folder)
     truth = {p.name: p.true for p in result.parameters if p.true is not None}
     return [path, plot_fit(folder / "fit.png", t=result.t, measured=result.y_measured, simulated=result.y_fit,
                            outputs=result.outputs, fit=result.fit),
