@@ -518,3 +518,12 @@ def test_10_a_bad_scheduler_is_refused_before_the_bar(tmp_path, capsys, address,
     code, err = run(capsys, "reproduce", "--out", str(tmp_path / "o"), "--samples", "50", "--scheduler", address)
     one_line_refusal(code, err, words)
     assert "run/s" not in err and not (tmp_path / "o").exists()
+
+
+def test_11_reproduce_refuses_a_record_it_cannot_resample_before_the_bar(tmp_path, capsys):
+    t = np.arange(300) * 0.0123457  # 81.0 Hz: no ratio of small integers to the experiment's 100 Hz
+    rec = tmp_path / "odd.csv"
+    rec.write_text("time_s,accel_m_s2\n" + "\n".join(f"{a:.7f},{np.sin(a):.6f}" for a in t) + "\n")
+    code, err = run(capsys, "reproduce", "--out", str(tmp_path / "o"), "--record", str(rec), "--samples", "50")
+    one_line_refusal(code, err, "cannot resample", "0.01")
+    assert "run/s" not in err and not (tmp_path / "o").exists()

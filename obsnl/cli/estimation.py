@@ -179,14 +179,18 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
         check_replicates(args.replicates)
     executor = _executor(args)  # a bad --workers or --scheduler is refused here, before the bar starts
     record = read_record(args.record) if args.record else None
+    if record is not None:  # a step that cannot be resampled to 100 Hz is refused before the bar starts
+        from obsnl.studies.seed_tasks import seed_record
+
+        seed_record(record, args.samples)
     default = Path("reports/identification") / (record.name if record is not None else "")
     out = Path(args.out) if args.out else default
-    from obsnl.report.files import check_target
+    from obsnl.report.files import check_folder
     from obsnl.studies.seed_paper import REPRODUCTION_FILES
 
     regenerate = args.out is None  # the default folder holds the committed results and is regenerated on purpose
-    for f in [out / n for n in REPRODUCTION_FILES] + (sorted(out.glob("fig[23]_*.png")) if out.is_dir() else []):
-        check_target(f, force=args.force or regenerate, root=out)
+    figures = [f.name for f in sorted(out.glob("fig[23]_*.png"))] if out.is_dir() and not out.is_symlink() else []
+    check_folder(out, [*REPRODUCTION_FILES, *figures], force=args.force or regenerate)
     if regenerate:
         print(f"obsnl reproduce: regenerating the default folder {out} (committed results); pass --out DIR to "
               f"keep them", file=sys.stderr)

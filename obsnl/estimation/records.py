@@ -83,7 +83,7 @@ class Record:
 
         ratio = Fraction(self.dt / dt).limit_denominator(1000)
         if abs(float(ratio) - self.dt / dt) > 1e-9 * self.dt / dt:
-            raise DataError(f"cannot resample from dt={self.dt} to dt={dt}: not a ratio of small integers")
+            raise DataError(f"cannot resample from dt={float(self.dt)!r} to dt={float(dt)!r}: not a ratio of small integers")
         a = resample_poly(self.accel, ratio.numerator, ratio.denominator, axis=0)
         return Record(self.name, a, dt, self.source,
                       self.notes + (f"resampled from dt={self.dt:g} s to {dt:g} s (polyphase, x{ratio})",), self.channels)
@@ -125,7 +125,7 @@ def check_times(t: np.ndarray, where: str) -> float:
     d = np.diff(t)
     if np.any(d <= 0):
         i = int(np.flatnonzero(d <= 0)[0])
-        raise DataError(f"{where}: time does not increase at sample {i + 1} (t={t[i + 1]!r} after {t[i]!r})")
+        raise DataError(f"{where}: time does not increase at sample {i + 1} (t={float(t[i + 1])!r} after {float(t[i])!r})")
     dt = float(np.median(d))
     off = np.flatnonzero(np.abs(d - dt) > max(_DT_RTOL * dt, 1e-9 + 1e-6 * dt))
     if off.size:

@@ -27,7 +27,7 @@ from obsnl.executor import built_once
 from obsnl.model.files import catalogue_path
 
 __all__ = ["Spec", "context", "compile_task", "tuning_task", "reported_task", "replicates_task", "RunResult", "seed_setup",
-           "seed_model_path", "reported_with_fallbacks", "SEED_GUESS", "FALLBACKS"]
+           "seed_record", "seed_model_path", "reported_with_fallbacks", "SEED_GUESS", "FALLBACKS"]
 
 #: Initial guesses of Table 2 of the seed paper (DESIGN.md).
 SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
@@ -88,6 +88,32 @@ def seed_model_path() -> str:
     return str(catalogue_path("damage_healing_reparam"))
 
 
+def seed_record(record: Record | None = None, samples: int | None = None) -> Record:
+    """The record of the seed experiment: Northridge 1994 LOS270, or ``record`` resampled to 100 Hz and
+    cut to its first 2000 samples; then its first ``samples``.
+
+    Raises
+    ------
+    DataError
+        A step that cannot be resampled to 100 Hz, or fewer than 2 samples.
+
+    Examples
+    --------
+    >>> len(seed_record(samples=300)), seed_record().dt
+    (300, 0.01)
+    """
+    from importlib import resources
+
+    from obsnl.estimation.records import read_record
+
+    if record is None:
+        record = read_record(str(resources.files("obsnl").joinpath("studies/data/northridge1994_LOS270_ngawest2_accel.csv")))
+    else:
+        record = record.resampled(0.01)
+        record = record.head(min(len(record), 2000))
+    return record if samples is None else record.head(samples)
+
+
 def seed_setup(*, record: Record | None = None, samples: int | None = None, jit: bool = False,
                kind: str = "log") -> Setup:
     """The seed paper's experiment (on another record when given: resampled to 100 Hz, first 2000 samples).
@@ -107,21 +133,11 @@ def seed_setup(*, record: Record | None = None, samples: int | None = None, jit:
     -------
     Setup
     """
-    from importlib import resources
-
     from obsnl.estimation.codegen import to_casadi
-    from obsnl.estimation.records import read_record
     from obsnl.model.files import load_model
 
-    here = resources.files("obsnl")
     model = load_model(seed_model_path())
-    if record is None:
-        record = read_record(str(here.joinpath("studies/data/northridge1994_LOS270_ngawest2_accel.csv")))
-    else:
-        record = record.resampled(0.01)
-        record = record.head(min(len(record), 2000))
-    if samples is not None:
-        record = record.head(samples)
+    record = seed_record(record, samples)
     num = to_casadi(model)
     truth = {p: float(model.values[p]) for p in num.parameters}
     return Setup(model=num, record=record, truth=truth, guess=dict(SEED_GUESS), jit=jit,
