@@ -527,3 +527,26 @@ def test_11_reproduce_refuses_a_record_it_cannot_resample_before_the_bar(tmp_pat
     code, err = run(capsys, "reproduce", "--out", str(tmp_path / "o"), "--record", str(rec), "--samples", "50")
     one_line_refusal(code, err, "cannot resample", "0.01")
     assert "run/s" not in err and not (tmp_path / "o").exists()
+
+
+@pytest.mark.parametrize("value", ["nan", "0", "inf", "1e300"])
+def test_10_a_guess_the_filter_cannot_start_from_is_named(capsys, value):
+    # used to end in "forward(inverse(theta)) != theta", "bounds must be (lo, hi) ..." or "the
+    # simulation left the finite numbers at sample 1": the filter works in log|p| from the guess
+    code, err = run(capsys, *FAST_STUDY, "--guess", f"k_m={value}")
+    one_line_refusal(code, err, "guess of k_m", "finite nonzero")
+
+
+@pytest.mark.parametrize("column, words", [("zeros", ["constant", "no response"]), ("huge", ["1e+308", "rescale"])])
+def test_10_degenerate_measured_data_are_named(tmp_path, capsys, column, words):
+    # an all-zero output used to end in "R must be positive definite" after the bar, an output of
+    # 1e308 in RuntimeWarnings and "R contains NaN/inf"
+    t = np.arange(200) * 0.01
+    x = np.zeros_like(t) if column == "zeros" else np.where(t > 1.0, 1e308, np.sin(t))
+    p = tmp_path / "d.csv"
+    p.write_text("time_s,F,disp\n" + "\n".join(f"{a:.2f},{float(np.sin(3 * a))!r},{float(b)!r}" for a, b in zip(t, x)))
+    m = model_file(tmp_path, inputs=["F"], outputs={"disp": "x"},
+                   equations={"x": "v", "v": "-k*x + F"}, guess={"k": 2.0})
+    code, err = run(capsys, "identify", str(m), "--data", str(p))
+    one_line_refusal(code, err, *words)
+    assert "step/s" not in err

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from obsnl.errors import EstimatorError, ObsnlError, OptionError
+from obsnl.errors import DataError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
 from obsnl.estimation.experiments import Tuning, make_data, make_filter, run_passes
 from obsnl.estimation.measured import NOISE_FLOOR, Measured, estimate_noise
@@ -366,6 +366,10 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     missing = [q for q in num.parameters if q not in guess]
     if missing:
         raise OptionError(f"no initial guess for {missing}; give --guess {missing[0]}=VALUE or a [guess] table")
+    for j, c in enumerate(data.outputs):
+        if data.y.shape[0] and np.all(data.y[:, j] == data.y[0, j]):
+            raise DataError(f"output {c!r} of {data.name!r} is constant ({float(data.y[0, j])!r} throughout): there "
+                            f"is no response to identify from; check the column")
     given = dict(noise or {})
     bad = [f"{k}={v!r}" for k, v in given.items() if not (isinstance(v, (int, float)) and 0 < v < 1)]
     if bad:

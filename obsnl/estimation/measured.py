@@ -108,6 +108,8 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
         if bad.size:
             raise DataError(f"{where}: column {c!r} has NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
                             f"clean or interpolate the record first")
+        if c != tname and a.size and np.max(np.abs(a)) > 1e100:  # squared by the noise levels and the filter
+            raise DataError(f"{where}: column {c!r} reaches {float(np.max(np.abs(a))):.3g}; rescale it (check its units)")
         arrays[c] = a
     lengths = {len(a) for a in arrays.values()}
     if len(lengths) != 1:

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
@@ -154,6 +155,10 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
     num = to_casadi(model, switching=table.switching if table else None)
     g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
     g.update(guess or {})
+    for k, v in g.items():  # the filters estimate log|p| with the guess's sign: 0, inf and NaN cannot start
+        if not (math.isfinite(v) and 0 < abs(v) < 1e100):
+            raise OptionError(f"the guess of {k} is {v!r} (--guess or the model's [guess]); give a finite nonzero "
+                              f"number below 1e100 in magnitude (the filter estimates log|{k}| from it)")
     return num, g, table, structural
 
 
