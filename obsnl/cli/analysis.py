@@ -7,6 +7,8 @@ import json
 from typing import Any
 
 from obsnl.cli.common import _Exit, _add_executor, _executor, _load, _progress, _seed, write_output  # noqa: F401
+from obsnl.model.unknown_inputs import DERIVATIVES_MARGIN
+from obsnl.observability.limits import MAX_UNKNOWNS, check_analysis_limits, out_of_memory
 
 
 # --------------------------------------------------------------------------- show
@@ -76,7 +78,9 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
         help="observability/identifiability of every branch of a model",
         description="Split the model into smooth branches and test each with the ORC or Sedoglavic's randomized "
         "test. Exit code 2 when a branch is inconclusive (time limit, disagreeing points): the result is still "
-        "printed (undecided variables are in neither list) and the reason goes to stderr.",
+        "printed (undecided variables are in neither list) and the reason goes to stderr. A model with more "
+        f"than {MAX_UNKNOWNS} unknowns (states + parameters + unknown-input coefficients) is refused before any "
+        "work: the engines' dense arrays grow as the cube of that number.",
     )
     p.add_argument("model", help="model file (.toml, or .json such as a peer case)")
     p.add_argument("--format", choices=("text", "json", "md", "tex", "json-table"), default="text",
@@ -94,7 +98,9 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--no-joint", action="store_true", help="skip the joint verdict (per-branch results and union only)")
     p.add_argument("--unknown-input-derivatives", default=None, metavar="K|arbitrary",
                    help="what the unknown inputs are: 'arbitrary' (any function of time) or K, polynomials in t "
-                   "with K non-zero derivatives (STRIKE-GOLDD nnzDerW; 0 = constants). Default: the model "
+                   "with K non-zero derivatives (STRIKE-GOLDD nnzDerW; 0 = constants). K is at most the model's "
+                   f"states + parameters + {DERIVATIVES_MARGIN}: the rank test reads no more derivatives of an "
+                   "unknown input than that, so larger K add nothing and are refused. Default: the model "
                    "file's unknown_input_derivatives, else arbitrary")
     p.add_argument("-o", "--output", default=None, metavar="FILE", help="write to FILE instead of stdout")
     p.add_argument("--force", action="store_true", help="overwrite FILE if it exists")
@@ -109,11 +115,19 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
     if args.output and args.output != "-":
         check_target(args.output, force=args.force)
     model = _load(args.model)
+    # refused before any work (the record's simulation included): a too large model or K
+    k = check_analysis_limits(model, args.unknown_input_derivatives, option="--unknown-input-derivatives")
     labels = [s.strip() for s in args.branches.split(",") if s.strip()] if args.branches else None
-    visits = _record_visits(model, args.record) if args.record else None
-    result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds, branches=labels,
-                     visited=visits.patterns if visits else None, crossings=visits.crossings if visits else None,
-                     joint=not args.no_joint, unknown_input_derivatives=args.unknown_input_derivatives)
+    try:
+        visits = _record_visits(model, args.record) if args.record else None
+        result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds, branches=labels,
+                         visited=visits.patterns if visits else None,
+                         crossings=visits.crossings if visits else None, joint=not args.no_joint,
+                         unknown_input_derivatives=args.unknown_input_derivatives)
+    except MemoryError:  # outside analyze itself (the record's simulation); raised below, arrays freed
+        result = None
+    if result is None:
+        raise out_of_memory(model, k)
     from obsnl.report.tables import render
 
     write_output(render(result, args.format), args.output, force=args.force)
@@ -146,7 +160,9 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
         "report",
         help="analyse models and write their branch tables (Markdown, LaTeX, JSON)",
         description="Analyse each model and write DIR/<model>.md, .tex (booktabs) and .json (branch table, "
-        "schema obsnl.branch-table/1), an index (index.md) and a timing table (timings.md).",
+        "schema obsnl.branch-table/1), an index (index.md) and a timing table (timings.md). Every model is "
+        f"checked first: one with more than {MAX_UNKNOWNS} unknowns (states + parameters + unknown-input "
+        "coefficients) is refused before any analysis.",
     )
     p.add_argument("models", nargs="+", metavar="MODEL", help="model files (.toml or .json)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
@@ -163,6 +179,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
     from obsnl.batch import report_models
 
     models = [_load(m) for m in args.models]
+    for m in models:  # every model checked before the first is analysed
+        check_analysis_limits(m)
     results = report_models(models, args.out, method=args.method, seed=args.seed, force=args.force,
                            max_seconds=args.max_seconds, executor=_executor(args))
     print(f"wrote {len(results)} table(s) with index.md and timings.md to {args.out}")

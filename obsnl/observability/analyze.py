@@ -32,6 +32,7 @@ from obsnl.observability.joint_certify import (
     certify_by_symmetry,
     undecided_beyond_visits,
 )
+from obsnl.observability.limits import out_of_memory
 from obsnl.observability.results import AnalysisResult, BranchResult
 from obsnl.observability.selection import select_branches
 from obsnl.observability.smooth import (METHODS, _branch_result, _check, _fresh_seed, _variable_names,
@@ -74,8 +75,10 @@ def analyze(
     unknown_input_derivatives
         What the unknown inputs are: ``"arbitrary"`` (any function of time: each Taylor coefficient
         the test reads is a new unknown, see :func:`obsnl.algebra.problem.arbitrary_terms`) or ``K``
-        (polynomials with K non-zero derivatives, STRIKE-GOLDD ``nnzDerW``; 0: constants). None (the
-        default): the model's ``unknown_input_derivatives`` key, else ``"arbitrary"``.
+        (polynomials with K non-zero derivatives, STRIKE-GOLDD ``nnzDerW``; 0: constants), K at most the
+        model's states + parameters + 16 (:func:`obsnl.model.unknown_inputs.max_unknown_input_derivatives`:
+        more derivatives add nothing to the rank test). None (the default): the model's
+        ``unknown_input_derivatives`` key, else ``"arbitrary"``.
     input_derivatives
         Non-zero derivatives of the known inputs (None: generic inputs).
     decompose
@@ -102,7 +105,14 @@ def analyze(
     Raises
     ------
     AnalysisError
-        No outputs, an output that depends on no state, an unknown method or a bad option.
+        No outputs, an output that depends on no state, an unknown method or a bad option; a model with
+        more unknowns (states + parameters + unknown-input coefficients) than
+        :data:`obsnl.observability.limits.MAX_UNKNOWNS`, refused before any work; running out of memory.
+    OptionError
+        ``unknown_input_derivatives`` larger than the model can use (its states + parameters + 16, see
+        :func:`obsnl.model.unknown_inputs.max_unknown_input_derivatives`), refused before any work.
+    ModelError
+        The same for the model's ``unknown_input_derivatives`` key.
     NotSupportedError
         A function or term the exact engines cannot handle (the message says what to do).
 
@@ -119,6 +129,22 @@ def analyze(
     """
     _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
     unknown_input_derivatives = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
+    try:
+        return _analyze(model, method=method, seed=seed, max_seconds=max_seconds, prob=prob,
+                        unknown_input_derivatives=unknown_input_derivatives, input_derivatives=input_derivatives,
+                        decompose=decompose, branches=branches, visited=visited, crossings=crossings, joint=joint)
+    except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the arrays are freed
+        pass
+    raise out_of_memory(model, unknown_input_derivatives)
+
+
+def _analyze(
+    model: Model, *, method: str, seed: int | None, max_seconds: float | None, prob: float,
+    unknown_input_derivatives: int | str, input_derivatives: int | None, decompose: bool,
+    branches: Sequence[str] | None, visited: Mapping[tuple[int, ...], float] | None,
+    crossings: Mapping[str, int] | None, joint: bool,
+) -> AnalysisResult:
+    """The body of :func:`analyze`, its arguments checked and ``unknown_input_derivatives`` resolved."""
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     seed = _fresh_seed(seed)

@@ -24,6 +24,7 @@ from obsnl.errors import AnalysisError, ModelError
 from obsnl.model.core import Model
 from obsnl.model.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
 from obsnl.observability.decompose import decompose as _decompose
+from obsnl.observability.limits import check_analysis_limits, out_of_memory
 from obsnl.observability.orc import orc_block
 from obsnl.observability.results import BranchResult, Verdict
 from obsnl.observability.sedoglavic import sedoglavic_block
@@ -68,6 +69,8 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
         raise AnalysisError(
             f"no output of model {model.name!r} depends on a state; measure at least one state"
         )
+    # last: the size of what the engines will hold (refused before any heavy work)
+    check_analysis_limits(model, unknown_input_derivatives)
 
 
 def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> int | str:
@@ -282,9 +285,13 @@ def analyze_smooth(
     Raises
     ------
     ModelError
-        When the model is not smooth.
+        When the model is not smooth, or its ``unknown_input_derivatives`` key is beyond the bound of
+        :func:`obsnl.observability.limits.check_analysis_limits`.
+    OptionError
+        When ``unknown_input_derivatives`` is beyond that bound.
     AnalysisError
-        When an option is invalid.
+        When an option is invalid, the model has more unknowns than
+        :data:`obsnl.observability.limits.MAX_UNKNOWNS`, or the analysis runs out of memory.
     """
     _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
     if not model.is_smooth:
@@ -294,12 +301,15 @@ def analyze_smooth(
         )
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
-    br, _ = _branch_result("smooth", "true", model, _variable_names(model), method=method, seed=_fresh_seed(seed),
-                           deadline=deadline, target=1 - prob, decompose=decompose,
-                           unknown_input_derivatives=resolve_unknown_input_derivatives(
-                               model, unknown_input_derivatives),
-                           input_derivatives=input_derivatives)
-    return br
+    k = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
+    try:
+        br, _ = _branch_result("smooth", "true", model, _variable_names(model), method=method,
+                               seed=_fresh_seed(seed), deadline=deadline, target=1 - prob, decompose=decompose,
+                               unknown_input_derivatives=k, input_derivatives=input_derivatives)
+        return br
+    except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the arrays are freed
+        pass
+    raise out_of_memory(model, k)
 
 
 def orc(
