@@ -28,6 +28,11 @@ def test_help_everywhere(capsys):
         assert code == 0 and "usage: obsnl " + name in out
 
 
+def test_no_command_is_an_error_on_stderr(capsys):
+    code, out, err = run([], capsys)  # used to print the whole help on stdout and exit 2
+    assert code == 2 and out == "" and err.splitlines()[-1] == "obsnl: error: choose a command (obsnl --help lists them)"
+
+
 def test_show(capsys):
     code, out, _ = run(["show", str(MODELS / "coulomb_friction.toml")], capsys)
     assert code == 0

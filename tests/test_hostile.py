@@ -550,3 +550,10 @@ def test_10_degenerate_measured_data_are_named(tmp_path, capsys, column, words):
     code, err = run(capsys, "identify", str(m), "--data", str(p))
     one_line_refusal(code, err, *words)
     assert "step/s" not in err
+
+
+def test_9_a_folder_given_as_a_branch_table_is_named(tmp_path):
+    from obsnl.observability.branch_table import load_branch_table
+
+    with pytest.raises(TableError, match="is a folder"):  # used to say "does not exist"
+        load_branch_table(tmp_path)

@@ -48,8 +48,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: --help (0) or usage error (2)
         return int(exc.code or 0)
-    if not getattr(args, "func", None):
-        parser.print_help()
+    if not getattr(args, "func", None):  # no command: the usage and one error line on stderr, as argparse does
+        parser.print_usage(sys.stderr)
+        print("obsnl: error: choose a command (obsnl --help lists them)", file=sys.stderr)
         return 2
     try:
         return int(args.func(args) or 0)
