@@ -92,6 +92,17 @@ def seed_record(record: Record | None = None, samples: int | None = None) -> Rec
     """The record of the seed experiment: Northridge 1994 LOS270, or ``record`` resampled to 100 Hz and
     cut to its first 2000 samples; then its first ``samples``.
 
+    Parameters
+    ----------
+    record : Record or None
+        Another record (None: Northridge 1994 LOS270, as the seed paper).
+    samples : int or None
+        Keep only the first samples.
+
+    Returns
+    -------
+    Record
+
     Raises
     ------
     DataError
