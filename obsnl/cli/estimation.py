@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -21,32 +20,25 @@ def _add_bank(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--seeds", type=int, default=3, help="noise seeds per scenario (default: 3); thresholds use as many other seeds")
     p.add_argument("--out", default="reports/bank", help="output folder (default: reports/bank)")
-    p.add_argument("--model", default=None, help="link model file (default: models/cantilever_link.toml)")
+    p.add_argument("--model", default=None, help="link model file (default: obsnl:cantilever_link, the packaged "
+                   "obsnl/catalogue/cantilever_link.toml)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.set_defaults(func=_cmd_bank)
 
 
 def _cmd_bank(args: argparse.Namespace) -> int:
-    from obsnl.studies.link_study import run_link_study
+    from obsnl.report.bank import check_bank_output, write_bank_report
     from obsnl.studies.cantilever import load_link_spec
-    from obsnl.report.figures import FIGURE_PREFIX, plot_bank_forces
-    from obsnl.report.bank import bank_table_markdown
+    from obsnl.studies.link_study import check_bank_settings, run_link_study
 
     if args.seeds < 1:
         raise _Exit(2, f"--seeds must be at least 1, got {args.seeds}")
-    out = Path(args.out)
-    if out.exists() and not out.is_dir():
-        raise _Exit(2, f"{args.out} is a file; --out needs a folder")
-    taken = [p for p in (out / "bank.json", out / "bank.md") if p.exists() or p.is_symlink()]
-    taken += sorted(out.glob(f"{FIGURE_PREFIX}*.png")) if out.is_dir() else []
-    if taken and not args.force:
-        raise _Exit(2, f"{taken[0]} exists; pass --force to overwrite it")
-    study = run_link_study(seeds=args.seeds, spec=load_link_spec(args.model) if args.model else None)
-    doc = study.to_dict()
-    write_output(json.dumps(doc, indent=2), str(out / "bank.json"), force=True)
-    write_output(bank_table_markdown(doc), str(out / "bank.md"), force=True)
-    figs = plot_bank_forces(study, out)
-    print(f"wrote {out / 'bank.json'}, {out / 'bank.md'} and {len(figs)} force plots")
+    spec = load_link_spec(args.model)  # the model file and its [bank] table are checked before any work
+    scenarios = ["healthy"] + [f"crack{c}" for c in check_bank_settings(spec)["crack_elements"]]
+    check_bank_output(args.out, scenarios, force=args.force)
+    study = run_link_study(seeds=args.seeds, spec=spec)
+    files = write_bank_report(study, args.out, force=args.force)  # all files or none
+    print(f"wrote {', '.join(str(f) for f in files[:2])} and {len(files) - 2} force plots")
     return 0
 
 

@@ -1,15 +1,31 @@
 """The observer-bank table (seed ``001_d0508a78c5399696.txt``; numbers from
-:func:`obsnl.studies.link_study.run_link_study`), as Markdown."""
+:func:`obsnl.studies.link_study.run_link_study`), as Markdown, and the report folder: ``bank.json``,
+``bank.md`` and one ``forces_<scenario>.png`` per scenario, each checked before anything is written and
+written under the rule of :mod:`obsnl.report.files` (an existing file or link is refused without
+``force``; with it, a link is replaced by the file, never written through)."""
 
 from __future__ import annotations
 
+import json
+import os
+import re
+import shutil
+import tempfile
 from collections import Counter
 from collections.abc import Mapping, Sequence
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["bank_table_markdown"]
+from obsnl.errors import OutputError
+from obsnl.report.files import check_folder, safe_write
+
+__all__ = ["bank_table_markdown", "bank_file_names", "check_bank_output", "write_bank_report", "BANK_FILES"]
+
+#: The files of every bank report, besides one force plot per scenario.
+BANK_FILES = ("bank.json", "bank.md")
+_SCENARIO = re.compile(r"^[A-Za-z0-9_-]{1,64}$")
 
 
 def _bank_num(x: Any, fmt: str = ".3f") -> str:
@@ -83,3 +99,131 @@ def bank_table_markdown(doc: Mapping[str, Any]) -> str:
                        f"{g['n_channels']} | {g['verdict']} | {sv} | {_bank_num(g['condition'], '.3g')} | "
                        f"{g['reason'] or '–'} |")
     return "\n".join(out) + "\n"
+
+
+def bank_file_names(scenarios: Sequence[str]) -> list[str]:
+    """The file names of a bank report with these scenarios: :data:`BANK_FILES`, then the force plots.
+
+    Parameters
+    ----------
+    scenarios
+        Scenario names (``"healthy"``, ``"crack3"``, ...); they become file names.
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    OutputError
+        A scenario name that is not a plain file name.
+
+    Examples
+    --------
+    >>> bank_file_names(["healthy", "crack2"])
+    ['bank.json', 'bank.md', 'forces_healthy.png', 'forces_crack2.png']
+    """
+    from obsnl.report.figures import FIGURE_PREFIX
+
+    bad = [s for s in scenarios if not isinstance(s, str) or not _SCENARIO.match(s)]
+    if bad:
+        raise OutputError(f"scenario name {bad[0]!r} cannot be part of a file name (letters, digits, '_', '-' only)")
+    return [*BANK_FILES, *(f"{FIGURE_PREFIX}{s}.png" for s in scenarios)]
+
+
+def check_bank_output(out: str | Path, scenarios: Sequence[str], *, force: bool) -> list[Path]:
+    """Check, before any work, that a bank report may be written into the folder ``out``.
+
+    Every file goes through :func:`obsnl.report.files.check_folder` (and so
+    :func:`~obsnl.report.files.check_target`): without ``force`` an existing file or symbolic link is refused;
+    a folder in a file's place, a parent that is a file, a path leaving ``out`` or a folder this process
+    cannot write into is always refused. Nothing is created.
+
+    Parameters
+    ----------
+    out
+        The report folder (created by :func:`write_bank_report` if missing).
+    scenarios
+        The scenario names (see :func:`bank_file_names`).
+    force
+        Allow replacing existing files (links are replaced, never followed).
+
+    Returns
+    -------
+    list of Path
+        The files, in the order of :func:`bank_file_names`.
+
+    Raises
+    ------
+    OutputError
+        One line naming the path and the fix.
+    """
+    folder = Path(out)
+    if folder.exists() and not folder.is_dir():
+        raise OutputError(f"{folder} is a file; the bank report needs a folder")
+    names = bank_file_names(scenarios)
+    check_folder(folder, names, force=force)
+    return [folder / name for name in names]
+
+
+def write_bank_report(study: Any, out: str | Path, *, force: bool = False) -> list[Path]:
+    """Write ``bank.json``, ``bank.md`` and the force plots of a study into the folder ``out``.
+
+    All files are checked (:func:`check_bank_output`) and rendered before any is written: they are made
+    in a new temporary folder inside ``out`` (plots saved there by matplotlib, text through
+    :func:`obsnl.report.files.safe_write`), then renamed onto their names with :func:`os.replace`, which
+    replaces a symbolic link itself and never writes through it. On an error nothing is left behind
+    (the temporary folder is removed, and ``out`` too when this call created it).
+
+    Parameters
+    ----------
+    study
+        A :class:`obsnl.studies.link_study.LinkStudy`.
+    out
+        The report folder (created if missing).
+    force
+        Replace existing files (and links).
+
+    Returns
+    -------
+    list of Path
+        The files written: ``bank.json``, ``bank.md``, then one ``forces_<scenario>.png`` per scenario.
+
+    Raises
+    ------
+    OutputError
+        A file exists (or is a link) without ``force``, a path is a folder or leaves ``out``, a value is
+        not finite, or the folder cannot be written.
+    """
+    from obsnl.report.figures import plot_bank_forces
+
+    scenarios = list(study.traces)
+    targets = check_bank_output(out, scenarios, force=force)
+    doc = study.to_dict()
+    try:
+        texts = {"bank.json": json.dumps(doc, indent=2, allow_nan=False) + "\n", "bank.md": bank_table_markdown(doc)}
+    except ValueError as exc:
+        raise OutputError(f"the bank results hold a number JSON cannot store ({exc}); nothing was written") from None
+    folder = Path(out)
+    made, done, tmp = not folder.exists(), False, None
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=".bank-", dir=folder))
+        for name, text in texts.items():
+            safe_write(tmp / name, text, force=False, root=tmp)
+        plot_bank_forces(study, tmp)
+        names = bank_file_names(scenarios)
+        missing = [n for n in names if not (tmp / n).is_file() or (tmp / n).is_symlink()]
+        if missing:
+            raise OutputError(f"{missing[0]} was not drawn; nothing was written")
+        for name, target in zip(names, targets):
+            os.replace(tmp / name, target)
+        done = True
+    except OSError as exc:
+        raise OutputError(f"cannot write the bank report into {folder}: {exc.strerror or exc}") from None
+    finally:
+        if tmp is not None:
+            shutil.rmtree(tmp, ignore_errors=True)
+        if made and not done:
+            shutil.rmtree(folder, ignore_errors=True)
+    return targets

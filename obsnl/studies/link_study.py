@@ -10,13 +10,29 @@ from typing import Any
 
 import numpy as np
 
-from obsnl.errors import DataError
+from obsnl.errors import AnalysisError, DataError, ModelError
 from obsnl.linear.bank import (BankDecision, Thresholds, build_bank,
                                calibrate_thresholds, decide, _f)
 from obsnl.linear.observer import ExtendedObservability, extended_observability, integrator
-from obsnl.studies.cantilever import BreathingCrack, LinkSpec, build_cantilever
+from obsnl.studies.cantilever import BreathingCrack, LinkSpec, _Table, build_cantilever, load_link_spec
 
-__all__ = ["ScenarioRun", "GateCheck", "LinkStudy", "run_link_study"]
+__all__ = ["ScenarioRun", "GateCheck", "LinkStudy", "run_link_study", "check_bank_settings", "study_cost",
+           "BANK_KEYS", "MAX_SAMPLES", "MAX_SEEDS", "MAX_STUDY_BYTES", "MAX_STUDY_WORK"]
+
+#: The keys of a link model's ``[bank]`` table (all required).
+BANK_KEYS = ("observer_elements", "channels", "sensor_set", "q_x", "q_v", "dt", "duration", "onset",
+             "evaluation_window", "detection_window", "threshold_factor", "ratio_band", "crack_elements")
+#: Most time samples (``duration / dt + 1``) of a simulated run (the benchmark has 30 001).
+MAX_SAMPLES = 1_000_000
+
+#: Most evaluation (and calibration) noise seeds of one study.
+MAX_SEEDS = 1000
+#: Largest estimated peak memory of a study, in bytes (the benchmark with 3 seeds needs about 0.4 GiB).
+MAX_STUDY_BYTES = 4 * 1024**3
+#: Largest estimated work of a study, in multiply-adds (the benchmark with 3 seeds needs about 7e9).
+MAX_STUDY_WORK = 5e11
+_STEP_COST = 1e4  # a Python-level time step, counted as this many multiply-adds
+_CHUNK = 2048  # time steps per block of ObserverBank.run_many
 
 
 @dataclass(frozen=True)
@@ -86,28 +102,53 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
     calibration_seeds
         Noise seeds of the healthy calibration runs.
     spec
-        A :class:`obsnl.studies.cantilever.LinkSpec` (default: the model file ``cantilever_link.toml``).
+        A :class:`obsnl.studies.cantilever.LinkSpec` (default: the packaged ``obsnl:cantilever_link``).
     gates
         Also run the observability gate of section 2.6.6 (S4 with s = 2, S1 with s = 1 and 2).
+
+    Returns
+    -------
+    LinkStudy
+
+    Raises
+    ------
+    DataError
+        No, too many (over :data:`MAX_SEEDS`) or shared evaluation and calibration seeds.
+    ModelError
+        A bad spec (see :func:`obsnl.studies.cantilever.load_link_spec`), or a study whose estimated
+        memory or work (:func:`study_cost`) is over :data:`MAX_STUDY_BYTES` or :data:`MAX_STUDY_WORK`;
+        checked before any simulation.
+    AnalysisError
+        An observer is not observable, or a simulation or estimate is not finite.
     """
-    beam = build_cantilever(spec)
-    cfg = beam.spec.bank
-    ev = list(range(int(seeds))) if isinstance(seeds, (int, np.integer)) else [int(s) for s in seeds]
-    if not ev or (isinstance(seeds, (int, np.integer)) and seeds < 1):
-        raise DataError(f"need at least one evaluation seed, got {seeds!r}")
-    cal = [1000 + i for i in range(len(ev))] if calibration_seeds is None else [int(s) for s in calibration_seeds]
-    if not cal or set(cal) & set(ev):
+    ev = _seed_list(seeds, "evaluation")
+    cal = [1000 + i for i in range(len(ev))] if calibration_seeds is None else _seed_list(calibration_seeds,
+                                                                                          "calibration")
+    if set(cal) & set(ev):
         raise DataError(f"calibration seeds {cal} must be non-empty and differ from the evaluation seeds {ev}")
-    try:
-        dt, T, onset = float(cfg["dt"]), float(cfg["duration"]), float(cfg["onset"])
-        elements, chans = [int(e) for e in cfg["observer_elements"]], tuple(cfg["channels"])
-        sensors, cracks = str(cfg["sensor_set"]), [int(c) for c in cfg["crack_elements"]]
-        win_det, win_ev = float(cfg["detection_window"]), float(cfg["evaluation_window"])
-        factor, band, q_x, q_v = (float(cfg[k]) for k in ("threshold_factor", "ratio_band", "q_x", "q_v"))
-    except KeyError as exc:
-        raise DataError(f"the model file's [bank] table lacks {exc}; see models/cantilever_link.toml") from exc
+    spec = load_link_spec() if spec is None else spec
+    cfg = check_bank_settings(spec)
+    size, work = study_cost(spec, n_seeds=len(ev), n_calibration=len(cal))
+    if size > MAX_STUDY_BYTES or work > MAX_STUDY_WORK:
+        what = (f"about {size / 1024**3:.3g} GiB of memory, over the limit of {MAX_STUDY_BYTES / 1024**3:g} GiB"
+                if size > MAX_STUDY_BYTES else f"about {work:.2g} multiply-adds, over the limit of {MAX_STUDY_WORK:g}")
+        raise ModelError(f"this study ({spec.n_elements} elements, {len(cfg['observer_elements'])} observers, "
+                         f"{len(cfg['crack_elements'])} crack scenarios, {len(ev)} evaluation and {len(cal)} "
+                         f"calibration seeds, {_samples(cfg):,} time samples) needs {what}; use fewer elements, "
+                         f"observers, scenarios, seeds or time samples (duration / dt)")
+    beam = build_cantilever(spec)
+    dt, T, onset = cfg["dt"], cfg["duration"], cfg["onset"]
+    elements, chans = list(cfg["observer_elements"]), tuple(cfg["channels"])
+    sensors, cracks = cfg["sensor_set"], list(cfg["crack_elements"])
+    win_det, win_ev = cfg["detection_window"], cfg["evaluation_window"]
+    factor, band, q_x, q_v = (cfg[k] for k in ("threshold_factor", "ratio_band", "q_x", "q_v"))
+    f1 = float(beam.modal_frequencies()[0])
+    if not f1 < 0.5 / dt:
+        raise ModelError(f"the link's first natural frequency {f1:.3g} Hz is above the Nyquist frequency "
+                         f"1 / (2 dt) = {0.5 / dt:g} Hz; check the [structure] numbers (SI units) or lower dt")
     plant = beam.system(sensors)
     healthy = beam.simulate(dt=dt, duration=T)
+    _finite(healthy.x, "the simulation of the healthy link")
     y0 = healthy.x @ plant.C.T
     rms = np.sqrt(np.mean(y0**2, axis=0))
     sigma = beam.spec.noise * rms
@@ -121,8 +162,11 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
     sims = {"healthy": (None, healthy)}
     for c in cracks:
         sims[f"crack{c}"] = (c, beam.simulate(dt=dt, duration=T, crack=BreathingCrack(c, beam.spec.severity, onset)))
+        _finite(sims[f"crack{c}"][1].x, f"the simulation with a crack in element {c}")
     records = noisy(healthy.x, cal) + [y for _, sim in sims.values() for y in noisy(sim.x, ev)]
     outs = bank.run_many(healthy.u, records)  # one vectorised pass over all runs
+    for o in outs:
+        _finite(o.nhat, "the observer bank's force estimates")
     thr = calibrate_thresholds(outs[: len(cal)], window=win_det, factor=factor, seeds=cal)
     runs, traces = [], {}
     w = healthy.t >= T - win_ev + 0.5 * dt
@@ -146,3 +190,141 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
     observers = tuple({"label": lab, "element": int(lab), "check": chk.verdict.value, "design": d.to_dict()}
                       for lab, chk, d in zip(bank.labels, bank.checks, bank.designs))
     return LinkStudy(settings, thr, tuple(gate_list), tuple(runs), observers, traces)
+
+
+def _seed_list(seeds: int | Sequence[int], what: str) -> list[int]:
+    """Seeds ``0..K-1`` for an int ``K``, else the given ones; 1 to :data:`MAX_SEEDS` distinct whole numbers."""
+    if isinstance(seeds, (int, np.integer)) and not isinstance(seeds, bool):
+        if not 1 <= seeds <= MAX_SEEDS:
+            raise DataError(f"need at least one {what} seed and at most {MAX_SEEDS}, got {seeds!r}")
+        return list(range(int(seeds)))
+    if isinstance(seeds, (str, bytes)) or not isinstance(seeds, (Sequence, np.ndarray)):
+        raise DataError(f"{what} seeds must be a count or a list of whole numbers, got {type(seeds).__name__}")
+    if not 1 <= len(seeds) <= MAX_SEEDS:
+        raise DataError(f"need at least one {what} seed and at most {MAX_SEEDS}, got {len(seeds)}")
+    out = []
+    for s in seeds:
+        if isinstance(s, bool) or not isinstance(s, (int, np.integer)) or s < 0:
+            raise DataError(f"{what} seed {s!r} is not a whole number >= 0")
+        out.append(int(s))
+    if len(set(out)) != len(out):
+        raise DataError(f"the {what} seeds {out} repeat a seed; give distinct seeds")
+    return out
+
+
+def _samples(cfg: Mapping[str, Any]) -> int:
+    return int(round(cfg["duration"] / cfg["dt"])) + 1
+
+
+def _finite(x: np.ndarray, what: str) -> None:
+    if not np.all(np.isfinite(x)):
+        raise AnalysisError(f"{what} is not finite (overflow); check the model's [structure], [excitation] and "
+                            f"[bank] numbers (SI units)")
+
+
+def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
+    """Check the ``[bank]`` table of a link model (``spec.bank``) before any work.
+
+    Every key of :data:`BANK_KEYS` must be present and typed; observer and crack elements are distinct
+    elements of the link; the record has at most :data:`MAX_SAMPLES` samples and samples the excitation
+    above its Nyquist rate; the crack starts inside the record and both windows fit it, the evaluation
+    window after the onset.
+
+    Parameters
+    ----------
+    spec
+        From :func:`obsnl.studies.cantilever.load_link_spec`.
+
+    Returns
+    -------
+    dict
+        The settings as ``int``, ``float``, ``str`` and tuples, keyed as :data:`BANK_KEYS`.
+
+    Raises
+    ------
+    ModelError
+        One line naming the key, its value and the fix.
+
+    Examples
+    --------
+    >>> check_bank_settings(load_link_spec())["observer_elements"]
+    (2, 4, 6)
+    """
+    bk = _Table({"bank": spec.bank} if spec.bank else {}, "bank", spec.file or "link model", BANK_KEYS)
+    ne, el = spec.n_elements, f" (elements are 1..{spec.n_elements}, 1 = root)"
+    out: dict[str, Any] = {
+        "observer_elements": bk.items("observer_elements", "whole numbers", hi=ne, what=el),
+        "channels": bk.items("channels", "strings", choices=("moment", "shear")),
+        "sensor_set": bk.raw("sensor_set"),
+        "crack_elements": bk.items("crack_elements", "whole numbers", hi=ne, what=el, empty=True),
+        **{k: bk.number(k) for k in ("q_x", "q_v", "threshold_factor", "dt", "duration")},
+        "ratio_band": bk.number("ratio_band", 1.0, closed=True),
+    }
+    if not isinstance(out["sensor_set"], str) or out["sensor_set"] not in spec.sensors:
+        raise bk.fail("sensor_set", f"is not a sensor set of [sensors]; use one of {', '.join(spec.sensors)}")
+    dt, duration = out["dt"], out["duration"]
+    if duration / dt > MAX_SAMPLES - 1:
+        raise bk.fail("duration", f"s with dt = {dt:g} s gives {duration / dt + 1:.3g} time samples, over the limit "
+                                  f"of {MAX_SAMPLES:,} (the benchmark has 30,001); shorten the record or raise dt")
+    if duration < 2 * dt:
+        raise bk.fail("duration", f"s must span at least two time steps (dt = {dt:g} s)")
+    if spec.frequency >= 0.5 / dt:
+        raise bk.fail("dt", f"s samples the {spec.frequency:g}-Hz excitation at or below its Nyquist rate; "
+                            f"use dt < {0.5 / spec.frequency:g} s")
+    onset = out["onset"] = bk.number("onset", closed=True)
+    if onset >= duration:
+        raise bk.fail("onset", f"s is not before the end of the record (duration = {duration:g} s); a crack must "
+                               f"start inside the record")
+    ev = out["evaluation_window"] = bk.number("evaluation_window", closed=True)
+    if not dt <= ev <= duration - onset + 0.5 * dt:
+        raise bk.fail("evaluation_window", f"s must lie between one time step (dt = {dt:g} s) and the "
+                                           f"{duration - onset:g} s after the crack onset; the location is "
+                                           f"judged over the last evaluation_window seconds")
+    det = out["detection_window"] = bk.number("detection_window", closed=True)
+    if not dt <= det <= duration:
+        raise bk.fail("detection_window", f"s must lie between one time step (dt = {dt:g} s) and the duration "
+                                          f"({duration:g} s)")
+    return {k: out[k] for k in BANK_KEYS}
+
+
+def study_cost(spec: LinkSpec, *, n_seeds: int, n_calibration: int) -> tuple[float, float]:
+    """Estimated peak memory (bytes) and work (multiply-adds) of :func:`run_link_study`.
+
+    Counts the arrays that grow with the record: the simulated states of every scenario, the noisy
+    records, the bank's force estimates and residuals, its block state-transition matrix and the
+    time-step loops. Used to refuse a study beyond :data:`MAX_STUDY_BYTES` or :data:`MAX_STUDY_WORK`
+    before it starts.
+
+    Parameters
+    ----------
+    spec
+        From :func:`obsnl.studies.cantilever.load_link_spec`.
+    n_seeds, n_calibration
+        Numbers of evaluation and calibration seeds.
+
+    Returns
+    -------
+    tuple of float
+        ``(bytes, multiply_adds)``.
+
+    Examples
+    --------
+    >>> size, work = study_cost(load_link_spec(), n_seeds=3, n_calibration=3)
+    >>> size < MAX_STUDY_BYTES and work < MAX_STUDY_WORK
+    True
+    """
+    cfg = check_bank_settings(spec)
+    N = _samples(cfg)
+    n, m = 4 * spec.n_elements, len(spec.actuator_nodes)
+    p = len(spec.sensors[cfg["sensor_set"]])
+    J, s = len(cfg["observer_elements"]), len(cfg["channels"])
+    S = 1 + len(cfg["crack_elements"])  # simulated scenarios
+    R = n_calibration + S * n_seeds  # records through the bank
+    ntot = J * (n + s)  # states of the whole bank
+    chunk = min(N, _CHUNK)
+    floats = (S * N * (n + m + 2) + 2 * N * n  # kept simulations, their input terms
+              + 2 * R * N * p  # noisy records and their stacked copy
+              + 2 * N * R * J + N * ntot  # force estimates and residuals, input terms of the bank
+              + 2 * chunk * R * ntot + 2 * ntot**2)  # one block of bank states, the transition matrix
+    work = N * (S * (n * n + _STEP_COST) + R * ntot * (ntot + p) + _STEP_COST)
+    return 1.5 * 8.0 * floats, float(work)  # 1.5: temporaries
