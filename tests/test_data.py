@@ -94,6 +94,15 @@ def test_measured_data_columns_are_unambiguous(tmp_path, header, match):
         read_measured(p, inputs=["f"], outputs=["x"])
 
 
+@pytest.mark.parametrize("scale, step, match", [(1e300, 0.01, "rescale"), (1.0, 20.0, "in seconds")])
+def test_record_values_and_step_are_sane(tmp_path, scale, step, match):
+    # x 1e300 used to end in "state_scale must be 2 positive numbers"; a time column in milliseconds
+    # (step 20) in "Q contains NaN/inf", both after the progress bar
+    rows = [f"{k * step:.6g},{float(scale * np.sin(0.1 * k))!r}" for k in range(50)]
+    with pytest.raises(DataError, match=match):
+        read_csv(_csv(tmp_path, rows))
+
+
 def test_at2_validation(tmp_path):
     head = ["PEER NGA STRONG MOTION DATABASE RECORD", "test", "ACCELERATION TIME SERIES IN UNITS OF G",
             "NPTS=   4, DT=   .0100 SEC"]

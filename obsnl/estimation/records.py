@@ -250,9 +250,17 @@ def check_seconds(name: str, where: str) -> None:
 
 
 def _moving(rec: Record) -> Record:
-    """Refuse a record without motion: every sample 0 gives no excitation (and a zero noise level)."""
+    """Refuse a record without motion (every sample 0: no excitation, a zero noise level), with values
+    beyond 1e100 in magnitude (the filters square them) or a step outside 1e-6..1 s (a ground motion is
+    sampled at 1-1000 Hz and more; a step of 20 is a time column in milliseconds)."""
     if not np.any(rec.accel):
         raise DataError(f"record {rec.name!r}: every sample is 0 (no ground motion); give a record with excitation")
+    peak = float(np.max(np.abs(rec.accel)))
+    if peak > 1e100:
+        raise DataError(f"record {rec.name!r} reaches {peak:.3g}; rescale it (the record is read in m/s^2)")
+    if not 1e-6 <= rec.dt <= 1.0:
+        raise DataError(f"record {rec.name!r} is sampled every {rec.dt:.3g} s; a ground motion is sampled every "
+                        f"1e-6 to 1 s: check that the time is in seconds")
     return rec
 
 
