@@ -432,6 +432,7 @@ def test_11_samples_zero_is_refused_not_read_as_the_whole_record(capsys):
 @pytest.mark.parametrize("equations, params, words", [
     ({"x": "v", "v": "-k*x + " + "1" * 4400}, ["k"], "digits"),
     ({"x": "v", "v": "+".join(["x"] * 5000)}, ["k"], "nested"),
+    ({"x": "v", "v": "sin(" * 300 + "x" + ")" * 300}, ["k"], "200 deep"),  # was "syntax error ... check brackets"
     ({"x": "v", "v": "-k*x + log(-2)*I"}, ["k", "I"], "negative constant"),
     ({"x": "v", "v": "-k*x # + 1"}, ["k"], "'#'"),
 ])

@@ -117,6 +117,8 @@ def test_bouc_wen_hints():
     assert "zeta" in r.mapping and "zeta" in {s.name for s in r.model.states}
     with pytest.raises(ModelError, match="cannot eliminate z"):
         reparametrize(m, eliminate=["z"])
+    with pytest.raises(ModelError, match="both to be eliminated and to be kept"):  # was "not moved by the scalings"
+        reparametrize(m, eliminate=["k2"], keep=["k2"])
 
 
 def test_mass_spring_damper_textbook_groups():

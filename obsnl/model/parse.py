@@ -244,8 +244,13 @@ def check_expression_size(text: str, where: str = "expression") -> None:
         tree = ast.parse(text.replace("^", "**"), mode="eval")
     except RecursionError:
         raise ParseError(f"{where}: {shorten(text)!r} is nested too deeply; split it") from None
-    except (SyntaxError, ValueError):
+    except SyntaxError as exc:
+        if "too many nested" in str(exc):  # Python's own limit (200 brackets), not a typo
+            raise ParseError(f"{where}: {shorten(text)!r} nests brackets more than 200 deep; split it with "
+                             f"intermediate states") from None
         return  # the parser below reports the syntax error with its own message
+    except ValueError:
+        return
     count = 0
     stack: list[tuple[ast.AST, int]] = [(tree.body, 1)]
     while stack:

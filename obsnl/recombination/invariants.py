@@ -200,6 +200,10 @@ def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: S
     s = W.rows
     cand = [j for j, v in enumerate(variables) if v in set(parameters) and v not in set(keep) and any(W.col(j))]
     forced = [variables.index(v) for v in eliminate if v in variables]
+    both = [v for v in eliminate if v in set(keep)]
+    if both:
+        raise ModelError(f"{both[0]} is asked both to be eliminated and to be kept; name it in one of "
+                         f"--eliminate and --keep")
     bad = [v for v in eliminate if v not in variables or variables.index(v) not in cand]
     if bad:
         raise ModelError(f"cannot eliminate {bad[0]}: it is not a parameter moved by the scalings")
