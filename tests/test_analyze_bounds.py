@@ -160,3 +160,26 @@ def test_a_memory_error_inside_the_analysis_is_one_line(tmp_path, capsys, monkey
     _one_line(capsys, main(["analyze", str(path)]), "obsnl analyze: error: ran out of memory", "more memory")
     _one_line(capsys, main(["report", str(path), "--out", str(tmp_path / "out")]),
               "obsnl report: error: ran out of memory")
+
+
+@pytest.mark.parametrize("entry", ["symmetries", "reparametrize", "joint_verdict"])
+def test_the_other_entry_points_refuse_a_model_too_large_before_any_work(monkeypatch, entry):
+    import obsnl.observability.joint as joint_module
+    import obsnl.observability.symmetry as symmetry_module
+    import obsnl.recombination.reparametrize as reparametrize_module
+    from obsnl.observability.joint import joint_verdict
+    from obsnl.observability.symmetry import symmetries
+    from obsnl.recombination.reparametrize import reparametrize
+
+    def tripwire(*args, **kwargs):  # the first heavy step of each entry point; never reached
+        raise AssertionError("the heavy work started")
+
+    monkeypatch.setattr(symmetry_module, "observability_jacobian", tripwire)
+    monkeypatch.setattr(reparametrize_module, "split_branches", tripwire)
+    monkeypatch.setattr(joint_module, "split_branches", tripwire)
+    n = MAX_UNKNOWNS + 20
+    eqs = {f"s{i}": f"-k*s{i} + u" for i in range(n)}
+    m = Model(name="chain", states=list(eqs), parameters=["k"], inputs=["u"], equations=eqs, outputs={"y": "s0"})
+    fn = {"symmetries": symmetries, "reparametrize": reparametrize, "joint_verdict": joint_verdict}[entry]
+    with pytest.raises(AnalysisError, match=f"{n + 1} unknowns .* more than the {MAX_UNKNOWNS}"):
+        fn(m)

@@ -33,6 +33,7 @@ from obsnl.model.branches import split_branches
 from obsnl.errors import ModelError
 from obsnl.recombination.invariants import (adapted_forms, coordinates, pushforward, scaling_section, section_map, span_intersection,
                          translation_invariants)
+from obsnl.observability.limits import check_analysis_limits
 from obsnl.observability.smooth import analyze_smooth
 from obsnl.model.core import Model
 from obsnl.model.parse import make_symbol
@@ -190,6 +191,7 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     {'x_p': 'x/b', 'a': 'a', 'c_p': 'b*c'}
     """
     t0 = time.perf_counter()
+    check_analysis_limits(model)  # before any work: the analyses below hold dense arrays of this size
     names = dict(names or {})
     syms = model.symbols
     keep_s = [model.symbol(k) for k in keep]
