@@ -179,3 +179,13 @@ def test_7_bank_force_replaces_links_instead_of_writing_through_them(tmp_path, c
     assert main(["bank", "--seeds", "1", "--out", str(out), "--force", "--model", "obsnl:cantilever_link"]) == 0
     assert victim.read_text(encoding="utf-8") == "not yours"
     assert _plain_files(out, links + ["bank.md", "forces_crack3.png"])
+
+
+def test_a_model_of_equations_is_named_not_a_link_model(tmp_path, capsys):
+    from obsnl.cli import main
+
+    # used to say "unknown key 'states'"
+    code = main(["bank", "--seeds", "1", "--out", str(tmp_path / "o"), "--model", "obsnl:bouc_wen"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1 and "not a link model" in err and "obsnl:cantilever_link" in err
+    assert not (tmp_path / "o").exists()

@@ -28,7 +28,7 @@ def _add_bank(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_bank(args: argparse.Namespace) -> int:
     from obsnl.report.bank import check_bank_output, write_bank_report
-    from obsnl.studies.cantilever import load_link_spec
+    from obsnl.studies.link_model import load_link_spec
     from obsnl.studies.link_study import check_bank_settings, run_link_study
 
     if args.seeds < 1:

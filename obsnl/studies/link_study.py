@@ -14,7 +14,8 @@ from obsnl.errors import AnalysisError, DataError, ModelError
 from obsnl.linear.bank import (BankDecision, Thresholds, build_bank,
                                calibrate_thresholds, decide, _f)
 from obsnl.linear.observer import ExtendedObservability, extended_observability, integrator
-from obsnl.studies.cantilever import BreathingCrack, LinkSpec, _Table, build_cantilever, load_link_spec
+from obsnl.studies.cantilever import BreathingCrack, build_cantilever
+from obsnl.studies.link_model import LinkSpec, _Table, load_link_spec
 
 __all__ = ["ScenarioRun", "GateCheck", "LinkStudy", "run_link_study", "check_bank_settings", "study_cost",
            "BANK_KEYS", "MAX_SAMPLES", "MAX_SEEDS", "MAX_STUDY_BYTES", "MAX_STUDY_WORK"]
@@ -102,7 +103,7 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
     calibration_seeds
         Noise seeds of the healthy calibration runs.
     spec
-        A :class:`obsnl.studies.cantilever.LinkSpec` (default: the packaged ``obsnl:cantilever_link``).
+        A :class:`obsnl.studies.link_model.LinkSpec` (default: the packaged ``obsnl:cantilever_link``).
     gates
         Also run the observability gate of section 2.6.6 (S4 with s = 2, S1 with s = 1 and 2).
 
@@ -115,7 +116,7 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
     DataError
         No, too many (over :data:`MAX_SEEDS`) or shared evaluation and calibration seeds.
     ModelError
-        A bad spec (see :func:`obsnl.studies.cantilever.load_link_spec`), or a study whose estimated
+        A bad spec (see :func:`obsnl.studies.link_model.load_link_spec`), or a study whose estimated
         memory or work (:func:`study_cost`) is over :data:`MAX_STUDY_BYTES` or :data:`MAX_STUDY_WORK`;
         checked before any simulation.
     AnalysisError
@@ -233,7 +234,7 @@ def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
     Parameters
     ----------
     spec
-        From :func:`obsnl.studies.cantilever.load_link_spec`.
+        From :func:`obsnl.studies.link_model.load_link_spec`.
 
     Returns
     -------
@@ -298,7 +299,7 @@ def study_cost(spec: LinkSpec, *, n_seeds: int, n_calibration: int) -> tuple[flo
     Parameters
     ----------
     spec
-        From :func:`obsnl.studies.cantilever.load_link_spec`.
+        From :func:`obsnl.studies.link_model.load_link_spec`.
     n_seeds, n_calibration
         Numbers of evaluation and calibration seeds.
 
