@@ -18,7 +18,7 @@ def _add_bank(sub: argparse._SubParsersAction) -> None:
         description="Run the observer-bank scenarios (healthy link, a breathing crack in each element) with "
         "several noise seeds; write a localisation table (bank.md), force plots (forces_*.png) and bank.json.",
     )
-    p.add_argument("--seeds", type=int, default=3, help="noise seeds per scenario (default: 3); thresholds use as many other seeds")
+    p.add_argument("--seeds", type=_at_least(1), default=3, help="noise seeds per scenario (default: 3); thresholds use as many other seeds")
     p.add_argument("--out", default="reports/bank", help="output folder (default: reports/bank)")
     p.add_argument("--model", default=None, help="link model file (default: obsnl:cantilever_link, the packaged "
                    "obsnl/catalogue/cantilever_link.toml)")
@@ -31,8 +31,6 @@ def _cmd_bank(args: argparse.Namespace) -> int:
     from obsnl.studies.link_model import load_link_spec
     from obsnl.studies.link_study import check_bank_settings, run_link_study
 
-    if args.seeds < 1:
-        raise _Exit(2, f"--seeds must be at least 1, got {args.seeds}")
     spec = load_link_spec(args.model)  # the model file and its [bank] table are checked before any work
     scenarios = ["healthy"] + [f"crack{c}" for c in check_bank_settings(spec)["crack_elements"]]
     check_bank_output(args.out, scenarios, force=args.force)

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import DataError
-from obsnl.estimation.records import Record, _text, check_header, check_seconds, check_times
+from obsnl.estimation.records import Record, check_header, check_seconds, check_times, read_text
 
 __all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS"]
 
@@ -150,7 +150,7 @@ def read_measured(path: str | Path, *, inputs: Sequence[str], outputs: Sequence[
     [0.0, 0.1, 0.3]
     """
     p = Path(path)
-    lines = [ln for ln in _text(p, "data").splitlines() if ln.strip()]
+    lines = [ln for ln in read_text(p, "data").splitlines() if ln.strip()]
     if len(lines) < 2:
         raise DataError(f"data {str(p)!r}: need a header line and samples")
     header = check_header([h.strip() for h in lines[0].split(",")], f"data {str(p)!r}")

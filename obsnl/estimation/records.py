@@ -17,7 +17,8 @@ import numpy as np
 
 from obsnl.errors import DataError
 
-__all__ = ["Record", "check_times", "read_record", "read_csv", "read_at2", "add_noise", "rms", "G"]
+__all__ = ["Record", "check_times", "check_header", "check_seconds", "read_text", "read_record", "read_csv",
+           "read_at2", "add_noise", "rms", "G", "MAX_FILE_BYTES"]
 
 #: Standard gravity (m/s² per g), used to convert AT2 files.
 G = 9.80665
@@ -147,7 +148,7 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
         the only column besides time; anything else is refused, never guessed).
     """
     p = Path(path)
-    lines = _text(p, "record").splitlines()
+    lines = read_text(p, "record").splitlines()
     if not lines:
         raise DataError(f"{str(p)!r} is empty")
     header = check_header([h.strip() for h in lines[0].split(",")], str(p))
@@ -196,8 +197,25 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
 MAX_FILE_BYTES = 1 << 30
 
 
-def _text(p: Path, what: str) -> str:
-    """The UTF-8 text of the file ``p`` (a ``what``: record or data), refused with one line otherwise."""
+def read_text(p: Path, what: str) -> str:
+    """The UTF-8 text of the file ``p``, refused with one line otherwise (shared by the record and data readers).
+
+    Parameters
+    ----------
+    p : Path
+        The file.
+    what : str
+        What it is, for the messages (``"record"``, ``"data"``).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    DataError
+        A folder, a missing file, a file over :data:`MAX_FILE_BYTES`, not UTF-8, or unreadable.
+    """
     if p.is_dir():
         raise DataError(f"{what} {str(p)!r} is a folder; give a file")
     if not p.is_file():
@@ -217,6 +235,22 @@ def _text(p: Path, what: str) -> str:
 def check_header(header: list[str], where: str) -> list[str]:
     """``header`` if no column name repeats (a repeated name would be read from one column, silently).
 
+    Parameters
+    ----------
+    header : list of str
+        The column names.
+    where : str
+        The file, for the message.
+
+    Returns
+    -------
+    list of str
+
+    Raises
+    ------
+    DataError
+        A name that appears more than once.
+
     Examples
     --------
     >>> check_header(["time_s", "F", "F"], "d.csv")
@@ -234,6 +268,18 @@ def check_header(header: list[str], where: str) -> list[str]:
 
 def check_seconds(name: str, where: str) -> None:
     """Refuse a time column whose name gives another unit than seconds (``time_ms``, ``t_min``, ...).
+
+    Parameters
+    ----------
+    name : str
+        The time column's name.
+    where : str
+        The file, for the message.
+
+    Raises
+    ------
+    DataError
+        A unit other than seconds after ``_``, ``[``, ``(`` or a space.
 
     Examples
     --------
@@ -270,7 +316,7 @@ _AT2_HEAD = re.compile(r"NPTS\s*=\s*(\d+)\s*,?\s*DT\s*=\s*([0-9.eE+-]+)", re.IGN
 def read_at2(path: str | Path) -> Record:
     """Read a PEER NGA ``.AT2`` file (4 header lines, ``NPTS=..., DT=...``, values in g) into m/s²."""
     p = Path(path)
-    lines = _text(p, "record").splitlines()
+    lines = read_text(p, "record").splitlines()
     if len(lines) < 5:
         raise DataError(f"{str(p)!r}: too short for a PEER AT2 file (4 header lines, then values)")
     mt = _AT2_HEAD.search(lines[3])

@@ -159,10 +159,8 @@ def check_bank_output(out: str | Path, scenarios: Sequence[str], *, force: bool)
         One line naming the path and the fix.
     """
     folder = Path(out)
-    if folder.exists() and not folder.is_dir():
-        raise OutputError(f"{folder} is a file; the bank report needs a folder")
     names = bank_file_names(scenarios)
-    check_folder(folder, names, force=force)
+    check_folder(folder, names, force=force)  # also refuses an out that is a file
     return [folder / name for name in names]
 
 
