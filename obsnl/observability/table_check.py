@@ -2,9 +2,10 @@
 
 The schema and :meth:`BranchTable._check_consistency` catch a table that contradicts itself; a table
 that is consistent but wrong (verdicts swapped between branches, a switching function with its sign
-flipped, guards that do not match the sign patterns, branches missing) would silently change what the
-DUKF freezes. :func:`check_table` re-runs the analysis with the table's own method and seed and
-refuses any difference, naming the first one.
+flipped, guards that do not match the sign patterns, branches missing, a ``joint`` key that moves a
+jointly identifiable parameter into ``unobservable``) would silently change what the DUKF freezes, or
+which refusal it skips. :func:`check_table` re-runs the analysis with the table's own method and seed
+and refuses any difference, naming the first one.
 """
 
 from __future__ import annotations
@@ -47,8 +48,9 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
 
     Compared: the model signature (names, order, fingerprint), the switching functions and their
     orientation, the set of sign patterns (no branch missing or invented), and per branch the guard,
-    verdict, observable / unobservable / absent variables and transcendence degree, and the union
-    over branches. The analysis uses the table's method and seed, so a table obsnl wrote passes.
+    verdict, observable / unobservable / absent variables and transcendence degree, the union
+    over branches, and the joint verdict (the ``joint`` key, when the table has one: its observable,
+    unobservable and inconclusive sets must be the fresh analysis's). The analysis uses the table's method and seed, so a table obsnl wrote passes.
 
     Parameters
     ----------
@@ -106,6 +108,27 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     if set(table.overall_observable) != set(fresh.overall_observable) or \
             set(table.overall_unobservable) != set(fresh.overall_unobservable):
         raise TableError(f"the table's 'overall' differs from the model's union over branches; {TABLE_FIX}")
+    _compare_joint(table, fresh)
+
+
+def _compare_joint(table: BranchTable, fresh: BranchTable) -> None:
+    """Refuse a ``joint`` key that is not the fresh analysis's joint verdict (a table without one passes:
+    its readers take the joint verdict from their own analysis)."""
+    if table.joint is None:
+        return
+    if fresh.joint is None:  # pragma: no cover - analyze(joint=True) always gives one
+        raise TableError(f"the table has a 'joint' key the fresh analysis cannot confirm; {TABLE_FIX}")
+    undecided = sorted(set(fresh.joint.get("inconclusive", ())) - set(table.joint.get("inconclusive", ())))
+    if undecided:
+        raise TableError(f"the fresh joint verdict is inconclusive for {undecided}, so the table's 'joint' key cannot "
+                         f"be confirmed; analyse the model with a longer time limit")
+    for key in ("observable", "unobservable", "inconclusive"):
+        mine, theirs = set(table.joint.get(key, ())), set(fresh.joint.get(key, ()))
+        if mine != theirs:
+            extra, missing = sorted(mine - theirs), sorted(theirs - mine)
+            what = ", ".join(x for x in (f"lacks {missing}" if missing else "", f"adds {extra}" if extra else "") if x)
+            raise TableError(f"the table's joint verdict contradicts the model's: joint.{key} is {sorted(mine)} in "
+                             f"the table, which {what}; {TABLE_FIX}")
 
 
 def _compare(mine: BranchEntry, fresh: BranchEntry, model: Model) -> None:
