@@ -1,6 +1,6 @@
 """Hostile input, second round (issue 26): tables whose ``joint`` key lies, writes outside the named
-folder, overwrites that were not atomic, a trusted compiled-filter cache, orphaned workers and a
-scheduler address where something else answers.
+folder, overwrites that were not atomic, a trusted compiled-filter cache (orphaned workers and the
+scheduler probe: ``test_hostile_processes.py``).
 
 Each test excludes the old behaviour: it failed before the fix.
 """
