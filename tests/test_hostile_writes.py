@@ -218,6 +218,24 @@ def test_6_two_report_runs_into_one_folder_do_not_both_succeed(tmp_path, capsys,
     assert (out / "index.md").read_text() == "the other run\n"
 
 
+def test_6_an_error_while_writing_leaves_no_file_no_staging_and_no_new_folder(tmp_path):
+    from obsnl.report.files import OutputFolder
+
+    out = tmp_path / "new" / "out"
+    with pytest.raises(RuntimeError, match="drawing failed"):
+        with OutputFolder(out, ["a.md", "b.png"], force=False) as folder:
+            folder.write_text("a.md", "A")
+            (folder.staging / "b.png").write_bytes(b"half")
+            raise RuntimeError("drawing failed")
+    assert list(tmp_path.iterdir()) == []
+    with OutputFolder(out, ["a.md", "b.png"], force=False) as folder:  # the rerun needs no --force
+        folder.write_text("a.md", "A")
+        (folder.staging / "b.png").write_bytes(b"png")
+        (folder.staging / "scratch.tmp").write_bytes(b"x")  # not one of the files: dropped
+        folder.commit()
+    assert sorted(p.name for p in out.iterdir()) == ["a.md", "b.png"]
+
+
 def test_6_a_full_disk_leaves_nothing_that_blocks_the_rerun(tmp_path):
     import resource
     import signal

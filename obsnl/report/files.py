@@ -225,7 +225,15 @@ class OutputFolder:
 
     def path(self, name: str) -> Path:
         """Where a writer that needs a path (matplotlib) writes the file ``name``: in the staging folder."""
-        return self.folder / str(self._stage) / self._check(name)
+        return self.staging / self._check(name)
+
+    @property
+    def staging(self) -> Path:
+        """The private staging folder, for a writer that fills a folder with several of the files (only
+        the files named at construction are moved in by :meth:`commit`; anything else there is dropped)."""
+        if self._stage is None:
+            raise OutputError("the output folder is not open; use it in a with block")
+        return self.folder / self._stage
 
     def write_bytes(self, name: str, data: bytes) -> None:
         """Write the file ``name`` (into the staging folder: it appears under its name at :meth:`commit`)."""
