@@ -27,6 +27,7 @@ from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.series import run_series
 from obsnl.errors import AnalysisError
 from obsnl.model.branches import derived_model, expr_text
+from obsnl.model.work import degree_in
 from obsnl.model.core import Model
 from obsnl.observability.sedoglavic import RankTracker, stall_safe
 
@@ -309,13 +310,9 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
     for s in model.states:
         if s not in g.free_symbols:
             continue
-        try:
-            poly = sp.Poly(g, s)
-        except sp.PolynomialError:
+        if degree_in(g, s) != 1:  # g = a*s + b read without expanding g (which may be huge)
             continue
-        if poly.degree() != 1:
-            continue
-        a, b = poly.coeff_monomial(s), poly.coeff_monomial(1)
+        a, b = sp.diff(g, s), g.xreplace({s: sp.Integer(0)})
         av, bv = _mod(a, values, p), _mod(b, values, p)
         if av is None or bv is None or av == 0:
             continue
