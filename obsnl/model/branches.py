@@ -29,7 +29,10 @@ import numpy as np
 import sympy as sp
 
 from obsnl.errors import AnalysisError, ModelError, NotSupportedError
+from obsnl.model.budget import check_time
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
+from obsnl.model.feasibility import feasible
+from obsnl.model.work import can_expand, can_factor, same_up_to_sign
 from obsnl.model.parse import shorten
 from obsnl.model.switching import (
     check_declared,
@@ -62,7 +65,11 @@ class Branch:
     model
         The smooth model valid in this branch (no sign/Abs/Heaviside/Piecewise/Max/Min left).
     witness
-        A point (name -> value) inside the branch, found while checking feasibility.
+        A point (name -> value) inside the branch, found while checking feasibility (empty when undecided).
+    undecided
+        Empty for a branch with a witness; else why its feasibility is not decided (no point was found and
+        none was proved impossible): such a branch is returned only on request
+        (``split_branches(..., undecided=True)``), and :func:`obsnl.analyze` reports it as inconclusive.
     """
 
     label: str
@@ -70,6 +77,7 @@ class Branch:
     signs: tuple[int, ...]
     model: Model
     witness: Mapping[str, float] = field(default_factory=dict, compare=False)
+    undecided: str = field(default="", compare=False)
 
     @property
     def relations(self) -> tuple[sp.Rel, ...]:
@@ -104,11 +112,13 @@ class Branch:
 
 @dataclass(frozen=True)
 class DroppedPattern:
-    """A sign pattern with no point in it (why it was dropped)."""
+    """A sign pattern with no point in it (why it was dropped); ``proved`` False: no point was found but
+    none was proved impossible either (the pattern is undecided, see :attr:`Branch.undecided`)."""
 
     switching: tuple[sp.Expr, ...]
     signs: tuple[int, ...]
     reason: str
+    proved: bool = True
 
 
 def _gray(k: int) -> list[tuple[int, ...]]:
@@ -118,94 +128,6 @@ def _gray(k: int) -> list[tuple[int, ...]]:
         g = i ^ (i >> 1)
         out.append(tuple(-1 if (g >> (k - 1 - j)) & 1 else 1 for j in range(k)))
     return out
-
-
-def _affine(g: sp.Expr, syms: Sequence[sp.Symbol], memo: dict | None = None) -> tuple[list[float], float] | None:
-    """(coefficients of ``syms``, constant) when ``g`` is affine in ``syms`` with numeric coefficients."""
-    key = (g, tuple(syms))
-    if memo is not None and key in memo:
-        return memo[key]
-    try:
-        poly = sp.Poly(g, *syms)
-        ok = poly.total_degree() <= 1 and all(c.is_number for c in poly.coeffs())
-    except sp.PolynomialError:
-        ok = False
-    out = ([float(poly.coeff_monomial(v)) for v in syms], float(poly.coeff_monomial(1))) if ok else None
-    if memo is not None:
-        memo[key] = out
-    return out
-
-
-def _feasible_lp(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol],
-                 coeffs: Sequence[tuple[list[float], float]]) -> dict[str, float] | None:
-    n = len(syms)
-    A = np.array([c[0] for c in coeffs], dtype=float).reshape(len(conds), n)
-    b0 = np.array([c[1] for c in coeffs], dtype=float)
-    signs = np.array([s for _, s in conds], dtype=float)
-    if n and np.linalg.matrix_rank(A) == len(conds):
-        # independent affine forms: every sign pattern holds somewhere; A z + b = signs is solvable
-        z = np.linalg.lstsq(A, signs - b0, rcond=None)[0]
-        return {v.name: float(x) for v, x in zip(syms, z)}
-    from scipy.optimize import linprog
-
-    A_ub, b_ub = [], []
-    for (g, s), a, b in zip(conds, A, b0):
-        # s*(a.z + b) >= t  <=>  -s*a.z + t <= s*b
-        A_ub.append(np.concatenate([-s * a, [1.0]]))
-        b_ub.append(s * b)
-    c = np.zeros(n + 1)
-    c[-1] = -1.0
-    bounds = [(-1e3, 1e3)] * n + [(None, 1.0)]
-    res = linprog(c, A_ub=np.array(A_ub), b_ub=np.array(b_ub), bounds=bounds, method="highs")
-    if res.status == 0 and -res.fun > 1e-9:
-        return {v.name: float(x) for v, x in zip(syms, res.x[:n])}
-    return None
-
-
-def _feasible_search(
-    conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol], rng: np.random.Generator
-) -> dict[str, float] | None:
-    fn = sp.lambdify(list(syms), [g for g, _ in conds], modules="numpy")
-    signs = np.array([s for _, s in conds], dtype=float)
-    n = len(syms)
-    for scale in (1.0, 10.0, 0.1, 100.0):
-        z = rng.standard_normal((4000, n)) * scale
-        with np.errstate(all="ignore"):
-            vals = np.array([np.broadcast_to(np.asarray(v, dtype=float), (z.shape[0],)) for v in fn(*z.T)])
-        ok = np.all(signs[:, None] * vals > 0, axis=0) & np.all(np.isfinite(vals), axis=0)
-        if ok.any():
-            i = int(np.argmax(ok))
-            return {v.name: float(x) for v, x in zip(syms, z[i])}
-    from scipy.optimize import minimize
-
-    def loss(x: np.ndarray) -> float:
-        with np.errstate(all="ignore"):
-            v = np.array(fn(*x), dtype=float)
-        if not np.all(np.isfinite(v)):
-            return 1e6
-        return float(np.sum(np.maximum(0.0, 1e-3 - signs * v) ** 2))
-
-    for _ in range(20):
-        res = minimize(loss, rng.standard_normal(n), method="Nelder-Mead", options={"maxiter": 2000})
-        x = res.x
-        with np.errstate(all="ignore"):
-            v = np.array(fn(*x), dtype=float)
-        if np.all(np.isfinite(v)) and np.all(signs * v > 0):
-            return {s.name: float(xi) for s, xi in zip(syms, x)}
-    return None
-
-
-def _feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
-              memo: dict | None = None) -> tuple[dict[str, float] | None, str]:
-    syms = sorted(set().union(*(g.free_symbols for g, _ in conds)), key=lambda s: s.name) if conds else []
-    if not conds:
-        return {}, ""
-    coeffs = [_affine(g, syms, memo) for g, _ in conds]
-    if all(c is not None for c in coeffs):
-        w = _feasible_lp(conds, syms, coeffs)
-        return w, "" if w is not None else "the affine sign conditions contradict each other (linear program)"
-    w = _feasible_search(conds, syms, rng)
-    return w, "" if w is not None else "no point satisfies the sign conditions (random and local search)"
 
 
 # --------------------------------------------------------------------------- splitting
@@ -245,7 +167,8 @@ def _labels(n: int) -> list[str]:
 
 
 def split_branches(
-    model: Model, *, seed: int = 0, with_dropped: bool = False, max_seconds: float | None = None
+    model: Model, *, seed: int = 0, with_dropped: bool = False, max_seconds: float | None = None,
+    undecided: bool = False,
 ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
     """Split ``model`` into its smooth branches.
 
@@ -256,9 +179,14 @@ def split_branches(
     seed
         Seed of the witness search used for non-affine switching functions.
     with_dropped
-        Also return the sign patterns dropped as contradictory.
+        Also return the sign patterns dropped as contradictory (and, without ``undecided``, those whose
+        feasibility is undecided, with ``proved=False``).
     max_seconds
-        Time limit of the split (None: none).
+        Time limit of the split (None: none; a budget of :func:`obsnl.model.budget.time_budget` holds too).
+    undecided
+        Also return the branches whose feasibility is not decided (:attr:`Branch.undecided`: no point was
+        found in them, none was proved impossible). Labels count them either way, so that a label names
+        the same branch with and without them.
 
     Returns
     -------
@@ -286,21 +214,25 @@ def split_branches(
         check_declared(model, ())
         branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
         return (branches, ()) if with_dropped else branches
-    found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float]]] = []
+    found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float], str]] = []
     dropped: list[DroppedPattern] = []
     deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
     memo: dict = {"__deadline__": deadline, "__seen__": {}}
-    _split_level(exprs, model.switching, (), (), {}, rng, found, dropped, memo)
+    _split_level(exprs, model.switching, (), (), ({}, ""), rng, found, dropped, memo)
     check_declared(model, tuple(memo["__seen__"]))
     labels = _labels(len(found))
     n_rhs = len(model.states)
     branches = []
-    for label, (sw, signs, new_exprs, witness) in zip(labels, found):
-        check_finite(model, new_exprs, sw, signs)
+    for label, (sw, signs, new_exprs, witness, why) in zip(labels, found):
+        if why and not undecided:
+            dropped.append(DroppedPattern(sw, signs, why, proved=False))
+            continue
+        if not why:  # an undecided branch is not analysed: a division by zero there may be in no point at all
+            check_finite(model, new_exprs, sw, signs)
         eqs = dict(zip(model.states, new_exprs[:n_rhs]))
         outs = dict(zip(model.output_names, new_exprs[n_rhs:]))
         sub = derived_model(model, name=f"{model.name}[{label}]", equations=eqs, outputs=outs, switching=())
-        branches.append(Branch(label, sw, signs, sub, witness))
+        branches.append(Branch(label, sw, signs, sub, witness, undecided=why))
     result = tuple(branches)
     return (result, tuple(dropped)) if with_dropped else result
 
@@ -310,14 +242,15 @@ def _split_level(
     declared: Sequence[sp.Expr],
     outer_sw: tuple[sp.Expr, ...],
     outer_signs: tuple[int, ...],
-    witness: dict[str, float],
+    witness: tuple[dict[str, float], str],
     rng: np.random.Generator,
     found: list,
     dropped: list,
     memo: dict,
 ) -> None:
+    """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own."""
     if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
-        found.append((outer_sw, outer_signs, exprs, witness))
+        found.append((outer_sw, outer_signs, exprs, *witness))
         return
     sw = switching_of(exprs, declared, memo)
     memo.setdefault("__seen__", {}).update(dict.fromkeys(sw))  # every level's functions, in order
@@ -333,18 +266,21 @@ def _split_level(
         if deadline is not None and time.perf_counter() > deadline:
             raise AnalysisError("splitting the model into branches ran past the time limit; raise --max-seconds "
                                 "or smooth some switching functions")
+        check_time("splitting the model into branches", "raise --max-seconds or smooth some switching functions")
         if len(found) >= _MAX_BRANCHES:
             raise NotSupportedError(f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
                                     f"switching functions (e.g. tanh(v/eps) for sign(v))")
         all_sw = outer_sw + sw
         all_signs = outer_signs + signs
-        witness, reason = _feasible(list(zip(all_sw, all_signs)), rng, memo)
-        if witness is None:
+        point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, memo)
+        if point is None and proved:
             dropped.append(DroppedPattern(all_sw, all_signs, reason))
             continue
         repl = {node: resolve(node, sw, signs, memo) for node in nodes}
         new_exprs = [e.xreplace(repl) for e in exprs]
-        _split_level(new_exprs, declared, all_sw, all_signs, witness, rng, found, dropped, memo)
+        # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
+        _split_level(new_exprs, declared, all_sw, all_signs, (point or {}, reason if point is None else ""),
+                     rng, found, dropped, memo)
 
 
 def check_finite(model: Model, exprs: Sequence[sp.Expr], switching: Sequence[sp.Expr], signs: Sequence[int]) -> None:
@@ -402,7 +338,7 @@ def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
     by_signs = {b.signs: b for b in branches}
     out = []
     for g in switching:
-        j = next((i for i, s in enumerate(sw) if sp.expand(s - g) == 0 or sp.expand(s + g) == 0), None)
+        j = next((i for i, s in enumerate(sw) if same_up_to_sign(s, g)), None)
         out.append(True if j is None else not _continuous_across(g, j, by_signs, model))
     return tuple(out)
 
@@ -411,6 +347,8 @@ def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Br
     """Whether the branch fields on the two sides of ``g = 0`` (``g`` the ``j``-th switching
     function) agree identically on ``g = 0`` for every pair of neighbouring branches."""
     sol = None
+    if not can_factor(g):  # solving it could run for minutes: not proved continuous, counted as a jump
+        return False
     for s in [s for s in list(model.states) + list(model.parameters) if s in g.free_symbols]:
         try:
             roots = sp.solve(g, s)
@@ -428,7 +366,7 @@ def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Br
             continue
         pairs += 1
         for fa, fb in zip(b.model.rhs, other.model.rhs):
-            if sp.cancel(sp.together((fa - fb).subs(*sol))) != 0:
+            if not can_expand(fa - fb) or sp.cancel(sp.together((fa - fb).subs(*sol))) != 0:
                 return False
     return pairs > 0
 

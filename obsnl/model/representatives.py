@@ -30,9 +30,11 @@ import numpy as np
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
-from obsnl.model.branches import Branch, _feasible, _gray, check_finite, derived_model
+from obsnl.model.branches import Branch, _gray, check_finite, derived_model
+from obsnl.model.feasibility import feasible
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.switching import check_declared, innermost_nonsmooth, resolve, switching_of
+from obsnl.model.work import can_expand, same_up_to_sign
 
 __all__ = ["Representatives", "switching_groups", "representative_branches", "branch_of_pattern", "MAX_GROUP"]
 
@@ -57,7 +59,9 @@ class Representatives:
     merged
         ``(label kept, sign pattern)`` for patterns dropped because their field equals a kept one.
     infeasible
-        Sign patterns tried and found infeasible.
+        Sign patterns tried and proved infeasible.
+    undecided
+        Sign patterns tried in which no point was found and none was proved impossible (not analysed).
     """
 
     branches: tuple[Branch, ...]
@@ -66,6 +70,7 @@ class Representatives:
     patterns: int
     merged: tuple[tuple[str, tuple[int, ...]], ...]
     infeasible: tuple[tuple[int, ...], ...]
+    undecided: tuple[tuple[int, ...], ...] = ()
 
     def describe(self) -> str:
         """One sentence for an answer's notes: what was enumerated and what was argued."""
@@ -73,14 +78,21 @@ class Representatives:
         return (f"{len(self.switching)} switching functions in {len(self.groups)} independent groups "
                 f"(sizes {sizes}); {len(self.branches)} representative branches analysed (a base pattern and "
                 f"each group's other patterns in turn; {len(self.merged)} merged as equal fields, "
-                f"{len(self.infeasible)} infeasible) instead of {self.patterns} sign patterns; per-branch "
+                f"{len(self.infeasible)} infeasible"
+                f"{f', {len(self.undecided)} undecided (no point found, none proved impossible)' if self.undecided else ''}"
+                f") instead of {self.patterns} sign patterns; per-branch "
                 f"verdicts are exact for these branches, a jointly observable verdict is exact, a jointly "
                 f"unobservable one over them is not decided")
 
 
+def _expanded(e: sp.Expr) -> sp.Expr:
+    """``e`` expanded when that is cheap (:func:`obsnl.model.work.can_expand`), else as it is."""
+    return sp.expand(e) if can_expand(e) else e
+
+
 def _index_of(g: sp.Expr, sw: Sequence[sp.Expr]) -> int:
     for j, s in enumerate(sw):
-        if sp.expand(g - s) == 0 or sp.expand(g + s) == 0:
+        if same_up_to_sign(g, s):
             return j
     raise NotSupportedError(f"switching function {g} of an equation is not among the model's {list(sw)}")
 
@@ -181,7 +193,7 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
         for local in _gray(len(g)):
             trial = dict(zip(g, local))
             conds = [(sw[j], base[j]) for j in fixed] + [(sw[j], trial[j]) for j in g]
-            witness, _ = _feasible(conds, rng, memo)
+            witness = feasible(conds, rng, memo)[0]
             if witness is not None:
                 for j in g:
                     base[j] = trial[j]
@@ -202,14 +214,14 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
     n_rhs = len(model.states)
     branches: list[Branch] = []
     fields: dict[tuple, str] = {}
-    merged, infeasible = [], []
+    merged, infeasible, undecided = [], [], []
     for signs in candidates:
-        witness, _ = _feasible(list(zip(sw, signs)), rng, memo)
+        witness, _, proved = feasible(list(zip(sw, signs)), rng, memo)
         if witness is None:
-            infeasible.append(signs)
+            (infeasible if proved else undecided).append(signs)
             continue
         repl = {node: resolve(node, sw, signs, memo) for node in nodes}
-        new = [sp.expand(e.xreplace(repl)) for e in exprs]
+        new = [_expanded(e.xreplace(repl)) for e in exprs]
         check_finite(model, new, sw, signs)
         key = tuple(new)
         if key in fields:
@@ -221,7 +233,7 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
                             outputs=dict(zip(model.output_names, new[n_rhs:])), switching=())
         branches.append(Branch(label, sw, signs, sub, witness))
     return Representatives(branches=tuple(branches), switching=sw, groups=groups, patterns=2 ** len(sw),
-                           merged=tuple(merged), infeasible=tuple(infeasible))
+                           merged=tuple(merged), infeasible=tuple(infeasible), undecided=tuple(undecided))
 
 
 def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, label: str | None = None) -> Branch:
@@ -260,12 +272,12 @@ def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, la
     if len(signs) != len(sw) or any(s not in (1, -1) for s in signs):
         raise NotSupportedError(f"a sign pattern needs {len(sw)} signs of +1 or -1, got {signs!r}")
     memo: dict = {}
-    witness, reason = _feasible(list(zip(sw, signs)), np.random.default_rng(seed), memo)
+    witness, reason, _ = feasible(list(zip(sw, signs)), np.random.default_rng(seed), memo)
     if witness is None:
         raise NotSupportedError(f"the sign pattern {signs} is infeasible ({reason})")
     exprs = list(model.rhs) + list(model.output_exprs)
     repl = {node: resolve(node, sw, signs, memo) for node in innermost_nonsmooth(exprs)}
-    new = [sp.expand(e.xreplace(repl)) for e in exprs]
+    new = [_expanded(e.xreplace(repl)) for e in exprs]
     check_finite(model, new, sw, signs)
     n_rhs = len(model.states)
     label = label or "".join("+" if s > 0 else "-" for s in signs)

@@ -23,7 +23,9 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
+from typing import Any
 
+from obsnl.model.budget import deadline as budget_deadline
 from obsnl.model.core import Model
 from obsnl.model.signature import ModelSignature
 from obsnl.model.switching import expr_text
@@ -33,7 +35,7 @@ from obsnl.observability.joint_certify import (
     undecided_beyond_visits,
 )
 from obsnl.observability.limits import out_of_memory
-from obsnl.observability.results import AnalysisResult, BranchResult
+from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
 from obsnl.observability.selection import select_branches
 from obsnl.observability.smooth import (METHODS, _branch_result, _check, _fresh_seed, _variable_names,
                                        resolve_unknown_input_derivatives)
@@ -68,7 +70,9 @@ def analyze(
         Seed of all random choices; None draws one (reported in the result).
     max_seconds
         Time limit for the whole analysis; branches or blocks not finished are ``INCONCLUSIVE``. The split
-        into branches gets at least 2 s of it and raises :class:`~obsnl.errors.AnalysisError` past that.
+        into branches gets at least 2 s of it and raises :class:`~obsnl.errors.AnalysisError` past that. Inside a
+        command's :func:`obsnl.model.budget.time_budget` (``obsnl analyze --max-seconds``, started before the
+        model was read) that budget's deadline holds as well, without the 2 s floor.
     prob
         Wanted lower bound on the probability that every verdict is right; more independent runs
         are made while a block's bound is weaker (up to a few; the result reports what was reached).
@@ -147,6 +151,8 @@ def _analyze(
     """The body of :func:`analyze`, its arguments checked and ``unknown_input_derivatives`` resolved."""
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
+    outer = budget_deadline()  # a command's budget (obsnl.model.budget.time_budget), started before reading
+    deadline = outer if deadline is None else deadline if outer is None else min(deadline, outer)
     seed = _fresh_seed(seed)
     variables = _variable_names(model)
     # the split is bounded too, with a floor: a tiny limit still yields branches (each then inconclusive)
@@ -158,6 +164,9 @@ def _analyze(
     failure = 0.0
     factor_cache: dict = {}  # branches share their logarithm arguments (|sigma - eta| in the seed model)
     for b in chosen:
+        if b.undecided:  # reported as such, never silently dropped nor analysed as if it existed
+            results.append(_undecided_result(b, variables))
+            continue
         br, f = _branch_result(b.label, b.guard_text, b.model, variables, method=method, seed=seed,
                                deadline=deadline, target=target, decompose=decompose,
                                unknown_input_derivatives=unknown_input_derivatives,
@@ -165,13 +174,14 @@ def _analyze(
         results.append(replace(br, signs=tuple(b.signs)))
         failure += f
     verdict = None
-    if joint:
+    decided = [b for b in chosen if not b.undecided]
+    if joint and decided:
         left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
-        verdict = joint_verdict(model, branches=chosen, seed=seed, prob=prob, max_seconds=left,
+        verdict = joint_verdict(model, branches=decided, seed=seed, prob=prob, max_seconds=left,
                                 unknown_input_derivatives=unknown_input_derivatives)
         representatives = how.how == "representatives"
-        if representatives and verdict.unobservable:  # a verdict about the model, not decided by the visits
-            verdict = undecided_beyond_visits(verdict, how.note)
+        if (representatives or len(decided) < len(chosen)) and verdict.unobservable:
+            verdict = undecided_beyond_visits(verdict, how.note)  # a verdict about the model, not decided by the visits
         if verdict.inconclusive and (deadline is None or time.perf_counter() < deadline):
             verdict = certify_by_symmetry(verdict, model, chosen, seed=seed,
                                           kinds=("scaling", "translation") if representatives else None)
@@ -192,6 +202,14 @@ def _analyze(
         visited=how,
         assumptions=assumptions(model, unknown_input_derivatives, input_derivatives),
     )
+
+
+def _undecided_result(b: Any, variables: tuple[str, ...]) -> BranchResult:
+    """The inconclusive result of a branch whose feasibility is undecided (:attr:`Branch.undecided`)."""
+    return BranchResult(label=b.label, guard=b.guard_text, observable=(), unobservable=(), absent=(), rank=0,
+                        size=len(variables), transcendence_degree=0, seconds=0.0, verdict=Verdict.INCONCLUSIVE,
+                        reason=f"not analysed, its feasibility is undecided: {b.undecided}", undecided=variables,
+                        signs=tuple(b.signs))
 
 
 def assumptions(model: Model, unknown_input_derivatives: int | str, input_derivatives: int | None) -> dict:

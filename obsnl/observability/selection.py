@@ -8,7 +8,7 @@ chosen (it travels with the result, so that every answer says what it assumed).
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from obsnl.errors import AnalysisError, NotSupportedError
@@ -108,7 +108,8 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
     """
     if patterns is not None:
         every = _all_or_representatives(model, seed, max_seconds)[0]
-        by_signs = {tuple(b.signs): b for b in every}
+        # a pattern the record visits holds somewhere: one whose feasibility was undecided is decided now
+        by_signs = {tuple(b.signs): replace(b, undecided="") for b in every}
         chosen, durations = [], {}
         for signs, seconds in patterns.items():
             b = by_signs.get(tuple(signs))
@@ -141,7 +142,12 @@ def _all_or_representatives(model: Model, seed: int, max_seconds: float | None =
             reps = None
         if reps is not None:
             return list(reps.branches), Visited(how="representatives", exhaustive=False, note=reps.describe())
-    branches = list(split_branches(model, seed=seed, max_seconds=max_seconds))
+    branches = list(split_branches(model, seed=seed, max_seconds=max_seconds, undecided=True))
+    open_ = [b.label for b in branches if b.undecided]
+    if open_:  # reported, never dropped: each is an inconclusive branch of the answer
+        return branches, Visited(how="all", exhaustive=False, note=(
+            f"every feasible branch ({len(branches) - len(open_)}) and {len(open_)} whose feasibility is undecided "
+            f"({', '.join(open_)}: no point was found in them and none was proved impossible; not analysed)"))
     return branches, Visited(how="all", exhaustive=True,
                              note=f"every feasible branch ({len(branches)})" if len(branches) > 1 else "smooth model")
 
