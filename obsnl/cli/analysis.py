@@ -8,7 +8,8 @@ from typing import Any
 
 from obsnl.cli.common import _Exit, _add_executor, _executor, _load, _progress, _seed, write_output  # noqa: F401
 from obsnl.model.unknown_inputs import DERIVATIVES_MARGIN
-from obsnl.observability.limits import MAX_UNKNOWNS, check_analysis_limits, out_of_memory
+from obsnl.model.budget import time_budget
+from obsnl.observability.limits import MAX_UNKNOWNS, check_analysis_limits, check_file_limits, out_of_memory
 
 
 # --------------------------------------------------------------------------- show
@@ -52,14 +53,17 @@ def _cmd_branches(args: argparse.Namespace) -> int:
     from obsnl.model.branches import split_branches
 
     model = _load(args.model)
-    branches = split_branches(model)
+    branches = split_branches(model, undecided=True)  # a branch no point was found in is listed as such
     if args.format == "json":
-        doc = {"model": model.name, "branches": [{"label": b.label, "guard": b.guard_text} for b in branches]}
+        doc = {"model": model.name, "branches": [{"label": b.label, "guard": b.guard_text,
+                                                  **({"undecided": b.undecided} if b.undecided else {})}
+                                                 for b in branches]}
         write_output(json.dumps(doc, indent=2), None, force=False)
         return 0
     lines = [f"{model.name}: {len(branches)} branch{'es' if len(branches) != 1 else ''}"]
     for b in branches:
-        lines.append(f"  ({b.label}) {b.guard_text}")
+        lines.append(f"  ({b.label}) {b.guard_text}" + (f"  [feasibility undecided: {b.undecided}]" if b.undecided
+                                                         else ""))
         if args.equations:
             for s in b.model.states:
                 lines.append(f"      d/dt {s} = {b.model.equations[s]}")
@@ -89,7 +93,9 @@ def _add_analyze(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
                    help="observability engine (default: auto)")
     p.add_argument("--seed", type=_seed, default=None, help="seed of the random choices (default: drawn and reported)")
-    p.add_argument("--max-seconds", type=float, default=None, help="time limit of the whole analysis")
+    p.add_argument("--max-seconds", type=float, default=None,
+                   help="time limit of the whole command: reading and factoring the model, the --record "
+                   "simulation, the split into branches and the analysis")
     p.add_argument("--branches", default=None, metavar="LABELS",
                    help="visit only these branches (comma-separated labels, e.g. a,c); default: every feasible branch")
     p.add_argument("--record", default=None, metavar="FILE",
@@ -114,18 +120,20 @@ def _cmd_analyze(args: argparse.Namespace) -> int:
 
     if args.output and args.output != "-":
         check_target(args.output, force=args.force)
-    model = _load(args.model)
-    # refused before any work (the record's simulation included): a too large model or K
-    k = check_analysis_limits(model, args.unknown_input_derivatives, option="--unknown-input-derivatives")
-    labels = [s.strip() for s in args.branches.split(",") if s.strip()] if args.branches else None
-    try:
-        visits = _record_visits(model, args.record) if args.record else None
-        result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds, branches=labels,
-                         visited=visits.patterns if visits else None,
-                         crossings=visits.crossings if visits else None, joint=not args.no_joint,
-                         unknown_input_derivatives=args.unknown_input_derivatives)
-    except MemoryError:  # outside analyze itself (the record's simulation); raised below, arrays freed
-        result = None
+    # one time budget from here: reading and factoring the model, the record's simulation, split and analysis
+    with time_budget(args.max_seconds):
+        model = _load(args.model, check=check_file_limits)  # a too large model refused before parsing
+        # refused before any work (the record's simulation included): a too large model or K
+        k = check_analysis_limits(model, args.unknown_input_derivatives, option="--unknown-input-derivatives")
+        labels = [s.strip() for s in args.branches.split(",") if s.strip()] if args.branches else None
+        try:
+            visits = _record_visits(model, args.record) if args.record else None
+            result = analyze(model, method=args.method, seed=args.seed, max_seconds=args.max_seconds,
+                             branches=labels, visited=visits.patterns if visits else None,
+                             crossings=visits.crossings if visits else None, joint=not args.no_joint,
+                             unknown_input_derivatives=args.unknown_input_derivatives)
+        except MemoryError:  # outside analyze itself (the record's simulation); raised below, arrays freed
+            result = None
     if result is None:
         raise out_of_memory(model, k)
     from obsnl.report.tables import render
@@ -178,7 +186,7 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
 def _cmd_report(args: argparse.Namespace) -> int:
     from obsnl.batch import report_models
 
-    models = [_load(m) for m in args.models]
+    models = [_load(m, check=check_file_limits) for m in args.models]
     for m in models:  # every model checked before the first is analysed
         check_analysis_limits(m)
     results = report_models(models, args.out, method=args.method, seed=args.seed, force=args.force,
@@ -207,7 +215,7 @@ def _cmd_symmetries(args: argparse.Namespace) -> int:
     from obsnl.model.branches import split_branches
     from obsnl.observability.symmetry import symmetries
 
-    model = _load(args.model)
+    model = _load(args.model, check=check_file_limits)
     out = []
     for i, b in enumerate(split_branches(model, seed=args.seed)):
         out.append((b, symmetries(b.model, seed=args.seed + i, degree=args.degree)))
@@ -246,7 +254,7 @@ def _add_reparametrize(sub: argparse._SubParsersAction) -> None:
 def _cmd_reparametrize(args: argparse.Namespace) -> int:
     from obsnl.recombination.reparametrize import reparametrize
 
-    model = _load(args.model)
+    model = _load(args.model, check=check_file_limits)
     names = {}
     for item in args.name:
         if item.count("=") != 1 or not all(item.split("=")):

@@ -18,27 +18,46 @@ class _Exit(Exception):
         self.message = message
 
 
-def _at_least(low: int) -> Any:
-    """An argparse type: a whole number ``>= low``, refused at parse time (before any work or bar starts)."""
+def _at_least(low: int, at_most: int | None = None, why: str = "") -> Any:
+    """An argparse type: a whole number ``>= low`` (and ``<= at_most`` when given, ``why`` saying why),
+    refused at parse time (before any work or bar starts)."""
 
     def parse(text: str) -> int:
-        value = int(text) if text.strip().lstrip("-").isdigit() else None
+        digits = text.strip().lstrip("-")
+        if at_most is not None and digits.isdigit() and not text.strip().startswith("-") and len(digits) > 20:
+            value = at_most + 1  # not converted: Python refuses integers of over 4300 digits
+        else:
+            value = int(text) if digits.isdigit() and len(digits) < 4000 else None
         if value is None or value < low:
-            raise argparse.ArgumentTypeError(f"{text!r} is not an integer >= {low}")
+            raise argparse.ArgumentTypeError(f"{text[:30]!r} is not an integer >= {low}")
+        if at_most is not None and value > at_most:
+            raise argparse.ArgumentTypeError(f"{text.strip()[:30]} is more than {at_most}{': ' + why if why else ''}")
         return value
 
-    parse.__name__ = f"integer >= {low}"
+    parse.__name__ = f"integer >= {low}" if at_most is None else f"integer from {low} to {at_most}"
     return parse
 
+
+#: Most Monte-Carlo replicates of ``identify`` and ``reproduce`` (100 000 000 ended in a MemoryError after 13 s).
+MAX_REPLICATES = 10_000
+#: Most passes over the record of ``identify`` and ``reproduce``.
+MAX_PASSES = 100
+#: ``--replicates``: 0 (off) to :data:`MAX_REPLICATES` (1 and 2 are refused by ``check_replicates``).
+_replicates = _at_least(0, MAX_REPLICATES, "each replicate is one more filter run whose results are kept in memory; "
+                                          "a few hundred give a Monte-Carlo interval")
+#: ``--passes``: 1 to :data:`MAX_PASSES`.
+_passes = _at_least(1, MAX_PASSES, "each pass is one more filter run over the whole record; the estimates settle "
+                                   "within a few passes")
 
 #: ``--seed``: a non-negative integer (numpy's generators refuse negative seeds).
 _seed = _at_least(0)
 
 
-def _load(path: str):
+def _load(path: str, check: Any = None):
+    """The model file at ``path``; ``check`` sees the file's raw keys before any expression is parsed."""
     from obsnl.model.files import load_model
 
-    return load_model(path)
+    return load_model(path, check=check)
 
 
 def write_output(text: str, out: str | None, *, force: bool) -> None:

@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -158,7 +158,7 @@ def catalogue_path(name: str) -> Path:
     return folder / f"{name}.toml"
 
 
-def load_model(path: str | Path) -> Model:
+def load_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None = None) -> Model:
     """Load a model from a TOML or JSON file.
 
     The keys are those of ``shared/peer_cases/*.json``: ``name, description, source,
@@ -173,6 +173,9 @@ def load_model(path: str | Path) -> Model:
     path
         A ``.toml`` or ``.json`` file, or ``obsnl:NAME`` for a model packaged with obsnl
         (:func:`catalogue_path`).
+    check
+        Called with the file's raw keys before any expression is parsed (e.g. a size bound,
+        :func:`obsnl.observability.limits.check_file_limits`).
 
     Returns
     -------
@@ -192,6 +195,8 @@ def load_model(path: str | Path) -> Model:
     if isinstance(path, str) and path.startswith(PACKAGED):
         path = catalogue_path(path[len(PACKAGED):])
     data = read_model_file(path)
+    if check is not None:
+        check(data)
     try:
         return Model.from_dict(data)
     except ParseError as exc:

@@ -9,10 +9,8 @@ exact engines never see a float.
 
 from __future__ import annotations
 
-import ast
 import difflib
 import keyword
-import math
 import tokenize
 import unicodedata
 from collections.abc import Iterable, Mapping
@@ -28,9 +26,13 @@ from sympy.parsing.sympy_parser import (
 )
 
 from obsnl.errors import ParseError
+from obsnl.model.budget import check_time
+from obsnl.model.textsize import (MAX_DEPTH, MAX_DIGITS, MAX_EXPONENT, MAX_LENGTH, MAX_NODES,  # noqa: F401
+                                  check_expression_size, quote, regroup_sums, shorten)
+from obsnl.model.work import MAX_EXACT_DIGITS, exact_digits
 
 __all__ = ["ALLOWED_FUNCTIONS", "PARSER_NAMES", "make_symbol", "parse_expression", "check_expression_size",
-           "nfkc_problem", "shorten", "quote"]
+           "nfkc_problem", "shorten", "quote"]  # the last three are defined in obsnl.model.textsize
 
 #: Functions a model expression may use, by the name written in the file.
 ALLOWED_FUNCTIONS: dict[str, Any] = {
@@ -75,60 +77,6 @@ PARSER_NAMES: frozenset[str] = frozenset(k for k in _PARSER_GLOBALS if not k.sta
 
 _TRANSFORMS = standard_transformations + (convert_xor, rationalize)
 
-_MAX_EXPRESSION_LENGTH = 20_000
-#: Bounds checked on the text before sympy sees it (sympy would evaluate ``9**9**9`` while parsing).
-MAX_NODES = 4000  # operations and names in one expression
-MAX_DEPTH = 200  # nesting of operations (a sum of n terms nests n deep)
-MAX_DIGITS = 100  # digits of a number literal, and of any constant the expression computes
-MAX_EXPONENT = 100  # |exponent| of a power with a constant exponent
-_SHOWN = 80  # characters of an expression quoted in a message
-
-
-def shorten(text: str, limit: int = _SHOWN) -> str:
-    """``text`` cut to ``limit`` characters (with ``...``) for an error message.
-
-    Parameters
-    ----------
-    text : str
-        The text to show.
-    limit : int
-        Largest length of the result.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> shorten("x + " * 30, 20)
-    'x + x + x + x + x...'
-    """
-    text = text.strip()
-    return text if len(text) <= limit else text[: limit - 3].rstrip() + "..."
-
-
-def quote(value: object, limit: int = _SHOWN) -> str:
-    """``repr(value)`` cut to ``limit`` characters: how a message echoes what the user wrote.
-
-    Parameters
-    ----------
-    value : object
-        What the user wrote (a name, a value of a table).
-    limit : int
-        Largest length of the result.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> quote("z" * 100, 12)
-    "'zzzzzzzz..."
-    """
-    return shorten(repr(value), limit)
-
-
 def nfkc_problem(name: str) -> str | None:
     """Why ``name`` cannot be a name, if its NFKC form differs from it (Python reads identifiers in NFKC:
     a fullwidth ``ｘ`` is ``x``, ``ℓ`` is ``l``, the micro sign ``µ`` is the Greek ``μ``), else None.
@@ -161,12 +109,13 @@ def _suggest(name: str, candidates: Iterable[str]) -> str:
     return ""
 
 
-def _check_names_token_level(text: str, where: str) -> None:
-    """Reject Python keywords used as names and dunder tricks before anything is evaluated."""
+def _check_names_token_level(text: str, where: str) -> set[str]:
+    """Reject Python keywords used as names and dunder tricks before anything is evaluated; the names used."""
     try:
         tokens = list(tokenize.generate_tokens(StringIO(text).readline))
     except (tokenize.TokenError, IndentationError, SyntaxError) as exc:
         raise ParseError(f"{where}: syntax error in {shorten(text)!r} ({exc}); check brackets and operators") from None
+    names: set[str] = set()
     for tok in tokens:
         if tok.type == tokenize.COMMENT:
             raise ParseError(f"{where}: '#' in {shorten(text)!r} would cut the expression; remove it")
@@ -179,6 +128,7 @@ def _check_names_token_level(text: str, where: str) -> None:
                 raise ParseError(f"{where}: the number {shorten(tok.string, 30)!r} is beyond 1e{MAX_DIGITS} or below "
                                  f"1e-{MAX_DIGITS}; rescale the model")
         if tok.type == tokenize.NAME:
+            names.add(tok.string)
             problem = nfkc_problem(tok.string)
             if problem:
                 raise ParseError(f"{where}: {problem} (in {shorten(text)!r})")
@@ -193,106 +143,7 @@ def _check_names_token_level(text: str, where: str) -> None:
             raise ParseError(f"{where}: unexpected {tok.string!r} in {shorten(text)!r}; write a single sympy expression")
         elif tok.type == tokenize.STRING:
             raise ParseError(f"{where}: string literal in {shorten(text)!r}; write a sympy expression, not a string")
-
-
-def _const_log10(node: ast.AST, where: str, text: str) -> float | None:
-    """An upper bound of log10|value| of a constant sub-expression (None: not constant); refuses a power
-    with a huge exponent and a constant with more than MAX_DIGITS digits, without computing either."""
-
-    def refuse(what: str) -> ParseError:
-        return ParseError(f"{where}: {what} in {shorten(text)!r}; obsnl refuses exponents above {MAX_EXPONENT} "
-                          f"and constants over {MAX_DIGITS} digits (rescale the model)")
-
-    if isinstance(node, ast.Constant):
-        if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
-            return None
-        v = abs(node.value)
-        return math.log10(v) if v > 0 else -math.inf
-    if isinstance(node, ast.UnaryOp):
-        return _const_log10(node.operand, where, text)
-    if isinstance(node, ast.BinOp):
-        left = _const_log10(node.left, where, text)
-        right = _const_log10(node.right, where, text)
-        if isinstance(node.op, ast.Pow):
-            if right is not None:
-                if right > math.log10(MAX_EXPONENT):
-                    raise refuse("a power with an exponent over " + str(MAX_EXPONENT))
-                if left is None:
-                    return None
-                bound = left * 10 ** right if left > 0 else 0.0
-                if bound > MAX_DIGITS:
-                    raise refuse(f"a constant power with more than {MAX_DIGITS} digits")
-                return bound
-            return None
-        if left is None or right is None:
-            return None
-        if isinstance(node.op, ast.Mult):
-            bound = left + right
-        elif isinstance(node.op, (ast.Div, ast.FloorDiv, ast.Mod)):
-            bound = left
-        else:
-            bound = max(left, right) + 1
-        if bound > MAX_DIGITS:
-            raise refuse(f"a constant with more than {MAX_DIGITS} digits")
-        return bound
-    return None
-
-
-def check_expression_size(text: str, where: str = "expression") -> None:
-    """Refuse an expression whose evaluation could run away, before anything evaluates it.
-
-    The text is read by Python's ``ast`` (``^`` as a power, as obsnl reads it): at most
-    :data:`MAX_NODES` nodes nested at most :data:`MAX_DEPTH` deep, number literals of at most
-    :data:`MAX_DIGITS` digits, constant exponents of at most :data:`MAX_EXPONENT` and constants
-    of at most :data:`MAX_DIGITS` digits (``9**9**9``, ``x**(10**10)``, power towers).
-
-    Parameters
-    ----------
-    text : str
-        The expression as written by the user.
-    where : str
-        What the expression is (a key or equation name), used in the message.
-
-    Raises
-    ------
-    ParseError
-        Naming the bound and the expression (shortened).
-
-    Examples
-    --------
-    >>> check_expression_size("x**2 + 3*y")
-    >>> check_expression_size("9**9**9")
-    Traceback (most recent call last):
-    ...
-    obsnl.errors.ParseError: expression: a power with an exponent over 100 in '9**9**9'; obsnl refuses exponents above 100 and constants over 100 digits (rescale the model)
-    """
-    try:
-        tree = ast.parse(text.replace("^", "**"), mode="eval")
-    except RecursionError:
-        raise ParseError(f"{where}: {shorten(text)!r} is nested too deeply; split it") from None
-    except SyntaxError as exc:
-        if "too many nested" in str(exc):  # Python's own limit (200 brackets), not a typo
-            raise ParseError(f"{where}: {shorten(text)!r} nests brackets more than 200 deep; split it with "
-                             f"intermediate states") from None
-        return  # the parser below reports the syntax error with its own message
-    except ValueError:
-        return
-    count = 0
-    stack: list[tuple[ast.AST, int]] = [(tree.body, 1)]
-    while stack:
-        node, depth = stack.pop()
-        count += 1
-        if count > MAX_NODES:
-            raise ParseError(f"{where}: {shorten(text)!r} has more than {MAX_NODES} operations and names; "
-                             f"split it with intermediate states or simplify it")
-        if depth > MAX_DEPTH:
-            raise ParseError(f"{where}: {shorten(text)!r} nests more than {MAX_DEPTH} operations (a sum of n terms "
-                             f"nests n deep); simplify it")
-        stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node))
-    # constant growth: bottom-up bound without evaluating (raises on the first runaway power)
-    for node in ast.walk(tree.body):
-        if isinstance(node, ast.BinOp) and isinstance(node.op, ast.Pow):
-            _const_log10(node, where, text)
+    return names
 
 
 def parse_expression(
@@ -354,17 +205,23 @@ def parse_expression(
     stripped = " ".join(text.split())  # a line break inside an expression is plain white space
     if not stripped:
         raise ParseError(f"{where}: the expression is empty")
-    if len(stripped) > _MAX_EXPRESSION_LENGTH:
-        raise ParseError(f"{where}: the expression is longer than {_MAX_EXPRESSION_LENGTH} characters")
-    _check_names_token_level(stripped, where)
-    check_expression_size(stripped, where)
+    if len(stripped) > MAX_LENGTH:
+        raise ParseError(f"{where}: the expression is longer than {MAX_LENGTH} characters; split it with "
+                         f"intermediate states")
+    check_time(f"reading the {where} ({shorten(stripped, 40)!r})", "raise --max-seconds")
+    used = _check_names_token_level(stripped, where)
+    grouped = regroup_sums(stripped)  # a long sum as a balanced tree: linear parsing, no recursion limit
+    check_expression_size(stripped, where, grouped=grouped)
+    # only the names the expression uses (copying every declared name for every expression made loading
+    # a model quadratic in its size); declared names win over function and constant names
     local: dict[str, Any] = {}
-    local.update(ALLOWED_FUNCTIONS)
-    local.update(_CONSTANTS)
-    local.update(_LOGIC)
-    local.update(symbols)  # declared names win over function and constant names
+    for name in used:
+        for table in (symbols, _LOGIC, _CONSTANTS, ALLOWED_FUNCTIONS):
+            if name in table:
+                local[name] = table[name]
+                break
     try:
-        expr = parse_expr(stripped, local_dict=local, global_dict=dict(_PARSER_GLOBALS), transformations=_TRANSFORMS)
+        expr = parse_expr(grouped, local_dict=local, global_dict=dict(_PARSER_GLOBALS), transformations=_TRANSFORMS)
     except ParseError:
         raise
     except (SyntaxError, tokenize.TokenError):
@@ -454,6 +311,10 @@ def _folded_constant_problem(expr: sp.Basic) -> str | None:
     for n in expr.atoms(sp.Number):
         if n == 0 or not n.is_finite:
             continue
+        if exact_digits(n) > MAX_EXACT_DIGITS:  # counted on the bits: printing it may be refused by Python
+            return (f"holds an exact constant of {exact_digits(n):.0f} digits (after multiplying its numbers out), "
+                    f"over {MAX_EXACT_DIGITS}; obsnl computes exactly, with rationals: round the constants, e.g. "
+                    f"write the value as a decimal of at most {MAX_DIGITS} digits")
         p, q = (abs(int(n.p)), int(n.q)) if n.is_Rational else sp.Rational(abs(n)).as_numer_denom()
         if p > q * 10 ** MAX_DIGITS or p * 10 ** MAX_DIGITS < q:
             size = len(str(p)) - len(str(q))

@@ -21,12 +21,17 @@ Unknown-input derivatives: at most :func:`obsnl.model.unknown_inputs.max_unknown
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 from obsnl.errors import AnalysisError, ModelError, OptionError
+from obsnl.model.textsize import shorten
 from obsnl.model.core import Model
 from obsnl.model.unknown_inputs import (ARBITRARY, DERIVATIVES_MARGIN, check_unknown_input_derivatives,
                                         max_unknown_input_derivatives)
 
-__all__ = ["MAX_UNKNOWNS", "analysis_size", "dense_bytes", "check_analysis_limits", "out_of_memory"]
+__all__ = ["MAX_UNKNOWNS", "analysis_size", "dense_bytes", "check_analysis_limits", "out_of_memory",
+           "check_file_limits"]
 
 #: The most unknowns (states + parameters + unknown-input coefficients) an analysis accepts.
 MAX_UNKNOWNS = 300
@@ -179,6 +184,42 @@ def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | N
             f"{', fewer unknown inputs or a smaller unknown_input_derivatives' if model.unknown_inputs else ''})"
         )
     return k
+
+
+def check_file_limits(data: Mapping[str, Any]) -> None:
+    """Refuse, on a model file's raw content and before any expression is parsed, a model whose states and
+    parameters alone exceed :data:`MAX_UNKNOWNS` (reading 50 000 states took 99 s before the refusal).
+
+    Parameters
+    ----------
+    data : mapping
+        The file's keys (:func:`obsnl.model.files.read_model_file`), not validated yet.
+
+    Raises
+    ------
+    AnalysisError
+        Naming the counts and the bound, as :func:`check_analysis_limits` does for a loaded model.
+
+    Examples
+    --------
+    >>> check_file_limits({"name": "chain", "states": [f"s{i}" for i in range(400)], "parameters": ["k"]})
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.AnalysisError: model 'chain' has 401 unknowns (400 states + 1 parameter), more than the 300 the exact engines accept (their dense arrays grow as the cube of that number: at least 1.0 GiB here); analyse a reduced model (fewer states or parameters)
+    """
+    def count(key: str) -> int:
+        v = data.get(key)
+        return len(v) if isinstance(v, (list, tuple)) else 0
+
+    n_x, n_p = count("states"), count("parameters")
+    if n_x + n_p > MAX_UNKNOWNS:
+        name = data.get("name")
+        raise AnalysisError(
+            f"model {shorten(repr(name if isinstance(name, str) else '?'), 40)} has "
+            f"{'at least ' if count('unknown_inputs') else ''}{n_x + n_p} unknowns "
+            f"({_plural(n_x, 'state')} + {_plural(n_p, 'parameter')}), more than the {MAX_UNKNOWNS} the exact "
+            f"engines accept (their dense arrays grow as the cube of that number: at least "
+            f"{_gib(dense_bytes(n_x, n_x + n_p))} here); analyse a reduced model (fewer states or parameters)")
 
 
 def out_of_memory(model: Model, unknown_input_derivatives: int | str | None = None) -> AnalysisError:

@@ -19,6 +19,7 @@ import numpy as np
 import sympy as sp
 
 from obsnl.errors import AnalysisError
+from obsnl.model.budget import check_time
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.switching import expr_text, switching_of
 
@@ -112,6 +113,9 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
     X = np.zeros((len(t), len(xs)))
     X[0] = [float(vals.get(s.name, 0.0)) for s in xs]
     for k in range(len(t) - 1):
+        if k % 256 == 0:  # a command's --max-seconds covers the simulation (200 000 samples took 32 s)
+            check_time(f"simulating the model under the record (sample {k} of {len(t)})",
+                       "raise --max-seconds, or give a shorter record")
         x, h = X[k].copy(), (t[k + 1] - t[k]) / substeps
         for i in range(substeps):
             a0, a1 = i / substeps, (i + 0.5) / substeps
@@ -124,8 +128,8 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
         if not np.all(np.isfinite(x)):
             raise AnalysisError(f"the simulation under the record blew up at t = {t[k + 1]:.4g}; check the [values]")
         X[k + 1] = x
-    sol_y = X.T
-    G = np.array([np.asarray(g(list(sol_y[:, k]), list(U[:, k])), float) for k in range(len(t))])
+    with np.errstate(all="ignore"):  # every sample at once (a constant switching function broadcasts)
+        G = np.column_stack([np.broadcast_to(np.asarray(c, float), (len(t),)) for c in g(list(X.T), list(U))])
     scale = np.maximum(np.max(np.abs(G), axis=0), 1e-300)
     signs = np.sign(np.where(np.abs(G) > 1e-12 * scale, G, 0.0)).astype(int)
     dt = np.diff(t, append=t[-1] + (t[-1] - t[-2]))
