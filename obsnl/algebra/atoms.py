@@ -13,15 +13,17 @@ earlier rewriting, so that, e.g., ``x**N`` in a candidate function is the square
 
 from __future__ import annotations
 
-import math
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import sympy as sp
 
-from obsnl.errors import ModelError, NotSupportedError
+from obsnl.errors import NotSupportedError
+from obsnl.algebra.arguments import _factor_fraction, _rational_gcd, _to_exact, user_form  # noqa: F401
 from obsnl.model.core import NONSMOOTH_FUNCTIONS
+from obsnl.model.textsize import shorten
+from obsnl.model.work import MAX_EXPANDED_TERMS, can_expand
 
 __all__ = ["Atom", "Rewriter", "rewrite"]
 
@@ -68,42 +70,6 @@ class Atom:
         return f"{self.kind}({self.arg})"
 
 
-
-
-# --------------------------------------------------------------------------- helpers
-def _factor_fraction(g: sp.Expr):
-    """``g`` as a rational number, or ((c, factors) of the numerator, (c, factors) of the denominator)."""
-    g = sp.together(g)
-    if g == 0:
-        raise ModelError("log(0) in the model")
-    if g.is_Rational:
-        return sp.Rational(g)
-    out = []
-    for part in sp.fraction(g):
-        try:
-            c, factors = sp.factor_list(sp.expand(part))
-        except (sp.PolynomialError, NotImplementedError):  # pragma: no cover - defensive
-            c, factors = sp.Integer(1), [(part, 1)]
-        out.append((sp.Rational(c), tuple(factors)))
-    return tuple(out)
-
-
-def _rational_gcd(values: Sequence[sp.Rational]) -> sp.Rational:
-    nums = [abs(int(v.p)) for v in values]
-    dens = [int(v.q) for v in values]
-    g = 0
-    for n in nums:
-        g = math.gcd(g, n)
-    lcm = 1
-    for d in dens:
-        lcm = lcm * d // math.gcd(lcm, d)
-    return sp.Rational(g, lcm)
-
-
-def _to_exact(e: sp.Expr) -> sp.Expr:
-    if e.has(sp.Float):
-        return e.xreplace({f: sp.nsimplify(f, rational=True) for f in e.atoms(sp.Float)})
-    return e
 
 
 class Rewriter:
@@ -300,19 +266,31 @@ class Rewriter:
             out -= e * self.const(sp.log(prime, evaluate=False))
         return out
 
-    def _terms(self, g: sp.Expr, what: str) -> list[tuple[sp.Rational, sp.Expr]]:
+    def user_form(self, e: sp.Expr) -> sp.Expr:
+        """``e`` with the provisional and atom symbols swapped back (:func:`obsnl.algebra.arguments.user_form`)."""
+        return user_form(e, self.prov_exp_inv, self.prov_trig, self.atoms)
+
+    def _terms(self, g: sp.Expr, func: type) -> list[tuple[sp.Rational, sp.Expr]]:
+        """The terms ``c * m`` of the argument ``g`` of ``func`` (exp, sin or cos), ``g`` expanded."""
+
+        def what() -> str:  # the user's expression, for a message
+            return shorten(str(func(self.user_form(g), evaluate=False)), 60)
+
+        if not can_expand(g):
+            raise NotSupportedError(f"the argument of {what()} expands to too many terms (over "
+                                    f"{MAX_EXPANDED_TERMS}); introduce a state for this quantity instead")
         out: list[tuple[sp.Rational, sp.Expr]] = []
         for term in sp.Add.make_args(sp.expand(g)):
             c, m = term.as_coeff_Mul()
             if not c.is_Rational:  # pragma: no cover - numbers are exact here
-                raise NotSupportedError(f"the coefficient {c} in {what} is not rational")
+                raise NotSupportedError(f"the coefficient {c} in {what()} is not rational")
             for b, k in m.as_powers_dict().items():
                 if m == 1:
                     break
                 if not (b.is_Symbol and (b in self.declared or b in self.atoms)) or not sp.sympify(k).is_Integer:
                     raise NotSupportedError(
-                        f"the term {term} of {what} is not a monomial in the model's variables; obsnl needs "
-                        f"exponent and angle arguments that are sums of monomials (e.g. -E_a/(R*T), N*log(x)); "
+                        f"the term {shorten(str(self.user_form(term)), 60)} of {what()} is not a monomial in the "
+                        f"model's variables; obsnl needs exponent and angle arguments that are sums of monomials (e.g. -E_a/(R*T), N*log(x)); "
                         f"introduce a state for this quantity instead"
                     )
             out.append((sp.Rational(c), m))
@@ -320,7 +298,7 @@ class Rewriter:
 
     def exp_of(self, g: sp.Expr) -> sp.Expr:
         out = sp.Integer(1)
-        for c, m in self._terms(g, f"exp({g})"):
+        for c, m in self._terms(g, sp.exp):
             if c == 0:
                 continue
             if m in self.atoms and self.atoms[m].kind == "log":  # exp(c*log f) = f**c
@@ -334,7 +312,7 @@ class Rewriter:
         return out
 
     def trig(self, kind: str, g: sp.Expr) -> sp.Expr:
-        terms = self._terms(g, f"{kind}({g})")
+        terms = self._terms(g, sp.sin if kind == "sin" else sp.cos)
         if not terms:
             return sp.Integer(0) if kind == "sin" else sp.Integer(1)
 
