@@ -60,7 +60,10 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
                    "named are estimated from their high-frequency residual (default in a study: 0.001)")
     p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
     p.add_argument("--allow-unidentifiable", action="store_true", help="run despite the structural verdict")
-    p.add_argument("--hold", action="store_true", help="measured data: hold poorly informed parameters at their guess")
+    p.add_argument("--hold", action="store_true", help="hold poorly informed parameters at their guess (default: "
+                   "nothing is held)")
+    p.add_argument("--no-refine", action="store_true", help="skip the maximum-likelihood refinement after the filter "
+                   "(no profile-likelihood intervals; convergence is then not checked)")
     p.add_argument("--seed", type=_seed, default=0, help="noise seed of a study and the Monte-Carlo (default: 0)")
     for flag, what in (("--s0", "prior std of log-parameters"), ("--q-theta", "random walk of log-parameters"),
                        ("--q-x", "factor on the state noise"), ("--gate", "innovation gate")):
@@ -82,7 +85,6 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     for given, option, needs in ((args.samples is not None and args.data, "--samples", "a --record study; cut the "
                                   "data file instead"),
-                                 (args.hold and args.record, "--hold", "measured data (--data)"),
                                  ((args.workers is not None or args.scheduler) and args.replicates == 0,
                                   "--workers/--scheduler", "the Monte-Carlo replicates: add --replicates N (nothing "
                                   "else of identify runs in parallel)")):
@@ -115,16 +117,18 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     def tick() -> None:
         if not bars:
             # passes (tuning passes included), then one step per Monte-Carlo replicate
-            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0) + max(args.replicates, 0),
-                                  "step"))
+            # passes (tuning passes included), the refinement and one profile per parameter, the replicates
+            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0) + max(args.replicates, 0)
+                                  + (0 if args.no_refine else 1 + len(names)), "step"))
         if bars[0] is not None:
             bars[0].update(1)
     try:
         if args.data:
-            res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick, **opts)
+            res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick,
+                           refine=not args.no_refine, **opts)
         else:
             res = study(model, args.record, noise=float(plain[-1]) if plain else 1e-3, samples=args.samples,
-                        tuning=tuning, progress=tick, **opts)
+                        tuning=tuning, hold=args.hold, progress=tick, refine=not args.no_refine, **opts)
     finally:
         if bars and bars[0] is not None:
             bars[0].close()

@@ -199,7 +199,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
              table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
              tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool = False,
              hold: bool = False, progress: Callable[[], Any] | None = None,
-             executor: Executor | None = None) -> Identification:
+             executor: Executor | None = None, refine: bool = True) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
     Parameters
@@ -231,6 +231,10 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     executor
         Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`: local processes or a Dask
         cluster; default: this process). The same numbers on any executor.
+    refine
+        Refine the filter's estimate by maximum likelihood (the default last step): Fisher std, 95 %
+        profile-likelihood intervals, flags from the intervals, ``converged`` from the optimizer's
+        first-order conditions (:mod:`obsnl.estimation.likelihood`). ``False``: the filter alone.
 
     Returns
     -------
@@ -263,15 +267,16 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
                             grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
                             replicates=replicates, seed=seed, jit=jit, hold=hold, progress=progress,
-                            executor=executor)
+                            executor=executor, refined=refine)
     return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
 
 
 def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapping[str, float] | None = None,
           noise: float = 1e-3, method: str = "ukf", table: BranchTable | str | Path | None = None, passes: int = 3,
           replicates: int = 0, seed: int = 0, tuning: Tuning | None = None, samples: int | None = None,
-          allow_unidentifiable: bool = False, jit: bool = False,
-          progress: Callable[[], Any] | None = None, executor: Executor | None = None) -> Identification:
+          allow_unidentifiable: bool = False, jit: bool = False, hold: bool = False,
+          progress: Callable[[], Any] | None = None, executor: Executor | None = None,
+          refine: bool = True) -> Identification:
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
 
     Same structural check as :func:`identify`; see
@@ -305,6 +310,10 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         Progress callback.
     executor : Executor or None
         Where the Monte-Carlo replicates run (default: this process).
+    hold : bool
+        Hold poorly informed parameters at their guess (default: off, nothing is held).
+    refine : bool
+        Refine by maximum likelihood (default on; see :func:`identify`).
 
     Returns
     -------
@@ -335,7 +344,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
                           f"{[s.name for s in model.inputs]}: give measured data with --data")
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
     res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise, tuning=tuning,
-                           passes=passes, replicates=replicates, jit=jit, progress=progress, executor=executor)
+                           passes=passes, replicates=replicates, jit=jit, progress=progress, executor=executor,
+                           hold=hold, refined=refine)
     return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
 
 
