@@ -14,7 +14,10 @@ import hashlib
 import os
 import pickle
 import re
+import signal
 import socket
+import struct
+import threading
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
@@ -62,10 +65,14 @@ class Executor:
             _host_port(self.scheduler)
 
     def probe(self, timeout: float = 5.0) -> Executor:
-        """Refuse, at once, a scheduler address that nothing answers on (before any work starts).
+        """Refuse, at once, a scheduler address where no Dask scheduler answers (before any work starts).
 
-        A TCP connection to the address is opened and closed (at most ``timeout`` seconds); the Dask
-        handshake itself comes with the first task. Local executors and client objects pass as they are.
+        A TCP connection is opened and the scheduler's side of the Dask handshake is read and checked
+        (a Dask server speaks first: a length-prefixed message of one small frame holding its
+        ``pickle-protocol``), at most ``timeout`` seconds each; then the connection is closed. Whatever
+        else answers (an HTTP server, whose first bytes read as a frame length of exbibytes, or a server
+        that stays silent) is refused with one line. ``tls://`` addresses are only connected to (their
+        handshake is encrypted). Local executors and client objects pass as they are.
 
         Returns
         -------
@@ -75,7 +82,7 @@ class Executor:
         Raises
         ------
         OptionError
-            The host is unknown or nothing listens at the address.
+            The host is unknown, nothing listens at the address, or what answers is not a Dask scheduler.
 
         Examples
         --------
@@ -85,12 +92,24 @@ class Executor:
         if not isinstance(self.scheduler, str):
             return self
         host, port = _host_port(self.scheduler)
+        fix = ("start one with `dask scheduler` and workers with `dask worker ADDRESS`, or leave --scheduler out "
+               "to run on this machine")
         try:
-            socket.create_connection((host, port), timeout=timeout).close()
+            sock = socket.create_connection((host, port), timeout=timeout)
         except OSError as exc:
-            raise OptionError(f"cannot reach the Dask scheduler {self.scheduler!r} ({exc.strerror or exc}); start one "
-                              f"with `dask scheduler` and workers with `dask worker ADDRESS`, or leave --scheduler "
-                              f"out to run on this machine") from None
+            raise OptionError(f"cannot reach the Dask scheduler {self.scheduler!r} ({exc.strerror or exc}); {fix}") \
+                from None
+        with sock:
+            if self.scheduler.strip().startswith("tls://"):
+                return self
+            try:
+                why = _dask_handshake(sock)
+            except TimeoutError:
+                why = f"no Dask handshake within {timeout:g} s"
+            except OSError as exc:
+                why = f"the connection broke before the Dask handshake: {exc.strerror or exc}"
+        if why:
+            raise OptionError(f"{self.scheduler!r} is not a Dask scheduler ({why}); {fix}")
         return self
 
     @property
@@ -115,12 +134,25 @@ class Executor:
 
     @contextmanager
     def session(self) -> Iterator[_Session]:
-        """Workers kept for several :meth:`_Session.map` calls (what they built stays built)."""
+        """Workers kept for several :meth:`_Session.map` calls (what they built stays built).
+
+        While local processes run, SIGTERM is handled as SIGINT (a KeyboardInterrupt in this process,
+        when it is the main thread's): on either, or on any error, the workers are terminated before
+        the exception goes on, so none outlives the main process.
+        """
         s = _Session(self)
+        handle = s.pool is not None and threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGTERM, _interrupt) if handle else None
+        ok = False
         try:
             yield s
+            ok = True
         finally:
-            s.close()
+            try:
+                s.close(abort=not ok)
+            finally:
+                if handle:
+                    signal.signal(signal.SIGTERM, previous if previous is not None else signal.SIG_DFL)
 
 
 def _host_port(address: str) -> tuple[str, int]:
@@ -130,6 +162,56 @@ def _host_port(address: str) -> tuple[str, int]:
         raise OptionError(f"--scheduler {address!r} is not a Dask scheduler address; give one like tcp://HOST:8786 "
                           f"(port 1-65535)")
     return m["host"].strip("[]"), int(m["port"] or 8786)
+
+
+#: The largest first message a Dask scheduler sends (its handshake is under 100 bytes).
+_MAX_HANDSHAKE = 1 << 16
+
+
+def _read_exactly(sock: socket.socket, n: int) -> bytes:
+    data = b""
+    while len(data) < n:
+        chunk = sock.recv(n - len(data))
+        if not chunk:
+            break
+        data += chunk
+    return data
+
+
+def _dask_handshake(sock: socket.socket) -> str:
+    """Read the Dask handshake a scheduler sends on a new TCP connection; ``""`` if it is one, else why not.
+
+    The message (``distributed.comm.tcp``): its length (8 bytes), the number of frames (8 bytes),
+    each frame's length (8 bytes each), the frames; the handshake is one msgpack frame, a map with
+    ``pickle-protocol``. Nothing beyond :data:`_MAX_HANDSHAKE` bytes is read or allocated.
+    """
+    head = _read_exactly(sock, 8)
+    if len(head) < 8:
+        return "it closed the connection without a Dask handshake"
+    (total,) = struct.unpack("<Q", head)
+    if not 8 <= total <= _MAX_HANDSHAKE:
+        return f"its first bytes {head!r} are no Dask message"
+    body = _read_exactly(sock, total)
+    (nframes,) = struct.unpack("<Q", body[:8]) if len(body) >= 8 else (0,)
+    if len(body) < total or not 1 <= nframes <= 16 or 8 * (nframes + 1) > total:
+        return "its first message is no Dask handshake"
+    lengths = struct.unpack(f"<{nframes}Q", body[8:8 * (nframes + 1)])
+    if 8 * (nframes + 1) + sum(lengths) != total:
+        return "its first message is no Dask handshake"
+    try:
+        import msgpack
+
+        info = msgpack.loads(body[8 * (nframes + 1):8 * (nframes + 1) + lengths[0]])
+    except ImportError:  # pragma: no cover - msgpack comes with dask.distributed
+        return ""
+    except Exception:  # noqa: BLE001 - any undecodable frame is a refusal
+        info = None
+    return "" if isinstance(info, dict) and "pickle-protocol" in info else "its first message is no Dask handshake"
+
+
+def _interrupt(signum: int, frame: Any) -> None:
+    """SIGTERM as SIGINT: a KeyboardInterrupt, so the session shuts its workers down."""
+    raise KeyboardInterrupt(f"signal {signum}")
 
 
 class _Session:
@@ -153,9 +235,20 @@ class _Session:
                                   f"tcp://HOST:8786, start one with `dask scheduler` and workers with "
                                   f"`dask worker ADDRESS`") from None
 
-    def close(self) -> None:
+    def close(self, *, abort: bool = False) -> None:
+        """Shut the workers down; ``abort`` (an interrupt, an error): stop them now, running tasks included."""
         if self.pool is not None:
-            self.pool.shutdown(cancel_futures=True)
+            procs = list((getattr(self.pool, "_processes", None) or {}).values())
+            self.pool.shutdown(wait=not abort, cancel_futures=True)
+            if abort:
+                for p in procs:
+                    if p.is_alive():
+                        p.terminate()
+                for p in procs:
+                    p.join(timeout=5.0)
+                    if p.is_alive():  # pragma: no cover - a worker that ignores SIGTERM
+                        p.kill()
+                        p.join(timeout=5.0)
         if self.client is not None and self.own:
             self.client.close()
 

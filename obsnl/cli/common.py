@@ -44,6 +44,10 @@ def _load(path: str):
 def write_output(text: str, out: str | None, *, force: bool) -> None:
     """Print ``text`` or write it to ``out``; never overwrite an existing file without ``force``.
 
+    The file goes through the one output writer (:func:`obsnl.report.files.safe_write`): created
+    exclusively and moved onto ``out`` atomically, so with ``force`` a symlink or a hard-linked file
+    there is replaced by a new file, never written through or truncated in place.
+
     Parameters
     ----------
     text : str

@@ -1,25 +1,42 @@
 """Compiled casadi Functions cached on disk, so that a second run (or another worker) compiles nothing.
 
 :func:`jit_compile` generates the C code of a casadi Function, names it by the hash of that code,
-the compiler flags and the casadi version, and loads the shared library from a private per-user
-cache folder (:func:`cache_directory`), compiling it only when it is not there. The key is the code
-itself: the same model, filter options and record step give the same file, a changed model or
-option a new one, and a stale library can never be loaded. The flags are those of
+the compiler flags, the casadi version, the compiler (its path and ``--version`` line) and the CPU
+(``platform.machine()`` with the model name and the flags of ``/proc/cpuinfo``: the code is built with
+``-march=native``), and loads the shared library from a private per-user cache folder
+(:func:`cache_directory`), compiling it only when it is not there. The key is the code itself: the
+same model, filter options and record step give the same file, a changed model or option a new one,
+and a stale library can never be loaded. The flags are those of
 :func:`obsnl.estimation.numeric.jit_options` (``-O3 -march=native -ffp-contract=off``, no fast-math),
 so the numbers equal those of casadi's own ``jit`` option, and those of casadi's evaluation without
 compiling, bit for bit: with floating-point contraction off the compiler never fuses a product and
 a sum into one rounding (an FMA), so the compiled code rounds every operation as casadi's virtual
-machine does, whatever the compiler inlines. A library is written under a temporary name and renamed
-into place, so processes that compile the same Function at once do not see half-written files.
+machine does, whatever the compiler inlines.
+
+The cache is not trusted. Each library is written under a temporary name and renamed into place
+(processes that compile the same Function at once never see half-written files), and its SHA-256 is
+recorded at build time in a sidecar file (``<library>.sha256``, the format of ``sha256sum``). Before a
+library is loaded, it and its sidecar must be regular files of this user that nobody else may write,
+and the library's hash must be the recorded one; otherwise (a truncated file, a library planted under
+the expected name, a missing sidecar) it is rebuilt, never loaded. A library that still does not load
+after a rebuild is an error, not a loop. A cache folder that cannot be created or written (under a
+file, on a read-only file system) is replaced by a private temporary folder for this process, with a
+one-line warning on stderr.
 """
 
 from __future__ import annotations
 
+import atexit
+import errno
+import functools
 import hashlib
+import hmac
 import os
+import platform
 import shutil
 import stat
 import subprocess
+import sys
 import tempfile
 from pathlib import Path
 
@@ -32,6 +49,8 @@ __all__ = ["jit_compile", "cache_directory", "FLAGS"]
 #: Compiler flags (as :func:`obsnl.estimation.numeric.jit_options`).
 FLAGS = ("-O3", "-march=native", "-ffp-contract=off")
 _LOADED: dict[str, ca.Function] = {}
+_FALLBACK: list[Path] = []  # this process's private folder, when the configured one cannot be used
+_FIX = "remove it or set OBSNL_CACHE_DIR to a private folder"
 
 
 def cache_directory() -> Path:
@@ -39,7 +58,8 @@ def cache_directory() -> Path:
 
     Created with mode 0700; an existing folder is used only when it is a real folder (not a
     symbolic link), owned by the user and closed to others (nobody else may plant a library that
-    this process would load).
+    this process would load). A folder that cannot be created (its path runs through a file, the
+    file system is read-only) gives a one-line warning and a private temporary folder of this process.
 
     Returns
     -------
@@ -58,35 +78,150 @@ def cache_directory() -> Path:
     """
     env = os.environ.get("OBSNL_CACHE_DIR")
     base = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "obsnl" / "jit"
-    if not base.exists() and not base.is_symlink():
-        base.parent.mkdir(parents=True, exist_ok=True)
-        try:
-            base.mkdir(mode=0o700)
-        except FileExistsError:
-            pass
-    st = os.lstat(base)
-    fix = "remove it or set OBSNL_CACHE_DIR to a private folder"
+    try:
+        if not base.exists() and not base.is_symlink():
+            base.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                base.mkdir(mode=0o700)
+            except FileExistsError:
+                pass
+        st = os.lstat(base)
+    except OSError as exc:
+        return _fallback(f"the compiled-filter cache {base} cannot be created ({exc.strerror or exc})")
     if stat.S_ISLNK(st.st_mode):
-        raise OutputError(f"the compiled-filter cache {base} is a symbolic link; {fix}")
+        raise OutputError(f"the compiled-filter cache {base} is a symbolic link; {_FIX}")
     if not stat.S_ISDIR(st.st_mode):
-        raise OutputError(f"the compiled-filter cache {base} is not a folder; {fix}")
+        raise OutputError(f"the compiled-filter cache {base} is not a folder; {_FIX}")
     if hasattr(os, "getuid") and st.st_uid != os.getuid():
-        raise OutputError(f"the compiled-filter cache {base} belongs to another user; {fix}")
+        raise OutputError(f"the compiled-filter cache {base} belongs to another user; {_FIX}")
     if st.st_mode & 0o077:
         raise OutputError(f"the compiled-filter cache {base} is open to other users (mode "
-                          f"{stat.S_IMODE(st.st_mode):o}); run chmod 700 on it or {fix}")
+                          f"{stat.S_IMODE(st.st_mode):o}); run chmod 700 on it or {_FIX}")
     return base
 
 
+def _fallback(why: str) -> Path:
+    """A private temporary folder of this process (removed at exit), announced once on stderr."""
+    if not _FALLBACK:
+        try:
+            folder = Path(tempfile.mkdtemp(prefix="obsnl-jit-"))  # mode 0700, a new name
+        except OSError as exc:
+            raise EstimatorError(f"{why}, and no temporary folder can be made ({exc.strerror or exc}); set "
+                                 f"OBSNL_CACHE_DIR to a writable folder or run without compiling (--no-jit, "
+                                 f"jit=False)") from None
+        atexit.register(shutil.rmtree, folder, True)
+        _FALLBACK.append(folder)
+        sys.stderr.write(f"obsnl: warning: {why}; compiled filters go to a temporary folder for this run "
+                         f"(set OBSNL_CACHE_DIR to a writable folder to keep them)\n")
+    return _FALLBACK[0]
+
+
+_COMPILERS = ("gcc", "cc", "clang")
+
+
 def _compiler() -> str:
-    for cc in ("gcc", "cc", "clang"):
+    for cc in _COMPILERS:
         if shutil.which(cc):
             return cc
     raise EstimatorError("jit=True needs a C compiler (gcc, cc or clang) on PATH; install one or pass jit=False")
 
 
+@functools.lru_cache(maxsize=None)
+def _compiler_identity() -> str:
+    """The compiler :func:`_compiler` picks: its resolved path and the first line of its ``--version``
+    (computed once per process; ``"none"`` without a compiler, when only cached libraries can load)."""
+    path = next((p for p in map(shutil.which, _COMPILERS) if p), None)
+    if path is None:
+        return "none"
+    try:
+        proc = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=30)
+        first = (proc.stdout or proc.stderr).splitlines()[0] if (proc.stdout or proc.stderr) else ""
+    except (OSError, subprocess.SubprocessError):
+        first = ""
+    return f"{os.path.realpath(path)} {first.strip()}"
+
+
+@functools.lru_cache(maxsize=None)
+def _machine() -> str:
+    """The CPU the libraries are built for (``-march=native``): architecture, model name and a hash
+    of the CPU's feature flags (from ``/proc/cpuinfo`` where there is one)."""
+    model, flags = "", ""
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8", errors="replace") as fh:
+            for line in fh:
+                key, _, value = line.partition(":")
+                key = key.strip().lower()
+                if key == "model name" and not model:
+                    model = value.strip()
+                elif key in ("flags", "features") and not flags:
+                    flags = hashlib.sha256(" ".join(sorted(value.split())).encode()).hexdigest()[:16]
+                if model and flags:
+                    break
+    except OSError:
+        pass
+    return f"{platform.machine()} {model or platform.processor()} {flags}"
+
+
+def _sha256(path: Path) -> str:
+    """SHA-256 of the regular file ``path`` (read without following a symbolic link)."""
+    fd = os.open(path, os.O_RDONLY | getattr(os, "O_NOFOLLOW", 0))
+    h = hashlib.sha256()
+    with os.fdopen(fd, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def _trusted(lib: Path, sidecar: Path) -> bool:
+    """True when ``lib`` and its ``sidecar`` are regular files of this user that nobody else may write
+    and the library's SHA-256 is the one the sidecar recorded when obsnl built it."""
+    try:
+        for p in (lib, sidecar):
+            st = os.lstat(p)
+            if not stat.S_ISREG(st.st_mode) or st.st_mode & 0o022 or \
+                    (hasattr(os, "getuid") and st.st_uid != os.getuid()):
+                return False
+        recorded = sidecar.read_text(encoding="ascii").split()
+        return bool(recorded) and hmac.compare_digest(_sha256(lib), recorded[0])
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
+def _build(name: str, code: str, folder: Path, lib_name: str) -> Path:
+    """Compile ``code`` into ``folder/lib_name`` with its sidecar; both written under temporary names and
+    renamed into place. Returns the library."""
+    cc = _compiler()
+    with tempfile.TemporaryDirectory(dir=folder, prefix="build-") as tmp:
+        src = Path(tmp) / f"{name}.c"
+        src.write_text(code, encoding="utf-8")
+        out = Path(tmp) / lib_name
+        proc = subprocess.run([cc, *FLAGS, "-fPIC", "-shared", str(src), "-o", str(out)],
+                              capture_output=True, text=True)
+        if proc.returncode != 0:
+            raise EstimatorError(f"the C compiler failed on {name}: {proc.stderr.strip()[:300]}")
+        os.chmod(out, 0o700)
+        side = Path(tmp) / f"{lib_name}.sha256"
+        side.write_text(f"{_sha256(out)}  {lib_name}\n", encoding="ascii")
+        os.chmod(side, 0o600)
+        lib = folder / lib_name
+        os.replace(out, lib)
+        os.replace(side, folder / f"{lib_name}.sha256")
+    return lib
+
+
+def _load(name: str, lib: Path) -> ca.Function | None:
+    """The Function ``name`` of the library ``lib``, or None when casadi cannot load it."""
+    try:
+        return ca.external(name, str(lib))
+    except RuntimeError:
+        return None
+
+
 def jit_compile(fn: ca.Function) -> ca.Function:
     """``fn`` compiled to C and loaded from the disk cache (compiled first if it is not cached).
+
+    A cached library is loaded only when its SHA-256 is the one recorded at build time and it and its
+    record belong to this user and are closed to others; anything else is rebuilt.
 
     Parameters
     ----------
@@ -101,7 +236,7 @@ def jit_compile(fn: ca.Function) -> ca.Function:
     Raises
     ------
     EstimatorError
-        No C compiler, or the compiler failed.
+        No C compiler, the compiler failed, or a freshly built library does not load.
     OutputError
         The cache folder is unsafe (:func:`cache_directory`).
 
@@ -117,21 +252,27 @@ def jit_compile(fn: ca.Function) -> ca.Function:
     gen = ca.CodeGenerator(f"{name}.c", {"with_header": False})
     gen.add(fn)
     code = gen.dump()
-    key = hashlib.sha256("\n".join([ca.__version__, *FLAGS, code]).encode()).hexdigest()[:32]
+    key = hashlib.sha256("\n".join([ca.__version__, *FLAGS, _compiler_identity(), _machine(),
+                                    code]).encode()).hexdigest()[:32]
     if key in _LOADED:
         return _LOADED[key]
     folder = cache_directory()
-    lib = folder / f"{name}_{key}.so"
-    if not lib.exists():
-        with tempfile.TemporaryDirectory(dir=folder, prefix="build-") as tmp:
-            src = Path(tmp) / f"{name}.c"
-            src.write_text(code, encoding="utf-8")
-            out = Path(tmp) / lib.name
-            proc = subprocess.run([_compiler(), *FLAGS, "-fPIC", "-shared", str(src), "-o", str(out)],
-                                  capture_output=True, text=True)
-            if proc.returncode != 0:
-                raise EstimatorError(f"the C compiler failed on {name}: {proc.stderr.strip()[:300]}")
-            os.chmod(out, 0o700)
-            os.replace(out, lib)
-    _LOADED[key] = ca.external(name, str(lib))
-    return _LOADED[key]
+    lib_name = f"{name}_{key}.so"
+    lib = folder / lib_name
+    loaded = _load(name, lib) if _trusted(lib, folder / f"{lib_name}.sha256") else None
+    if loaded is None:  # missing, tampered with, truncated or unloadable: built anew, once
+        try:
+            lib = _build(name, code, folder, lib_name)
+        except OSError as exc:  # a cache folder that cannot be written (read-only file system)
+            if folder in _FALLBACK:
+                raise EstimatorError(f"cannot compile {name} into {folder} ({exc.strerror or exc}); set "
+                                     f"OBSNL_CACHE_DIR to a writable folder or run without compiling") from None
+            folder = _fallback(f"the compiled-filter cache {folder} cannot be written "
+                               f"({exc.strerror or errno.errorcode.get(exc.errno or 0, exc)})")
+            lib = _build(name, code, folder, lib_name)
+        loaded = _load(name, lib)
+        if loaded is None:
+            raise EstimatorError(f"the library compiled for {name} ({lib}) does not load; remove the cache folder "
+                                 f"{folder} or run without compiling (--no-jit, jit=False)")
+    _LOADED[key] = loaded
+    return loaded

@@ -2,8 +2,15 @@
 
 A measured record is a CSV with a header: a time column (``time_s`` or ``t``) and one column per model
 input and per model output, named as in the model (extra columns are ignored; units are the
-user's). :func:`read_measured` reads and validates it; :func:`measured` does the same for columns the
-caller already holds (a mapping of name to samples).
+user's). :func:`read_measured` reads and validates it (the file conventions of
+:mod:`obsnl.estimation.records`: a byte-order mark, commas, semicolons or tabs, absolute time counted
+from the first sample); :func:`measured` does the same for columns the caller already holds (a mapping
+of name to samples).
+
+The time column is never ambiguous: two time columns are refused, and so is a model input or output
+named ``t`` or ``time_s`` whose column would have to be the time column too (with a separate ``time_s``
+column, a model input ``t`` is read as that input). Identification needs :data:`MIN_SAMPLES` samples
+(checked when the data are used, :meth:`Measured.record` and :func:`estimate_noise`).
 
 Noise levels not given are estimated from the data by :func:`estimate_noise`: the high-frequency
 residual of each channel, from its finite differences (a white noise of std ``s`` has ``k``-th
@@ -23,14 +30,19 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import DataError
-from obsnl.estimation.records import Record, check_header, check_seconds, check_times, read_text
+from obsnl.estimation.records import Record, check_seconds, check_times, quote, read_table, times_from_text
 
-__all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS"]
+__all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS", "MIN_SAMPLES"]
 
 #: Accepted names of the time column (seconds).
 TIME_COLUMNS = ("time_s", "t")
 #: Smallest noise-to-signal ratio a filter is given: one that trusts its model more than this is brittle.
 NOISE_FLOOR = 1e-3
+#: Fewest samples identified from: the noise levels come from differences of order up to 4, and a filter
+#: needs many samples per unknown (3 samples ran to an "estimate" with numpy warnings).
+MIN_SAMPLES = 20
+_TOO_SHORT = (f"identification needs at least {MIN_SAMPLES} samples (noise levels are estimated from 4th "
+              f"differences, and a filter needs many samples per unknown); give a longer record")
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,7 +62,10 @@ class Measured:
         return np.arange(len(self.y)) * self.dt
 
     def record(self) -> Record:
-        """The inputs as a :class:`~obsnl.estimation.records.Record` (one column per input)."""
+        """The inputs as a :class:`~obsnl.estimation.records.Record` (one column per input); refused with fewer
+        than :data:`MIN_SAMPLES` samples."""
+        if len(self.y) < MIN_SAMPLES:
+            raise DataError(f"data {self.source or self.name!r} have {len(self.y)} samples; {_TOO_SHORT}")
         return Record(self.name, self.u if self.u.shape[1] > 1 else self.u[:, 0], self.dt, self.source,
                       channels=self.inputs)
 
@@ -79,8 +94,9 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
     Raises
     ------
     DataError
-        No time column, a missing column (named), NaN/inf (column and sample named), a time that does
-        not increase or is irregular, fewer than 3 samples.
+        No time column or two, a model channel that would be the time column, a missing column (named),
+        NaN/inf (column and sample named), a time that does not increase or is irregular, fewer than 3
+        samples.
 
     Examples
     --------
@@ -89,9 +105,7 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
     ((3, 1), (3, 1), 0.1)
     """
     where = f"data {source or name!r}"
-    tname = next((c for c in TIME_COLUMNS if c in columns), None)
-    if tname is None:
-        raise DataError(f"{where}: no time column; name it 'time_s' (seconds) or 't'")
+    tname = _time_column(columns, (*inputs, *outputs), where)
     missing = [c for c in (*inputs, *outputs) if c not in columns]
     if missing:
         raise DataError(f"{where}: no column for {', '.join(repr(c) for c in missing)}; add one per model input "
@@ -101,7 +115,7 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
         try:
             a = np.asarray(columns[c], float)
         except (TypeError, ValueError):
-            raise DataError(f"{where}: column {c!r} is not numeric") from None
+            raise DataError(f"{where}: column {quote(c)} is not numeric") from None
         if a.ndim != 1:
             raise DataError(f"{where}: column {c!r} must be one series, got shape {a.shape}")
         bad = np.flatnonzero(~np.isfinite(a))
@@ -150,29 +164,39 @@ def read_measured(path: str | Path, *, inputs: Sequence[str], outputs: Sequence[
     [0.0, 0.1, 0.3]
     """
     p = Path(path)
-    lines = [ln for ln in read_text(p, "data").splitlines() if ln.strip()]
-    if len(lines) < 2:
-        raise DataError(f"data {str(p)!r}: need a header line and samples")
-    header = check_header([h.strip() for h in lines[0].split(",")], f"data {str(p)!r}")
-    times = [c for c in TIME_COLUMNS if c in header]
-    if len(times) > 1:
-        raise DataError(f"data {str(p)!r}: two time columns {times}; keep one, 'time_s'")
+    where = f"data {str(p)!r}"
+    _, header, body = read_table(p, "data")
     for h in header:  # a time column in other units (time_ms) is not read as seconds
-        if h.lower().startswith("time") and h not in TIME_COLUMNS:
-            check_seconds(h, f"data {str(p)!r}")
-    wanted = [c for c in (*TIME_COLUMNS, *inputs, *outputs) if c in header]
-    idx = {c: header.index(c) for c in wanted}
-    cols: dict[str, list[float]] = {c: [] for c in wanted}
-    for n, line in enumerate(lines[1:], start=2):
-        cells = line.split(",")
-        if len(cells) != len(header):
-            raise DataError(f"data {str(p)!r} line {n}: {len(cells)} fields, the header has {len(header)}")
+        if h.lower().startswith("time") and h not in TIME_COLUMNS and h not in (*inputs, *outputs):
+            check_seconds(h, where)
+    idx = {c: header.index(c) for c in (*TIME_COLUMNS, *inputs, *outputs) if c in header}
+    cols: dict[str, Any] = {c: [] for c in idx}
+    texts: dict[str, list[str]] = {c: [] for c in TIME_COLUMNS if c in idx}
+    for n, cells in body:
         for c, i in idx.items():
             try:
                 cols[c].append(float(cells[i]))
             except ValueError:
-                raise DataError(f"data {str(p)!r} line {n}: column {c!r} is not a number: {cells[i].strip()!r}") from None
+                raise DataError(f"{where} line {n}: column {quote(c)} is not a number: {quote(cells[i].strip())}") from None
+        for c in texts:
+            texts[c].append(cells[idx[c]])
+    for c, text in texts.items():  # absolute (epoch) time: subtracted exactly, on the text
+        cols[c] = times_from_text(text)[0]
     return measured(cols, inputs=inputs, outputs=outputs, name=p.stem, source=p.name)
+
+
+def _time_column(columns: Mapping[str, Any], channels: Sequence[str], where: str) -> str:
+    """The name of the time column of ``columns``, refused when there is none, two, or only a model channel's."""
+    found = [c for c in TIME_COLUMNS if c in columns and c not in channels]
+    if len(found) > 1:
+        raise DataError(f"{where}: two time columns {found}; keep one, 'time_s'")
+    taken = [c for c in TIME_COLUMNS if c in channels]
+    if not found and taken and taken[0] in columns:
+        raise DataError(f"{where}: the column {taken[0]!r} is a model input or output, so it cannot also be the "
+                        f"time column; add the time in seconds as a column 'time_s'")
+    if not found:
+        raise DataError(f"{where}: no time column; name it 'time_s' (seconds) or 't'")
+    return found[0]
 
 
 def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float, str]:
@@ -196,6 +220,11 @@ def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float,
     tuple
         ``(ratio, note)``: noise std over the RMS of ``x``, and how it was obtained.
 
+    Raises
+    ------
+    DataError
+        Fewer than :data:`MIN_SAMPLES` samples.
+
     Examples
     --------
     >>> rng = np.random.default_rng(0)
@@ -206,6 +235,8 @@ def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float,
     0.02
     """
     x = np.asarray(x, float)
+    if x.size < MIN_SAMPLES:
+        raise DataError(f"a channel of {x.size} samples: {_TOO_SHORT}")
     scale = float(np.sqrt(np.mean(x ** 2)))
     if scale == 0:
         return NOISE_FLOOR, "a zero channel: noise set to the floor"

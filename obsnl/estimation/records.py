@@ -3,12 +3,19 @@
 A :class:`Record` is an evenly sampled acceleration history in m/s². The readers refuse NaN/inf,
 non-increasing or irregular time steps and truncated files with a :class:`~obsnl.errors.DataError`
 that names the line and the fix.
+
+CSV files (records, and measured data in :mod:`obsnl.estimation.measured`) may start with a byte-order
+mark and separate their columns by commas, semicolons or tabs (:func:`read_table`). Time is counted from
+the first sample: absolute (epoch) time near 1.7e9 s is accepted, its first time subtracted exactly
+(:func:`times_from_text`). A message quotes at most 80 characters of the user's text.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Iterator
 from dataclasses import dataclass, field
+from decimal import Decimal, InvalidOperation
 from fractions import Fraction
 from pathlib import Path
 from typing import Any
@@ -17,12 +24,26 @@ import numpy as np
 
 from obsnl.errors import DataError
 
-__all__ = ["Record", "check_times", "check_header", "check_seconds", "read_text", "read_record", "read_csv",
-           "read_at2", "add_noise", "rms", "G", "MAX_FILE_BYTES"]
+__all__ = ["Record", "check_times", "check_seconds", "read_text", "read_record", "read_csv",
+           "read_at2", "add_noise", "rms", "G", "MAX_FILE_BYTES", "read_table", "times_from_text", "quote"]
 
 #: Standard gravity (m/s² per g), used to convert AT2 files.
 G = 9.80665
 _DT_RTOL = 1e-6
+
+
+def quote(text: Any, limit: int = 80) -> str:
+    """``repr(text)`` cut to ``limit`` characters, for a message that echoes what the user wrote.
+
+    Parameters
+    ----------
+    text : Any
+        What the user wrote (a cell, a line, a header).
+    limit : int
+        Largest length of the result.
+    """
+    r = repr(text)
+    return r if len(r) <= limit else r[: limit - 3] + "..."
 
 
 @dataclass(frozen=True, eq=False)
@@ -99,6 +120,10 @@ def check_times(t: np.ndarray, where: str) -> float:
     """The even step of the sample times ``t``; a :class:`~obsnl.errors.DataError` naming the sample where
     time does not increase or the step is irregular (``where`` names the record in the message).
 
+    The times need not start at 0 (time is counted from the first sample); the tolerance on the step
+    includes the rounding of the time values themselves, so that absolute (epoch) times near 1.7e9 s
+    sampled at 100 Hz pass, and times too large to resolve the step are refused as such.
+
     Parameters
     ----------
     t : numpy.ndarray
@@ -114,7 +139,8 @@ def check_times(t: np.ndarray, where: str) -> float:
     Raises
     ------
     DataError
-        Fewer than 2 samples, time not increasing, or an irregular step.
+        Fewer than 2 samples, time not increasing, an irregular step, or times so large (absolute time)
+        that floating-point numbers cannot resolve the step.
 
     Examples
     --------
@@ -124,11 +150,17 @@ def check_times(t: np.ndarray, where: str) -> float:
     if len(t) < 2:
         raise DataError(f"{where}: need at least 2 samples")
     d = np.diff(t)
+    rounding = 4 * np.finfo(float).eps * float(max(abs(t[0]), abs(t[-1])))  # of one time value
+    mean = float(t[-1] - t[0]) / (len(t) - 1)
+    if mean > 0 and rounding > 1e-3 * mean:
+        raise DataError(f"{where}: the time column starts at {float(t[0]):.10g} s, absolute (epoch) time by the look "
+                        f"of it, too large to resolve its step of {mean:.3g} s; subtract the first time from every "
+                        f"time (obsnl counts time from the first sample)")
     if np.any(d <= 0):
         i = int(np.flatnonzero(d <= 0)[0])
         raise DataError(f"{where}: time does not increase at sample {i + 1} (t={float(t[i + 1])!r} after {float(t[i])!r})")
     dt = float(np.median(d))
-    off = np.flatnonzero(np.abs(d - dt) > max(_DT_RTOL * dt, 1e-9 + 1e-6 * dt))
+    off = np.flatnonzero(np.abs(d - dt) > max(_DT_RTOL * dt, 1e-9 + 1e-6 * dt) + 2 * rounding)
     if off.size:
         i = int(off[0])
         raise DataError(f"{where}: irregular time step at sample {i + 1} (step {d[i]:.6g} s, expected {dt:.6g} s; "
@@ -142,19 +174,16 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
     Parameters
     ----------
     path
-        The file; values in m/s², time in s.
+        The file; values in m/s², time in s; columns separated by commas, semicolons or tabs.
     column
         Name or index of the acceleration column (default: the one whose name starts with ``acc``, or
         the only column besides time; anything else is refused, never guessed).
     """
     p = Path(path)
-    lines = read_text(p, "record").splitlines()
-    if not lines:
-        raise DataError(f"{str(p)!r} is empty")
-    header = check_header([h.strip() for h in lines[0].split(",")], str(p))
+    sep, header, body = read_table(p, "record")
     times = [i for i, h in enumerate(header) if h.lower().startswith("time") or h.lower() == "t"]
     if not times:
-        raise DataError(f"{str(p)!r}: no time column in header {header} (name it 'time_s')")
+        raise DataError(f"{str(p)!r}: no time column in header {quote(header)} (name it 'time_s')")
     if len(times) > 1:
         raise DataError(f"{str(p)!r}: {len(times)} time columns {[header[i] for i in times]}; keep one, 'time_s'")
     tcol = times[0]
@@ -164,32 +193,131 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
         named = [i for i in others if header[i].lower().startswith("acc")]
         pick = named if named else others
         if len(pick) != 1:
-            raise DataError(f"{str(p)!r}: cannot tell the acceleration column among {[header[i] for i in pick]}; "
-                            f"name it 'accel_m_s2' (or keep only time and acceleration)")
+            raise DataError(f"{str(p)!r}: cannot tell the acceleration column among "
+                            f"{quote([header[i] for i in pick])}; name it 'accel_m_s2' (or keep only time and "
+                            f"acceleration)")
         acol: int | None = pick[0]
     elif isinstance(column, int):
         acol = column
     else:
         acol = header.index(column) if column in header else None
     if acol is None or not 0 <= acol < len(header):
-        raise DataError(f"{str(p)!r}: no acceleration column {column!r} in header {header}")
-    rows = []
-    for n, line in enumerate(lines[1:], start=2):
-        if not line.strip():
-            continue
-        cells = line.split(",")
-        if len(cells) != len(header):
-            raise DataError(f"{str(p)!r} line {n}: {len(cells)} fields, the header has {len(header)}")
+        raise DataError(f"{str(p)!r}: no acceleration column {quote(column)} in header {quote(header)}")
+    tcells: list[str] = []
+    accel: list[float] = []
+    numbers: list[int] = []
+    for n, cells in body:
         try:
-            rows.append((float(cells[tcol]), float(cells[acol])))
+            float(cells[tcol])
+            accel.append(float(cells[acol]))
         except ValueError:
-            raise DataError(f"{str(p)!r} line {n}: not a number: {line.strip()!r}") from None
-    arr = np.array(rows, float).reshape(-1, 2)
+            raise DataError(f"{str(p)!r} line {n}: not a number: {quote(sep.join(cells).strip())}") from None
+        tcells.append(cells[tcol])
+        numbers.append(n)
+    t, start = times_from_text(tcells)
+    arr = np.column_stack([t, np.array(accel, float)]).reshape(-1, 2)
     bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
     if bad.size:
-        raise DataError(f"{str(p)!r} line {bad[0] + 2}: NaN/inf value ({bad.size} bad rows); clean the record first")
+        raise DataError(f"{str(p)!r} line {numbers[bad[0]]}: NaN/inf value ({bad.size} bad rows); clean the record "
+                        f"first")
     dt = check_times(arr[:, 0], str(p))
-    return _moving(Record(p.stem, arr[:, 1], dt, source=p.name))
+    notes = (f"the time column starts at {start:.10g} s (absolute time?): counted from the first sample",) \
+        if abs(start) >= _ABSOLUTE else ()
+    return _moving(Record(p.stem, arr[:, 1], dt, source=p.name, notes=notes))
+
+
+#: Separators of a CSV's columns.
+SEPARATORS = (",", ";", "\t")
+
+
+def read_table(p: Path, what: str) -> tuple[str, list[str], Iterator[tuple[int, list[str]]]]:
+    """The cells of a CSV file with a header line (shared by the record and data readers).
+
+    The header is the first line that is not blank; its separator is the one of :data:`SEPARATORS` it uses
+    most. Refused: a header of one column (every file has a time column and a channel), a line with
+    another number of cells, and a number with a decimal comma (``0,01`` in a file separated by semicolons).
+
+    Parameters
+    ----------
+    p : Path
+        The file (read by :func:`read_text`).
+    what : str
+        What it is, for the messages (``"record"``, ``"data"``).
+
+    Returns
+    -------
+    tuple
+        ``(separator, column names, rows)``: the names stripped (refused when one repeats), the rows an
+        iterator of ``(line number, cells)`` over the lines that are not blank, each checked as it comes.
+    """
+    lines = [(n, line) for n, line in enumerate(read_text(p, what).splitlines(), start=1) if line.strip()]
+    where = f"{what} {str(p)!r}"
+    if not lines:
+        raise DataError(f"{where} is empty; give a header line, then samples")
+    head = lines[0][1]
+    counts = {c: head.count(c) for c in SEPARATORS}
+    sep = max(counts, key=lambda c: counts[c])
+    if not counts[sep]:
+        raise DataError(f"{where}: the header {quote(head.strip())} has a single column; separate the columns "
+                        f"(time, then one per channel) with commas")
+    header = [h.strip() for h in head.split(sep)]
+    twice = next((h for h in header if header.count(h) > 1), None)
+    if twice is not None:  # it would be read from one of its columns, silently
+        raise DataError(f"{where}: column {quote(twice)} appears {header.count(twice)} times in the header; rename "
+                        f"or remove the copies")
+    return sep, header, _cells(lines[1:], sep, len(header), where)
+
+
+def _cells(lines: list[tuple[int, str]], sep: str, width: int, where: str) -> Iterator[tuple[int, list[str]]]:
+    """The cells of each numbered line, checked (:func:`read_table`); a generator: a million rows are not held."""
+    for n, line in lines:
+        cells = line.split(sep)
+        if len(cells) != width:
+            raise DataError(f"{where} line {n}: {len(cells)} fields, the header has {width}")
+        comma = next((c for c in cells if _DECIMAL_COMMA.fullmatch(c)), None) if sep != "," else None
+        if comma is not None:
+            raise DataError(f"{where} line {n}: {quote(comma.strip())} has a decimal comma; write numbers with a "
+                            f"decimal point (0.01)")
+        yield n, cells
+
+
+_DECIMAL_COMMA = re.compile(r"\s*[-+]?\d*,\d+(?:[eE][-+]?\d+)?\s*")
+
+
+#: Times from this size on (s) look absolute (Unix epoch time is 1.7e9 s): a file's are subtracted exactly.
+_ABSOLUTE = 1e4
+
+
+def times_from_text(cells: list[str]) -> tuple[np.ndarray, float]:
+    """The times of a file's time column, counted from the first, and the first time. From a first time
+    of :data:`_ABSOLUTE` on (absolute, epoch time) the subtraction is exact, on the decimal text: as floats
+    near 1.7e9 the times carry rounding errors of 1e-7 s, enough to make an even 1 kHz step look irregular.
+
+    Parameters
+    ----------
+    cells : list of str
+        The time column's cells (each one a number).
+
+    Returns
+    -------
+    tuple
+        ``(times - first time, first time)``.
+
+    Examples
+    --------
+    >>> t, start = times_from_text(["1700000000.001", "1700000000.002"])
+    >>> t.tolist(), start
+    ([0.0, 0.001], 1700000000.001)
+    """
+    t = np.array([float(c) for c in cells], float)
+    if not len(t) or not np.isfinite(t[0]) or abs(t[0]) < _ABSOLUTE:
+        return t, 0.0
+    start = float(t[0])
+    try:
+        first = Decimal(cells[0].strip())
+        return np.array([float(Decimal(c.strip()) - first) for c in cells], float), start
+    except (InvalidOperation, ValueError):  # a form float reads and Decimal does not: float difference
+        return t - t[0], start
 
 
 #: Largest record or data file read (bytes): a long measured record of ten channels and a million
@@ -198,7 +326,8 @@ MAX_FILE_BYTES = 1 << 30
 
 
 def read_text(p: Path, what: str) -> str:
-    """The UTF-8 text of the file ``p``, refused with one line otherwise (shared by the record and data readers).
+    """The UTF-8 text of the file ``p`` (without a byte-order mark), refused with one line otherwise (shared by
+    the record and data readers).
 
     Parameters
     ----------
@@ -225,45 +354,11 @@ def read_text(p: Path, what: str) -> str:
         if size > MAX_FILE_BYTES:
             raise DataError(f"{what} {str(p)!r} has {size / 2**20:.0f} MiB; obsnl reads at most "
                             f"{MAX_FILE_BYTES >> 20} MiB (cut the record, or decimate it)")
-        return p.read_bytes().decode("utf-8")
+        return p.read_bytes().decode("utf-8").removeprefix("\ufeff")  # a byte-order mark (Excel writes one)
     except UnicodeDecodeError as exc:
         raise DataError(f"{what} {str(p)!r} is not UTF-8 text (byte {exc.start}); save it as a UTF-8 CSV") from None
     except OSError as exc:
         raise DataError(f"cannot read {str(p)!r}: {exc.strerror or exc}") from None
-
-
-def check_header(header: list[str], where: str) -> list[str]:
-    """``header`` if no column name repeats (a repeated name would be read from one column, silently).
-
-    Parameters
-    ----------
-    header : list of str
-        The column names.
-    where : str
-        The file, for the message.
-
-    Returns
-    -------
-    list of str
-
-    Raises
-    ------
-    DataError
-        A name that appears more than once.
-
-    Examples
-    --------
-    >>> check_header(["time_s", "F", "F"], "d.csv")
-    Traceback (most recent call last):
-    ...
-    obsnl.errors.DataError: d.csv: column 'F' appears 2 times in the header; rename or remove the copies
-    """
-    seen = {h: header.count(h) for h in header}
-    twice = [h for h, n in seen.items() if n > 1]
-    if twice:
-        raise DataError(f"{where}: column {twice[0]!r} appears {seen[twice[0]]} times in the header; rename or "
-                        f"remove the copies")
-    return header
 
 
 def check_seconds(name: str, where: str) -> None:
@@ -292,7 +387,8 @@ def check_seconds(name: str, where: str) -> None:
     """
     unit = re.split(r"[_\[(\s]+", name.strip().lower().rstrip(")]"), maxsplit=1)[1:]
     if unit and unit[0] not in ("s", "sec", "secs", "second", "seconds"):
-        raise DataError(f"{where}: the time column {name!r} is not in seconds; give the time in seconds as 'time_s'")
+        raise DataError(f"{where}: the time column {quote(name)} is not in seconds; give the time in seconds as "
+                        f"'time_s'")
 
 
 def _moving(rec: Record) -> Record:
@@ -321,7 +417,7 @@ def read_at2(path: str | Path) -> Record:
         raise DataError(f"{str(p)!r}: too short for a PEER AT2 file (4 header lines, then values)")
     mt = _AT2_HEAD.search(lines[3])
     if not mt:
-        raise DataError(f"{str(p)!r} line 4: expected 'NPTS= n, DT= dt', got {lines[3].strip()!r}")
+        raise DataError(f"{str(p)!r} line 4: expected 'NPTS= n, DT= dt', got {quote(lines[3].strip())}")
     try:
         npts, dt = int(mt.group(1)), float(mt.group(2))
     except ValueError:
@@ -329,16 +425,21 @@ def read_at2(path: str | Path) -> Record:
     if not (np.isfinite(dt) and dt > 0):
         raise DataError(f"{str(p)!r} line 4: DT={mt.group(2)!r} must be a positive time step in seconds")
     if "UNITS OF G" not in lines[2].upper():
-        raise DataError(f"{str(p)!r} line 3: expected acceleration in units of g, got {lines[2].strip()!r}")
+        raise DataError(f"{str(p)!r} line 3: expected acceleration in units of g, got {quote(lines[2].strip())}")
     values: list[float] = []
     for n, line in enumerate(lines[4:], start=5):
         for tok in line.split():
             try:
                 values.append(float(tok))
             except ValueError:
-                raise DataError(f"{str(p)!r} line {n}: not a number: {tok!r}") from None
+                raise DataError(f"{str(p)!r} line {n}: not a number: {quote(tok)}") from None
     if len(values) < npts:
         raise DataError(f"{str(p)!r}: header says NPTS={npts} but the file holds {len(values)} values (truncated?)")
+    row = max((len(line.split()) for line in lines[4:]), default=1)
+    extra = values[npts:]
+    if extra and not (len(extra) < row and not any(extra)):  # zeros filling the last row are padding
+        raise DataError(f"{str(p)!r}: header says NPTS={npts} but the file holds {len(values)} values; correct NPTS "
+                        f"(obsnl does not cut a record to its header's count)")
     a = np.array(values[:npts]) * G
     bad = np.flatnonzero(~np.isfinite(a))
     if bad.size:

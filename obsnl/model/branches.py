@@ -30,7 +30,9 @@ import sympy as sp
 
 from obsnl.errors import AnalysisError, ModelError, NotSupportedError
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
+from obsnl.model.parse import shorten
 from obsnl.model.switching import (
+    check_declared,
     expr_text,
     innermost_nonsmooth,
     resolve,
@@ -38,7 +40,7 @@ from obsnl.model.switching import (
     switching_of,
 )
 
-__all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of"]
+__all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of", "check_finite"]
 
 _MAX_SWITCHING = 12  # switching functions in all (nested ones included): 2**12 sign patterns at most
 _MAX_BRANCHES = 1024  # smooth branches in all
@@ -281,16 +283,20 @@ def split_branches(
     rng = np.random.default_rng(seed)
     exprs = list(model.rhs) + list(model.output_exprs)
     if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
+        check_declared(model, ())
         branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
         return (branches, ()) if with_dropped else branches
     found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float]]] = []
     dropped: list[DroppedPattern] = []
     deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
-    _split_level(exprs, model.switching, (), (), {}, rng, found, dropped, {"__deadline__": deadline})
+    memo: dict = {"__deadline__": deadline, "__seen__": {}}
+    _split_level(exprs, model.switching, (), (), {}, rng, found, dropped, memo)
+    check_declared(model, tuple(memo["__seen__"]))
     labels = _labels(len(found))
     n_rhs = len(model.states)
     branches = []
     for label, (sw, signs, new_exprs, witness) in zip(labels, found):
+        check_finite(model, new_exprs, sw, signs)
         eqs = dict(zip(model.states, new_exprs[:n_rhs]))
         outs = dict(zip(model.output_names, new_exprs[n_rhs:]))
         sub = derived_model(model, name=f"{model.name}[{label}]", equations=eqs, outputs=outs, switching=())
@@ -314,6 +320,7 @@ def _split_level(
         found.append((outer_sw, outer_signs, exprs, witness))
         return
     sw = switching_of(exprs, declared, memo)
+    memo.setdefault("__seen__", {}).update(dict.fromkeys(sw))  # every level's functions, in order
     if len(outer_sw) + len(sw) > _MAX_SWITCHING:
         n = len(outer_sw) + len(sw)
         raise NotSupportedError(
@@ -338,6 +345,32 @@ def _split_level(
         repl = {node: resolve(node, sw, signs, memo) for node in nodes}
         new_exprs = [e.xreplace(repl) for e in exprs]
         _split_level(new_exprs, declared, all_sw, all_signs, witness, rng, found, dropped, memo)
+
+
+def check_finite(model: Model, exprs: Sequence[sp.Expr], switching: Sequence[sp.Expr], signs: Sequence[int]) -> None:
+    """Refuse a branch where an equation or output divides by zero (``1/(1 - sign(v))`` where ``v > 0``).
+
+    Parameters
+    ----------
+    model : Model
+        The non-smooth model.
+    exprs : sequence of sympy.Expr
+        The branch's right-hand sides, then its outputs (in the model's order).
+    switching, signs : sequence
+        The switching functions and their signs in the branch.
+
+    Raises
+    ------
+    ModelError
+        Naming the equation or output as the user wrote it, the branch and the fix.
+    """
+    bad = (sp.zoo, sp.nan, sp.oo, -sp.oo)
+    names = [f"the equation of {s}" for s in model.states] + [f"output {y}" for y in model.output_names]
+    for name, before, after in zip(names, list(model.rhs) + list(model.output_exprs), exprs):
+        if after.has(*bad):
+            where = " and ".join(f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(switching, signs))
+            raise ModelError(f"{name}, {shorten(str(before))!r}, divides by zero where {where}; rewrite it so that "
+                             f"it is finite on both sides of every switching surface")
 
 
 #: Above this many switching functions :func:`field_jumps` does not split the model (all may jump).

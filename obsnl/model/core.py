@@ -18,10 +18,10 @@ import sympy as sp
 
 from obsnl.errors import ModelError, ParseError
 from obsnl.model.unknown_inputs import check_unknown_input_derivatives
-from obsnl.model.latex import latex_problem
-from obsnl.model.names import check_name as _check_identifier, check_text as _check_text
+from obsnl.model.latex import latex_clash, latex_problem
+from obsnl.model.names import check_distinct, check_name as _check_identifier, check_text as _check_text
 from obsnl.model.names import close_name as _close, name_list as _name_list
-from obsnl.model.parse import make_symbol, parse_expression, shorten
+from obsnl.model.parse import make_symbol, parse_expression, quote, shorten
 
 __all__ = ["Model", "NONSMOOTH_FUNCTIONS"]
 
@@ -152,7 +152,8 @@ class Model:
                 val = ""
             if not isinstance(val, str):
                 raise ModelError(f"'{key}' must be text, got {type(val).__name__}")
-            _check_text(val, key)
+            val = val.replace("\r\n", "\n")  # a file written on Windows
+            _check_text(val, key, multiline=True)
             set_(key, val)
         for key in ("outputs", "initial_condition_values", "latex", "values", "guess", "definitions", "metadata"):
             val = getattr(self, key)
@@ -207,6 +208,7 @@ class Model:
             oname_s = oname.name if isinstance(oname, sp.Symbol) else oname
             outs[oname_s] = parse_expression(expr, symbols, where=f"output {oname_s}", reserved=reserved)
         set_("outputs", _frozen(outs))
+        check_distinct([*seen, *outs])  # Latin 'a' and Cyrillic 'а' would be two symbols shown as one
 
         # equations
         eqs_in = self.equations
@@ -229,7 +231,7 @@ class Model:
                         f"declare it in 'states' or remove the equation"
                     )
                 raise ModelError(
-                    f"equation for undeclared state {kn!r}{_close(kn, state_names)}; declare it in 'states' "
+                    f"equation for undeclared state {quote(kn, 40)}{_close(kn, state_names)}; declare it in 'states' "
                     f"or remove the equation"
                 )
         for sn in state_names:
@@ -245,7 +247,7 @@ class Model:
         kic = _name_list(self.known_initial_conditions, "known_initial_conditions")
         for n in kic:
             if n not in state_names:
-                raise ModelError(f"known initial condition {n!r} is not a state; list states only")
+                raise ModelError(f"known initial condition {quote(n, 40)} is not a state; list states only")
         set_("known_initial_conditions", tuple(symbols[n] for n in kic))
         icv_in = self.initial_condition_values or {}
         if not isinstance(icv_in, Mapping):
@@ -256,7 +258,8 @@ class Model:
             kn = k.name if isinstance(k, sp.Symbol) else str(k)
             if kn not in kic:
                 raise ModelError(
-                    f"initial_condition_values gives {kn!r}, which is not in known_initial_conditions; add it there"
+                    f"initial_condition_values gives {quote(kn, 40)}, which is not in known_initial_conditions; add it "
+                    f"there"
                 )
             icv[symbols[kn]] = parse_expression(v, not_states, where=f"initial value of {kn}")
         set_("initial_condition_values", _frozen(icv))
@@ -271,12 +274,14 @@ class Model:
         latex = dict(self.latex or {})
         for k, v in latex.items():
             if k not in seen and k not in outs:
-                raise ModelError(f"latex name given for undeclared symbol {k!r}{_close(k, list(seen) + list(outs))}")
-            if not isinstance(v, str):
-                raise ModelError(f"latex.{k} must be a string")
-            problem = latex_problem(v)
+                raise ModelError(f"latex name given for undeclared symbol {quote(k, 40)}"
+                                 f"{_close(k, list(seen) + list(outs))}")
+            problem = latex_problem(v) if isinstance(v, str) else "must be a string"
             if problem:
                 raise ModelError(f"latex.{k}: {problem}")
+        problem = latex_clash(latex, [*seen, *outs])
+        if problem:
+            raise ModelError(problem)
         set_("latex", _frozen(latex))
         for key in ("values", "guess"):
             table = getattr(self, key) or {}
@@ -285,21 +290,21 @@ class Model:
             numbers: dict[str, float] = {}
             for k, v in dict(table).items():
                 if k not in seen:
-                    raise ModelError(f"{key} gives a number for undeclared symbol {k!r}{_close(k, list(seen))}")
+                    raise ModelError(f"{key} gives a number for undeclared symbol {quote(k, 40)}{_close(k, list(seen))}")
                 if key == "guess" and k not in {s.name for s in self.parameters}:
                     raise ModelError(f"guess.{k}: only parameters have guesses; remove it")
                 try:
                     fv = float(v)
                 except (TypeError, ValueError, OverflowError):
-                    raise ModelError(f"{key}.{k} must be a number, got {v!r}") from None
+                    raise ModelError(f"{key}.{k} must be a number, got {quote(v)}") from None
                 if fv != fv or fv in (float("inf"), float("-inf")):
-                    raise ModelError(f"{key}.{k} is not finite ({v!r})")
+                    raise ModelError(f"{key}.{k} is not finite ({quote(v)})")
                 numbers[k] = fv
             set_(key, _frozen(numbers))
         defs: dict[str, str] = {}
         for k, v in dict(self.definitions or {}).items():
             if k not in seen:
-                raise ModelError(f"definitions gives {k!r}, which is not declared in this model")
+                raise ModelError(f"definitions gives {quote(k, 40)}, which is not declared in this model")
             if isinstance(v, sp.Basic):
                 v = str(v)
             if not isinstance(v, str):
@@ -322,9 +327,7 @@ class Model:
         unknown = [k for k in data if k not in MODEL_KEYS and k not in METADATA_KEYS]
         if unknown:
             k = unknown[0]
-            raise ParseError(
-                f"unknown key {k!r}{_close(k, MODEL_KEYS)}; model keys are {', '.join(MODEL_KEYS)}"
-            )
+            raise ParseError(f"unknown key {quote(k, 40)}{_close(k, MODEL_KEYS)}; model keys are {', '.join(MODEL_KEYS)}")
         for req in ("name", "states", "equations"):
             if req not in data:
                 raise ParseError(f"the model has no {req!r}; add it")
@@ -405,7 +408,7 @@ class Model:
         """The declared symbol called ``name`` (error with a suggestion otherwise)."""
         syms = self.symbols
         if name not in syms:
-            raise ModelError(f"{name!r} is not declared in model {self.name!r}{_close(name, syms)}")
+            raise ModelError(f"{quote(name, 40)} is not declared in model {self.name!r}{_close(name, syms)}")
         return syms[name]
 
     def role(self, name: str) -> str:

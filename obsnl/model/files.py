@@ -39,7 +39,7 @@ def read_model_file(path: str | Path) -> dict[str, Any]:
     except OSError as exc:
         raise ParseError(f"cannot read {str(p)!r}: {exc.strerror}") from None
     try:
-        text = raw.decode("utf-8")
+        text = raw.decode("utf-8").removeprefix("\ufeff")  # a byte-order mark (Windows editors write one)
     except UnicodeDecodeError:
         raise ParseError(f"{str(p)!r} is not UTF-8 text") from None
     if suffix not in (".toml", ".json"):

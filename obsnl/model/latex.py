@@ -5,13 +5,20 @@ other people, so the names are restricted to a whitelist (a blacklist of ``\\inp
 ``\\catcode``, ... would always miss one): letters, digits, spaces and ``_ ^ { } ' , . + - ( ) | /``,
 balanced braces, and only the control words in :data:`ALLOWED_COMMANDS` (Greek letters, accents,
 font switches). Anything else is refused with the offending part named.
+
+Two symbols of one model must not render alike (:func:`latex_clash`): a ``latex`` name equal to another
+symbol's rendering (``k = "c"`` next to a parameter ``c``), or two default renderings that coincide
+(``x1`` and ``x_1`` are both ``x_{1}``), would show two unknowns as one in every table.
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Iterable, Mapping
 
-__all__ = ["ALLOWED_COMMANDS", "latex_problem"]
+import sympy as sp
+
+__all__ = ["ALLOWED_COMMANDS", "latex_problem", "latex_clash", "rendering"]
 
 _GREEK = (
     "alpha beta gamma delta epsilon varepsilon zeta eta theta vartheta iota kappa lambda mu nu xi pi varpi "
@@ -70,4 +77,67 @@ def latex_problem(text: str) -> str | None:
             continue
         return (f"the control word \\{word} is not allowed in a LaTeX name; use Greek letters, accents and "
                 f"\\mathrm{{...}} only")
+    return None
+
+
+def rendering(name: str, latex: Mapping[str, str]) -> str:
+    """How a report writes the symbol ``name``: its ``latex`` entry, else sympy's LaTeX of the name.
+
+    Parameters
+    ----------
+    name
+        A symbol or output of the model.
+    latex
+        The model's ``latex`` table.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> print(rendering("Delta1", {}), rendering("k", {"k": "c"}))
+    \\Delta_{1} c
+    """
+    given = latex.get(name)
+    return given if isinstance(given, str) else sp.latex(sp.Symbol(name))
+
+
+def _shape(tex: str) -> str:
+    """``tex`` without what does not change how it looks (white space, braces around one character)."""
+    tex = re.sub(r"\s+", "", tex)
+    return re.sub(r"([_^]){(\\[A-Za-z]+|\w)}", r"\1\2", tex)
+
+
+def latex_clash(latex: Mapping[str, str], names: Iterable[str]) -> str | None:
+    """Why two of ``names`` render alike (:func:`rendering`), or None.
+
+    Parameters
+    ----------
+    latex
+        The model's ``latex`` table (checked by :func:`latex_problem`).
+    names
+        Every symbol and output of the model.
+
+    Returns
+    -------
+    str or None
+        The two names, the shared rendering and the fix, for an error message.
+
+    Examples
+    --------
+    >>> print(latex_clash({"k": "c"}, ["k", "c"]))
+    latex.k renders as 'c', like the symbol 'c'; give each symbol its own LaTeX name
+    >>> latex_clash({"k": "\\\\kappa"}, ["k", "c"]) is None
+    True
+    """
+    seen: dict[str, str] = {}
+    for n in names:
+        shape = _shape(rendering(n, latex))
+        if shape in seen:
+            first, second = (n, seen[shape]) if n in latex else (seen[shape], n)
+            what = f"latex.{first} renders as" if first in latex else f"the symbol {first!r} renders as"
+            fix = "its own LaTeX name" if first in latex or second in latex else "a LaTeX name in [latex]"
+            return f"{what} '{rendering(first, latex).strip()}', like the symbol {second!r}; give each symbol {fix}"
+        seen[shape] = n
     return None

@@ -29,7 +29,8 @@ from sympy.parsing.sympy_parser import (
 
 from obsnl.errors import ParseError
 
-__all__ = ["ALLOWED_FUNCTIONS", "make_symbol", "parse_expression", "check_expression_size", "nfkc_problem", "shorten"]
+__all__ = ["ALLOWED_FUNCTIONS", "PARSER_NAMES", "make_symbol", "parse_expression", "check_expression_size",
+           "nfkc_problem", "shorten", "quote"]
 
 #: Functions a model expression may use, by the name written in the file.
 ALLOWED_FUNCTIONS: dict[str, Any] = {
@@ -69,6 +70,9 @@ _PARSER_GLOBALS: dict[str, Any] = {
     "Function": sp.Function,
 }
 
+#: Names the parser's generated code calls (``Integer(2)``): a symbol of that name would replace the class.
+PARSER_NAMES: frozenset[str] = frozenset(k for k in _PARSER_GLOBALS if not k.startswith("__"))
+
 _TRANSFORMS = standard_transformations + (convert_xor, rationalize)
 
 _MAX_EXPRESSION_LENGTH = 20_000
@@ -101,6 +105,28 @@ def shorten(text: str, limit: int = _SHOWN) -> str:
     """
     text = text.strip()
     return text if len(text) <= limit else text[: limit - 3].rstrip() + "..."
+
+
+def quote(value: object, limit: int = _SHOWN) -> str:
+    """``repr(value)`` cut to ``limit`` characters: how a message echoes what the user wrote.
+
+    Parameters
+    ----------
+    value : object
+        What the user wrote (a name, a value of a table).
+    limit : int
+        Largest length of the result.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> quote("z" * 100, 12)
+    "'zzzzzzzz..."
+    """
+    return shorten(repr(value), limit)
 
 
 def nfkc_problem(name: str) -> str | None:
@@ -396,6 +422,9 @@ def _adopt_sympy(
                 else "a log, sqrt or fractional power of a negative constant, or the imaginary unit I; declare a "
                      "symbol 'I' if you meant a variable")
         raise ParseError(f"{where}: {shown()!r} is complex-valued ({hint}); obsnl models are real")
+    problem = _folded_constant_problem(expr) or _never_real_problem(expr)
+    if problem:
+        raise ParseError(f"{where}: {shown()!r} {problem}")
     # Symbols: declared ones only, matched by name.
     replace: dict[sp.Symbol, sp.Symbol] = {}
     for s in expr.free_symbols:
@@ -404,7 +433,7 @@ def _adopt_sympy(
             raise ParseError(f"{where}: {reserved[name]}")
         if name not in symbols:
             raise ParseError(
-                f"{where}: undeclared symbol {name!r} in {shown()!r}{_suggest(name, symbols)}; "
+                f"{where}: undeclared symbol {quote(name, 40)} in {shown()!r}{_suggest(name, symbols)}; "
                 f"declare it as a state, parameter, input or known constant"
             )
         if s is not symbols[name]:
@@ -412,3 +441,42 @@ def _adopt_sympy(
     if replace:
         expr = expr.xreplace(replace)
     return expr
+
+
+#: Largest size (nodes) of an argument whose sign is asked of sympy: the question costs about 1 ms per
+#: node (a sum of 1000 squares takes a second), so bigger arguments are not decided.
+_SIGN_NODES = 200
+
+
+def _folded_constant_problem(expr: sp.Basic) -> str | None:
+    """Why a number of ``expr`` *after* sympy folded it is out of bounds (``x*10.0**100*x*10.0**100``
+    holds 10**200 although each literal is within the bound), or None."""
+    for n in expr.atoms(sp.Number):
+        if n == 0 or not n.is_finite:
+            continue
+        p, q = (abs(int(n.p)), int(n.q)) if n.is_Rational else sp.Rational(abs(n)).as_numer_denom()
+        if p > q * 10 ** MAX_DIGITS or p * 10 ** MAX_DIGITS < q:
+            size = len(str(p)) - len(str(q))
+            return (f"holds the constant 1e{size:+d} (after multiplying its numbers out), beyond 1e{MAX_DIGITS} or "
+                    f"below 1e-{MAX_DIGITS}; rescale the model")
+    return None
+
+
+def _never_real_problem(expr: sp.Basic) -> str | None:
+    """Why ``expr`` is not real for any real value of its symbols, where sympy proves it cheaply (a root or
+    fractional power of an argument it proves negative, the log of one it proves never positive), or None."""
+
+    def small(e: sp.Basic) -> bool:
+        return sum(1 for _ in zip(range(_SIGN_NODES + 1), sp.preorder_traversal(e))) <= _SIGN_NODES
+
+    for pw in expr.atoms(sp.Pow):
+        b, e = pw.base, pw.exp
+        if e.is_Number and not e.is_integer and small(b) and b.is_negative:
+            return (f"is not real for any real value of its symbols: {shorten(str(pw), 40)!r} takes a root of "
+                    f"{shorten(str(b), 40)!r}, which is negative everywhere; obsnl models are real")
+    for lg in expr.atoms(sp.log):
+        a = lg.args[0]
+        if small(a) and a.is_nonpositive:
+            return (f"is not real for any real value of its symbols: {shorten(str(lg), 40)!r} takes the log of "
+                    f"{shorten(str(a), 40)!r}, which is never positive; obsnl models are real")
+    return None

@@ -30,9 +30,9 @@ import numpy as np
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
-from obsnl.model.branches import Branch, _feasible, _gray, derived_model
+from obsnl.model.branches import Branch, _feasible, _gray, check_finite, derived_model
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.switching import innermost_nonsmooth, resolve, switching_of
+from obsnl.model.switching import check_declared, innermost_nonsmooth, resolve, switching_of
 
 __all__ = ["Representatives", "switching_groups", "representative_branches", "branch_of_pattern", "MAX_GROUP"]
 
@@ -170,6 +170,7 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
     rng = np.random.default_rng(seed)
     memo: dict = {}
     sw, groups = switching_groups(model)
+    check_declared(model, sw)
     big = [g for g in groups if len(g) > MAX_GROUP]
     if big:
         raise NotSupportedError(f"{len(big[0])} switching functions act on the same equations; at most "
@@ -209,6 +210,7 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
             continue
         repl = {node: resolve(node, sw, signs, memo) for node in nodes}
         new = [sp.expand(e.xreplace(repl)) for e in exprs]
+        check_finite(model, new, sw, signs)
         key = tuple(new)
         if key in fields:
             merged.append((fields[key], signs))
@@ -264,6 +266,7 @@ def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, la
     exprs = list(model.rhs) + list(model.output_exprs)
     repl = {node: resolve(node, sw, signs, memo) for node in innermost_nonsmooth(exprs)}
     new = [sp.expand(e.xreplace(repl)) for e in exprs]
+    check_finite(model, new, sw, signs)
     n_rhs = len(model.states)
     label = label or "".join("+" if s > 0 else "-" for s in signs)
     sub = derived_model(model, name=f"{model.name}[{label}]", equations=dict(zip(model.states, new[:n_rhs])),

@@ -18,7 +18,7 @@ import sympy as sp
 from obsnl.errors import ModelError, NotSupportedError
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 
-__all__ = ["expr_text", "switching_functions", "switching_of", "innermost_nonsmooth", "resolve"]
+__all__ = ["expr_text", "switching_functions", "switching_of", "innermost_nonsmooth", "resolve", "check_declared"]
 
 
 def expr_text(g: sp.Expr) -> str:
@@ -189,6 +189,40 @@ def switching_of(exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr],
     taken = {_canonical(d)[1] for d in order}
     order.extend(f for f in found if f not in taken)
     return tuple(order)
+
+
+def check_declared(model: Model, found: Sequence[sp.Expr]) -> None:
+    """Refuse a declared switching function (``model.switching``) that is none of those ``found`` in the model
+    (at any nesting level): it would be dropped from the branch order without a word.
+
+    Parameters
+    ----------
+    model : Model
+        The model whose ``switching`` was declared.
+    found : sequence of sympy.Expr
+        Every switching function the split met.
+
+    Raises
+    ------
+    ModelError
+        Naming the declared function and the model's switching functions.
+
+    Examples
+    --------
+    >>> m = Model(name="f", states=["x", "v"], parameters=["k"], switching=["v", "x - 3"],
+    ...           equations={"x": "v", "v": "-k*sign(v)"}, outputs={"y": "x"})
+    >>> check_declared(m, switching_functions(m))
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.ModelError: the declared switching function 'x - 3' does not occur in model 'f' (its switching functions: v); remove it from 'switching' or correct it
+    """
+    canon = {_canonical(f)[1] for f in found}
+    for d in model.switching:
+        if _canonical(d)[1] not in canon:
+            have = ", ".join(expr_text(f) for f in found) or "none, the model is smooth"
+            raise ModelError(f"the declared switching function {expr_text(d)!r} does not occur in model "
+                             f"{model.name!r} (its switching functions: {have}); remove it from 'switching' or "
+                             f"correct it")
 
 
 # --------------------------------------------------------------------------- resolution in a branch

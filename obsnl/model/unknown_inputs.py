@@ -13,6 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from obsnl.errors import ModelError
+from obsnl.model.parse import quote
 
 __all__ = ["ARBITRARY", "DERIVATIVES_MARGIN", "check_unknown_input_derivatives", "max_unknown_input_derivatives"]
 
@@ -58,7 +59,7 @@ def check_unknown_input_derivatives(value: Any, *, allow_none: bool = False) -> 
         return value
     raise ModelError(
         f"unknown_input_derivatives must be \"arbitrary\" (any unknown input) or a non-negative integer K "
-        f"(polynomial unknown inputs with K non-zero derivatives, STRIKE-GOLDD's nnzDerW), got {value!r}"
+        f"(polynomial unknown inputs with K non-zero derivatives, STRIKE-GOLDD's nnzDerW), got {quote(value)}"
     )
 
 

@@ -27,7 +27,7 @@ from obsnl.estimation.replicates import CHUNK
 from obsnl.estimation.ukf import Trajectory
 
 __all__ = ["RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce",
-           "write_reproduction", "SEED_GUESS", "PAPER_ERRORS", "TUNING_SEEDS", "reported_with_fallbacks"]
+           "write_reproduction", "reproduction_files", "SEED_GUESS", "PAPER_ERRORS", "TUNING_SEEDS", "reported_with_fallbacks"]
 
 #: Errors (%) the seed paper reports in Table 2.
 PAPER_ERRORS: Mapping[str, Mapping[str, float]] = {
@@ -224,15 +224,34 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
 REPRODUCTION_FILES: tuple[str, ...] = ("table2.json", "table2.md", "table2.tex", "branch_table.json")
 
 
-def write_reproduction(rep: Reproduction, out: str | Path) -> list[Path]:
+def reproduction_files(rep: Reproduction) -> list[str]:
+    """The files :func:`write_reproduction` writes for ``rep``: :data:`REPRODUCTION_FILES`, then
+    ``fig2_<tag>.png`` and ``fig3_<tag>.png`` per protocol with trajectories (``1pass``, ``3passes``, ...)."""
+    names = list(REPRODUCTION_FILES)
+    for k in sorted({k for _, k in rep.trajectories}):
+        if any((m, k) in rep.trajectories for m in ("ukf", "dukf")):
+            tag = "1pass" if k == 1 else f"{k}passes"
+            names += [f"fig2_{tag}.png", f"fig3_{tag}.png"]
+    return names
+
+
+def write_reproduction(rep: Reproduction, out: str | Path, *, force: bool = True) -> list[Path]:
     """Write ``table2.json/.md/.tex``, ``branch_table.json`` and Figures 2-3 of a reproduction into ``out``.
+
+    Every file goes through :class:`obsnl.report.files.OutputFolder`: all are written into a staging
+    folder inside ``out`` and moved in together, so a failure (a full disk) leaves none of them; ``out``
+    must not be a symbolic link (it is never followed), and a link or hard-linked file in its place is
+    replaced, never written through.
 
     Parameters
     ----------
     rep : Reproduction
         The reproduction.
     out : str or Path
-        The folder (existing files are overwritten).
+        The folder.
+    force : bool
+        Replace existing files (the default: ``obsnl reproduce`` regenerates its default folder); False:
+        refuse a file that exists, even one another run wrote while this one ran.
 
     Returns
     -------
@@ -241,37 +260,38 @@ def write_reproduction(rep: Reproduction, out: str | Path) -> list[Path]:
     Raises
     ------
     OutputError
-        When a file cannot be written.
+        When a file cannot be written, ``out`` is a link, or (without ``force``) a file exists.
     """
     import json
 
     from obsnl.report.figures import figure2, figure3
     from obsnl.report.identification import table2_latex, table2_markdown, table2_summary
 
-    from obsnl.report.files import safe_write
+    from obsnl.report.files import OutputFolder
 
-    out = Path(out)
     doc = rep.to_dict()
     texts = [json.dumps(doc, indent=1) + "\n", table2_markdown(doc), table2_latex(doc),
              rep.table.to_json()]  # the last is the DUKF's input, from the analysis
-    files = [safe_write(out / n, text, force=True, root=out) for n, text in zip(REPRODUCTION_FILES, texts)]
     s = rep.setup
     summ = table2_summary(doc)
     t = s.record.t
     data = make_data(s, 0)
-    for k in sorted({k for _, k in rep.trajectories}):
-        trs = {m: rep.trajectories[(m, k)] for m in ("ukf", "dukf") if (m, k) in rep.trajectories}
-        if not trs:
-            continue
-        tag = "1pass" if k == 1 else f"{k}passes"
-        files.append(figure2(out / f"fig2_{tag}.png", t=t, accel=data.u, y_measured=data.y,
-                             estimates={f"{m.upper()} (pass {k})": tr[-1].x[:, 0] for m, tr in trs.items()},
-                             title=s.record.name))
-        flagged = [p for p in s.model.parameters
-                   if any(s_["flag_counts"][p] * 2 >= len(s_["seeds"]) for m in trs if (s_ := summ.get((m, k))))]
-        tt = np.concatenate([t + i * (t[-1] + s.record.dt) for i in range(k)])
-        panels = {f"({chr(97 + i)}) {m.upper()}" + (f", {k} passes back to back" if k > 1 else ""):
-                  np.vstack([tr.theta for tr in trs[m]]) for i, m in enumerate(trs)}
-        files.append(figure3(out / f"fig3_{tag}.png", t=tt, panels=panels, truth=s.theta_true,
-                             parameters=s.model.parameters, flagged=flagged))
-    return files
+    with OutputFolder(out, reproduction_files(rep), force=force) as folder:
+        for n, text in zip(REPRODUCTION_FILES, texts):
+            folder.write_text(n, text)
+        for k in sorted({k for _, k in rep.trajectories}):
+            trs = {m: rep.trajectories[(m, k)] for m in ("ukf", "dukf") if (m, k) in rep.trajectories}
+            if not trs:
+                continue
+            tag = "1pass" if k == 1 else f"{k}passes"
+            figure2(folder.path(f"fig2_{tag}.png"), t=t, accel=data.u, y_measured=data.y,
+                    estimates={f"{m.upper()} (pass {k})": tr[-1].x[:, 0] for m, tr in trs.items()},
+                    title=s.record.name)
+            flagged = [p for p in s.model.parameters
+                       if any(s_["flag_counts"][p] * 2 >= len(s_["seeds"]) for m in trs if (s_ := summ.get((m, k))))]
+            tt = np.concatenate([t + i * (t[-1] + s.record.dt) for i in range(k)])
+            panels = {f"({chr(97 + i)}) {m.upper()}" + (f", {k} passes back to back" if k > 1 else ""):
+                      np.vstack([tr.theta for tr in trs[m]]) for i, m in enumerate(trs)}
+            figure3(folder.path(f"fig3_{tag}.png"), t=tt, panels=panels, truth=s.theta_true,
+                    parameters=s.model.parameters, flagged=flagged)
+        return folder.commit()

@@ -10,13 +10,14 @@ task's own seeds, so the results do not depend on where or in which order the ta
 from __future__ import annotations
 
 import json
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
 
-from obsnl.errors import ObsnlError
+from obsnl.errors import ObsnlError, OutputError
 from obsnl.estimation.experiments import (DIVERGED, Practical, Setup, Tuning, coordinates, make_data, make_filter,
                                           mc_replicates, mc_truth, output_misfit, practical_identifiability,
                                           run_passes, tune_one)
@@ -27,7 +28,7 @@ from obsnl.executor import built_once
 from obsnl.model.files import catalogue_path
 
 __all__ = ["Spec", "context", "compile_task", "tuning_task", "reported_task", "replicates_task", "RunResult", "seed_setup",
-           "seed_record", "seed_model_path", "reported_with_fallbacks", "SEED_GUESS", "FALLBACKS"]
+           "seed_record", "check_record_name", "seed_model_path", "reported_with_fallbacks", "SEED_GUESS", "FALLBACKS"]
 
 #: Initial guesses of Table 2 of the seed paper (DESIGN.md).
 SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
@@ -88,6 +89,39 @@ def seed_model_path() -> str:
     return str(catalogue_path("damage_healing_reparam"))
 
 
+def check_record_name(name: str) -> str:
+    """Refuse a record name that cannot be one folder below ``reports/identification``.
+
+    Parameters
+    ----------
+    name : str
+        The record's name (its file's stem).
+
+    Returns
+    -------
+    str
+        ``name``.
+
+    Raises
+    ------
+    OutputError
+        ``""``, ``"."``, ``".."``, or a name with a path separator or a NUL.
+
+    Examples
+    --------
+    >>> check_record_name("northridge")
+    'northridge'
+    >>> check_record_name("..")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.OutputError: the record's name '..' (its file name without the extension) cannot name a folder below reports/identification; rename the record file
+    """
+    if name in ("", ".", "..") or any(c and c in name for c in ("/", "\0", os.sep, os.altsep)):
+        raise OutputError(f"the record's name {name!r} (its file name without the extension) cannot name a folder "
+                          f"below reports/identification; rename the record file")
+    return name
+
+
 def seed_record(record: Record | None = None, samples: int | None = None) -> Record:
     """The record of the seed experiment: Northridge 1994 LOS270, or ``record`` resampled to 100 Hz and
     cut to its first 2000 samples; then its first ``samples``.
@@ -107,6 +141,9 @@ def seed_record(record: Record | None = None, samples: int | None = None) -> Rec
     ------
     DataError
         A step that cannot be resampled to 100 Hz, or fewer than 2 samples.
+    OutputError
+        A record whose name (its file's stem) is not a plain folder name: ``obsnl reproduce`` writes into
+        ``reports/identification/<name>``, and a file named ``...csv`` (stem ``..``) led into ``reports/``.
 
     Examples
     --------
@@ -120,6 +157,7 @@ def seed_record(record: Record | None = None, samples: int | None = None) -> Rec
     if record is None:
         record = read_record(str(resources.files("obsnl").joinpath("studies/data/northridge1994_LOS270_ngawest2_accel.csv")))
     else:
+        check_record_name(record.name)
         record = record.resampled(0.01)
         record = record.head(min(len(record), 2000))
     return record if samples is None else record.head(samples)
