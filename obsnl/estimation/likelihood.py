@@ -221,8 +221,8 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
     sum of squares; a coordinate on a bound whose gradient pushes it outwards is held there for the
     iteration (the first-order conditions of the bounded problem). Stops when the Newton decrement is
     below ``STOP`` and the last accepted step moved every free coordinate by at most ``STEP_LIMIT`` of its
-    std, when no step lowers the sum any more although a full step could gain ``ROUGH`` at most
-    (``stalled``), or after ``max_iter`` iterations or ``max_evals`` evaluations.
+    std, when three ever shorter steps fail to lower the sum although a full step could gain ``ROUGH``
+    at most (``stalled``), or after ``max_iter`` iterations or ``max_evals`` evaluations.
 
     Parameters
     ----------
@@ -276,6 +276,7 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
             it -= 1
             break
         d = np.maximum(np.diag(H), 1e-12 * max(float(np.diag(H).max(initial=0.0)), 1e-300))
+        fails = 0
         while True:
             try:
                 dz = -np.linalg.solve(H + lam * np.diag(d), g)
@@ -296,8 +297,8 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
                     last = float(np.max(np.where(std > 0, np.abs(moved) / std, 0.0), initial=0.0))
                 z, r, J, cost = zn, rn, Jn, cn
                 break
-            lam *= 4.0
-            if lam > 1e10 or decrement <= ROUGH or evals >= max_evals:  # at the bottom up to the roughness
+            lam, fails = lam * 4.0, fails + 1
+            if lam > 1e10 or (decrement <= ROUGH and fails >= 3) or evals >= max_evals:  # bottom, up to roughness
                 stalled = True
                 break
         if stalled or evals >= max_evals:
