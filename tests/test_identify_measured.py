@@ -39,7 +39,7 @@ def test_sdof_bouc_wen_from_measured_force_and_displacement(sdof_csv, tmp_path, 
     args = ["identify", str(SDOF), "--data", str(sdof_csv), "--out", str(out)]
     assert main(args) == 0
     doc = json.loads((out / "identify.json").read_text())
-    assert {(out / f).is_file() for f in ("fit.png", "traces.png")} == {True}
+    assert {(out / f).is_file() for f in ("fit.png", "traces.png", "profiles.png")} == {True}
     assert doc["mode"] == "measured" and doc["converged"] and doc["held"] == 0
     assert doc["structural"]["unidentifiable"] == [] and doc["structural"]["verdict"] == "joint"
     for p in doc["parameters"]:

@@ -47,7 +47,8 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
         description="Analyse MODEL (a structurally unidentifiable parameter stops the run), then estimate its "
         "parameters with the UKF or the DUKF from --data (CSV: time_s or t, one column per model input and output) "
         "or, as a simulation study, from the model's [values] driven by --record. Guesses: the model's [guess] table, "
-        "then --guess. Writes DIR/identify.json, fit.png and traces.png with --out.")
+        "then --guess. The filter is refined by maximum likelihood (--no-refine: the filter alone). Writes "
+        "DIR/identify.json, fit.png, traces.png and profiles.png with --out.")
     p.add_argument("model", help="model file (.toml or .json)")
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--data", help="measured inputs and outputs (.csv)")
@@ -196,7 +197,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
-    files = write_reproduction(rep, out)
+    files = write_reproduction(rep, out, force=args.force or regenerate)
     print(f"wrote {len(files)} files to {out}: " + ", ".join(f.name for f in files))
     return 0
 
