@@ -22,6 +22,7 @@ diverged by a discretisation mismatch.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -300,7 +301,9 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
     m = setup.model
     theta = trs[-1].theta[-1]
     var = np.diag(trs[-1].P[-1])[m.nx:]
+    t0 = time.perf_counter()
     ref, profs, failed = _refine(setup, data, theta, held, progress) if refined else (None, (), "")
+    refine_seconds = time.perf_counter() - t0
     by_name = {pr.name: pr for pr in profs}
     x0 = setup.x0
     if ref is not None:
@@ -362,7 +365,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
     return Identification(
         model=m.name, mode=mode, method=method, parameters=tuple(params),
         fit={o: float(100 * v) for o, v in zip(m.outputs, per)}, passes=passes, passes_run=len(trs),
-        seconds=float(sum(t.seconds for t in trs)) + (ref.seconds if ref is not None else 0.0), converged=converged,
+        seconds=float(sum(t.seconds for t in trs)) + refine_seconds, converged=converged,
         output_misfit=misfit if math.isfinite(misfit) else None, noise=noise, tuning=tuning, tuning_scores=scores,
         data=data_dict, practical=prac.to_dict(), assumptions=tuple(assumptions),
         repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,

@@ -280,7 +280,13 @@ def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float
         ax.axis("off")
     for ax, pr in zip(axes.ravel(), profiles):
         pts = np.array(pr.points, float).reshape(-1, 2)
-        ax.plot(pts[:, 0], pts[:, 1], "o-", ms=3, lw=1, color="C0")
+        # between computed points, sqrt(Delta) is interpolated linearly on each side of the estimate (exact for a
+        # quadratic profile), so the drawn curve bends as a profile does instead of joining points by chords
+        side = np.where(pts[:, 0] < pr.estimate, -1.0, 1.0)
+        grid = np.linspace(pts[0, 0], pts[-1, 0], 200) if len(pts) > 1 else pts[:, 0]
+        signed = np.interp(grid, pts[:, 0], side * np.sqrt(np.maximum(pts[:, 1], 0.0)))
+        ax.plot(grid, signed ** 2, lw=1, color="C0")
+        ax.plot(pts[:, 0], pts[:, 1], "o", ms=3, color="C0")
         ax.axhline(threshold, color="C3", lw=0.8, ls="--")
         ax.axvline(pr.estimate, color="0.3", lw=0.8)
         for end in pr.interval:

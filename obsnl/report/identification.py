@@ -285,10 +285,10 @@ def identify_text(doc: Mapping[str, Any]) -> str:
                      f"one pass of {len(scores)} configurations)")
     if doc["passes_run"] < doc["passes"]:
         lines.append(f"  stopped after pass {doc['passes_run']}: its estimate cannot be simulated (the filter diverged)")
-    if pi.get("inconclusive"):
+    if pi.get("inconclusive") and not ref:  # with the refinement the profiles judge each parameter
         lines.append(f"  practical identifiability not decided: {pi['inconclusive']}")
     lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}"
-              for q, why in (pi.get("undecided") or {}).items()]
+              for q, why in (pi.get("undecided") or {}).items() if not ref]
     for d in doc["parameters"]:
         head = f"  {d['name']:10s} "
         if "true" in d:
