@@ -188,3 +188,15 @@ def test_identify_refines_by_default_and_says_when_it_did_not(tmp_path):
     plain = obsnl.identify(MSD, cols, guess={"k": 18.0, "c": 1.2}, noise={"u": 1e-6}, refine=False).to_dict()
     assert not plain["converged"] and "--no-refine" in plain["converged_reason"]
     assert all(p["interval"] is None for p in plain["parameters"]) and plain["refinement"] == {}
+
+
+def test_the_profiles_work_within_a_time_budget():
+    # bounded work: a parameter whose profile could not start within the budget gets no interval, is flagged
+    # with that reason, and keeps its Fisher std
+    u, y, sigma = msd_data(seed=2)
+    setup, data = setup_of(MSD, u, y, 0.02, {"k": 18.0, "c": 1.2}, sigma)
+    ref = refine(setup, data, setup.theta_guess)
+    late = profiles(ref, max_seconds=0.0)
+    assert [p.shape for p in late] == ["not-computed", "not-computed"]
+    assert all(p.interval == (None, None) and "time budget" in judge(p) for p in late)
+    assert [p.shape for p in profiles(ref, max_seconds=None)] == ["closed", "closed"]

@@ -26,6 +26,7 @@ caller).
 from __future__ import annotations
 
 import math
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -34,7 +35,7 @@ import numpy as np
 from obsnl.errors import EstimatorError
 from obsnl.estimation.likelihood import Refinement, levenberg_marquardt
 
-__all__ = ["Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND"]
+__all__ = ["Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND", "MAX_SECONDS"]
 
 #: chi2(1) 0.95 quantile (scipy.stats.chi2.ppf(0.95, 1)).
 THRESHOLD = 3.841458820694124
@@ -44,6 +45,8 @@ TOLERANCE = 0.02
 SEARCH = math.log(10.0)
 #: A profile whose rise stays below this everywhere it was followed is flat.
 FLAT = 0.1
+#: Time budget of the profiles of one estimate (s): beyond it the remaining parameters get no interval.
+MAX_SECONDS = 900.0
 #: Profile points per side at most (each a re-optimisation of every other coordinate).
 POINTS = 8
 
@@ -55,7 +58,8 @@ class Profile:
     ``points``: ``(theta_i, Delta)`` pairs, sorted by ``theta_i`` (the estimate included with 0);
     ``interval``: ``(low, high)`` in the parameter's own units, ``None`` on an open side; ``shape``: one of
     ``closed``, ``open-low``, ``open-high``, ``open`` (both sides open, rising somewhere), ``flat``, or
-    ``not-optimal`` (a profile point fitted better than the estimate: no interval is claimed);
+    ``not-optimal`` (a profile point fitted better than the estimate: no interval is claimed), or
+    ``not-computed`` (the time budget of :func:`profiles` ran out first);
     ``better``: a profile point whose chi2 fell below the optimum (the estimate was not the global
     optimum along this parameter), else ``None``.
     """
@@ -167,8 +171,12 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
                    evaluations=evals, better=better)
 
 
-def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress: Any = None) -> tuple[Profile, ...]:
-    """:func:`profile` of every parameter that is not held (or of ``names``).
+def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress: Any = None,
+             max_seconds: float | None = MAX_SECONDS) -> tuple[Profile, ...]:
+    """:func:`profile` of every parameter that is not held (or of ``names``), within a time budget.
+
+    A parameter whose profile was not started when ``max_seconds`` had passed gets no interval (shape
+    ``not-computed``; :func:`judge` flags it with that reason): the work stays bounded on large models.
 
     Parameters
     ----------
@@ -178,6 +186,8 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
         The parameters to profile (default: every free one).
     progress : callable or None
         Called after each profile.
+    max_seconds : float or None
+        Time budget of all the profiles (None: none).
 
     Returns
     -------
@@ -190,7 +200,15 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
     """
     names = names or tuple(p for p in ref.objective.setup.model.parameters if p not in ref.held)
     out = []
+    t0 = time.perf_counter()
     for p in names:
+        if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
+            i = ref.objective.setup.model.parameters.index(p)
+            out.append(Profile(name=p, estimate=float(ref.theta[i]), interval=(None, None), shape="not-computed",
+                               points=((float(ref.theta[i]), 0.0),)))
+            if progress:
+                progress()
+            continue
         try:
             out.append(profile(ref, p))
         except EstimatorError as exc:
@@ -227,6 +245,9 @@ def judge(prof: Profile, *, band: float = BAND) -> str | None:
     """
     lo, hi = prof.interval
     est = prof.estimate
+    if prof.shape == "not-computed":
+        return (f"no interval: the profiles' time budget ({MAX_SECONDS:g} s) ran out before this one; its std is "
+                f"from the Fisher information alone")
     if prof.shape == "not-optimal":
         return ("a point of its profile fits the data better than the estimate: the estimate is not the maximum "
                 "of the likelihood along it, so no interval is claimed")
