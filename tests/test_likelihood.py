@@ -200,3 +200,12 @@ def test_the_profiles_work_within_a_time_budget():
     assert [p.shape for p in late] == ["not-computed", "not-computed"]
     assert all(p.interval == (None, None) and "time budget" in judge(p) for p in late)
     assert [p.shape for p in profiles(ref, max_seconds=None)] == ["closed", "closed"]
+
+
+@pytest.mark.parametrize("kwargs, words", [({"guess": {"kk": 3.0}}, "'kk', which is not a parameter"),
+                                           ({"noise": {"yy": 0.01}}, "'yy', which is not an input or output")])
+def test_python_refuses_misspelt_guess_and_noise_keys(kwargs, words):
+    # they were silently ignored from Python (the command line refused them)
+    u, y, _ = msd_data(seed=0, T=60)
+    with pytest.raises(obsnl.ObsnlError, match=words):
+        obsnl.identify(MSD, {"t": np.arange(60) * 0.02, "u": u, "y": y}, **({"guess": {"k": 18.0, "c": 1.2}} | kwargs))

@@ -463,6 +463,10 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
             raise DataError(f"output {c!r} of {data.name!r} is constant ({float(data.y[0, j])!r} throughout): there "
                             f"is no response to identify from; check the column")
     given = dict(noise or {})
+    unknown = sorted(set(given) - set(num.inputs) - set(num.outputs))
+    if unknown:  # a misspelt channel is refused, never ignored
+        raise OptionError(f"noise given for {unknown[0]!r}, which is not an input or output of {num.name!r} "
+                          f"({', '.join(num.inputs + num.outputs)}); check the spelling")
     bad = [f"{k}={v!r}" for k, v in given.items() if not (isinstance(v, (int, float)) and 0 < v < 1)]
     if bad:
         raise OptionError(f"--noise {bad[0]}: a noise-to-signal ratio must lie in (0, 1)")
