@@ -60,5 +60,5 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
         results = tuple(analyze(m, method=method, seed=seed, max_seconds=max_seconds) for m in models)
     else:
         results = tuple(executor.map(_analyze_task, [(m.to_dict(), method, seed, max_seconds) for m in models]))
-    write_tables(results, out, force=True)
+    write_tables(results, out, force=force)
     return results

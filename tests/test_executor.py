@@ -95,7 +95,8 @@ def _leaky_identification(executor):
     res = obsnl.identify(m, {"t": t, "u": u, "y": y}, guess={"a": 2.8}, noise={"u": 1e-3, "y": 0.01}, passes=1,
                          replicates=4, seed=5, tuning=Tuning(0.3, 0.0, 1.0), executor=executor,
                          progress=lambda: ticks.append(1))
-    assert len(ticks) == 1 + 4  # one pass, then one step per replicate (the progress bar's total)
+    # one pass, one step per replicate, the likelihood refinement and one profile per parameter (the bar's total)
+    assert len(ticks) == 1 + 4 + 1 + 1
     return res.to_dict()["practical_identifiability"]["monte_carlo"]
 
 

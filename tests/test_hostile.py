@@ -503,7 +503,6 @@ def test_10_filter_settings_are_refused_by_their_option_name(capsys, option, val
 
 @pytest.mark.parametrize("extra, words", [
     (["--data", "d.csv", "--samples", "50"], ["--samples", "--record"]),
-    (["--record", str(REC), "--hold"], ["--hold", "--data"]),
     (["--record", str(REC), "--workers", "2"], ["--workers", "--replicates"]),
     (["--record", str(REC), "--scheduler", "tcp://127.0.0.1:1"], ["--scheduler", "--replicates"]),
 ])

@@ -198,8 +198,6 @@ def test_6_a_file_another_run_wrote_meanwhile_is_kept_and_nothing_of_ours_lands(
     assert (out / "timings.md").read_text() == "the other run\n"
 
 
-@pytest.mark.xfail(reason="obsnl/batch.py report_models calls write_tables(..., force=True) after its own check: "
-                          "it must pass force=force (batch.py is outside this change)", strict=False)
 def test_6_two_report_runs_into_one_folder_do_not_both_succeed(tmp_path, capsys, monkeypatch):
     import obsnl.batch as batch
 

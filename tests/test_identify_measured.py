@@ -39,7 +39,7 @@ def test_sdof_bouc_wen_from_measured_force_and_displacement(sdof_csv, tmp_path, 
     args = ["identify", str(SDOF), "--data", str(sdof_csv), "--out", str(out)]
     assert main(args) == 0
     doc = json.loads((out / "identify.json").read_text())
-    assert {(out / f).is_file() for f in ("fit.png", "traces.png")} == {True}
+    assert {(out / f).is_file() for f in ("fit.png", "traces.png", "profiles.png")} == {True}
     assert doc["mode"] == "measured" and doc["converged"] and doc["held"] == 0
     assert doc["structural"]["unidentifiable"] == [] and doc["structural"]["verdict"] == "joint"
     for p in doc["parameters"]:
@@ -146,6 +146,7 @@ c = 0.36
 F_c = 0.25
 d = 1e-4
 ''')
+    from obsnl.report.identification import identify_text
     from obsnl.studies.identify import study
 
     res = study(toml, RECORD, samples=600, passes=2, noise=1e-3)
@@ -157,5 +158,14 @@ d = 1e-4
                                  else d["error"] is None and d["estimate"] is None)
     assert error_of(0.25, 0.0) == (0.25, "absolute") and error_of(1.1, 1.0)[1] == "percent"
     assert all(p["error_kind"] == "percent" for p in doc["parameters"] if p["name"] != "d" and not p["held"])
-    assert doc["converged"] and doc["fit"]["y"] < 1.0  # noise 0.1 %: a converged fit is near it
+    assert doc["fit"]["y"] < 1.0  # noise 0.1 %: the fit is near it
+    # d = 0 cannot be reached in log|d|: the estimate rests on the edge of the valid region and is flagged
+    assert d["flagged"] and "edge of the valid region" in d["reason"]
+    # the promise of the refinement: a run called converged has every unflagged estimate within 4 reported std
+    # (or 1 %) of the truth; otherwise it says why it is not converged
+    if doc["converged"]:
+        assert all(abs(p["estimate"] - p["true"]) <= max(4 * p["std"], 0.01 * abs(p["true"]))
+                   for p in doc["parameters"] if not p["flagged"])
+    else:
+        assert doc["converged_reason"] and "NOT converged: " + doc["converged_reason"] in identify_text(doc)
     assert clean_json([float("inf"), float("nan"), 1.0]) == [None, None, 1.0]

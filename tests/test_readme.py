@@ -54,4 +54,7 @@ def test_measured_identification_example_runs(tmp_path, monkeypatch, capsys):
     truth = {"c": 0.6, "k": 25.0, "kh": 40.0, "beta": 150.0, "gamma": 250.0}
     for p in res.parameters:
         assert not p.held and abs(p.estimate - truth[p.name]) <= 0.05 * truth[p.name], p
+        # the refinement's promise: an unflagged estimate lies within 4 reported std (or 1 %) of the truth
+        assert p.flagged or abs(p.estimate - truth[p.name]) <= max(4 * p.std, 0.01 * truth[p.name]), p
     assert res.fit["disp"] < 5.0 and "fit NRMSE" in capsys.readouterr().out
+    assert res.converged and res.refinement["misfit_over_noise"]["disp"] <= 1.3, res.converged_reason

@@ -47,7 +47,8 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
         description="Analyse MODEL (a structurally unidentifiable parameter stops the run), then estimate its "
         "parameters with the UKF or the DUKF from --data (CSV: time_s or t, one column per model input and output) "
         "or, as a simulation study, from the model's [values] driven by --record. Guesses: the model's [guess] table, "
-        "then --guess. Writes DIR/identify.json, fit.png and traces.png with --out.")
+        "then --guess. The filter is refined by maximum likelihood (--no-refine: the filter alone). Writes "
+        "DIR/identify.json, fit.png, traces.png and profiles.png with --out.")
     p.add_argument("model", help="model file (.toml or .json)")
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--data", help="measured inputs and outputs (.csv)")
@@ -60,7 +61,10 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
                    "named are estimated from their high-frequency residual (default in a study: 0.001)")
     p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
     p.add_argument("--allow-unidentifiable", action="store_true", help="run despite the structural verdict")
-    p.add_argument("--hold", action="store_true", help="measured data: hold poorly informed parameters at their guess")
+    p.add_argument("--hold", action="store_true", help="hold poorly informed parameters at their guess (default: "
+                   "nothing is held)")
+    p.add_argument("--no-refine", action="store_true", help="skip the maximum-likelihood refinement after the filter "
+                   "(no profile-likelihood intervals; convergence is then not checked)")
     p.add_argument("--seed", type=_seed, default=0, help="noise seed of a study and the Monte-Carlo (default: 0)")
     for flag, what in (("--s0", "prior std of log-parameters"), ("--q-theta", "random walk of log-parameters"),
                        ("--q-x", "factor on the state noise"), ("--gate", "innovation gate")):
@@ -82,7 +86,6 @@ def _cmd_identify(args: argparse.Namespace) -> int:
 
     for given, option, needs in ((args.samples is not None and args.data, "--samples", "a --record study; cut the "
                                   "data file instead"),
-                                 (args.hold and args.record, "--hold", "measured data (--data)"),
                                  ((args.workers is not None or args.scheduler) and args.replicates == 0,
                                   "--workers/--scheduler", "the Monte-Carlo replicates: add --replicates N (nothing "
                                   "else of identify runs in parallel)")):
@@ -115,16 +118,18 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     def tick() -> None:
         if not bars:
             # passes (tuning passes included), then one step per Monte-Carlo replicate
-            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0) + max(args.replicates, 0),
-                                  "step"))
+            # passes (tuning passes included), the refinement and one profile per parameter, the replicates
+            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0) + max(args.replicates, 0)
+                                  + (0 if args.no_refine else 1 + len(names)), "step"))
         if bars[0] is not None:
             bars[0].update(1)
     try:
         if args.data:
-            res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick, **opts)
+            res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick,
+                           refine=not args.no_refine, **opts)
         else:
             res = study(model, args.record, noise=float(plain[-1]) if plain else 1e-3, samples=args.samples,
-                        tuning=tuning, progress=tick, **opts)
+                        tuning=tuning, hold=args.hold, progress=tick, refine=not args.no_refine, **opts)
     finally:
         if bars and bars[0] is not None:
             bars[0].close()
@@ -192,7 +197,7 @@ def _cmd_reproduce(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
-    files = write_reproduction(rep, out)
+    files = write_reproduction(rep, out, force=args.force or regenerate)
     print(f"wrote {len(files)} files to {out}: " + ", ".join(f.name for f in files))
     return 0
 

@@ -74,11 +74,9 @@ class _ToCasadi:
             return out
         if isinstance(e, sp.Pow):
             b, p = e.args
-            if p == sp.Rational(1, 2):
-                return ca.sqrt(c(b))
             if p.is_Integer:
                 return c(b) ** int(p)
-            return ca.power(c(b), c(p))
+            return _power(c(b), c(p))
         if e.func in _UNARY:
             return _UNARY[e.func](c(e.args[0]))
         if isinstance(e, sp.Heaviside):
@@ -100,6 +98,21 @@ class _ToCasadi:
         if isinstance(e, sp.Not):
             return ca.logic_not(c(e.args[0]))
         raise NotSupportedError(f"cannot translate {type(e).__name__} ({e}) to casadi")
+
+
+def _power(base: ca.SX, exponent: ca.SX) -> ca.SX:
+    """``base ** exponent`` (non-integer exponent) whose derivatives are finite where ``base`` is 0.
+
+    The value is casadi's own everywhere (``0 ** p`` is 0, 1 or inf for ``p`` above, at or below 0), but at
+    a zero base the branch taken is a constant: ``d/dp 0**p = log(0) * 0`` would be NaN, and a model that
+    starts at rest (``|r - eta'|**(2N)`` at ``r = eta' = 0``) would carry that NaN through every exact
+    derivative of a simulation (:mod:`obsnl.estimation.likelihood`). There the derivative is taken as 0,
+    the one-sided limit for exponents above 1 (the hysteretic powers ``|z|**n`` of a yielding spring).
+    """
+    at_zero = ca.if_else(exponent > 0, 0.0, ca.if_else(exponent == 0, 1.0, ca.inf))
+    half = exponent.is_constant() and float(exponent) == 0.5
+    value = ca.sqrt(base) if half else ca.power(base, exponent)
+    return ca.if_else(base == 0, at_zero, value)
 
 
 def _constant_values(model: Model, constants: Mapping[str, float] | None) -> dict[sp.Symbol, ca.SX]:

@@ -22,6 +22,7 @@ diverged by a discretisation mismatch.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -32,7 +33,9 @@ from obsnl.errors import DataError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
 from obsnl.estimation.experiments import Tuning, make_data, make_filter, run_passes
 from obsnl.estimation.measured import NOISE_FLOOR, Measured, estimate_noise
+from obsnl.estimation.likelihood import Refinement, refine
 from obsnl.estimation.practical import practical_identifiability
+from obsnl.estimation.profile import Profile, judge, profiles
 from obsnl.estimation.records import Record
 from obsnl.estimation.replicates import spread_on
 from obsnl.estimation.setup import DIVERGED, Data, Setup, coordinates, output_misfit
@@ -121,9 +124,13 @@ class ParameterEstimate:
     true: float | None = None
     error: float | None = None
     error_kind: str | None = None
+    interval: tuple[float | None, float | None] | None = None
+    interval_method: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        d = {"name": self.name, "estimate": self.estimate, "std": self.std, "held": self.held,
+        d = {"name": self.name, "estimate": self.estimate, "std": self.std,
+             "interval": None if self.interval is None else list(self.interval),
+             "interval_method": self.interval_method, "held": self.held,
              "held_at": self.guess if self.held else None, "flagged": self.flagged, "reason": self.reason,
              "guess": self.guess}
         if self.true is not None:
@@ -164,6 +171,9 @@ class Identification:
     y_measured: np.ndarray = field(default=None, repr=False)
     y_fit: np.ndarray = field(default=None, repr=False)
     outputs: tuple[str, ...] = ()
+    converged_reason: str = ""
+    refinement: Mapping[str, Any] = field(default_factory=dict)
+    profiles: tuple[Profile, ...] = field(default=(), repr=False)
 
     @property
     def held(self) -> tuple[str, ...]:
@@ -183,7 +193,9 @@ class Identification:
             "passes": self.passes, "passes_run": self.passes_run, "seconds": self.seconds, "seed": self.seed,
             "held": len(self.held), "flagged": list(self.flagged),
             "parameters": [p.to_dict() for p in self.parameters], "fit": dict(self.fit),
-            "converged": self.converged, "output_misfit": self.output_misfit, "noise": dict(self.noise),
+            "converged": self.converged, "converged_reason": self.converged_reason,
+            "refinement": dict(self.refinement), "profiles": [p.to_dict() for p in self.profiles],
+            "output_misfit": self.output_misfit, "noise": dict(self.noise),
             "tuning": self.tuning.to_dict(),
             "tuning_scores": [{**t.to_dict(), "output_misfit": s} for t, s in self.tuning_scores],
             "data": dict(self.data), "structural": dict(self.structural), "repairs": self.repairs,
@@ -216,7 +228,7 @@ def error_of(estimate: float | None, true: float) -> tuple[float | None, str | N
 
 
 def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, grid: Sequence[Tuning], passes: int,
-         replicates: int, seed: int, progress: Callable[[], Any] | None, hold: bool = True,
+         replicates: int, seed: int, progress: Callable[[], Any] | None, hold: bool = False,
          executor: Executor | None = None) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
     """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner."""
     check_replicates(replicates)
@@ -258,43 +270,107 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
     return tuning, tuple(scores), trs, held, prac, misfit
 
 
+def _refine(setup: Setup, data: Data, theta: np.ndarray, held: Sequence[str],
+            progress: Callable[[], Any] | None) -> tuple[Refinement | None, tuple[Profile, ...], str]:
+    """The maximum-likelihood refinement and the profiles; ``(None, (), why)`` where it could not run."""
+    try:
+        ref = refine(setup, data, theta, held=held)
+        if progress:
+            progress()
+        return ref, profiles(ref, progress=progress), ""
+    except EstimatorError as exc:
+        return None, (), f"the likelihood refinement could not run: {exc}"
+
+
+def _held_bias(ref: Refinement, names: Sequence[str], h: int) -> str:
+    """What holding parameter ``h`` 10 % off does to the free estimates (linearised at the estimate)."""
+    J = ref.fit.J
+    free = [i for i in range(J.shape[1]) if i != h and (i >= len(names) or names[i] not in ref.held)]
+    Jf = J[:, free]
+    shift = -np.linalg.lstsq(Jf, J[:, h], rcond=None)[0] * math.log(1.1)
+    effects = sorted(((abs(s), names[i], 100 * math.expm1(s)) for i, s in zip(free, shift) if i < len(names)),
+                     reverse=True)[:3]
+    said = ", ".join(f"{n} by {e:+.2g} %" for _, n, e in effects)
+    return f"held 10 % off, it would shift {said} (linearised at the estimate)" if said else ""
+
+
 def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tuning: Tuning, scores: tuple,
             trs: tuple[Trajectory, ...], held: tuple[str, ...], prac: Any, misfit: float, noise: Mapping,
-            data_dict: Mapping, assumptions: Sequence[str], seed: int | None) -> Identification:
+            data_dict: Mapping, assumptions: Sequence[str], seed: int | None, refined: bool = True,
+            progress: Callable[[], Any] | None = None) -> Identification:
     m = setup.model
     theta = trs[-1].theta[-1]
     var = np.diag(trs[-1].P[-1])[m.nx:]
+    t0 = time.perf_counter()
+    ref, profs, failed = _refine(setup, data, theta, held, progress) if refined else (None, (), "")
+    refine_seconds = time.perf_counter() - t0
+    by_name = {pr.name: pr for pr in profs}
+    x0 = setup.x0
+    if ref is not None:
+        theta, x0 = ref.theta, ref.x0
     truth = None if setup.truth is None else setup.theta_true
     params = []
     for i, p in enumerate(m.parameters):
         is_held = p in held
         why = ["held at its guess: poorly informed once the filter had reached the noise floor"] if is_held else []
-        if p in prac.reasons:
-            why.append(prac.reasons[p])
+        prof = by_name.get(p)
+        if ref is not None:
+            flag = judge(prof) if prof is not None else None
+            if p in ref.at_edge:
+                flag = ("its estimate rests on the edge of the valid region (a factor 100 from its guess): the "
+                        "likelihood would rise further beyond it (a true value of 0, or a far guess)"
+                        + (f"; {flag}" if flag else ""))
+            if flag:
+                why.append(flag)
+            if is_held:
+                why.append(_held_bias(ref, m.parameters, i))
+            std = None if is_held else float(ref.std[i])
+            flagged = is_held or flag is not None
+        else:
+            if p in prac.reasons:
+                why.append(prac.reasons[p])
+            std = None if is_held or len(var) != m.np else float(abs(theta[i]) * math.sqrt(max(var[i], 0.0)))
+            flagged = is_held or p in prac.flagged
         est = None if is_held else float(theta[i])
-        std = None if is_held or len(var) != m.np else float(abs(theta[i]) * math.sqrt(max(var[i], 0.0)))
         err = kind = tru = None
         if truth is not None:
             tru = float(truth[i])
             err, kind = error_of(est, tru)
         params.append(ParameterEstimate(name=p, guess=float(setup.guess[p]), estimate=est, std=std, held=is_held,
-                                        flagged=is_held or p in prac.flagged, reason="; ".join(why) or None,
-                                        true=tru, error=err, error_kind=kind))
-    per = output_misfit(setup, theta, data, per_output=True)
+                                        flagged=flagged, reason="; ".join(w for w in why if w) or None,
+                                        true=tru, error=err, error_kind=kind,
+                                        interval=None if prof is None else prof.interval,
+                                        interval_method=None if prof is None else
+                                        f"profile likelihood, 95 % (chi2(1) threshold 3.84), {prof.shape}"))
     try:
-        y_fit = simulate(m, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt,
+        y_fit = simulate(m, theta=theta, x0=x0, u=data.u, dt=setup.record.dt,
                          substeps=setup.fit_substeps or setup.substeps, refine=setup.refine).y
+        y = np.asarray(data.y, float).reshape(len(y_fit), -1)
+        per = np.sqrt(np.mean((y_fit - y) ** 2, axis=0)) / np.maximum(np.sqrt(np.mean(y ** 2, axis=0)), 1e-300)
     except EstimatorError:
         y_fit = np.full(np.shape(setup.y_true), np.nan)
-    converged = bool(math.isfinite(misfit) and misfit <= DIVERGED * setup.noise_level and len(trs) == passes)
+        per = np.full(m.ny, np.inf)
+    if ref is not None:
+        misfit = float(np.sqrt(np.mean(per ** 2)))
+        better = [pr.name for pr in profs if pr.better is not None]
+        converged, reason = ref.converged and not better, ref.reason
+        if better:
+            reason = (f"the profile of {better[0]} found a lower chi2 than the estimate: it is not the maximum of the "
+                      f"likelihood; start again from other --guess values")
+    elif refined:
+        converged, reason = False, failed
+    else:
+        converged, reason = False, ("not checked: --no-refine skips the maximum-likelihood refinement, whose "
+                                    "first-order conditions define convergence")
     return Identification(
         model=m.name, mode=mode, method=method, parameters=tuple(params),
         fit={o: float(100 * v) for o, v in zip(m.outputs, per)}, passes=passes, passes_run=len(trs),
-        seconds=float(sum(t.seconds for t in trs)), converged=converged,
+        seconds=float(sum(t.seconds for t in trs)) + refine_seconds, converged=converged,
         output_misfit=misfit if math.isfinite(misfit) else None, noise=noise, tuning=tuning, tuning_scores=scores,
         data=data_dict, practical=prac.to_dict(), assumptions=tuple(assumptions),
         repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
-        y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs)
+        y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs,
+        converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
 
 
 _COMMON = ("the model is right: its equations describe the structure, its known constants are right",
@@ -302,21 +378,34 @@ _COMMON = ("the model is right: its equations describe the structure, its known 
            "given under 'noise'",
            "parameters are estimated as log|theta| with the sign of the guess; each stays within a factor 100 of "
            "its guess",
-           "std: the filter's posterior std after the last pass (optimistic: the record is reused over passes)",
-           f"fit: NRMSE of the model simulated at the estimate ({FIT_SUBSTEPS} RK4 substeps per sample) against "
-           f"the measurement; the run counts as converged when the RMS of the NRMSEs is at most {DIVERGED:g}x "
-           f"the output noise level",
-           f"held: after the first pass whose output misfit is at most {HOLD_BELOW:g}x the noise level, the "
-           "parameters flagged there are put back to their guess and no longer estimated",
-           "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
-           "posterior against its prior, and the Monte-Carlo spread when --replicates is given)")
+           f"held: only with hold (--hold): after the first pass whose output misfit is at most {HOLD_BELOW:g}x the "
+           "noise level, the parameters flagged there are put back to their guess and no longer estimated")
+_FILTER_ONLY = ("std: the filter's posterior std after the last pass (optimistic: the record is reused over passes)",
+                "converged: not checked without the likelihood refinement (--no-refine)",
+                "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
+                "posterior against its prior, and the Monte-Carlo spread when --replicates is given)")
+_REFINED = ("the filter's estimate starts a maximum-likelihood fit (output error: the model simulated from an "
+            "estimated initial state under the measured input, the input taken as exact; Levenberg-Marquardt with "
+            "exact derivatives); the noise std per output is re-estimated from the fit's residuals",
+            "std: from the Fisher information (Gauss-Newton Hessian) at the maximum-likelihood estimate",
+            "interval: 95 % profile-likelihood interval (Raue et al. 2009, chi2(1) threshold 3.84), each other "
+            "parameter and the initial state re-optimised at every profile point",
+            "converged: the first-order condition holds (Newton decrement <= 0.01) and the last step moved no "
+            "parameter by more than 0.1 of its std",
+            "flagged: its 95 % interval is wider than +-5 % of the estimate, or open, or the profile is flat",
+            f"fit: NRMSE of the model simulated at the estimate ({FIT_SUBSTEPS} RK4 substeps per sample) from the "
+            "estimated initial state, against the measurement")
+
+
+def _assumptions(refined: bool, *more: str) -> tuple[str, ...]:
+    return _COMMON + (_REFINED if refined else _FILTER_ONLY) + more
 
 
 def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, float], method: str = "ukf",
                       table: BranchTable | None = None, noise: Mapping[str, float] | None = None,
                       grid: Sequence[Tuning] = MEASURED_GRID, passes: int = 3, replicates: int = 0, seed: int = 0,
                       jit: bool = False, hold: bool = False, progress: Callable[[], Any] | None = None,
-                      executor: Executor | None = None) -> Identification:
+                      executor: Executor | None = None, refined: bool = True) -> Identification:
     """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
 
     Parameters
@@ -348,6 +437,9 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     executor
         Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`; default: this process);
         the same numbers on any executor.
+    refined
+        Refine the filter's estimate by maximum likelihood, with Fisher std and profile-likelihood
+        intervals (:mod:`obsnl.estimation.likelihood`, :mod:`obsnl.estimation.profile`; default on).
 
     Returns
     -------
@@ -371,6 +463,10 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
             raise DataError(f"output {c!r} of {data.name!r} is constant ({float(data.y[0, j])!r} throughout): there "
                             f"is no response to identify from; check the column")
     given = dict(noise or {})
+    unknown = sorted(set(given) - set(num.inputs) - set(num.outputs))
+    if unknown:  # a misspelt channel is refused, never ignored
+        raise OptionError(f"noise given for {unknown[0]!r}, which is not an input or output of {num.name!r} "
+                          f"({', '.join(num.inputs + num.outputs)}); check the spelling")
     bad = [f"{k}={v!r}" for k, v in given.items() if not (isinstance(v, (int, float)) and 0 < v < 1)]
     if bad:
         raise OptionError(f"--noise {bad[0]}: a noise-to-signal ratio must lie in (0, 1)")
@@ -394,15 +490,17 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
            "output misfit won" if len(grid) > 1 else "one tuning, as given")
     return _result(setup, d, mode="measured", method=method, passes=passes, tuning=tuning, scores=scores, trs=trs,
                    held=held, prac=prac, misfit=misfit, noise=levels, data_dict=data.to_dict(), seed=seed,
-                   assumptions=_COMMON + (how, "the structure starts at rest (initial states from the model file, "
-                                          "else 0)"))
+                   refined=refined, progress=progress,
+                   assumptions=_assumptions(refined, how, "the initial state is estimated with the parameters" if
+                                            refined else "the structure starts at rest (initial states from the "
+                                            "model file, else 0)"))
 
 
 def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, float], method: str = "ukf",
                      table: BranchTable | None = None, seed: int = 0, noise: float = 1e-3,
                      tuning: Tuning | None = None, passes: int = 3, replicates: int = 0,
                      jit: bool = False, progress: Callable[[], Any] | None = None,
-                     executor: Executor | None = None) -> Identification:
+                     executor: Executor | None = None, hold: bool = False, refined: bool = True) -> Identification:
     """Identify ``num`` from its own simulated response to ``record`` (the truth: ``num.values``).
 
     Parameters
@@ -428,6 +526,10 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
         Called after every pass (tuning passes included) and once per Monte-Carlo replicate.
     executor
         Where the Monte-Carlo replicates run (default: this process).
+    hold
+        Hold poorly informed parameters at their guess (default off).
+    refined
+        Refine by maximum likelihood (default on; :func:`identify_measured`).
 
     Returns
     -------
@@ -453,11 +555,11 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     grid = MEASURED_GRID if tuning is None else (tuning,)
     tuning_, scores, trs, held, prac, misfit = _run(setup, data, method=method, table=table, grid=grid,
                                                     passes=passes, replicates=replicates, seed=seed, progress=progress,
-                                                    executor=executor)
+                                                    hold=hold, executor=executor)
     levels = {c: {"ratio": noise, "source": "given (simulated)"} for c in num.inputs + num.outputs}
     return _result(setup, data, mode="simulation", method=method, passes=passes, tuning=tuning_, scores=scores,
                    trs=trs, held=held, prac=prac, misfit=misfit, noise=levels, data_dict=record.to_dict(), seed=seed,
-                   assumptions=_COMMON + (f"simulation study: the truth is the model's [values], simulated with "
-                                          f"{FIT_SUBSTEPS} RK4 substeps per sample (the integrator of the convergence "
-                                          f"check), Gaussian noise seed {seed}",
-                                          "errors: per cent of the truth; absolute where the truth is 0"))
+                   refined=refined, progress=progress,
+                   assumptions=_assumptions(refined, f"simulation study: the truth is the model's [values], simulated "
+                                            f"with {FIT_SUBSTEPS} RK4 substeps per sample, Gaussian noise seed {seed}",
+                                            "errors: per cent of the truth; absolute where the truth is 0"))

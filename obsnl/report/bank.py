@@ -7,10 +7,7 @@ written under the rule of :mod:`obsnl.report.files` (an existing file or link is
 from __future__ import annotations
 
 import json
-import os
 import re
-import shutil
-import tempfile
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -19,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import OutputError
-from obsnl.report.files import check_folder, safe_write
+from obsnl.report.files import OutputFolder, check_folder
 
 __all__ = ["bank_table_markdown", "bank_file_names", "check_bank_output", "write_bank_report", "BANK_FILES"]
 
@@ -167,11 +164,10 @@ def check_bank_output(out: str | Path, scenarios: Sequence[str], *, force: bool)
 def write_bank_report(study: Any, out: str | Path, *, force: bool = False) -> list[Path]:
     """Write ``bank.json``, ``bank.md`` and the force plots of a study into the folder ``out``.
 
-    All files are checked (:func:`check_bank_output`) and rendered before any is written: they are made
-    in a new temporary folder inside ``out`` (plots saved there by matplotlib, text through
-    :func:`obsnl.report.files.safe_write`), then renamed onto their names with :func:`os.replace`, which
-    replaces a symbolic link itself and never writes through it. On an error nothing is left behind
-    (the temporary folder is removed, and ``out`` too when this call created it).
+    All files are checked (:func:`check_bank_output`) and go through the one output writer
+    (:class:`obsnl.report.files.OutputFolder`): made in its staging folder, moved in together; without
+    ``force`` an existing file is never replaced (also one another run wrote meanwhile), with ``force`` a
+    link is replaced, never written through. On an error nothing is left behind.
 
     Parameters
     ----------
@@ -202,26 +198,9 @@ def write_bank_report(study: Any, out: str | Path, *, force: bool = False) -> li
         texts = {"bank.json": json.dumps(doc, indent=2, allow_nan=False) + "\n", "bank.md": bank_table_markdown(doc)}
     except ValueError as exc:
         raise OutputError(f"the bank results hold a number JSON cannot store ({exc}); nothing was written") from None
-    folder = Path(out)
-    made, done, tmp = not folder.exists(), False, None
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=".bank-", dir=folder))
+    with OutputFolder(out, bank_file_names(scenarios), force=force) as folder:  # all files or none, no link followed
         for name, text in texts.items():
-            safe_write(tmp / name, text, force=False, root=tmp)
-        plot_bank_forces(study, tmp)
-        names = bank_file_names(scenarios)
-        missing = [n for n in names if not (tmp / n).is_file() or (tmp / n).is_symlink()]
-        if missing:
-            raise OutputError(f"{missing[0]} was not drawn; nothing was written")
-        for name, target in zip(names, targets):
-            os.replace(tmp / name, target)
-        done = True
-    except OSError as exc:
-        raise OutputError(f"cannot write the bank report into {folder}: {exc.strerror or exc}") from None
-    finally:
-        if tmp is not None:
-            shutil.rmtree(tmp, ignore_errors=True)
-        if made and not done:
-            shutil.rmtree(folder, ignore_errors=True)
+            folder.write_text(name, text)
+        plot_bank_forces(study, folder.staging)
+        folder.commit()
     return targets

@@ -248,3 +248,54 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
         ax2.legend(fontsize=7, ncol=3, loc="upper left", title="dashed: tau", title_fontsize=7)
         paths.append(_save(plt, fig, out / f"{FIGURE_PREFIX}{name}.png", dpi=80, tight=False))
     return paths
+
+
+def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float,
+                  truth: Mapping[str, float] | None = None) -> Path:
+    """The profile likelihood of each parameter, one panel each: ``Delta chi2`` against the parameter, the
+    95 % threshold, the estimate and the interval (true value dotted where known).
+
+    Parameters
+    ----------
+    path : str or Path
+        The PNG file to write.
+    profiles : sequence
+        :class:`~obsnl.estimation.profile.Profile` values (``name``, ``estimate``, ``interval``, ``shape``,
+        ``points``).
+    threshold : float
+        The chi2 threshold of the 95 % interval.
+    truth : mapping of str to float or None
+        True values (a simulation study).
+
+    Returns
+    -------
+    Path
+    """
+    plt = _plt()
+    n = max(len(profiles), 1)
+    cols = min(n, 3)
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 2.6 * rows + 0.4), squeeze=False)
+    for ax in axes.ravel()[len(profiles):]:
+        ax.axis("off")
+    for ax, pr in zip(axes.ravel(), profiles):
+        pts = np.array(pr.points, float).reshape(-1, 2)
+        # between computed points, sqrt(Delta) is interpolated linearly on each side of the estimate (exact for a
+        # quadratic profile), so the drawn curve bends as a profile does instead of joining points by chords
+        side = np.where(pts[:, 0] < pr.estimate, -1.0, 1.0)
+        grid = np.linspace(pts[0, 0], pts[-1, 0], 200) if len(pts) > 1 else pts[:, 0]
+        signed = np.interp(grid, pts[:, 0], side * np.sqrt(np.maximum(pts[:, 1], 0.0)))
+        ax.plot(grid, signed ** 2, lw=1, color="C0")
+        ax.plot(pts[:, 0], pts[:, 1], "o", ms=3, color="C0")
+        ax.axhline(threshold, color="C3", lw=0.8, ls="--")
+        ax.axvline(pr.estimate, color="0.3", lw=0.8)
+        for end in pr.interval:
+            if end is not None:
+                ax.axvline(end, color="C3", lw=0.8)
+        if truth and pr.name in truth:
+            ax.axvline(truth[pr.name], color="k", lw=1, ls=":")
+        ax.set_title(f"{pr.name} ({pr.shape})", fontsize=9)
+        ax.set_ylabel(r"$\Delta\chi^2$", fontsize=8)
+        ax.tick_params(labelsize=7)
+    fig.suptitle("profile likelihood; dashed: 95 % threshold", fontsize=9)
+    return _save(plt, fig, path)

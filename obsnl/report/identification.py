@@ -272,9 +272,11 @@ def identify_text(doc: Mapping[str, Any]) -> str:
       tuning: s0 0.3, q_theta 0, q_x 100, gate off (the smallest output misfit after one pass of 2 configurations)
     """
     pi = doc.get("practical_identifiability") or {}
-    state = "converged" if doc.get("converged") else "NOT converged (the output misfit is above the divergence line)"
-    lines = [f"{doc['method'].upper()} on {doc['model']}, {doc['mode']} data {doc['data'].get('name', '')}, "
-             f"{doc['passes']} pass(es), {doc['seconds']:.2f} s: {state}"]
+    ref = doc.get("refinement") or {}
+    why = doc.get("converged_reason")
+    state = "converged" if doc.get("converged") else "NOT converged" + (f": {why}" if why else "")
+    lines = [f"{doc['method'].upper()}{' + maximum likelihood' if ref else ''} on {doc['model']}, {doc['mode']} data "
+             f"{doc['data'].get('name', '')}, {doc['passes']} pass(es), {doc['seconds']:.2f} s: {state}"]
     scores = doc.get("tuning_scores") or []
     if len(scores) > 1:
         t = doc["tuning"]
@@ -283,10 +285,10 @@ def identify_text(doc: Mapping[str, Any]) -> str:
                      f"one pass of {len(scores)} configurations)")
     if doc["passes_run"] < doc["passes"]:
         lines.append(f"  stopped after pass {doc['passes_run']}: its estimate cannot be simulated (the filter diverged)")
-    if pi.get("inconclusive"):
+    if pi.get("inconclusive") and not ref:  # with the refinement the profiles judge each parameter
         lines.append(f"  practical identifiability not decided: {pi['inconclusive']}")
     lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}"
-              for q, why in (pi.get("undecided") or {}).items()]
+              for q, why in (pi.get("undecided") or {}).items() if not ref]
     for d in doc["parameters"]:
         head = f"  {d['name']:10s} "
         if "true" in d:
@@ -296,6 +298,9 @@ def identify_text(doc: Mapping[str, Any]) -> str:
             continue
         std = "-" if d["std"] is None else f"{d['std']:<9.2g}"
         head += f"estimate {d['estimate']:<10.4g} std {std}"
+        if d.get("interval") is not None:
+            lo, hi = (("open" if v is None else f"{v:.4g}") for v in d["interval"])
+            head += f" 95 % [{lo}, {hi}]"
         if d.get("error") is not None:
             head += f" error {d['error']:.2f} %" if d["error_kind"] == "percent" else f" error {d['error']:.3g} (absolute)"
         lines.append(head.rstrip() + (f"  poorly informed: {d['reason']}" if d["flagged"] else ""))
@@ -303,4 +308,7 @@ def identify_text(doc: Mapping[str, Any]) -> str:
         lines.append(f"  {doc['held']} parameter(s) held at their guess")
     fit = ", ".join(f"{k} {v:.2f} %" if v is not None else f"{k} -" for k, v in doc["fit"].items())
     lines.append(f"  fit (NRMSE): {fit}")
+    if ref.get("misfit_over_noise"):
+        lines.append("  residual RMS / noise level: " + ", ".join(f"{k} {v:.2f}" for k, v in
+                                                              ref["misfit_over_noise"].items()))
     return "\n".join(lines)

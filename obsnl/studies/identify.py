@@ -40,7 +40,7 @@ __all__ = ["identify", "study", "structurally_unidentifiable", "frozen_but_joint
            "IDENTIFY_FILES"]
 
 #: What :func:`write_identification` writes into its folder.
-IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png")
+IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png", "profiles.png")
 
 
 def structurally_unidentifiable(result: Any, parameters: Sequence[str]) -> tuple[tuple[str, ...], str]:
@@ -154,6 +154,10 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
             f"NEW.toml` (the seed paper's Delta1, Delta2), use --method ukf, or pass --allow-unidentifiable")
     num = to_casadi(model, switching=table.switching if table else None)
     g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
+    unknown = sorted(set(guess or {}) - set(names))
+    if unknown:  # a misspelt guess is refused, as the command line refuses --guess kk=3
+        raise OptionError(f"guess for {unknown[0]!r}, which is not a parameter of {model.name!r} ({', '.join(names)}); "
+                          f"check the spelling")
     g.update(guess or {})
     for k, v in g.items():  # the filters estimate log|p| with the guess's sign: 0, inf and NaN cannot start
         if not (math.isfinite(v) and 0 < abs(v) < 1e100):
@@ -199,7 +203,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
              table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
              tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool = False,
              hold: bool = False, progress: Callable[[], Any] | None = None,
-             executor: Executor | None = None) -> Identification:
+             executor: Executor | None = None, refine: bool = True) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
     Parameters
@@ -231,6 +235,10 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     executor
         Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`: local processes or a Dask
         cluster; default: this process). The same numbers on any executor.
+    refine
+        Refine the filter's estimate by maximum likelihood (the default last step): Fisher std, 95 %
+        profile-likelihood intervals, flags from the intervals, ``converged`` from the optimizer's
+        first-order conditions (:mod:`obsnl.estimation.likelihood`). ``False``: the filter alone.
 
     Returns
     -------
@@ -263,15 +271,32 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
                             grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
                             replicates=replicates, seed=seed, jit=jit, hold=hold, progress=progress,
-                            executor=executor)
-    return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
+                            executor=executor, refined=refine)
+    return _cross_check(res, structural)
+
+
+def _cross_check(res: Identification, structural: Mapping[str, Any]) -> Identification:
+    """The structural note, and each flat profile held against the structural verdict."""
+    bad = set(structural["unidentifiable"])
+    params = []
+    for p in res.parameters:
+        flat = p.interval_method is not None and p.interval_method.endswith("flat")
+        if flat:
+            said = ("as the structural analysis says" if p.name in bad else
+                    "although the structural analysis calls it identifiable: this record does not excite what "
+                    "reveals it")
+            p = dataclasses.replace(p, reason=f"{p.reason}; {said}")
+        params.append(p)
+    return dataclasses.replace(res, parameters=tuple(params), structural=structural,
+                               assumptions=res.assumptions + _structural_note(structural))
 
 
 def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapping[str, float] | None = None,
           noise: float = 1e-3, method: str = "ukf", table: BranchTable | str | Path | None = None, passes: int = 3,
           replicates: int = 0, seed: int = 0, tuning: Tuning | None = None, samples: int | None = None,
-          allow_unidentifiable: bool = False, jit: bool = False,
-          progress: Callable[[], Any] | None = None, executor: Executor | None = None) -> Identification:
+          allow_unidentifiable: bool = False, jit: bool = False, hold: bool = False,
+          progress: Callable[[], Any] | None = None, executor: Executor | None = None,
+          refine: bool = True) -> Identification:
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
 
     Same structural check as :func:`identify`; see
@@ -305,6 +330,10 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         Progress callback.
     executor : Executor or None
         Where the Monte-Carlo replicates run (default: this process).
+    hold : bool
+        Hold poorly informed parameters at their guess (default: off, nothing is held).
+    refine : bool
+        Refine by maximum likelihood (default on; see :func:`identify`).
 
     Returns
     -------
@@ -335,13 +364,15 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
                           f"{[s.name for s in model.inputs]}: give measured data with --data")
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
     res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise, tuning=tuning,
-                           passes=passes, replicates=replicates, jit=jit, progress=progress, executor=executor)
-    return dataclasses.replace(res, structural=structural, assumptions=res.assumptions + _structural_note(structural))
+                           passes=passes, replicates=replicates, jit=jit, progress=progress, executor=executor,
+                           hold=hold, refined=refine)
+    return _cross_check(res, structural)
 
 
 def write_identification(result: Identification, out: str | Path, *, force: bool = False) -> list[Path]:
-    """Write ``identify.json``, ``fit.png`` (measured vs simulated per output) and ``traces.png``
-    (parameter traces over the passes with +-2 sigma bands) into the folder ``out``.
+    """Write ``identify.json``, ``fit.png`` (measured vs simulated per output), ``traces.png`` (parameter
+    traces over the passes with +-2 sigma bands) and ``profiles.png`` (the profile likelihood of each
+    parameter; an empty sheet after ``refine=False``) into the folder ``out``, all of them or none.
 
     Parameters
     ----------
@@ -350,7 +381,7 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     out : str or Path
         The folder.
     force : bool
-        Overwrite existing files.
+        Replace existing files (a link is replaced, never followed).
 
     Returns
     -------
@@ -360,22 +391,23 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     ------
     OutputError
         ``out`` is a file or a link, cannot be written, or one of the files exists (or is a link) and
-        ``force`` is not set (:func:`obsnl.report.files.check_folder`).
+        ``force`` is not set (:class:`obsnl.report.files.OutputFolder`).
 
     Examples
     --------
     >>> IDENTIFY_FILES[0]
     'identify.json'
     """
-    from obsnl.report.figures import plot_fit, plot_traces
+    from obsnl.estimation.profile import THRESHOLD
+    from obsnl.report.figures import plot_fit, plot_profiles, plot_traces
+    from obsnl.report.files import OutputFolder
 
-    from obsnl.report.files import check_folder, safe_write
-
-    folder = check_folder(out, IDENTIFY_FILES, force=force)  # inside out, no link followed, no file replaced unasked
-    path = safe_write(folder / "identify.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n",
-                      force=force, root=folder)
     truth = {p.name: p.true for p in result.parameters if p.true is not None}
-    return [path, plot_fit(folder / "fit.png", t=result.t, measured=result.y_measured, simulated=result.y_fit,
-                           outputs=result.outputs, fit=result.fit),
-            plot_traces(folder / "traces.png", traces=result.traces, truth=truth,
-                        held=result.held, flagged=result.flagged)]
+    with OutputFolder(out, IDENTIFY_FILES, force=force) as folder:  # no link followed, all files or none
+        folder.write_text("identify.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n")
+        plot_fit(folder.path("fit.png"), t=result.t, measured=result.y_measured, simulated=result.y_fit,
+                 outputs=result.outputs, fit=result.fit)
+        plot_traces(folder.path("traces.png"), traces=result.traces, truth=truth, held=result.held,
+                    flagged=result.flagged)
+        plot_profiles(folder.path("profiles.png"), profiles=result.profiles, threshold=THRESHOLD, truth=truth)
+        return folder.commit()

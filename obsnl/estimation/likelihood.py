@@ -1,0 +1,435 @@
+"""Maximum likelihood after the filter: the output-error fit of the parameters and the initial state.
+
+The filter's passes are the initializer; this module finds the maximum of the likelihood of the
+measured outputs given the measured inputs.
+
+Formulation (output error, single shooting). With Gaussian white output noise of standard deviation
+``sigma_c`` per channel, the negative log-likelihood is, up to a constant, half of
+
+.. math:: \\chi^2(z) = \\sum_{k, c} \\big((\\hat y_c(t_k; z) - y_c(t_k)) / \\sigma_c\\big)^2,
+
+``z = (phi, s)``: the parameters in the filter's coordinates ``phi = log|theta|`` and the initial state
+``x0 = x0_ref + scale * s`` (records start in motion, so ``x0`` is estimated too). ``y_hat`` is the model
+simulated from ``x0`` under the measured input by the same discrete step as everywhere in obsnl
+(:meth:`obsnl.estimation.numeric.NumericModel.step`: RK4 substeps, a substep in which a switching function
+across which the field jumps changes sign redone finer, ROS2 where stiff). The derivatives of the
+residuals are exact derivatives of that discrete map (casadi's forward mode through the whole record),
+not finite differences. Why output error and not the filter's innovations: the filter's process noise is
+a tuning device, not a property of the structure, and the output-error likelihood is the one that the
+profile-likelihood intervals (:mod:`obsnl.estimation.profile`) and the Fisher information need; single
+shooting suffices because the refinement starts at the filter's estimate (near the optimum) and the
+structures are damped (their sensitivities do not grow along the record).
+
+Solver: Levenberg-Marquardt with Marquardt's diagonal scaling on the Gauss-Newton Hessian ``J'J``,
+each step accepted only if it lowers ``chi2`` (so a step across a branch switch that the linear model
+did not foresee is rejected and the damping raised). Non-smoothness: inside a branch the discrete map is
+smooth; where the vector field is continuous across a switching surface (Bouc-Wen's ``sign(v z)``) the
+map stays once differentiable and Gauss-Newton converges as usual; where the field jumps (the healing
+switch of the seed model), the crossing time moves with the parameters and its contribution to the
+derivative is not in ``J`` (the refined substep is differentiated along its branch): there the
+Gauss-Newton direction is an approximation and the acceptance test keeps the iteration monotone.
+
+Noise levels: the fit starts with the given or estimated noise per channel, then re-weights once with
+the maximum-likelihood noise ``sigma_c^2 = RSS_c / N`` of the fit (the concentrated likelihood of
+unknown channel variances) and refits. The Fisher information ``J'J`` at the optimum, with those
+weights, gives the standard deviations.
+
+Convergence (:attr:`Refinement.converged`) is claimed only when the first-order condition holds
+(Newton decrement ``g' H^+ g`` below ``DECREMENT``: the remaining Gauss-Newton step moves no parameter by
+more than ``sqrt(DECREMENT)`` of its std), the last accepted step moved no parameter by more than
+``STEP_LIMIT`` of its std, and no parameter sits on the edge of its valid region.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import casadi as ca
+import numpy as np
+
+from obsnl.errors import EstimatorError
+from obsnl.estimation.evaluate import call
+from obsnl.estimation.setup import BOUND, Data, Setup
+
+__all__ = ["Objective", "Fit", "Refinement", "objective", "levenberg_marquardt", "refine", "covariance",
+           "DECREMENT", "STEP_LIMIT"]
+
+#: First-order condition: the Newton decrement ``g' H^+ g`` (the chi2 decrease a full Gauss-Newton step
+#: would bring) at the estimate is below this; by Cauchy-Schwarz the step then moves no coordinate by
+#: more than ``sqrt(DECREMENT)`` of its standard deviation.
+DECREMENT = 1e-2
+#: The iteration itself goes on until the decrement is below this (or no step lowers chi2): Gauss-Newton
+#: converges fast near the optimum, so the estimate is then the optimum to about 3e-5 of a std.
+STOP = 1e-9
+#: The last accepted step moved no parameter by more than this fraction of its standard deviation.
+STEP_LIMIT = 0.1
+#: A damped step that fails to lower chi2 when a full Gauss-Newton step could gain at most this much ends the
+#: iteration: the objective's own roughness (switches of a discontinuous field inside a step) is of that size.
+ROUGH = 0.1
+#: Relative eigenvalue below which a direction of ``J'J`` counts as uninformed (a flat likelihood).
+NULL_TOL = 1e-10
+
+
+@dataclass(frozen=True, eq=False)
+class Objective:
+    """The whitened output-error residuals of one record and their exact Jacobian.
+
+    ``evaluate(z) -> (r, J)``: ``r`` of length ``T * ny`` (sample-major), ``J`` ``(T * ny, nz)``; ``z`` is
+    ``phi`` (``np`` parameter coordinates) followed by the scaled initial state ``s`` (``nx``).
+    ``sigma``: the noise std per output used as weights (:meth:`reweighted` changes them).
+    """
+
+    setup: Setup
+    data: Data
+    substeps: int
+    scale: np.ndarray
+    sigma: np.ndarray
+    function: ca.Function = field(repr=False)
+
+    @property
+    def n_parameters(self) -> int:
+        return self.setup.model.np
+
+    def theta(self, z: np.ndarray) -> np.ndarray:
+        """The model parameters at ``z``."""
+        return self.setup.coordinates.to_theta(np.asarray(z)[:self.n_parameters])
+
+    def x0(self, z: np.ndarray) -> np.ndarray:
+        """The initial state at ``z``."""
+        return self.setup.x0 + self.scale * np.asarray(z)[self.n_parameters:]
+
+    def evaluate(self, z: np.ndarray, *, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """Residuals (and their Jacobian) at ``z``; non-finite entries where the simulation overflowed."""
+        y = np.asarray(self.data.y, float).reshape(len(self.data.u), -1)
+        u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
+        r, J = call(self.function, [np.asarray(z, float), u.T, y.T, 1.0 / self.sigma])
+        return np.asarray(r).ravel(), (np.asarray(J) if jacobian else None)
+
+    def reweighted(self, sigma: np.ndarray) -> Objective:
+        """The same objective with other noise levels (the function takes them as an argument)."""
+        return Objective(self.setup, self.data, self.substeps, self.scale, np.asarray(sigma, float), self.function)
+
+
+_BUILT: dict[tuple, ca.Function] = {}
+
+
+def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | None = None,
+              sigma: np.ndarray | None = None) -> Objective:
+    """The output-error objective of ``setup`` on ``data``.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment (model, record step, coordinates, noise levels, the integrator's ``refine``).
+    data : Data
+        Measured inputs and outputs.
+    theta : numpy.ndarray
+        Parameter values at which the states' typical magnitudes (the scale of ``x0``) are taken.
+    substeps : int or None
+        RK4 substeps per sample (default: ``setup.fit_substeps``, else the filter's).
+    sigma : numpy.ndarray or None
+        Noise std per output (default: the setup's levels on these data).
+
+    Returns
+    -------
+    Objective
+    """
+    from obsnl.estimation.simulate import simulate
+
+    m = setup.model
+    n = int(substeps or setup.fit_substeps or setup.substeps)
+    T = len(data.u)
+    sim = simulate(m, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=n, refine=setup.refine)
+    typical = np.sqrt(np.mean(sim.x ** 2, axis=0))
+    scale = np.maximum(typical, 1e-2 * max(float(typical.max()), 1e-300))
+    key = (id(m), id(setup.coordinates), float(setup.record.dt), T, n, int(setup.refine), scale.tobytes(),
+           setup.x0.tobytes())
+    if key not in _BUILT:
+        step = m.step(setup.record.dt, substeps=n, refine=setup.refine)
+        phi, s = ca.MX.sym("phi", m.np), ca.MX.sym("s", m.nx)
+        U, Y, W = ca.MX.sym("u", m.nu, T), ca.MX.sym("y", m.ny, T), ca.MX.sym("w", m.ny)
+        th = setup.coordinates.forward(phi)
+        x0 = ca.DM(setup.x0) + ca.DM(scale) * s
+        X = ca.horzcat(x0, step.mapaccum(T - 1)(x0, th, U[:, :-1], U[:, 1:])[0])
+        Yhat = m.h.map(T)(X, ca.repmat(th, 1, T), U)
+        R = ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
+        z = ca.vertcat(phi, s)
+        _BUILT[key] = ca.Function("output_error", [z, U, Y, W], [R, ca.jacobian(R, z)], ["z", "u", "y", "w"],
+                                  ["r", "J"])
+        if len(_BUILT) > 16:
+            _BUILT.pop(next(iter(_BUILT)))
+    if sigma is None:
+        sigma = setup.noise_std(data)[1]
+    return Objective(setup, data, n, scale, np.maximum(np.asarray(sigma, float), 1e-300), _BUILT[key])
+
+
+def covariance(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The inverse Fisher information ``(J'J)^+`` and a mask of the coordinates along a flat direction.
+
+    The eigen-analysis is made on the correlation form ``D^-1/2 J'J D^-1/2`` (``D`` its diagonal), so
+    that coordinates of very different scales are judged alike: a coordinate whose column of ``J`` is 0,
+    or that has a weight above 1e-3 in an eigenvector whose eigenvalue is below ``NULL_TOL``, lies along
+    a flat direction of the likelihood; its variance is set to ``inf``. The rest is the pseudo-inverse.
+
+    Examples
+    --------
+    >>> C, flat = covariance(np.array([[1.0, 1.0, 0.0], [2.0, 2.0, 0.0], [0.0, 0.0, 2.0]]))
+    >>> flat.tolist(), float(C[2, 2])
+    ([True, True, False], 0.25)
+    """
+    H = J.T @ J
+    d = np.sqrt(np.diag(H))
+    live = d > 0
+    dl = np.where(live, d, 1.0)
+    w, V = np.linalg.eigh(H / np.outer(dl, dl))
+    keep = w > NULL_TOL
+    Cs = (V[:, keep] / w[keep]) @ V[:, keep].T
+    C = Cs / np.outer(dl, dl)
+    flat = ~live | (np.any(np.abs(V[:, ~keep]) > 1e-3, axis=1) if (~keep).any() else np.zeros(len(w), bool))
+    C[~live, :] = 0.0
+    C[:, ~live] = 0.0
+    C[np.diag_indices_from(C)] = np.where(flat, np.inf, np.diag(C))
+    return C, flat
+
+
+@dataclass(frozen=True)
+class Fit:
+    """One Levenberg-Marquardt run: the point, its chi2, and how it ended."""
+
+    z: np.ndarray
+    chi2: float
+    iterations: int
+    evaluations: int
+    decrement: float
+    last_step: float
+    at_bound: tuple[int, ...]
+    stalled: bool
+    J: np.ndarray = field(repr=False)
+    r: np.ndarray = field(repr=False)
+
+
+def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], z0: np.ndarray,
+                        lower: np.ndarray, upper: np.ndarray, *, free: Sequence[bool] | None = None,
+                        max_iter: int = 60, max_evals: int = 400) -> Fit:
+    """Minimise ``|r(z)|^2`` from ``z0`` within ``[lower, upper]``, moving only the ``free`` coordinates.
+
+    Marquardt's damping ``(J'J + lam diag(J'J)) dz = -J'r``; a step is accepted only when it lowers the
+    sum of squares; a coordinate on a bound whose gradient pushes it outwards is held there for the
+    iteration (the first-order conditions of the bounded problem). Stops when the Newton decrement is
+    below ``STOP`` and the last accepted step moved every free coordinate by at most ``STEP_LIMIT`` of its
+    std, when three ever shorter steps fail to lower the sum although a full step could gain ``ROUGH``
+    at most (``stalled``), or after ``max_iter`` iterations or ``max_evals`` evaluations.
+
+    Parameters
+    ----------
+    fun : callable
+        ``z -> (r, J)``.
+    z0, lower, upper : numpy.ndarray
+        Start and bounds.
+    free : sequence of bool or None
+        Coordinates to move (default: all).
+    max_iter : int
+        Iterations at most.
+    max_evals : int
+        Evaluations of ``fun`` at most.
+
+    Returns
+    -------
+    Fit
+
+    Raises
+    ------
+    EstimatorError
+        The residuals are not finite at ``z0``.
+
+    Examples
+    --------
+    >>> A = np.array([[1.0, 0.0], [1.0, 1.0], [1.0, 2.0]]); b = np.array([1.0, 2.0, 2.0])
+    >>> fit = levenberg_marquardt(lambda z: (A @ z - b, A), np.zeros(2), np.full(2, -9.0), np.full(2, 9.0))
+    >>> bool(np.allclose(fit.z, np.linalg.lstsq(A, b, rcond=None)[0]))
+    True
+    """
+    free = np.ones(len(z0), bool) if free is None else np.asarray(free, bool)
+    z = np.clip(np.asarray(z0, float), lower, upper)
+    r, J = fun(z)
+    if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
+        raise EstimatorError("the model cannot be simulated at the start of the likelihood fit (non-finite output "
+                             "or derivatives)")
+    cost, lam, evals, last, it, stalled = float(r @ r), 1e-3, 1, math.inf, 0, False
+    decrement = math.inf
+    for it in range(1, max_iter + 1):
+        gz = J.T @ r
+        # active set: a coordinate on a bound whose gradient pushes it out stays there this iteration (KKT)
+        blocked = free & (((z <= lower) & (gz > 0)) | ((z >= upper) & (gz < 0)))
+        move = free & ~blocked
+        Jf = J[:, move]
+        g, H = gz[move], Jf.T @ Jf
+        C, _ = covariance(Jf)
+        std = np.sqrt(np.diag(C))
+        Cg = np.where(np.isfinite(C), C, 0.0) @ g  # the pseudo-inverse on the informed directions
+        decrement = float(g @ Cg)
+        if decrement <= STOP and last <= STEP_LIMIT:
+            it -= 1
+            break
+        d = np.maximum(np.diag(H), 1e-12 * max(float(np.diag(H).max(initial=0.0)), 1e-300))
+        fails = 0
+        while True:
+            try:
+                dz = -np.linalg.solve(H + lam * np.diag(d), g)
+            except np.linalg.LinAlgError:
+                dz = -np.linalg.lstsq(H + lam * np.diag(d), g, rcond=None)[0]
+            zn = z.copy()
+            zn[move] = np.clip(z[move] + dz, lower[move], upper[move])
+            rn, Jn = fun(zn)
+            evals += 1
+            ok = np.all(np.isfinite(rn)) and np.all(np.isfinite(Jn))
+            cn = float(rn @ rn) if ok else math.inf
+            if cn < cost:
+                moved = zn[move] - z[move]
+                pred = -(2 * g @ moved + moved @ H @ moved)
+                rho = (cost - cn) / pred if pred > 0 else 0.0
+                lam = max(lam * max(1 / 3, 1 - (2 * rho - 1) ** 3), 1e-12)
+                with np.errstate(divide="ignore", invalid="ignore"):
+                    last = float(np.max(np.where(std > 0, np.abs(moved) / std, 0.0), initial=0.0))
+                z, r, J, cost = zn, rn, Jn, cn
+                break
+            lam, fails = lam * 4.0, fails + 1
+            if lam > 1e10 or (decrement <= ROUGH and fails >= 3) or evals >= max_evals:  # bottom, up to roughness
+                stalled = True
+                break
+        if stalled or evals >= max_evals:
+            # no step lowers chi2: at the bottom to rounding (then the decrement is at rounding level), or stuck
+            last = 0.0
+            break
+    at_bound = tuple(int(i) for i in np.flatnonzero(free & ((z <= lower) | (z >= upper))))
+    return Fit(z=z, chi2=cost, iterations=it, evaluations=evals, decrement=decrement, last_step=last,
+               at_bound=at_bound, stalled=stalled, J=J, r=r)
+
+
+@dataclass(frozen=True, eq=False)
+class Refinement:
+    """The maximum-likelihood estimate and what it rests on.
+
+    ``theta``, ``x0``: the estimate; ``std``: per parameter, from the Fisher information at the estimate
+    (``inf`` along a flat direction); ``cov``: the covariance of ``z = (phi, s)``; ``sigma``: the noise std per
+    output estimated from the residuals (the weights of ``cov``); ``misfit``: per output, the RMS residual
+    over the noise level given or estimated before the fit (1: at the noise floor); ``converged`` with
+    ``reason``; ``objective`` and ``fit`` feed the profiles (:mod:`obsnl.estimation.profile`).
+    """
+
+    theta: np.ndarray
+    x0: np.ndarray
+    std: np.ndarray
+    cov: np.ndarray = field(repr=False)
+    sigma: np.ndarray = field(repr=False)
+    misfit: dict[str, float] = field(default_factory=dict)
+    chi2: float = math.nan
+    converged: bool = False
+    reason: str = ""
+    iterations: int = 0
+    seconds: float = 0.0
+    held: tuple[str, ...] = ()
+    at_edge: tuple[str, ...] = ()
+    lower: np.ndarray = field(default=None, repr=False)
+    upper: np.ndarray = field(default=None, repr=False)
+    fit: Fit = field(default=None, repr=False)
+    objective: Objective = field(default=None, repr=False)
+
+    def to_dict(self) -> dict[str, Any]:
+        f = self.fit
+        return {"method": "maximum likelihood (output error, single shooting; Levenberg-Marquardt with exact "
+                          f"derivatives through the {self.objective.substeps}-substep integrator)",
+                "converged": self.converged, "reason": self.reason, "iterations": self.iterations,
+                "evaluations": f.evaluations, "newton_decrement": f.decrement, "last_step_in_std": f.last_step,
+                "chi2": self.chi2, "samples": int(len(f.r)), "seconds": self.seconds,
+                "noise_std": {o: float(s) for o, s in zip(self.objective.setup.model.outputs, self.sigma)},
+                "misfit_over_noise": dict(self.misfit),
+                "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)}}
+
+
+def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
+           substeps: int | None = None, max_iter: int = 60) -> Refinement:
+    """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment (model, coordinates, noise levels, valid region: ``BOUND`` around the guesses).
+    data : Data
+        Measured inputs and outputs.
+    theta0 : numpy.ndarray
+        The starting parameters (the filter's estimate).
+    held : sequence of str
+        Parameters kept at their value in ``theta0``.
+    substeps : int or None
+        RK4 substeps per sample of the objective (default: twice the filter's, ``2 * setup.substeps``; a
+        crossing substep is refined as everywhere).
+    max_iter : int
+        Levenberg-Marquardt iterations at most, per weighting.
+
+    Returns
+    -------
+    Refinement
+
+    Raises
+    ------
+    EstimatorError
+        The model cannot be simulated at ``theta0``.
+    """
+    t0 = time.perf_counter()
+    m = setup.model
+    obj = objective(setup, data, theta=theta0, substeps=substeps or 2 * setup.substeps)
+    phi0 = setup.coordinates.to_phi(theta0)
+    guess = setup.coordinates.to_phi(setup.theta_guess)
+    lower = np.r_[guess - BOUND, np.full(m.nx, -np.inf)]
+    upper = np.r_[guess + BOUND, np.full(m.nx, np.inf)]
+    free = np.r_[[p not in held for p in m.parameters], np.ones(m.nx, bool)]
+    z = np.r_[phi0, np.zeros(m.nx)]
+    noise = obj.sigma
+    fit = None
+    iterations = 0
+    for _ in range(2):  # the given noise levels, then the ML levels of the fit (concentrated likelihood)
+        fit = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter)
+        iterations += fit.iterations
+        res = fit.r.reshape(-1, m.ny) * obj.sigma
+        sigma = np.maximum(np.sqrt(np.mean(res ** 2, axis=0)), 1e-300)
+        z = fit.z
+        if np.allclose(sigma, obj.sigma, rtol=1e-3):
+            break
+        obj = obj.reweighted(sigma)
+    r, J = obj.evaluate(z)
+    fit = Fit(z=z, chi2=float(r @ r), iterations=fit.iterations, evaluations=fit.evaluations,
+              decrement=fit.decrement, last_step=fit.last_step, at_bound=fit.at_bound, stalled=fit.stalled, J=J, r=r)
+    C_free, _ = covariance(J[:, free])
+    C = np.zeros((len(z), len(z)))
+    C[np.ix_(free, free)] = C_free
+    theta = obj.theta(z)
+    std = np.array([abs(theta[i]) * math.sqrt(C[i, i]) if free[i] else 0.0 for i in range(m.np)])
+    res = r.reshape(-1, m.ny) * obj.sigma
+    misfit = {o: float(np.sqrt(np.mean(res[:, j] ** 2)) / noise[j]) for j, o in enumerate(m.outputs)}
+    converged, reason = _verdict(fit, m.parameters, free)
+    return Refinement(theta=theta, x0=obj.x0(z), std=std, cov=C, sigma=obj.sigma, misfit=misfit, chi2=fit.chi2,
+                      converged=converged, reason=reason, iterations=iterations,
+                      at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
+                      seconds=time.perf_counter() - t0, held=tuple(held), lower=lower, upper=upper, fit=fit,
+                      objective=obj)
+
+
+def _verdict(fit: Fit, parameters: Sequence[str], free: np.ndarray) -> tuple[bool, str]:
+    edge = [parameters[i] for i in fit.at_bound if i < len(parameters)]
+    if fit.decrement > DECREMENT:
+        what = "no step lowers the misfit any more" if fit.stalled else f"stopped after {fit.iterations} iterations"
+        return False, (f"first-order condition not met: a Gauss-Newton step would still lower chi2 by "
+                       f"{fit.decrement:.3g} ({what}); the objective may be rough here (a switch of the field "
+                       f"inside a step): try other --guess values or more --passes")
+    if fit.last_step > STEP_LIMIT:
+        return False, (f"the last step moved a parameter by {fit.last_step:.2g} of its std (more than {STEP_LIMIT:g}); "
+                       f"run again with more --passes")
+    note = (f"; {', '.join(edge)} rests on the edge of its valid region (a factor 100 from the guess; the first-order "
+            f"conditions of the bounded problem hold there)" if edge else "")
+    return True, (f"first-order condition met (Newton decrement {fit.decrement:.2g} <= {DECREMENT:g}) and the last "
+                  f"step moved no parameter by more than {STEP_LIMIT:g} of its std" + note)

@@ -1,0 +1,265 @@
+"""Profile-likelihood intervals of the parameters at the maximum-likelihood estimate.
+
+For a parameter ``theta_i`` the profile is ``PL(phi_i) = min chi2`` over every other coordinate (the
+other parameters and the initial state) with ``phi_i = log|theta_i|`` fixed; ``Delta(phi_i) = PL - chi2_min``.
+The 95 % interval is where ``Delta`` stays below the 0.95 quantile of chi2 with one degree of freedom,
+``THRESHOLD = 3.8415`` (Raue, Kreutz, Maiwald, Bachmann, Schilling, Klingmüller and Timmer, "Structural and
+practical identifiability analysis of partially observed dynamical models by exploiting the profile
+likelihood", Bioinformatics 25:1923-1929, 2009, doi:10.1093/bioinformatics/btp358). The interval is
+invariant under a monotone change of coordinates, so it is the same whether ``theta`` or ``log|theta|``
+is profiled.
+
+Search, per side: the first trial is the quadratic prediction ``sqrt(THRESHOLD)`` standard deviations from
+the estimate (exact when the model is linear in its parameters); then regula falsi on ``sqrt(Delta)``
+(linear in the distance for a quadratic profile) between the last point below and the first above the
+threshold, until ``|Delta - THRESHOLD| <= TOLERANCE``; below the threshold, trials grow by at most 3x.
+Each profile point re-optimises the other coordinates with Levenberg-Marquardt from the linear
+prediction ``z_hat + C[:, i] / C[i, i] * (phi_i - phi_hat_i)``.
+
+Shapes: ``closed`` (both ends found); ``open-low``/``open-high``: ``Delta`` stays below the threshold up to
+``SEARCH`` (a factor 10 of the estimate) on that side: the data do not bound the parameter there
+(practical non-identifiability); ``flat``: open on both sides with ``Delta`` never above ``FLAT``
+anywhere, the signature of a structural non-identifiability (cross-checked with the analysis by the
+caller).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from obsnl.errors import EstimatorError
+from obsnl.estimation.likelihood import Refinement, levenberg_marquardt
+
+__all__ = ["Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND", "MAX_SECONDS"]
+
+#: chi2(1) 0.95 quantile (scipy.stats.chi2.ppf(0.95, 1)).
+THRESHOLD = 3.841458820694124
+#: How close to the threshold an interval end is found (in chi2 units: about 0.01 std of the end).
+TOLERANCE = 0.02
+#: The farthest a profile is followed from the estimate, in ``log|theta|``: a factor 10.
+SEARCH = math.log(10.0)
+#: A profile whose rise stays below this everywhere it was followed is flat.
+FLAT = 0.1
+#: Time budget of the profiles of one estimate (s): beyond it the remaining parameters get no interval.
+MAX_SECONDS = 900.0
+#: Profile points per side at most (each a re-optimisation of every other coordinate).
+POINTS = 8
+
+
+@dataclass(frozen=True)
+class Profile:
+    """The profile of one parameter: its points, the 95 % interval and its shape.
+
+    ``points``: ``(theta_i, Delta)`` pairs, sorted by ``theta_i`` (the estimate included with 0);
+    ``interval``: ``(low, high)`` in the parameter's own units, ``None`` on an open side; ``shape``: one of
+    ``closed``, ``open-low``, ``open-high``, ``open`` (both sides open, rising somewhere), ``flat``, or
+    ``not-optimal`` (a profile point fitted better than the estimate: no interval is claimed), or
+    ``not-computed`` (the time budget of :func:`profiles` ran out first);
+    ``better``: a profile point whose chi2 fell below the optimum (the estimate was not the global
+    optimum along this parameter), else ``None``.
+    """
+
+    name: str
+    estimate: float
+    interval: tuple[float | None, float | None]
+    shape: str
+    points: tuple[tuple[float, float], ...] = field(repr=False)
+    evaluations: int = 0
+    better: float | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "estimate": self.estimate, "interval": list(self.interval), "shape": self.shape,
+                "points": [list(p) for p in self.points], "evaluations": self.evaluations, "better": self.better}
+
+
+def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray) -> tuple[float, np.ndarray, int]:
+    """chi2 minimised over the free coordinates other than ``i`` with ``z_i = phi_i``."""
+    z0 = start.copy()
+    z0[i] = phi_i
+    free = np.ones(len(z0), bool)
+    free[i] = False
+    for h in ref.held:
+        free[ref.objective.setup.model.parameters.index(h)] = False
+    fit = levenberg_marquardt(ref.objective.evaluate, z0, ref.lower, ref.upper, free=free, max_iter=20, max_evals=30)
+    return fit.chi2, fit.z, fit.evaluations
+
+
+def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: float = TOLERANCE) -> Profile:
+    """The profile likelihood of parameter ``name`` around the estimate of ``ref``.
+
+    Parameters
+    ----------
+    ref : Refinement
+        The maximum-likelihood estimate (:func:`obsnl.estimation.likelihood.refine`).
+    name : str
+        The parameter (not held).
+    search : float
+        How far to follow the profile on each side, in ``log|theta|``.
+    tolerance : float
+        How close to ``THRESHOLD`` (chi2 units) an interval end must be.
+
+    Returns
+    -------
+    Profile
+    """
+    m = ref.objective.setup.model
+    i = m.parameters.index(name)
+    z_hat, C = ref.fit.z, ref.cov
+    chi2_min = ref.chi2
+    sd = math.sqrt(C[i, i]) if math.isfinite(C[i, i]) and C[i, i] > 0 else math.inf
+    slope = np.where(np.isfinite(C[:, i]), C[:, i], 0.0) / C[i, i] if math.isfinite(sd) else np.zeros(len(z_hat))
+    slope[i] = 1.0
+    lo_edge, hi_edge = ref.lower[i], ref.upper[i]
+    points = [(0.0, 0.0)]
+    ends: list[float | None] = []
+    evals, better = 0, None
+    peak = 0.0
+    for side in (-1.0, 1.0):
+        limit = min(search, (z_hat[i] - lo_edge) if side < 0 else (hi_edge - z_hat[i]))
+        inner, outer = (0.0, 0.0), None  # (distance, sqrt(Delta)) below / above the threshold
+        d = min(math.sqrt(THRESHOLD) * sd, limit) if math.isfinite(sd) else min(0.05, limit)
+        end = None
+        start = z_hat.copy()
+        for _ in range(POINTS):
+            guess = z_hat + slope * side * d
+            c2, z, n = _point(ref, i, z_hat[i] + side * d, np.where(np.isfinite(guess), guess, start))
+            evals += n
+            delta = c2 - chi2_min
+            if delta < -max(tolerance, FLAT) and (better is None or c2 < better):
+                better = c2  # the estimate is not the optimum along this parameter: its profile means little
+                break
+            delta = max(delta, 0.0)
+            peak = max(peak, delta)
+            points.append((side * d, delta))
+            if abs(delta - THRESHOLD) <= tolerance:
+                end = side * d
+                break
+            if delta < THRESHOLD:
+                inner, start = (d, math.sqrt(delta)), z
+                if d >= limit - 1e-12:
+                    break  # open on this side
+                if outer is None:
+                    grow = math.sqrt(THRESHOLD / delta) if delta > 1e-12 else 3.0
+                    d = min(d * min(max(grow, 1.1), 3.0), limit)
+                    continue
+            else:
+                outer = (d, math.sqrt(delta))
+            (a, fa), (b, fb) = inner, outer
+            d = a + (math.sqrt(THRESHOLD) - fa) * (b - a) / (fb - fa)
+            d = min(max(d, a + 1e-3 * (b - a)), b - 1e-3 * (b - a))
+        else:
+            if outer is not None:  # the bracket is tight enough: take its interpolated end
+                end = side * d
+        ends.append(end)
+        if better is not None:
+            break
+    ends += [None] * (2 - len(ends))
+    to_theta = lambda phi: float(ref.objective.theta(np.r_[z_hat[:i], phi, z_hat[i + 1:]])[i])  # noqa: E731
+    lo, hi = (None if e is None else to_theta(z_hat[i] + e) for e in ends)
+    if ref.theta[i] < 0:  # theta = -exp(phi): the order flips
+        lo, hi = hi, lo
+    shape = ("not-optimal" if better is not None else "closed" if lo is not None and hi is not None else "flat" if peak < FLAT
+             else "open-low" if lo is None and hi is not None else "open-high" if hi is None and lo is not None
+             else "open")
+    pts = tuple(sorted((to_theta(z_hat[i] + d), float(v)) for d, v in points))
+    return Profile(name=name, estimate=float(ref.theta[i]), interval=(lo, hi), shape=shape, points=pts,
+                   evaluations=evals, better=better)
+
+
+def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress: Any = None,
+             max_seconds: float | None = MAX_SECONDS) -> tuple[Profile, ...]:
+    """:func:`profile` of every parameter that is not held (or of ``names``), within a time budget.
+
+    A parameter whose profile was not started when ``max_seconds`` had passed gets no interval (shape
+    ``not-computed``; :func:`judge` flags it with that reason): the work stays bounded on large models.
+
+    Parameters
+    ----------
+    ref : Refinement
+        The estimate.
+    names : tuple of str or None
+        The parameters to profile (default: every free one).
+    progress : callable or None
+        Called after each profile.
+    max_seconds : float or None
+        Time budget of all the profiles (None: none).
+
+    Returns
+    -------
+    tuple of Profile
+
+    Raises
+    ------
+    EstimatorError
+        A profile point cannot be simulated.
+    """
+    names = names or tuple(p for p in ref.objective.setup.model.parameters if p not in ref.held)
+    out = []
+    t0 = time.perf_counter()
+    for p in names:
+        if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
+            i = ref.objective.setup.model.parameters.index(p)
+            out.append(Profile(name=p, estimate=float(ref.theta[i]), interval=(None, None), shape="not-computed",
+                               points=((float(ref.theta[i]), 0.0),)))
+            if progress:
+                progress()
+            continue
+        try:
+            out.append(profile(ref, p))
+        except EstimatorError as exc:
+            raise EstimatorError(f"the profile of {p} left the region where the model can be simulated: {exc}") from None
+        if progress:
+            progress()
+    return tuple(out)
+
+
+#: The band within which an identified parameter's 95 % interval must lie (relative to the estimate).
+BAND = 0.05
+
+
+def judge(prof: Profile, *, band: float = BAND) -> str | None:
+    """Why a parameter is flagged by its profile (None: its 95 % interval lies within ``+-band``).
+
+    Parameters
+    ----------
+    prof : Profile
+        The parameter's profile.
+    band : float
+        Relative half-width of the band.
+
+    Returns
+    -------
+    str or None
+
+    Examples
+    --------
+    >>> judge(Profile("k", 2.0, (1.99, 2.02), "closed", ())) is None
+    True
+    >>> judge(Profile("k", 2.0, (1.5, 2.6), "closed", ()))
+    'its 95 % profile-likelihood interval [1.5, 2.6] is wider than +-5 % of the estimate 2'
+    """
+    lo, hi = prof.interval
+    est = prof.estimate
+    if prof.shape == "not-computed":
+        return (f"no interval: the profiles' time budget ({MAX_SECONDS:g} s) ran out before this one; its std is "
+                f"from the Fisher information alone")
+    if prof.shape == "not-optimal":
+        return ("a point of its profile fits the data better than the estimate: the estimate is not the maximum "
+                "of the likelihood along it, so no interval is claimed")
+    if prof.shape == "flat":
+        return (f"flat profile likelihood (chi2 rises by less than {FLAT:g} within a factor "
+                f"{math.exp(SEARCH):.0f} of the estimate): these data cannot identify it at all (a structural or "
+                f"record-wide non-identifiability)")
+    if lo is None or hi is None:
+        side = " and ".join(s for s, e in (("low", lo), ("high", hi)) if e is None)
+        return (f"its profile likelihood stays below the 95 % threshold up to a factor {math.exp(SEARCH):.0f} on the "
+                f"{side} side: practically non-identifiable from these data")
+    if lo < est - band * abs(est) or hi > est + band * abs(est):
+        return (f"its 95 % profile-likelihood interval [{lo:.4g}, {hi:.4g}] is wider than +-{100 * band:g} % of the "
+                f"estimate {est:.4g}")
+    return None
