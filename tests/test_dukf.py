@@ -15,7 +15,7 @@ from obsnl.estimation.codegen import log_map, to_casadi
 from obsnl.estimation.records import read_record
 from obsnl.estimation.dukf import DUKF
 from obsnl.errors import EstimatorError, TableError
-from obsnl.estimation.setup import coordinates
+from obsnl.identification.setup import coordinates
 from obsnl.studies.seed_paper import SEED_GUESS
 
 from .conftest import MODELS

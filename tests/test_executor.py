@@ -25,7 +25,7 @@ def _estimates(rep) -> list:
 
 
 def _short_reproduction(executor):
-    from obsnl.estimation.setup import DEFAULT_GRID
+    from obsnl.identification.setup import DEFAULT_GRID
     from obsnl.studies.seed_paper import reproduce
 
     return reproduce(samples=300, seeds=1, tuning_seeds=1, passes=1, grid=DEFAULT_GRID[:2], replicates=3,
@@ -81,7 +81,7 @@ def _leaky_identification(executor):
     """A one-state model identified from scipy data with 4 Monte-Carlo replicates on ``executor``."""
     import numpy as np
 
-    from obsnl.estimation.experiments import Tuning
+    from obsnl.identification.experiments import Tuning
 
     from .radau_data import noisy
     from .test_identify_measured import _leaky

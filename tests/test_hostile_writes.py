@@ -101,7 +101,7 @@ def test_1_the_dukf_refuses_such_a_table_before_any_run(bouc_wen_a1, tmp_path, c
 # ----------------------------------------------------------------------------- 2 writes outside the named folder
 @pytest.fixture(scope="module")
 def small_reproduction():
-    from obsnl.estimation.experiments import DEFAULT_GRID
+    from obsnl.identification.experiments import DEFAULT_GRID
     from obsnl.studies.seed_paper import reproduce
 
     return reproduce(seeds=1, tuning_seeds=1, passes=1, grid=DEFAULT_GRID[:1], jit=False, samples=200, replicates=0)

@@ -12,7 +12,7 @@ import pytest
 import obsnl
 from obsnl.observability.branch_table import BranchTable
 from obsnl.cli import main
-from obsnl.estimation.experiments import (DIVERGED, Tuning, coordinates, make_data, make_filter, output_misfit,
+from obsnl.identification.experiments import (DIVERGED, Tuning, coordinates, make_data, make_filter, output_misfit,
                             practical_identifiability, run_passes)
 from obsnl.report.identification import table2_markdown
 from obsnl.studies.seed_paper import SEED_GUESS, reproduce, seed_setup, write_reproduction
@@ -129,8 +129,8 @@ def test_a_study_without_a_tuning_is_tuned_like_measured_data():
     # With one fixed configuration (s0 0.2, no gate) this study diverged in its first pass; without a
     # tuning the study now picks, as identify does on measured data, the configuration of MEASURED_GRID
     # with the smallest free-run output misfit after one pass (no true value used).
-    from obsnl.estimation.identify import MEASURED_GRID
-    from obsnl.studies.identify import study
+    from obsnl.identification.runs import MEASURED_GRID
+    from obsnl.identification.identify import study
 
     res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=600)
     assert [t for t, _ in res.tuning_scores] == list(MEASURED_GRID)
@@ -194,7 +194,7 @@ def test_practical_identifiability_is_not_decided_at_a_diverged_estimate(setup):
 
 
 def test_a_diverged_first_pass_holds_nothing_and_an_unsimulable_one_ends_the_run(setup, monkeypatch):
-    import obsnl.estimation.experiments as ident
+    import obsnl.identification.experiments as ident
 
     f = make_filter(setup, "ukf")
     data = make_data(setup, 0)
@@ -212,7 +212,7 @@ def _gain_setup(T=400, noise=0.01):
     """y = g u (a gauge of unknown gain) and a state driven by u: ordinary least squares in disguise."""
     from obsnl.estimation.codegen import to_casadi
     from obsnl.estimation.records import Record
-    from obsnl.estimation.experiments import Setup
+    from obsnl.identification.experiments import Setup
 
     model = obsnl.Model(name="gain", states=["x"], parameters=["g"], inputs=["u"], equations={"x": "u - x"},
                         outputs={"y": "g*u"})
@@ -227,7 +227,7 @@ def test_monte_carlo_spread_matches_least_squares_theory():
     # estimate of g has variance sigma^2 / sum u^2, i.e. relative std eps sqrt(2/T). The 99 % interval of
     # the Monte-Carlo std must contain it (seeded; probability 1 % that it would not), and the decision
     # against a limit must follow the interval.
-    from obsnl.estimation.experiments import monte_carlo
+    from obsnl.identification.experiments import monte_carlo
 
     setup = _gain_setup()
     f = make_filter(setup, "ukf")

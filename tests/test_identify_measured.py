@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 
 import obsnl
 from obsnl.cli import main
-from obsnl.estimation.identify import clean_json, error_of
+from obsnl.identification.runs import clean_json, error_of
 
 from .conftest import MODELS, ROOT
 from .radau_data import SDOF_TRUE, noisy, sdof_force, write_csv
@@ -147,7 +147,7 @@ F_c = 0.25
 d = 1e-4
 ''')
     from obsnl.report.identification import identify_text
-    from obsnl.studies.identify import study
+    from obsnl.identification.identify import study
 
     res = study(toml, RECORD, samples=600, passes=2, noise=1e-3)
     doc = res.to_dict()

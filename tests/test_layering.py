@@ -21,9 +21,10 @@ LAYERS = {
     "observability": 3,
     "recombination": 4, "estimation": 4,
     "report": 5,
-    "studies": 6,
-    "batch": 7,
-    "cli": 8, "__init__": 8, "__main__": 9,
+    "identification": 6,
+    "studies": 7,
+    "batch": 8,
+    "cli": 9, "__init__": 9, "__main__": 10,
 }
 #: What the estimators may read of the observability room (DESIGN.md: only through the branch table).
 ESTIMATION_READS = {"obsnl.observability.branch_table", "obsnl.observability.signature"}

@@ -17,10 +17,10 @@ from scipy.linalg import expm
 from scipy.optimize import least_squares
 
 import obsnl
-from obsnl.estimation.likelihood import DECREMENT, STOP, covariance, levenberg_marquardt, refine
-from obsnl.estimation.profile import THRESHOLD, judge, profile, profiles
+from obsnl.identification.likelihood import DECREMENT, STOP, covariance, levenberg_marquardt, refine
+from obsnl.identification.profile import THRESHOLD, judge, profile, profiles
 from obsnl.estimation.records import Record
-from obsnl.estimation.setup import Data, Setup
+from obsnl.identification.setup import Data, Setup
 
 MSD = obsnl.Model(name="msd", states=["x", "v"], parameters=["k", "c"], inputs=["u"],
                   equations={"x": "v", "v": "u - k*x - c*v"}, outputs={"y": "x"})

@@ -7,8 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from obsnl.cli.common import (_Exit, _add_executor, _at_least, _executor, _load, _progress, _seed,  # noqa: F401
-                              write_output)
+from obsnl.cli.common import (_Exit, _add_executor, _at_least, _executor, _load, _passes, _progress,  # noqa: F401
+                              _replicates, _seed, write_output)
 
 
 def _add_bank(sub: argparse._SubParsersAction) -> None:
@@ -59,7 +59,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--noise", action="append", default=[], metavar="NAME=RATIO",
                    help="noise-to-signal RMS ratio of a channel (repeatable) or RATIO for all; measured channels not "
                    "named are estimated from their high-frequency residual (default in a study: 0.001)")
-    p.add_argument("--passes", type=int, default=3, help="passes over the record (default: 3)")
+    p.add_argument("--passes", type=_passes, default=3, help="passes over the record (default: 3)")
     p.add_argument("--allow-unidentifiable", action="store_true", help="run despite the structural verdict")
     p.add_argument("--hold", action="store_true", help="hold poorly informed parameters at their guess (default: "
                    "nothing is held)")
@@ -71,7 +71,7 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
         p.add_argument(flag, type=float, default=None, help=f"{what} (default: tuned by the output misfit)")
     p.add_argument("--samples", type=_at_least(2), default=None, help="use only the first samples of a --record")
     p.add_argument("--jit", action="store_true", help="compile the filter to C (needs a C compiler)")
-    p.add_argument("--replicates", type=int, default=0, help="Monte-Carlo replicates (0: off, else >= 3)")
+    p.add_argument("--replicates", type=_replicates, default=0, help="Monte-Carlo replicates (0: off, else >= 3)")
     _add_executor(p)
     p.add_argument("--out", default=None, metavar="DIR", help="output folder (default: print only)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
@@ -79,10 +79,10 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_identify(args: argparse.Namespace) -> int:
-    from obsnl.estimation.experiments import Tuning
-    from obsnl.estimation.identify import MEASURED_GRID
+    from obsnl.identification.experiments import Tuning
+    from obsnl.identification.runs import MEASURED_GRID
     from obsnl.report.identification import identify_text
-    from obsnl.studies.identify import IDENTIFY_FILES, identify, parse_assignments, study, write_identification
+    from obsnl.identification.identify import IDENTIFY_FILES, identify, parse_assignments, study, write_identification
 
     for given, option, needs in ((args.samples is not None and args.data, "--samples", "a --record study; cut the "
                                   "data file instead"),
@@ -153,10 +153,10 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--record", default=None, help="another ground motion (.csv or .AT2); resampled to 100 Hz, first 2000 samples")
     p.add_argument("--seeds", type=_at_least(1), default=5, help="reported noise seeds 0..K-1 (default: 5)")
     p.add_argument("--tuning-seeds", type=_at_least(1), default=5, help="noise seeds used for tuning only (default: 5)")
-    p.add_argument("--passes", type=_at_least(1), default=3, help="passes of the refined protocol (default: 3)")
+    p.add_argument("--passes", type=_passes, default=3, help="passes of the refined protocol (default: 3)")
     p.add_argument("--samples", type=_at_least(2), default=None, help="use only the first samples (quick runs)")
     p.add_argument("--no-jit", action="store_true", help="do not compile the filters to C (slower runs)")
-    p.add_argument("--replicates", type=int, default=None,
+    p.add_argument("--replicates", type=_replicates, default=None,
                    help="Monte-Carlo replicates of the practical-identifiability check per reported run "
                         "(default: 32; 0: off)")
     p.add_argument("--out", default=None, help="output folder (default: reports/identification)")
@@ -166,7 +166,7 @@ def _add_reproduce(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_reproduce(args: argparse.Namespace) -> int:
-    from obsnl.estimation.identify import check_replicates
+    from obsnl.identification.runs import check_replicates
     from obsnl.estimation.records import read_record
     from obsnl.studies.seed_paper import reproduce, write_reproduction
 

@@ -106,7 +106,7 @@ def _power(base: ca.SX, exponent: ca.SX) -> ca.SX:
     The value is casadi's own everywhere (``0 ** p`` is 0, 1 or inf for ``p`` above, at or below 0), but at
     a zero base the branch taken is a constant: ``d/dp 0**p = log(0) * 0`` would be NaN, and a model that
     starts at rest (``|r - eta'|**(2N)`` at ``r = eta' = 0``) would carry that NaN through every exact
-    derivative of a simulation (:mod:`obsnl.estimation.likelihood`). There the derivative is taken as 0,
+    derivative of a simulation (:mod:`obsnl.identification.likelihood`). There the derivative is taken as 0,
     the one-sided limit for exponents above 1 (the hysteretic powers ``|z|**n`` of a yielding spring).
     """
     at_zero = ca.if_else(exponent > 0, 0.0, ca.if_else(exponent == 0, 1.0, ca.inf))

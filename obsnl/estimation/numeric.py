@@ -143,7 +143,7 @@ class NumericModel:
         (:func:`obsnl.model.branches.field_jumps`; empty: all may). Only these crossings are refined.
     source
         ``(model, switching, constants)`` as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
-        otherwise): the specification a worker compiles again (:mod:`obsnl.estimation.replicates`).
+        otherwise): the specification a worker compiles again (:mod:`obsnl.identification.replicates`).
     """
 
     signature: ModelSignature

@@ -260,7 +260,7 @@ def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float
     path : str or Path
         The PNG file to write.
     profiles : sequence
-        :class:`~obsnl.estimation.profile.Profile` values (``name``, ``estimate``, ``interval``, ``shape``,
+        :class:`~obsnl.identification.profile.Profile` values (``name``, ``estimate``, ``interval``, ``shape``,
         ``points``).
     threshold : float
         The chi2 threshold of the 95 % interval.

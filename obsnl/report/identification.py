@@ -254,7 +254,7 @@ def table2_latex(doc: Mapping[str, Any]) -> str:
 
 def identify_text(doc: Mapping[str, Any]) -> str:
     """The summary ``obsnl identify`` prints, from ``identify.json``
-    (:meth:`obsnl.estimation.identify.Identification.to_dict`).
+    (:meth:`obsnl.identification.runs.Identification.to_dict`).
 
     Examples
     --------

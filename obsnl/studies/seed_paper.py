@@ -1,9 +1,9 @@
 """The seed paper's identification experiment end to end: ``obsnl reproduce``.
 
-Analysis -> branch table -> UKF and DUKF tuned on unreported noise seeds (:func:`obsnl.estimation.experiments.tune`,
+Analysis -> branch table -> UKF and DUKF tuned on unreported noise seeds (:func:`obsnl.identification.experiments.tune`,
 the same procedure for both filters) -> reported runs on noise seeds ``0..seeds-1`` -> the Table 2
 analog (``table2.json``; text in :mod:`obsnl.report.tables`) and Figures 2-3 (:mod:`obsnl.report.figures`).
-Protocol details in :mod:`obsnl.estimation.experiments`. Nothing here uses the true values except to score the
+Protocol details in :mod:`obsnl.identification.experiments`. Nothing here uses the true values except to score the
 reported runs.
 """
 
@@ -17,13 +17,13 @@ from typing import Any
 import numpy as np
 
 from obsnl.estimation.records import Record
-from obsnl.estimation.experiments import (DEFAULT_GRID, DIVERGED, Setup, Tuning, make_data, mc_spread)
+from obsnl.identification.experiments import (DEFAULT_GRID, DIVERGED, Setup, Tuning, make_data, mc_spread)
 from obsnl.executor import Executor
 from obsnl.studies.seed_tasks import (FALLBACKS, SEED_GUESS, RunResult, Spec, compile_task, context, replicates_task,
                                       reported_task, reported_with_fallbacks, seed_model_path, seed_setup,
                                       tuning_task)
-from obsnl.estimation.identify import check_replicates
-from obsnl.estimation.replicates import CHUNK
+from obsnl.identification.runs import check_replicates
+from obsnl.identification.replicates import CHUNK
 from obsnl.estimation.ukf import Trajectory
 
 __all__ = ["RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce",
@@ -40,7 +40,7 @@ PAPER_ERRORS: Mapping[str, Mapping[str, float]] = {
 
 #: Noise seeds of the tuning (never reported): 1000, 1001, ...; five by default.
 TUNING_SEEDS = 1000
-#: Monte-Carlo replicates per reported run of the UKF and the DUKF (:func:`obsnl.estimation.experiments.monte_carlo`);
+#: Monte-Carlo replicates per reported run of the UKF and the DUKF (:func:`obsnl.identification.experiments.monte_carlo`);
 #: replicate noise seeds ``[MC_SEEDS + seed, b]``, disjoint from the reported and tuning seeds.
 REPLICATES = 32
 MC_SEEDS = 5000

@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import ObsnlError, OutputError
-from obsnl.estimation.experiments import (DIVERGED, Practical, Setup, Tuning, coordinates, make_data, make_filter,
+from obsnl.identification.experiments import (DIVERGED, Practical, Setup, Tuning, coordinates, make_data, make_filter,
                                           mc_replicates, mc_truth, output_misfit, practical_identifiability,
                                           run_passes, tune_one)
 from obsnl.estimation.records import Record
@@ -34,7 +34,7 @@ __all__ = ["Spec", "context", "compile_task", "tuning_task", "reported_task", "r
 SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
                                    "w_h": 0.3, "Delta1": 3e10, "Delta2": -6e9}
 #: A reported run whose free-run output misfit exceeds ``DIVERGED`` times the stated output noise
-#: level (:data:`obsnl.estimation.experiments.DIVERGED`; the noise floor of the misfit is 1x) has diverged; it is
+#: level (:data:`obsnl.identification.experiments.DIVERGED`; the noise floor of the misfit is 1x) has diverged; it is
 #: redone with the next configuration of the tuning ranking, at most ``FALLBACKS`` times. Uses the
 #: measured data only, never the truth.
 FALLBACKS = 2
@@ -176,7 +176,7 @@ def seed_setup(*, record: Record | None = None, samples: int | None = None, jit:
     jit : bool
         Compile the filter step.
     kind : str
-        Filter coordinates (:func:`obsnl.estimation.setup.coordinates`).
+        Filter coordinates (:func:`obsnl.identification.setup.coordinates`).
 
     Returns
     -------

@@ -1,7 +1,7 @@
 """The set-up of an identification experiment: the compiled model, the record, the noise, the filter,
 its tuning and the coordinates in which parameters are estimated; the free-run output misfit that
 judges a run without any true value. The protocol that uses them is in
-:mod:`obsnl.estimation.experiments`."""
+:mod:`obsnl.identification.experiments`."""
 
 from __future__ import annotations
 

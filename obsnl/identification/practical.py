@@ -1,6 +1,6 @@
 """Practical identifiability at an estimate: is a parameter pinned within the 5 % band at 3 sigma by
 these data? By the linearised Cramér-Rao bound (with the input noise), by the filter's posterior
-against its prior, and (:class:`Spread`, from :func:`obsnl.estimation.experiments.monte_carlo`) by the
+against its prior, and (:class:`Spread`, from :func:`obsnl.identification.experiments.monte_carlo`) by the
 Monte-Carlo spread of the whole protocol at the estimate."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from obsnl.errors import EstimatorError
 from obsnl.estimation.records import rms
 from obsnl.estimation.simulate import simulate, simulate_many
 from obsnl.estimation.ukf import Trajectory
-from obsnl.estimation.setup import DIVERGED, Data, Setup, output_misfit
+from obsnl.identification.setup import DIVERGED, Data, Setup, output_misfit
 
 __all__ = ["Practical", "Spread", "fisher", "input_noise_crb", "practical_identifiability", "CRB_LIMIT",
            "POSTERIOR_LIMIT"]

@@ -3,12 +3,12 @@
 :func:`identify_measured` estimates a compiled model's parameters from measured inputs and outputs
 (no true value anywhere): noise per channel given or estimated (:func:`obsnl.estimation.measured.estimate_noise`),
 the filter tuned by the free-run output misfit over a small grid, several passes
-(:func:`obsnl.estimation.experiments.run_passes`), practical identifiability at the estimate, the fit of
+(:func:`obsnl.identification.experiments.run_passes`), practical identifiability at the estimate, the fit of
 the model simulated at the estimate. :func:`simulation_study` runs the same protocol on the model's own
 simulated response to a record (the model's ``[values]`` are the truth) and adds true values and errors.
 
 Both return an :class:`Identification` (frozen; :meth:`Identification.to_dict` is ``identify.json``).
-The structural analysis that comes first is done by the caller (:func:`obsnl.studies.identify.identify`;
+The structural analysis that comes first is done by the caller (:func:`obsnl.identification.identify.identify`;
 the estimators read the analysis only through the branch table).
 
 Reporting rules: a parameter held at its guess after the first pass (poorly informed) is reported as
@@ -24,24 +24,24 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from obsnl.errors import DataError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
-from obsnl.estimation.experiments import Tuning, make_data, make_filter, run_passes
 from obsnl.estimation.measured import NOISE_FLOOR, Measured, estimate_noise
-from obsnl.estimation.likelihood import Refinement, refine
-from obsnl.estimation.practical import practical_identifiability
-from obsnl.estimation.profile import Profile, judge, profiles
 from obsnl.estimation.records import Record
-from obsnl.estimation.replicates import spread_on
-from obsnl.estimation.setup import DIVERGED, Data, Setup, coordinates, output_misfit
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import Trajectory
 from obsnl.executor import Executor
+from obsnl.identification.experiments import Tuning, make_data, make_filter, run_passes
+from obsnl.identification.likelihood import Refinement, refine
+from obsnl.identification.practical import practical_identifiability
+from obsnl.identification.profile import Profile, judge, profiles
+from obsnl.identification.replicates import spread_on
+from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
+from obsnl.identification.setup import Data, Setup, coordinates, output_misfit
 from obsnl.observability.branch_table import BranchTable
 
 __all__ = ["check_replicates", "simulation_study", "identify_measured", "Identification", "ParameterEstimate",
@@ -84,147 +84,6 @@ def check_replicates(replicates: int) -> int:
     if not isinstance(replicates, int) or isinstance(replicates, bool) or replicates < 0 or 0 < replicates < 3:
         raise OptionError(f"--replicates must be 0 (off) or at least 3, got {replicates!r}")
     return replicates
-
-
-def clean_json(x: Any) -> Any:
-    """``x`` with every non-finite float replaced by ``None`` (JSON has no NaN or Infinity).
-
-    Examples
-    --------
-    >>> clean_json({"a": [1.0, float("inf")], "b": float("nan")})
-    {'a': [1.0, None], 'b': None}
-    """
-    if isinstance(x, Mapping):
-        return {k: clean_json(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [clean_json(v) for v in x]
-    if isinstance(x, (float, np.floating)):
-        return float(x) if math.isfinite(x) else None
-    if isinstance(x, np.integer):
-        return int(x)
-    return x
-
-
-@dataclass(frozen=True)
-class ParameterEstimate:
-    """One parameter: the estimate and its posterior std, or ``held`` at its guess (then both ``None``).
-
-    ``flagged``: poorly informed by these data (practical identifiability, with ``reason``). In a
-    simulation study ``true`` and ``error`` (per cent of the truth, or absolute where the truth is 0:
-    ``error_kind``) are set.
-    """
-
-    name: str
-    guess: float
-    estimate: float | None
-    std: float | None
-    held: bool
-    flagged: bool
-    reason: str | None = None
-    true: float | None = None
-    error: float | None = None
-    error_kind: str | None = None
-    interval: tuple[float | None, float | None] | None = None
-    interval_method: str | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        d = {"name": self.name, "estimate": self.estimate, "std": self.std,
-             "interval": None if self.interval is None else list(self.interval),
-             "interval_method": self.interval_method, "held": self.held,
-             "held_at": self.guess if self.held else None, "flagged": self.flagged, "reason": self.reason,
-             "guess": self.guess}
-        if self.true is not None:
-            d.update(true=self.true, error=self.error, error_kind=self.error_kind)
-        return clean_json(d)
-
-
-@dataclass(frozen=True, eq=False)
-class Identification:
-    """The result of one identification run (``identify.json`` is :meth:`to_dict`).
-
-    ``fit``: NRMSE in per cent per output, ``100 RMS(simulated - measured) / RMS(measured)``, of the
-    model simulated at the estimate under the measured input (held parameters at their guess).
-    ``traces``, ``t``, ``y_measured``, ``y_fit`` feed the figures and are not in the JSON.
-    """
-
-    model: str
-    mode: str
-    method: str
-    parameters: tuple[ParameterEstimate, ...]
-    fit: Mapping[str, float | None]
-    passes: int
-    passes_run: int
-    seconds: float
-    converged: bool
-    output_misfit: float | None
-    noise: Mapping[str, Mapping[str, Any]]
-    tuning: Tuning
-    tuning_scores: tuple[tuple[Tuning, float], ...]
-    data: Mapping[str, Any]
-    practical: Mapping[str, Any]
-    assumptions: tuple[str, ...]
-    repairs: int = 0
-    structural: Mapping[str, Any] = field(default_factory=dict)
-    seed: int | None = None
-    traces: tuple[Trajectory, ...] = field(default=(), repr=False)
-    t: np.ndarray = field(default=None, repr=False)
-    y_measured: np.ndarray = field(default=None, repr=False)
-    y_fit: np.ndarray = field(default=None, repr=False)
-    outputs: tuple[str, ...] = ()
-    converged_reason: str = ""
-    refinement: Mapping[str, Any] = field(default_factory=dict)
-    profiles: tuple[Profile, ...] = field(default=(), repr=False)
-
-    @property
-    def held(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.parameters if p.held)
-
-    @property
-    def flagged(self) -> tuple[str, ...]:
-        return tuple(p.name for p in self.parameters if p.flagged)
-
-    def estimates(self) -> dict[str, float | None]:
-        """``{name: estimate}`` (``None`` for a held parameter)."""
-        return {p.name: p.estimate for p in self.parameters}
-
-    def to_dict(self) -> dict[str, Any]:
-        return clean_json({
-            "schema": "obsnl.identify/1", "model": self.model, "mode": self.mode, "method": self.method,
-            "passes": self.passes, "passes_run": self.passes_run, "seconds": self.seconds, "seed": self.seed,
-            "held": len(self.held), "flagged": list(self.flagged),
-            "parameters": [p.to_dict() for p in self.parameters], "fit": dict(self.fit),
-            "converged": self.converged, "converged_reason": self.converged_reason,
-            "refinement": dict(self.refinement), "profiles": [p.to_dict() for p in self.profiles],
-            "output_misfit": self.output_misfit, "noise": dict(self.noise),
-            "tuning": self.tuning.to_dict(),
-            "tuning_scores": [{**t.to_dict(), "output_misfit": s} for t, s in self.tuning_scores],
-            "data": dict(self.data), "structural": dict(self.structural), "repairs": self.repairs,
-            "practical_identifiability": dict(self.practical), "assumptions": list(self.assumptions)})
-
-
-def error_of(estimate: float | None, true: float) -> tuple[float | None, str | None]:
-    """The error of an estimate: per cent of the truth, or absolute where the truth is 0 (never inf).
-
-    Parameters
-    ----------
-    estimate : float or None
-        The estimate (None: none).
-    true : float
-        The true value.
-
-    Returns
-    -------
-    tuple
-        ``(error, "percent" or "absolute")``, or ``(None, None)``.
-
-    Examples
-    --------
-    >>> error_of(1.1, 1.0)[1], error_of(0.25, 0.0), error_of(None, 2.0)
-    ('percent', (0.25, 'absolute'), (None, None))
-    """
-    if estimate is None:
-        return None, None
-    return (100 * (estimate - true) / abs(true), "percent") if true != 0 else (estimate - true, "absolute")
 
 
 def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, grid: Sequence[Tuning], passes: int,
@@ -439,7 +298,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         the same numbers on any executor.
     refined
         Refine the filter's estimate by maximum likelihood, with Fisher std and profile-likelihood
-        intervals (:mod:`obsnl.estimation.likelihood`, :mod:`obsnl.estimation.profile`; default on).
+        intervals (:mod:`obsnl.identification.likelihood`, :mod:`obsnl.identification.profile`; default on).
 
     Returns
     -------

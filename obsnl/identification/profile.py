@@ -33,7 +33,7 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import EstimatorError
-from obsnl.estimation.likelihood import Refinement, levenberg_marquardt
+from obsnl.identification.likelihood import Refinement, levenberg_marquardt
 
 __all__ = ["Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND", "MAX_SECONDS"]
 
@@ -95,7 +95,7 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
     Parameters
     ----------
     ref : Refinement
-        The maximum-likelihood estimate (:func:`obsnl.estimation.likelihood.refine`).
+        The maximum-likelihood estimate (:func:`obsnl.identification.likelihood.refine`).
     name : str
         The parameter (not held).
     search : float

@@ -4,7 +4,7 @@ A task carries a :class:`Recipe` (the symbolic model, the set-up's plain values,
 and the branch table's JSON), the estimate, the record and which replicates to run, never a
 compiled object: a worker rebuilds the experiment once (:func:`rebuild`; compiled filters come from
 the disk cache when ``jit``) and keeps it for its next tasks. Replicate ``b`` draws its noise from
-``[seed, b]`` (:func:`obsnl.estimation.experiments.mc_replicates`), so any split of the replicates
+``[seed, b]`` (:func:`obsnl.identification.experiments.mc_replicates`), so any split of the replicates
 over any number of workers gives the numbers of the run in one process.
 """
 
@@ -18,9 +18,9 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import OptionError
-from obsnl.estimation.experiments import Tuning, mc_replicates, mc_spread, mc_truth, monte_carlo
-from obsnl.estimation.practical import Spread
-from obsnl.estimation.setup import Data, Setup, coordinates, make_filter
+from obsnl.identification.experiments import Tuning, mc_replicates, mc_spread, mc_truth, monte_carlo
+from obsnl.identification.practical import Spread
+from obsnl.identification.setup import Data, Setup, coordinates, make_filter
 from obsnl.estimation.ukf import UKF
 from obsnl.executor import Executor, built_once
 
@@ -126,7 +126,7 @@ def replicates_task(task: tuple[Recipe, tuple[float, ...], np.ndarray, np.ndarra
 def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *,
               method: str, table: Any, passes: int, replicates: int, seed: int,
               progress: Callable[[], Any] | None = None) -> Spread:
-    """:func:`obsnl.estimation.experiments.monte_carlo` with the replicates on ``executor`` (None or one
+    """:func:`obsnl.identification.experiments.monte_carlo` with the replicates on ``executor`` (None or one
     worker: this process); the same spread whatever the executor.
 
     Parameters

@@ -46,8 +46,8 @@ import numpy as np
 from obsnl.errors import EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import UKF, Trajectory
-from obsnl.estimation.practical import Practical, Spread, practical_identifiability
-from obsnl.estimation.setup import (BOUND, DEFAULT_GRID, DIVERGED, STATE_CAP, Data, Setup, Tuning, coordinates,
+from obsnl.identification.practical import Practical, Spread, practical_identifiability
+from obsnl.identification.setup import (BOUND, DEFAULT_GRID, DIVERGED, STATE_CAP, Data, Setup, Tuning, coordinates,
                                     make_data, make_filter, output_misfit)
 
 __all__ = ["Tuning", "DEFAULT_GRID", "Setup", "Data", "Practical", "coordinates", "make_data", "make_filter",

@@ -16,7 +16,7 @@ across which the field jumps changes sign redone finer, ROS2 where stiff). The d
 residuals are exact derivatives of that discrete map (casadi's forward mode through the whole record),
 not finite differences. Why output error and not the filter's innovations: the filter's process noise is
 a tuning device, not a property of the structure, and the output-error likelihood is the one that the
-profile-likelihood intervals (:mod:`obsnl.estimation.profile`) and the Fisher information need; single
+profile-likelihood intervals (:mod:`obsnl.identification.profile`) and the Fisher information need; single
 shooting suffices because the refinement starts at the filter's estimate (near the optimum) and the
 structures are damped (their sensitivities do not grow along the record).
 
@@ -53,7 +53,7 @@ import numpy as np
 
 from obsnl.errors import EstimatorError
 from obsnl.estimation.evaluate import call
-from obsnl.estimation.setup import BOUND, Data, Setup
+from obsnl.identification.setup import BOUND, Data, Setup
 
 __all__ = ["Objective", "Fit", "Refinement", "objective", "levenberg_marquardt", "refine", "covariance",
            "DECREMENT", "STEP_LIMIT"]
@@ -318,7 +318,7 @@ class Refinement:
     (``inf`` along a flat direction); ``cov``: the covariance of ``z = (phi, s)``; ``sigma``: the noise std per
     output estimated from the residuals (the weights of ``cov``); ``misfit``: per output, the RMS residual
     over the noise level given or estimated before the fit (1: at the noise floor); ``converged`` with
-    ``reason``; ``objective`` and ``fit`` feed the profiles (:mod:`obsnl.estimation.profile`).
+    ``reason``; ``objective`` and ``fit`` feed the profiles (:mod:`obsnl.identification.profile`).
     """
 
     theta: np.ndarray

@@ -2,7 +2,7 @@
 
 :func:`identify` takes a model and its measured data (a CSV file, columns, or
 :class:`~obsnl.estimation.measured.Measured`), refuses a parameter that the model's structure cannot
-reveal (unless ``allow_unidentifiable``) and runs :func:`obsnl.estimation.identify.identify_measured`.
+reveal (unless ``allow_unidentifiable``) and runs :func:`obsnl.identification.runs.identify_measured`.
 :func:`study` does the same for a simulated experiment (the model's ``[values]`` driven by a record).
 :func:`write_identification` writes ``identify.json`` and the figures into a folder.
 
@@ -24,8 +24,8 @@ from typing import Any
 
 from obsnl.errors import AnalysisError, OptionError
 from obsnl.estimation.codegen import to_casadi
-from obsnl.estimation.experiments import Tuning
-from obsnl.estimation.identify import MEASURED_GRID, Identification, identify_measured, simulation_study
+from obsnl.identification.experiments import Tuning
+from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured, simulation_study
 from obsnl.estimation.measured import Measured, measured, read_measured
 from obsnl.estimation.records import Record, read_record
 from obsnl.executor import Executor
@@ -229,7 +229,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         Compile the filter to C.
     hold
         Hold poorly informed parameters at their guess once the filter reaches the noise floor
-        (:func:`obsnl.estimation.identify.identify_measured`; default off).
+        (:func:`obsnl.identification.runs.identify_measured`; default off).
     progress
         Called after every filter pass and once per Monte-Carlo replicate.
     executor
@@ -238,7 +238,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     refine
         Refine the filter's estimate by maximum likelihood (the default last step): Fisher std, 95 %
         profile-likelihood intervals, flags from the intervals, ``converged`` from the optimizer's
-        first-order conditions (:mod:`obsnl.estimation.likelihood`). ``False``: the filter alone.
+        first-order conditions (:mod:`obsnl.identification.likelihood`). ``False``: the filter alone.
 
     Returns
     -------
@@ -300,7 +300,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
 
     Same structural check as :func:`identify`; see
-    :func:`obsnl.estimation.identify.simulation_study` for the rest.
+    :func:`obsnl.identification.runs.simulation_study` for the rest.
 
     Parameters
     ----------
@@ -398,7 +398,7 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     >>> IDENTIFY_FILES[0]
     'identify.json'
     """
-    from obsnl.estimation.profile import THRESHOLD
+    from obsnl.identification.profile import THRESHOLD
     from obsnl.report.figures import plot_fit, plot_profiles, plot_traces
     from obsnl.report.files import OutputFolder
 

@@ -1,0 +1,163 @@
+"""The result of an identification run, as values: :class:`Identification` and its :class:`ParameterEstimate`
+(``identify.json`` is :meth:`Identification.to_dict`), with the JSON and error helpers they use.
+
+Reporting rules: a parameter held at its guess (only with ``hold``) is reported as held, with ``estimate``
+and ``std`` ``null``, never as an estimate; a relative error with a zero truth is given as an absolute
+error instead; no NaN or inf reaches the JSON.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from obsnl.estimation.ukf import Trajectory
+from obsnl.identification.profile import Profile
+from obsnl.identification.setup import Tuning
+
+__all__ = ["Identification", "ParameterEstimate", "clean_json", "error_of"]
+
+
+def clean_json(x: Any) -> Any:
+    """``x`` with every non-finite float replaced by ``None`` (JSON has no NaN or Infinity).
+
+    Examples
+    --------
+    >>> clean_json({"a": [1.0, float("inf")], "b": float("nan")})
+    {'a': [1.0, None], 'b': None}
+    """
+    if isinstance(x, Mapping):
+        return {k: clean_json(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [clean_json(v) for v in x]
+    if isinstance(x, (float, np.floating)):
+        return float(x) if math.isfinite(x) else None
+    if isinstance(x, np.integer):
+        return int(x)
+    return x
+
+
+@dataclass(frozen=True)
+class ParameterEstimate:
+    """One parameter: the estimate and its posterior std, or ``held`` at its guess (then both ``None``).
+
+    ``flagged``: poorly informed by these data (practical identifiability, with ``reason``). In a
+    simulation study ``true`` and ``error`` (per cent of the truth, or absolute where the truth is 0:
+    ``error_kind``) are set.
+    """
+
+    name: str
+    guess: float
+    estimate: float | None
+    std: float | None
+    held: bool
+    flagged: bool
+    reason: str | None = None
+    true: float | None = None
+    error: float | None = None
+    error_kind: str | None = None
+    interval: tuple[float | None, float | None] | None = None
+    interval_method: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {"name": self.name, "estimate": self.estimate, "std": self.std,
+             "interval": None if self.interval is None else list(self.interval),
+             "interval_method": self.interval_method, "held": self.held,
+             "held_at": self.guess if self.held else None, "flagged": self.flagged, "reason": self.reason,
+             "guess": self.guess}
+        if self.true is not None:
+            d.update(true=self.true, error=self.error, error_kind=self.error_kind)
+        return clean_json(d)
+
+
+@dataclass(frozen=True, eq=False)
+class Identification:
+    """The result of one identification run (``identify.json`` is :meth:`to_dict`).
+
+    ``fit``: NRMSE in per cent per output, ``100 RMS(simulated - measured) / RMS(measured)``, of the
+    model simulated at the estimate under the measured input (held parameters at their guess).
+    ``traces``, ``t``, ``y_measured``, ``y_fit`` feed the figures and are not in the JSON.
+    """
+
+    model: str
+    mode: str
+    method: str
+    parameters: tuple[ParameterEstimate, ...]
+    fit: Mapping[str, float | None]
+    passes: int
+    passes_run: int
+    seconds: float
+    converged: bool
+    output_misfit: float | None
+    noise: Mapping[str, Mapping[str, Any]]
+    tuning: Tuning
+    tuning_scores: tuple[tuple[Tuning, float], ...]
+    data: Mapping[str, Any]
+    practical: Mapping[str, Any]
+    assumptions: tuple[str, ...]
+    repairs: int = 0
+    structural: Mapping[str, Any] = field(default_factory=dict)
+    seed: int | None = None
+    traces: tuple[Trajectory, ...] = field(default=(), repr=False)
+    t: np.ndarray = field(default=None, repr=False)
+    y_measured: np.ndarray = field(default=None, repr=False)
+    y_fit: np.ndarray = field(default=None, repr=False)
+    outputs: tuple[str, ...] = ()
+    converged_reason: str = ""
+    refinement: Mapping[str, Any] = field(default_factory=dict)
+    profiles: tuple[Profile, ...] = field(default=(), repr=False)
+
+    @property
+    def held(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters if p.held)
+
+    @property
+    def flagged(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.parameters if p.flagged)
+
+    def estimates(self) -> dict[str, float | None]:
+        """``{name: estimate}`` (``None`` for a held parameter)."""
+        return {p.name: p.estimate for p in self.parameters}
+
+    def to_dict(self) -> dict[str, Any]:
+        return clean_json({
+            "schema": "obsnl.identify/1", "model": self.model, "mode": self.mode, "method": self.method,
+            "passes": self.passes, "passes_run": self.passes_run, "seconds": self.seconds, "seed": self.seed,
+            "held": len(self.held), "flagged": list(self.flagged),
+            "parameters": [p.to_dict() for p in self.parameters], "fit": dict(self.fit),
+            "converged": self.converged, "converged_reason": self.converged_reason,
+            "refinement": dict(self.refinement), "profiles": [p.to_dict() for p in self.profiles],
+            "output_misfit": self.output_misfit, "noise": dict(self.noise),
+            "tuning": self.tuning.to_dict(),
+            "tuning_scores": [{**t.to_dict(), "output_misfit": s} for t, s in self.tuning_scores],
+            "data": dict(self.data), "structural": dict(self.structural), "repairs": self.repairs,
+            "practical_identifiability": dict(self.practical), "assumptions": list(self.assumptions)})
+
+
+def error_of(estimate: float | None, true: float) -> tuple[float | None, str | None]:
+    """The error of an estimate: per cent of the truth, or absolute where the truth is 0 (never inf).
+
+    Parameters
+    ----------
+    estimate : float or None
+        The estimate (None: none).
+    true : float
+        The true value.
+
+    Returns
+    -------
+    tuple
+        ``(error, "percent" or "absolute")``, or ``(None, None)``.
+
+    Examples
+    --------
+    >>> error_of(1.1, 1.0)[1], error_of(0.25, 0.0), error_of(None, 2.0)
+    ('percent', (0.25, 'absolute'), (None, None))
+    """
+    if estimate is None:
+        return None, None
+    return (100 * (estimate - true) / abs(true), "percent") if true != 0 else (estimate - true, "absolute")
