@@ -1,6 +1,6 @@
 """A short, fast version of the seed experiment (000_d24855f97fc8bdd4.txt §5): the first 8 s of the
 Northridge record, one pass, one tuning; the pipeline end to end; the identify/reproduce commands.
-Expected answers come from the paper / DESIGN.md (true values; c' poorly informed by this response)."""
+Expected answers come from the paper 000_d24855f97fc8bdd4.txt (true values) and an independent filterpy baseline of the experiment (c' poorly informed by this response)."""
 
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def test_short_experiment(setup, kind):
         assert tr.theta[-1][k.index(p)] == pytest.approx(setup.truth[p], rel=0.05)
     assert output_misfit(setup, tr.theta[-1], data) < 0.05
     prac = practical_identifiability(setup, tr.theta[-1], data, first=tr, prior_std=TUNING.s0)
-    assert "c_p" in prac.flagged and "k_m" not in prac.flagged  # the backstress stays tiny (DESIGN.md)
+    assert "c_p" in prac.flagged and "k_m" not in prac.flagged  # the backstress stays tiny (filterpy baseline)
     assert set(prac.to_dict()) >= {"crb_relative_std", "flagged", "reasons"}
 
 
@@ -176,7 +176,7 @@ def test_identify_command(tmp_path, capsys):
 def test_practical_identifiability_is_not_decided_at_a_diverged_estimate(setup):
     # sensitivities taken at a wrong model say nothing about what the record informs: at an estimate
     # whose free-run output is far from the measured one (stiffness 3x off, far above the 10x-noise
-    # line) nothing may be flagged, and the reason must be given; at the truth c' is flagged (DESIGN.md)
+    # line) nothing may be flagged, and the reason must be given; at the truth c' is flagged (filterpy baseline)
     f = make_filter(setup, "ukf")
     data = make_data(setup, 0)
     (tr,), _ = run_passes(setup, f, data, TUNING, passes=1)

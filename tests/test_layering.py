@@ -26,7 +26,7 @@ LAYERS = {
     "batch": 8,
     "cli": 9, "__init__": 9, "__main__": 10,
 }
-#: What the estimators may read of the observability room (DESIGN.md: only through the branch table).
+#: What the estimators may read of the observability room (docs/architecture.md: only through the branch table).
 ESTIMATION_READS = {"obsnl.observability.branch_table", "obsnl.observability.signature"}
 
 

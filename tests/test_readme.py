@@ -33,7 +33,7 @@ def test_ci_runs_the_readme_test_command():
 
 
 def test_identification_example_runs(monkeypatch, capsys):
-    # the script example of identification, from the checkout root as the README says; DESIGN.md:
+    # the script example of identification, from the checkout root as the README says; an independent filterpy baseline of the seed experiment:
     # c' is not informed by this response (the backstress stays tiny), k_m is
     (example,) = [b for b in _blocks("python") if "run_passes" in b]
     monkeypatch.chdir(ROOT)

@@ -139,7 +139,7 @@ def test_smooth_model_single_column():
 
 
 def test_table2_shows_the_yield_displacements_the_ridge_leaves_informed():
-    # DESIGN.md: Delta_i = (beta +- gamma) / r_y^(2N), so a move along the Delta-N ridge that keeps
+    # seed paper 000_d24855f97fc8bdd4.txt: Delta_i = (beta +- gamma) / r_y^(2N), so a move along the Delta-N ridge that keeps
     # |Delta_i|^(-1/(2N)) fixed changes Delta_i but not the yield displacement: the row must read 0
     # for Delta1 while Delta1 itself is 10 % off; c' etc. untouched
     from pathlib import Path

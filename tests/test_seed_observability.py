@@ -1,6 +1,6 @@
 """The seed paper 000_d24855f97fc8bdd4.txt, §3.2 and Table 1, with N unknown.
 
-Expected sets are the paper's (see DESIGN.md): the original model (14) loses sigma, eta, E_h, A_m,
+Expected sets are the paper's (000_d24855f97fc8bdd4.txt, Table 1): the original model (14) loses sigma, eta, E_h, A_m,
 L, E, sigma_y, c_eta, c, h, beta, gamma in every branch (transcendence degree 4), and w_h as well in
 (b), (d) (degree 5); the reparametrized model (16) loses only Delta2 in (a), (c) and Delta1, w_h in
 (b), (d). The Table 1 result depends on keeping the transcendental constraint w0 = |r - eta'|^(2N)

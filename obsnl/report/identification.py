@@ -63,7 +63,7 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
 
 
 def _yield_displacement(delta: float, n: float) -> float:
-    """``|Delta|**(-1/(2N))``: with ``Delta = (beta +- gamma) / r_y**(2N)`` (DESIGN.md) the yield
+    """``|Delta|**(-1/(2N))``: with ``Delta = (beta +- gamma) / r_y**(2N)`` (seed paper 000_d24855f97fc8bdd4.txt,) the yield
     displacement up to the factor ``|beta +- gamma|**(-1/(2N))``."""
     return abs(delta) ** (-1 / (2 * n))
 

@@ -30,7 +30,7 @@ from obsnl.model.files import catalogue_path
 __all__ = ["Spec", "context", "compile_task", "tuning_task", "reported_task", "replicates_task", "RunResult", "seed_setup",
            "seed_record", "check_record_name", "seed_model_path", "reported_with_fallbacks", "SEED_GUESS", "FALLBACKS"]
 
-#: Initial guesses of Table 2 of the seed paper (DESIGN.md).
+#: Initial guesses of Table 2 of the seed paper (000_d24855f97fc8bdd4.txt).
 SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
                                    "w_h": 0.3, "Delta1": 3e10, "Delta2": -6e9}
 #: A reported run whose free-run output misfit exceeds ``DIVERGED`` times the stated output noise
