@@ -196,9 +196,6 @@ def mutated_tables(draw, base):
     return raw
 
 
-@pytest.mark.xfail(strict=True, reason="found, not fixed: a table whose 'schema' value is a long string or list is "
-                   "echoed whole in the refusal (BranchTable.from_dict: found schema=...!r, 10-26 kB), not cut to "
-                   "80 characters by quote(); see reports/hostile.md")
 @SETTINGS
 @given(data=st.data())
 def test_mutated_branch_table_is_refused_in_one_line_or_valid(files, data, capsys):
