@@ -35,3 +35,13 @@ def test_import_and_analyze_command_load_only_what_they_need():
             "print(before, sorted(m for m in %r if m in sys.modules))" % (HEAVY, HEAVY))
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
     assert out.stdout.strip() == "[] []", out.stderr
+
+
+def test_analyze_takes_a_model_file_as_identify_does(tmp_path):
+    # obsnl.analyze("file.toml") was refused ("expected an obsnl Model, got str") although identify takes a path
+    from pathlib import Path
+
+    res = obsnl.analyze("obsnl:coulomb_friction", seed=0)
+    path = Path(obsnl.__file__).parent / "catalogue" / "coulomb_friction.toml"
+    assert obsnl.analyze(path, seed=0).overall_unobservable == res.overall_unobservable
+    assert obsnl.analyze(str(path), seed=0).joint.unobservable == res.joint.unobservable

@@ -209,3 +209,4 @@ def test_python_refuses_misspelt_guess_and_noise_keys(kwargs, words):
     u, y, _ = msd_data(seed=0, T=60)
     with pytest.raises(obsnl.ObsnlError, match=words):
         obsnl.identify(MSD, {"t": np.arange(60) * 0.02, "u": u, "y": y}, **({"guess": {"k": 18.0, "c": 1.2}} | kwargs))
+

@@ -20,6 +20,7 @@ no unobservable verdict ever comes from a truncated computation.
 
 from __future__ import annotations
 
+import os
 import time
 from collections.abc import Mapping, Sequence
 from dataclasses import replace
@@ -27,6 +28,7 @@ from typing import Any
 
 from obsnl.model.budget import deadline as budget_deadline
 from obsnl.model.core import Model
+from obsnl.model.files import load_model
 from obsnl.model.signature import ModelSignature
 from obsnl.model.switching import expr_text
 from obsnl.observability.joint import joint_verdict
@@ -44,7 +46,7 @@ __all__ = ["analyze", "assumptions", "METHODS"]
 
 
 def analyze(
-    model: Model,
+    model: Model | str | os.PathLike,
     *,
     method: str = "auto",
     seed: int | None = None,
@@ -63,7 +65,8 @@ def analyze(
     Parameters
     ----------
     model
-        Any model (smooth or not); non-smooth models are split with :func:`obsnl.split_branches`.
+        Any model (smooth or not), or its file (a path, or ``obsnl:NAME`` for a packaged one, read with
+        :func:`obsnl.load_model`); non-smooth models are split with :func:`obsnl.split_branches`.
     method
         ``"auto"``, ``"orc"`` or ``"sedoglavic"``.
     seed
@@ -131,6 +134,8 @@ def analyze(
     >>> res.joint.unobservable
     ()
     """
+    if isinstance(model, (str, os.PathLike)):  # a path is accepted wherever a model is, as identify does
+        model = load_model(model)
     _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
     unknown_input_derivatives = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
     try:
