@@ -162,3 +162,14 @@ def test_table2_shows_the_yield_displacements_the_ridge_leaves_informed():
     true2 = abs(truth["Delta2"]) ** (-1 / (2 * truth["N"]))
     est2 = abs(truth["Delta2"]) ** (-1 / (2 * runs[0]["parameters"]["N"]["estimate"]))
     assert float([c.strip() for c in rows[1].split("|")][5]) == pytest.approx(100 * abs(est2 / true2 - 1), abs=0.006)
+
+
+def test_multi_letter_names_are_one_italic_word_in_latex():
+    # kh was written $kh$, which LaTeX sets as k times h; Greek names stay commands, subscripts stay subscripts
+    import obsnl
+    from obsnl.report.tables import to_latex
+
+    m = obsnl.Model(name="kh_model", states=["x", "v"], parameters=["kh", "beta"], inputs=["u"],
+                    equations={"x": "v", "v": "u - kh*x - beta*v"}, outputs={"y": "x"})
+    tex = to_latex(obsnl.analyze(m, seed=0))
+    assert r"\mathit{kh}" in tex and r"\beta" in tex and "$kh$" not in tex

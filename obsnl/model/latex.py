@@ -96,11 +96,28 @@ def rendering(name: str, latex: Mapping[str, str]) -> str:
 
     Examples
     --------
-    >>> print(rendering("Delta1", {}), rendering("k", {"k": "c"}))
-    \\Delta_{1} c
+    >>> print(rendering("Delta1", {}), rendering("k", {"k": "c"}), rendering("kh_2", {}))
+    \\Delta_{1} c \\mathit{kh}_{2}
     """
     given = latex.get(name)
-    return given if isinstance(given, str) else sp.latex(sp.Symbol(name))
+    return given if isinstance(given, str) else default_latex(name)
+
+
+_BASE = re.compile(r"[A-Za-z]{2,}(?=$|[_^{])")
+
+
+def default_latex(name: str) -> str:
+    """sympy's LaTeX of the symbol ``name``, with a base of several letters that is no Greek letter set as
+    one italic word: ``kh`` is ``\\mathit{kh}``, not ``k h`` (k times h) in math mode.
+
+    Examples
+    --------
+    >>> print(default_latex("kh"), default_latex("beta"), default_latex("c_eta_p"), default_latex("k1"))
+    \\mathit{kh} \\beta c_{\\eta p} k_{1}
+    """
+    tex = sp.latex(sp.Symbol(name))
+    m = _BASE.match(tex)
+    return f"\\mathit{{{m.group(0)}}}{tex[m.end():]}" if m else tex
 
 
 def _shape(tex: str) -> str:

@@ -420,12 +420,12 @@ def tex_escape(text: str) -> str:
 
 
 def _latex_name(name: str, result: AnalysisResult) -> str:
-    from obsnl.model.latex import latex_problem
+    from obsnl.model.latex import default_latex, latex_problem
 
     given = result.latex.get(name)
     if isinstance(given, str) and latex_problem(given) is None:  # only a whitelisted name reaches the .tex
         return given
-    return sp.latex(sp.Symbol(name))
+    return default_latex(name)
 
 
 def _latex_factor(f: sp.Expr, result: AnalysisResult, *, wrap: bool) -> str:
