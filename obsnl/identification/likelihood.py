@@ -214,7 +214,7 @@ class Fit:
 
 def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], z0: np.ndarray,
                         lower: np.ndarray, upper: np.ndarray, *, free: Sequence[bool] | None = None,
-                        max_iter: int = 60, max_evals: int = 400) -> Fit:
+                        max_iter: int = 60, max_evals: int = 400, stop: float = STOP) -> Fit:
     """Minimise ``|r(z)|^2`` from ``z0`` within ``[lower, upper]``, moving only the ``free`` coordinates.
 
     Marquardt's damping ``(J'J + lam diag(J'J)) dz = -J'r``; a step is accepted only when it lowers the
@@ -236,6 +236,9 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
         Iterations at most.
     max_evals : int
         Evaluations of ``fun`` at most.
+    stop : float
+        The Newton decrement below which the iteration ends (default ``STOP``; a profile point needs
+        less: its chi2 is then within ``stop`` of its minimum).
 
     Returns
     -------
@@ -272,7 +275,7 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
         std = np.sqrt(np.diag(C))
         Cg = np.where(np.isfinite(C), C, 0.0) @ g  # the pseudo-inverse on the informed directions
         decrement = float(g @ Cg)
-        if decrement <= STOP and last <= STEP_LIMIT:
+        if decrement <= stop and last <= STEP_LIMIT:
             it -= 1
             break
         d = np.maximum(np.diag(H), 1e-12 * max(float(np.diag(H).max(initial=0.0)), 1e-300))

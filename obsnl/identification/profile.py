@@ -77,7 +77,7 @@ class Profile:
                 "points": [list(p) for p in self.points], "evaluations": self.evaluations, "better": self.better}
 
 
-def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray) -> tuple[float, np.ndarray, int]:
+def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray, stop: float) -> tuple[float, np.ndarray, int]:
     """chi2 minimised over the free coordinates other than ``i`` with ``z_i = phi_i``."""
     z0 = start.copy()
     z0[i] = phi_i
@@ -85,7 +85,8 @@ def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray) -> tuple[fl
     free[i] = False
     for h in ref.held:
         free[ref.objective.setup.model.parameters.index(h)] = False
-    fit = levenberg_marquardt(ref.objective.evaluate, z0, ref.lower, ref.upper, free=free, max_iter=20, max_evals=30)
+    fit = levenberg_marquardt(ref.objective.evaluate, z0, ref.lower, ref.upper, free=free, max_iter=20, max_evals=30,
+                              stop=stop)
     return fit.chi2, fit.z, fit.evaluations
 
 
@@ -127,7 +128,8 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
         start = z_hat.copy()
         for _ in range(POINTS):
             guess = z_hat + slope * side * d
-            c2, z, n = _point(ref, i, z_hat[i] + side * d, np.where(np.isfinite(guess), guess, start))
+            c2, z, n = _point(ref, i, z_hat[i] + side * d, np.where(np.isfinite(guess), guess, start),
+                              stop=min(1e-3, tolerance / 10))
             evals += n
             delta = c2 - chi2_min
             if delta < -max(tolerance, FLAT) and (better is None or c2 < better):
