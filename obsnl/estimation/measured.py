@@ -30,7 +30,8 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import DataError
-from obsnl.estimation.records import Record, check_seconds, check_times, quote, read_table, times_from_text
+from obsnl.estimation.records import Record, check_seconds, check_times, read_table, times_from_text
+from obsnl.model.textsize import quote
 
 __all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS", "MIN_SAMPLES"]
 

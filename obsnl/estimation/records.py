@@ -23,27 +23,14 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import DataError
+from obsnl.model.textsize import quote
 
 __all__ = ["Record", "check_times", "check_seconds", "read_text", "read_record", "read_csv",
-           "read_at2", "add_noise", "rms", "G", "MAX_FILE_BYTES", "read_table", "times_from_text", "quote"]
+           "read_at2", "add_noise", "rms", "G", "MAX_FILE_BYTES", "read_table", "times_from_text"]
 
 #: Standard gravity (m/s² per g), used to convert AT2 files.
 G = 9.80665
 _DT_RTOL = 1e-6
-
-
-def quote(text: Any, limit: int = 80) -> str:
-    """``repr(text)`` cut to ``limit`` characters, for a message that echoes what the user wrote.
-
-    Parameters
-    ----------
-    text : Any
-        What the user wrote (a cell, a line, a header).
-    limit : int
-        Largest length of the result.
-    """
-    r = repr(text)
-    return r if len(r) <= limit else r[: limit - 3] + "..."
 
 
 @dataclass(frozen=True, eq=False)
