@@ -47,7 +47,7 @@ from scipy.integrate import solve_ivp
 
 import obsnl
 from obsnl.model.files import model_to_toml
-from obsnl.studies.identify import IDENTIFY_FILES, write_identification
+from obsnl.identification.identify import IDENTIFY_FILES, write_identification
 
 ROOT = Path(__file__).resolve().parents[1]
 RECORD = ROOT / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
