@@ -22,7 +22,7 @@ from scipy.integrate import solve_ivp
 
 import obsnl
 from obsnl.estimation.records import read_record
-from obsnl.studies.identify import write_identification
+from obsnl.identification.identify import write_identification
 
 ROOT = Path(__file__).resolve().parents[1]
 MODEL = ROOT / "benchmarks" / "models" / "frame2_bouc_wen.toml"

@@ -3,7 +3,7 @@
 The seed model's hysteresis term ``|r - eta'|**(2N)`` (N estimated, so the exponent is not an
 integer) is evaluated 16 times per sigma point per record step by the filters' RK4 and again by the
 stiffness probe and the sensitivity simulations. This script times one tuning run of the seed
-experiment (:func:`obsnl.estimation.experiments.tune_one`, three passes: what ``obsnl reproduce``
+experiment (:func:`obsnl.identification.experiments.tune_one`, three passes: what ``obsnl reproduce``
 does 480 times, and a three-pass Monte-Carlo replicate 320 times) twice, alternating:
 
 * ``glibc``: as it is;

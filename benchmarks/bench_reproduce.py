@@ -41,7 +41,7 @@ def main() -> None:
     args = ap.parse_args()
     from distributed import Client, LocalCluster
 
-    from obsnl.estimation.setup import DEFAULT_GRID
+    from obsnl.identification.setup import DEFAULT_GRID
     from obsnl.executor import Executor
     from obsnl.studies.seed_paper import reproduce
 

@@ -2,7 +2,7 @@
 
 One tuning run of the seed experiment (three passes of the filter over the 1999-sample record, the
 output misfits and the sensitivities of the practical-identifiability check after the first pass:
-what :func:`obsnl.estimation.experiments.tune_one` does 480 times in ``reproduce``, and a
+what :func:`obsnl.identification.experiments.tune_one` does 480 times in ``reproduce``, and a
 Monte-Carlo replicate of the three-pass protocol does 320 times) for the UKF and the DUKF.
 
 Plain script (no pytest):
@@ -37,7 +37,7 @@ import json, sys, time
 sys.path.insert(0, sys.argv[1])
 import obsnl
 assert obsnl.__file__.startswith(sys.argv[1]), obsnl.__file__
-from obsnl.estimation.experiments import Tuning, make_data, tune_one
+from obsnl.identification.experiments import Tuning, make_data, tune_one
 from obsnl.studies.seed_paper import seed_branch_table
 from obsnl.studies.seed_tasks import Spec, context
 

@@ -28,7 +28,7 @@ import numpy as np
 
 import obsnl
 from obsnl.estimation.codegen import numpy_model
-from obsnl.estimation.experiments import Tuning, _noise, make_data, make_filter
+from obsnl.identification.experiments import Tuning, _noise, make_data, make_filter
 from obsnl.studies.seed_paper import seed_model_path, seed_setup
 
 TUNING = Tuning(0.1, 0.0, 1.0)
