@@ -414,7 +414,7 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     std = np.array([abs(theta[i]) * math.sqrt(C[i, i]) if free[i] else 0.0 for i in range(m.np)])
     res = r.reshape(-1, m.ny) * obj.sigma
     misfit = {o: float(np.sqrt(np.mean(res[:, j] ** 2)) / noise[j]) for j, o in enumerate(m.outputs)}
-    converged, reason = _verdict(fit, m.parameters, free)
+    converged, reason = _verdict(fit, m.parameters)
     return Refinement(theta=theta, x0=obj.x0(z), std=std, cov=C, sigma=obj.sigma, misfit=misfit, chi2=fit.chi2,
                       converged=converged, reason=reason, iterations=iterations,
                       at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
@@ -422,7 +422,7 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
                       objective=obj)
 
 
-def _verdict(fit: Fit, parameters: Sequence[str], free: np.ndarray) -> tuple[bool, str]:
+def _verdict(fit: Fit, parameters: Sequence[str]) -> tuple[bool, str]:
     edge = [parameters[i] for i in fit.at_bound if i < len(parameters)]
     if fit.decrement > DECREMENT:
         what = "no step lowers the misfit any more" if fit.stalled else f"stopped after {fit.iterations} iterations"
