@@ -22,7 +22,7 @@ LAYERS = {
     "recombination": 4, "estimation": 4,
     "report": 5,
     "identification": 6,
-    "studies": 7,
+    "studies": 7, "design": 7,
     "batch": 8,
     "cli": 9, "__init__": 9, "__main__": 10,
 }
