@@ -1,0 +1,340 @@
+"""Which sensors make a model identifiable: every minimal set of candidate sensors for which the targets
+are jointly identifiable, or the proof that no set of them is enough.
+
+The candidates are the model's outputs (a model lists every quantity one could measure); a set is
+*sufficient* when :func:`obsnl.design.sufficiency.check_sensors` finds every target jointly identifiable
+with those outputs alone, *minimal* when no proper subset is sufficient.
+
+The search is level-wise, smallest sets first, on the monotonicity of the test (a superset of a
+sufficient set is sufficient, a subset of an insufficient set is not):
+
+1. The full set is tested first. If it is insufficient, no set is sufficient: the answer is that proof
+   (the targets no sensor reveals, and the symmetries of the model that every branch shares and no
+   sensor breaks, when the symmetry search finds them).
+2. At size ``k``, a set that contains a minimal set found at a smaller size is sufficient and not
+   minimal (no analysis); a subset of a set already proven insufficient is insufficient (no analysis);
+   a set in which some target has no path to any chosen output is insufficient (exact, from the
+   dependency graph, no analysis). Only the remaining sets are analysed (the joint verdict), each
+   independently, on the given executor.
+3. A sufficient set of size ``k`` is minimal when each of its subsets of size ``k - 1`` was proven
+   insufficient; if one of them was left undecided (a time limit, an inconclusive verdict), the set is
+   reported as sufficient with its minimality undecided, never as minimal.
+
+Each minimal set comes with its certificate: the probability bound and seed of its own analysis, and for
+each sensor removed, how the remaining set was proven insufficient. On a building whose every floor
+alone reveals everything, the search of all sets up to size 2 runs ``m + 1`` analyses instead of the
+``2^m - 1`` sets there are.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+from obsnl.errors import OptionError
+from obsnl.executor import Executor
+from obsnl.model.core import Model
+from obsnl.model.files import load_model
+from obsnl.observability.analyze import assumptions
+from obsnl.observability.joint_certify import shared_symmetries
+from obsnl.observability.selection import select_branches
+from obsnl.observability.smooth import resolve_unknown_input_derivatives
+from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets
+
+__all__ = ["SensorSearch", "sensors"]
+
+
+@dataclass(frozen=True)
+class SensorSearch:
+    """Every minimal sufficient set of sensors (up to a size), with certificates.
+
+    Attributes
+    ----------
+    model
+        The model's name.
+    candidates
+        The candidate sensors (the model's outputs), in order.
+    targets
+        States and parameters that must be jointly identifiable.
+    max_size
+        Largest set size searched.
+    minimal_sets
+        Every minimal sufficient set of at most ``max_size`` sensors, smallest first.
+    undecided_sets
+        Sets whose sufficiency, or whose minimality, could not be decided (with the reason in
+        :attr:`checked`).
+    none_exists
+        True when even the full set of candidates is insufficient (then ``minimal_sets`` is empty and
+        ``proof`` says why).
+    proof
+        Why no set suffices (the targets no sensor reveals, the symmetries no sensor breaks); empty
+        otherwise.
+    checked
+        Every set whose answer was established, by analysis, reachability or implication.
+    analyses
+        Joint verdicts run (the cost of the search; compare with ``2**len(candidates) - 1`` sets).
+    seed
+        Seed of every analysis.
+    assumptions
+        What the verdicts assume: the unknown-input assumption and the visited branches.
+    seconds
+        Wall time.
+    """
+
+    model: str
+    candidates: tuple[str, ...]
+    targets: tuple[str, ...]
+    max_size: int
+    minimal_sets: tuple[tuple[str, ...], ...]
+    undecided_sets: tuple[tuple[str, ...], ...] = ()
+    none_exists: bool = False
+    proof: str = ""
+    checked: tuple[Sufficiency, ...] = field(default=(), repr=False)
+    analyses: int = 0
+    seed: int = 0
+    assumptions: dict[str, Any] = field(default_factory=dict, repr=False)
+    seconds: float = 0.0
+    ranking: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def exhaustive(self) -> int:
+        """Number of non-empty sets of candidates (what a search without monotonicity would test)."""
+        return 2 ** len(self.candidates) - 1
+
+    def answer(self, sensors: Sequence[str]) -> Sufficiency | None:
+        """The established answer for one set (None when the search did not reach it)."""
+        key = frozenset(sensors)
+        return next((c for c in self.checked if frozenset(c.sensors) == key), None)
+
+    def certificates(self) -> list[dict[str, Any]]:
+        """Per minimal set: its own analysis, and how each set with one sensor removed was proven insufficient."""
+        out = []
+        for s in self.minimal_sets:
+            own = self.answer(s)
+            removed = {}
+            for name in s:
+                rest = tuple(x for x in s if x != name)
+                if not rest:
+                    removed[name] = {"sufficient": False, "how": "empty", "reason": "no sensor left"}
+                    continue
+                ans = self.answer(rest)
+                removed[name] = ans.to_dict() if ans is not None else {"sufficient": None, "how": "missing"}
+            out.append({"sensors": list(s), "analysis": own.to_dict() if own is not None else None,
+                        "without": removed})
+        return out
+
+    def summary(self) -> str:
+        """A few lines: the minimal sets, or why none exists, and the cost of the search."""
+        if self.none_exists:
+            head = f"no set of the {len(self.candidates)} candidate sensors suffices: {self.proof}"
+        elif self.minimal_sets:
+            head = "minimal sensor sets: " + "; ".join("{" + ", ".join(s) + "}" for s in self.minimal_sets)
+        else:
+            head = f"no sufficient set of at most {self.max_size} sensors"
+        tail = f"{self.analyses} analyses for {self.exhaustive} possible sets"
+        if self.undecided_sets:
+            tail += f"; undecided: {len(self.undecided_sets)} sets"
+        return f"{head}\n{tail}"
+
+    def __repr__(self) -> str:
+        return (f"SensorSearch(model={self.model!r}, minimal_sets={len(self.minimal_sets)}, "
+                f"none_exists={self.none_exists}, analyses={self.analyses})")
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: ``minimal_sets``, ``analyses``, ``certificates`` and the rest of the search."""
+        out = {
+            "model": self.model, "candidates": list(self.candidates), "targets": list(self.targets),
+            "max_size": self.max_size, "minimal_sets": [list(s) for s in self.minimal_sets],
+            "undecided_sets": [list(s) for s in self.undecided_sets], "none_exists": self.none_exists,
+            "proof": self.proof, "analyses": self.analyses, "possible_sets": self.exhaustive,
+            "certificates": self.certificates(), "checked": [c.to_dict() for c in self.checked],
+            "seed": self.seed, "assumptions": self.assumptions, "seconds": round(self.seconds, 3),
+        }
+        if self.ranking is not None:
+            out["ranking"] = self.ranking.to_dict()
+        return out
+
+
+def _check_task(task: tuple) -> Sufficiency:
+    """One analysis (module level: pickled by name for worker processes)."""
+    model, names, targets, seed, prob, max_seconds = task
+    return check_sensors(model, names, targets, seed=seed, prob=prob, max_seconds=max_seconds)
+
+
+def _symmetry_proof(model: Model, missing: Sequence[str], seed: int) -> str:
+    """The targets no sensor reveals, and the shared symmetries that move them (when found)."""
+    text = f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not jointly identifiable even with " \
+           f"every candidate sensor"
+    try:
+        chosen, _ = select_branches(model, seed=seed)
+        gens = shared_symmetries(model, [b for b in chosen if not b.undecided], seed=seed)
+    except Exception:  # noqa: BLE001  the symmetry is an explanation; the proof is the analysis above
+        gens = ()
+    if gens:
+        text += "; symmetries of every branch that no output breaks: " + "; ".join(str(g) for g in gens)
+    return text
+
+
+def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size: int | None = None,
+            seed: int = 0, prob: float = 0.99, max_seconds: float | None = None,
+            executor: Executor | None = None, progress: bool | Callable[[int], Any] = False) -> SensorSearch:
+    """Every minimal set of the model's outputs that makes ``target`` jointly identifiable.
+
+    Parameters
+    ----------
+    model
+        A model whose outputs are the candidate sensors, or its file (a path or ``obsnl:NAME``).
+    target
+        ``"all"`` (every state and parameter), ``"parameters"`` or names (see
+        :func:`obsnl.design.sufficiency.resolve_targets`).
+    max_size
+        Largest set searched (default: every size).
+    seed, prob
+        Seed and wanted probability bound of every analysis (:func:`obsnl.analyze`).
+    max_seconds
+        Time limit of each analysis (its undecided targets leave the set undecided).
+    executor
+        Where the analyses of one size run (default: this process).
+    progress
+        True: a progress bar on stderr (tqdm); a callable: called with the number of sets decided.
+
+    Returns
+    -------
+    SensorSearch
+
+    Raises
+    ------
+    OptionError
+        A model without outputs, a bad target, ``max_size`` not a whole number >= 1.
+
+    Examples
+    --------
+    Two masses that do not interact, measured separately or by one sensor of their sum:
+
+    >>> from obsnl import Model
+    >>> m = Model(name="two", states=["x", "z"], parameters=["a", "b"],
+    ...           equations={"x": "-a*x", "z": "-b*z"}, outputs={"y1": "x", "y2": "z", "s": "x + 2*z"})
+    >>> res = sensors(m, target="parameters")
+    >>> res.minimal_sets
+    (('s',), ('y1', 'y2'))
+    >>> res.analyses  # the full set, {s}, {y1, y2}; {y1} and {y2} fail on reachability alone
+    3
+    """
+    if isinstance(model, str) or hasattr(model, "__fspath__"):
+        model = load_model(model)
+    candidates = tuple(model.output_names)
+    if not candidates:
+        raise OptionError(f"model {model.name!r} has no outputs: list every quantity one could measure as an output")
+    targets = resolve_targets(model, target)
+    m = len(candidates)
+    if max_size is None:
+        max_size = m
+    if not isinstance(max_size, int) or isinstance(max_size, bool) or max_size < 1:
+        raise OptionError(f"max_size must be a whole number >= 1, got {max_size!r}")
+    max_size = min(max_size, m)
+    executor = executor or Executor(workers=1)
+    bar = _bar(progress, sum(len(list(itertools.combinations(range(m), k))) for k in range(1, max_size + 1)))
+    t0 = time.perf_counter()
+    full = check_sensors(model, candidates, targets, seed=seed, prob=prob, max_seconds=max_seconds)
+    analyses = int(full.how == "analysis")
+    assumptions = _assumptions(model, full)
+    if full.sufficient is False:
+        _close(bar)
+        return SensorSearch(model.name, candidates, targets, max_size, (), none_exists=True,
+                            proof=_symmetry_proof(model, full.missing, seed), checked=(full,), analyses=analyses,
+                            seed=seed, assumptions=assumptions, seconds=time.perf_counter() - t0)
+    known: dict[frozenset, Sufficiency] = {frozenset(candidates): full}
+    insufficient: list[frozenset] = []
+    minimal: list[tuple[str, ...]] = []
+    undecided: list[tuple[str, ...]] = []
+    for k in range(1, max_size + 1):
+        level = [tuple(candidates[i] for i in idx) for idx in itertools.combinations(range(m), k)]
+        todo, covered = [], set()
+        for s in level:
+            key = frozenset(s)
+            base = next((x for x in minimal if key >= set(x)), None)
+            if base is not None:  # contains a minimal set: sufficient, not minimal
+                covered.add(key)
+                _tick(bar)
+                continue
+            if key in known:
+                _tick(bar)
+                continue
+            bigger = next((x for x in insufficient if key <= x), None)
+            if bigger is not None:
+                known[key] = Sufficiency(s, False, missing=known[bigger].missing, how="implied", probability=None,
+                                         reason="a subset of {" + ", ".join(known[bigger].sensors) + "}, insufficient")
+                _tick(bar)
+                continue
+            todo.append(s)
+        results = executor.map(_check_task, [(model, s, targets, seed, prob, max_seconds) for s in todo],
+                               done=(lambda i, r: _tick(bar)) if bar is not None else None)
+        analyses += sum(r.how == "analysis" for r in results)
+        for s, r in zip(todo, results):
+            known[frozenset(s)] = r
+        for s in level:
+            if frozenset(s) in covered:
+                continue
+            r = known.get(frozenset(s))
+            if r is None or r.sufficient is None:
+                if r is not None:
+                    undecided.append(s)
+                continue
+            if r.sufficient is False:
+                insufficient.append(frozenset(s))
+                continue
+            subs = [known.get(frozenset(x)) for x in itertools.combinations(s, k - 1)] if k > 1 else []
+            if all(x is not None and x.sufficient is False for x in subs):
+                minimal.append(s)
+            else:
+                undecided.append(s)
+                known[frozenset(s)] = replace(r, reason="sufficient; minimality undecided: a subset with one "
+                                              "sensor fewer was not decided")
+        if k == m and full.sufficient is None and not minimal:
+            break
+    _close(bar)
+    order = {frozenset(c.sensors): i for i, c in enumerate(known.values())}
+    checked = tuple(sorted(known.values(), key=lambda c: (len(c.sensors), order[frozenset(c.sensors)])))
+    return SensorSearch(model.name, candidates, targets, max_size, tuple(minimal), tuple(undecided),
+                        checked=checked, analyses=analyses, seed=seed, assumptions=assumptions,
+                        seconds=time.perf_counter() - t0)
+
+
+def _assumptions(model: Model, full: Sufficiency) -> dict[str, Any]:
+    """What every verdict of the search assumes."""
+    out = assumptions(model, resolve_unknown_input_derivatives(model, None), None)
+    out["visited"] = full.visited or "every feasible branch"
+    out["monotonicity"] = "a superset of a sufficient set is sufficient; a subset of an insufficient set is not"
+    return out
+
+
+def _bar(progress: bool | Callable[[int], Any], total: int) -> Any:
+    """A tqdm bar on stderr, a user's callable, or None."""
+    if callable(progress):
+        return progress
+    if not progress:
+        return None
+    try:
+        import sys
+
+        from tqdm import tqdm
+    except ImportError:  # pragma: no cover
+        return None
+    return tqdm(desc="sensor sets", total=total, unit="set", file=sys.stderr)
+
+
+def _tick(bar: Any) -> None:
+    if bar is None:
+        return
+    if hasattr(bar, "update"):
+        bar.update(1)
+    else:
+        bar(1)
+
+
+def _close(bar: Any) -> None:
+    if bar is not None and hasattr(bar, "close"):
+        bar.close()

@@ -1,0 +1,162 @@
+"""Renderings of a sensor search (:class:`obsnl.design.sensors.SensorSearch`): text, Markdown, LaTeX and JSON.
+
+The search is read by its attributes (this room sits below :mod:`obsnl.design` and does not import it).
+The minimal sets come first, each with how its sufficiency was certified and how each set with one sensor
+fewer was proven insufficient; then the practical ranking when a record was given; then what the
+verdicts assume.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from typing import Any
+
+from obsnl.report.sentences import probability_text
+
+__all__ = ["render_sensors"]
+
+FORMATS = ("text", "json", "md", "tex")
+
+
+def _set(names: Any) -> str:
+    return "{" + ", ".join(names) + "}"
+
+
+def _tex(name: str) -> str:
+    return r"\texttt{" + name.replace("\\", r"\textbackslash{}").replace("_", r"\_").replace("&", r"\&") \
+        .replace("%", r"\%").replace("#", r"\#").replace("$", r"\$").replace("{", r"\{").replace("}", r"\}") + "}"
+
+
+def _tex_set(names: Any) -> str:
+    return r"\{" + ", ".join(_tex(n) for n in names) + r"\}"
+
+
+def _how(ans: Any) -> str:
+    """How one set's answer was established, in a few words."""
+    if ans is None:
+        return "not reached"
+    if ans.how == "analysis":
+        return f"joint verdict, P >= {probability_text(ans.probability)}, seed {ans.seed}"
+    return {"reachability": "dependency graph (exact)", "implied": "monotonicity"}.get(ans.how, ans.how)
+
+
+def _head(search: Any) -> list[str]:
+    lines = []
+    if search.none_exists:
+        lines.append(f"No set of the {len(search.candidates)} candidate sensors suffices: {search.proof}.")
+    elif search.minimal_sets:
+        lines.append(f"{len(search.minimal_sets)} minimal sensor set{'s' if len(search.minimal_sets) != 1 else ''} "
+                     f"(at most {search.max_size} sensors) make {_targets(search)} jointly identifiable.")
+    else:
+        lines.append(f"No set of at most {search.max_size} sensors makes {_targets(search)} jointly identifiable.")
+    if search.undecided_sets:
+        lines.append("Undecided (not reported minimal): " + "; ".join(_set(s) for s in search.undecided_sets) + ".")
+    lines.append(f"{search.analyses} joint verdicts for the {search.exhaustive} possible sets of "
+                 f"{len(search.candidates)} candidates ({search.seconds:.1f} s).")
+    return lines
+
+
+def _targets(search: Any) -> str:
+    return "every target" if len(search.targets) > 6 else ", ".join(search.targets)
+
+
+def _assumptions(search: Any) -> list[str]:
+    a = search.assumptions
+    out = [f"visited branches: {a.get('visited', 'every feasible branch')}"]
+    ui = a.get("unknown_input_derivatives")
+    if ui is not None:
+        out.append(f"unknown inputs: {ui}")
+    known = a.get("known_inputs")
+    if known:
+        out.append(f"known inputs: {known}")
+    out.append(a.get("monotonicity", ""))
+    return [x for x in out if x]
+
+
+def _rows(search: Any) -> list[tuple[tuple[str, ...], str, list[str]]]:
+    """(set, its certificate, per removed sensor how the rest was proven insufficient)."""
+    rows = []
+    for s in search.minimal_sets:
+        without = []
+        for name in s:
+            rest = tuple(x for x in s if x != name)
+            without.append(f"-{name}: " + ("empty" if not rest else _how(search.answer(rest))))
+        rows.append((tuple(s), _how(search.answer(s)), without))
+    return rows
+
+
+def _ranking_rows(search: Any) -> list[dict[str, Any]]:
+    ranking = getattr(search, "ranking", None)
+    return [] if ranking is None else list(ranking.to_dict().get("ranking", []))
+
+
+def _num(x: Any) -> str:
+    if x is None or (isinstance(x, float) and not math.isfinite(x)):
+        return "inf"
+    return f"{x:.3g}"
+
+
+def render_sensors(search: Any, fmt: str = "text") -> str:
+    """``search`` as ``"text"``, ``"md"``, ``"tex"`` or ``"json"``.
+
+    Parameters
+    ----------
+    search : SensorSearch
+        The result of :func:`obsnl.design.sensors.sensors`.
+    fmt : str
+        One of ``text``, ``md``, ``tex``, ``json``.
+
+    Returns
+    -------
+    str
+    """
+    if fmt == "json":
+        return json.dumps(search.to_dict(), indent=2)
+    rows, ranked = _rows(search), _ranking_rows(search)
+    efi = getattr(getattr(search, "ranking", None), "effective_independence", None)
+    if fmt == "text":
+        lines = [f"model {search.model}: candidate sensors {', '.join(search.candidates)}"] + _head(search)
+        for s, how, without in rows:
+            lines.append(f"  {_set(s)}  [{how}]")
+            lines.extend(f"      {w}" for w in without)
+        if ranked:
+            lines.append("ranking along the record (Cramer-Rao bound, best first):")
+            lines.extend(f"  {_set(r['sensors'])}: worst relative std {_num(r['worst_relative_std'])}, "
+                         f"log det FIM {_num(r['log_det_fim'])}" for r in ranked)
+        if efi:
+            lines.append(f"effective independence (linear modes) chooses {_set(efi)}")
+        lines.append("assumes: " + "; ".join(_assumptions(search)))
+        return "\n".join(lines)
+    if fmt == "md":
+        lines = [f"# Sensor sets of {search.model}", "", *_head(search), "",
+                 "| minimal set | certificate | with one sensor removed |", "|---|---|---|"]
+        lines += [f"| {_set(s)} | {how} | {'; '.join(without)} |" for s, how, without in rows]
+        if ranked:
+            lines += ["", "| rank | sensors | worst relative std | log det FIM |", "|---:|---|---:|---:|"]
+            lines += [f"| {i} | {_set(r['sensors'])} | {_num(r['worst_relative_std'])} | {_num(r['log_det_fim'])} |"
+                      for i, r in enumerate(ranked, 1)]
+        if efi:
+            lines += ["", f"Effective independence (linear modes) chooses {_set(efi)}."]
+        lines += ["", "Assumes: " + "; ".join(_assumptions(search)) + "."]
+        return "\n".join(lines)
+    if fmt == "tex":
+        lines = [r"\begin{table}[htbp]", r"\centering",
+                 r"\caption{Minimal sensor sets of \texttt{" + search.model.replace("_", r"\_") + "}: "
+                 + f"{search.analyses} joint verdicts for {search.exhaustive} possible sets" + "}",
+                 r"\begin{tabular}{ll}", r"\toprule", r"minimal set & certificate \\", r"\midrule"]
+        geq = r"$\geq$"
+        lines += [_tex_set(s) + " & " + how.replace(">=", geq) + r" \\" for s, how, _ in rows]
+        if not rows:
+            lines.append(r"\multicolumn{2}{l}{none} \\")
+        lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
+        if ranked:
+            lines += ["", r"\begin{table}[htbp]", r"\centering",
+                      r"\caption{Sensor sets ranked by the Cram\'er-Rao bound along the record}",
+                      r"\begin{tabular}{rlrr}", r"\toprule", r"rank & sensors & worst rel.\ std & $\log\det F$ \\",
+                      r"\midrule"]
+            lines += [f"{i} & {_tex_set(r['sensors'])} & {_num(r['worst_relative_std'])} & {_num(r['log_det_fim'])} \\\\"
+                      for i, r in enumerate(ranked, 1)]
+            lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
+        return "\n".join(lines)
+    raise ValueError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
