@@ -1,0 +1,400 @@
+"""Which experiment makes a model identifiable: the branches a record visits as its amplitude grows, the
+smallest amplitude that makes every target jointly identifiable, and which of several records suffice.
+
+The model's ``[values]`` are simulated under ``s * record`` (:func:`obsnl.observability.visited.visited_patterns`,
+initial states unscaled); the sign patterns at the record's sample times are the branches the experiment
+at scale ``s`` visits, and the set suffices when :func:`obsnl.design.sufficiency.check_sensors` with
+``visited=`` that set finds every target jointly identifiable. The verdict depends on the visited *set*
+only (seconds and crossings are reported, not analysed): it is cached by the frozenset of patterns.
+
+**The scale.** The default grid is the powers of 2 from ``2**-10`` (about 1e-3) to ``2**10`` (about
+1e3). The first sufficient grid scale and the one below it bracket the smallest sufficient scale; the
+bracket is bisected (geometric mid-points) until ``(hi - lo) / hi <= tol``. This assumes that the visited
+set grows with the scale (a larger motion reaches every branch a smaller one reaches). When it does not,
+the bisection still ends on a boundary between an insufficient ``lo`` and a sufficient ``hi`` (both
+simulated), reported with the bracket, which need not be the smallest sufficient scale;
+:attr:`ExperimentDesign.notes` says where the visited set shrank and which larger grid scales fail.
+
+**Several records** are experiments sharing the parameters, each with its own states: their verdict is the
+joint verdict over the union of their visited patterns (obsnl's joint verdict gives every visit its own
+states already). It also pairs switching surfaces between visited branches, which may come from different
+records: a crossing it credits may be one no single record makes. ``sufficient_records`` are the minimal
+subsets of the records (at scale 1) whose union suffices, by increasing size; a superset of a sufficient
+subset is sufficient (more branches add rows to the verdict) and is not listed.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from collections import Counter
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any, Union
+
+import numpy as np
+
+from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
+from obsnl.errors import NotSupportedError, OptionError
+from obsnl.estimation.records import Record
+from obsnl.model.branches import split_branches
+from obsnl.model.budget import check_time, remaining, time_budget
+from obsnl.model.core import Model
+from obsnl.observability.analyze import assumptions as analysis_assumptions
+from obsnl.observability.visited import Visits, visited_patterns
+
+__all__ = ["VisitedBranch", "ScaleVisit", "ExperimentDesign", "design", "DEFAULT_SCALES", "MAX_RECORDS"]
+
+#: The default scales: powers of 2 from 2**-10 (about 1e-3) to 2**10 (about 1e3), 21 of them, 1 among them.
+DEFAULT_SCALES = tuple(2.0 ** k for k in range(-10, 11))
+#: Most records of one design (the search of sufficient subsets visits at most ``2**MAX_RECORDS - 1``).
+MAX_RECORDS = 12
+#: Most switching functions whose visited patterns get branch labels (beyond, the sign pattern names a branch).
+LABEL_UP_TO = 8
+
+#: A record: a :class:`~obsnl.estimation.records.Record` or ``(name, t, {input: samples})``.
+RecordLike = Union[Record, "tuple[str, Any, Mapping[str, Any]]"]
+
+
+#: What a design assumes besides the analysis' own assumptions.
+_ASSUMED = {
+    "visited": "sign patterns of the model's [values] simulated under each scaled record, at its sample times",
+    "scale": "the visited set grows with the scale; if not, the bisection ends on a sufficient boundary (the bracket)",
+    "records": "experiments sharing the parameters, each with its own states; the joint verdict pairs switching "
+               "surfaces between visited branches, which may come from different records",
+    "sufficient_records": "at scale 1; a superset of a sufficient subset is sufficient and not listed"}
+
+
+def _pattern(signs: Sequence[int]) -> str:
+    return "".join("+" if s > 0 else "-" for s in signs)
+
+
+@dataclass(frozen=True)
+class VisitedBranch:
+    """One visited branch: its sign pattern, its label (None when not enumerated) and the seconds in it."""
+
+    signs: tuple[int, ...]
+    label: str | None
+    seconds: float
+
+    @property
+    def pattern(self) -> str:
+        """The signs as ``+`` and ``-`` (empty for a smooth model)."""
+        return _pattern(self.signs)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields."""
+        return {"pattern": _pattern(self.signs), "label": self.label, "seconds": round(self.seconds, 6)}
+
+
+@dataclass(frozen=True)
+class ScaleVisit:
+    """What the records scaled by ``scale`` visit and whether that suffices.
+
+    Attributes
+    ----------
+    scale, branches, crossings
+        The factor on every record; the visited branches (union over the records, seconds summed) in order
+        of first visit; sign changes per switching function (summed).
+    sufficient, missing, undecided, reason
+        The joint verdict over ``branches`` (True, False or None: inconclusive), the targets proven not
+        identifiable and those undecided, and why (:attr:`Sufficiency.reason`).
+    bisection, by_record
+        True for a point of the bisection; the sign patterns each record visits (several records only).
+    """
+
+    scale: float
+    branches: tuple[VisitedBranch, ...]
+    crossings: Mapping[str, int]
+    sufficient: bool | None
+    missing: tuple[str, ...] = ()
+    undecided: tuple[str, ...] = ()
+    reason: str = ""
+    bisection: bool = False
+    by_record: Mapping[str, tuple[tuple[int, ...], ...]] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready fields."""
+        return {"scale": self.scale, "bisection": self.bisection, "sufficient": self.sufficient,
+                "patterns": [b.to_dict() for b in self.branches], "crossings": dict(self.crossings),
+                "missing": list(self.missing), "undecided": list(self.undecided), "reason": self.reason,
+                "by_record": {k: [_pattern(p) for p in v] for k, v in self.by_record.items()}}
+
+
+@dataclass(frozen=True)
+class ExperimentDesign:
+    """The answer of :func:`design`.
+
+    Attributes
+    ----------
+    model, targets, sensors, records, switching
+        The model's name, the targets, the outputs used, the records' names and the switching functions
+        (the order of the signs of every pattern).
+    visits
+        One :class:`ScaleVisit` per simulated scale (grid and bisection), by increasing scale.
+    min_scale, bracket
+        The smallest sufficient scale found (``hi`` of a bracket at most ``tol`` wide), or None; the bracket
+        ``(lo, hi)``: ``hi`` sufficient, ``lo`` proven insufficient, None where no such scale is known.
+    status, reason, tol
+        ``"found"``; ``"smallest_suffices"`` (the smallest scale suffices: ``min_scale`` is at most it and
+        is not estimated); ``"none_suffices"`` (not even the largest scale does; ``reason`` names the
+        targets); ``"inconclusive"`` (a verdict the search needed is undecided; never guessed). The
+        status in words, and the relative width the bisection aims at.
+    sufficient_records, undecided_records
+        Minimal subsets of the records (at scale 1) that suffice together; subsets left undecided.
+    analyses
+        Joint verdicts run (one per distinct visited set; reachability answers are not counted).
+    seed, assumptions, notes, seconds
+        Seed of the analyses, what every verdict assumes, observations (a visited set that does not grow
+        with the scale), wall time.
+    """
+
+    model: str
+    targets: tuple[str, ...]
+    sensors: tuple[str, ...]
+    records: tuple[str, ...]
+    switching: tuple[str, ...]
+    visits: tuple[ScaleVisit, ...]
+    min_scale: float | None
+    bracket: tuple[float | None, float | None]
+    status: str
+    reason: str
+    tol: float
+    sufficient_records: tuple[tuple[str, ...], ...]
+    undecided_records: tuple[tuple[str, ...], ...] = ()
+    analyses: int = 0
+    seed: int = 0
+    assumptions: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    notes: tuple[str, ...] = ()
+    seconds: float = 0.0
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready: ``min_scale``, ``bracket``, ``visited`` (per scale), ``sufficient_records`` and the rest."""
+        return {"model": self.model, "targets": list(self.targets), "sensors": list(self.sensors),
+                "records": list(self.records), "switching": list(self.switching), "min_scale": self.min_scale,
+                "bracket": list(self.bracket), "status": self.status, "reason": self.reason, "tol": self.tol,
+                "visited": [v.to_dict() for v in self.visits],
+                "sufficient_records": [list(s) for s in self.sufficient_records],
+                "undecided_records": [list(s) for s in self.undecided_records], "analyses": self.analyses,
+                "seed": self.seed, "assumptions": dict(self.assumptions), "notes": list(self.notes),
+                "seconds": round(self.seconds, 3)}
+
+
+def _as_run(model: Model, rec: Any) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
+    """``(name, t, {input: samples})`` of a record (a one-column Record drives the model's one input)."""
+    if isinstance(rec, Record):
+        a = np.asarray(rec.accel, float)
+        if a.ndim == 2:
+            return rec.name, rec.t, {c: a[:, j] for j, c in enumerate(rec.channels)}
+        if len(model.inputs) != 1:
+            raise OptionError(f"record {rec.name!r} drives one input, model {model.name!r} has {len(model.inputs)} "
+                              f"known inputs; give (name, t, {{input: samples}}) instead")
+        return rec.name, rec.t, {model.inputs[0].name: a}
+    if isinstance(rec, tuple) and len(rec) == 3 and isinstance(rec[2], Mapping):
+        name, t, inputs = rec
+        return str(name), np.asarray(t, float), {str(k): np.asarray(v, float) for k, v in inputs.items()}
+    raise OptionError(f"a record is a Record or (name, t, {{input: samples}}), got {type(rec).__name__}")
+
+
+class _Runs:
+    """The simulations and joint verdicts of one design, each computed once."""
+
+    def __init__(self, model: Model, sub: Model, runs: Sequence[tuple], targets: Sequence[str], seed: int) -> None:
+        self.model, self.sub, self.runs, self.targets, self.seed = model, sub, list(runs), tuple(targets), seed
+        self.sims: dict[tuple[int, float], Visits] = {}
+        self.verdicts: dict[frozenset, Sufficiency] = {}
+        self.analyses = 0
+        self._labels: dict[tuple[int, ...], str] | None = None
+
+    def simulate(self, i: int, scale: float) -> Visits:
+        if (i, scale) not in self.sims:
+            name, t, inputs = self.runs[i]
+            check_time(f"simulating record {name!r} at scale {scale:g}",
+                       "raise --max-seconds, or give shorter records or fewer scales")
+            self.sims[i, scale] = visited_patterns(self.sub, t, {k: scale * v for k, v in inputs.items()})
+        return self.sims[i, scale]
+
+    def union(self, idx: Sequence[int], scale: float) -> tuple[dict, dict, dict]:
+        """Patterns (seconds summed), crossings (summed) and each record's patterns, over the records ``idx``."""
+        patterns: Counter = Counter()  # adds the seconds, keeps the order of first visit
+        crossings: Counter = Counter()
+        by: dict[str, tuple[tuple[int, ...], ...]] = {}
+        for i in idx:
+            vis = self.simulate(i, scale)
+            by[self.runs[i][0]] = tuple(vis.patterns)
+            patterns.update(vis.patterns)
+            crossings.update(vis.crossings)
+        return dict(patterns), dict(crossings), by
+
+    def verdict(self, patterns: Mapping[tuple[int, ...], float], crossings: Mapping[str, int]) -> Sufficiency:
+        """The joint verdict over the visited set (cached by the set: seconds and crossings are only reported)."""
+        key = frozenset(patterns)
+        if key not in self.verdicts:
+            check_time("the joint verdict over the visited branches", "raise --max-seconds")
+            res = check_sensors(self.model, self.sub.output_names, self.targets, seed=self.seed,
+                                max_seconds=remaining(), visited=patterns, crossings=crossings)
+            self.analyses += res.how == "analysis"
+            self.verdicts[key] = res
+        return self.verdicts[key]
+
+    def labels(self, switching: int) -> dict[tuple[int, ...], str]:
+        """Branch labels by sign pattern (:func:`obsnl.split_branches`); none past :data:`LABEL_UP_TO` surfaces."""
+        if self._labels is None:
+            try:
+                found = split_branches(self.sub, seed=self.seed, undecided=True, max_seconds=remaining()) \
+                    if switching <= LABEL_UP_TO else ()
+            except NotSupportedError:  # nested or too many surfaces: the patterns name the branches
+                found = ()
+            self._labels = {tuple(b.signs): b.label for b in found}
+        return self._labels
+
+    def at(self, scale: float, *, bisection: bool = False) -> ScaleVisit:
+        patterns, crossings, by = self.union(range(len(self.runs)), scale)
+        v = self.verdict(patterns, crossings)
+        labels = self.labels(len(self.sims[0, scale].switching))
+        branches = tuple(VisitedBranch(k, labels.get(k), sec) for k, sec in patterns.items())
+        return ScaleVisit(scale, branches, crossings, v.sufficient, v.missing, v.undecided, v.reason, bisection,
+                          by if len(self.runs) > 1 else {})
+
+
+def _search(runs: _Runs, grid: Sequence[ScaleVisit], tol: float) -> tuple[Any, ...]:
+    """``(min_scale, bracket, status, reason, bisection points)`` from the grid's verdicts."""
+    first = next((i for i, v in enumerate(grid) if v.sufficient), None)
+    proven = ([v.scale for v in grid[:first] if v.sufficient is False] or [None])[-1]  # largest insufficient
+    top = grid[-1]
+    if first is None and top.sufficient is False:
+        left = f" ({', '.join(top.undecided)} undecided)" if top.undecided else ""
+        return None, (top.scale, None), "none_suffices", (
+            f"at the largest scale {top.scale:g}, {', '.join(top.missing)} stay unidentifiable{left}"), []
+    if first is None:
+        return None, (proven, None), "inconclusive", (
+            f"no scale is proven sufficient; at the largest scale {top.scale:g}: {top.reason}"), []
+    lo, hi = (grid[first - 1].scale if first else None), grid[first].scale
+    if first == 0:
+        return None, (None, hi), "smallest_suffices", (
+            f"the smallest scale {hi:g} already suffices: min_scale is at most {hi:g} (give smaller scales)"), []
+    if grid[first - 1].sufficient is None:
+        return None, (proven, hi), "inconclusive", (
+            f"the verdict at scale {lo:g} is inconclusive ({grid[first - 1].reason}); scale {hi:g} suffices"), []
+    points: list[ScaleVisit] = []
+    while (hi - lo) / hi > tol:
+        v = runs.at(math.sqrt(lo * hi), bisection=True)
+        points.append(v)
+        if v.sufficient is None:
+            return None, (lo, hi), "inconclusive", (f"the verdict at scale {v.scale:.6g} is inconclusive ({v.reason});"
+                                                    f" the smallest sufficient scale lies in [{lo:.6g}, {hi:.6g}]"), points
+        lo, hi = (lo, v.scale) if v.sufficient else (v.scale, hi)
+    return hi, (lo, hi), "found", f"scale {hi:.6g} suffices, {lo:.6g} does not", points
+
+
+def _notes(grid: Sequence[ScaleVisit], hi: float | None) -> tuple[str, ...]:
+    """Where the visited set does not grow with the scale (the assumption of the bisection)."""
+    notes = []
+    shrink = [(a, b, {x.signs for x in a.branches} - {x.signs for x in b.branches}) for a, b in zip(grid, grid[1:])]
+    for a, b, lost in [x for x in shrink if x[2]][:1]:
+        notes.append(f"scale {a.scale:g} visits {', '.join(_pattern(s) for s in lost)}, which scale {b.scale:g} "
+                     f"does not: the visited set does not grow with the scale there")
+    worse = [v.scale for v in grid if hi is not None and v.scale > hi and v.sufficient is False]
+    if worse:
+        notes.append(f"scale(s) {', '.join(f'{s:g}' for s in worse)} above the sufficient boundary are insufficient: "
+                     f"the bracket is a sufficient boundary, not necessarily the only one")
+    return tuple(notes)
+
+
+def _minimal_records(runs: _Runs) -> tuple[tuple[tuple[str, ...], ...], tuple[tuple[str, ...], ...]]:
+    """Minimal sufficient subsets of the records at scale 1, smallest first, and the undecided subsets."""
+    n = len(runs.runs)
+    names = [r[0] for r in runs.runs]
+    if runs.verdict(*runs.union(range(n), 1.0)[:2]).sufficient is False:  # no subset of an insufficient union
+        return (), ()
+    out: dict[bool | None, list[tuple[str, ...]]] = {True: [], None: []}
+    for size in range(1, n + 1):
+        for combo in itertools.combinations(range(n), size):
+            if any(set(f) <= {names[i] for i in combo} for f in out[True]):  # a superset of a sufficient one
+                continue
+            ok = runs.verdict(*runs.union(combo, 1.0)[:2]).sufficient
+            if ok is not False:
+                out[ok].append(tuple(names[i] for i in combo))
+    return tuple(out[True]), tuple(out[None])
+
+
+def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequence[str] = "all",
+           sensors: str | Sequence[str] | None = None, scales: Sequence[float] | None = None, tol: float = 1e-3,
+           seed: int = 0, max_seconds: float | None = None) -> ExperimentDesign:
+    """The branches the records visit per scale, the smallest sufficient scale and the sufficient records.
+
+    Parameters
+    ----------
+    model
+        A model with numbers for every parameter in its ``[values]`` and only known inputs.
+    records
+        Each a :class:`~obsnl.estimation.records.Record` (one column drives the model's one input; named
+        columns drive the inputs of their names) or ``(name, t, {input: samples})``; names unique, at
+        most :data:`MAX_RECORDS`.
+    target, sensors
+        ``"all"``, ``"parameters"`` or names (:func:`obsnl.design.sufficiency.resolve_targets`); the outputs
+        measured (a sequence or ``"a,b"``; None: every output).
+    scales, tol
+        The grid of factors on every record (default :data:`DEFAULT_SCALES`, 2**-10 to 2**10); the relative
+        width ``(hi - lo) / hi`` at which the bisection stops (1e-12 to below 1).
+    seed, max_seconds
+        Seed of every analysis; time limit of the whole design (simulations and verdicts), past which an
+        :class:`~obsnl.errors.AnalysisError` says what was running.
+
+    Returns
+    -------
+    ExperimentDesign
+
+    Raises
+    ------
+    OptionError
+        Bad records, scales, tolerance, target or sensors.
+    AnalysisError
+        A missing number in ``[values]``, a missing input, a failed simulation, or the time limit.
+
+    Examples
+    --------
+    A gap spring that closes at ``x = g``: the contact branch, the only one where ``kc`` and ``g`` act, is
+    reached once the record is large enough.
+
+    >>> import numpy as np
+    >>> from obsnl import Model
+    >>> m = Model(name="gap", states=["x", "v"], parameters=["c", "k", "kc", "g"], inputs=["u"],
+    ...           equations={"x": "v", "v": "u - c*v - k*x - kc*Max(x - g, 0)"}, outputs={"y": "x"},
+    ...           values={"c": 0.5, "k": 4.0, "kc": 40.0, "g": 0.1})
+    >>> t = np.linspace(0.0, 4.0, 81)
+    >>> d = design(m, [("push", t, {"u": np.sin(2 * t)})], scales=[0.125, 0.25, 1.0, 2.0])
+    >>> d.status, round(d.min_scale, 3), d.bracket[1] - d.bracket[0] <= 1e-3 * d.bracket[1]
+    ('found', 0.306, True)
+    >>> [(v.scale, [b.label for b in v.branches], v.sufficient) for v in d.visits if not v.bisection]
+    [(0.125, ['a'], False), (0.25, ['a'], False), (1.0, ['a', 'b'], True), (2.0, ['a', 'b'], True)]
+    >>> d.sufficient_records, d.analyses
+    ((('push',),), 2)
+    """
+    t0 = time.perf_counter()
+    grid = DEFAULT_SCALES if scales is None else tuple(sorted({float(s) for s in scales}))
+    if not grid or not all(math.isfinite(s) and s > 0 for s in grid):
+        raise OptionError(f"the scales must be positive finite numbers, got {list(scales or [])!r}")
+    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 1e-12 <= tol < 1:
+        raise OptionError(f"tol is a relative width from 1e-12 to below 1, got {tol!r}")
+    with time_budget(max_seconds):
+        targets = resolve_targets(model, target)
+        chosen = model.output_names if sensors is None else (
+            [s.strip() for s in sensors.split(",") if s.strip()] if isinstance(sensors, str) else list(sensors))
+        sub = restrict(model, chosen)
+        runs = [_as_run(model, r) for r in ([records] if isinstance(records, Record) else records)]
+        names = [r[0] for r in runs]
+        if not runs or len(runs) > MAX_RECORDS or len(set(names)) < len(names):
+            raise OptionError(f"give 1 to {MAX_RECORDS} records with distinct names, got {len(runs)}: "
+                              f"{', '.join(map(repr, names[:MAX_RECORDS + 1]))}")
+        state = _Runs(model, sub, runs, targets, seed)
+        on_grid = [state.at(s) for s in grid]
+        min_scale, bracket, status, reason, points = _search(state, on_grid, tol)
+        suff, undecided = _minimal_records(state)
+    how = {**analysis_assumptions(sub, "arbitrary", None), **_ASSUMED}
+    return ExperimentDesign(
+        model.name, targets, tuple(sub.output_names), tuple(names), state.sims[0, grid[0]].switching,
+        tuple(sorted(on_grid + points, key=lambda v: v.scale)), min_scale, bracket, status, reason, float(tol),
+        suff, undecided, state.analyses, seed, how, _notes(on_grid, bracket[1] if status == "found" else None),
+        time.perf_counter() - t0)
