@@ -216,3 +216,30 @@ def test_undecided_is_never_reported_minimal(monkeypatch):
     # {y0, y1} contains the minimal {y1}: not minimal whatever {y0} is; the answer is otherwise unchanged
     assert res.minimal_sets == (("y1",), ("y2",))
     assert np.isfinite(res.seconds)
+
+
+def test_cli_ranks_sufficient_sets_along_a_record(tmp_path, capsys):
+    # the symmetric structure with numbers, driven on its axis from rest: mirror images {y1} and {y2} have the
+    # same Cramer-Rao bounds (the response is mirror-symmetric), and both are ranked; {y0} is not sufficient
+    model = tmp_path / "sym.toml"
+    model.write_text(
+        'name = "sym"\nstates = ["x1", "v1", "x0", "v0", "x2", "v2"]\nparameters = ["k", "c", "k0"]\ninputs = ["u"]\n'
+        '[equations]\nx1 = "v1"\nv1 = "-k*(x1 - x0) - c*(v1 - v0)"\nx2 = "v2"\nv2 = "-k*(x2 - x0) - c*(v2 - v0)"\n'
+        'x0 = "v0"\nv0 = "u - k0*x0 - k*(2*x0 - x1 - x2) - c*(2*v0 - v1 - v2)"\n'
+        '[outputs]\ny1 = "x1"\ny0 = "x0"\ny2 = "x2"\n[values]\nk = 3.0\nc = 0.2\nk0 = 5.0\n', encoding="utf-8")
+    t = np.arange(400) * 0.02
+    rec = tmp_path / "rec.csv"
+    rec.write_text("time_s,accel_m_s2\n" + "\n".join(f"{a:.6f},{np.sin(2.1 * a) + 0.5 * np.sin(5.3 * a):.9f}"
+                                                     for a in t) + "\n", encoding="utf-8")
+    assert main(["sensors", str(model), "--record", str(rec), "--format", "json", "--seed", "3"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    rows = out["ranking"]
+    assert sorted(tuple(r["sensors"]) for r in rows) == [("y1",), ("y2",)]
+    a, b = (r["worst_relative_std"] for r in rows)
+    assert a == pytest.approx(b, rel=1e-6) and 0 < a < 1
+    assert out["effective_independence"] and set(out["effective_independence"]) <= {"y0", "y1", "y2"}
+    assert main(["sensors", str(model), "--record", str(rec), "--rank-size", "2", "--format", "md", "--seed", "3"]) == 0
+    md = capsys.readouterr().out
+    assert md.count("| {y") >= 3  # the three pairs, each containing a minimal set
+    assert main(["sensors", str(model), "--record", str(tmp_path / "missing.csv")]) == 2
+    assert capsys.readouterr().err.count("\n") == 1

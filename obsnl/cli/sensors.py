@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import argparse
 
-from obsnl.cli.common import _add_executor, _at_least, _executor, _load, _seed, write_output
+from obsnl.cli.common import _Exit, _add_executor, _at_least, _executor, _load, _seed, write_output
 from obsnl.model.budget import time_budget
 from obsnl.observability.limits import check_file_limits
 
@@ -33,12 +33,21 @@ def _add_sensors(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--max-seconds", type=float, default=None,
                    help="time limit of each analysis (a set it cuts short is reported undecided)")
     p.add_argument("--progress", action="store_true", help="show a progress bar on standard error")
+    p.add_argument("--record", default=None, metavar="FILE",
+                   help="rank the sufficient sets of one size by the Cramer-Rao bound of the parameters along the "
+                   "response of the model's [values] to this record (.csv or .AT2, driving the model's one input), "
+                   "and give effective independence's choice")
+    p.add_argument("--rank-size", type=_at_least(1), default=None, metavar="K",
+                   help="size of the sets ranked (default: the smallest minimal set's)")
+    p.add_argument("--noise", type=float, default=0.01, metavar="LEVEL",
+                   help="relative noise of every output for the ranking: std = LEVEL x RMS (default 0.01)")
     _add_executor(p, workers=1)
     p.set_defaults(func=_cmd_sensors)
 
 
 def _cmd_sensors(args: argparse.Namespace) -> int:
-    from obsnl.design.sensors import sensors
+    from obsnl.design.sensors import rank_sufficient_sets, sensors
+    from obsnl.estimation.records import read_record
     from obsnl.report.files import check_target
     from obsnl.report.sensors import render_sensors
 
@@ -46,7 +55,19 @@ def _cmd_sensors(args: argparse.Namespace) -> int:
         check_target(args.output, force=args.force)
     with time_budget(None):
         model = _load(args.model, check=check_file_limits)
+    if args.record is not None:
+        if len(model.inputs) != 1:
+            raise _Exit(2, f"--record drives one input, model {model.name!r} has {len(model.inputs)}; give a model "
+                        "with one known input")
+        if not (0.0 < args.noise < 10.0):
+            raise _Exit(2, f"--noise {args.noise} is not a relative level between 0 and 10 (0.01 is 1 %)")
+        rec = read_record(args.record)  # read before the search: a bad record is refused before any work
     result = sensors(model, target=args.target, max_size=args.max_size, seed=args.seed,
                      max_seconds=args.max_seconds, executor=_executor(args), progress=args.progress)
+    if args.record is not None:
+        import numpy as np
+
+        t = rec.dt * np.arange(len(rec.accel))
+        result = rank_sufficient_sets(result, model, t=t, inputs=rec.accel, size=args.rank_size, noise=args.noise)
     write_output(render_sensors(result, args.format), args.output, force=args.force)
     return 0

@@ -44,7 +44,7 @@ from obsnl.observability.selection import select_branches
 from obsnl.observability.smooth import resolve_unknown_input_derivatives
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets
 
-__all__ = ["SensorSearch", "sensors"]
+__all__ = ["SensorSearch", "sensors", "rank_sufficient_sets"]
 
 
 @dataclass(frozen=True)
@@ -98,6 +98,7 @@ class SensorSearch:
     assumptions: dict[str, Any] = field(default_factory=dict, repr=False)
     seconds: float = 0.0
     ranking: Any = field(default=None, repr=False, compare=False)
+    effective_independence: tuple[str, ...] = ()
 
     @property
     def exhaustive(self) -> int:
@@ -154,8 +155,15 @@ class SensorSearch:
             "seed": self.seed, "assumptions": self.assumptions, "seconds": round(self.seconds, 3),
         }
         if self.ranking is not None:
-            out["ranking"] = self.ranking.to_dict()
+            out["ranking"] = self.ranking.to_dict()["rows"]
+            out["ranking_setup"] = {k: v for k, v in self.ranking.to_dict().items() if k != "rows"}
+            out["effective_independence"] = list(self.effective_independence)
         return out
+
+    def sufficient_sets(self, size: int) -> list[tuple[str, ...]]:
+        """Every set of ``size`` candidates known sufficient: a minimal set, or one that contains one."""
+        return [c for c in itertools.combinations(self.candidates, size)
+                if any(set(x) <= set(c) for x in self.minimal_sets)]
 
 
 def _check_task(task: tuple) -> Sufficiency:
@@ -338,3 +346,49 @@ def _tick(bar: Any) -> None:
 def _close(bar: Any) -> None:
     if bar is not None and hasattr(bar, "close"):
         bar.close()
+
+
+def rank_sufficient_sets(search: SensorSearch, model: Model, *, t: Any, inputs: Any, size: int | None = None,
+                         noise: float = 0.01) -> SensorSearch:
+    """``search`` with its sufficient sets of one size ranked along a record, and effective independence's choice.
+
+    Parameters
+    ----------
+    search
+        The result of :func:`sensors` on ``model``.
+    model
+        The model, with ``[values]`` for every parameter (nonzero) and optionally the initial states.
+    t, inputs
+        The record: sample times and the known inputs (:func:`obsnl.design.ranking.rank_sensor_sets`).
+    size
+        Size of the sets ranked (default: the size of the smallest minimal set).
+    noise
+        Relative noise level of every output (std = level x RMS of the noise-free output).
+
+    Returns
+    -------
+    SensorSearch
+        With ``ranking`` (:class:`obsnl.design.ranking.Ranking`, best first) and ``effective_independence``
+        (Kammer's choice of ``size`` sensors on the modes at rest; empty when the model has fewer modes).
+
+    Raises
+    ------
+    OptionError
+        No sufficient set of that size, or a model the ranking cannot use (see ``rank_sensor_sets``).
+    """
+    from obsnl.design.ranking import effective_independence, rank_sensor_sets
+
+    if size is None:
+        if not search.minimal_sets:
+            raise OptionError("no sufficient sensor set to rank: " + (search.proof or "none found"))
+        size = min(len(s) for s in search.minimal_sets)
+    sets = search.sufficient_sets(size)
+    if not sets:
+        raise OptionError(f"no sufficient set of {size} sensors to rank (the minimal sets have "
+                          f"{sorted({len(s) for s in search.minimal_sets}) or 'no'} sensors)")
+    ranking = rank_sensor_sets(model, sets, t=t, inputs=inputs, noise=noise)
+    try:
+        efi = effective_independence(model, size)
+    except OptionError:  # fewer vibration modes than sensors: Kammer's method has no answer
+        efi = ()
+    return replace(search, ranking=ranking, effective_independence=tuple(efi))

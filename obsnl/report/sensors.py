@@ -81,14 +81,21 @@ def _rows(search: Any) -> list[tuple[tuple[str, ...], str, list[str]]]:
         without = []
         for name in s:
             rest = tuple(x for x in s if x != name)
-            without.append(f"-{name}: " + ("empty" if not rest else _how(search.answer(rest))))
+            without.append(f"without {name}: " + ("no sensor left" if not rest else _how(search.answer(rest))))
         rows.append((tuple(s), _how(search.answer(s)), without))
     return rows
 
 
 def _ranking_rows(search: Any) -> list[dict[str, Any]]:
     ranking = getattr(search, "ranking", None)
-    return [] if ranking is None else list(ranking.to_dict().get("ranking", []))
+    if ranking is None:
+        return []
+    efi = set(getattr(search, "effective_independence", ()) or ())
+    rows = []
+    for r in ranking.rows:
+        rows.append({"sensors": r.sensors, "worst_relative_std": r.worst_relative_std, "worst": r.worst,
+                     "log_det_fim": r.log_det_fim, "efi": bool(efi) and set(r.sensors) == efi})
+    return rows
 
 
 def _num(x: Any) -> str:
@@ -114,7 +121,7 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
     if fmt == "json":
         return json.dumps(search.to_dict(), indent=2)
     rows, ranked = _rows(search), _ranking_rows(search)
-    efi = getattr(getattr(search, "ranking", None), "effective_independence", None)
+    efi = getattr(search, "effective_independence", ())
     if fmt == "text":
         lines = [f"model {search.model}: candidate sensors {', '.join(search.candidates)}"] + _head(search)
         for s, how, without in rows:
@@ -122,8 +129,9 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
             lines.extend(f"      {w}" for w in without)
         if ranked:
             lines.append("ranking along the record (Cramer-Rao bound, best first):")
-            lines.extend(f"  {_set(r['sensors'])}: worst relative std {_num(r['worst_relative_std'])}, "
-                         f"log det FIM {_num(r['log_det_fim'])}" for r in ranked)
+            lines.extend(f"  {_set(r['sensors'])}: worst relative std {_num(r['worst_relative_std'])} "
+                         f"({r['worst']}), log det FIM {_num(r['log_det_fim'])}"
+                         + ("  <- effective independence" if r["efi"] else "") for r in ranked)
         if efi:
             lines.append(f"effective independence (linear modes) chooses {_set(efi)}")
         lines.append("assumes: " + "; ".join(_assumptions(search)))
@@ -133,9 +141,10 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
                  "| minimal set | certificate | with one sensor removed |", "|---|---|---|"]
         lines += [f"| {_set(s)} | {how} | {'; '.join(without)} |" for s, how, without in rows]
         if ranked:
-            lines += ["", "| rank | sensors | worst relative std | log det FIM |", "|---:|---|---:|---:|"]
-            lines += [f"| {i} | {_set(r['sensors'])} | {_num(r['worst_relative_std'])} | {_num(r['log_det_fim'])} |"
-                      for i, r in enumerate(ranked, 1)]
+            lines += ["", "| rank | sensors | worst relative std | worst parameter | log det FIM | effective "
+                      "independence |", "|---:|---|---:|---|---:|---|"]
+            lines += [f"| {i} | {_set(r['sensors'])} | {_num(r['worst_relative_std'])} | {r['worst']} | "
+                      f"{_num(r['log_det_fim'])} | {'chosen' if r['efi'] else ''} |" for i, r in enumerate(ranked, 1)]
         if efi:
             lines += ["", f"Effective independence (linear modes) chooses {_set(efi)}."]
         lines += ["", "Assumes: " + "; ".join(_assumptions(search)) + "."]
