@@ -279,11 +279,10 @@ def _search(runs: _Runs, grid: Sequence[ScaleVisit], tol: float) -> tuple[Any, .
             f"the verdict at scale {lo:g} is inconclusive ({grid[first - 1].reason}); scale {hi:g} suffices"), []
     points: list[ScaleVisit] = []
     while (hi - lo) / hi > tol:
-        v = runs.at(math.sqrt(lo * hi), bisection=True)
-        points.append(v)
+        points.append(v := runs.at(math.sqrt(lo * hi), bisection=True))
         if v.sufficient is None:
-            return None, (lo, hi), "inconclusive", (f"the verdict at scale {v.scale:.6g} is inconclusive ({v.reason});"
-                                                    f" the smallest sufficient scale lies in [{lo:.6g}, {hi:.6g}]"), points
+            why = f"the verdict at scale {v.scale:.6g} is inconclusive ({v.reason})"
+            return None, (lo, hi), "inconclusive", f"{why}; the boundary lies in [{lo:.6g}, {hi:.6g}]", points
         lo, hi = (lo, v.scale) if v.sufficient else (v.scale, hi)
     return hi, (lo, hi), "found", f"scale {hi:.6g} suffices, {lo:.6g} does not", points
 

@@ -49,10 +49,10 @@ def _summary(design: Any) -> list[tuple[str, str]]:
     """``(heading, text)`` lines: the smallest scale, the records, the cost, the notes."""
     lo, hi = design.bracket
     if design.status == "found":
-        scale = (f"{design.min_scale:.6g} (bracket [{lo:.6g}, {hi:.6g}], relative width at most {design.tol:g}): "
-                 f"{design.reason}")
+        scale = (f"{design.min_scale:.6g} (bracket [{lo:.6g}, {hi:.6g}]: the upper end suffices, the lower does "
+                 f"not; relative width at most {design.tol:g})")
     elif design.status == "smallest_suffices":
-        scale = f"at most {hi:.6g}, not estimated: {design.reason}"
+        scale = f"not estimated: {design.reason}"
     elif design.status == "none_suffices":
         scale = f"none of the scales tried: {design.reason}"
     else:
