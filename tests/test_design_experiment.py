@@ -22,7 +22,7 @@ from scipy.signal import lsim
 
 from obsnl import Model
 from obsnl.cli import main
-from obsnl.design.experiment import DEFAULT_SCALES, design
+from obsnl.design.experiment import DEFAULT_SCALES, ScaleVisit, VisitedBranch, _notes, _search, design
 from obsnl.errors import AnalysisError, OptionError
 
 GAP = {"c": 0.5, "k": 4.0, "kc": 40.0, "g": 0.1}
@@ -222,3 +222,35 @@ def test_command_output_is_not_overwritten_without_force(files, capsys, monkeypa
     assert (files / "out.json").read_text() == "keep"
     assert main([*args, "--force"]) == 0
     assert json.loads((files / "out.json").read_text())["records"] == ["sine"]
+
+
+# --------------------------------------------------------------------------- undecided verdicts, shrinking visits
+def _visit(scale: float, sufficient: bool | None, *patterns: tuple[int, ...]) -> ScaleVisit:
+    return ScaleVisit(scale, tuple(VisitedBranch(p, None, 1.0) for p in patterns), {}, sufficient)
+
+
+class _Undecided:
+    """Stands for the simulations of a design: every bisection point is undecided."""
+
+    def at(self, scale: float, *, bisection: bool = False) -> ScaleVisit:
+        return _visit(scale, None, (1,))
+
+
+def test_an_undecided_verdict_is_reported_never_guessed() -> None:
+    # the grid scale below the first sufficient one is undecided: no bracket end below, no number
+    min_scale, bracket, status, _, points = _search(_Undecided(), [_visit(1, False), _visit(2, None),
+                                                                   _visit(4, True)], 1e-3)
+    assert (min_scale, bracket, status, points) == (None, (1, 4), "inconclusive", [])
+    # the first bisection point is undecided: the bracket stays where the proven verdicts put it
+    min_scale, bracket, status, reason, points = _search(_Undecided(), [_visit(1, False), _visit(4, True)], 1e-3)
+    assert (min_scale, bracket, status, [p.scale for p in points]) == (None, (1, 4), "inconclusive", [2.0])
+    assert "inconclusive" in reason
+    # nothing proven sufficient, the largest scale undecided
+    assert _search(_Undecided(), [_visit(1, False), _visit(2, None)], 1e-3)[1:3] == ((1, None), "inconclusive")
+
+
+def test_a_visited_set_that_shrinks_with_the_scale_is_noted() -> None:
+    grid = [_visit(1, False, (1,)), _visit(2, True, (1,), (-1,)), _visit(4, False, (1,))]
+    notes = _notes(grid, 2)
+    assert len(notes) == 2 and "scale 2 visits -" in notes[0] and "scale(s) 4" in notes[1]
+    assert _notes(grid[:2], 2) == ()

@@ -27,7 +27,7 @@ _VERDICT = {True: "yes", False: "no", None: "undecided"}
 
 def _branch(b: Any) -> str:
     """``a(+-) 2.5`` (label, sign pattern, seconds), the pattern alone when the branch has no label."""
-    name = f"{b.label}({b.pattern})" if b.label else f"({b.pattern})"
+    name = (b.label or "") + (f"({b.pattern})" if b.pattern else "")
     return f"{name} {b.seconds:.4g}"
 
 
@@ -148,7 +148,7 @@ def plot_visits(design: Any, path: str | Path) -> Path:
     names: dict[tuple[int, ...], str] = {}
     for v in design.visits:
         for b in v.branches:
-            names.setdefault(b.signs, f"{b.label} ({b.pattern})" if b.label else f"({b.pattern})")
+            names.setdefault(b.signs, _branch(b).rsplit(" ", 1)[0])
     rows = {signs: i for i, signs in enumerate(names)}
     fig, ax = plt.subplots(figsize=(7.5, 1.6 + 0.4 * len(rows)))
     for verdict, style in ((True, dict(color="C2", marker="o")), (False, dict(color="C3", marker="x")),
