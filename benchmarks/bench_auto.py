@@ -25,7 +25,7 @@ sys.path.insert(0, str(ROOT))
 
 
 def _cases() -> list[Path]:  # cantilever_link is a linear-structure spec, not an observability model
-    catalogue = [p for p in sorted((ROOT / "obsnl" / "catalogue").glob("*.toml")) if p.stem != "cantilever_link"]
+    catalogue = [p for p in sorted((ROOT / "models").glob("*.toml")) if p.stem != "cantilever_link"]
     return sorted((ROOT / "tests" / "data" / "peer_cases").glob("*.json")) + catalogue
 
 

@@ -42,7 +42,7 @@ SEED_EXPECTED = {  # seed paper 000_d24855f97fc8bdd4.txt: 3.2 (original, N unkno
 
 def _cases() -> list[Path]:
     return sorted((ROOT / "tests" / "data" / "peer_cases").glob("*.json")) + [
-        ROOT / "obsnl" / "catalogue" / "damage_healing.toml", ROOT / "obsnl" / "catalogue" / "damage_healing_reparam.toml"]
+        ROOT / "models" / "damage_healing.toml", ROOT / "models" / "damage_healing_reparam.toml"]
 
 
 # --------------------------------------------------------------------------- symident

@@ -31,13 +31,13 @@ ROOT = Path(__file__).resolve().parents[1]
 def _models():
     import obsnl
 
-    seed = obsnl.load_model(ROOT / "obsnl" / "catalogue" / "damage_healing.toml")
+    seed = obsnl.load_model(ROOT / "models" / "damage_healing.toml")
     N = seed.symbol("N")
     fixed = seed.replace(
         name="damage_healing_N2", parameters=[p.name for p in seed.parameters if p != N],
         equations={s.name: e.subs(N, 2) for s, e in seed.equations.items()},
         values={k: v for k, v in seed.values.items() if k != "N"}, latex={k: v for k, v in seed.latex.items() if k != "N"})
-    bw = obsnl.load_model(ROOT / "obsnl" / "catalogue" / "bouc_wen.toml")
+    bw = obsnl.load_model(ROOT / "models" / "bouc_wen.toml")
     return [("seed model (N unknown)", seed), ("seed model, N = 2 known", fixed), ("Bouc-Wen (n unknown)", bw)]
 
 

@@ -36,7 +36,7 @@ def main() -> None:
     from obsnl.executor import Executor
 
     paths = sorted((ROOT / "tests" / "data" / "peer_cases").glob("*.json")) + [
-        p for p in sorted((ROOT / "obsnl" / "catalogue").glob("*.toml")) if p.stem != "cantilever_link"]
+        p for p in sorted((ROOT / "models").glob("*.toml")) if p.stem != "cantilever_link"]
     models = [obsnl.load_model(p) for p in paths]
     times: dict[str, list[float]] = {"serial": [], f"{args.workers} processes": []}
     same = True

@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-MODELS = ROOT / "obsnl" / "catalogue"
+MODELS = ROOT / "models"
 PEER_CASES = Path(__file__).resolve().parent / "data" / "peer_cases"
 
 def _is_ode_model(path: Path) -> bool:

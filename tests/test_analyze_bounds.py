@@ -20,7 +20,7 @@ from obsnl.cli import main
 from obsnl.errors import AnalysisError, ModelError, OptionError
 from obsnl.observability.limits import MAX_UNKNOWNS
 
-CATALOGUE = Path(obsnl.__file__).parent / "catalogue"
+CATALOGUE = Path(obsnl.__file__).resolve().parents[1] / "models"
 
 UI_TOML = """name = "ui"
 states = ["x", "v"]

@@ -42,6 +42,6 @@ def test_analyze_takes_a_model_file_as_identify_does(tmp_path):
     from pathlib import Path
 
     res = obsnl.analyze("obsnl:coulomb_friction", seed=0)
-    path = Path(obsnl.__file__).parent / "catalogue" / "coulomb_friction.toml"
+    path = Path(obsnl.__file__).resolve().parents[1] / "models" / "coulomb_friction.toml"
     assert obsnl.analyze(path, seed=0).overall_unobservable == res.overall_unobservable
     assert obsnl.analyze(str(path), seed=0).joint.unobservable == res.joint.unobservable

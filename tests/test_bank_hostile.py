@@ -132,7 +132,7 @@ def test_6_model_path_messages_and_the_packaged_model(tmp_path, capsys):
     with pytest.raises(ModelError) as info:
         run_link_study(seeds=1, spec=load_link_spec(tmp_path / "m.toml"), gates=False)
     msg = str(info.value)
-    assert "onset" in msg and "obsnl/catalogue/cantilever_link.toml" in msg and "models/cantilever_link" not in msg
+    assert "onset" in msg and "models/cantilever_link.toml" in msg and "obsnl/catalogue" not in msg
 
 
 # ----------------------------------------------------------------------------- 7 links in the output folder

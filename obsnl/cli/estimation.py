@@ -21,7 +21,7 @@ def _add_bank(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seeds", type=_at_least(1), default=3, help="noise seeds per scenario (default: 3); thresholds use as many other seeds")
     p.add_argument("--out", default="reports/bank", help="output folder (default: reports/bank)")
     p.add_argument("--model", default=None, help="link model file (default: obsnl:cantilever_link, the packaged "
-                   "obsnl/catalogue/cantilever_link.toml)")
+                   "models/cantilever_link.toml)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.set_defaults(func=_cmd_bank)
 

@@ -1,6 +1,6 @@
 """Model files: read a TOML or JSON file into a :class:`~obsnl.model.core.Model`, write a model back as
 TOML (no dependency; ``load_model(model_to_toml(m))`` gives an equal model), and find the models packaged
-with obsnl (``obsnl/catalogue``)."""
+with obsnl (the repository's top-level ``models/`` folder, installed as ``share/obsnl/models``)."""
 
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from typing import Any
 from obsnl.errors import ParseError
 from obsnl.model.core import Model
 
-__all__ = ["read_model_file", "parse_text", "load_model", "catalogue_path", "model_to_toml", "PACKAGED"]
+__all__ = ["read_model_file", "parse_text", "load_model", "catalogue_path", "catalogue_folder", "model_to_toml", "PACKAGED"]
 
 #: Prefix of a packaged model's name where a file name is expected (``obsnl:bouc_wen``).
 PACKAGED = "obsnl:"
@@ -127,8 +127,47 @@ def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
         raise ParseError(f"{where} is not valid {kind.upper()}: {exc}") from None
 
 
+def catalogue_folder() -> Path:
+    """The folder of the models packaged with obsnl: one copy, the repository's top-level ``models/``.
+
+    In a source checkout (an editable install) that folder itself; after ``pip install .`` its copy in the
+    environment's data folder (``share/obsnl/models``, mapped by ``tool.setuptools.data-files`` in
+    ``pyproject.toml``).
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    ParseError
+        No catalogue folder is found (a broken installation: reinstall obsnl).
+
+    Examples
+    --------
+    >>> (catalogue_folder() / "bouc_wen.toml").is_file()
+    True
+    """
+    import sys
+    import sysconfig
+
+    root = Path(__file__).resolve().parents[2]
+    project = root / "pyproject.toml"
+    places = []
+    if project.is_file() and 'name = "obsnl"' in project.read_text(encoding="utf-8", errors="replace"):
+        places.append(root / "models")  # a source checkout: the folder users open and copy
+    for base in (sysconfig.get_path("data"), sys.prefix, sysconfig.get_config_var("userbase") or ""):
+        if base:
+            places.append(Path(base) / "share" / "obsnl" / "models")
+    for folder in places:
+        if folder.is_dir() and any(folder.glob("*.toml")):
+            return folder
+    raise ParseError("the models packaged with obsnl are missing (looked in "
+                     + ", ".join(str(p) for p in places) + "); reinstall obsnl")
+
+
 def catalogue_path(name: str) -> Path:
-    """The file of a model packaged with obsnl (``obsnl/catalogue/NAME.toml``).
+    """The file of a model packaged with obsnl (``models/NAME.toml``, see :func:`catalogue_folder`).
 
     Parameters
     ----------
@@ -149,9 +188,7 @@ def catalogue_path(name: str) -> Path:
     >>> catalogue_path("coulomb_friction").name
     'coulomb_friction.toml'
     """
-    from importlib import resources
-
-    folder = Path(str(resources.files("obsnl").joinpath("catalogue")))
+    folder = catalogue_folder()
     names = sorted(p.stem for p in folder.glob("*.toml"))
     if name not in names:
         raise ParseError(f"no packaged model {name!r}; choose one of {', '.join(names)}")

@@ -1,6 +1,6 @@
 """Reading a link model file (the observer-bank benchmark's numbers) into a checked :class:`LinkSpec`.
 
-The file is untrusted TOML (the packaged one is ``obsnl/catalogue/cantilever_link.toml``,
+The file is untrusted TOML (the packaged one is ``models/cantilever_link.toml``,
 ``obsnl:cantilever_link``): every table and key is read with its type and range checked
 (:class:`_Table`), and every refusal is one line naming the file, table, key and value and the fix,
 before anything is computed. :mod:`obsnl.studies.cantilever` builds the finite-element model from it.
@@ -73,7 +73,7 @@ MAX_ELEMENTS = 50
 MAX_FILE_BYTES = 1_000_000
 #: The crack-opening rules the simulation implements (``[crack] opens_when``).
 OPENS_WHEN = ("negative curvature",)
-_SEE = "see the packaged obsnl/catalogue/cantilever_link.toml"
+_SEE = "see the packaged models/cantilever_link.toml"
 _KEYS = {"": ("name", "description", "source", "structure", "damping", "excitation", "sensors", "crack", "bank"),
          "structure": ("youngs_modulus", "density", "length", "width", "height", "n_elements"),
          "damping": ("zeta", "modes"), "crack": ("severity", "opens_when"),
@@ -154,7 +154,7 @@ def load_link_spec(path: str | Path | None = None) -> LinkSpec:
     Parameters
     ----------
     path
-        A link model file, ``obsnl:cantilever_link`` or None (the packaged ``obsnl/catalogue/cantilever_link.toml``).
+        A link model file, ``obsnl:cantilever_link`` or None (the packaged ``models/cantilever_link.toml``).
 
     Raises
     ------
@@ -168,7 +168,7 @@ def load_link_spec(path: str | Path | None = None) -> LinkSpec:
     if not p.is_file():
         why = "is a folder" if p.is_dir() else "is not a regular file" if p.exists() else "not found"
         raise ModelError(f"link model file {str(p)!r} {why}; give a .toml file such as the packaged "
-                         f"obsnl/catalogue/cantilever_link.toml, or obsnl:cantilever_link")
+                         f"models/cantilever_link.toml, or obsnl:cantilever_link")
     try:
         with p.open("rb") as fh:
             raw = fh.read(MAX_FILE_BYTES + 1)
