@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from obsnl.cli.analysis import _add_show, _add_branches, _add_analyze, _add_report, _add_symmetries, _add_reparametrize
 from obsnl.cli.common import _Exit, write_output
 from obsnl.cli.estimation import _add_bank, _add_identify, _add_reproduce
+from obsnl.cli.experiment import _add_design
 from obsnl.cli.sensors import _add_sensors
 from obsnl.errors import ObsnlError
 
@@ -24,7 +25,7 @@ __all__ = ["main", "run", "build_parser", "write_output"]
 
 
 _BUILDERS = [_add_show, _add_branches, _add_analyze, _add_report, _add_symmetries, _add_reparametrize,
-             _add_identify, _add_reproduce, _add_bank, _add_sensors]
+             _add_identify, _add_reproduce, _add_bank, _add_sensors, _add_design]
 
 
 def build_parser() -> argparse.ArgumentParser:
