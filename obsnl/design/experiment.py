@@ -174,11 +174,10 @@ class ExperimentDesign:
         return {"model": self.model, "targets": list(self.targets), "sensors": list(self.sensors),
                 "records": list(self.records), "switching": list(self.switching), "min_scale": self.min_scale,
                 "bracket": list(self.bracket), "status": self.status, "reason": self.reason, "tol": self.tol,
-                "visited": [v.to_dict() for v in self.visits],
-                "sufficient_records": [list(s) for s in self.sufficient_records],
-                "undecided_records": [list(s) for s in self.undecided_records], "analyses": self.analyses,
-                "seed": self.seed, "assumptions": dict(self.assumptions), "notes": list(self.notes),
-                "seconds": round(self.seconds, 3)}
+                "visited": [v.to_dict() for v in self.visits], "analyses": self.analyses, "seed": self.seed,
+                "sufficient_records": [list(s) for s in self.sufficient_records], "notes": list(self.notes),
+                "undecided_records": [list(s) for s in self.undecided_records], "seconds": round(self.seconds, 3),
+                "assumptions": dict(self.assumptions)}
 
 
 def _as_run(model: Model, rec: Any) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
@@ -210,8 +209,7 @@ class _Runs:
     def simulate(self, i: int, scale: float) -> Visits:
         if (i, scale) not in self.sims:
             name, t, inputs = self.runs[i]
-            check_time(f"simulating record {name!r} at scale {scale:g}",
-                       "raise --max-seconds, or give shorter records or fewer scales")
+            check_time(f"simulating record {name!r} at scale {scale:g}", "raise --max-seconds, or give fewer scales")
             self.sims[i, scale] = visited_patterns(self.sub, t, {k: scale * v for k, v in inputs.items()})
         return self.sims[i, scale]
 
@@ -289,11 +287,9 @@ def _search(runs: _Runs, grid: Sequence[ScaleVisit], tol: float) -> tuple[Any, .
 
 def _notes(grid: Sequence[ScaleVisit], hi: float | None) -> tuple[str, ...]:
     """Where the visited set does not grow with the scale (the assumption of the bisection)."""
-    notes = []
     shrink = [(a, b, {x.signs for x in a.branches} - {x.signs for x in b.branches}) for a, b in zip(grid, grid[1:])]
-    for a, b, lost in [x for x in shrink if x[2]][:1]:
-        notes.append(f"scale {a.scale:g} visits {', '.join(_pattern(s) for s in lost)}, which scale {b.scale:g} "
-                     f"does not: the visited set does not grow with the scale there")
+    notes = [f"scale {a.scale:g} visits {', '.join(_pattern(s) for s in lost)}, which scale {b.scale:g} does not: "
+             f"the visited set does not grow with the scale there" for a, b, lost in shrink if lost][:1]
     worse = [v.scale for v in grid if hi is not None and v.scale > hi and v.sufficient is False]
     if worse:
         notes.append(f"scale(s) {', '.join(f'{s:g}' for s in worse)} above the sufficient boundary are insufficient: "
@@ -351,6 +347,11 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
         Bad records, scales, tolerance, target or sensors.
     AnalysisError
         A missing number in ``[values]``, a missing input, a failed simulation, or the time limit.
+
+    Notes
+    -----
+    The bisection assumes that the visited set grows with the scale. When it does not, it still ends on a
+    boundary between an insufficient and a sufficient scale, reported with the bracket (and in ``notes``).
 
     Examples
     --------
