@@ -166,8 +166,29 @@ gamma = 12.0
     doc = json.loads(table.read_text())
     assert set(doc["overall"]["unobservable"]) == {"beta", "gamma"} and doc["joint"]["unobservable"] == []
     capsys.readouterr()
-    record = MODELS.parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+    record = MODELS.parent / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
     code = main(["identify", str(model), "--record", str(record), "--method", "dukf", "--table", str(table),
                  "--samples", "100"])
     err = capsys.readouterr().err
     assert code == 2 and "beta, gamma" in err and "obsnl reparametrize" in err and len(err.strip().splitlines()) == 1
+
+
+def test_a_branch_whose_outputs_are_constant_shows_nothing_and_the_joint_verdict_still_runs():
+    # a contact force measured alone: y = kc*Max(x - g, 0) is 0 while the contact is open, so that branch
+    # reveals nothing (before the fix: "no output depends on a state" there, and the joint verdict failed on
+    # the visit's empty rows). In contact, y = kc (x - g) gives y'' = kc u - c y' - (k + kc) y - k kc g: with a
+    # generic input, kc, c, k + kc and k kc g are read off, so c, k, kc, g are identifiable, then x = y/kc + g
+    # and v = y'/kc: every variable, in that branch alone and jointly.
+    m = obsnl.Model(name="gap", states=["x", "v"], parameters=["c", "k", "kc", "g"], inputs=["u"],
+              equations={"x": "v", "v": "u - c*v - k*x - kc*Max(x - g, 0)"}, outputs={"contact": "kc*Max(x - g, 0)"})
+    res = obsnl.analyze(m, seed=0)
+    everything = {"x", "v", "c", "k", "kc", "g"}
+    by_sign = {b.label: b for b in res.branches}
+    assert len(by_sign) == 2
+    closed = [b for b in res.branches if set(b.observable) == everything]
+    open_ = [b for b in res.branches if set(b.unobservable) == everything]
+    assert len(closed) == 1 and len(open_) == 1
+    assert any("constant on this branch" in n for n in open_[0].notes)
+    assert set(res.joint.observable) == everything and not res.joint.inconclusive
+    # the joint verdict alone (per_branch=False, as the sensor search runs it) gives the same answer
+    assert set(obsnl.analyze(m, seed=1, per_branch=False).joint.observable) == everything

@@ -395,7 +395,7 @@ def classify_visit(v: VisitData, Pi: np.ndarray, p: int) -> dict[str, bool]:
     n_priv, n_par = prep.n_priv, len(prep.par)
     if n_priv == 0:
         return {}
-    stack = v.rows
+    stack = v.rows if v.rows.size else np.zeros((0, n_priv + n_par), dtype=np.int64)  # a visit may show nothing
     if Pi.shape[0]:
         stack = np.vstack([stack, np.hstack([np.zeros((Pi.shape[0], n_priv), dtype=np.int64), Pi])])
     unobs = kernel_rows(stack, n_priv + n_par, p)

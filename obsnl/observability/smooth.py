@@ -145,7 +145,13 @@ def _branch_result(
     known = {s.name for s in bmodel.known_initial_conditions}
     absent = tuple(v for v in variables if v not in appear and v not in known)
     notes: list[str] = []
-    if decompose:
+    unknowns = set(bmodel.states) | set(bmodel.parameters) | set(bmodel.unknown_inputs) | set(bmodel.inputs)
+    if not any(e.free_symbols & unknowns for e in bmodel.output_exprs):
+        # every output is a constant on this branch (a contact force while the contact is open): the branch
+        # shows nothing; its variables are unobservable here (other branches, jointly, may still reveal them)
+        unreachable, blocks = set(variables) - known, ()
+        notes.append("every output is constant on this branch: it reveals nothing on its own")
+    elif decompose:
         dec = _decompose(bmodel)
         unreachable, blocks = set(dec.unreachable), dec.blocks
         notes.extend(dec.report)
