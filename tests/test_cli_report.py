@@ -49,7 +49,7 @@ def test_identify_refuses_a_corrupted_table(tmp_path, capsys):
 
     from .test_branch_table import paper_table1
 
-    record = sorted(glob.glob(str(MODELS.parent / "studies" / "data" / "*LOS270*ngawest2*.csv")))[0]
+    record = sorted(glob.glob(str(MODELS.parent / "obsnl" / "studies" / "data" / "*LOS270*ngawest2*.csv")))[0]
     doc = paper_table1()
     doc["branches"][0]["signs"] = [1, 7]  # corrupt
     bad = tmp_path / "table.json"

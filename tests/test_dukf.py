@@ -88,7 +88,7 @@ def test_covariance_stays_positive_semidefinite_by_construction(cross):
 
 
 def test_a_record_with_many_switches_needs_no_repair():
-    rec = read_record(MODELS.parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(700)
+    rec = read_record(MODELS.parent / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(700)
     from obsnl.estimation.simulate import simulate
 
     sim = simulate(NUM, theta=NUM.nominal(NUM.parameters), x0=np.zeros(5), u=rec.accel, dt=rec.dt)

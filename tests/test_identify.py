@@ -20,7 +20,7 @@ from obsnl.studies.seed_paper import SEED_GUESS, reproduce, seed_setup, write_re
 from .conftest import MODELS
 from .test_branch_table import paper_table1
 
-CSV = MODELS.parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+CSV = MODELS.parent / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
 TUNING = Tuning(0.2, 1e-9, 1.0)
 
 

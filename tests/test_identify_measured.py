@@ -18,7 +18,7 @@ from .conftest import MODELS, ROOT
 from .radau_data import SDOF_TRUE, noisy, sdof_force, write_csv
 
 SDOF = ROOT / "tests" / "data" / "bouc_wen_force.toml"
-RECORD = MODELS.parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+RECORD = MODELS.parent / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
 
 
 @pytest.fixture(scope="module")

@@ -87,7 +87,7 @@ def test_simulate_default_and_filter_steps_against_lsoda():
     from obsnl.estimation.simulate import simulate
 
     rep = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
-    rec = read_record(MODELS.parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(1001)
+    rec = read_record(MODELS.parent / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(1001)
     vals = {k: float(v) for k, v in rep.values.items()}
     t = np.arange(len(rec.accel)) * rec.dt
     ref = _simulate(rep, vals, np.zeros(5), interp1d(t, rec.accel), t[-1]).sol(t)[0]
