@@ -53,6 +53,8 @@ _LAZY: dict[str, str] = {
     "symmetries": "observability.symmetry", "Symmetry": "observability.symmetry", "Symmetries": "observability.symmetry",
     "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrize",
     "identifiable_functions": "recombination.identifiable", "IdentifiableFunctions": "recombination.identifiable",
+    # which sensors, which experiment (the design room)
+    "sensors": "design.sensors", "SensorSearch": "design.sensors",
     "same_field": "recombination.fields", "FieldComparison": "recombination.fields", "model_to_toml": "model.files",
 }
 

@@ -58,3 +58,25 @@ def test_measured_identification_example_runs(tmp_path, monkeypatch, capsys):
         assert p.flagged or abs(p.estimate - truth[p.name]) <= max(4 * p.std, 0.01 * truth[p.name]), p
     assert res.fit["disp"] < 5.0 and "fit NRMSE" in capsys.readouterr().out
     assert res.converged and res.refinement["misfit_over_noise"]["disp"] <= 1.3, res.converged_reason
+
+
+def test_sensors_and_design_example_runs(monkeypatch, capsys):
+    # the README's design example: each candidate alone suffices (derived in the test: disp = x and vel = v
+    # each give x, v by integration/differentiation with the input known, and the contact branch, reached when
+    # the record is scaled, reveals kc and g); below min_scale the gap never closes, so min_scale is the gap
+    # over the peak displacement of the linear oscillator at scale 1 (computed here with scipy)
+    import numpy as np
+    from scipy.signal import lsim
+
+    (example,) = [b for b in _blocks("python") if "obsnl.sensors(" in b]
+    scope: dict = {}
+    exec(compile(example, "README.md", "exec"), scope)
+    search, plan = scope["search"], scope["plan"]
+    assert search.minimal_sets == (("disp",), ("vel",), ("contact",))
+    t = scope["t"]
+    _, y, _ = lsim(([1.0], [1.0, 0.2, 4.0]), 0.1 * np.sin(1.3 * t), t)
+    expected = 0.05 / np.max(y)
+    assert plan.status == "found"
+    lo, hi = plan.bracket
+    # the model's visits are read at the sample times from obsnl's RK4 (10 substeps), lsim is exact: 1e-4 slack
+    assert lo <= expected * (1 + 1e-4) and hi >= expected * (1 - 1e-4) and hi / lo - 1 <= 2e-3
