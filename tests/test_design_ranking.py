@@ -7,6 +7,8 @@ choice from scipy's generalized eigenproblem of the chain and the projection com
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
@@ -87,6 +89,8 @@ def test_an_unidentifiable_parameter_gets_an_infinite_bound_not_an_error():
         assert by[s]["a"] == np.inf and by[s]["g"] == np.inf
     row = r.rows[r.position(["p"])]
     assert row.worst_relative_std == np.inf and row.log_det_fim == -np.inf
+    d = json.loads(json.dumps(r.to_dict(), allow_nan=False))  # JSON-ready: an infinite bound is written as null
+    assert d["rows"][r.position(["p"])]["relative_std"]["a"] is None and d["nuisance"] == ["x1", "v1", "x2", "v2"]
     # with a and g known, d1 and d2 inform the four oscillator parameters (d1 sees oscillator 2: no coupling
     # back, so d1 alone misses k2, c2)
     r = rank_sensor_sets(m, [["d1"], ["d1", "d2"]], t=TIMES, inputs=U, parameters=["k1", "c1", "k2", "c2"])
