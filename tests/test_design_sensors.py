@@ -29,22 +29,31 @@ from obsnl.design.sensors import sensors
 from obsnl.design.sufficiency import restrict
 
 
+_RESOLVENT: dict = {}
+
+
+def _resolvent(model: Model) -> tuple:
+    """A, the adjugate and determinant of (sI - A) and B, symbolic in the parameters (once per model)."""
+    if model.name not in _RESOLVENT:
+        xs, us = list(model.states), list(model.inputs)
+        A = sp.Matrix([[sp.diff(model.equations[x], y) for y in xs] for x in xs])
+        B = sp.Matrix([[sp.diff(model.equations[x], u) for u in us] for x in xs])
+        s = sp.Symbol("s")
+        M = s * sp.eye(len(xs)) - A
+        _RESOLVENT[model.name] = (A, M.adjugate(), sp.Poly(M.det(), s), B, s)
+    return _RESOLVENT[model.name]
+
+
 def _linear_answer(model: Model, outputs: list[str], targets: list[str], seed: int = 1) -> bool:
     """Sufficiency derived with the transfer functions and the Kalman matrix (module docstring)."""
     rng = random.Random(seed)
-    xs = list(model.states)
-    us = list(model.inputs)
-    ps = list(model.parameters)
-    A = sp.Matrix([[sp.diff(model.equations[x], y) for y in xs] for x in xs])
-    B = sp.Matrix([[sp.diff(model.equations[x], u) for u in us] for x in xs])
+    xs, ps = list(model.states), list(model.parameters)
+    A, adj, den, B, s = _resolvent(model)
     C = sp.Matrix([[sp.diff(model.outputs[o], y) for y in xs] for o in outputs])
     point = {p: sp.Rational(rng.randint(1, 10**6), rng.randint(1, 10**6)) for p in ps}
-    s = sp.Symbol("s")
-    G = (C * (s * sp.eye(len(xs)) - A).adjugate() * B)
-    den = sp.Poly((s * sp.eye(len(xs)) - A).det(), s)
     lead = den.LC()
     coeffs = [c / lead for c in den.all_coeffs()[1:]]
-    for entry in G:
+    for entry in C * adj * B:
         coeffs += [c / lead for c in sp.Poly(sp.expand(entry), s).all_coeffs()]
     J = sp.Matrix([[sp.diff(c, p) for p in ps] for c in coeffs]).subs(point)
     rank_j = J.rank()
@@ -59,9 +68,10 @@ def _linear_answer(model: Model, outputs: list[str], targets: list[str], seed: i
     return all(t in known for t in targets)
 
 
-def _expected_minimal(model: Model, targets: list[str]) -> list[tuple[str, ...]]:
+def _expected_minimal(model: Model, targets: list[str], max_size: int | None = None) -> list[tuple[str, ...]]:
     names = list(model.output_names)
-    sufficient = {frozenset(c) for k in range(1, len(names) + 1) for c in itertools.combinations(names, k)
+    top = len(names) if max_size is None else max_size
+    sufficient = {frozenset(c) for k in range(1, top + 1) for c in itertools.combinations(names, k)
                   if _linear_answer(model, list(c), targets)}
     minimal = [tuple(n for n in names if n in c) for c in sufficient if not any(o < c for o in sufficient)]
     return sorted(minimal, key=lambda c: (len(c), [names.index(n) for n in c]))
@@ -243,3 +253,28 @@ def test_cli_ranks_sufficient_sets_along_a_record(tmp_path, capsys):
     assert md.count("| {y") >= 3  # the three pairs, each containing a minimal set
     assert main(["sensors", str(model), "--record", str(tmp_path / "missing.csv")]) == 2
     assert capsys.readouterr().err.count("\n") == 1
+
+
+#: The symmetric structure seen by five on-axis sensors (each sees only the symmetric motion) and one that
+#: measures the antisymmetric motion x1 - x2 (which never sees the middle mass).
+ESSENTIAL = SYMMETRIC.replace(name="essential", outputs={
+    "m1": "x0", "m2": "v0", "m3": "x0 - v0", "m4": "x0 + v0", "m5": "2*x0 + v0", "q": "x1 - x2"})
+
+
+def test_an_essential_sensor_prunes_every_set_without_it():
+    # no single sensor suffices (on the axis d = x1 - x2 is invisible; q sees d only, whose dynamics
+    # d'' = -k d - c d' never involve x0, v0, k0); derived with the linear theory above, the minimal sets of at
+    # most two sensors are q with any on-axis sensor
+    targets = [s.name for s in ESSENTIAL.states] + [p.name for p in ESSENTIAL.parameters]
+    expected = _expected_minimal(ESSENTIAL, targets, max_size=2)
+    assert expected == [("m1", "q"), ("m2", "q"), ("m3", "q"), ("m4", "q"), ("m5", "q")]
+    res = sensors(ESSENTIAL, max_size=2, seed=7)
+    assert [tuple(s) for s in res.minimal_sets] == expected
+    # without q even every other sensor is not enough: each pair of on-axis sensors is implied insufficient
+    without_q = res.answer(["m1", "m2", "m3", "m4", "m5"])
+    assert without_q.sufficient is False
+    for pair in itertools.combinations(["m1", "m2", "m3", "m4", "m5"], 2):
+        assert res.answer(pair).how == "implied"
+    # analyses: the full set, the 6 singletons, the 6 sets with one sensor left out, the 5 pairs with q; the
+    # plain level-wise search would analyse the 10 on-axis pairs instead of the 6 leave-one-out sets
+    assert res.analyses == 1 + 6 + 6 + 5 < 1 + 6 + 15

@@ -16,7 +16,12 @@ sufficient set is sufficient, a subset of an insufficient set is not):
    a set in which some target has no path to any chosen output is insufficient (exact, from the
    dependency graph, no analysis). Only the remaining sets are analysed (the joint verdict), each
    independently, on the given executor.
-3. A sufficient set of size ``k`` is minimal when each of its subsets of size ``k - 1`` was proven
+3. When no set of size ``k`` suffices and the next size has many sets to analyse (more than twice the
+   candidates reach every target),
+   the *essential* sensors are found once: each candidate is left out of the full set in turn; if what
+   remains is insufficient, every set without that candidate is insufficient (a subset of it) and costs
+   no analysis from then on.
+4. A sufficient set of size ``k`` is minimal when each of its subsets of size ``k - 1`` was proven
    insufficient; if one of them was left undecided (a time limit, an inconclusive verdict), the set is
    reported as sufficient with its minimality undecided, never as minimal.
 
@@ -42,7 +47,8 @@ from obsnl.observability.analyze import assumptions
 from obsnl.observability.joint_certify import shared_symmetries
 from obsnl.observability.selection import select_branches
 from obsnl.observability.smooth import resolve_unknown_input_derivatives
-from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets
+from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
+from obsnl.observability.decompose import output_reachable
 
 __all__ = ["SensorSearch", "sensors", "rank_sufficient_sets"]
 
@@ -172,6 +178,12 @@ def _check_task(task: tuple) -> Sufficiency:
     return check_sensors(model, names, targets, seed=seed, prob=prob, max_seconds=max_seconds)
 
 
+def _pending(candidates: Sequence[str], size: int, anc: dict[str, set[str]], targets: Sequence[str]) -> int:
+    """How many sets of ``size`` candidates reach every target (the ones a level would analyse at most)."""
+    want = set(targets)
+    return sum(want <= set().union(*(anc[c] for c in s)) for s in itertools.combinations(candidates, size))
+
+
 def _symmetry_proof(model: Model, missing: Sequence[str], seed: int) -> str:
     """The targets no sensor reveals, and the shared symmetries that move them (when found)."""
     text = f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not jointly identifiable even with " \
@@ -258,6 +270,8 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     insufficient: list[frozenset] = []
     minimal: list[tuple[str, ...]] = []
     undecided: list[tuple[str, ...]] = []
+    essential_done = False
+    anc = {c: output_reachable(restrict(model, [c])) for c in candidates}  # reach of a set: the union
     for k in range(1, max_size + 1):
         level = [tuple(candidates[i] for i in idx) for idx in itertools.combinations(range(m), k)]
         todo, covered = [], set()
@@ -303,6 +317,19 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
                                               "sensor fewer was not decided")
         if k == m and full.sufficient is None and not minimal:
             break
+        if not essential_done and not minimal and k < max_size and _pending(candidates, k + 1, anc, targets) > 2 * m:
+            # no set of k sensors suffices and the next size is large: find the essential sensors (those
+            # without which even every other sensor is not enough); every set lacking one is then implied
+            # insufficient as a subset of that set, so only supersets of the essential sensors are analysed
+            essential_done = True
+            rest = [tuple(c for c in candidates if c != x) for x in candidates]
+            rest = [r for r in rest if frozenset(r) not in known]
+            found = executor.map(_check_task, [(model, r, targets, seed, prob, max_seconds) for r in rest])
+            analyses += sum(r.how == "analysis" for r in found)
+            for r_set, r in zip(rest, found):
+                known[frozenset(r_set)] = r
+                if r.sufficient is False:
+                    insufficient.append(frozenset(r_set))
     _close(bar)
     order = {frozenset(c.sensors): i for i, c in enumerate(known.values())}
     checked = tuple(sorted(known.values(), key=lambda c: (len(c.sensors), order[frozenset(c.sensors)])))
