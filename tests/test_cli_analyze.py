@@ -22,7 +22,8 @@ def test_json_has_exactly_the_issue_keys_and_the_published_answer(capsys) -> Non
     assert main(["analyze", str(case), "--format", "json", "--seed", "5", "--method", "sedoglavic"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert set(doc) == TOP_KEYS
-    assert set(doc["overall"]) == {"rule", "observable", "unobservable", "inconclusive", "reason", "unknown_inputs"}
+    assert set(doc["overall"]) == {"rule", "observable", "unobservable", "inconclusive", "reason", "unknown_inputs",
+                                   "only_jointly"}
     assert set(doc["union"]) == {"observable", "unobservable", "verdict"}
     assert doc["seed"] == 5 and doc["method"] == "sedoglavic" and doc["probability"] >= 0.99
     for b in doc["branches"]:
@@ -45,7 +46,9 @@ def test_seed_model_json_branches(capsys) -> None:
 def test_text_format(capsys) -> None:
     assert main(["analyze", str(MODELS / "coulomb_friction.toml"), "--seed", "2"]) == 0
     out = capsys.readouterr().out
-    assert "union unobservable" in out and "joint unobservable" in out and "(a) v > 0" in out
+    # the joint verdict first (in words), the union after, then the branches
+    assert out.index("jointly identifiable: all") < out.index("union unobservable") < out.index("(a) v > 0")
+    assert out.splitlines()[1].strip().startswith("jointly identifiable: all")
 
 
 def test_output_file_and_force(tmp_path, capsys) -> None:

@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
+from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
 from obsnl.algebra.modp import Echelon, Resample, random_prime
 from obsnl.algebra.series import TimeUp, draw_prime
 from obsnl.errors import AnalysisError
@@ -134,6 +135,18 @@ class JointResult:
     reason: str
     assumptions: Mapping[str, Any]
     seconds: float
+
+    def __repr__(self) -> str:
+        words = verdict_words(self.observable, self.unobservable, self.inconclusive, most=6)
+        return one_line("JointResult", f"model={self.model!r}", repr(words), f"visits={len(self.visits)}",
+                        bound(self.probability))
+
+    def summary(self) -> str:
+        """A few lines of plain text: the verdict, why some is undecided, the visits used."""
+        return block(f"{self.model}: {verdict_words(self.observable, self.unobservable, self.inconclusive, most=12)}",
+                     f"undecided because: {self.reason}" if self.inconclusive else "",
+                     f"visits: {names([v.kind + ' ' + '/'.join(v.labels) for v in self.visits], 6)}; parameter rank "
+                     f"{self.parameter_rank}; P >= {probability_text(self.probability)}, seed {self.seed}")
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (tuples as lists)."""

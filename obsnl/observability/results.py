@@ -8,10 +8,11 @@ when it is observable in at least one branch, Chatzis et al. 2015).
 from __future__ import annotations
 
 import enum
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
 from obsnl.model.signature import ModelSignature
 from obsnl.observability.joint import JointResult
 from obsnl.observability.selection import Visited
@@ -84,6 +85,19 @@ class BranchResult:
     unknown_inputs: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
     notes: tuple[str, ...] = ()
     signs: tuple[int, ...] = ()
+
+    def __repr__(self) -> str:
+        return one_line("BranchResult", f"label={self.label!r}", f"guard={self.guard!r}", f"verdict={self.verdict.value!r}",
+                        f"rank={self.rank}/{self.size}", f"unobservable={names(self.unobservable, 6)!r}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the branch's verdict, then its lists."""
+        degree = "not decided" if self.verdict is Verdict.INCONCLUSIVE else self.transcendence_degree
+        return block(f"branch ({self.label}) {self.guard}: {self.verdict.value} (rank {self.rank}/{self.size}, "
+                     f"transcendence degree {degree}, {self.method or 'method not recorded'}, {self.seconds:.3g} s)",
+                     f"observable: {names(self.observable, 12)}", f"unobservable: {names(self.unobservable, 12)}",
+                     f"absent: {names(self.absent, 12)}" if self.absent else "",
+                     f"undecided: {names(self.undecided, 12)} ({self.reason})" if self.undecided else "")
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
         """The branch as JSON-ready data.
@@ -248,6 +262,102 @@ class AnalysisResult:
         return {"observable": tuple(n for n in names if n in obs),
                 "unobservable": tuple(n for n in names if n in unobs and n not in obs and not stuck)}
 
+    @property
+    def only_jointly(self) -> tuple[str, ...]:
+        """Identifiable jointly but in no single branch on its own (the joint observable minus the
+        per-branch union), in model order; empty without a joint verdict or without per-branch results."""
+        if self.joint is None or not any(b.observable or b.unobservable for b in self.branches):
+            return ()
+        union = set(self.union_observable)
+        return tuple(v for v in self.joint.observable if v not in union)
+
+    def joint_words(self, name: Callable[[str], str] = str, most: int | None = None) -> str:
+        """The joint verdict in words, what a rendering says first.
+
+        Parameters
+        ----------
+        name : callable
+            How one name is written (e.g. as LaTeX).
+        most : int or None
+            Names shown per list at most (None: all).
+
+        Returns
+        -------
+        str
+            ``"jointly identifiable: all"`` or ``"jointly identifiable: x, v; not identifiable: beta;
+            undecided: w"``, then ``"; only jointly: ..."`` (:attr:`only_jointly`) when some variable is
+            identifiable only jointly; ``"joint verdict not computed"`` without one.
+
+        Examples
+        --------
+        >>> from obsnl import Model, analyze
+        >>> m = Model(name="bilinear", states=["x", "v"], parameters=["c", "k", "alpha", "x_y"], inputs=["u"],
+        ...           equations={"x": "v", "v": "u - c*v - k*x + (1 - alpha)*k*Max(x - x_y, 0)"},
+        ...           outputs={"y": "x"})
+        >>> analyze(m, seed=0).joint_words()
+        'jointly identifiable: all; only jointly: alpha, x_y'
+        """
+        j = self.joint
+        if j is None:
+            return "joint verdict not computed"
+        words = verdict_words(j.observable, j.unobservable, j.inconclusive, most=most, name=name)
+        extra = self.only_jointly
+        return f"{words}; only jointly: {names(extra, most, name=name)}" if extra else words
+
+    def union_words(self, name: Callable[[str], str] = str, most: int | None = None) -> str:
+        """The per-branch union in words (the seed paper's rule: observable in at least one branch).
+
+        Parameters
+        ----------
+        name : callable
+            How one name is written (e.g. as LaTeX).
+        most : int or None
+            Names shown at most (None: all).
+
+        Returns
+        -------
+        str
+            ``"every state and parameter is observable"`` or ``"unobservable in every branch: ..."``.
+        """
+        if not self.branches:
+            return "no branch analysed on its own"
+        unobs = self.overall_unobservable
+        if not unobs and self.verdict is Verdict.OBSERVABLE:
+            return "every state and parameter is observable"
+        return f"unobservable in every branch: {names(unobs, most, name=name)}"
+
+    def __repr__(self) -> str:
+        p = "" if self.overall_verdict is Verdict.INCONCLUSIVE else bound(self.probability)
+        return one_line("AnalysisResult", f"model={self.model!r}", f"joint={self.joint_words(most=6)!r}",
+                        f"branches={len(self.branches)}", p)
+
+    def summary(self) -> str:
+        """A few lines of plain text: the joint verdict first, then the union over branches, then the
+        branches (``obsnl.report.to_text`` gives everything).
+
+        Examples
+        --------
+        >>> from obsnl import Model, analyze
+        >>> m = Model(name="decay", states=["x"], parameters=["a"], equations={"x": "-a*x"}, outputs={"y": "x"})
+        >>> print(analyze(m, seed=0).summary(), end="")  # doctest: +ELLIPSIS
+        decay: 1 branch, method auto, seed 0, P >= 1 (certified), ... s
+        jointly identifiable: all
+        union over branches (each branch on its own, the seed paper's rule): every state and parameter is observable
+        """
+        prob = ("no probability bound (not every verdict decided)" if self.overall_verdict is Verdict.INCONCLUSIVE
+                else f"P >= {probability_text(self.probability)}")
+        n = len(self.branches)
+        j = self.joint
+        shown = [f"({b.label}) {b.guard}: unobservable: {names(b.unobservable, 6)}" if b.unobservable else
+                 f"({b.label}) {b.guard}: {b.verdict.value}" for b in self.branches[:4]] if n > 1 else []
+        return block(f"{self.model}: {n} branch{'es' if n != 1 else ''}, method {self.method}, seed {self.seed}, "
+                     f"{prob}, {self.seconds:.3g} s",
+                     self.joint_words(most=12),
+                     f"undecided because: {j.reason}" if j is not None and j.inconclusive else "",
+                     f"union over branches (each branch on its own, the seed paper's rule): "
+                     f"{self.union_words(most=12)}",
+                     *shown, f"... and {n - 4} more branches" if n > 4 and len(shown) == 4 else "")
+
     def branch(self, label: str) -> BranchResult:
         """The result of the branch labelled ``label``."""
         for b in self.branches:
@@ -271,7 +381,8 @@ class AnalysisResult:
 
         ``union`` is the per-branch union (``observable, unobservable``, with ``unknown_inputs`` when
         the model has some, and its ``verdict``); ``overall`` is the joint verdict when it was computed
-        (``rule: "joint"``, with ``inconclusive`` and the ``reason``), else the union (``rule: "union"``);
+        (``rule: "joint"``, with ``inconclusive``, the ``reason`` and ``only_jointly``: identifiable jointly but
+        in no single branch), else the union (``rule: "union"``);
         ``verdict`` is the overall one; ``joint`` holds the joint verdict's visits, probability and
         assumptions. ``probability`` is None when the verdict is inconclusive (no bound is claimed for
         what was not decided).
@@ -302,6 +413,7 @@ class AnalysisResult:
         else:
             out["overall"] = {"rule": "joint", "observable": list(j.observable), "unobservable": list(j.unobservable),
                               "inconclusive": list(j.inconclusive), "reason": j.reason,
+                              "only_jointly": list(self.only_jointly),
                               "unknown_inputs": {k: list(v) for k, v in j.unknown_inputs.items()}}
             out["joint"] = j.to_dict()
         if self.visited is not None:

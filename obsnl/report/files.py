@@ -26,7 +26,7 @@ from pathlib import Path
 from obsnl.errors import OutputError
 from obsnl.observability.branch_table import SCHEMA_ID
 from obsnl.observability.results import AnalysisResult
-from obsnl.report.tables import to_json, to_latex, to_markdown, union_text
+from obsnl.report.tables import joint_text, to_json, to_latex, to_markdown, union_text
 
 __all__ = ["report_files", "write_tables", "timing_table", "check_target", "check_folder", "safe_write", "OutputFolder"]
 
@@ -366,11 +366,12 @@ def timing_table(entries: Sequence[tuple[str, str, int, float]]) -> str:
 
 
 def _index(results: Sequence[AnalysisResult]) -> str:
-    lines = ["# obsnl observability reports", "", "| Model | Branches | Union over branches | Files |",
-             "|---|---:|---|---|"]
+    lines = ["# obsnl observability reports", "",
+             "| Model | Joint verdict | Branches | Union over branches (each on its own) | Files |",
+             "|---|---|---:|---|---|"]
     for r in results:
         files = ", ".join(f"[{ext}]({r.model}.{ext})" for ext in ("md", "tex", "json"))
-        lines.append(f"| {r.model} | {len(r.branches)} | {union_text(r)} | {files} |")
+        lines.append(f"| {r.model} | {joint_text(r)} | {len(r.branches)} | {union_text(r)} | {files} |")
     lines += ["", "Timings are in [timings.md](timings.md). The `.json` files are branch tables "
               f"(schema `{SCHEMA_ID}`), read by the DUKF."]
     return "\n".join(lines) + "\n"

@@ -1,28 +1,18 @@
-"""Sentences shared by the renderings of an analysis: the probability bound, the union, the joint
-verdict, the assumptions and the verdict lines (text, Markdown and LaTeX captions use them)."""
+"""Sentences shared by the renderings of an analysis: the probability bound, the joint verdict (said
+first), the union, the assumptions and the verdict lines (text, Markdown and LaTeX captions use them)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
-from obsnl.observability.results import AnalysisResult, Verdict
+from obsnl._text import probability_text
+from obsnl.observability.results import AnalysisResult
 
 __all__ = ["probability_text", "assumption_texts", "joint_text", "union_text"]
 
 
 def _names(names: Sequence[str]) -> str:
     return ", ".join(names) if names else "none"
-
-
-def probability_text(p: float | None) -> str:
-    """A probability bound as text that does not round a near-certainty up to 1."""
-    if p is None:
-        return "deterministic"
-    if p >= 1.0:
-        return "1 (certified)"
-    if p > 0.999:
-        return f"1 - {1.0 - p:.1e}"
-    return f"{p:.4g}"
 
 
 def assumption_texts(result: AnalysisResult) -> list[str]:
@@ -74,26 +64,36 @@ def _verdict_lines(result: AnalysisResult) -> list[str]:
 
 
 def joint_text(result: AnalysisResult) -> str:
-    """The joint verdict in one sentence (``""`` when it was not computed)."""
-    j = result.joint
-    if j is None:
-        return ""
-    parts = []
-    if not j.unobservable and not j.inconclusive:
-        parts.append("every state and parameter is observable")
-    else:
-        if j.unobservable:
-            parts.append(f"unobservable: {_names(j.unobservable)}")
-        if j.inconclusive:
-            parts.append(f"not decided: {_names(j.inconclusive)} ({j.reason})")
-    extra = [v for v in j.observable if v not in result.overall_observable]
-    if extra:
-        parts.append(f"observable only jointly: {_names(extra)}")
-    return "; ".join(parts)
+    """The joint verdict in words, what every rendering says first (:meth:`AnalysisResult.joint_words`).
+
+    Examples
+    --------
+    >>> from obsnl import Model, analyze
+    >>> m = Model(name="m", states=["x"], parameters=["a", "b"], equations={"x": "-(a + b)*x"}, outputs={"y": "x"})
+    >>> joint_text(analyze(m, seed=1))
+    'jointly identifiable: x; not identifiable: a, b'
+    """
+    return result.joint_words()
 
 
 def union_text(result: AnalysisResult) -> str:
-    unobs = result.overall_unobservable
-    if not unobs and result.verdict is Verdict.OBSERVABLE:
-        return "every state and parameter is observable"
-    return f"unobservable in every branch: {_names(unobs)}"
+    """The per-branch union in words, said after the joint verdict (:meth:`AnalysisResult.union_words`)."""
+    return result.union_words()
+
+
+#: What the joint verdict and the union are, said after their words.
+JOINT_RULE = "the visited branches and visible switching surfaces together, parameters shared"
+UNION_RULE = "Union over branches (each branch on its own, the seed paper's rule)"
+
+
+def _first_lines(result: AnalysisResult, *, suffix: str = "", name: Callable[[str], str] = str,
+                 escape: Callable[[str], str] = str, strong: Callable[[str], str] = str,
+                 union: bool = True) -> list[str]:
+    """The joint verdict in words, why some of it is undecided, then the union: what a rendering says first."""
+    words = strong(result.joint_words(name))
+    lines = [f"{words} ({JOINT_RULE}){suffix}" if result.joint is not None else f"{words}{suffix}"]
+    if result.joint is not None and result.joint.inconclusive:
+        lines.append(f"undecided because: {escape(result.joint.reason)}{suffix}")
+    if union:
+        lines.append(f"{UNION_RULE}: {result.union_words(name)}{suffix}")
+    return lines

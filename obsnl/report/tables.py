@@ -23,6 +23,7 @@ from obsnl.model.signature import ModelSignature
 from obsnl.observability.branch_table import BranchTable
 from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
 from obsnl.report.sentences import (
+    _first_lines,
     _names,
     _verdict_lines,
     assumption_texts,
@@ -295,19 +296,14 @@ def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, t
     """
     _check_rows(rows)
     groups = branch_groups(result)
-    lines = [f"### {title or 'Observability of ' + result.model}", "", f"_{_header_line(result)}_", ""]
+    lines = [f"### {title or 'Observability of ' + result.model}", "", f"_{_header_line(result)}_", "",
+             *"\n\n".join(_first_lines(result, suffix=".", strong=lambda w: f"**{w}**")).split("\n"), ""]
     lines.append("| Branches | " + " | ".join(g.heading for g in groups) + " |")
     lines.append("|---|" + "---|" * len(groups))
     for row in rows:
         lines.append(f"| {ROWS[row]} | " + " | ".join(_cells(g, row, latex=False, result=result) for g in groups)
                      + " |")
     lines.append("")
-    lines.append(f"Union over branches (observable in at least one branch): "
-                 f"{union_text(result)}.")
-    if result.joint is not None:
-        lines.append("")
-        lines.append(f"Joint verdict (the visited branches and visible switching surfaces together, parameters "
-                     f"shared): {joint_text(result)}.")
     if result.visited is not None and result.visited.how != "all":
         lines.append(f"Visited branches: {result.visited.note}.")
     inconclusive = [b for b in result.branches if b.verdict is Verdict.INCONCLUSIVE]
@@ -324,6 +320,9 @@ def to_text(result: AnalysisResult) -> str:
     if result.verdict is Verdict.INCONCLUSIVE:
         prob = "no probability bound (not every verdict was decided)"
     lines = [f"{result.model}: method {result.method}, seed {result.seed}, {prob}, {result.seconds:.3f} s"]
+    lines += [f"  {line}" for line in _first_lines(result, union=False)]
+    lines.append(f"  union observable:     {_names(result.overall_observable)}   (in at least one branch)")
+    lines.append(f"  union unobservable:   {_names(result.overall_unobservable)}")
     for text in assumption_texts(result):
         lines.append(f"  assumes: {text}")
     for b in result.branches:
@@ -343,14 +342,10 @@ def to_text(result: AnalysisResult) -> str:
             lines.append(f"      unknown inputs {k}: {_names(v)}")
         for note in b.notes:
             lines.append(f"      note: {note}")
-    lines.append(f"  union observable:     {_names(result.overall_observable)}   (in at least one branch)")
-    lines.append(f"  union unobservable:   {_names(result.overall_unobservable)}")
     if result.joint is not None:
         j = result.joint
-        lines.append(f"  joint observable:     {_names(j.observable)}   (branches and visible surfaces together)")
-        lines.append(f"  joint unobservable:   {_names(j.unobservable)}")
-        if j.inconclusive:
-            lines.append(f"  joint not decided:    {_names(j.inconclusive)}: {j.reason}")
+        for k, v in j.unknown_inputs.items():
+            lines.append(f"  joint unknown inputs {k}: {_names(v)}")
         visits = ", ".join(f"{v.kind} {'/'.join(v.labels)}" + (
             f" (skipped: {v.reason})" if v.reason else "" if v.visible or v.kind == "branch" else " (invisible)")
             for v in j.visits)
@@ -363,7 +358,8 @@ def to_text(result: AnalysisResult) -> str:
             lines.append(f"      crossings of {g} = 0: {n}")
     for k, v in result.unknown_inputs.items():
         lines.append(f"  union unknown inputs {k}: {_names(v)}")
-    lines.append(f"  verdict (union): {result.verdict.value}; overall: {result.overall_verdict.value}")
+    lines.append(f"  verdict: {result.overall_verdict.value} (joint); {result.verdict.value} (union over branches)"
+                 if result.joint is not None else f"  verdict: {result.verdict.value} (union over branches)")
     return "\n".join(lines) + "\n"
 
 
@@ -475,11 +471,9 @@ def to_latex(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, capt
     if not environment:
         return "\n".join(body) + "\n"
     header = tex_escape(_header_line(result)).replace(">=", "$\\geq$")
-    joint = (f" Joint verdict (branches and visible switching surfaces together, parameters shared): "
-             f"{tex_escape(joint_text(result))}." if result.joint is not None else "")
-    cap = caption or (f"Observability of the model {tex_escape(result.model)} by branch "
-                      f"({header}). Union over branches: {tex_escape(union_text(result))}.{joint} "
-                      + " ".join(tex_escape(t) for t in _verdict_lines(result)))
+    first = _first_lines(result, suffix=".", name=lambda n: f"${_latex_name(n, result)}$", escape=tex_escape)
+    cap = caption or (f"Observability of the model {tex_escape(result.model)} by branch ({header}): "
+                      + " ".join(first + [tex_escape(t) for t in _verdict_lines(result)]))
     lab = label or f"tab:obsnl-{re.sub(r'[^A-Za-z0-9-]+', '-', result.model)}"
     head = ["% generated by obsnl; needs \\usepackage{booktabs}", "\\begin{table}[htbp]", "\\centering",
             f"\\caption{{{cap}}}", f"\\label{{{lab}}}"]

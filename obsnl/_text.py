@@ -1,0 +1,207 @@
+"""Plain text shared by the one-line ``repr`` and the short ``summary()`` of every result value.
+
+Name lists cut to a few, numbers short, a probability bound that never rounds a near-certainty up to 1,
+the joint verdict in words. Rank 0: it imports nothing of obsnl, so the result values of every room may
+use it; documents (Markdown, LaTeX, JSON, figures) are rendered in :mod:`obsnl.report`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Sequence
+
+__all__ = ["WIDTH", "LINES", "names", "number", "numbers", "probability_text", "bound", "one_line", "block",
+           "verdict_words"]
+
+#: Characters of a one-line ``repr`` at most.
+WIDTH = 160
+#: Lines of a ``summary()`` at most.
+LINES = 12
+
+
+def names(items: Iterable[str], most: int | None = None, *, name: Callable[[str], str] = str) -> str:
+    """Names joined by commas, ``"none"`` for none, cut after ``most`` with the number left out.
+
+    Parameters
+    ----------
+    items : iterable of str
+        The names.
+    most : int or None
+        Names shown at most (None: all).
+    name : callable
+        How one name is written (e.g. as LaTeX).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> names(["x", "v", "c"]), names([]), names("abcdefgh", 3)
+    ('x, v, c', 'none', 'a, b, c, ... (+5 more)')
+    """
+    items = list(items)
+    if not items:
+        return "none"
+    shown = items if most is None or len(items) <= most else items[:most]
+    text = ", ".join(name(n) for n in shown)
+    return text if len(shown) == len(items) else f"{text}, ... (+{len(items) - len(shown)} more)"
+
+
+def number(x: float | None) -> str:
+    """A number in four significant digits (``"n/a"`` for None, NaN or infinity kept as text).
+
+    Examples
+    --------
+    >>> number(0.30012), number(None), number(float("nan")), number(12345678.0)
+    ('0.3001', 'n/a', 'nan', '1.235e+07')
+    """
+    if x is None:
+        return "n/a"
+    return f"{float(x):.4g}"
+
+
+def numbers(values: Iterable[float], most: int = 6) -> str:
+    """Numbers in brackets, each by :func:`number`, cut after ``most``.
+
+    Parameters
+    ----------
+    values : iterable of float
+        The numbers.
+    most : int
+        Numbers shown at most.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> numbers([1.0, 2.5, 1 / 3]), numbers(range(10), 2)
+    ('[1, 2.5, 0.3333]', '[0, 1, ... (+8 more)]')
+    """
+    return f"[{names([number(v) for v in values], most)}]".replace("[none]", "[]")
+
+
+def probability_text(p: float | None) -> str:
+    """A probability bound as text that does not round a near-certainty up to 1.
+
+    Examples
+    --------
+    >>> probability_text(1.0), probability_text(1 - 3.7e-15), probability_text(0.95), probability_text(None)
+    ('1 (certified)', '1 - 3.7e-15', '0.95', 'deterministic')
+    """
+    if p is None:
+        return "deterministic"
+    if p >= 1.0:
+        return "1 (certified)"
+    if p > 0.999:
+        return f"1 - {1.0 - p:.1e}"
+    return f"{p:.4g}"
+
+
+def bound(p: float | None) -> str:
+    """The bound of :func:`probability_text` in a ``repr``: no spaces, ``P>=`` in front.
+
+    Examples
+    --------
+    >>> bound(1 - 3.7e-15), bound(1.0), bound(None)
+    ('P>=1-3.7e-15', 'P=1', 'deterministic')
+    """
+    if p is None:
+        return "deterministic"
+    return "P=1" if p >= 1.0 else "P>=" + probability_text(p).replace(" ", "")
+
+
+def one_line(kind: str, *parts: str, width: int = WIDTH) -> str:
+    """``kind(part, part, ...)`` on one line of at most ``width`` characters (cut with ``...)``).
+
+    Parameters
+    ----------
+    kind : str
+        The class name.
+    *parts : str
+        The headline fields, written (empty ones are left out).
+    width : int
+        Characters at most.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> one_line("Fit", "converged", "", "chi2=1.5")
+    'Fit(converged, chi2=1.5)'
+    >>> len(one_line("Fit", "x" * 500))
+    160
+    """
+    text = " ".join(f"{kind}({', '.join(p for p in parts if p)})".split())
+    return text if len(text) <= width else text[: width - 4] + "...)"
+
+
+def block(*lines: str, most: int = LINES, width: int = WIDTH) -> str:
+    """Lines of plain text (empty ones left out), at most ``most`` of them and ``width`` characters each.
+
+    Parameters
+    ----------
+    *lines : str
+        The lines, the answer first.
+    most : int
+        Lines at most; beyond, the last line says how many were left out.
+    width : int
+        Characters of a line at most (cut with ``...``).
+
+    Returns
+    -------
+    str
+        The lines, ending with a newline.
+
+    Examples
+    --------
+    >>> print(block("m: observable", "", "2 branches"), end="")
+    m: observable
+    2 branches
+    >>> block(*"abcde", most=3).splitlines()
+    ['a', 'b', '... (+3 more lines)']
+    """
+    kept = [" ".join(line.split()) for line in lines if line]
+    if len(kept) > most:
+        kept = kept[: most - 1] + [f"... (+{len(kept) - most + 1} more lines)"]
+    return "".join((k if len(k) <= width else k[: width - 3] + "...") + "\n" for k in kept)
+
+
+def verdict_words(observable: Sequence[str], unobservable: Sequence[str], undecided: Sequence[str], *,
+                  most: int | None = None, name: Callable[[str], str] = str) -> str:
+    """The joint verdict in words, the answer a user needs first.
+
+    Parameters
+    ----------
+    observable, unobservable, undecided : sequence of str
+        Jointly identifiable (observable) states and parameters, those that are not, those not decided.
+    most : int or None
+        Names shown per list at most (None: all).
+    name : callable
+        How one name is written (e.g. as LaTeX).
+
+    Returns
+    -------
+    str
+        ``"jointly identifiable: all"`` when nothing is unidentifiable or undecided, else
+        ``"jointly identifiable: ...; not identifiable: ...; undecided: ..."`` (empty lists left out).
+
+    Examples
+    --------
+    >>> verdict_words(["x", "k"], [], [])
+    'jointly identifiable: all'
+    >>> verdict_words(["x", "v", "c"], ["beta"], ["w"])
+    'jointly identifiable: x, v, c; not identifiable: beta; undecided: w'
+    """
+    if not unobservable and not undecided:
+        return "jointly identifiable: all"
+    parts = [f"jointly identifiable: {names(observable, most, name=name)}"]
+    if unobservable:
+        parts.append(f"not identifiable: {names(unobservable, most, name=name)}")
+    if undecided:
+        parts.append(f"undecided: {names(undecided, most, name=name)}")
+    return "; ".join(parts)
+
