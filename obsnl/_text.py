@@ -47,16 +47,20 @@ def names(items: Iterable[str], most: int | None = None, *, name: Callable[[str]
     return text if len(shown) == len(items) else f"{text}, ... (+{len(items) - len(shown)} more)"
 
 
-def number(x: float | None) -> str:
-    """A number in four significant digits (``"n/a"`` for None, NaN or infinity kept as text).
+def number(x: float | complex | None) -> str:
+    """A number in four significant digits (``"n/a"`` for None, NaN or infinity kept as text; a complex
+    number with an imaginary part as ``a+bj``).
 
     Examples
     --------
-    >>> number(0.30012), number(None), number(float("nan")), number(12345678.0)
-    ('0.3001', 'n/a', 'nan', '1.235e+07')
+    >>> number(0.30012), number(None), number(float("nan")), number(12345678.0), number(-1 + 2j), number(3 + 0j)
+    ('0.3001', 'n/a', 'nan', '1.235e+07', '-1+2j', '3')
     """
     if x is None:
         return "n/a"
+    if isinstance(x, complex) or getattr(x, "imag", 0):
+        z = complex(x)
+        return f"{z.real:.4g}{z.imag:+.4g}j" if z.imag else f"{z.real:.4g}"
     return f"{float(x):.4g}"
 
 

@@ -29,6 +29,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError
 from obsnl.estimation.records import Record, check_seconds, check_times, read_table, times_from_text
 from obsnl.model.textsize import quote
@@ -69,6 +70,18 @@ class Measured:
             raise DataError(f"data {self.source or self.name!r} have {len(self.y)} samples; {_TOO_SHORT}")
         return Record(self.name, self.u if self.u.shape[1] > 1 else self.u[:, 0], self.dt, self.source,
                       channels=self.inputs)
+
+    def __repr__(self) -> str:
+        return one_line("Measured", f"name={self.name!r}", f"samples={len(self.y)}", f"dt={number(self.dt)} s",
+                        f"inputs={names(self.inputs, 4)!r}", f"outputs={names(self.outputs, 4)!r}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: length, step, the channels and their RMS, where the data came from."""
+        rms = [f"{c} {number(float(np.sqrt(np.mean(v ** 2))))}" for c, v in
+               [*zip(self.inputs, self.u.T), *zip(self.outputs, self.y.T)]]
+        return block(f"measured {self.name}: {len(self.y)} samples at dt = {number(self.dt)} s", f"source: {self.source}"
+                     if self.source else "", f"inputs: {names(self.inputs, 8)}; outputs: {names(self.outputs, 8)}",
+                     f"RMS: {names(rms, 10)}")
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "source": self.source, "dt": self.dt, "samples": len(self.y),

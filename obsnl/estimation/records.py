@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError
 from obsnl.model.textsize import quote
 
@@ -96,6 +97,17 @@ class Record:
         a = resample_poly(self.accel, ratio.numerator, ratio.denominator, axis=0)
         return Record(self.name, a, dt, self.source,
                       self.notes + (f"resampled from dt={self.dt:g} s to {dt:g} s (polyphase, x{ratio})",), self.channels)
+
+    def __repr__(self) -> str:
+        ch = f"channels={names(self.channels, 4)!r}" if self.channels else ""
+        return one_line("Record", f"name={self.name!r}", f"samples={len(self)}", f"dt={number(self.dt)} s",
+                        f"peak={number(float(np.max(np.abs(self.accel))))}", ch)
+
+    def summary(self) -> str:
+        """A few lines of plain text: length, step, peak, source, channels, what was done to it."""
+        return block(f"record {self.name}: {len(self)} samples at dt = {number(self.dt)} s, peak |value| "
+                     f"{number(float(np.max(np.abs(self.accel))))}", f"source: {self.source}" if self.source else "",
+                     f"channels: {names(self.channels)}" if self.channels else "", *self.notes)
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "dt": self.dt, "samples": len(self), "source": self.source,

@@ -18,6 +18,7 @@ import numpy as np
 
 import casadi as ca
 
+from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError, EstimatorError
 from obsnl.estimation.evaluate import call
 from obsnl.estimation.jitcache import jit_compile
@@ -35,6 +36,16 @@ class Simulation:
     y: np.ndarray
     states: tuple[str, ...]
     outputs: tuple[str, ...]
+
+    def __repr__(self) -> str:
+        return one_line("Simulation", f"samples={len(self.t)}", f"t={number(self.t[0])}..{number(self.t[-1])} s",
+                        f"states={names(self.states, 6)!r}", f"outputs={names(self.outputs, 6)!r}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the span simulated and the peak of each output."""
+        peaks = [f"{o} {number(float(np.max(np.abs(self.y[:, j]))))}" for j, o in enumerate(self.outputs)]
+        return block(f"simulation of {len(self.t)} samples, t = {number(self.t[0])} to {number(self.t[-1])} s",
+                     f"states: {names(self.states, 12)}", f"peak |output|: {names(peaks, 8)}")
 
     def to_dict(self) -> dict[str, Any]:
         return {"t": self.t.tolist(), "states": list(self.states), "outputs": list(self.outputs),

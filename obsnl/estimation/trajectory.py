@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import block, names, number, numbers, one_line
 from obsnl.estimation.ukf_step import INTERVENTIONS, REPAIRS
 
 __all__ = ["Estimate", "Trajectory"]
@@ -25,6 +26,15 @@ class Estimate:
     x: np.ndarray
     theta: np.ndarray
     active: np.ndarray
+
+    def __repr__(self) -> str:
+        return one_line("Estimate", f"k={self.k}", f"theta={numbers(self.theta)}", f"x={numbers(self.x, 4)}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the parameters and states after step ``k``, with their std."""
+        sd = np.sqrt(np.clip(np.diag(self.P), 0, None))
+        return block(f"estimate after step {self.k}", f"parameters {numbers(self.theta, 10)}",
+                     f"states {numbers(self.x, 10)}", f"std in filter coordinates {numbers(sd, 10)}")
 
     def to_dict(self) -> dict[str, Any]:
         return {"k": self.k, "z": self.z.tolist(), "P": self.P.tolist(), "x": self.x.tolist(),
@@ -81,6 +91,21 @@ class Trajectory:
     names: tuple[str, ...]
     parameters: tuple[str, ...]
     states: tuple[str, ...]
+
+    def __repr__(self) -> str:
+        final = names([f"{p}={number(v)}" for p, v in zip(self.parameters, self.theta[-1])], 6)
+        return one_line("Trajectory", f"samples={len(self.t)}", f"final: {final}",
+                        f"repairs={self.total_repairs}", f"{self.seconds:.3g} s")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the final estimate per parameter (with its std), the repairs."""
+        sd = np.sqrt(np.clip(np.diagonal(self.P[-1]), 0, None))
+        coords = [f"{n} {number(v)}" for n, v in list(zip(self.names, sd))[len(self.states):]]
+        rows = [f"{p} = {number(v)}" for p, v in zip(self.parameters, self.theta[-1])]
+        return block(f"filter run over {len(self.t)} samples ({number(self.t[0])} to {number(self.t[-1])} s), "
+                     f"{self.total_repairs} repairs, {self.seconds:.3g} s", *rows[:9],
+                     f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
+                     f"final std of the parameter coordinates: {', '.join(coords[:8])}" if coords else "")
 
     @property
     def final(self) -> Estimate:

@@ -51,6 +51,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
+from obsnl._text import block, names, number, one_line
 from obsnl.errors import EstimatorError
 from obsnl.estimation.evaluate import call
 from obsnl.identification.setup import BOUND, Data, Setup
@@ -341,6 +342,26 @@ class Refinement:
     upper: np.ndarray = field(default=None, repr=False)
     fit: Fit = field(default=None, repr=False)
     objective: Objective = field(default=None, repr=False)
+
+    def _parameters(self) -> list[str]:
+        """The parameter names (from the objective; ``p0, p1, ...`` without one)."""
+        return list(self.objective.setup.model.parameters) if self.objective is not None else [
+            f"p{i}" for i in range(len(self.theta))]
+
+    def __repr__(self) -> str:
+        theta = names([f"{p}={number(v)}" for p, v in zip(self._parameters(), self.theta)], 6)
+        return one_line("Refinement", f"converged={self.converged}", f"chi2={number(self.chi2)}",
+                        f"iterations={self.iterations}", f"theta='{theta}'")
+
+    def summary(self) -> str:
+        """A few lines of plain text: converged or not and why, each parameter with its std, the misfit."""
+        rows = [f"{p} = {number(v)} (std {number(s)})" + (" held" if p in self.held else "") +
+                (" at the edge of the valid region" if p in self.at_edge else "")
+                for p, v, s in zip(self._parameters(), self.theta, self.std)]
+        return block(f"maximum likelihood: {'converged' if self.converged else 'NOT converged'} ({self.reason}), "
+                     f"chi2 {number(self.chi2)}, {self.iterations} iterations, {self.seconds:.3g} s", *rows[:9],
+                     f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
+                     f"RMS residual over the noise level: {names([f'{o} {number(v)}' for o, v in self.misfit.items()])}")
 
     def to_dict(self) -> dict[str, Any]:
         f = self.fit

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import block, names, one_line
 from obsnl.errors import EstimatorError
 from obsnl.estimation.records import rms
 from obsnl.estimation.simulate import simulate, simulate_many
@@ -52,6 +53,24 @@ class Practical:
     spread: Spread | None = None
     undecided: Mapping[str, str] = field(default_factory=dict)
     linearised: tuple[str, ...] | None = None  # the flags before the Monte-Carlo criterion was joined
+
+    def __repr__(self) -> str:
+        mc = f"monte_carlo={self.spread.replicates} replicates" if self.spread is not None else ""
+        return one_line("Practical", f"parameters={len(self.parameters)}", f"flagged={names(self.flagged, 6)!r}",
+                        f"undecided={names(self.undecided, 4)!r}" if self.undecided else "", mc,
+                        f"inconclusive={self.inconclusive!r}" if self.inconclusive else "")
+
+    def summary(self) -> str:
+        """A few lines of plain text: which parameters these data leave outside the 5 % band, and why."""
+        if self.inconclusive:
+            return block(f"practical identifiability of {len(self.parameters)} parameters: not decided "
+                         f"({self.inconclusive})")
+        n = len(self.flagged)
+        return block(f"practical identifiability of {len(self.parameters)} parameters on these data: {n} flagged"
+                     f" (not pinned within 5 % at 3 sigma){': ' + names(self.flagged, 8) if n else ''}",
+                     *(f"{p}: {self.reasons[p]}" for p in self.flagged[:8]),
+                     *(f"{p} undecided: {why}" for p, why in list(self.undecided.items())[:2]),
+                     self.spread.summary().splitlines()[0] if self.spread is not None else "")
 
     @property
     def flagged_linearised(self) -> tuple[str, ...]:
@@ -118,6 +137,21 @@ class Spread:
     seed: int
     held: tuple[str, ...] = ()
     inconclusive: str = ""
+
+    def __repr__(self) -> str:
+        sd = names([f"{p} {100 * s:.2g} %" for p, s in zip(self.parameters, self.std)], 5)
+        return one_line("Spread", f"replicates={self.replicates}", f"diverged={self.diverged}",
+                        f"relative_std='{sd}'", f"inconclusive={self.inconclusive!r}" if self.inconclusive else "")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the Monte-Carlo spread of each parameter's relative error."""
+        if self.inconclusive:
+            return block(f"Monte-Carlo spread over {self.replicates} replicates: not given ({self.inconclusive})")
+        rows = [f"{p}: relative std {100 * s:.2g} % ({100 * self.confidence:g} % interval {100 * lo:.2g}-"
+                f"{100 * hi:.2g} %)" + (" held" if p in self.held else "")
+                for p, s, lo, hi in zip(self.parameters, self.std, self.lower, self.upper)]
+        return block(f"Monte-Carlo spread over {self.replicates} replicates ({self.diverged} diverged, seed "
+                     f"{self.seed})", *rows[:10], f"... and {len(rows) - 10} more" if len(rows) > 10 else "")
 
     def to_dict(self) -> dict[str, Any]:
         return {"parameters": list(self.parameters), "relative_std": _nums(self.std), "lower": _nums(self.lower),

@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import block, number, one_line
 from obsnl.errors import EstimatorError
 from obsnl.identification.likelihood import Refinement, levenberg_marquardt
 
@@ -71,6 +72,19 @@ class Profile:
     points: tuple[tuple[float, float], ...] = field(repr=False)
     evaluations: int = 0
     better: float | None = None
+
+    def __repr__(self) -> str:
+        lo, hi = ("open" if v is None else number(v) for v in self.interval)
+        return one_line("Profile", f"name={self.name!r}", f"estimate={number(self.estimate)}",
+                        f"interval=[{lo}, {hi}]", f"shape={self.shape!r}")
+
+    def summary(self) -> str:
+        """One or two lines of plain text: the estimate, its 95 % interval and the profile's shape."""
+        lo, hi = ("open" if v is None else number(v) for v in self.interval)
+        return block(f"{self.name} = {number(self.estimate)}, 95 % profile-likelihood interval [{lo}, {hi}] "
+                     f"({self.shape}; {len(self.points)} points, {self.evaluations} evaluations)",
+                     f"a profile point fits better (chi2 {number(self.better)}): the estimate is not the optimum"
+                     if self.better is not None else "")
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "estimate": self.estimate, "interval": list(self.interval), "shape": self.shape,

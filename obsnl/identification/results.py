@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import block, names, number, one_line
 from obsnl.estimation.ukf import Trajectory
 from obsnl.identification.profile import Profile
 from obsnl.identification.setup import Tuning
@@ -63,6 +64,20 @@ class ParameterEstimate:
     interval: tuple[float | None, float | None] | None = None
     interval_method: str | None = None
 
+    def __repr__(self) -> str:
+        value = f"held at {number(self.guess)}" if self.held else f"{number(self.estimate)} (std {number(self.std)})"
+        return one_line("ParameterEstimate", f"{self.name}={value}", "flagged" if self.flagged else "",
+                        f"error={number(self.error)}{' %' if self.error_kind == 'percent' else ''}"
+                        if self.error is not None else "")
+
+    def summary(self) -> str:
+        """One line of plain text: the estimate and its std (or held), the error in a simulation study, the flag."""
+        value = (f"held at its guess {number(self.guess)}" if self.held else
+                 f"= {number(self.estimate)} (std {number(self.std)})")
+        truth = "" if self.true is None else f"; true {number(self.true)}, error {number(self.error)}" + (
+            " %" if self.error_kind == "percent" else "")
+        return block(f"{self.name} {value}{truth}" + (f"; flagged: {self.reason}" if self.flagged else ""))
+
     def to_dict(self) -> dict[str, Any]:
         d = {"name": self.name, "estimate": self.estimate, "std": self.std,
              "interval": None if self.interval is None else list(self.interval),
@@ -110,6 +125,22 @@ class Identification:
     converged_reason: str = ""
     refinement: Mapping[str, Any] = field(default_factory=dict)
     profiles: tuple[Profile, ...] = field(default=(), repr=False)
+
+    def __repr__(self) -> str:
+        est = names([f"{p.name}={'held' if p.held else number(p.estimate)}" for p in self.parameters], 6)
+        return one_line("Identification", f"model={self.model!r}", f"mode={self.mode!r}", f"method={self.method!r}",
+                        f"converged={self.converged}", f"flagged={names(self.flagged, 4)!r}", f"estimates='{est}'")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the run, each parameter's estimate, what is flagged, the fit."""
+        fit = names([f"{o} {number(v)} %" for o, v in self.fit.items()])
+        rows = [p.summary().rstrip("\n") for p in self.parameters]
+        return block(f"{self.model}: {self.mode}, {self.method}, {self.passes_run} of {self.passes} passes, "
+                     f"{'converged' if self.converged else 'NOT converged'}"
+                     f"{f' ({self.converged_reason})' if self.converged_reason else ''}, {self.seconds:.3g} s",
+                     *rows[:8], f"... and {len(rows) - 8} more parameters" if len(rows) > 8 else "",
+                     f"flagged (poorly informed by these data): {names(self.flagged)}" if self.flagged else "",
+                     f"fit (NRMSE of the model at the estimate): {fit}")
 
     @property
     def held(self) -> tuple[str, ...]:

@@ -30,6 +30,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
+from obsnl._text import block, names, number, one_line
 from obsnl.errors import AnalysisError, DataError
 from obsnl.linear.systems import as_linear_system
 from obsnl.linear.observer import (
@@ -276,6 +277,19 @@ class BankVerdict(str, enum.Enum):
     LOCATED = "located"
     INCONCLUSIVE = "inconclusive"
 
+    def summary(self) -> str:
+        """What the verdict claims, in one line.
+
+        Examples
+        --------
+        >>> BankVerdict.DETECTED.summary()
+        'detected: an alarm, but no windowed RMS force clears its threshold (no location claimed)'
+        """
+        return {"not detected": "not detected: no force estimate exceeded its threshold",
+                "detected": "detected: an alarm, but no windowed RMS force clears its threshold (no location claimed)",
+                "located": "located: a clear winner, the magnitude and residual rules agree",
+                "inconclusive": "inconclusive: the two largest forces are too close, or the two rules disagree"}[self.value]
+
 
 @dataclass(frozen=True)
 class BankDecision:
@@ -302,6 +316,21 @@ class BankDecision:
     @property
     def located_at(self) -> str | None:
         return self.by_magnitude if self.verdict is BankVerdict.LOCATED else None
+
+    def __repr__(self) -> str:
+        return one_line("BankDecision", f"verdict={self.verdict.value!r}", f"located_at={self.located_at!r}",
+                        f"t_detect={number(self.t_detect)}", f"false_alarm={self.false_alarm}",
+                        f"margin={number(self.margin)}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the verdict and its reason, when, and each observer's RMS force."""
+        when = "" if self.t_detect is None else f"first alarm at t = {number(self.t_detect)} s" + (
+            f" ({number(self.time_to_detection)} s after the onset)" if self.time_to_detection is not None else "")
+        forces = [f"{lab} {number(f)}" for lab, f in zip(self.labels, self.rms_force)]
+        return block(self.verdict.summary(), self.reason, when,
+                     "false alarm before the onset" if self.false_alarm else "",
+                     f"largest force: {self.by_magnitude}; smallest residual: {self.by_residual}; margin "
+                     f"{number(self.margin)}", f"RMS force per observer: {names(forces, 8)}")
 
     def to_dict(self) -> dict:
         return {"detected": self.detected, "false_alarm": self.false_alarm, "t_detect": _f(self.t_detect),

@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 import scipy.linalg as sla
 
+from obsnl._text import block, number, numbers, one_line
 from obsnl.errors import DataError
 
 __all__ = [
@@ -104,6 +105,22 @@ class LinearSystem:
     @property
     def n_outputs(self) -> int:
         return self.C.shape[0]
+
+    def __repr__(self) -> str:
+        return one_line("LinearSystem", f"states={self.n_states}", f"inputs={self.n_inputs}",
+                        f"outputs={self.n_outputs}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the sizes and the eigenvalues of ``A``.
+
+        Examples
+        --------
+        >>> print(LinearSystem([[0, 1], [-4, 0]], [[0], [1]], [[1, 0]]).summary(), end="")
+        linear system: 2 states, 1 inputs, 1 outputs
+        eigenvalues of A: [0+2j, 0-2j]
+        """
+        return block(f"linear system: {self.n_states} states, {self.n_inputs} inputs, {self.n_outputs} outputs",
+                     f"eigenvalues of A: {numbers(np.linalg.eigvals(self.A), 8)}")
 
 
 def as_linear_system(system: Any, C: Any = None) -> LinearSystem:
@@ -198,6 +215,19 @@ class ObsVerdict(str, enum.Enum):
     WEAK = "weakly observable"
     UNOBSERVABLE = "unobservable"
 
+    def summary(self) -> str:
+        """What the verdict claims, in one line.
+
+        Examples
+        --------
+        >>> ObsVerdict.WEAK.summary()
+        'weakly observable: full rank, but some mode reaches the outputs only by a margin below the weak tolerance'
+        """
+        return {"observable": "observable: every mode reaches the outputs with a margin",
+                "weakly observable": "weakly observable: full rank, but some mode reaches the outputs only by a "
+                                     "margin below the weak tolerance",
+                "unobservable": "unobservable: some mode never reaches the outputs (rank lost at an eigenvalue)"}[self.value]
+
 
 @dataclass(frozen=True)
 class KalmanRankResult:
@@ -217,6 +247,17 @@ class KalmanRankResult:
     @property
     def observable(self) -> bool:
         return self.rank == self.n
+
+    def __repr__(self) -> str:
+        return one_line("KalmanRankResult", f"observable={self.observable}", f"rank={self.rank}/{self.n}",
+                        f"scaling={self.scaling!r}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the rank, and the new directions and margins of each Krylov step."""
+        return block(f"{'observable' if self.observable else 'unobservable'}: Kalman rank {self.rank} of {self.n} "
+                     f"(rtol {self.rtol:g}, scaling {self.scaling})",
+                     f"new directions per Krylov step: {list(self.steps)}; smallest accepted singular value per step "
+                     f"(relative): {numbers(self.margins, 8)}")
 
     def to_dict(self) -> dict:
         return {"n": self.n, "rank": self.rank, "observable": self.observable, "steps": list(self.steps),
@@ -332,6 +373,18 @@ class HautusResult:
         if any(t.verdict is ObsVerdict.WEAK for t in self.tests):
             return ObsVerdict.WEAK
         return ObsVerdict.OBSERVABLE
+
+    def __repr__(self) -> str:
+        return one_line("HautusResult", f"verdict={self.verdict.value!r}", f"eigenvalues={len(self.tests)}",
+                        f"deficiency={self.deficiency}", f"margin={number(self.margin)}", f"detectable={self.detectable}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the verdict, then each eigenvalue's test."""
+        rows = [f"lambda = {number(t.eigenvalue)}: {t.verdict.value} (margin {number(t.margin)}, rank loss {t.deficiency}, mode index "
+                f"{number(t.mode_index)})" for t in self.tests]
+        return block(f"{self.verdict.summary()}; {'detectable' if self.detectable else 'NOT detectable'}, "
+                     f"margin {number(self.margin)} (Hautus test, {self.n} states)", *rows[:10],
+                     f"... and {len(rows) - 10} more eigenvalues" if len(rows) > 10 else "")
 
     def to_dict(self) -> dict:
         return {"n": self.n, "verdict": self.verdict.value, "observable": self.observable,

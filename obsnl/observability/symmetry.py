@@ -32,6 +32,7 @@ from typing import Any
 
 import sympy as sp
 
+from obsnl._text import block, names, one_line
 from obsnl.algebra.jets import Expressions
 from obsnl.algebra.modp import (
     PRIME,
@@ -89,6 +90,13 @@ class Symmetry:
             out += (" - " if neg else " + ") + body if out else ("-" if neg else "") + body
         return out or "0"
 
+    def __repr__(self) -> str:
+        return one_line("Symmetry", repr(self.kind), repr(str(self)), f"verification={self.verification!r}")
+
+    def summary(self) -> str:
+        """The generator in one line of plain text, with its kind and how it was verified."""
+        return block(f"{self.kind} {self} (verified: {self.verification})")
+
     def to_dict(self) -> dict[str, Any]:
         return {"kind": self.kind, "components": {k: sp.sstr(v) for k, v in self.components.items()},
                 "verification": self.verification}
@@ -130,6 +138,32 @@ class Symmetries:
     def complete(self) -> bool:
         """True when the generators span every unobservable direction."""
         return self.missing == 0
+
+    def __repr__(self) -> str:
+        kinds = {g.kind: len(self.of_kind(g.kind)) for g in self.generators}
+        return one_line("Symmetries", f"model={self.model!r}", f"dimension={self.dimension}",
+                        f"generators={len(self.generators)}" + (f" ({', '.join(f'{n} {k}' for k, n in kinds.items())})"
+                                                               if kinds else ""),
+                        f"missing={self.missing}", f"unobservable={names(self.unobservable, 6)!r}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: how many unobservable directions, how many have a closed form, which.
+
+        Examples
+        --------
+        >>> from obsnl import Model, symmetries
+        >>> m = Model(name="m", states=["x"], parameters=["a", "b"], equations={"x": "-a*b*x"}, outputs={"y": "x"})
+        >>> print(symmetries(m, seed=0).summary(), end="")
+        m: 1 unobservable direction, every one generated (complete)
+        unobservable: a, b
+        scaling a*d/da - b*d/db
+        """
+        n = self.dimension
+        found = "every one generated (complete)" if self.complete else f"{self.missing} without a closed form"
+        return block(f"{self.model}: {n} unobservable direction{'s' if n != 1 else ''}, {found}",
+                     f"unobservable: {names(self.unobservable, 12)}",
+                     *(f"{g.kind} {g}" for g in self.generators[:8]),
+                     f"... and {len(self.generators) - 8} more generators" if len(self.generators) > 8 else "")
 
     def of_kind(self, kind: str) -> tuple[Symmetry, ...]:
         return tuple(g for g in self.generators if g.kind == kind)

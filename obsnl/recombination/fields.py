@@ -23,6 +23,7 @@ from typing import Any
 
 import sympy as sp
 
+from obsnl._text import block, one_line
 from obsnl.algebra.jets import Expressions
 from obsnl.errors import ModelError
 from obsnl.algebra.modp import PRIME, Resample, nullspace_mod_p, rank_mod_p, rational_reconstruction
@@ -109,6 +110,17 @@ class FieldComparison:
     @property
     def b_contains_a(self) -> bool:
         return self.rank_joint == self.rank_b
+
+    def __repr__(self) -> str:
+        return one_line("FieldComparison", f"same={self.same}", f"rank_a={self.rank_a}", f"rank_b={self.rank_b}",
+                        f"rank_joint={self.rank_joint}", f"error_bound={self.error_bound:.1e}")
+
+    def summary(self) -> str:
+        """One or two lines of plain text: same field or not, and which contains which."""
+        rel = ("the same field" if self.same else "A contains B" if self.a_contains_b else "B contains A"
+               if self.b_contains_a else "neither field contains the other")
+        return block(f"{rel} (ranks A {self.rank_a}, B {self.rank_b}, together {self.rank_joint})",
+                     f"wrong with probability <= {self.error_bound:.1e} (seed {self.seed})")
 
     def __bool__(self) -> bool:
         return self.same

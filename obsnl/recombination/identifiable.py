@@ -33,6 +33,7 @@ from typing import Any
 
 import sympy as sp
 
+from obsnl._text import block, names, one_line
 from obsnl.algebra.jets import Expressions
 from obsnl.errors import AnalysisError, NotSupportedError
 from obsnl.observability.jacobian import ModularJacobian, observability_jacobian
@@ -70,6 +71,19 @@ class IdentifiableFunctions:
     method: str
     notes: tuple[str, ...] = ()
     seconds: float = 0.0
+
+    def __repr__(self) -> str:
+        return one_line("IdentifiableFunctions", f"model={self.model!r}",
+                        f"functions={names([sp.sstr(f) for f in self.functions], 5)!r}", f"rank={self.rank}",
+                        f"complete={self.complete}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: how many functions, whether they generate every identifiable one, which."""
+        return block(f"{self.model}: {len(self.functions)} identifiable functions of rank {self.rank}, "
+                     f"{'generating every identifiable function' if self.complete else 'NOT complete'} "
+                     f"(found by {self.method})",
+                     *(f"{sp.sstr(f)}   ({src})" for f, src in list(zip(self.functions, self.sources))[:10]),
+                     f"... and {len(self.functions) - 10} more" if len(self.functions) > 10 else "")
 
     def to_dict(self) -> dict[str, Any]:
         return {"model": self.model, "functions": [sp.sstr(f) for f in self.functions],

@@ -29,6 +29,7 @@ from typing import Any
 import flint
 import sympy as sp
 
+from obsnl._text import block, names, one_line
 from obsnl.model.branches import split_branches
 from obsnl.errors import ModelError
 from obsnl.recombination.invariants import (adapted_forms, coordinates, pushforward, scaling_section, section_map, span_intersection,
@@ -109,6 +110,20 @@ class Reparametrization:
                 "branches": [b.to_dict() for b in self.branches], "notes": list(self.notes),
                 "divided": list(self.divided),
                 "seconds": self.seconds}
+
+    def __repr__(self) -> str:
+        return one_line("Reparametrization", f"original={self.original!r}", f"model={self.model.name!r}",
+                        f"new={names(self.mapping, 6)!r}", f"pivots={names(self.pivots, 4)!r}",
+                        f"complete={self.complete}", f"observable={self.observable}")
+
+    def summary(self) -> str:
+        """A few lines of plain text: is the new model observable, the group divided out, the new symbols."""
+        seen = "every new coordinate observable in some branch" if self.observable else "NOT every new coordinate observable"
+        return block(f"{self.original} -> {self.model.name}: {seen}, {'complete' if self.complete else 'incomplete'}, "
+                     f"{'verified' if self.verified else 'not verified'} symbolically",
+                     f"normalised away: {names(self.pivots, 8)}",
+                     *(f"{k} = {sp.sstr(v)}" for k, v in list(self.mapping.items())[:8]),
+                     f"... and {len(self.mapping) - 8} more symbols" if len(self.mapping) > 8 else "")
 
     def to_toml(self) -> str:
         """The new model as a model file (loads with :func:`obsnl.load_model`)."""
