@@ -125,3 +125,12 @@ def test_without_a_joint_verdict_the_renderings_say_so_and_give_the_union():
     assert lines[1].strip() == "joint verdict not computed" and lines[-1].strip() == (
         "verdict: unobservable (union over branches)")
     assert r.overall_verdict is Verdict.UNOBSERVABLE
+
+
+def test_the_joint_verdict_alone_claims_nothing_only_jointly():
+    # per_branch=False (the sensor search's call) analyses no branch on its own: no union, so nothing is
+    # called "only jointly", although the joint verdict is the same
+    r = obsnl.analyze(BILINEAR, seed=0, per_branch=False)
+    assert r.branches == () and r.only_jointly == ()
+    assert r.joint_words() == "jointly identifiable: all" and r.union_words() == "no branch analysed on its own"
+    assert report.to_text(r).splitlines()[1].strip().startswith("jointly identifiable: all (")
