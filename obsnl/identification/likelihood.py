@@ -31,7 +31,8 @@ Gauss-Newton direction is an approximation and the acceptance test keeps the ite
 
 Noise levels: the fit starts with the given or estimated noise per channel, then re-weights once with
 the maximum-likelihood noise ``sigma_c^2 = RSS_c / N`` of the fit (the concentrated likelihood of
-unknown channel variances) and refits. The Fisher information ``J'J`` at the optimum, with those
+unknown channel variances), floored at :data:`NOISE_FLOOR` of the channel's RMS (below it the residual is
+the integrator's error, not noise), and refits. The Fisher information ``J'J`` at the optimum, with those
 weights, gives the standard deviations.
 
 Convergence (:attr:`Refinement.converged`) is claimed only when the first-order condition holds
@@ -57,7 +58,7 @@ from obsnl.estimation.evaluate import call
 from obsnl.identification.setup import BOUND, Data, Setup
 
 __all__ = ["Objective", "Fit", "Refinement", "objective", "levenberg_marquardt", "refine", "covariance",
-           "DECREMENT", "STEP_LIMIT"]
+           "DECREMENT", "STEP_LIMIT", "NOISE_FLOOR"]
 
 #: First-order condition: the Newton decrement ``g' H^+ g`` (the chi2 decrease a full Gauss-Newton step
 #: would bring) at the estimate is below this; by Cauchy-Schwarz the step then moves no coordinate by
@@ -71,6 +72,10 @@ STEP_LIMIT = 0.1
 #: A damped step that fails to lower chi2 when a full Gauss-Newton step could gain at most this much ends the
 #: iteration: the objective's own roughness (switches of a discontinuous field inside a step) is of that size.
 ROUGH = 0.1
+#: Floor of the re-estimated noise std, relative to each output's RMS: a smaller residual is the error of the
+#: integrator (RK4 substeps against the true flow), not noise, and a noise level below it would give intervals
+#: narrower than the model's own numerical precision (on noise-free data they missed the truth).
+NOISE_FLOOR = 1e-5
 #: Relative eigenvalue below which a direction of ``J'J`` counts as uninformed (a flat likelihood).
 NULL_TOL = 1e-10
 
@@ -420,7 +425,8 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         fit = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter)
         iterations += fit.iterations
         res = fit.r.reshape(-1, m.ny) * obj.sigma
-        sigma = np.maximum(np.sqrt(np.mean(res ** 2, axis=0)), 1e-300)
+        floor = NOISE_FLOOR * np.sqrt(np.mean(np.asarray(data.y, float) ** 2, axis=0))
+        sigma = np.maximum(np.sqrt(np.mean(res ** 2, axis=0)), np.maximum(floor, 1e-300))
         z = fit.z
         if np.allclose(sigma, obj.sigma, rtol=1e-3):
             break
