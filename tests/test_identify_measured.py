@@ -169,3 +169,29 @@ d = 1e-4
     else:
         assert doc["converged_reason"] and "NOT converged: " + doc["converged_reason"] in identify_text(doc)
     assert clean_json([float("inf"), float("nan"), 1.0]) == [None, None, 1.0]
+
+
+def test_python_shows_a_progress_bar_by_default_and_progress_false_turns_it_off(tmp_path, capsys):
+    # the same run from Python twice: a tqdm bar on stderr by default, nothing with progress=False, and a
+    # callable counts the steps (passes of the tuning grid and of the run, the refinement, one profile each)
+    import obsnl
+    from obsnl.identification.runs import MEASURED_GRID
+
+    m = obsnl.Model(name="msd", states=["x", "v"], parameters=["k", "c"], inputs=["u"],
+                    equations={"x": "v", "v": "u - k*x - c*v"}, outputs={"y": "x"})
+    t = np.arange(300) * 0.02
+    u = np.sin(3.1 * t) + 0.6 * np.sin(7.3 * t + 1.0)
+    from scipy.integrate import solve_ivp
+
+    x = solve_ivp(lambda tt, s: [s[1], np.interp(tt, t, u) - 25.0 * s[0] - 0.8 * s[1]], (0, t[-1]), [0.0, 0.0],
+                  t_eval=t, rtol=1e-10, atol=1e-12, max_step=0.005).y[0]
+    y = x + 0.01 * np.sqrt(np.mean(x ** 2)) * np.random.default_rng(0).standard_normal(len(t))
+    data = {"time_s": t, "u": u, "y": y}
+    capsys.readouterr()
+    obsnl.identify(m, data, guess={"k": 18.0, "c": 1.2}, passes=2)
+    assert "identify" in capsys.readouterr().err  # the bar's label, on stderr
+    obsnl.identify(m, data, guess={"k": 18.0, "c": 1.2}, passes=2, progress=False)
+    assert capsys.readouterr().err == ""
+    steps = []
+    obsnl.identify(m, data, guess={"k": 18.0, "c": 1.2}, passes=2, progress=lambda: steps.append(1))
+    assert len(steps) == 2 + len(MEASURED_GRID) + 1 + 2

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
 from obsnl.cli.common import (_Exit, _add_executor, _at_least, _executor, _load, _passes, _progress,  # noqa: F401
                               _replicates, _seed, write_output)
@@ -80,7 +79,6 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_identify(args: argparse.Namespace) -> int:
     from obsnl.identification.experiments import Tuning
-    from obsnl.identification.runs import MEASURED_GRID
     from obsnl.report.identification import identify_text
     from obsnl.identification.identify import IDENTIFY_FILES, identify, parse_assignments, study, write_identification
 
@@ -112,27 +110,13 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     tuning = None if t == (None,) * 4 else Tuning(*(d if v is None else v for v, d in zip(t, (0.2, 0.0, 1.0, float("inf")))))
     opts = dict(guess=guess, method=args.method, table=args.table, passes=args.passes, replicates=args.replicates,
                 seed=args.seed, allow_unidentifiable=args.allow_unidentifiable, jit=args.jit, executor=_executor(args))
-    tuned = tuning is None
-    bars: list[Any] = []  # the bar starts with the first pass (after the checks: a refusal prints one line)
-
-    def tick() -> None:
-        if not bars:
-            # passes (tuning passes included), then one step per Monte-Carlo replicate
-            # passes (tuning passes included), the refinement and one profile per parameter, the replicates
-            bars.append(_progress("identify", args.passes + (len(MEASURED_GRID) if tuned else 0) + max(args.replicates, 0)
-                                  + (0 if args.no_refine else 1 + len(names)), "step"))
-        if bars[0] is not None:
-            bars[0].update(1)
-    try:
-        if args.data:
-            res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=tick,
-                           refine=not args.no_refine, **opts)
-        else:
-            res = study(model, args.record, noise=float(plain[-1]) if plain else 1e-3, samples=args.samples,
-                        tuning=tuning, hold=args.hold, progress=tick, refine=not args.no_refine, **opts)
-    finally:
-        if bars and bars[0] is not None:
-            bars[0].close()
+    # the bar (the library's) starts with the first pass, after the checks: a refusal prints one line only
+    if args.data:
+        res = identify(model, args.data, noise=noise, tuning=tuning, hold=args.hold, progress=True,
+                       refine=not args.no_refine, **opts)
+    else:
+        res = study(model, args.record, noise=float(plain[-1]) if plain else 1e-3, samples=args.samples,
+                    tuning=tuning, hold=args.hold, progress=True, refine=not args.no_refine, **opts)
     write_output(identify_text(res.to_dict()), None, force=False)
     if args.out:
         files = write_identification(res, args.out, force=args.force)

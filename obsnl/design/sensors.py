@@ -34,11 +34,13 @@ alone reveals everything, the search of all sets up to size 2 runs ``m + 1`` ana
 from __future__ import annotations
 
 import itertools
+import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+from obsnl._progress import Progress
 from obsnl.errors import OptionError
 from obsnl.executor import Executor
 from obsnl.model.core import Model
@@ -256,13 +258,13 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
         raise OptionError(f"max_size must be a whole number >= 1, got {max_size!r}")
     max_size = min(max_size, m)
     executor = executor or Executor(workers=1)
-    bar = _bar(progress, sum(len(list(itertools.combinations(range(m), k))) for k in range(1, max_size + 1)))
+    bar = Progress(progress, sum(math.comb(m, k) for k in range(1, max_size + 1)), "sensor sets", "set", counted=True)
     t0 = time.perf_counter()
     full = check_sensors(model, candidates, targets, seed=seed, prob=prob, max_seconds=max_seconds)
     analyses = int(full.how == "analysis")
     assumptions = _assumptions(model, full)
     if full.sufficient is False:
-        _close(bar)
+        bar.close()
         return SensorSearch(model.name, candidates, targets, max_size, (), none_exists=True,
                             proof=_symmetry_proof(model, full.missing, seed), checked=(full,), analyses=analyses,
                             seed=seed, assumptions=assumptions, seconds=time.perf_counter() - t0)
@@ -280,20 +282,20 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
             base = next((x for x in minimal if key >= set(x)), None)
             if base is not None:  # contains a minimal set: sufficient, not minimal
                 covered.add(key)
-                _tick(bar)
+                bar()
                 continue
             if key in known:
-                _tick(bar)
+                bar()
                 continue
             bigger = next((x for x in insufficient if key <= x), None)
             if bigger is not None:
                 known[key] = Sufficiency(s, False, missing=known[bigger].missing, how="implied", probability=None,
                                          reason="a subset of {" + ", ".join(known[bigger].sensors) + "}, insufficient")
-                _tick(bar)
+                bar()
                 continue
             todo.append(s)
         results = executor.map(_check_task, [(model, s, targets, seed, prob, max_seconds) for s in todo],
-                               done=(lambda i, r: _tick(bar)) if bar is not None else None)
+                               done=lambda i, r: bar())
         analyses += sum(r.how == "analysis" for r in results)
         for s, r in zip(todo, results):
             known[frozenset(s)] = r
@@ -330,7 +332,7 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
                 known[frozenset(r_set)] = r
                 if r.sufficient is False:
                     insufficient.append(frozenset(r_set))
-    _close(bar)
+    bar.close()
     order = {frozenset(c.sensors): i for i, c in enumerate(known.values())}
     checked = tuple(sorted(known.values(), key=lambda c: (len(c.sensors), order[frozenset(c.sensors)])))
     return SensorSearch(model.name, candidates, targets, max_size, tuple(minimal), tuple(undecided),
@@ -344,35 +346,6 @@ def _assumptions(model: Model, full: Sufficiency) -> dict[str, Any]:
     out["visited"] = full.visited or "every feasible branch"
     out["monotonicity"] = "a superset of a sufficient set is sufficient; a subset of an insufficient set is not"
     return out
-
-
-def _bar(progress: bool | Callable[[int], Any], total: int) -> Any:
-    """A tqdm bar on stderr, a user's callable, or None."""
-    if callable(progress):
-        return progress
-    if not progress:
-        return None
-    try:
-        import sys
-
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover
-        return None
-    return tqdm(desc="sensor sets", total=total, unit="set", file=sys.stderr)
-
-
-def _tick(bar: Any) -> None:
-    if bar is None:
-        return
-    if hasattr(bar, "update"):
-        bar.update(1)
-    else:
-        bar(1)
-
-
-def _close(bar: Any) -> None:
-    if bar is not None and hasattr(bar, "close"):
-        bar.close()
 
 
 def rank_sufficient_sets(search: SensorSearch, model: Model, *, t: Any, inputs: Any, size: int | None = None,

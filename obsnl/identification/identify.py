@@ -22,6 +22,7 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
+from obsnl._progress import Progress
 from obsnl.errors import AnalysisError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.experiments import Tuning
@@ -202,7 +203,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
              guess: Mapping[str, float] | None = None, noise: Mapping[str, float] | None = None, method: str = "ukf",
              table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
              tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool = False,
-             hold: bool = False, progress: Callable[[], Any] | None = None,
+             hold: bool = False, progress: bool | Callable[[], Any] | None = True,
              executor: Executor | None = None, refine: bool = True) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
@@ -231,7 +232,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         Hold poorly informed parameters at their guess once the filter reaches the noise floor
         (:func:`obsnl.identification.runs.identify_measured`; default off).
     progress
-        Called after every filter pass and once per Monte-Carlo replicate.
+        True (default): a progress bar on standard error over the filter passes (tuning included), the
+        refinement, the profiles and the replicates; False: none; a callable: called after each of those steps.
     executor
         Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`: local processes or a Dask
         cluster; default: this process). The same numbers on any executor.
@@ -268,11 +270,21 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     elif not isinstance(data, Measured):
         data = measured(data, inputs=ins, outputs=outs)
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
-    res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
-                            grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
-                            replicates=replicates, seed=seed, jit=jit, hold=hold, progress=progress,
-                            executor=executor, refined=refine)
+    with _steps(progress, model, passes, replicates, tuning, refine) as bar:
+        res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
+                                grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
+                                replicates=replicates, seed=seed, jit=jit, hold=hold, progress=bar,
+                                executor=executor, refined=refine)
     return _cross_check(res, structural)
+
+
+def _steps(progress: bool | Callable[[], Any] | None, model: Model, passes: int, replicates: int,
+           tuning: Tuning | None, refine: bool) -> Progress:
+    """The progress of one identification: its filter passes (the tuning grid's included), the refinement and
+    one profile per parameter, then the Monte-Carlo replicates."""
+    total = (passes + (len(MEASURED_GRID) if tuning is None else 0) + max(replicates, 0)
+             + (1 + len(model.parameters) if refine else 0))
+    return Progress(progress, total, "identify", "step")
 
 
 def _cross_check(res: Identification, structural: Mapping[str, Any]) -> Identification:
@@ -295,7 +307,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
           noise: float = 1e-3, method: str = "ukf", table: BranchTable | str | Path | None = None, passes: int = 3,
           replicates: int = 0, seed: int = 0, tuning: Tuning | None = None, samples: int | None = None,
           allow_unidentifiable: bool = False, jit: bool = False, hold: bool = False,
-          progress: Callable[[], Any] | None = None, executor: Executor | None = None,
+          progress: bool | Callable[[], Any] | None = True, executor: Executor | None = None,
           refine: bool = True) -> Identification:
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
 
@@ -326,8 +338,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         Go on with structurally unidentifiable parameters.
     jit : bool
         Compile the filter step.
-    progress : callable or None
-        Progress callback.
+    progress : bool, callable or None
+        A progress bar on standard error (True, the default), none (False), or a callback per step.
     executor : Executor or None
         Where the Monte-Carlo replicates run (default: this process).
     hold : bool
@@ -363,9 +375,10 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         raise OptionError(f"a simulation study drives one input with --record; {model.name!r} has "
                           f"{[s.name for s in model.inputs]}: give measured data with --data")
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
-    res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise, tuning=tuning,
-                           passes=passes, replicates=replicates, jit=jit, progress=progress, executor=executor,
-                           hold=hold, refined=refine)
+    with _steps(progress, model, passes, replicates, tuning, refine) as bar:
+        res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise,
+                               tuning=tuning, passes=passes, replicates=replicates, jit=jit, progress=bar,
+                               executor=executor, hold=hold, refined=refine)
     return _cross_check(res, structural)
 
 
