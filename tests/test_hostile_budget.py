@@ -298,3 +298,40 @@ def test_10_a_huge_exponent_argument_is_refused_before_expanding(tmp_path, capsy
 def test_10_model_size_caps_name_the_fix():
     with pytest.raises(ModelError, match="characters of expressions"):
         Model.from_dict({**BASE, "outputs": {f"y{i}": "x + " * 10_000 + "x" for i in range(8)}})
+
+
+def test_10_report_max_seconds_is_one_budget_and_inconclusive_branches_are_said(tmp_path, capsys):
+    # report --max-seconds used to be handed to each model's analysis: three models that each take ~12 s (the
+    # four-storey building, 256 branches) ran 3 x the limit, and an inconclusive branch was written without a
+    # word (exit 0). Now one budget covers the whole command and the undecided branch ends it with exit 2.
+    from obsnl.model.files import model_to_toml
+    from obsnl.studies.buildings import bouc_wen_building
+
+    paths = []
+    for i in range(3):
+        p = tmp_path / f"b{i}.toml"
+        p.write_text(model_to_toml(bouc_wen_building(4).replace(name=f"b{i}")), encoding="utf-8")
+        paths.append(str(p))
+    t0 = time.perf_counter()
+    code, out, err = run(capsys, "report", *paths, "--out", str(tmp_path / "rep"), "--max-seconds", "8",
+                         "--workers", "1")
+    took = time.perf_counter() - t0
+    one_line_refusal(code, err, "--max-seconds" if "ran past the time limit" in err else "inconclusive")
+    assert took < 8 + 8, f"one budget for the whole command: {took:.1f} s"  # per-model limits took 24 s or more
+    if "inconclusive" in err:  # the budget ran out inside an analysis: what was decided is written all the same
+        assert (tmp_path / "rep" / "index.md").exists()
+
+
+def test_10_report_says_an_inconclusive_branch(tmp_path, capsys, monkeypatch):
+    # an analysis cut short inside its engines (a tiny per-analysis limit after a fast split): the branch is
+    # inconclusive, the tables are written, and the command says so in one line with exit 2 (it used to exit 0)
+    import obsnl.batch as batch
+
+    real = batch.analyze
+    p = model_file(tmp_path, equations={"x": "v", "v": "-k*x - sign(v)"})
+    code, out, err = run(capsys, "report", str(p), "--out", str(tmp_path / "ok"))
+    assert code == 0 and "inconclusive" not in err
+    monkeypatch.setattr(batch, "analyze", lambda m, **kw: real(m, **{**kw, "max_seconds": 1e-9}))
+    code, out, err = run(capsys, "report", str(p), "--out", str(tmp_path / "rep"))
+    one_line_refusal(code, err, "m: branch (", "inconclusive")
+    assert (tmp_path / "rep" / "m.md").exists()

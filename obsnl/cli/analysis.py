@@ -177,7 +177,9 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--method", choices=("auto", "orc", "sedoglavic"), default="auto",
                    help="observability engine (default: auto)")
     p.add_argument("--seed", type=_seed, default=0, help="seed of the random point (default: 0)")
-    p.add_argument("--max-seconds", type=float, default=None, help="time limit per branch")
+    p.add_argument("--max-seconds", type=float, default=None,
+                   help="time limit of the whole command (reading, splitting and analysing every model; each "
+                   "model on a worker gets the same limit); what is not finished is reported inconclusive")
     p.add_argument("--force", action="store_true", help="overwrite existing report files")
     _add_executor(p, workers=1)  # small analyses: processes cost more than they save (benchmarks/bench_report.py)
     p.set_defaults(func=_cmd_report)
@@ -186,12 +188,18 @@ def _add_report(sub: argparse._SubParsersAction) -> None:
 def _cmd_report(args: argparse.Namespace) -> int:
     from obsnl.batch import report_models
 
-    models = [_load(m, check=check_file_limits) for m in args.models]
-    for m in models:  # every model checked before the first is analysed
-        check_analysis_limits(m)
-    results = report_models(models, args.out, method=args.method, seed=args.seed, force=args.force,
-                           max_seconds=args.max_seconds, executor=_executor(args))
+    with time_budget(args.max_seconds):  # one budget from here, as for analyze
+        models = [_load(m, check=check_file_limits) for m in args.models]
+        for m in models:  # every model checked before the first is analysed
+            check_analysis_limits(m)
+        results = report_models(models, args.out, method=args.method, seed=args.seed, force=args.force,
+                                max_seconds=args.max_seconds, executor=_executor(args))
     print(f"wrote {len(results)} table(s) with index.md and timings.md to {args.out}")
+    stuck = [(r.model, b) for r in results for b in r.branches if b.verdict.value == "inconclusive"]
+    if stuck:  # written, and said: an undecided branch is never passed over in silence
+        name, b = stuck[0]
+        more = f" (and {len(stuck) - 1} more branch(es))" if len(stuck) > 1 else ""
+        raise _Exit(2, f"{name}: branch ({b.label}) is inconclusive: {b.reason}{more}")
     return 0
 
 
