@@ -278,3 +278,23 @@ def test_an_essential_sensor_prunes_every_set_without_it():
     # analyses: the full set, the 6 singletons, the 6 sets with one sensor left out, the 5 pairs with q; the
     # plain level-wise search would analyse the 10 on-axis pairs instead of the 6 leave-one-out sets
     assert res.analyses == 1 + 6 + 6 + 5 < 1 + 6 + 15
+
+
+def test_cli_says_undecided_sets_with_exit_2(tmp_path, capsys, monkeypatch):
+    import obsnl.design.sensors as mod
+    from obsnl.design.sufficiency import Sufficiency
+
+    real = mod.check_sensors
+
+    def flaky(model, names, targets, **kw):
+        if tuple(names) == ("a1", "a2"):
+            return Sufficiency(tuple(names), None, undecided=tuple(targets), reason="time limit reached")
+        return real(model, names, targets, **kw)
+
+    monkeypatch.setattr(mod, "check_sensors", flaky)
+    path = tmp_path / "sep.json"
+    path.write_text(json.dumps(SEPARATE.to_dict()), encoding="utf-8")
+    assert main(["sensors", str(path), "--format", "json", "--seed", "5"]) == 2
+    cap = capsys.readouterr()
+    assert json.loads(cap.out)["undecided_sets"] == [["a1", "a2"]]  # the answer is printed first
+    assert cap.err.count("\n") == 1 and "undecided" in cap.err and "{a1, a2}" in cap.err

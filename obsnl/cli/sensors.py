@@ -70,4 +70,8 @@ def _cmd_sensors(args: argparse.Namespace) -> int:
         t = rec.dt * np.arange(len(rec.accel))
         result = rank_sufficient_sets(result, model, t=t, inputs=rec.accel, size=args.rank_size, noise=args.noise)
     write_output(render_sensors(result, args.format), args.output, force=args.force)
+    if result.undecided_sets:  # written, and said: an undecided set is never passed over in silence
+        first = result.answer(result.undecided_sets[0])
+        raise _Exit(2, f"{len(result.undecided_sets)} sensor set(s) undecided, e.g. {{{', '.join(first.sensors)}}}: "
+                    f"{first.reason or 'minimality undecided'}; raise --max-seconds")
     return 0
