@@ -317,3 +317,16 @@ def test_12_the_constant_bound_applies_after_folding(expr):
 
 def test_12_constants_within_the_bound_stay_allowed():
     model(equations={"x": "v", "v": "f - k*x - c*v + 1e100*x + 1e-100*v"})
+
+
+def test_11_a_simulation_study_needs_as_many_samples_as_measured_data(capsys):
+    # `identify --record R --samples 5` ran and printed estimates 50 % off from 5 samples; measured data were
+    # already refused below MIN_SAMPLES
+    from obsnl.cli import main
+    from obsnl.estimation.measured import MIN_SAMPLES
+
+    rec = str(Path(__file__).resolve().parents[1] / "obsnl" / "studies" / "data" /
+              "northridge1994_LOS270_ngawest2_accel.csv")
+    code = main(["identify", "obsnl:damage_healing_reparam", "--record", rec, "--samples", str(MIN_SAMPLES - 1)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and f"at least {MIN_SAMPLES} samples" in err

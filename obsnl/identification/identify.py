@@ -23,11 +23,11 @@ from pathlib import Path
 from typing import Any
 
 from obsnl._progress import Progress
-from obsnl.errors import AnalysisError, OptionError
+from obsnl.errors import AnalysisError, DataError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured, simulation_study
-from obsnl.estimation.measured import Measured, measured, read_measured
+from obsnl.estimation.measured import MIN_SAMPLES, Measured, measured, read_measured
 from obsnl.estimation.records import Record, read_record
 from obsnl.executor import Executor
 from obsnl.model.core import Model
@@ -369,6 +369,9 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"
         record = record.head(samples)
+    if len(record.accel) < MIN_SAMPLES:  # the same floor as measured data: a 5-sample study only says nonsense
+        raise DataError(f"a simulation study needs at least {MIN_SAMPLES} samples of the record, got "
+                        f"{len(record.accel)}: give a longer record or a larger --samples")
     if table is not None and len(model.inputs) != 1:  # a contradicting table is named first
         _prepare(model, table, guess, True, seed, method)
     if len(model.inputs) != 1:
