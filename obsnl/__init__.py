@@ -8,6 +8,8 @@ from obsnl.errors import (
     ModelError,
     NotSupportedError,
     ObsnlError,
+    OptionError,
+    OutputError,
     ParseError,
     TableError,
 )
@@ -85,6 +87,8 @@ __all__ = [
     "DataError",
     "TableError",
     "EstimatorError",
+    "OptionError",
+    "OutputError",
     "analyze",
     "orc",
     "sedoglavic",

@@ -45,3 +45,13 @@ def test_analyze_takes_a_model_file_as_identify_does(tmp_path):
     path = Path(obsnl.__file__).resolve().parents[1] / "models" / "coulomb_friction.toml"
     assert obsnl.analyze(path, seed=0).overall_unobservable == res.overall_unobservable
     assert obsnl.analyze(str(path), seed=0).joint.unobservable == res.joint.unobservable
+
+
+def test_every_error_class_is_exported_at_the_top():
+    import inspect
+
+    import obsnl.errors as errors
+
+    classes = {n for n, c in vars(errors).items() if inspect.isclass(c) and issubclass(c, errors.ObsnlError)}
+    assert classes <= set(obsnl.__all__), classes - set(obsnl.__all__)
+    assert all(getattr(obsnl, n) is getattr(errors, n) for n in classes)
