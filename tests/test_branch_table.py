@@ -104,3 +104,23 @@ def test_not_json_and_missing(tmp_path):
     p.write_text(json.dumps([1]))
     with pytest.raises(TableError, match="JSON object"):
         load_branch_table(p)
+
+
+def test_identify_with_a_table_analyses_the_model_once(monkeypatch):
+    # identify used to analyse the model in check_table and again for its structural check
+    import obsnl.identification.identify as ident
+    import obsnl.observability.analyze as an
+
+    m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    table = obsnl.report.branch_table(obsnl.analyze(m, seed=0), m)
+    calls = []
+    real = an.analyze
+
+    def counted(*a, **k):
+        calls.append(1)
+        return real(*a, **k)
+
+    monkeypatch.setattr(an, "analyze", counted)
+    monkeypatch.setattr(ident, "analyze", counted)
+    num, g, tab, structural = ident._prepare(m, table, None, False, 0, "dukf")
+    assert len(calls) == 1 and tab is table and structural["unidentifiable"] == []

@@ -32,7 +32,6 @@ from obsnl.estimation.records import Record, read_record
 from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
-from obsnl.model.signature import ModelSignature
 from obsnl.observability.analyze import analyze
 from obsnl.observability.table_check import check_table
 from obsnl.observability.branch_table import BranchTable
@@ -130,11 +129,10 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
         from obsnl.observability.branch_table import load_branch_table
 
         table = load_branch_table(table)
-    if table is not None:  # a table made for another model, or one that contradicts it, is refused first
-        table.signature.check(ModelSignature.of(model))
-        check_table(table, model)
     names = tuple(s.name for s in model.parameters)
-    result = analyze(model, seed=seed)
+    # a table made for another model, or one that contradicts it, is refused first; its check's analysis is the
+    # structural check (one analysis per call)
+    result = check_table(table, model) if table is not None else analyze(model, seed=seed)
     bad, kind = structurally_unidentifiable(result, names)
     structural = {"verdict": kind, "unidentifiable": list(bad), "allowed": bool(bad and allow_unidentifiable),
                   "undecided": sorted(set().union(*(b.undecided for b in result.branches)) & set(names)),

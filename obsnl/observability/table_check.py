@@ -17,6 +17,7 @@ from obsnl.model.core import Model
 from obsnl.model.parse import parse_expression
 from obsnl.model.signature import TABLE_FIX, ModelSignature
 from obsnl.observability.branch_table import BranchEntry, BranchTable
+from obsnl.observability.results import AnalysisResult
 
 __all__ = ["check_table"]
 
@@ -43,8 +44,8 @@ def _flipped(a: str, b: str, model: Model) -> bool:
     return sp.simplify(ea + eb) == 0
 
 
-def check_table(table: BranchTable, model: Model, *, max_seconds: float | None = 120.0) -> None:
-    """Refuse ``table`` unless a fresh analysis of ``model`` gives the same table.
+def check_table(table: BranchTable, model: Model, *, max_seconds: float | None = 120.0) -> AnalysisResult:
+    """Refuse ``table`` unless a fresh analysis of ``model`` gives the same table; return that analysis.
 
     Compared: the model signature (names, order, fingerprint), the switching functions and their
     orientation, the set of sign patterns (no branch missing or invented), and per branch the guard,
@@ -61,6 +62,11 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     max_seconds
         Time limit of the fresh analysis.
 
+    Returns
+    -------
+    AnalysisResult
+        The fresh analysis (with the table's method and seed), for the caller to use rather than analyse again.
+
     Raises
     ------
     TableError
@@ -73,7 +79,8 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     >>> from obsnl.observability.analyze import analyze
     >>> m = obsnl.load_model("obsnl:coulomb_friction")
     >>> table = BranchTable.from_result(analyze(m, seed=0))
-    >>> check_table(table, m)
+    >>> check_table(table, m).model
+    'coulomb_friction'
     >>> bad = BranchTable.from_dict({**table.to_dict(), "branches": table.to_dict()["branches"][:1]})
     >>> check_table(bad, m)
     Traceback (most recent call last):
@@ -84,8 +91,8 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
 
     table.signature.check(ModelSignature.of(model))
     method = table.method if table.method in ("auto", "orc", "sedoglavic") else "auto"
-    fresh = BranchTable.from_result(
-        analyze(model, method=method, seed=table.seed if table.seed is not None else 0, max_seconds=max_seconds))
+    result = analyze(model, method=method, seed=table.seed if table.seed is not None else 0, max_seconds=max_seconds)
+    fresh = BranchTable.from_result(result)
     if len(table.switching) != len(fresh.switching):
         raise TableError(f"the table has {len(table.switching)} switching functions, the model "
                          f"{len(fresh.switching)}; {TABLE_FIX}")
@@ -109,6 +116,7 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
             set(table.overall_unobservable) != set(fresh.overall_unobservable):
         raise TableError(f"the table's 'overall' differs from the model's union over branches; {TABLE_FIX}")
     _compare_joint(table, fresh)
+    return result
 
 
 def _compare_joint(table: BranchTable, fresh: BranchTable) -> None:
