@@ -21,7 +21,8 @@ def _estimates(rep) -> list:
     doc = rep.to_dict()
     return [(r["method"], r["passes"], r["seed"], r["tuning"],
              {p: v["estimate"] for p, v in r["parameters"].items()}, r["output_misfit"],
-             r["practical_identifiability"]) for r in doc["runs"]] + [doc["tuning"]]
+             r["practical_identifiability"]) for r in doc["runs"]] + [doc["tuning"]] + [
+        {k: v for k, v in r.items() if k != "seconds"} for r in doc["refinements"]]
 
 
 def _short_reproduction(executor):
@@ -41,6 +42,7 @@ def test_reproduce_on_a_local_dask_cluster_equals_the_serial_run():
         on_dask = _short_reproduction(Executor(scheduler=client))
     assert _estimates(on_dask) == _estimates(serial)
     assert len(serial.runs) == 3 and all(r.practical.spread is not None for r in serial.runs[:2])
+    assert len(serial.refinements) == 1  # the refinement ran, so the equality above covers it
 
 
 def test_report_in_local_processes_equals_the_serial_report(tmp_path):

@@ -11,7 +11,7 @@ import numpy as np
 
 from obsnl.report.tables import tex_escape
 
-__all__ = ["table2_summary", "table2_markdown", "table2_latex", "identify_text"]
+__all__ = ["table2_summary", "table2_ml_summary", "table2_markdown", "table2_latex", "identify_text"]
 
 
 # Text of the Table 2 analog (seed paper 000_d24855f97fc8bdd4.txt) from the plain ``table2.json``
@@ -23,6 +23,10 @@ _T2_TEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h":
 _T2_MD = {"k_m": "k_m", "c_dm": "c_dm", "c_eta_p": "c'_eta", "w_h": "w_h", "c_p": "c'", "h_p": "h'",
           "Delta1": "Δ1", "Delta2": "Δ2", "N": "N"}
 _T2_METHODS = {"ukf": "UKF", "dukf": "DUKF", "dukf-zero": "DUKF, P_AU = 0"}
+#: The ML column's flag: a Fisher std (the Cramér-Rao bound at the maximum-likelihood estimate) above 5/3 % of
+#: the estimate, i.e. the 5 % band cannot be reached at 3 sigma: the linearised rule of the filters' flags
+#: (obsnl.identification.practical.CRB_LIMIT), applied to the refinement's own Fisher information.
+_ML_PIN = 100 * 0.05 / 3
 
 
 def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, Any]]:
@@ -60,6 +64,39 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
             "failed": [(r["seed"], r["error"]) for r in failed],
         }
     return out
+
+
+def table2_ml_summary(doc: Mapping[str, Any]) -> dict[str, Any] | None:
+    """The maximum-likelihood column (``doc["refinements"]``): mean and worst |error|, mean Fisher std, flags,
+    the convergence verdict per seed; None when the document has no refinement."""
+    refs = doc.get("refinements") or []
+    if not refs:
+        return None
+    ran = [r for r in refs if not r.get("error")]
+    params = list(refs[0]["parameters"])
+    val = lambda r, p, k: np.nan if r["parameters"][p][k] is None else r["parameters"][p][k]  # noqa: E731
+    est = np.array([[val(r, p, "estimate") for p in params] for r in ran], float).reshape(len(ran), len(params))
+    err = np.abs(np.array([[val(r, p, "error_percent") for p in params] for r in ran], float)).reshape(est.shape)
+    std = np.array([[np.inf if r["parameters"][p]["std_percent"] is None else r["parameters"][p]["std_percent"]
+                     for p in params] for r in ran], float).reshape(est.shape)
+    flags = ~(std <= _ML_PIN)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        z = err / std
+    ok = [(p, e, s) for row_e, row_s, row_f in zip(err, std, flags) for p, e, s, f in zip(params, row_e, row_s, row_f)
+          if not f]  # unflagged: within 4 Fisher std, or 1 % (issue 27's calibration rule)
+    nan = np.full(len(params), np.nan)
+    return {
+        "parameters": params, "seeds": [r["seed"] for r in ran], "runs": refs,
+        "mean_estimate": est.mean(axis=0) if ran else nan, "mean_abs_error": err.mean(axis=0) if ran else nan,
+        "worst_abs_error": err.max(axis=0) if ran else nan,
+        "mean_std_percent": std.mean(axis=0) if ran else nan,
+        "worst_error_in_std": np.where(np.isfinite(z), z, np.nan).max(axis=0) if ran else nan,
+        "flag_counts": {p: int(flags[:, i].sum()) for i, p in enumerate(params)},
+        "within_4_std": (sum(e <= max(4 * s, 1.0) for _, e, s in ok), len(ok)),
+        "yield": _yield_errors(ran, doc["experiment"]["truth"]) if ran else None,
+        "converged": [r["seed"] for r in ran if r["converged"]],
+        "failed": [(r["seed"], r["error"]) for r in refs if r.get("error")],
+    }
 
 
 def _yield_displacement(delta: float, n: float) -> float:
@@ -133,43 +170,56 @@ def _t2_kinds(s: Mapping[str, Any]) -> str:
 
 
 def table2_markdown(doc: Mapping[str, Any]) -> str:
-    """The Table 2 analog as Markdown: one table per protocol, then costs, interventions and flags."""
+    """The Table 2 analog as Markdown: one table per protocol (the refined one with the maximum-likelihood
+    column), then costs, interventions, the refinement's verdict per seed and the flags."""
     summ = table2_summary(doc)
+    ml = table2_ml_summary(doc)
+    ml_passes = max(k for _, k in summ)
     exp = doc["experiment"]
     paper = doc["paper_errors_percent"]
     lines = [f"# Table 2 analog: {exp['model']} under {exp['record']['name']}", "",
              f"Noise {100 * exp['noise_ratio']:g} % (RMS) on input and output; branch table: {doc['branch_table']}; "
-             f"tuning seeds {doc['tuning_seeds']} (never reported). Errors are |estimate - true| / |true| in %; "
+             f"tuning seeds {doc['tuning_seeds']} (never reported)"
+             + (f"; tuning by {doc['tuning_protocol']}" if doc.get("tuning_protocol") else "")
+             + ". Errors are |estimate - true| / |true| in %; "
              f"mean and worst over the reported seeds that ran to the end. † = flagged practically unidentifiable "
              f"in at least half of the seeds: these data cannot pin it within 5 % at 3 sigma, by the linearised "
              f"Cramér-Rao bound, the filter's posterior or the Monte-Carlo spread of the protocol at the estimate "
-             f"(see the flags below). The goal column is given with all flags and with the linearised ones alone.",
+             f"(see the flags below). The goal column is given with all flags and with the linearised ones alone."
+             + (f" ML = the maximum-likelihood refinement of each reported seed: the third column of the table "
+                f"of {ml_passes} passes, which it starts from (its protocol and verdict per seed below that table)."
+                if ml else ""),
              ""]
     for passes in sorted({k for _, k in summ}):
         methods = [m for m in _T2_METHODS if (m, passes) in summ]
-        title = "one pass (the paper's protocol)" if passes == 1 else f"{passes} passes over the record"
-        lines += [f"## {title}", ""]
+        with_ml = ml if passes == ml_passes else None
+        cols = [m for m in methods if m != "dukf-zero"] + (["ml"] if with_ml else []) + \
+            [m for m in methods if m == "dukf-zero"]
+        lines += [f"## {_passes_title(passes)}", ""]
         head = "| parameter | true | guess | " + " | ".join(
-            f"{_T2_METHODS[m]} mean est. | {_T2_METHODS[m]} mean % | {_T2_METHODS[m]} worst %" for m in methods)
+            "ML mean est. | ML mean % | ML worst % | ML Fisher std %" if m == "ml" else
+            f"{_T2_METHODS[m]} mean est. | {_T2_METHODS[m]} mean % | {_T2_METHODS[m]} worst %" for m in cols)
         head += " | paper UKF % | paper DUKF % |" if passes == 1 else " |"
         lines += [head, "|" + "---|" * (head.count("|") - 1)]
         for i, p in enumerate(summ[(methods[0], passes)]["parameters"]):
             cells = [_T2_MD.get(p, p), f"{exp['truth'][p]:.4g}", f"{exp['guess'][p]:.4g}"]
-            for m in methods:
-                s = summ[(m, passes)]
+            for m in cols:
+                s = with_ml if m == "ml" else summ[(m, passes)]
                 mark = " †" if _t2_flagged(s, p) else ""
-                cells += [f"{s['mean_estimate'][i]:.4g}", f"{s['mean_abs_error'][i]:.2f}{mark}",
-                          f"{s['worst_abs_error'][i]:.2f}{mark}"]
+                cells += [_num(s['mean_estimate'][i], ".4g"), _num(s['mean_abs_error'][i], ".2f") + mark,
+                          _num(s['worst_abs_error'][i], ".2f") + mark]
+                if m == "ml":
+                    cells.append(_num(s["mean_std_percent"][i], ".3g", inf="flat"))
             if passes == 1:
                 cells += [f"{paper['ukf'][p]:.2f}", f"{paper['dukf'][p]:.2f}"]
             lines.append("| " + " | ".join(cells) + " |")
-        if all(summ[(m, passes)]["yield"] for m in methods):  # the combinations the ridge leaves informed
+        if all((with_ml if m == "ml" else summ[(m, passes)])["yield"] for m in cols):  # what the ridge leaves informed
             for d in ("Delta1", "Delta2"):
                 true = summ[(methods[0], passes)]["yield"][d][0]
                 cells = [f"abs({_T2_MD[d]})^(-1/2N) (yield displ.)", f"{true:.4g}", "-"]
-                for m in methods:
-                    e = summ[(m, passes)]["yield"][d][1]
-                    cells += ["-", f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"]
+                for m in cols:
+                    e = (with_ml if m == "ml" else summ[(m, passes)])["yield"][d][1]
+                    cells += ["-", f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"] + (["-"] if m == "ml" else [])
                 if passes == 1:
                     cells += ["-", "-"]
                 lines.append("| " + " | ".join(cells) + " |")
@@ -192,6 +242,8 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
                                   + (f"{a['output_misfit']:.3g}" if a["output_misfit"] is not None else "inf")
                                   + (f", {a['error']}" if a["error"] else "") for a in attempts)
                 lines.append(f"- {_T2_METHODS[m]}, seed {seed}: {tried} -> ({_t2_tuning(final)})")
+        if with_ml:
+            lines += ["", *_ml_markdown(doc, with_ml)]
         lines.append("")
     lines += ["## Practically unidentifiable (flag counts over seeds)", ""]
     for (m, k), s in sorted(summ.items()):
@@ -201,6 +253,9 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
             f"{_T2_MD.get(p, p)} " + (f"{100 * v:.2g} %" if np.isfinite(v) else "held")
             for p, v in zip(s["parameters"], s["spread"])) if s["spread"] else "")
         lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {flags or 'none'}{undecided}{spread}")
+    if ml:
+        flags = ", ".join(f"{_T2_MD.get(p, p)} {c}/{len(ml['seeds'])}" for p, c in ml["flag_counts"].items() if c)
+        lines.append(f"- ML (Fisher std above {_ML_PIN:.3g} %): {flags or 'none'}")
     stopped = [r for r in doc["runs"] if r.get("error")]
     if stopped:
         lines += ["", "## Runs that stopped (reported, not dropped)", ""]
@@ -216,38 +271,94 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _passes_title(passes: int) -> str:
+    return "one pass (the paper's protocol)" if passes == 1 else f"{passes} passes over the record"
+
+
+def _num(v: Any, fmt: str, *, inf: str = "-") -> str:
+    """A number in ``fmt``; ``-`` for a missing one, ``inf`` for an infinite one."""
+    if v is None or np.isnan(v):
+        return "-"
+    return inf if np.isinf(v) else format(v, fmt)
+
+
+def _ml_markdown(doc: Mapping[str, Any], ml: Mapping[str, Any]) -> list[str]:
+    """The refinement's protocol, its verdict per seed, and its goals."""
+    n = len(ml["runs"])
+    within, of = ml["within_4_std"]
+    worst = [(p, w) for p, w in zip(ml["parameters"], ml["worst_abs_error"]) if not _t2_flagged(ml, p)]
+    bad = [f"{_T2_MD.get(p, p)} {w:.1f} %" for p, w in worst if not w <= 5.0]
+    goal = ("not met (" + ", ".join(bad) + ")") if bad else "met"
+    if ml["failed"]:
+        goal = f"not met ({len(ml['failed'])} refinement(s) could not run)"
+    lines = [f"ML column: {doc.get('refinement_protocol') or 'maximum likelihood'}. † in the ML column: its Fisher std "
+             f"is above {_ML_PIN:.3g} % of the estimate on at least half of the seeds (the 5 % band cannot be "
+             f"reached at 3 sigma; 'flat': no information at all). Converged on {len(ml['converged'])} of {n} "
+             f"seed(s); 5 % goal (worst seed, unflagged): {goal}; unflagged estimates within 4 Fisher std (or 1 %) "
+             f"of the truth: {within} of {of}.", "",
+             "| seed | started from (its output misfit) | iterations | s | residual RMS / noise | converged | reason |",
+             "|---|---|---|---|---|---|---|"]
+    for r in ml["runs"]:
+        st = r["start"]
+        start = (f"{_T2_METHODS.get(st['method'], st['method'])}, {st['passes']} pass(es) "
+                 f"({_num(st['output_misfit'], '.3g')})")
+        fit = ", ".join(f"{k} {_num(v, '.3f')}" for k, v in r["misfit_over_noise"].items()) or "-"
+        verdict = "could not run" if r.get("error") else ("yes" if r["converged"] else "NO")
+        why = (r.get("error") or r["reason"] or "").replace("|", "/")
+        if r.get("at_edge"):
+            why += f" (on the edge of the valid region: {', '.join(r['at_edge'])})"
+        lines.append(f"| {r['seed']} | {start} | {r['iterations']} | {_num(r['seconds'], '.1f')} | {fit} | {verdict} "
+                     f"| {why} |")
+    return lines
+
+
 def table2_latex(doc: Mapping[str, Any]) -> str:
-    """The Table 2 analog as a booktabs LaTeX table (one pass and refined, UKF and DUKF, worst seed)."""
+    """The Table 2 analog as a booktabs LaTeX table (one pass and refined, UKF and DUKF, worst seed; then the
+    maximum-likelihood refinement: mean and worst error, mean Fisher std)."""
     summ = table2_summary(doc)
+    ml = table2_ml_summary(doc)
     exp = doc["experiment"]
     keys = [k for k in sorted(summ, key=lambda k: (k[1], k[0])) if k[0] in ("ukf", "dukf")]
-    cols = "l" + "r" * (2 + 2 * len(keys))
+    blocks = [summ[k] for k in keys] + ([ml] if ml else [])
+    ridge = all(b["yield"] for b in blocks)
+    cols = "l" + "r" * (2 + 2 * len(keys) + (3 if ml else 0))
     head = " & ".join(["", "true", "guess"] + [
-        rf"\multicolumn{{2}}{{c}}{{{_T2_METHODS[m]}, {k} pass{'es' if k > 1 else ''}}}" for m, k in keys]) + r" \\"
-    sub = " & ".join(["", "", ""] + ["mean \\%", "worst \\%"] * len(keys)) + r" \\"
+        rf"\multicolumn{{2}}{{c}}{{{_T2_METHODS[m]}, {k} pass{'es' if k > 1 else ''}}}" for m, k in keys]
+        + ([r"\multicolumn{3}{c}{ML}"] if ml else [])) + r" \\"
+    sub = " & ".join(["", "", ""] + ["mean \\%", "worst \\%"] * len(keys)
+                     + (["mean \\%", "worst \\%", "std \\%"] if ml else [])) + r" \\"
     rows = []
     for i, p in enumerate(summ[keys[0]]["parameters"]):
         cells = [_T2_TEX.get(p, p), f"{exp['truth'][p]:.3g}", f"{exp['guess'][p]:.3g}"]
-        for key in keys:
-            s = summ[key]
+        for s in blocks:
             mark = r"$^\dagger$" if _t2_flagged(s, p) else ""
-            cells += [f"{s['mean_abs_error'][i]:.2f}{mark}", f"{s['worst_abs_error'][i]:.2f}{mark}"]
+            cells += [_num(s['mean_abs_error'][i], ".2f") + mark, _num(s['worst_abs_error'][i], ".2f") + mark]
+        if ml:
+            cells.append(_num(ml["mean_std_percent"][i], ".2g", inf="flat"))
         rows.append(" & ".join(cells) + r" \\")
-    if all(summ[key]["yield"] for key in keys):  # the combinations the Delta-N ridge leaves informed
+    if ridge:  # the combinations the Delta-N ridge leaves informed
         rows.append(r"\midrule")
         for d in ("Delta1", "Delta2"):
             true = summ[keys[0]]["yield"][d][0]
             cells = [rf"$|{_T2_TEX[d].strip('$')}|^{{-1/2N}}$", f"{true:.3g}", "--"]
-            for key in keys:
-                e = summ[key]["yield"][d][1]
+            for s in blocks:
+                e = s["yield"][d][1]
                 cells += [f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"]
-            rows.append(" & ".join(cells) + r" \\")
+            rows.append(" & ".join(cells + (["--"] if ml else [])) + r" \\")
+    ml_text = ""
+    if ml:
+        st = {r["start"]["passes"] for r in ml["runs"]}
+        ml_text = (rf"; ML: maximum likelihood (output error) started on each seed from the better "
+                   rf"{'/'.join(map(str, sorted(st)))}-pass filter estimate (smaller output misfit), std from the "
+                   rf"Fisher information, converged on {len(ml['converged'])} of {len(ml['runs'])} seeds, "
+                   rf"$^\dagger$ there: Fisher std above 5/3\,\%")
     return "\n".join([
         r"\begin{table}[ht]", r"\centering",
         rf"\caption{{Table 2 analog ({tex_escape(exp['record']['name'])}, {100 * exp['noise_ratio']:g}\,\% noise, "
         rf"{len(summ[keys[0]]['seeds'])} seeds). $^\dagger$ practically unidentifiable on this record"
+        + ml_text
         + (r"; last rows: the yield displacements $|\Delta_i|^{-1/2N}$, which the record pins along the "
-           r"$\Delta$--$N$ ridge" if all(summ[key]["yield"] for key in keys) else "") + ".}",
+           r"$\Delta$--$N$ ridge" if ridge else "") + ".}",
         rf"\begin{{tabular}}{{{cols}}}", r"\toprule", head, sub, r"\midrule", *rows, r"\bottomrule",
         r"\end{tabular}", r"\end{table}"]) + "\n"
 

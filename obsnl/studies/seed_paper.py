@@ -1,10 +1,13 @@
 """The seed paper's identification experiment end to end: ``obsnl reproduce``.
 
-Analysis -> branch table -> UKF and DUKF tuned on unreported noise seeds (:func:`obsnl.identification.experiments.tune`,
-the same procedure for both filters) -> reported runs on noise seeds ``0..seeds-1`` -> the Table 2
-analog (``table2.json``; text in :mod:`obsnl.report.tables`) and Figures 2-3 (:mod:`obsnl.report.figures`).
-Protocol details in :mod:`obsnl.identification.experiments`. Nothing here uses the true values except to score the
-reported runs.
+Analysis -> branch table -> UKF and DUKF tuned on unreported noise seeds by successive halving
+(:func:`successive_halving`: every configuration of the grid on the first tuning seed, the best
+``HALVING_KEEP`` of each protocol on the others; the same procedure for both filters) -> reported runs on
+noise seeds ``0..seeds-1`` -> the maximum-likelihood refinement of each reported seed, started from the
+estimate of the filter (UKF or DUKF, refined protocol) whose free-run output misfit on that seed is the
+smaller -> the Table 2 analog (``table2.json``; text in :mod:`obsnl.report.identification`) and Figures 2-3
+(:mod:`obsnl.report.figures`). Protocol details in :mod:`obsnl.identification.experiments` and
+:mod:`obsnl.identification.likelihood`. Nothing here uses the true values except to score the reported runs.
 """
 
 from __future__ import annotations
@@ -19,15 +22,16 @@ import numpy as np
 from obsnl.estimation.records import Record
 from obsnl.identification.experiments import (DEFAULT_GRID, DIVERGED, Setup, Tuning, make_data, mc_spread)
 from obsnl.executor import Executor
-from obsnl.studies.seed_tasks import (FALLBACKS, SEED_GUESS, RunResult, Spec, compile_task, context, replicates_task,
-                                      reported_task, reported_with_fallbacks, seed_model_path, seed_setup,
-                                      tuning_task)
+from obsnl.studies.seed_tasks import (FALLBACKS, ML_MAX_ITER, SEED_GUESS, Refined, RunResult, Spec, compile_task,
+                                      context, late_task, reported_task, reported_with_fallbacks, seed_model_path,
+                                      seed_setup, tuning_task)
 from obsnl.identification.runs import check_replicates
 from obsnl.identification.replicates import CHUNK
 from obsnl.estimation.ukf import Trajectory
 
-__all__ = ["RunResult", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce",
-           "write_reproduction", "reproduction_files", "SEED_GUESS", "PAPER_ERRORS", "TUNING_SEEDS", "reported_with_fallbacks"]
+__all__ = ["RunResult", "Refined", "Reproduction", "seed_model_path", "seed_setup", "seed_branch_table", "reproduce",
+           "write_reproduction", "reproduction_files", "SEED_GUESS", "PAPER_ERRORS", "TUNING_SEEDS", "reported_with_fallbacks",
+           "successive_halving", "HALVING_KEEP"]
 
 #: Errors (%) the seed paper reports in Table 2.
 PAPER_ERRORS: Mapping[str, Mapping[str, float]] = {
@@ -47,6 +51,11 @@ MC_SEEDS = 5000
 #: Monte-Carlo replicates per task of the executor (any split gives the same replicates): the
 #: same chunk as ``identify --replicates``.
 MC_CHUNK = CHUNK
+#: Successive halving of the tuning: after the first tuning seed, the best ``HALVING_KEEP`` configurations of
+#: each protocol (one pass, and ``passes``) go on to the other tuning seeds (one rung, a quarter of the
+#: 48-configuration grid per protocol; the union of the two protocols' survivors runs). The maximum-likelihood
+#: refinement starts from the tuned filter's estimate and needs only its basin, which the survivors reach.
+HALVING_KEEP = 12
 
 
 @dataclass(frozen=True, eq=False)
@@ -61,18 +70,119 @@ class Reproduction:
     trajectories: Mapping[tuple[str, int], tuple[Trajectory, ...]] = field(repr=False)
     tuning_seeds: tuple[int, ...] = ()
     compile_seconds: Mapping[str, float] = field(default_factory=dict)
+    refinements: tuple[Refined, ...] = ()
+    tuning_runs: Mapping[tuple[str, Tuning, int], int] = field(default_factory=dict)  # seeds per configuration, protocol
+    halving_keep: int | None = None
 
     def to_dict(self) -> dict[str, Any]:
         s = self.setup
+        n_grid = len({t for _, t, _ in self.tuning_runs})
         return {
             "experiment": s.to_dict(), "branch_table": self.table_source, "tuning_seeds": list(self.tuning_seeds),
+            "tuning_protocol": _tuning_protocol(self.halving_keep, n_grid, len(self.tuning_seeds),
+                                                sum(v for (_, _, k), v in self.tuning_runs.items() if k == 1)),
             "tuning": [{"method": m, "passes": k, "chosen": t.to_dict(),
-                        "scores": [{**g.to_dict(), "misfit": v} for g, v in sc.items()]}
+                        "scores": [{**g.to_dict(), "misfit": v, "seeds": self.tuning_runs.get((m, g, k))}
+                                   for g, v in sc.items()]}
                        for (m, k), (t, sc) in self.tuning.items()],
             "compile_seconds": dict(self.compile_seconds), "diverged_factor": DIVERGED, "fallbacks": FALLBACKS,
             "paper_errors_percent": {k: dict(v) for k, v in PAPER_ERRORS.items()},
             "runs": [r.to_dict(s.model.parameters, s.theta_true) for r in self.runs],
+            "refinement_protocol": ML_PROTOCOL if self.refinements else None,
+            "refinements": [r.to_dict(s.model.parameters, s.theta_true) for r in self.refinements],
         }
+
+
+#: How the third column of Table 2 is made (written into ``table2.json``).
+ML_PROTOCOL = ("maximum likelihood of the measured output given the measured input (output error, single shooting: "
+               "obsnl.identification.likelihood.refine), started on each reported seed from the estimate of the "
+               "filter (UKF or DUKF, refined protocol) whose free-run output misfit on that seed is the smaller (no "
+               "true value used); every parameter free (none held), the initial state estimated; Levenberg-Marquardt "
+               f"with exact derivatives, at most {ML_MAX_ITER} iterations per weighting; std from the Fisher "
+               "information at the estimate (no profile likelihood: too slow for the main job); converged only when "
+               "the first-order condition holds and the last step moved no parameter by more than 0.1 std")
+
+
+def _tuning_protocol(keep: int | None, n_grid: int, n_seeds: int, n_runs: int) -> str:
+    """One sentence on how the configurations were chosen."""
+    if keep is None or keep >= n_grid or n_seeds < 2:
+        return (f"full grid: {n_grid} configurations x {n_seeds} tuning seed(s) per filter ({n_runs} runs); the smallest "
+                f"mean free-run output misfit wins")
+    return (f"successive halving: {n_grid} configurations on the first tuning seed, the best {keep} of each protocol "
+            f"(one pass, refined) on the other {n_seeds - 1}, each as far as the protocols it was kept for ({n_runs} "
+            f"runs for both filters); per protocol, the smallest mean free-run output misfit over the tuning seeds "
+            f"wins among the configurations that ran on all of them")
+
+
+def successive_halving(names: Sequence[str], grid: Sequence[Tuning], seeds: Sequence[int],
+                       run: Any, *, keep: int | None, protocols: Sequence[int]
+                       ) -> tuple[dict[tuple[str, int], tuple[list[Tuning], dict[Tuning, float]]],
+                                  dict[tuple[str, Tuning, int], int]]:
+    """Tune each filter by one rung of successive halving: every configuration on ``seeds[0]`` scored for every
+    protocol, then the best ``keep`` of each protocol on the other seeds, each run only as far as the protocols it
+    goes on for (a configuration kept for the one-pass protocol alone runs one pass there).
+
+    Parameters
+    ----------
+    names : sequence of str
+        The filters.
+    grid : sequence of Tuning
+        The configurations.
+    seeds : sequence of int
+        Tuning noise seeds (the first one screens).
+    run : callable
+        ``run([(name, tuning, seed, passes), ...]) -> [{protocol: misfit}, ...]``, a run of ``passes`` passes
+        giving the misfit of every protocol up to ``passes`` (in one batch: the executor's map).
+    keep : int or None
+        Survivors per protocol (None, or at least ``len(grid)``: the full grid on every seed).
+    protocols : sequence of int
+        The protocols scored (passes: 1 and the refined protocol's).
+
+    Returns
+    -------
+    tuple
+        ``({(name, protocol): (ranking, scores)}, {(name, tuning, protocol): seeds run})``: per protocol, the
+        configurations that ran on the most seeds first, each group by its mean misfit (ties: grid order); the
+        first of the ranking is the chosen one, the next ones are the fallbacks of a diverged reported run.
+
+    Examples
+    --------
+    >>> g = [Tuning(s, 0.0, 1.0) for s in (0.1, 0.2, 0.3)]
+    >>> misfit = {(0.1, 0): 1.0, (0.2, 0): 2.0, (0.3, 0): 3.0, (0.1, 1): 5.0, (0.2, 1): 0.0, (0.3, 1): 0.0}
+    >>> fake = lambda tasks: [{1: misfit[(t.s0, s)]} for _, t, s, _ in tasks]
+    >>> ranks, runs = successive_halving(["ukf"], g, [0, 1], fake, keep=2, protocols=[1])
+    >>> [t.s0 for t in ranks[("ukf", 1)][0]], runs[("ukf", g[2], 1)]   # 0.3 was screened out on seed 0
+    ([0.2, 0.1, 0.3], 1)
+    """
+    got: dict[tuple[str, Tuning, int], Mapping[int, float]] = {}
+    last = max(protocols)
+
+    def rung(tasks: list[tuple[str, Tuning, int, int]]) -> None:
+        got.update(((n, t, s), v) for (n, t, s, _), v in zip(tasks, run(tasks)))
+
+    def scored(name: str, t: Tuning, k: int) -> list[float]:
+        return [v[k] for (n, t_, _), v in got.items() if n == name and t_ == t and k in v]
+
+    order = {t: i for i, t in enumerate(grid)}
+    rung([(n, t, seeds[0], last) for n in names for t in grid])
+    if len(seeds) > 1:
+        later = []
+        for n in names:
+            goes_on = {t: last for t in grid}  # passes each configuration runs on the other seeds
+            if keep is not None and keep < len(grid):
+                goes_on = {}
+                for k in protocols:
+                    for t in sorted(grid, key=lambda t: (float(np.mean(scored(n, t, k))), order[t]))[:keep]:
+                        goes_on[t] = max(goes_on.get(t, 0), k)
+            later += [(n, t, s, goes_on[t]) for t in grid if t in goes_on for s in seeds[1:]]
+        rung(later)
+    runs = {(n, t, k): len(scored(n, t, k)) for n in names for t in grid for k in protocols}
+    out = {}
+    for n in names:
+        for k in protocols:
+            scores = {t: float(np.mean(scored(n, t, k))) for t in grid}
+            out[(n, k)] = (sorted(grid, key=lambda t: (-runs[(n, t, k)], scores[t], order[t])), scores)
+    return out, runs
 
 
 def rate_from_here(progress: Any) -> None:
@@ -121,8 +231,10 @@ def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
 
 def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int = 5, passes: int = 3,
               grid: Sequence[Tuning] = DEFAULT_GRID, jit: bool = True, samples: int | None = None,
-              replicates: int = REPLICATES, progress: Any = None, executor: Executor | None = None) -> Reproduction:
-    """Table 2 of the seed paper with obsnl's UKF and DUKF (module docstring for the protocol).
+              replicates: int = REPLICATES, progress: Any = None, executor: Executor | None = None,
+              keep: int | None = HALVING_KEEP, refine: bool = True) -> Reproduction:
+    """Table 2 of the seed paper with obsnl's UKF and DUKF and the maximum-likelihood refinement (module
+    docstring for the protocol).
 
     Parameters
     ----------
@@ -150,14 +262,20 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
     executor
         Where the independent runs go (:class:`obsnl.executor.Executor`; default: this process).
         Every run's noise is fixed by its own seeds: the result does not depend on the executor.
+    keep
+        Configurations per protocol that go on after the first tuning seed (:func:`successive_halving`;
+        None: the full grid on every tuning seed, the protocol before issue 27).
+    refine
+        Refine each reported seed by maximum likelihood (the third column of Table 2).
     """
     check_replicates(replicates)
     executor = executor or Executor(workers=1)
     t_seeds = tuple(range(TUNING_SEEDS, TUNING_SEEDS + tuning_seeds))
     protocols = sorted({1, passes})
     names = ("ukf", "dukf")
-    if progress is not None:  # known before anything is built: the bar shows from the start
-        progress.total = (len(names) * len(grid) * tuning_seeds + seeds * (len(names) + 1) * len(protocols)
+    n_tuning = len(names) * (len(grid) + (tuning_seeds - 1) * min(len(grid), len(protocols) * (keep or len(grid))))
+    if progress is not None:  # known before anything is built (the tuning at most): the bar shows from the start
+        progress.total = (n_tuning + seeds * (len(names) + 1) * len(protocols) + (seeds if refine else 0)
                           + replicates * seeds * len(names) * len(protocols))
         progress.refresh() if hasattr(progress, "refresh") else None
     stage = (lambda text: progress.set_postfix_str(text)) if hasattr(progress, "set_postfix_str") else (lambda text: None)
@@ -174,24 +292,25 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
         compile_seconds = dict(zip(filters, session.map(compile_task, [(spec, name) for name in filters])))
         stage(f"tuning ({executor.kind})")
         rate_from_here(progress)  # the estimate of the time left counts from the first run, not the build
-        ttasks = [(spec, name, t, s, passes) for name in names for t in grid for s in t_seeds]
-        got = session.map(tuning_task, ttasks, done=tick)
-        chosen: dict[tuple[str, int], tuple[Tuning, Mapping[Tuning, float]]] = {}
-        for name in names:
-            for k in protocols:
-                sc = {t: float(np.mean([g[k] for (_, n, t_, _, _), g in zip(ttasks, got) if n == name and t_ == t]))
-                      for t in grid}
-                chosen[(name, k)] = (min(sc, key=lambda t: (sc[t], grid.index(t))), sc)
+        ranked, tuning_runs = successive_halving(
+            names, grid, t_seeds, lambda tasks: session.map(tuning_task, [(spec, *task) for task in tasks], done=tick),
+            keep=keep, protocols=protocols)
+        if progress is not None:  # the survivors are known: the bar's total is exact now
+            progress.total -= n_tuning - sum(v for (_, _, k), v in tuning_runs.items() if k == protocols[0])
+            progress.refresh() if hasattr(progress, "refresh") else None
+        chosen = {key: (ranking[0], scores) for key, (ranking, scores) in ranked.items()}
         stage(f"reported runs ({executor.kind})")
         rtasks = []
         for name in (*names, "dukf-zero"):
             for k in protocols:
-                tuned, scores = chosen[("dukf" if name == "dukf-zero" else name, k)]
-                ranking = [tuned] + [t for t in sorted(scores, key=lambda t: (scores[t], grid.index(t))) if t != tuned]
+                ranking = ranked[("dukf" if name == "dukf-zero" else name, k)][0]
                 rtasks += [(spec, name, k, seed, tuple(ranking), FALLBACKS) for seed in range(seeds)]
         reported = session.map(reported_task, rtasks, done=tick)
-        stage(f"Monte-Carlo replicates ({executor.kind})")
-        mtasks, owners = [], []
+        stage(f"maximum likelihood and Monte-Carlo replicates ({executor.kind})" if refine
+              else f"Monte-Carlo replicates ({executor.kind})")
+        ltasks: list[tuple[str, tuple]] = [("refine", _refine_task(spec, seed, rtasks, reported, names, passes))
+                                           for seed in range(seeds)] if refine else []
+        owners = [-1] * len(ltasks)
         for j, ((_, name, k, seed, _, _), (result, _)) in enumerate(zip(rtasks, reported)):
             if not (replicates and name in names):
                 continue
@@ -200,11 +319,14 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
                     progress.update(replicates)
                 continue
             for lo in range(0, replicates, MC_CHUNK):
-                mtasks.append((spec, name, seed, result.theta, result.tuning, k, MC_SEEDS + seed,
-                               tuple(range(lo, min(replicates, lo + MC_CHUNK)))))
+                ltasks.append(("replicates", (spec, name, seed, result.theta, result.tuning, k, MC_SEEDS + seed,
+                                              tuple(range(lo, min(replicates, lo + MC_CHUNK))))))
                 owners.append(j)
-        mc = session.map(replicates_task, mtasks, done=(lambda i, r: progress.update(len(mtasks[i][-1])))
-                         if progress is not None else None)
+        late = session.map(late_task, ltasks, done=(lambda i, r: progress.update(
+            1 if ltasks[i][0] == "refine" else len(ltasks[i][1][-1]))) if progress is not None else None)
+    refinements = tuple(r for (kind, _), r in zip(ltasks, late) if kind == "refine")
+    mc = [r for (kind, _), r in zip(ltasks, late) if kind == "replicates"]
+    owners = [j for j in owners if j >= 0]
     runs, trajs = [], {}
     for j, ((_, name, k, seed, _, _), (result, trs)) in enumerate(zip(rtasks, reported)):
         outcomes = [o for i, o in zip(owners, mc) if i == j]
@@ -217,7 +339,20 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
             trajs[(name, k)] = trs
     stage("done")
     return Reproduction(setup=setup, table=table, table_source=source, tuning=chosen, runs=tuple(runs),
-                        trajectories=trajs, tuning_seeds=t_seeds, compile_seconds=compile_seconds)
+                        trajectories=trajs, tuning_seeds=t_seeds, compile_seconds=compile_seconds,
+                        refinements=refinements, tuning_runs=tuning_runs, halving_keep=keep)
+
+
+def _refine_task(spec: Spec, seed: int, rtasks: Sequence[tuple], reported: Sequence[tuple], names: Sequence[str],
+                 passes: int) -> tuple[Spec, int, tuple[float, ...], dict[str, Any]]:
+    """The refinement of reported seed ``seed``: from the estimate of the filter (``names``, ``passes`` passes)
+    whose free-run output misfit on that seed is the smaller (data only; a run that stopped is not a start)."""
+    cands = [(result.misfit, names.index(name), result) for (_, name, k, s, _, _), (result, _) in zip(rtasks, reported)
+             if s == seed and k == passes and name in names and not result.failed and np.isfinite(result.misfit)]
+    if not cands:  # no estimate that can be simulated: start from the guesses (said in ``start``)
+        return spec, seed, tuple(map(float, context(spec)["setup"].theta_guess)), {"method": "guess", "passes": 0, "output_misfit": None}
+    misfit, _, best = min(cands, key=lambda c: (c[0], c[1]))
+    return spec, seed, best.theta, {"method": best.method, "passes": best.passes, "output_misfit": float(misfit)}
 
 
 #: The text files a reproduction writes (the figures ``fig2_*.png``, ``fig3_*.png`` come on top).
