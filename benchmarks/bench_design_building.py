@@ -242,7 +242,7 @@ covers 25 of 25, within 5.1 %.
 **Time.** Each identification took 871-1033 s (14-17 min) with 2-4 other jobs sharing the 2 cores (load 2.1-4.4 at
 the start); the 25 profile-likelihood intervals took 760-940 s of it, the filter passes 30-57 s and the
 maximum-likelihood fit 41-72 s. The record was cut to its first 1200 samples (12 s) for time; the ranking
-(9.4 s for 16 sets, one forward-AD sensitivity of the whole record) and the structural checks (0.3-0.4 s per pair)
+(8.5-9.4 s for 16 sets, one forward-AD sensitivity of the whole record) and the structural checks (0.3-0.4 s per pair)
 are cheap next to one identification.
 """
 
