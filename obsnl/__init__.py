@@ -11,16 +11,17 @@ from obsnl.errors import (
     ParseError,
     TableError,
 )
-from obsnl.model.branches import Branch, split_branches
+from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
 
 # the observability engines (imported eagerly: these functions share their modules' names)
 from obsnl.observability.analyze import analyze
-from obsnl.observability.decompose import decompose, dependency_graph
-from obsnl.observability.smooth import orc, sedoglavic
+from obsnl.observability.engines.decompose import decompose, dependency_graph
+from obsnl.observability.engines.smooth import orc, sedoglavic
 from obsnl import report  # noqa: F401  (registers the notebook renderers of results)
-from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult, Verdict
 
 __version__ = "0.1.0"
 
@@ -37,7 +38,7 @@ _LAZY: dict[str, str] = {
     "BankVerdict": "linear.bank", "run_link_study": "studies.link_study",
     "build_cantilever": "studies.cantilever", "load_link_spec": "studies.cantilever", "BreathingCrack": "studies.cantilever",
     # branch tables (the estimators' contract)
-    "BranchTable": "observability.branch_table", "load_branch_table": "observability.branch_table",
+    "BranchTable": "observability.contract.branch_table", "load_branch_table": "observability.contract.branch_table",
     # estimators: codegen (the sympy -> casadi bridge), UKF, DUKF, records, identification
     "to_casadi": "estimation.codegen", "NumericModel": "estimation.codegen", "ParameterMap": "estimation.codegen",
     "parameter_map": "estimation.codegen", "log_map": "estimation.codegen",
@@ -50,7 +51,7 @@ _LAZY: dict[str, str] = {
     "identify": "identification.identify", "Identification": "identification.runs", "read_measured": "estimation.measured",
     "Measured": "estimation.measured",
     # symmetries, identifiable combinations, reparametrizations
-    "symmetries": "observability.symmetry", "Symmetry": "observability.symmetry", "Symmetries": "observability.symmetry",
+    "symmetries": "observability.certificates.symmetry", "Symmetry": "observability.certificates.symmetry", "Symmetries": "observability.certificates.symmetry",
     "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrize",
     "identifiable_functions": "recombination.identifiable", "IdentifiableFunctions": "recombination.identifiable",
     # which sensors, which experiment (the design room)

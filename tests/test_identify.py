@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import obsnl
-from obsnl.observability.branch_table import BranchTable
+from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.cli import main
 from obsnl.identification.experiments import (DIVERGED, Tuning, coordinates, make_data, make_filter, output_misfit,
                             practical_identifiability, run_passes)

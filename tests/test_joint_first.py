@@ -19,8 +19,9 @@ import pytest
 import obsnl
 from obsnl import report
 from obsnl.cli import main
-from obsnl.observability.joint import JointResult
-from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
+from obsnl.observability.joint.verdict import JointResult
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult, Verdict
 from obsnl.report.files import write_tables
 
 BILINEAR = obsnl.Model(

@@ -27,7 +27,8 @@ from obsnl.identification.results import Identification, ParameterEstimate
 from obsnl.identification.setup import Tuning
 from obsnl.linear.bank import BankDecision, BankVerdict
 from obsnl.linear.systems import ObsVerdict
-from obsnl.observability.results import AnalysisResult, BranchResult
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult
 
 BILINEAR = obsnl.Model(
     name="bilinear", states=["x", "v"], parameters=["c", "k", "alpha", "x_y"], inputs=["u"],

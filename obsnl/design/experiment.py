@@ -1,7 +1,7 @@
 """Which experiment makes a model identifiable: the branches a record visits as its amplitude grows, the
 smallest amplitude that makes every target jointly identifiable, and which of several records suffice.
 
-The model's ``[values]`` are simulated under ``s * record`` (:func:`obsnl.observability.visited.visited_patterns`,
+The model's ``[values]`` are simulated under ``s * record`` (:func:`obsnl.observability.joint.visited.visited_patterns`,
 initial states unscaled); the sign patterns at the record's sample times are the branches the experiment
 at scale ``s`` visits, and the set suffices when :func:`obsnl.design.sufficiency.check_sensors` with
 ``visited=`` that set finds every target jointly identifiable. The verdict depends on the visited *set*
@@ -38,11 +38,11 @@ import numpy as np
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
 from obsnl.errors import NotSupportedError, OptionError
 from obsnl.estimation.records import Record
-from obsnl.model.branches import split_branches
-from obsnl.model.budget import check_time, remaining, time_budget
+from obsnl.model.branching.branches import split_branches
+from obsnl.model.bounds.budget import check_time, remaining, time_budget
 from obsnl.model.core import Model
 from obsnl.observability.analyze import assumptions as analysis_assumptions
-from obsnl.observability.visited import Visits, visited_patterns
+from obsnl.observability.joint.visited import Visits, visited_patterns
 
 __all__ = ["VisitedBranch", "ScaleVisit", "ExperimentDesign", "design", "DEFAULT_SCALES", "MAX_RECORDS"]
 

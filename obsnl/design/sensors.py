@@ -44,11 +44,11 @@ from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
 from obsnl.observability.analyze import assumptions
-from obsnl.observability.joint_certify import shared_symmetries
-from obsnl.observability.selection import select_branches
-from obsnl.observability.smooth import resolve_unknown_input_derivatives
+from obsnl.observability.certificates.certify import shared_symmetries
+from obsnl.observability.joint.selection import select_branches
+from obsnl.observability.engines.smooth import resolve_unknown_input_derivatives
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
-from obsnl.observability.decompose import output_reachable
+from obsnl.observability.engines.decompose import output_reachable
 
 __all__ = ["SensorSearch", "sensors", "rank_sufficient_sets"]
 

@@ -32,7 +32,7 @@ import numpy as np
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError
 from obsnl.estimation.records import Record, check_seconds, check_times, read_table, times_from_text
-from obsnl.model.textsize import quote
+from obsnl.model.bounds.textsize import quote
 
 __all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS", "MIN_SAMPLES"]
 

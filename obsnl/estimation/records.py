@@ -24,7 +24,7 @@ import numpy as np
 
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError
-from obsnl.model.textsize import quote
+from obsnl.model.bounds.textsize import quote
 
 __all__ = ["Record", "check_times", "check_seconds", "read_text", "read_record", "read_csv",
            "read_at2", "add_noise", "rms", "G", "MAX_FILE_BYTES", "read_table", "times_from_text"]

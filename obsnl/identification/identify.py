@@ -31,10 +31,10 @@ from obsnl.estimation.records import Record, read_record
 from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
-from obsnl.model.signature import ModelSignature
+from obsnl.model.branching.signature import ModelSignature
 from obsnl.observability.analyze import analyze
-from obsnl.observability.table_check import check_table
-from obsnl.observability.branch_table import BranchTable
+from obsnl.observability.contract.table_check import check_table
+from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = ["identify", "study", "structurally_unidentifiable", "frozen_but_jointly_identifiable", "write_identification", "parse_assignments",
            "IDENTIFY_FILES"]
@@ -126,7 +126,7 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
              ) -> tuple[Any, dict[str, float], BranchTable | None, dict]:
     """Table check, structural analysis (refusal), compilation, guesses."""
     if isinstance(table, (str, Path)):
-        from obsnl.observability.branch_table import load_branch_table
+        from obsnl.observability.contract.branch_table import load_branch_table
 
         table = load_branch_table(table)
     if table is not None:  # a table made for another model, or one that contradicts it, is refused first

@@ -42,7 +42,7 @@ from obsnl.identification.profile import Profile, judge, profiles
 from obsnl.identification.replicates import spread_on
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
 from obsnl.identification.setup import Data, Setup, coordinates, output_misfit
-from obsnl.observability.branch_table import BranchTable
+from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = ["check_replicates", "simulation_study", "identify_measured", "Identification", "ParameterEstimate",
            "MEASURED_GRID", "FIT_SUBSTEPS", "HOLD_BELOW", "clean_json", "error_of"]

@@ -30,8 +30,8 @@ import flint
 import sympy as sp
 
 from obsnl.errors import ModelError
-from obsnl.model.parse import make_symbol
-from obsnl.observability.proofs import canonical
+from obsnl.model.reading.parse import make_symbol
+from obsnl.observability.certificates.proofs import canonical
 
 __all__ = ["ScalingSection", "scaling_section", "span_intersection", "translation_invariants", "adapted_forms",
            "pushforward", "coordinates", "section_map"]

@@ -30,16 +30,16 @@ import flint
 import sympy as sp
 
 from obsnl._text import block, names, one_line
-from obsnl.model.branches import split_branches
+from obsnl.model.branching.branches import split_branches
 from obsnl.errors import ModelError
 from obsnl.recombination.invariants import (adapted_forms, coordinates, pushforward, scaling_section, section_map, span_intersection,
                          translation_invariants)
 from obsnl.observability.limits import check_analysis_limits
-from obsnl.observability.smooth import analyze_smooth
+from obsnl.observability.engines.smooth import analyze_smooth
 from obsnl.model.core import Model
-from obsnl.model.parse import make_symbol
-from obsnl.observability.proofs import verify_reparametrization
-from obsnl.observability.symmetry import Symmetries, Symmetry, symmetries
+from obsnl.model.reading.parse import make_symbol
+from obsnl.observability.certificates.proofs import verify_reparametrization
+from obsnl.observability.certificates.symmetry import Symmetries, Symmetry, symmetries
 from obsnl.model.files import model_to_toml
 
 __all__ = ["Reparametrization", "reparametrize"]

@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from obsnl.errors import OutputError
-from obsnl.observability.branch_table import SCHEMA_ID
+from obsnl.observability.contract.branch_table import SCHEMA_ID
 from obsnl.observability.results import AnalysisResult
 from obsnl.report.tables import joint_text, to_json, to_latex, to_markdown, union_text
 

@@ -19,9 +19,10 @@ import sympy as sp
 
 from obsnl.errors import OptionError
 from obsnl.model.core import Model
-from obsnl.model.signature import ModelSignature
-from obsnl.observability.branch_table import BranchTable
-from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
+from obsnl.model.branching.signature import ModelSignature
+from obsnl.observability.contract.branch_table import BranchTable
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult, Verdict
 from obsnl.report.sentences import (
     _first_lines,
     _names,
@@ -74,8 +75,8 @@ def complete(result: AnalysisResult, model: Model) -> AnalysisResult:
     -------
     AnalysisResult
     """
-    from obsnl.model.branches import split_branches
-    from obsnl.model.switching import expr_text
+    from obsnl.model.branching.branches import split_branches
+    from obsnl.model.branching.switching import expr_text
 
     changes: dict = {}
     if result.signature is None:
@@ -139,7 +140,7 @@ def _key(b: BranchResult) -> tuple:
 
 def _symbols_in(texts: Iterable[str]) -> dict[str, sp.Symbol]:
     """The names of the symbols in expression texts (function names such as ``exp`` are not symbols)."""
-    from obsnl.model.parse import ALLOWED_FUNCTIONS, make_symbol
+    from obsnl.model.reading.parse import ALLOWED_FUNCTIONS, make_symbol
 
     names = set()
     for t in texts:
@@ -155,7 +156,7 @@ def branch_groups(result: AnalysisResult) -> tuple[BranchGroup, ...]:
     sw_exprs: list[sp.Expr] = []
     if result.switching:
         loc = _symbols_in(result.switching)
-        from obsnl.model.parse import parse_expression
+        from obsnl.model.reading.parse import parse_expression
 
         sw_exprs = [parse_expression(t, loc, where="switching function") for t in result.switching]
     all_patterns = [b.signs for b in result.branches]
@@ -168,7 +169,7 @@ def branch_groups(result: AnalysisResult) -> tuple[BranchGroup, ...]:
 
 def _group_condition(members: Sequence[BranchResult], sw: Sequence[sp.Expr],
                      all_patterns: Sequence[tuple[int, ...]]) -> tuple[str, sp.Basic | None, tuple, int]:
-    from obsnl.model.switching import expr_text
+    from obsnl.model.branching.switching import expr_text
 
     if len(members) == len(all_patterns):
         return "true", sp.true, (), 0
@@ -416,7 +417,7 @@ def tex_escape(text: str) -> str:
 
 
 def _latex_name(name: str, result: AnalysisResult) -> str:
-    from obsnl.model.latex import default_latex, latex_problem
+    from obsnl.model.reading.latex import default_latex, latex_problem
 
     given = result.latex.get(name)
     if isinstance(given, str) and latex_problem(given) is None:  # only a whitelisted name reaches the .tex

@@ -64,13 +64,13 @@ class ModelSignature:
             Any model, smooth or not.
         switching
             The switching functions as text when the caller has them already (the branches' order and
-            orientation); default: :func:`obsnl.model.switching.switching_functions`.
+            orientation); default: :func:`obsnl.model.branching.switching.switching_functions`.
 
         Returns
         -------
         ModelSignature
         """
-        from obsnl.model.switching import expr_text, switching_functions
+        from obsnl.model.branching.switching import expr_text, switching_functions
 
         return cls(
             name=model.name, fingerprint=model.fingerprint,

@@ -29,12 +29,12 @@ import numpy as np
 import sympy as sp
 
 from obsnl.errors import AnalysisError, ModelError, NotSupportedError
-from obsnl.model.budget import check_time
+from obsnl.model.bounds.budget import check_time
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.feasibility import feasible
-from obsnl.model.work import can_expand, can_factor, same_up_to_sign
-from obsnl.model.parse import shorten
-from obsnl.model.switching import (
+from obsnl.model.branching.feasibility import feasible
+from obsnl.model.bounds.work import can_expand, can_factor, same_up_to_sign
+from obsnl.model.reading.parse import shorten
+from obsnl.model.branching.switching import (
     check_declared,
     expr_text,
     innermost_nonsmooth,
@@ -137,7 +137,7 @@ def derived_model(base: Model, **changes: Any) -> Model:
     :meth:`Model.replace` validates every expression again, and validation prints each one (about
     15 ms per branch of the seed model, as much as analysing the branch). The models derived here
     only substitute signs into ``base``'s expressions (branches) or keep subsets of its names and
-    expressions (blocks of :mod:`obsnl.observability.decompose`): the symbols are ``base``'s own and no
+    expressions (blocks of :mod:`obsnl.observability.engines.decompose`): the symbols are ``base``'s own and no
     non-smooth function or undeclared name can appear, so re-validation cannot fail. Mappings are
     keyed like the validated model's (``equations`` and ``initial_condition_values`` by symbol,
     ``outputs`` by name) and frozen the same way; tests compare every field with ``replace``.
@@ -182,7 +182,7 @@ def split_branches(
         Also return the sign patterns dropped as contradictory (and, without ``undecided``, those whose
         feasibility is undecided, with ``proved=False``).
     max_seconds
-        Time limit of the split (None: none; a budget of :func:`obsnl.model.budget.time_budget` holds too).
+        Time limit of the split (None: none; a budget of :func:`obsnl.model.bounds.budget.time_budget` holds too).
     undecided
         Also return the branches whose feasibility is not decided (:attr:`Branch.undecided`: no point was
         found in them, none was proved impossible). Labels count them either way, so that a label names

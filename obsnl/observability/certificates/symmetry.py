@@ -16,7 +16,7 @@ stages: translations, scalings (weights ``a_j + b_j e`` affine in the exponent p
 of symbolic powers such as ``N`` in ``|sigma - eta|**(2N)``), affine fields, quadratic fields.
 Each stage keeps only generators that add a new direction at the Jacobian's point, and the search
 stops when the generators span the whole unobservable space (its dimension ``d`` comes from the
-power-series Jacobian of the engine, :func:`obsnl.observability.jacobian.observability_jacobian`). Directions left
+power-series Jacobian of the engine, :func:`obsnl.observability.engines.jacobian.observability_jacobian`). Directions left
 without a closed form are counted in ``missing``.
 """
 
@@ -43,10 +43,10 @@ from obsnl.algebra.modp import (
 )
 from obsnl.errors import NotSupportedError
 from obsnl.model.core import Model
-from obsnl.observability.decompose import output_reachable
-from obsnl.observability.jacobian import ModularJacobian, observability_jacobian
+from obsnl.observability.engines.decompose import output_reachable
+from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
 from obsnl.observability.limits import check_analysis_limits
-from obsnl.observability.proofs import verify_generator
+from obsnl.observability.certificates.proofs import verify_generator
 
 __all__ = ["Symmetry", "Symmetries", "symmetries"]
 
@@ -334,7 +334,7 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
         Highest polynomial degree of the ansatz after translations and scalings: 1 (affine,
         default) or 2 (quadratic in the states and parameters).
     jacobian
-        A precomputed :func:`obsnl.observability.jacobian.observability_jacobian` of ``model`` (to share the point).
+        A precomputed :func:`obsnl.observability.engines.jacobian.observability_jacobian` of ``model`` (to share the point).
 
     Returns
     -------

@@ -3,10 +3,10 @@
 
 A model's variables absent from its equations are unobservable and absent (they count in the
 transcendence degree, as the seed paper counts ``w_h`` in branches (b), (d)); the output-reachable
-submodel is split into independent blocks (:mod:`obsnl.observability.decompose`); each block is
+submodel is split into independent blocks (:mod:`obsnl.observability.engines.decompose`); each block is
 rationalized (:mod:`obsnl.algebra.augment`) and analysed by the chosen engine: ``"orc"``
-(:mod:`obsnl.observability.orc`, symbolic Lie derivatives evaluated mod p) or ``"sedoglavic"``
-(:mod:`obsnl.observability.sedoglavic`, power series mod p). ``"auto"`` uses the series engine, and the ORC
+(:mod:`obsnl.observability.engines.orc`, symbolic Lie derivatives evaluated mod p) or ``"sedoglavic"``
+(:mod:`obsnl.observability.engines.sedoglavic`, power series mod p). ``"auto"`` uses the series engine, and the ORC
 (with a short time budget) only on a small block (at most 6 unknowns) that the series engine left
 undecided.
 """
@@ -22,12 +22,12 @@ from obsnl.algebra.bounds import BlockOutcome, bound_sizes
 from obsnl.algebra.series import make_problem
 from obsnl.errors import AnalysisError, ModelError
 from obsnl.model.core import Model
-from obsnl.model.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
-from obsnl.observability.decompose import decompose as _decompose
+from obsnl.model.reading.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
+from obsnl.observability.engines.decompose import decompose as _decompose
 from obsnl.observability.limits import check_analysis_limits, out_of_memory
-from obsnl.observability.orc import orc_block
-from obsnl.observability.results import BranchResult, Verdict
-from obsnl.observability.sedoglavic import sedoglavic_block
+from obsnl.observability.engines.orc import orc_block
+from obsnl.observability.verdicts import BranchResult, Verdict
+from obsnl.observability.engines.sedoglavic import sedoglavic_block
 
 __all__ = ["METHODS", "analyze_smooth", "orc", "sedoglavic", "resolve_unknown_input_derivatives"]
 
@@ -263,7 +263,7 @@ def analyze_smooth(
     input_derivatives: int | None = None,
     decompose: bool = True,
 ) -> BranchResult:
-    """One smooth model, one engine: the common body of :func:`obsnl.orc` and :func:`obsnl.observability.sedoglavic`.
+    """One smooth model, one engine: the common body of :func:`obsnl.orc` and :func:`obsnl.observability.engines.sedoglavic`.
 
     Parameters
     ----------

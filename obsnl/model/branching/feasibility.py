@@ -19,8 +19,8 @@ from collections.abc import Sequence
 import numpy as np
 import sympy as sp
 
-from obsnl.model.budget import check_time
-from obsnl.model.work import can_expand, can_factor
+from obsnl.model.bounds.budget import check_time
+from obsnl.model.bounds.work import can_expand, can_factor
 
 __all__ = ["feasible", "affine_coefficients", "UNDECIDED"]
 
@@ -33,7 +33,7 @@ _FIX = "raise --max-seconds, or smooth some switching functions (tanh(g/eps) for
 def affine_coefficients(g: sp.Expr, syms: Sequence[sp.Symbol],
                         memo: dict | None = None) -> tuple[list[float], float] | None:
     """(coefficients of ``syms``, constant) when ``g`` is affine in ``syms`` with numeric coefficients, else
-    None; an expression too large to expand cheaply (:func:`obsnl.model.work.can_factor`) counts as not
+    None; an expression too large to expand cheaply (:func:`obsnl.model.bounds.work.can_factor`) counts as not
     affine, without expanding it.
 
     Parameters
@@ -292,6 +292,6 @@ def feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
 
 
 def _pattern_text(conds: Sequence[tuple[sp.Expr, int]]) -> str:
-    from obsnl.model.parse import shorten
+    from obsnl.model.reading.parse import shorten
 
     return shorten(" and ".join(f"{g} {'>' if s > 0 else '<'} 0" for g, s in conds), 120)

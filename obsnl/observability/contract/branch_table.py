@@ -17,8 +17,8 @@ from pathlib import Path
 from typing import Any
 
 from obsnl.errors import TableError
-from obsnl.model.signature import TABLE_FIX, ModelSignature
-from obsnl.model.textsize import quote, shorten
+from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
+from obsnl.model.bounds.textsize import quote, shorten
 
 __all__ = ["SCHEMA_ID", "BranchEntry", "BranchTable", "load_branch_table", "schema"]
 

@@ -1,4 +1,4 @@
-"""The visits of the joint verdict (:mod:`obsnl.observability.joint`): one smooth model, or the two
+"""The visits of the joint verdict (:mod:`obsnl.observability.joint.verdict`): one smooth model, or the two
 sides of a switching surface, evaluated at a point of the run's prime field.
 
 A branch visit is the branch's output series at its own generic point; a surface visit places a
@@ -26,10 +26,10 @@ from obsnl.algebra.modp import nmod_matrix, nullspace_mod_p
 from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.series import run_series
 from obsnl.errors import AnalysisError
-from obsnl.model.branches import derived_model, expr_text
-from obsnl.model.work import degree_in
+from obsnl.model.branching.branches import derived_model, expr_text
+from obsnl.model.bounds.work import degree_in
 from obsnl.model.core import Model
-from obsnl.observability.sedoglavic import RankTracker, stall_safe
+from obsnl.observability.engines.sedoglavic import RankTracker, stall_safe
 
 __all__ = [
     "JointVisit",

@@ -26,13 +26,13 @@ from sympy.parsing.sympy_parser import (
 )
 
 from obsnl.errors import ParseError
-from obsnl.model.budget import check_time
-from obsnl.model.textsize import (MAX_DEPTH, MAX_DIGITS, MAX_EXPONENT, MAX_LENGTH, MAX_NODES,  # noqa: F401
+from obsnl.model.bounds.budget import check_time
+from obsnl.model.bounds.textsize import (MAX_DEPTH, MAX_DIGITS, MAX_EXPONENT, MAX_LENGTH, MAX_NODES,  # noqa: F401
                                   check_expression_size, quote, regroup_sums, shorten)
-from obsnl.model.work import MAX_EXACT_DIGITS, exact_digits
+from obsnl.model.bounds.work import MAX_EXACT_DIGITS, exact_digits
 
 __all__ = ["ALLOWED_FUNCTIONS", "PARSER_NAMES", "make_symbol", "parse_expression", "check_expression_size",
-           "nfkc_problem", "shorten", "quote"]  # the last three are defined in obsnl.model.textsize
+           "nfkc_problem", "shorten", "quote"]  # the last three are defined in obsnl.model.bounds.textsize
 
 #: Functions a model expression may use, by the name written in the file.
 ALLOWED_FUNCTIONS: dict[str, Any] = {
@@ -184,7 +184,7 @@ def parse_expression(
 
     Examples
     --------
-    >>> from obsnl.model.parse import make_symbol, parse_expression
+    >>> from obsnl.model.reading.parse import make_symbol, parse_expression
     >>> syms = {n: make_symbol(n) for n in ("E", "N", "x")}
     >>> parse_expression("E*x^N + 0.5", syms)
     E*x**N + 1/2

@@ -58,10 +58,10 @@ from obsnl._text import block, bound, names, one_line, probability_text, verdict
 from obsnl.algebra.modp import Echelon, Resample, random_prime
 from obsnl.algebra.series import TimeUp, draw_prime
 from obsnl.errors import AnalysisError
-from obsnl.model.branches import Branch, split_branches
+from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.observability.limits import check_analysis_limits
-from obsnl.observability.joint_visits import (
+from obsnl.observability.joint.visits import (
     JointVisit,
     NewPrime,
     Plan,

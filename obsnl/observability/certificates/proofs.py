@@ -15,10 +15,10 @@ from collections.abc import Mapping, Sequence
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
-from obsnl.model.branches import Branch
+from obsnl.model.branching.branches import Branch
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.parse import make_symbol
-from obsnl.model.work import can_expand
+from obsnl.model.reading.parse import make_symbol
+from obsnl.model.bounds.work import can_expand
 
 __all__ = ["ANY", "weight", "is_zero", "same", "canonical", "verify_generator", "verify_reparametrization"]
 

@@ -19,9 +19,9 @@ import numpy as np
 import sympy as sp
 
 from obsnl.errors import AnalysisError
-from obsnl.model.budget import check_time
+from obsnl.model.bounds.budget import check_time
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.switching import expr_text, switching_of
+from obsnl.model.branching.switching import expr_text, switching_of
 
 __all__ = ["Visits", "visited_patterns"]
 

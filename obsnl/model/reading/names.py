@@ -5,7 +5,7 @@ Python reads identifiers in NFKC form, so a fullwidth ``ｘ`` *is* ``x`` to the 
 later with a NameError. Every declared name must therefore already be in NFKC form, and consist of
 a letter or ``_`` followed by letters, digits and ``_`` (Unicode letters allowed, as in the branch-table
 schema), must not be a Python keyword or start with ``__``, nor be one of the class names the expression
-reader calls (:data:`~obsnl.model.parse.PARSER_NAMES`: ``Integer``, ``Float``, ``Rational``, ``Symbol``,
+reader calls (:data:`~obsnl.model.reading.parse.PARSER_NAMES`: ``Integer``, ``Float``, ``Rational``, ``Symbol``,
 ``Function``).
 
 Non-ASCII letters stay allowed (``μ``, ``Δ1``), but two names of one model that look alike are refused:
@@ -30,7 +30,7 @@ from typing import Any
 import sympy as sp
 
 from obsnl.errors import ModelError
-from obsnl.model.parse import PARSER_NAMES, nfkc_problem, quote, shorten
+from obsnl.model.reading.parse import PARSER_NAMES, nfkc_problem, quote, shorten
 
 __all__ = ["check_name", "check_text", "check_distinct", "skeleton", "name_list", "close_name", "LOOK_ALIKE"]
 

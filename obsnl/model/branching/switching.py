@@ -17,10 +17,10 @@ from collections.abc import Sequence
 import sympy as sp
 
 from obsnl.errors import ModelError, NotSupportedError
-from obsnl.model.budget import check_time
+from obsnl.model.bounds.budget import check_time
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.parse import shorten
-from obsnl.model.work import can_factor
+from obsnl.model.reading.parse import shorten
+from obsnl.model.bounds.work import can_factor
 
 __all__ = ["expr_text", "switching_functions", "switching_of", "innermost_nonsmooth", "resolve", "check_declared"]
 
@@ -100,7 +100,7 @@ def _relations_of(cond: sp.Basic) -> list[sp.Expr]:
 @functools.lru_cache(maxsize=4096)
 def _canonical(f: sp.Expr) -> tuple[int, sp.Expr]:
     """(sign, f') with f = sign * f' and f' in a canonical orientation (expanded when it is small enough to
-    factor, :func:`obsnl.model.work.can_factor`; as written otherwise: an expansion could be huge, and a
+    factor, :func:`obsnl.model.bounds.work.can_factor`; as written otherwise: an expansion could be huge, and a
     guard of thousands of terms says less than the expression the user wrote)."""
     f = sp.expand(f) if f.is_Add and can_factor(f) else f
     if f.could_extract_minus_sign():
@@ -111,10 +111,10 @@ def _canonical(f: sp.Expr) -> tuple[int, sp.Expr]:
 def _factor_signs(g: sp.Expr) -> tuple[int, list[sp.Expr]]:
     """Write sign(g) = c * prod(sign(f_j)) with canonical irreducible factors f_j (odd powers only).
 
-    A ``g`` too large to factor cheaply (:func:`obsnl.model.work.can_factor`: ``x**100 - v**100``,
+    A ``g`` too large to factor cheaply (:func:`obsnl.model.bounds.work.can_factor`: ``x**100 - v**100``,
     ``(a + b + ... + v)**30 - 1``) is not factored, nor expanded: it is its own switching function, which is
     just as correct (the branches are the sides of ``g = 0``) and only forgoes merging it with its factors.
-    Inside a time budget (:func:`obsnl.model.budget.time_budget`) the budget is checked first.
+    Inside a time budget (:func:`obsnl.model.bounds.budget.time_budget`) the budget is checked first.
     """
     check_time(f"factoring the switching function {shorten(expr_text(g), 60)!r}",
                "raise --max-seconds, or smooth some switching functions (tanh(g/eps) for sign(g))")

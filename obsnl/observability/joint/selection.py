@@ -12,10 +12,10 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from obsnl.errors import AnalysisError, NotSupportedError
-from obsnl.model.branches import _MAX_SWITCHING, Branch, split_branches
+from obsnl.model.branching.branches import _MAX_SWITCHING, Branch, split_branches
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.representatives import representative_branches
-from obsnl.model.switching import switching_of
+from obsnl.model.branching.representatives import representative_branches
+from obsnl.model.branching.switching import switching_of
 
 __all__ = ["Visited", "select_branches"]
 
@@ -53,7 +53,7 @@ class Visited:
 
 
 #: Above this many switching functions (2**8 = 256 sign patterns) the branches are not enumerated:
-#: representative branches stand for them (:mod:`obsnl.model.representatives`). An enumeration of
+#: representative branches stand for them (:mod:`obsnl.model.branching.representatives`). An enumeration of
 #: 2**8 patterns of a 4-storey building takes about 17 s here, 2**10 several minutes.
 ENUMERATE_UP_TO = 8
 
@@ -154,7 +154,7 @@ def _all_or_representatives(model: Model, seed: int, max_seconds: float | None =
 
 def _branch_for(model: Model, signs: Sequence[int], seed: int) -> Branch:
     """The branch of a sign pattern of a model whose branches were not all enumerated."""
-    from obsnl.model.representatives import branch_of_pattern
+    from obsnl.model.branching.representatives import branch_of_pattern
 
     try:
         return branch_of_pattern(model, tuple(int(s) for s in signs), seed=seed)

@@ -1,7 +1,7 @@
 """The observability Jacobian of a smooth model at one random point mod p, kept for reuse.
 
-The engine (:mod:`obsnl.observability.sedoglavic`) turns the Jacobian into verdicts. The symmetry search, the
-identifiable functions and the reparametrization (:mod:`obsnl.observability.symmetry`, :mod:`obsnl.recombination.identifiable`,
+The engine (:mod:`obsnl.observability.engines.sedoglavic`) turns the Jacobian into verdicts. The symmetry search, the
+identifiable functions and the reparametrization (:mod:`obsnl.observability.certificates.symmetry`, :mod:`obsnl.recombination.identifiable`,
 :mod:`obsnl.recombination.reparametrize`) need the Jacobian itself: its columns, rows, rank and kernel, the point, the
 prime and the values of the non-rational atoms, and gradients of further expressions at that same
 point. :func:`observability_jacobian` computes it with the engine's own power series

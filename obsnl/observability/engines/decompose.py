@@ -21,7 +21,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from obsnl.errors import AnalysisError
-from obsnl.model.branches import derived_model
+from obsnl.model.branching.branches import derived_model
 from obsnl.model.core import Model
 
 if TYPE_CHECKING:  # networkx loads on first use (fast `import obsnl`)

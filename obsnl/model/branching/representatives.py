@@ -30,11 +30,11 @@ import numpy as np
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
-from obsnl.model.branches import Branch, _gray, check_finite, derived_model
-from obsnl.model.feasibility import feasible
+from obsnl.model.branching.branches import Branch, _gray, check_finite, derived_model
+from obsnl.model.branching.feasibility import feasible
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.switching import check_declared, innermost_nonsmooth, resolve, switching_of
-from obsnl.model.work import can_expand, same_up_to_sign
+from obsnl.model.branching.switching import check_declared, innermost_nonsmooth, resolve, switching_of
+from obsnl.model.bounds.work import can_expand, same_up_to_sign
 
 __all__ = ["Representatives", "switching_groups", "representative_branches", "branch_of_pattern", "MAX_GROUP"]
 
@@ -86,7 +86,7 @@ class Representatives:
 
 
 def _expanded(e: sp.Expr) -> sp.Expr:
-    """``e`` expanded when that is cheap (:func:`obsnl.model.work.can_expand`), else as it is."""
+    """``e`` expanded when that is cheap (:func:`obsnl.model.bounds.work.can_expand`), else as it is."""
     return sp.expand(e) if can_expand(e) else e
 
 

@@ -18,7 +18,7 @@ a random point), or, with specific initial values, up to :meth:`obsnl.algebra.se
 The unobservable unknowns come from the kernel of the projected Jacobian and are confirmed at a
 second random point. The probability bound is Sedoglavic's Prop. 3.3 for the prime drawn
 (:mod:`obsnl.algebra.bounds`). The symbolic work swells with the order: this engine is the exact
-cross-check with a time limit; the fast path is :mod:`obsnl.observability.sedoglavic`.
+cross-check with a time limit; the fast path is :mod:`obsnl.observability.engines.sedoglavic`.
 """
 
 from __future__ import annotations

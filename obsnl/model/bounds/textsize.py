@@ -19,7 +19,7 @@ import tokenize
 from decimal import Decimal
 
 from obsnl.errors import ParseError
-from obsnl.model.work import MAX_EXACT_DIGITS
+from obsnl.model.bounds.work import MAX_EXACT_DIGITS
 
 __all__ = ["MAX_NODES", "MAX_DEPTH", "MAX_DIGITS", "MAX_EXPONENT", "MAX_LENGTH", "shorten", "quote",
            "check_expression_size", "regroup_sums"]
@@ -293,7 +293,7 @@ def _members(node: ast.AST, ops: tuple[type, ...]) -> list[ast.AST]:
 
 def _check_exact_digits(tree: ast.AST, where: str, text: str) -> None:
     """Refuse a constant whose exact value would have over ``10 * MAX_EXACT_DIGITS`` digits before sympy
-    computes it (after parsing, :func:`obsnl.model.parse` refuses any over :data:`MAX_EXACT_DIGITS`)."""
+    computes it (after parsing, :func:`obsnl.model.reading.parse` refuses any over :data:`MAX_EXACT_DIGITS`)."""
     memo: dict[int, float | None] = {}
     limit = 10 * MAX_EXACT_DIGITS
     products, sums = (ast.Mult, ast.Div), (ast.Add, ast.Sub)
@@ -322,7 +322,7 @@ def check_expression_size(text: str, where: str = "expression", *, grouped: str 
     nested at most :data:`MAX_DEPTH` deep, number literals of at most :data:`MAX_DIGITS` digits, constant
     exponents of at most :data:`MAX_EXPONENT`, constants of magnitude within ``1e±100`` (``9**9**9``,
     ``x**(10**10)``, power towers) and exact constants of at most about ten times
-    :data:`obsnl.model.work.MAX_EXACT_DIGITS` digits.
+    :data:`obsnl.model.bounds.work.MAX_EXACT_DIGITS` digits.
 
     Parameters
     ----------

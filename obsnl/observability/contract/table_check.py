@@ -14,9 +14,9 @@ import sympy as sp
 
 from obsnl.errors import ObsnlError, TableError
 from obsnl.model.core import Model
-from obsnl.model.parse import parse_expression
-from obsnl.model.signature import TABLE_FIX, ModelSignature
-from obsnl.observability.branch_table import BranchEntry, BranchTable
+from obsnl.model.reading.parse import parse_expression
+from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
+from obsnl.observability.contract.branch_table import BranchEntry, BranchTable
 
 __all__ = ["check_table"]
 
@@ -55,7 +55,7 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     Parameters
     ----------
     table
-        A table read with :func:`~obsnl.observability.branch_table.load_branch_table`.
+        A table read with :func:`~obsnl.observability.contract.branch_table.load_branch_table`.
     model
         The model the estimator will run.
     max_seconds

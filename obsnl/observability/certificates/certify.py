@@ -4,16 +4,16 @@
 unobservable variable is not decided for the model. :func:`certify_by_symmetry`: certificates of
 jointly unobservable variables by symmetries shared by every visited branch.
 
-A Lie symmetry of one branch (:func:`obsnl.observability.symmetry.symmetries`, verified symbolically)
+A Lie symmetry of one branch (:func:`obsnl.observability.certificates.symmetry.symmetries`, verified symbolically)
 that is verified symbolically in every other visited branch too
-(:func:`obsnl.observability.proofs.verify_generator`) and that keeps every switching surface in place
+(:func:`obsnl.observability.certificates.proofs.verify_generator`) and that keeps every switching surface in place
 (a scaling under which the switching function is weighted homogeneous, or a field ``X`` with
 ``X(g) = c g``) maps trajectories of the switched system to trajectories with the same output, crossing
 the same surfaces at the same instants: every variable it moves is jointly unobservable, whatever the
 visits could not evaluate (a surface on which the field is singular, e.g. ``|g|**N`` with ``N``
 unknown). This certifies verdicts that the rank computation left undecided.
 
-With representative branches (:mod:`obsnl.model.representatives`) only scalings and translations
+With representative branches (:mod:`obsnl.model.branching.representatives`) only scalings and translations
 count: their proof is equation by equation (each equation weighted homogeneous, or unchanged by the
 shift), every equation of any branch depends on one group's signs only, and every form it takes in
 a feasible branch occurs in some representative branch, so the proof holds in every branch.
@@ -27,12 +27,12 @@ from dataclasses import replace
 import sympy as sp
 
 from obsnl.errors import ObsnlError
-from obsnl.model.branches import Branch
+from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
-from obsnl.model.work import can_expand
-from obsnl.observability.joint import JointResult
-from obsnl.observability.proofs import ANY, is_zero, verify_generator, weight
-from obsnl.observability.symmetry import Symmetry, symmetries
+from obsnl.model.bounds.work import can_expand
+from obsnl.observability.joint.verdict import JointResult
+from obsnl.observability.certificates.proofs import ANY, is_zero, verify_generator, weight
+from obsnl.observability.certificates.symmetry import Symmetry, symmetries
 
 __all__ = ["shared_symmetries", "certify_by_symmetry", "undecided_beyond_visits"]
 
