@@ -51,11 +51,11 @@ _LAZY: dict[str, str] = {
     "identify": "identification.identify", "Identification": "identification.runs", "read_measured": "estimation.measured",
     "Measured": "estimation.measured",
     # symmetries, identifiable combinations, reparametrizations
-    "symmetries": "observability.certificates.symmetry", "Symmetry": "observability.certificates.symmetry", "Symmetries": "observability.certificates.symmetry",
-    "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrize",
+    "symmetries": "observability.certificates.symmetry", "Symmetry": "observability.certificates.generators", "Symmetries": "observability.certificates.generators",
+    "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrization",
     "identifiable_functions": "recombination.identifiable", "IdentifiableFunctions": "recombination.identifiable",
     # which sensors, which experiment (the design room)
-    "sensors": "design.sensors", "SensorSearch": "design.sensors",
+    "sensors": "design.sensors", "SensorSearch": "design.sensor_search",
     "same_field": "recombination.fields", "FieldComparison": "recombination.fields", "model_to_toml": "model.files",
 }
 

@@ -82,7 +82,8 @@ def _cmd_identify(args: argparse.Namespace) -> int:
     from obsnl.identification.experiments import Tuning
     from obsnl.identification.runs import MEASURED_GRID
     from obsnl.report.identification import identify_text
-    from obsnl.identification.identify import IDENTIFY_FILES, identify, parse_assignments, study, write_identification
+    from obsnl.identification.identify import IDENTIFY_FILES, identify, study, write_identification
+    from obsnl.identification.structural import parse_assignments
 
     for given, option, needs in ((args.samples is not None and args.data, "--samples", "a --record study; cut the "
                                   "data file instead"),

@@ -40,8 +40,8 @@ from obsnl.observability.limits import out_of_memory
 from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import BranchResult, Verdict
 from obsnl.observability.joint.selection import select_branches
-from obsnl.observability.engines.smooth import (METHODS, _branch_result, _check, _fresh_seed, _variable_names,
-                                       resolve_unknown_input_derivatives)
+from obsnl.observability.engines.inputs import METHODS, _check, _variable_names, resolve_unknown_input_derivatives
+from obsnl.observability.engines.smooth import _branch_result, _fresh_seed
 
 __all__ = ["analyze", "assumptions", "METHODS"]
 

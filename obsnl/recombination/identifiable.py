@@ -39,7 +39,8 @@ from obsnl.errors import AnalysisError, NotSupportedError
 from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
 from obsnl.model.core import Model
 from obsnl.algebra.modp import PRIME, nullspace_mod_p, rank_mod_p, rational_reconstruction
-from obsnl.observability.certificates.symmetry import Symmetries, _monomials, symmetries as find_symmetries
+from obsnl.observability.certificates.symmetry import _monomials, symmetries as find_symmetries
+from obsnl.observability.certificates.generators import Symmetries
 
 __all__ = ["IdentifiableFunctions", "identifiable_functions"]
 

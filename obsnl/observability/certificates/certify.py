@@ -32,7 +32,8 @@ from obsnl.model.core import Model
 from obsnl.model.bounds.work import can_expand
 from obsnl.observability.joint.verdict import JointResult
 from obsnl.observability.certificates.proofs import ANY, is_zero, verify_generator, weight
-from obsnl.observability.certificates.symmetry import Symmetry, symmetries
+from obsnl.observability.certificates.symmetry import symmetries
+from obsnl.observability.certificates.generators import Symmetry
 
 __all__ = ["shared_symmetries", "certify_by_symmetry", "undecided_beyond_visits"]
 

@@ -62,19 +62,9 @@ from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.observability.limits import check_analysis_limits
 from obsnl.observability.joint.visits import (
-    JointVisit,
-    NewPrime,
-    Plan,
-    Prepared,
-    VisitData,
-    branch_visit,
-    classify_visit,
-    kernel_rows,
-    private_names,
-    replace_visit,
-    strip_ic,
-    surface_visit,
+    JointVisit, NewPrime, Plan, Prepared, VisitData, branch_visit, classify_visit, private_names, replace_visit, strip_ic, surface_visit,
 )
+from obsnl.observability.joint.modular import kernel_rows
 
 __all__ = ["JointResult", "JointVisit", "joint_verdict"]
 

@@ -12,7 +12,7 @@ with its private columns first; the rows without private entries are its paramet
 from __future__ import annotations
 
 import random
-from collections.abc import Callable, Mapping, MutableMapping
+from collections.abc import Callable, MutableMapping
 from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any
@@ -22,7 +22,6 @@ import sympy as sp
 
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import bound_sizes, failure_bound
-from obsnl.algebra.modp import nmod_matrix, nullspace_mod_p
 from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.series import run_series
 from obsnl.errors import AnalysisError
@@ -30,21 +29,9 @@ from obsnl.model.branching.branches import derived_model, expr_text
 from obsnl.model.bounds.work import degree_in
 from obsnl.model.core import Model
 from obsnl.observability.engines.sedoglavic import RankTracker, stall_safe
+from obsnl.observability.joint.modular import _mod, _rref, kernel_rows
 
-__all__ = [
-    "JointVisit",
-    "NewPrime",
-    "Plan",
-    "Prepared",
-    "VisitData",
-    "branch_visit",
-    "classify_visit",
-    "kernel_rows",
-    "private_names",
-    "replace_visit",
-    "strip_ic",
-    "surface_visit",
-]
+__all__ = ["JointVisit", "NewPrime", "Plan", "Prepared", "VisitData", "branch_visit", "classify_visit", "private_names", "replace_visit", "strip_ic", "surface_visit"]
 
 # --------------------------------------------------------------------------- the visit record
 @dataclass(frozen=True)
@@ -86,7 +73,6 @@ class JointVisit:
         return {"kind": self.kind, "labels": list(self.labels), "switching": self.switching,
                 "visible": self.visible, "parameter_rank": self.parameter_rank, "rank_gain": self.rank_gain,
                 "solved_for": self.solved_for, "reason": self.reason}
-
 
 
 # --------------------------------------------------------------------------- prepared problems
@@ -160,47 +146,6 @@ class _Atoms(MutableMapping):
 
 class NewPrime(Exception):
     """A visit could not be evaluated modulo the run's prime."""
-
-
-# --------------------------------------------------------------------------- modular helpers
-def _rref(R: np.ndarray, p: int) -> np.ndarray:
-    if R.shape[0] == 0 or R.shape[1] == 0:
-        return np.zeros((0, R.shape[1]), dtype=np.int64)
-    X, r = nmod_matrix(R, R.shape[1], p).rref()
-    return np.array([[int(X[i, j]) for j in range(R.shape[1])] for i in range(r)], dtype=np.int64)
-
-
-def kernel_rows(R: np.ndarray, ncols: int, p: int) -> list[bool]:
-    """Per column: True when some kernel vector of ``R`` is nonzero there (not determined).
-
-    Parameters
-    ----------
-    R : numpy.ndarray
-        Integer rows mod ``p`` (may have no rows).
-    ncols : int
-        Number of columns.
-    p : int
-        Prime modulus.
-
-    Returns
-    -------
-    list of bool
-    """
-    if ncols == 0:
-        return []
-    ker = nullspace_mod_p(R, ncols, p) if R.shape[0] else [[int(i == j) for i in range(ncols)] for j in range(ncols)]
-    return [any(k[j] for k in ker) for j in range(ncols)]
-
-
-def _mod(expr: sp.Expr, values: Mapping[sp.Symbol, int], p: int) -> int | None:
-    """``expr`` at integer ``values`` reduced mod p (None: not a rational number, or a zero denominator)."""
-    v = sp.sympify(expr).xreplace({s: sp.Integer(values[s]) for s in expr.free_symbols if s in values})
-    if not v.is_Rational:
-        return None
-    v = sp.Rational(v)
-    if int(v.q) % p == 0:
-        return None
-    return int(v.p) * pow(int(v.q), -1, p) % p
 
 
 # --------------------------------------------------------------------------- one visit
