@@ -43,7 +43,7 @@ _LAZY: dict[str, str] = {
     "to_casadi": "estimation.codegen", "NumericModel": "estimation.codegen", "ParameterMap": "estimation.codegen",
     "parameter_map": "estimation.codegen", "log_map": "estimation.codegen",
     "UKF": "estimation.ukf", "Estimate": "estimation.ukf", "Trajectory": "estimation.ukf", "DUKF": "estimation.dukf",
-    "Record": "estimation.records", "read_record": "estimation.records", "add_noise": "estimation.records", "simulate": "estimation.simulate",
+    "Record": "estimation.accelerogram", "read_record": "estimation.records", "add_noise": "estimation.records", "simulate": "estimation.simulate",
     "reproduce": "studies.seed_paper", "Reproduction": "studies.seed_paper",
     "Setup": "identification.experiments", "Tuning": "identification.experiments", "make_data": "identification.experiments", "make_filter": "identification.experiments",
     "run_passes": "identification.experiments", "output_misfit": "identification.experiments", "practical_identifiability": "identification.practical",

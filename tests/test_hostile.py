@@ -109,28 +109,28 @@ def test_3_reparametrize_name_lookalike_refused(tmp_path, capsys):
 
 # ----------------------------------------------------------------------------- 4 JIT folder
 def test_4_a_planted_jit_folder_is_not_used(tmp_path, monkeypatch):
-    from obsnl.estimation import numeric
+    from obsnl.estimation import jitcache
 
-    monkeypatch.setattr(numeric.tempfile, "tempdir", str(tmp_path))
-    monkeypatch.setattr(numeric, "_PRIVATE_JIT", [])
+    monkeypatch.setattr(jitcache.tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(jitcache, "_PRIVATE_JIT", [])
     victim = tmp_path / "victim"
     victim.mkdir()
     (tmp_path / f"obsnl-jit-{os.getuid()}").symlink_to(victim)
-    d = numeric.jit_directory()
+    d = jitcache.jit_directory()
     assert not d.startswith(str(victim)) and os.path.realpath(d) != str(victim)
     st_ = os.lstat(d)
     assert not stat.S_ISLNK(st_.st_mode) and stat.S_IMODE(st_.st_mode) == 0o700 and st_.st_uid == os.getuid()
 
 
 def test_4_a_world_writable_jit_folder_is_not_used(tmp_path, monkeypatch):
-    from obsnl.estimation import numeric
+    from obsnl.estimation import jitcache
 
-    monkeypatch.setattr(numeric.tempfile, "tempdir", str(tmp_path))
-    monkeypatch.setattr(numeric, "_PRIVATE_JIT", [])
+    monkeypatch.setattr(jitcache.tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(jitcache, "_PRIVATE_JIT", [])
     shared = tmp_path / f"obsnl-jit-{os.getuid()}"
     shared.mkdir()
     shared.chmod(0o777)
-    assert os.path.realpath(numeric.jit_directory()) != str(shared)
+    assert os.path.realpath(jitcache.jit_directory()) != str(shared)
 
 
 # ----------------------------------------------------------------------------- 5 symlinks

@@ -16,7 +16,7 @@ import pytest
 
 import obsnl
 from obsnl.estimation.measured import measured
-from obsnl.estimation.records import Record
+from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.simulate import Simulation
 from obsnl.estimation.trajectory import Estimate, Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS

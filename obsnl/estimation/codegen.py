@@ -25,7 +25,8 @@ from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text, switching_functions
 from obsnl.errors import ModelError, NotSupportedError, TableError
 from obsnl.model.core import Model
-from obsnl.estimation.numeric import NumericModel, ParameterMap, jit_options
+from obsnl.estimation.numeric import NumericModel, ParameterMap
+from obsnl.estimation.jitcache import jit_options
 from obsnl.model.reading.parse import make_symbol, parse_expression
 
 __all__ = ["NumericModel", "ParameterMap", "to_casadi", "parameter_map", "log_map", "numpy_model", "jit_options"]

@@ -27,7 +27,8 @@ from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured, simulation_study
 from obsnl.estimation.measured import Measured, measured, read_measured
-from obsnl.estimation.records import Record, read_record
+from obsnl.estimation.records import read_record
+from obsnl.estimation.accelerogram import Record
 from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.model.files import load_model

@@ -31,7 +31,7 @@ import numpy as np
 from obsnl.errors import DataError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
 from obsnl.estimation.measured import NOISE_FLOOR, Measured, estimate_noise
-from obsnl.estimation.records import Record
+from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import Trajectory
 from obsnl.executor import Executor
