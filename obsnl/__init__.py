@@ -30,10 +30,10 @@ __version__ = "0.1.0"
 _LAZY: dict[str, str] = {
     # linear observability, extended observers, observer bank (seed 001_d0508a78c5399696.txt)
     "LinearSystem": "linear.systems", "as_linear_system": "linear.systems", "system_scaling": "linear.systems",
-    "kalman_rank": "linear.systems", "hautus": "linear.systems", "ObsVerdict": "linear.systems",
+    "kalman_rank": "linear.systems", "hautus": "linear.hautus", "ObsVerdict": "linear.systems",
     "integrator": "linear.observer", "oscillator": "linear.observer", "extend": "linear.observer",
     "extended_observability": "linear.observer", "riccati_gain": "linear.observer", "place_gain": "linear.observer",
-    "simulate_observer": "linear.observer",
+    "simulate_observer": "linear.simulation",
     "build_bank": "linear.bank", "ObserverBank": "linear.bank", "calibrate_thresholds": "linear.bank", "decide": "linear.bank",
     "BankVerdict": "linear.bank", "run_link_study": "studies.link_study",
     "build_cantilever": "studies.cantilever", "load_link_spec": "studies.cantilever", "BreathingCrack": "studies.cantilever",

@@ -119,7 +119,7 @@ def test_3_a_published_size_equation_of_12000_nodes_is_read(tmp_path, capsys):
 
 def test_3_a_long_sum_parses_to_the_same_expression():
     from obsnl.model.reading.parse import make_symbol, parse_expression
-    from obsnl.model.bounds.textsize import regroup_sums
+    from obsnl.model.bounds.regroup import regroup_sums
 
     syms = {n: make_symbol(n) for n in ("x", "y", "k")}
     text = " - ".join(f"{i}*x**{i % 3} - k*y/{i + 1}" for i in range(60)) + " + Max(x - 1, " + \

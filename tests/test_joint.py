@@ -11,7 +11,8 @@ import json
 import pytest
 
 from obsnl import Model, analyze, load_model, split_branches
-from obsnl.observability.joint.verdict import JointResult, joint_verdict
+from obsnl.observability.joint.verdict import joint_verdict
+from obsnl.observability.joint.result import JointResult
 
 from .conftest import PEER_CASES
 

@@ -17,7 +17,8 @@ from scipy.linalg import expm
 from scipy.optimize import least_squares
 
 import obsnl
-from obsnl.identification.likelihood import DECREMENT, STOP, covariance, levenberg_marquardt, refine
+from obsnl.identification.likelihood import DECREMENT, STOP, covariance, levenberg_marquardt
+from obsnl.identification.refine import refine
 from obsnl.identification.profile import THRESHOLD, judge, profile, profiles
 from obsnl.estimation.accelerogram import Record
 from obsnl.identification.setup import Data, Setup

@@ -20,7 +20,7 @@ from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.simulate import Simulation
 from obsnl.estimation.trajectory import Estimate, Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS
-from obsnl.identification.likelihood import Refinement
+from obsnl.identification.refine import Refinement
 from obsnl.identification.practical import Practical, Spread
 from obsnl.identification.profile import Profile
 from obsnl.identification.results import Identification, ParameterEstimate

@@ -1,5 +1,4 @@
-"""The value of a sensor search: the sets that suffice, the smallest, and the reasons of those refused.
-"""
+"""The value of a sensor search: the sets that suffice, the smallest, and the reasons of those refused."""
 
 from __future__ import annotations
 

@@ -29,7 +29,9 @@ from obsnl.estimation.numeric import NumericModel, ParameterMap
 from obsnl.estimation.jitcache import jit_options
 from obsnl.model.reading.parse import make_symbol, parse_expression
 
-__all__ = ["NumericModel", "ParameterMap", "to_casadi", "parameter_map", "log_map", "numpy_model", "jit_options"]
+__all__ = [
+    "NumericModel", "ParameterMap", "to_casadi", "parameter_map", "log_map", "numpy_model", "jit_options",
+]
 
 _UNARY = {
     sp.exp: ca.exp, sp.log: ca.log, sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.tanh: ca.tanh,

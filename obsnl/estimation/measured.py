@@ -35,7 +35,10 @@ from obsnl.estimation.records import check_seconds, read_table, times_from_text
 from obsnl.estimation.accelerogram import Record, check_times
 from obsnl.model.bounds.textsize import quote
 
-__all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS", "MIN_SAMPLES"]
+__all__ = [
+    "Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS",
+    "MIN_SAMPLES",
+]
 
 #: Accepted names of the time column (seconds).
 TIME_COLUMNS = ("time_s", "t")

@@ -24,7 +24,10 @@ from obsnl.errors import DataError
 from obsnl.model.bounds.textsize import quote
 from obsnl.estimation.accelerogram import G, Record, check_times
 
-__all__ = ["check_seconds", "read_text", "read_record", "read_csv", "read_at2", "add_noise", "rms", "MAX_FILE_BYTES", "read_table", "times_from_text"]
+__all__ = [
+    "check_seconds", "read_text", "read_record", "read_csv", "read_at2", "add_noise", "rms",
+    "MAX_FILE_BYTES", "read_table", "times_from_text",
+]
 
 
 def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:

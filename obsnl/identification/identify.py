@@ -25,7 +25,8 @@ from typing import Any
 from obsnl.errors import AnalysisError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.experiments import Tuning
-from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured, simulation_study
+from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
+from obsnl.identification.simulation import simulation_study
 from obsnl.estimation.measured import Measured, measured, read_measured
 from obsnl.estimation.records import read_record
 from obsnl.estimation.accelerogram import Record
@@ -197,7 +198,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
 
     Same structural check as :func:`identify`; see
-    :func:`obsnl.identification.runs.simulation_study` for the rest.
+    :func:`obsnl.identification.simulation.simulation_study` for the rest.
 
     Parameters
     ----------

@@ -111,7 +111,7 @@ def analyze(
     -------
     AnalysisResult
         One :class:`~obsnl.observability.verdicts.BranchResult` per visited branch, the union, the joint
-        verdict (:class:`~obsnl.observability.joint.verdict.JointResult`), how the branches were chosen, the
+        verdict (:class:`~obsnl.observability.joint.result.JointResult`), how the branches were chosen, the
         seed, the bound and the ``assumptions`` the verdicts rest on (unknown and known inputs,
         initial conditions).
 

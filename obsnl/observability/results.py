@@ -13,7 +13,7 @@ from typing import Any
 
 from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
 from obsnl.model.branching.signature import ModelSignature
-from obsnl.observability.joint.verdict import JointResult
+from obsnl.observability.joint.result import JointResult
 from obsnl.observability.joint.selection import Visited
 from obsnl.observability.verdicts import BranchResult, Verdict
 
@@ -56,7 +56,7 @@ class AnalysisResult:
         The analysed model's :class:`~obsnl.model.branching.signature.ModelSignature` (names, order,
         fingerprint, switching functions): a branch table is written from the result alone.
     joint
-        The joint verdict (:class:`~obsnl.observability.joint.verdict.JointResult`): what the visited
+        The joint verdict (:class:`~obsnl.observability.joint.result.JointResult`): what the visited
         branches and visible switching surfaces reveal together, parameters shared. None when not
         computed.
     visited

@@ -4,7 +4,7 @@ Algorithm (algorithms.md §4.2, step C, extended to non-smooth models):
 
 1. Split the model into branches and find the generators of each (:func:`obsnl.symmetries`).
 2. The scalings shared by *every* branch form a group whose Hubert-Labahn invariants are the new
-   coordinates (:func:`obsnl.recombination.invariants.scaling_section`; exponents may depend on ``N``).
+   coordinates (:func:`obsnl.recombination.scalings.scaling_section`; exponents may depend on ``N``).
 3. Every other generator is pushed forward to these coordinates; a translation there is kept.
    Translations common to all branches are divided out (linear invariants); those of some branches
    only are kept as *branch-adapted* coordinates: ``Delta1 = beta' + gamma'`` (identifiable in the
@@ -29,8 +29,11 @@ import sympy as sp
 
 from obsnl.model.branching.branches import split_branches
 from obsnl.errors import ModelError
-from obsnl.recombination.invariants import (adapted_forms, coordinates, pushforward, scaling_section, section_map, span_intersection,
-                         translation_invariants)
+from obsnl.recombination.invariants import (
+    adapted_forms, coordinates, pushforward, span_intersection, translation_invariants,
+)
+from obsnl.recombination.scalings import section_map
+from obsnl.recombination.scalings import scaling_section
 from obsnl.observability.limits import check_analysis_limits
 from obsnl.observability.engines.smooth import analyze_smooth
 from obsnl.model.core import Model

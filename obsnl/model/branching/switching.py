@@ -22,7 +22,9 @@ from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.reading.parse import shorten
 from obsnl.model.bounds.work import can_factor
 
-__all__ = ["expr_text", "switching_functions", "switching_of", "innermost_nonsmooth", "resolve", "check_declared"]
+__all__ = [
+    "expr_text", "switching_functions", "switching_of", "innermost_nonsmooth", "resolve", "check_declared",
+]
 
 
 def expr_text(g: sp.Expr) -> str:

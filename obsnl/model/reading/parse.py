@@ -27,8 +27,10 @@ from sympy.parsing.sympy_parser import (
 
 from obsnl.errors import ParseError
 from obsnl.model.bounds.budget import check_time
-from obsnl.model.bounds.textsize import (MAX_DEPTH, MAX_DIGITS, MAX_EXPONENT, MAX_LENGTH, MAX_NODES,  # noqa: F401
-                                  check_expression_size, quote, regroup_sums, shorten)
+from obsnl.model.bounds.textsize import (
+    MAX_DEPTH, MAX_DIGITS, MAX_EXPONENT, MAX_LENGTH, MAX_NODES, check_expression_size, quote, shorten,
+)
+from obsnl.model.bounds.regroup import regroup_sums
 from obsnl.model.bounds.work import MAX_EXACT_DIGITS, exact_digits
 
 __all__ = ["ALLOWED_FUNCTIONS", "PARSER_NAMES", "make_symbol", "parse_expression", "check_expression_size",

@@ -15,7 +15,9 @@ from typing import Any
 from obsnl.errors import ModelError
 from obsnl.model.reading.parse import quote
 
-__all__ = ["ARBITRARY", "DERIVATIVES_MARGIN", "check_unknown_input_derivatives", "max_unknown_input_derivatives"]
+__all__ = [
+    "ARBITRARY", "DERIVATIVES_MARGIN", "check_unknown_input_derivatives", "max_unknown_input_derivatives",
+]
 
 #: The value of ``unknown_input_derivatives`` for unknown inputs that are any function of time.
 ARBITRARY = "arbitrary"

@@ -30,7 +30,7 @@ from obsnl.errors import ObsnlError
 from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
 from obsnl.model.bounds.work import can_expand
-from obsnl.observability.joint.verdict import JointResult
+from obsnl.observability.joint.result import JointResult
 from obsnl.observability.certificates.proofs import ANY, is_zero, verify_generator, weight
 from obsnl.observability.certificates.symmetry import symmetries
 from obsnl.observability.certificates.generators import Symmetry

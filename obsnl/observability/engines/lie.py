@@ -1,5 +1,4 @@
-"""Lie derivatives of a model's outputs along its vector field, symbolic and bounded in size and time.
-"""
+"""Lie derivatives of a model's outputs along its vector field, symbolic and bounded in size and time."""
 
 from __future__ import annotations
 

@@ -47,114 +47,29 @@ from __future__ import annotations
 
 import random
 import time
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 import sympy as sp
 
-from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
 from obsnl.algebra.modp import Echelon, Resample, random_prime
 from obsnl.algebra.series import TimeUp, draw_prime
 from obsnl.errors import AnalysisError
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.observability.limits import check_analysis_limits
-from obsnl.observability.joint.visits import (
-    JointVisit, NewPrime, Plan, Prepared, VisitData, branch_visit, classify_visit, private_names, replace_visit, strip_ic, surface_visit,
-)
 from obsnl.observability.joint.modular import kernel_rows
+from obsnl.observability.joint.result import JointResult
+from obsnl.observability.joint.visits import (
+    JointVisit, NewPrime, Plan, Prepared, VisitData, _Classes, branch_visit, classify_visit, private_names,
+    replace_visit, strip_ic, surface_visit,
+)
 
-__all__ = ["JointResult", "JointVisit", "joint_verdict"]
+__all__ = ["JointVisit", "joint_verdict"]
 
 _MAX_RUNS = 4
 _MAX_PRIMES = 4
-
-
-@dataclass(frozen=True)
-class JointResult:
-    """What the whole experiment reveals when parameters are shared by all branches.
-
-    Attributes
-    ----------
-    model
-        The model's name.
-    observable, unobservable, inconclusive
-        States (initial values) and parameters, in model order. A state is observable when its
-        value at some visit is determined; ``inconclusive`` comes with ``reason``.
-    unknown_inputs
-        ``{"observable": (...), "unobservable": (...)}`` (empty without unknown inputs); undecided
-        unknown inputs are in ``inconclusive``.
-    visits
-        The visits used, in order (:class:`JointVisit`).
-    union_observable
-        Variables observable within a single branch visit on its own (the per-branch union,
-        over the branch visits made; see ``assumptions["union_over"]``).
-    parameter_rank
-        Rank of the joint parameter row space (first run).
-    probability
-        Lower bound on the probability that every decided verdict is right.
-    seed
-        The seed of every random choice.
-    runs
-        Number of independent runs (prime and points).
-    early_stop
-        True when visits were skipped because everything was already observable.
-    reason
-        Why some verdicts are inconclusive (empty otherwise).
-    assumptions
-        What the verdict assumes: unknown-input derivatives, known inputs generic, the visited
-        branches, the surfaces used (visible), invisible and skipped, known initial conditions.
-    seconds
-        Wall time.
-    """
-
-    model: str
-    observable: tuple[str, ...]
-    unobservable: tuple[str, ...]
-    inconclusive: tuple[str, ...]
-    unknown_inputs: Mapping[str, tuple[str, ...]]
-    visits: tuple[JointVisit, ...]
-    union_observable: tuple[str, ...]
-    parameter_rank: int
-    probability: float
-    seed: int
-    runs: int
-    early_stop: bool
-    reason: str
-    assumptions: Mapping[str, Any]
-    seconds: float
-
-    def __repr__(self) -> str:
-        words = verdict_words(self.observable, self.unobservable, self.inconclusive, most=6)
-        return one_line("JointResult", f"model={self.model!r}", repr(words), f"visits={len(self.visits)}",
-                        bound(self.probability))
-
-    def summary(self) -> str:
-        """A few lines of plain text: the verdict, why some is undecided, the visits used."""
-        return block(f"{self.model}: {verdict_words(self.observable, self.unobservable, self.inconclusive, most=12)}",
-                     f"undecided because: {self.reason}" if self.inconclusive else "",
-                     f"visits: {names([v.kind + ' ' + '/'.join(v.labels) for v in self.visits], 6)}; parameter rank "
-                     f"{self.parameter_rank}; P >= {probability_text(self.probability)}, seed {self.seed}")
-
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-ready dictionary (tuples as lists)."""
-        def plain(v: Any) -> Any:
-            if isinstance(v, Mapping):
-                return {k: plain(x) for k, x in v.items()}
-            if isinstance(v, (tuple, list)):
-                return [plain(x) for x in v]
-            return v
-
-        return {
-            "model": self.model, "observable": list(self.observable), "unobservable": list(self.unobservable),
-            "inconclusive": list(self.inconclusive), "unknown_inputs": plain(self.unknown_inputs),
-            "visits": [v.to_dict() for v in self.visits], "union_observable": list(self.union_observable),
-            "parameter_rank": self.parameter_rank, "probability": self.probability, "seed": self.seed,
-            "runs": self.runs, "early_stop": self.early_stop, "reason": self.reason,
-            "assumptions": plain(self.assumptions), "seconds": self.seconds,
-        }
 
 
 # --------------------------------------------------------------------------- one run
@@ -227,59 +142,6 @@ def _run_at(model: Model, plans: list[Plan], seed: int, run_no: int, attempt: in
     obs = classes.update(done, ech)
     certified = _certified(done, p, n_par, states, params, ws, known)
     return _Run(p, done, obs, certified, failure, ech.rank, early, union)
-
-
-class _Classes:
-    """The joint classes of one run, kept up to date as visits are added.
-
-    ``Pi`` only grows, and with it what each visit determines: a visit classified at some rank of
-    ``Pi`` keeps its observable columns, and is classified again only when the rank has grown since
-    (so a run costs one classification per visit once ``Pi`` is full, not one per visit and check).
-    """
-
-    def __init__(self, p: int, states: list[str], params: list[str], ws: list[str], known: set[str]) -> None:
-        self.p, self.params = p, params
-        self.seen: dict[str, bool] = {c: c in known for c in states}
-        self.seen.update({w: False for w in ws})
-        self.at_rank: dict[int, int] = {}  # id of a visit -> rank of Pi at its last classification
-
-    def update(self, done: list[VisitData], ech: Echelon) -> dict[str, bool]:
-        p, n_par = self.p, len(self.params)
-        Pi = ech.rows if ech.rank else np.zeros((0, n_par), dtype=np.int64)
-        unobs_par = kernel_rows(Pi, n_par, p)
-        for v in done:
-            if not v.used or self.at_rank.get(id(v), -1) >= ech.rank:
-                continue
-            self.at_rank[id(v)] = ech.rank
-            for c, ok in classify_visit(v, Pi, p).items():
-                if ok and c in self.seen:
-                    self.seen[c] = True
-        out = {c: not u for c, u in zip(self.params, unobs_par)}
-        out.update(self.seen)
-        return out
-
-
-def _certified(done: list[VisitData], p: int, n_par: int, states: list[str], params: list[str],
-               ws: list[str], known: set[str]) -> set[str]:
-    """Names certified by a full-column-rank sub-stack (see the module docstring)."""
-    S = []
-    for v in done:
-        if not v.used:
-            continue
-        n_priv = v.plan.sides[0].n_priv
-        rank_priv = sum(1 for i in range(v.rows.shape[0]) if v.rows[i, :n_priv].any())
-        if rank_priv == n_priv:
-            S.append(v)
-    e = Echelon(n_par, p)
-    for v in S:
-        for r in v.pi:
-            e.add(r)
-    if e.rank < n_par:
-        return set()
-    out = set(params) | known
-    for v in S:
-        out |= {c for c in private_names(v.plan.sides[0]) if c in states or c in ws}
-    return out
 
 
 # --------------------------------------------------------------------------- the verdict
@@ -484,3 +346,25 @@ def _decided(runs: list[_Run], prob: float, names: list[str], final: bool = Fals
         return None
     return out, min(1.0, failure)
 
+
+def _certified(done: list[VisitData], p: int, n_par: int, states: list[str], params: list[str],
+               ws: list[str], known: set[str]) -> set[str]:
+    """Names certified by a full-column-rank sub-stack (see the module docstring)."""
+    S = []
+    for v in done:
+        if not v.used:
+            continue
+        n_priv = v.plan.sides[0].n_priv
+        rank_priv = sum(1 for i in range(v.rows.shape[0]) if v.rows[i, :n_priv].any())
+        if rank_priv == n_priv:
+            S.append(v)
+    e = Echelon(n_par, p)
+    for v in S:
+        for r in v.pi:
+            e.add(r)
+    if e.rank < n_par:
+        return set()
+    out = set(params) | known
+    for v in S:
+        out |= {c for c in private_names(v.plan.sides[0]) if c in states or c in ws}
+    return out

@@ -22,6 +22,7 @@ import sympy as sp
 
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import bound_sizes, failure_bound
+from obsnl.algebra.modp import Echelon
 from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.series import run_series
 from obsnl.errors import AnalysisError
@@ -32,6 +33,7 @@ from obsnl.observability.engines.sedoglavic import RankTracker, stall_safe
 from obsnl.observability.joint.modular import _mod, _rref, kernel_rows
 
 __all__ = ["JointVisit", "NewPrime", "Plan", "Prepared", "VisitData", "branch_visit", "classify_visit", "private_names", "replace_visit", "strip_ic", "surface_visit"]
+
 
 # --------------------------------------------------------------------------- the visit record
 @dataclass(frozen=True)
@@ -345,3 +347,33 @@ def classify_visit(v: VisitData, Pi: np.ndarray, p: int) -> dict[str, bool]:
         stack = np.vstack([stack, np.hstack([np.zeros((Pi.shape[0], n_priv), dtype=np.int64), Pi])])
     unobs = kernel_rows(stack, n_priv + n_par, p)
     return {c: not unobs[i] for i, c in enumerate(private_names(prep))}
+
+
+class _Classes:
+    """The joint classes of one run, kept up to date as visits are added.
+
+    ``Pi`` only grows, and with it what each visit determines: a visit classified at some rank of
+    ``Pi`` keeps its observable columns, and is classified again only when the rank has grown since
+    (so a run costs one classification per visit once ``Pi`` is full, not one per visit and check).
+    """
+
+    def __init__(self, p: int, states: list[str], params: list[str], ws: list[str], known: set[str]) -> None:
+        self.p, self.params = p, params
+        self.seen: dict[str, bool] = {c: c in known for c in states}
+        self.seen.update({w: False for w in ws})
+        self.at_rank: dict[int, int] = {}  # id of a visit -> rank of Pi at its last classification
+
+    def update(self, done: list[VisitData], ech: Echelon) -> dict[str, bool]:
+        p, n_par = self.p, len(self.params)
+        Pi = ech.rows if ech.rank else np.zeros((0, n_par), dtype=np.int64)
+        unobs_par = kernel_rows(Pi, n_par, p)
+        for v in done:
+            if not v.used or self.at_rank.get(id(v), -1) >= ech.rank:
+                continue
+            self.at_rank[id(v)] = ech.rank
+            for c, ok in classify_visit(v, Pi, p).items():
+                if ok and c in self.seen:
+                    self.seen[c] = True
+        out = {c: not u for c, u in zip(self.params, unobs_par)}
+        out.update(self.seen)
+        return out
