@@ -181,7 +181,7 @@ def _result():
 
 def test_6_a_file_another_run_wrote_meanwhile_is_kept_and_nothing_of_ours_lands(tmp_path, monkeypatch):
     from obsnl.errors import OutputError
-    from obsnl.report import files
+    from obsnl.report import files, folders
 
     out = tmp_path / "out"
     real_write = files.OutputFolder.write_text
@@ -193,7 +193,7 @@ def test_6_a_file_another_run_wrote_meanwhile_is_kept_and_nothing_of_ours_lands(
 
     monkeypatch.setattr(files.OutputFolder, "write_text", racing)
     with pytest.raises(OutputError, match="appeared while this run was writing"):
-        files.write_tables([_result()], out, force=False)
+        folders.write_tables([_result()], out, force=False)
     assert sorted(p.name for p in out.iterdir()) == ["timings.md"]  # no .md/.tex/.json/index of ours, no staging
     assert (out / "timings.md").read_text() == "the other run\n"
 
