@@ -7,7 +7,7 @@ Plain script (no pytest):
 
 Per model: one warm-up call of each method, then ``--repeat`` rounds that alternate auto and
 series; the median of each is reported with the ratio auto/series, and whether the two methods gave
-the same per-branch verdicts. The dispatch rule (``obsnl.observability.smooth``) promises that no
+the same per-branch verdicts. The dispatch rule (``obsnl.observability.engines.smooth``) promises that no
 model is slower under auto than twice the series engine.
 """
 

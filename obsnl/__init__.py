@@ -13,16 +13,17 @@ from obsnl.errors import (
     ParseError,
     TableError,
 )
-from obsnl.model.branches import Branch, split_branches
+from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
 
 # the observability engines (imported eagerly: these functions share their modules' names)
 from obsnl.observability.analyze import analyze
-from obsnl.observability.decompose import decompose, dependency_graph
-from obsnl.observability.smooth import orc, sedoglavic
+from obsnl.observability.engines.decompose import decompose, dependency_graph
+from obsnl.observability.engines.smooth import orc, sedoglavic
 from obsnl import report  # noqa: F401  (registers the notebook renderers of results)
-from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult, Verdict
 
 __version__ = "0.1.0"
 
@@ -31,20 +32,20 @@ __version__ = "0.1.0"
 _LAZY: dict[str, str] = {
     # linear observability, extended observers, observer bank (seed 001_d0508a78c5399696.txt)
     "LinearSystem": "linear.systems", "as_linear_system": "linear.systems", "system_scaling": "linear.systems",
-    "kalman_rank": "linear.systems", "hautus": "linear.systems", "ObsVerdict": "linear.systems",
+    "kalman_rank": "linear.systems", "hautus": "linear.hautus", "ObsVerdict": "linear.systems",
     "integrator": "linear.observer", "oscillator": "linear.observer", "extend": "linear.observer",
     "extended_observability": "linear.observer", "riccati_gain": "linear.observer", "place_gain": "linear.observer",
-    "simulate_observer": "linear.observer",
+    "simulate_observer": "linear.simulation",
     "build_bank": "linear.bank", "ObserverBank": "linear.bank", "calibrate_thresholds": "linear.bank", "decide": "linear.bank",
     "BankVerdict": "linear.bank", "run_link_study": "studies.link_study",
     "build_cantilever": "studies.cantilever", "load_link_spec": "studies.cantilever", "BreathingCrack": "studies.cantilever",
     # branch tables (the estimators' contract)
-    "BranchTable": "observability.branch_table", "load_branch_table": "observability.branch_table",
+    "BranchTable": "observability.contract.branch_table", "load_branch_table": "observability.contract.branch_table",
     # estimators: codegen (the sympy -> casadi bridge), UKF, DUKF, records, identification
     "to_casadi": "estimation.codegen", "NumericModel": "estimation.codegen", "ParameterMap": "estimation.codegen",
     "parameter_map": "estimation.codegen", "log_map": "estimation.codegen",
     "UKF": "estimation.ukf", "Estimate": "estimation.ukf", "Trajectory": "estimation.ukf", "DUKF": "estimation.dukf",
-    "Record": "estimation.records", "read_record": "estimation.records", "add_noise": "estimation.records", "simulate": "estimation.simulate",
+    "Record": "estimation.accelerogram", "read_record": "estimation.records", "add_noise": "estimation.records", "simulate": "estimation.simulate",
     "reproduce": "studies.seed_paper", "Reproduction": "studies.seed_paper",
     "Setup": "identification.experiments", "Tuning": "identification.experiments", "make_data": "identification.experiments", "make_filter": "identification.experiments",
     "run_passes": "identification.experiments", "output_misfit": "identification.experiments", "practical_identifiability": "identification.practical",
@@ -52,11 +53,11 @@ _LAZY: dict[str, str] = {
     "identify": "identification.identify", "Identification": "identification.runs", "read_measured": "estimation.measured",
     "Measured": "estimation.measured",
     # symmetries, identifiable combinations, reparametrizations
-    "symmetries": "observability.symmetry", "Symmetry": "observability.symmetry", "Symmetries": "observability.symmetry",
-    "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrize",
+    "symmetries": "observability.certificates.symmetry", "Symmetry": "observability.certificates.generators", "Symmetries": "observability.certificates.generators",
+    "reparametrize": "recombination.reparametrize", "Reparametrization": "recombination.reparametrization",
     "identifiable_functions": "recombination.identifiable", "IdentifiableFunctions": "recombination.identifiable",
     # which sensors, which experiment (the design room)
-    "sensors": "design.sensors", "SensorSearch": "design.sensors",
+    "sensors": "design.sensors", "SensorSearch": "design.sensor_search",
     "same_field": "recombination.fields", "FieldComparison": "recombination.fields", "model_to_toml": "model.files",
 }
 

@@ -12,7 +12,8 @@ from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.results import AnalysisResult
-from obsnl.report.files import check_target, report_files, write_tables
+from obsnl.report.files import check_target
+from obsnl.report.folders import report_files, write_tables
 
 __all__ = ["report_models"]
 

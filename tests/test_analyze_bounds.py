@@ -14,7 +14,7 @@ import pytest
 
 import obsnl
 import obsnl.observability.analyze as analyze_module
-import obsnl.observability.smooth as smooth_module
+import obsnl.observability.engines.smooth as smooth_module
 from obsnl import Model, analyze, sedoglavic
 from obsnl.cli import main
 from obsnl.errors import AnalysisError, ModelError, OptionError
@@ -164,11 +164,11 @@ def test_a_memory_error_inside_the_analysis_is_one_line(tmp_path, capsys, monkey
 
 @pytest.mark.parametrize("entry", ["symmetries", "reparametrize", "joint_verdict"])
 def test_the_other_entry_points_refuse_a_model_too_large_before_any_work(monkeypatch, entry):
-    import obsnl.observability.joint as joint_module
-    import obsnl.observability.symmetry as symmetry_module
+    import obsnl.observability.joint.verdict as joint_module
+    import obsnl.observability.certificates.symmetry as symmetry_module
     import obsnl.recombination.reparametrize as reparametrize_module
-    from obsnl.observability.joint import joint_verdict
-    from obsnl.observability.symmetry import symmetries
+    from obsnl.observability.joint.verdict import joint_verdict
+    from obsnl.observability.certificates.symmetry import symmetries
     from obsnl.recombination.reparametrize import reparametrize
 
     def tripwire(*args, **kwargs):  # the first heavy step of each entry point; never reached

@@ -12,7 +12,7 @@ import json
 import pytest
 
 import obsnl
-from obsnl.observability.branch_table import BranchTable, load_branch_table
+from obsnl.observability.contract.branch_table import BranchTable, load_branch_table
 from obsnl.errors import TableError
 
 from .conftest import MODELS

@@ -6,7 +6,7 @@ import json
 
 import jsonschema
 
-from obsnl.observability.branch_table import schema
+from obsnl.observability.contract.branch_table import schema
 from obsnl.cli import main
 
 from .conftest import MODELS

@@ -166,7 +166,7 @@ def test_parameter_map_round_trip_and_dependencies():
 def test_jit_scratch_files_stay_out_of_the_working_directory(tmp_path, monkeypatch):
     # casadi's shell compiler writes its C source to the working directory unless told otherwise;
     # a user's folder must not collect jit_tmp*.c files (a killed run would leave them behind)
-    from obsnl.estimation.numeric import jit_directory, jit_options
+    from obsnl.estimation.jitcache import jit_directory, jit_options
 
     monkeypatch.chdir(tmp_path)
     x = ca.SX.sym("x")

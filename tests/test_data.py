@@ -7,7 +7,8 @@ from importlib import resources
 import numpy as np
 import pytest
 
-from obsnl.estimation.records import G, Record, add_noise, read_at2, read_csv, read_record, rms
+from obsnl.estimation.records import add_noise, read_at2, read_csv, read_record, rms
+from obsnl.estimation.accelerogram import G, Record
 from obsnl.errors import DataError
 
 DATA = resources.files("obsnl").joinpath("studies/data")

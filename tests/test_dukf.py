@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import obsnl
-from obsnl.observability.branch_table import BranchTable
+from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.estimation.codegen import log_map, to_casadi
 from obsnl.estimation.records import read_record
 from obsnl.estimation.dukf import DUKF

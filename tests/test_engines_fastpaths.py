@@ -5,7 +5,7 @@
 - :class:`obsnl.algebra.taylor.Stepper` (every order of every node at once through the tangent map)
   against a plain per-node, per-order Taylor recursion written here, on random models with every
   kind of operation and atom, known and unknown inputs and given initial values.
-- :func:`obsnl.model.branches.derived_model` (branches and blocks without re-parsing) against the
+- :func:`obsnl.model.branching.branches.derived_model` (branches and blocks without re-parsing) against the
   validated construction, field by field.
 """
 

@@ -95,7 +95,7 @@ def test_exported_from_the_package():
     assert obsnl.same_field is same_field
 
 
-@pytest.mark.parametrize("module", ["obsnl.recombination.fields", "obsnl.model.files", "obsnl.observability.symmetry", "obsnl.recombination.reparametrize",
+@pytest.mark.parametrize("module", ["obsnl.recombination.fields", "obsnl.model.files", "obsnl.observability.certificates.symmetry", "obsnl.recombination.reparametrize",
                                     "obsnl.recombination.identifiable"])
 def test_docstring_examples(module):
     import doctest

@@ -95,7 +95,7 @@ def test_3_a_lookalike_in_an_expression_is_refused():
 
 def test_3_greek_names_are_one_spelling_and_fit_the_table_schema():
     from obsnl.observability.analyze import analyze
-    from obsnl.observability.branch_table import BranchTable
+    from obsnl.observability.contract.branch_table import BranchTable
 
     m = Model.from_dict({**BASE, "parameters": ["\u03ba"], "equations": {"x": "v", "v": "-\u03ba*x"}})
     table = BranchTable.from_result(analyze(m, seed=0))  # validated against the schema
@@ -109,28 +109,28 @@ def test_3_reparametrize_name_lookalike_refused(tmp_path, capsys):
 
 # ----------------------------------------------------------------------------- 4 JIT folder
 def test_4_a_planted_jit_folder_is_not_used(tmp_path, monkeypatch):
-    from obsnl.estimation import numeric
+    from obsnl.estimation import jitcache
 
-    monkeypatch.setattr(numeric.tempfile, "tempdir", str(tmp_path))
-    monkeypatch.setattr(numeric, "_PRIVATE_JIT", [])
+    monkeypatch.setattr(jitcache.tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(jitcache, "_PRIVATE_JIT", [])
     victim = tmp_path / "victim"
     victim.mkdir()
     (tmp_path / f"obsnl-jit-{os.getuid()}").symlink_to(victim)
-    d = numeric.jit_directory()
+    d = jitcache.jit_directory()
     assert not d.startswith(str(victim)) and os.path.realpath(d) != str(victim)
     st_ = os.lstat(d)
     assert not stat.S_ISLNK(st_.st_mode) and stat.S_IMODE(st_.st_mode) == 0o700 and st_.st_uid == os.getuid()
 
 
 def test_4_a_world_writable_jit_folder_is_not_used(tmp_path, monkeypatch):
-    from obsnl.estimation import numeric
+    from obsnl.estimation import jitcache
 
-    monkeypatch.setattr(numeric.tempfile, "tempdir", str(tmp_path))
-    monkeypatch.setattr(numeric, "_PRIVATE_JIT", [])
+    monkeypatch.setattr(jitcache.tempfile, "tempdir", str(tmp_path))
+    monkeypatch.setattr(jitcache, "_PRIVATE_JIT", [])
     shared = tmp_path / f"obsnl-jit-{os.getuid()}"
     shared.mkdir()
     shared.chmod(0o777)
-    assert os.path.realpath(numeric.jit_directory()) != str(shared)
+    assert os.path.realpath(jitcache.jit_directory()) != str(shared)
 
 
 # ----------------------------------------------------------------------------- 5 symlinks
@@ -225,7 +225,7 @@ def test_6_a_result_carrying_a_bad_latex_name_renders_the_plain_name():
 # ----------------------------------------------------------------------------- 7 branch limits
 def test_7_total_switching_limit_and_labels_for_any_count():
     from obsnl.errors import NotSupportedError
-    from obsnl.model.branches import _labels
+    from obsnl.model.branching.branches import _labels
 
     nested = "+".join(f"sign(x - {i} + sign(v - {i}))" for i in range(1, 11))  # 10 + 10 nested
     m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x + " + nested}})
@@ -257,7 +257,7 @@ def test_8_a_function_inside_a_switching_function_renders(tmp_path, capsys, fmt)
 # ----------------------------------------------------------------------------- 9 contradictory tables
 def _damage_table():
     from obsnl.observability.analyze import analyze
-    from obsnl.observability.branch_table import BranchTable
+    from obsnl.observability.contract.branch_table import BranchTable
 
     m = obsnl.load_model("obsnl:coulomb_friction")
     return m, BranchTable.from_result(analyze(m, seed=0)).to_dict()
@@ -272,7 +272,7 @@ def _swap_first_two(d):
 
 def _variant(kind):
     from obsnl.observability.analyze import analyze
-    from obsnl.observability.branch_table import BranchTable
+    from obsnl.observability.contract.branch_table import BranchTable
 
     # a model whose two branches differ: k is visible only while v > 0
     m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x*Heaviside(v) - x"}})
@@ -292,8 +292,8 @@ def _variant(kind):
 @pytest.mark.parametrize("kind, words", [("swap", "in the table but"), ("flip", "opposite orientation"),
                                          ("guard", "contradicts its signs"), ("missing", "lacks the branch")])
 def test_9_tables_contradicting_a_fresh_analysis_are_refused(kind, words):
-    from obsnl.observability.branch_table import BranchTable
-    from obsnl.observability.table_check import check_table
+    from obsnl.observability.contract.branch_table import BranchTable
+    from obsnl.observability.contract.table_check import check_table
 
     m, d = _variant(kind)
     if kind != "swap":
@@ -310,7 +310,7 @@ def test_9_tables_contradicting_a_fresh_analysis_are_refused(kind, words):
                                        identifiable_parameters=[], unidentifiable_parameters=["k"]), "both"),
 ])
 def test_9_self_contradicting_tables_are_refused_by_the_reader(edit, words):
-    from obsnl.observability.branch_table import BranchTable
+    from obsnl.observability.contract.branch_table import BranchTable
 
     _, d = _damage_table()
     edit(d)
@@ -320,7 +320,7 @@ def test_9_self_contradicting_tables_are_refused_by_the_reader(edit, words):
 
 def test_9_identify_refuses_a_swapped_table(tmp_path, capsys):
     from obsnl.observability.analyze import analyze
-    from obsnl.observability.branch_table import BranchTable
+    from obsnl.observability.contract.branch_table import BranchTable
 
     p = model_file(tmp_path, equations={"x": "v", "v": "-k*x*Heaviside(v) - x"})
     d = BranchTable.from_result(analyze(obsnl.load_model(p), seed=0)).to_dict()
@@ -553,7 +553,7 @@ def test_10_degenerate_measured_data_are_named(tmp_path, capsys, column, words):
 
 
 def test_9_a_folder_given_as_a_branch_table_is_named(tmp_path):
-    from obsnl.observability.branch_table import load_branch_table
+    from obsnl.observability.contract.branch_table import load_branch_table
 
     with pytest.raises(TableError, match="is a folder"):  # used to say "does not exist"
         load_branch_table(tmp_path)

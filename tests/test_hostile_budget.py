@@ -20,8 +20,8 @@ import obsnl
 from obsnl import Model
 from obsnl.cli import main
 from obsnl.errors import AnalysisError, ModelError, ParseError, TableError
-from obsnl.model.budget import check_time, remaining, time_budget
-from obsnl.model.work import can_expand, can_factor, expanded_size
+from obsnl.model.bounds.budget import check_time, remaining, time_budget
+from obsnl.model.bounds.work import can_expand, can_factor, expanded_size
 
 BASE = {"name": "m", "states": ["x", "v"], "parameters": ["k"], "equations": {"x": "v", "v": "-k*x"},
         "outputs": {"y": "x"}}
@@ -93,7 +93,7 @@ def test_3_one_budget_starts_before_reading_the_model(tmp_path, capsys):
 
 
 def test_3_factoring_and_splitting_check_the_budget():
-    from obsnl.model.branches import split_branches, switching_functions
+    from obsnl.model.branching.branches import split_branches, switching_functions
 
     m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x - sign(v*(x - 1)) + sign(x + v)"}})
     with time_budget(1e-9):
@@ -118,8 +118,8 @@ def test_3_a_published_size_equation_of_12000_nodes_is_read(tmp_path, capsys):
 
 
 def test_3_a_long_sum_parses_to_the_same_expression():
-    from obsnl.model.parse import make_symbol, parse_expression
-    from obsnl.model.textsize import regroup_sums
+    from obsnl.model.reading.parse import make_symbol, parse_expression
+    from obsnl.model.bounds.regroup import regroup_sums
 
     syms = {n: make_symbol(n) for n in ("x", "y", "k")}
     text = " - ".join(f"{i}*x**{i % 3} - k*y/{i + 1}" for i in range(60)) + " + Max(x - 1, " + \
@@ -172,7 +172,7 @@ def test_4_an_undecided_branch_is_reported_never_dropped(tmp_path, capsys):
 
 
 def test_4_contradictions_of_products_are_proved_not_searched():
-    from obsnl.model.feasibility import feasible
+    from obsnl.model.branching.feasibility import feasible
 
     x, v, k = sp.symbols("x v k", real=True)
     rng = np.random.default_rng(0)
@@ -225,7 +225,7 @@ def test_10_a_model_too_large_is_refused_before_parsing(tmp_path, capsys, monkey
     p = tmp_path / "big.json"
     p.write_text(json.dumps({"name": "big", "states": [f"s{i}" for i in range(n)], "parameters": ["k"],
                              "equations": {f"s{i}": f"-k*s{i}" for i in range(n)}, "outputs": {"y": "s0"}}))
-    import obsnl.model.parse as parse
+    import obsnl.model.reading.parse as parse
 
     def tripwire(*a, **k):  # noqa: ANN002, ANN003
         raise AssertionError("an expression was parsed before the size check")
@@ -262,7 +262,7 @@ def test_10_a_huge_branch_table_is_refused_before_its_schema(tmp_path, monkeypat
     import jsonschema
 
     monkeypatch.setattr(jsonschema, "validate", lambda *a, **k: pytest.fail("validated before the size cap"))
-    from obsnl.observability.branch_table import load_branch_table
+    from obsnl.observability.contract.branch_table import load_branch_table
 
     with pytest.raises(TableError, match="60000 branches, more than the 4096"):
         load_branch_table(p)

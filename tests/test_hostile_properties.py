@@ -49,7 +49,7 @@ from obsnl import ObsnlError
 from obsnl.cli import main
 from obsnl.estimation.measured import read_measured
 from obsnl.estimation.records import read_record
-from obsnl.observability.branch_table import BranchTable, load_branch_table
+from obsnl.observability.contract.branch_table import BranchTable, load_branch_table
 
 #: Examples per property (the ``ci`` profile); ``OBSNL_HYPOTHESIS_EXAMPLES`` overrides it.
 EXAMPLES = int(os.environ.get("OBSNL_HYPOTHESIS_EXAMPLES", "60"))

@@ -18,7 +18,7 @@ from obsnl.cli import main
 from obsnl.errors import DataError, ModelError, ObsnlError, ParseError
 from obsnl.estimation.measured import MIN_SAMPLES, estimate_noise, measured, read_measured
 from obsnl.estimation.records import read_at2, read_csv
-from obsnl.model.branches import split_branches
+from obsnl.model.branching.branches import split_branches
 from obsnl.model.files import load_model
 
 BASE = {"name": "msd", "states": ["x", "v"], "parameters": ["k", "c"], "inputs": ["f"],

@@ -46,7 +46,7 @@ def one_line_refusal(code: int, err: str, *words: str) -> None:
 @pytest.fixture(scope="module")
 def bouc_wen_a1(tmp_path_factory):
     from obsnl.observability.analyze import analyze
-    from obsnl.observability.branch_table import BranchTable
+    from obsnl.observability.contract.branch_table import BranchTable
 
     folder = tmp_path_factory.mktemp("bw1")
     path = folder / "bw1.json"
@@ -58,7 +58,7 @@ def bouc_wen_a1(tmp_path_factory):
 
 
 def _moved(table, names=("beta", "gamma")):
-    from obsnl.observability.branch_table import BranchTable
+    from obsnl.observability.contract.branch_table import BranchTable
 
     d = table.to_dict()
     d["joint"]["observable"] = [v for v in d["joint"]["observable"] if v not in names]
@@ -67,7 +67,7 @@ def _moved(table, names=("beta", "gamma")):
 
 
 def test_1_a_joint_key_that_hides_jointly_identifiable_parameters_is_refused(bouc_wen_a1):
-    from obsnl.observability.table_check import check_table
+    from obsnl.observability.contract.table_check import check_table
 
     _, model, table = bouc_wen_a1
     check_table(table, model)  # the table obsnl wrote passes
@@ -76,8 +76,8 @@ def test_1_a_joint_key_that_hides_jointly_identifiable_parameters_is_refused(bou
 
 
 def test_1_a_joint_key_with_an_invented_inconclusive_entry_is_refused(bouc_wen_a1):
-    from obsnl.observability.branch_table import BranchTable
-    from obsnl.observability.table_check import check_table
+    from obsnl.observability.contract.branch_table import BranchTable
+    from obsnl.observability.contract.table_check import check_table
 
     _, model, table = bouc_wen_a1
     d = table.to_dict()
@@ -181,7 +181,7 @@ def _result():
 
 def test_6_a_file_another_run_wrote_meanwhile_is_kept_and_nothing_of_ours_lands(tmp_path, monkeypatch):
     from obsnl.errors import OutputError
-    from obsnl.report import files
+    from obsnl.report import files, folders
 
     out = tmp_path / "out"
     real_write = files.OutputFolder.write_text
@@ -193,7 +193,7 @@ def test_6_a_file_another_run_wrote_meanwhile_is_kept_and_nothing_of_ours_lands(
 
     monkeypatch.setattr(files.OutputFolder, "write_text", racing)
     with pytest.raises(OutputError, match="appeared while this run was writing"):
-        files.write_tables([_result()], out, force=False)
+        folders.write_tables([_result()], out, force=False)
     assert sorted(p.name for p in out.iterdir()) == ["timings.md"]  # no .md/.tex/.json/index of ours, no staging
     assert (out / "timings.md").read_text() == "the other run\n"
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import obsnl
-from obsnl.observability.branch_table import BranchTable
+from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.cli import main
 from obsnl.identification.experiments import (DIVERGED, Tuning, coordinates, make_data, make_filter, output_misfit,
                             practical_identifiability, run_passes)
@@ -305,7 +305,7 @@ def test_a_diverged_first_pass_holds_nothing_and_an_unsimulable_one_ends_the_run
 def _gain_setup(T=400, noise=0.01):
     """y = g u (a gauge of unknown gain) and a state driven by u: ordinary least squares in disguise."""
     from obsnl.estimation.codegen import to_casadi
-    from obsnl.estimation.records import Record
+    from obsnl.estimation.accelerogram import Record
     from obsnl.identification.experiments import Setup
 
     model = obsnl.Model(name="gain", states=["x"], parameters=["g"], inputs=["u"], equations={"x": "u - x"},

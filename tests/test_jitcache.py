@@ -12,7 +12,7 @@ import pytest
 
 from obsnl.errors import OutputError
 from obsnl.estimation import jitcache
-from obsnl.estimation.numeric import jit_options
+from obsnl.estimation.jitcache import jit_options
 
 pytestmark = pytest.mark.skipif(not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="needs a C compiler")
 

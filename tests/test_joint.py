@@ -1,4 +1,4 @@
-"""The joint verdict of switched models (obsnl.observability.joint).
+"""The joint verdict of switched models (obsnl.observability.joint.verdict).
 
 Every expected answer is derived by hand in the comments of its test (research/switched.md §2 for
 the bilinear spring); none is copied from obsnl's output.
@@ -11,7 +11,8 @@ import json
 import pytest
 
 from obsnl import Model, analyze, load_model, split_branches
-from obsnl.observability.joint import JointResult, joint_verdict
+from obsnl.observability.joint.verdict import joint_verdict
+from obsnl.observability.joint.result import JointResult
 
 from .conftest import PEER_CASES
 

@@ -12,8 +12,8 @@ import pytest
 
 import obsnl
 from obsnl.cli import main
-from obsnl.model.representatives import representative_branches, switching_groups
-from obsnl.observability.visited import visited_patterns
+from obsnl.model.branching.representatives import representative_branches, switching_groups
+from obsnl.observability.joint.visited import visited_patterns
 from obsnl.studies.buildings import bouc_wen_building
 
 from .conftest import MODELS

@@ -19,9 +19,10 @@ import pytest
 import obsnl
 from obsnl import report
 from obsnl.cli import main
-from obsnl.observability.joint import JointResult
-from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
-from obsnl.report.files import write_tables
+from obsnl.observability.joint.result import JointResult
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult, Verdict
+from obsnl.report.folders import write_tables
 
 BILINEAR = obsnl.Model(
     name="bilinear", states=["x", "v"], parameters=["c", "k", "alpha", "x_y"], inputs=["u"],

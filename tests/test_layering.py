@@ -1,6 +1,7 @@
 """The package's import graph (built from the source with ``ast``): layers along the data flow, no
-circles between modules or between subpackages, a small top level, short files; the numeric layer never
-imports sympy and codegen is the only module that imports both sympy and casadi."""
+circles between modules or between subpackages, an inner order inside the wide rooms, rooms of at most 12
+modules, a small top level, files of at most 400 lines; the numeric layer never imports sympy and codegen
+is the only module that imports both sympy and casadi."""
 
 from __future__ import annotations
 
@@ -26,8 +27,37 @@ LAYERS = {
     "batch": 8,
     "cli": 9, "__init__": 9, "__main__": 10,
 }
+#: The inner order of a room that has sub-rooms (each subpackage ``__init__`` states it): a module imports
+#: only a lower rank of its own room, or its own sub-room. A top-level module of the room is its own unit.
+INNER = {
+    "observability": {
+        "limits": 0, "verdicts": 0,
+        "engines": 1,
+        "joint": 2,
+        "certificates": 3,
+        "results": 4,
+        "analyze": 5,
+        "contract": 6,
+    },
+    "model": {
+        "bounds": 0,
+        "reading": 1,
+        "core": 2,
+        "files": 3, "branching": 3,
+    },
+}
 #: What the estimators may read of the observability room (docs/architecture.md: only through the branch table).
-ESTIMATION_READS = {"obsnl.observability.branch_table", "obsnl.observability.signature"}
+ESTIMATION_READS = {"obsnl.observability.contract.branch_table"}
+#: The most modules a room (a subpackage, or a sub-room) holds, its ``__init__`` not counted.
+MAX_MODULES = 12
+#: The most lines a module holds.
+MAX_LINES = 400
+#: Over MAX_LINES by permission. Being changed in the identification work; split next:
+LONG_EXCEPTIONS = {"obsnl.studies.seed_paper", "obsnl.studies.seed_tasks", "obsnl.report.identification"}
+#: Not split yet (issue 25 is open on them): this list only shrinks.
+NOT_YET_SPLIT = {
+    "obsnl.algebra.atoms", "obsnl.model.core",
+}
 
 
 def _module_name(path: Path) -> str:
@@ -112,11 +142,67 @@ def test_every_room_has_a_layer():
     assert {_room(m) for m in MODULES} <= set(LAYERS)
 
 
-def test_small_top_level_and_short_files():
+def _unit(module: str) -> str | None:
+    """The sub-room (or top-level module) of ``module`` inside a room with an inner order, else None."""
+    parts = module.split(".")
+    if len(parts) < 3 or parts[1] not in INNER:
+        return None
+    return parts[2]
+
+
+def test_every_unit_of_an_ordered_room_has_a_rank():
+    units = {(m.split(".")[1], _unit(m)) for m in MODULES if _unit(m) is not None}
+    assert {u for r, u in units if u not in INNER[r]} == set()
+
+
+def test_imports_inside_a_room_point_down_its_inner_order():
+    g = _graph()
+    wrong = []
+    for a, b in g.edges:
+        ua, ub = _unit(a), _unit(b)
+        if _room(a) != _room(b) or ua is None or ub is None or ua == ub:
+            continue
+        order = INNER[_room(a)]
+        if order[ub] >= order[ua]:
+            wrong.append(f"{a} -> {b}")
+    assert wrong == []
+
+
+def test_no_circles_between_sub_rooms():
+    g = _graph()
+    units = nx.DiGraph()
+    for a, b in g.edges:
+        ua, ub = _unit(a), _unit(b)
+        if _room(a) == _room(b) and ua is not None and ub is not None and ua != ub:
+            units.add_edge((_room(a), ua), (_room(b), ub))
+    assert list(nx.simple_cycles(units)) == []
+
+
+def test_no_room_of_more_than_twelve_modules():
+    wide = {}
+    for folder in [PKG, *(p.parent for p in PKG.rglob("__init__.py"))]:
+        modules = [p.name for p in folder.glob("*.py") if p.name != "__init__.py"]
+        if len(modules) > MAX_MODULES:
+            wide[str(folder.relative_to(PKG.parent))] = len(modules)
+    assert wide == {}
+
+
+def test_small_top_level():
     top = [p for p in PKG.glob("*.py")]
     assert len(top) <= 8, [p.name for p in top]
-    long = {m: n for m, p in MODULES.items() if (n := len(p.read_text(encoding="utf-8").splitlines())) > 500}
+
+
+def test_no_module_over_400_lines():
+    long = {m: n for m, p in MODULES.items()
+            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES
+            and m not in LONG_EXCEPTIONS | NOT_YET_SPLIT}
     assert long == {}
+
+
+def test_the_modules_not_yet_split_are_still_long():
+    """Drop a module from NOT_YET_SPLIT once it is split."""
+    short = {m for m in NOT_YET_SPLIT if len(MODULES[m].read_text(encoding="utf-8").splitlines()) <= MAX_LINES}
+    assert short == set()
 
 
 def test_the_package_is_grouped_into_subpackages():

@@ -17,9 +17,10 @@ from scipy.linalg import expm
 from scipy.optimize import least_squares
 
 import obsnl
-from obsnl.identification.likelihood import DECREMENT, STOP, covariance, levenberg_marquardt, refine
+from obsnl.identification.likelihood import DECREMENT, STOP, covariance, levenberg_marquardt
+from obsnl.identification.refine import refine
 from obsnl.identification.profile import THRESHOLD, judge, profile, profiles
-from obsnl.estimation.records import Record
+from obsnl.estimation.accelerogram import Record
 from obsnl.identification.setup import Data, Setup
 
 MSD = obsnl.Model(name="msd", states=["x", "v"], parameters=["k", "c"], inputs=["u"],

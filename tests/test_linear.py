@@ -15,17 +15,12 @@ import pytest
 
 from obsnl.studies.cantilever import build_cantilever
 from obsnl.errors import AnalysisError, DataError
-from obsnl.linear.systems import LinearSystem, ObsVerdict, as_linear_system, hautus, kalman_rank, system_scaling
+from obsnl.linear.systems import LinearSystem, ObsVerdict, as_linear_system, kalman_rank, system_scaling
+from obsnl.linear.hautus import hautus
 from obsnl.linear.observer import (
-    extend,
-    extended_observability,
-    integrator,
-    oscillator,
-    place_gain,
-    riccati_gain,
-    simulate_observer,
-    zoh,
+    extend, extended_observability, integrator, oscillator, place_gain, riccati_gain,
 )
+from obsnl.linear.simulation import simulate_observer, zoh
 
 
 def random_system(seed: int) -> tuple[np.ndarray, np.ndarray, int]:

@@ -9,7 +9,7 @@ import sympy as sp
 
 import obsnl
 from obsnl import Model, ModelError, ParseError
-from obsnl.model.parse import make_symbol, parse_expression
+from obsnl.model.reading.parse import make_symbol, parse_expression
 
 from .conftest import MODEL_FILES, PEER_CASE_FILES
 

@@ -17,8 +17,9 @@ import pytest
 
 import obsnl
 from obsnl import report
-from obsnl.observability.branch_table import BranchTable, schema
-from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
+from obsnl.observability.contract.branch_table import BranchTable, schema
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult, Verdict
 
 from .conftest import MODELS
 

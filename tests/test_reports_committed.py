@@ -22,7 +22,7 @@ import obsnl
 import obsnl.batch
 from obsnl import report
 from obsnl.observability.analyze import analyze
-from obsnl.observability.branch_table import BranchTable, load_branch_table, schema
+from obsnl.observability.contract.branch_table import BranchTable, load_branch_table, schema
 
 from .conftest import MODEL_FILES, MODELS, PEER_CASE_FILES, ROOT
 from .test_report import latex_structure_ok

@@ -16,18 +16,19 @@ import pytest
 
 import obsnl
 from obsnl.estimation.measured import measured
-from obsnl.estimation.records import Record
+from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.simulate import Simulation
 from obsnl.estimation.trajectory import Estimate, Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS
-from obsnl.identification.likelihood import Refinement
+from obsnl.identification.refine import Refinement
 from obsnl.identification.practical import Practical, Spread
 from obsnl.identification.profile import Profile
 from obsnl.identification.results import Identification, ParameterEstimate
 from obsnl.identification.setup import Tuning
 from obsnl.linear.bank import BankDecision, BankVerdict
 from obsnl.linear.systems import ObsVerdict
-from obsnl.observability.results import AnalysisResult, BranchResult
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult
 
 BILINEAR = obsnl.Model(
     name="bilinear", states=["x", "v"], parameters=["c", "k", "alpha", "x_y"], inputs=["u"],

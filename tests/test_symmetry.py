@@ -1,4 +1,4 @@
-"""Generators of the unobservable directions (obsnl.observability.symmetry).
+"""Generators of the unobservable directions (obsnl.observability.certificates.symmetry).
 
 Expected answers: the seed paper 000_d24855f97fc8bdd4.txt (§3.2 and Table 1: unobservable sets and
 transcendence degrees of branches (a)-(d); beta, gamma enter as beta + gamma in (a), (c) and as
@@ -16,8 +16,8 @@ import sympy as sp
 import obsnl
 from obsnl import Model
 from obsnl.errors import NotSupportedError
-from obsnl.observability.proofs import ANY, verify_generator, weight
-from obsnl.observability.symmetry import symmetries
+from obsnl.observability.certificates.proofs import ANY, verify_generator, weight
+from obsnl.observability.certificates.symmetry import symmetries
 
 from .conftest import MODELS, PEER_CASES
 

@@ -10,7 +10,7 @@ from typing import Any
 import sympy as sp
 
 from obsnl.errors import ModelError
-from obsnl.model.work import can_factor
+from obsnl.model.bounds.work import can_factor
 
 __all__ = ["user_form"]
 
@@ -18,7 +18,7 @@ __all__ = ["user_form"]
 def _factor_fraction(g: sp.Expr):
     """``g`` as a rational number, or ((c, factors) of the numerator, (c, factors) of the denominator).
 
-    A part too large to factor cheaply (:func:`obsnl.model.work.can_factor`) is kept whole: ``log|part|``
+    A part too large to factor cheaply (:func:`obsnl.model.bounds.work.can_factor`) is kept whole: ``log|part|``
     is then one atom, which is still exact.
     """
     g = sp.together(g)

@@ -22,8 +22,8 @@ import sympy as sp
 from obsnl.errors import NotSupportedError
 from obsnl.algebra.arguments import _factor_fraction, _rational_gcd, _to_exact, user_form  # noqa: F401
 from obsnl.model.core import NONSMOOTH_FUNCTIONS
-from obsnl.model.textsize import shorten
-from obsnl.model.work import MAX_EXPANDED_TERMS, can_expand
+from obsnl.model.bounds.textsize import shorten
+from obsnl.model.bounds.work import MAX_EXPANDED_TERMS, can_expand
 
 __all__ = ["Atom", "Rewriter", "rewrite"]
 

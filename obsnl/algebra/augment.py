@@ -1,6 +1,6 @@
 """Non-rational terms of a smooth model, rewritten over augmented functions ("atoms").
 
-Both exact engines (:mod:`obsnl.observability.orc`, :mod:`obsnl.observability.sedoglavic`) and every evaluation at a random
+Both exact engines (:mod:`obsnl.observability.engines.orc`, :mod:`obsnl.observability.engines.sedoglavic`) and every evaluation at a random
 point (:mod:`obsnl.algebra.jets`: the symmetry search, identifiable functions, ``same_field``) work with
 rational functions modulo a prime. A smooth branch of a mechanical model may also contain symbolic
 powers (``|sigma - eta|**(2*N)``, ``x3**p3``), ``exp``, ``log``, ``sqrt``, ``sin``, ``cos``, ``atan``
@@ -47,7 +47,7 @@ fixed transcendental number and the logs of primes are random stand-ins; indepen
 logarithms of several primes (or of ``pi``) is Schanuel's conjecture, which the notes state.
 Plain augmentation with a *free* initial value would only be conservative (on the seed model
 it would wrongly make ``Delta1`` look unidentifiable); obsnl never does that. Expressions evaluated
-later at the same point (a candidate identifiable function, :mod:`obsnl.observability.jacobian`) are rewritten
+later at the same point (a candidate identifiable function, :mod:`obsnl.observability.engines.jacobian`) are rewritten
 over the same atoms (:meth:`obsnl.algebra.atoms.Rewriter.extend`): an exponential of a monomial that has an
 atom becomes a power or a root of it, so that the stand-ins keep their relations.
 """

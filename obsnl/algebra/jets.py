@@ -10,7 +10,7 @@ given initial conditions; its gradient is the chain rule. The table of rules and
 are the generic ones (Ax's theorem) are in :mod:`obsnl.algebra.augment`.
 
 Users: :mod:`obsnl.algebra.series` (order-0 jets of every node of a problem, where the Taylor steps
-start), :mod:`obsnl.observability.jacobian` (gradients of further expressions at the point of an observability
+start), :mod:`obsnl.observability.engines.jacobian` (gradients of further expressions at the point of an observability
 Jacobian) and :class:`Expressions` (free expressions at random points: ``same_field``, the
 determining equations of the symmetry search, values of generators).
 """

@@ -4,8 +4,8 @@
 coefficients of unknown inputs), compiles the rationalized right-hand sides, outputs, atom arguments
 and given initial values into one straight-line program (:mod:`obsnl.algebra.slp`), and derives its
 point-independent :class:`Layout`: which node varies in time, a topological order, and the plan of
-the batched Taylor step (:func:`obsnl.algebra.taylor.make_plan`). Both engines (:mod:`obsnl.observability.sedoglavic`,
-:mod:`obsnl.observability.orc`) start from a :class:`Problem`; the series are evaluated by :mod:`obsnl.algebra.series`.
+the batched Taylor step (:func:`obsnl.algebra.taylor.make_plan`). Both engines (:mod:`obsnl.observability.engines.sedoglavic`,
+:mod:`obsnl.observability.engines.orc`) start from a :class:`Problem`; the series are evaluated by :mod:`obsnl.algebra.series`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ import sympy as sp
 from obsnl.algebra.augment import Rationalized
 from obsnl.algebra.jets import atom_deps, atom_expressions, atom_roots, topological_order
 from obsnl.model.core import Model
-from obsnl.model.unknown_inputs import ARBITRARY
+from obsnl.model.reading.unknown_inputs import ARBITRARY
 from obsnl.algebra.slp import Program, compile_program
 from obsnl.algebra.taylor import Plan, make_plan
 

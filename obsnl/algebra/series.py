@@ -85,9 +85,9 @@ def run_series(
     """Evaluate the output series of ``problem`` to ``K`` terms at a random point.
 
     ``stop(rows, p)`` is called after each order and may end the computation early (full rank,
-    or a stalled rank, see :mod:`obsnl.observability.sedoglavic`); ``full_rank_at`` records where it did.
+    or a stalled rank, see :mod:`obsnl.observability.engines.sedoglavic`); ``full_rank_at`` records where it did.
     ``fixed`` forces the values of some parameters or known constants (the ORC's second point).
-    The joint verdict (:mod:`obsnl.observability.joint`) evaluates several smooth models at one
+    The joint verdict (:mod:`obsnl.observability.joint.verdict`) evaluates several smooth models at one
     point: ``states`` forces the values of free initial states, ``input_series`` the coefficients of
     known inputs (missing ones are 0), and ``atom_values`` is a table shared by such calls, keyed
     ``(kind, argument, q, time_varying)``, giving each atom the stand-in (and angle) already drawn

@@ -7,8 +7,8 @@ import json
 from typing import Any
 
 from obsnl.cli.common import _Exit, _add_executor, _executor, _load, _progress, _seed, write_output  # noqa: F401
-from obsnl.model.unknown_inputs import DERIVATIVES_MARGIN
-from obsnl.model.budget import time_budget
+from obsnl.model.reading.unknown_inputs import DERIVATIVES_MARGIN
+from obsnl.model.bounds.budget import time_budget
 from obsnl.observability.limits import MAX_UNKNOWNS, check_analysis_limits, check_file_limits, out_of_memory
 
 
@@ -50,7 +50,7 @@ def _add_branches(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_branches(args: argparse.Namespace) -> int:
-    from obsnl.model.branches import split_branches
+    from obsnl.model.branching.branches import split_branches
 
     model = _load(args.model)
     branches = split_branches(model, undecided=True)  # a branch no point was found in is listed as such
@@ -152,7 +152,7 @@ def _record_visits(model: Any, path: str) -> Any:
     import numpy as np
 
     from obsnl.estimation.records import read_record
-    from obsnl.observability.visited import visited_patterns
+    from obsnl.observability.joint.visited import visited_patterns
 
     if len(model.inputs) != 1:
         raise _Exit(2, f"--record drives one input, model {model.name!r} has {len(model.inputs)}; give a model with "
@@ -220,8 +220,8 @@ def _add_symmetries(sub: argparse._SubParsersAction) -> None:
 
 
 def _cmd_symmetries(args: argparse.Namespace) -> int:
-    from obsnl.model.branches import split_branches
-    from obsnl.observability.symmetry import symmetries
+    from obsnl.model.branching.branches import split_branches
+    from obsnl.observability.certificates.symmetry import symmetries
 
     model = _load(args.model, check=check_file_limits)
     out = []

@@ -80,7 +80,8 @@ def _add_identify(sub: argparse._SubParsersAction) -> None:
 def _cmd_identify(args: argparse.Namespace) -> int:
     from obsnl.identification.experiments import Tuning
     from obsnl.report.identification import identify_text
-    from obsnl.identification.identify import IDENTIFY_FILES, identify, parse_assignments, study, write_identification
+    from obsnl.identification.identify import IDENTIFY_FILES, identify, study, write_identification
+    from obsnl.identification.structural import parse_assignments
 
     for given, option, needs in ((args.samples is not None and args.data, "--samples", "a --record study; cut the "
                                   "data file instead"),

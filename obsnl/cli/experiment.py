@@ -8,7 +8,7 @@ import dataclasses
 from pathlib import Path
 
 from obsnl.cli.common import _Exit, _load, _seed, write_output
-from obsnl.model.budget import time_budget
+from obsnl.model.bounds.budget import time_budget
 from obsnl.observability.limits import check_analysis_limits, check_file_limits
 
 

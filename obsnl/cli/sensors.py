@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 
 from obsnl.cli.common import _Exit, _add_executor, _at_least, _executor, _load, _seed, write_output
-from obsnl.model.budget import time_budget
+from obsnl.model.bounds.budget import time_budget
 from obsnl.observability.limits import check_file_limits
 
 

@@ -1,7 +1,7 @@
 """Which experiment makes a model identifiable: the branches a record visits as its amplitude grows, the
 smallest amplitude that makes every target jointly identifiable, and which of several records suffice.
 
-The model's ``[values]`` are simulated under ``s * record`` (:func:`obsnl.observability.visited.visited_patterns`,
+The model's ``[values]`` are simulated under ``s * record`` (:func:`obsnl.observability.joint.visited.visited_patterns`,
 initial states unscaled); the sign patterns at the record's sample times are the branches the experiment
 at scale ``s`` visits, and the set suffices when :func:`obsnl.design.sufficiency.check_sensors` with
 ``visited=`` that set finds every target jointly identifiable. The verdict depends on the visited *set*
@@ -37,12 +37,12 @@ import numpy as np
 
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
 from obsnl.errors import NotSupportedError, OptionError
-from obsnl.estimation.records import Record
-from obsnl.model.branches import split_branches
-from obsnl.model.budget import check_time, remaining, time_budget
+from obsnl.estimation.accelerogram import Record
+from obsnl.model.branching.branches import split_branches
+from obsnl.model.bounds.budget import check_time, remaining, time_budget
 from obsnl.model.core import Model
 from obsnl.observability.analyze import assumptions as analysis_assumptions
-from obsnl.observability.visited import Visits, visited_patterns
+from obsnl.observability.joint.visited import Visits, visited_patterns
 
 __all__ = ["VisitedBranch", "ScaleVisit", "ExperimentDesign", "design", "DEFAULT_SCALES", "MAX_RECORDS"]
 
@@ -53,7 +53,7 @@ MAX_RECORDS = 12
 #: Most switching functions whose visited patterns get branch labels (beyond, the sign pattern names a branch).
 LABEL_UP_TO = 8
 
-#: A record: a :class:`~obsnl.estimation.records.Record` or ``(name, t, {input: samples})``.
+#: A record: a :class:`~obsnl.estimation.accelerogram.Record` or ``(name, t, {input: samples})``.
 RecordLike = Union[Record, "tuple[str, Any, Mapping[str, Any]]"]
 
 
@@ -324,7 +324,7 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
     model
         A model with numbers for every parameter in its ``[values]`` and only known inputs.
     records
-        Each a :class:`~obsnl.estimation.records.Record` (one column drives the model's one input; named
+        Each a :class:`~obsnl.estimation.accelerogram.Record` (one column drives the model's one input; named
         columns drive the inputs of their names) or ``(name, t, {input: samples})``; names unique, at
         most :data:`MAX_RECORDS`.
     target, sensors

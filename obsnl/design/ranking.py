@@ -48,7 +48,7 @@ import numpy as np
 
 from obsnl.errors import DataError, OptionError
 from obsnl.estimation.codegen import NumericModel, log_map, to_casadi
-from obsnl.estimation.records import Record, check_times
+from obsnl.estimation.accelerogram import Record, check_times
 from obsnl.identification.likelihood import covariance, objective
 from obsnl.identification.setup import Data, Setup
 from obsnl.model.core import Model

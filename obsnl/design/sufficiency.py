@@ -5,7 +5,7 @@ A sensor set is a subset of the model's outputs (a model lists every quantity on
 model restricted to those outputs is tested in two steps:
 
 1. **Reachability** (exact, no random point): a target with no path to any of the chosen outputs in
-   the dependency graph (:func:`obsnl.observability.decompose.output_reachable`) is unobservable, so
+   the dependency graph (:func:`obsnl.observability.engines.decompose.output_reachable`) is unobservable, so
    the set is insufficient without an analysis.
 2. **The joint verdict** (:func:`obsnl.analyze` with ``per_branch=False``): the targets must all be
    jointly observable over the visited branches (every feasible branch, or the ones a record visits),
@@ -27,7 +27,7 @@ from typing import Any
 from obsnl.errors import OptionError
 from obsnl.model.core import Model
 from obsnl.observability.analyze import analyze
-from obsnl.observability.decompose import output_reachable
+from obsnl.observability.engines.decompose import output_reachable
 
 __all__ = ["Sufficiency", "resolve_targets", "restrict", "check_sensors"]
 
@@ -182,7 +182,7 @@ def check_sensors(model: Model, sensors: Sequence[str], targets: Sequence[str], 
         Passed to :func:`obsnl.analyze`.
     visited, crossings
         Sign patterns an experiment visits (of the restricted model's switching functions, see
-        :func:`obsnl.observability.visited.visited_patterns`); None: every feasible branch.
+        :func:`obsnl.observability.joint.visited.visited_patterns`); None: every feasible branch.
 
     Returns
     -------

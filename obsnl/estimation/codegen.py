@@ -20,15 +20,18 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
-from obsnl.model.branches import field_jumps
-from obsnl.model.signature import ModelSignature
-from obsnl.model.switching import expr_text, switching_functions
+from obsnl.model.branching.branches import field_jumps
+from obsnl.model.branching.signature import ModelSignature
+from obsnl.model.branching.switching import expr_text, switching_functions
 from obsnl.errors import ModelError, NotSupportedError, TableError
 from obsnl.model.core import Model
-from obsnl.estimation.numeric import NumericModel, ParameterMap, jit_options
-from obsnl.model.parse import make_symbol, parse_expression
+from obsnl.estimation.numeric import NumericModel, ParameterMap
+from obsnl.estimation.jitcache import jit_options
+from obsnl.model.reading.parse import make_symbol, parse_expression
 
-__all__ = ["NumericModel", "ParameterMap", "to_casadi", "parameter_map", "log_map", "numpy_model", "jit_options"]
+__all__ = [
+    "NumericModel", "ParameterMap", "to_casadi", "parameter_map", "log_map", "numpy_model", "jit_options",
+]
 
 _UNARY = {
     sp.exp: ca.exp, sp.log: ca.log, sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.tanh: ca.tanh,
@@ -137,7 +140,7 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
     switching
         Switching functions as text, e.g. a branch table's ``switching``; each must be one of the
         model's switching functions (up to sign) and is compiled in the orientation given.
-        Default: the model's own (:func:`obsnl.model.branches.switching_functions`).
+        Default: the model's own (:func:`obsnl.model.branching.branches.switching_functions`).
     constants
         Values of known constants (default: the model's ``values``).
 

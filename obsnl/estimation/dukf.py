@@ -38,7 +38,7 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from obsnl.observability.branch_table import BranchTable
+from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.errors import EstimatorError, TableError
 from obsnl.estimation.ukf import UKF
 
@@ -52,7 +52,7 @@ class DUKF(UKF):
     Parameters
     ----------
     table
-        The branch table (:func:`obsnl.observability.branch_table.load_branch_table`); it must be made for this
+        The branch table (:func:`obsnl.observability.contract.branch_table.load_branch_table`); it must be made for this
         model (names, fingerprint, switching functions), else :class:`~obsnl.errors.TableError`.
     cross
         ``"regression"`` (default) or ``"zero"``: the rule for the frozen-active covariance

@@ -31,10 +31,14 @@ import numpy as np
 
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError
-from obsnl.estimation.records import Record, check_seconds, check_times, read_table, times_from_text
-from obsnl.model.textsize import quote
+from obsnl.estimation.records import check_seconds, read_table, times_from_text
+from obsnl.estimation.accelerogram import Record, check_times
+from obsnl.model.bounds.textsize import quote
 
-__all__ = ["Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS", "MIN_SAMPLES"]
+__all__ = [
+    "Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS",
+    "MIN_SAMPLES",
+]
 
 #: Accepted names of the time column (seconds).
 TIME_COLUMNS = ("time_s", "t")
@@ -64,7 +68,7 @@ class Measured:
         return np.arange(len(self.y)) * self.dt
 
     def record(self) -> Record:
-        """The inputs as a :class:`~obsnl.estimation.records.Record` (one column per input); refused with fewer
+        """The inputs as a :class:`~obsnl.estimation.accelerogram.Record` (one column per input); refused with fewer
         than :data:`MIN_SAMPLES` samples."""
         if len(self.y) < MIN_SAMPLES:
             raise DataError(f"data {self.source or self.name!r} have {len(self.y)} samples; {_TOO_SHORT}")

@@ -22,7 +22,7 @@ the discretisation error (8 plain substeps: 2.5e-4 of the output RMS, a quarter 
 level, enough to bias the identified Deltas by a few percent). ``method="auto"`` therefore redoes
 the substep in which such a crossing happens with ``refine`` substeps; only the switching
 functions across which the field is not proved continuous are watched
-(:func:`obsnl.model.branches.field_jumps`: ``r - eta'`` but not ``x2`` for the seed model). 4 substeps
+(:func:`obsnl.model.branching.branches.field_jumps`: ``r - eta'`` but not ``x2`` for the seed model). 4 substeps
 with the crossing one refined 8x stay within 6e-5 of the output RMS, as fine as 32 plain substeps.
 A step that is stiff uses ROS2 with ``refine * substeps``. In the filters both fallbacks are
 evaluated only for the sigma points that need them, and counted.
@@ -30,10 +30,6 @@ evaluated only for the sigma points that need them, and counted.
 
 from __future__ import annotations
 
-import getpass
-import os
-import stat
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -42,83 +38,12 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import ModelError
-from obsnl.estimation.jitcache import FLAGS, jit_compile
-from obsnl.model.signature import ModelSignature
+from obsnl.estimation.jitcache import jit_compile
+from obsnl.model.branching.signature import ModelSignature
 
-__all__ = ["NumericModel", "ParameterMap", "jit_options", "jit_directory", "GAMMA_ROS2"]
+__all__ = ["NumericModel", "ParameterMap", "GAMMA_ROS2"]
 
 GAMMA_ROS2 = 1.0 + 1.0 / np.sqrt(2.0)
-
-
-def jit_options() -> dict[str, Any]:
-    """casadi options that compile a Function to C with the system compiler.
-
-    ``-O3 -march=native``: the code is compiled on the machine that runs it; on the UKF step of the
-    seed model this is about 1.8x faster than ``-O1`` for the same compile time (no fast-math: the
-    NaN/inf guards must keep their meaning). ``-ffp-contract=off``: no product and sum fused into
-    one rounding, so the compiled Function gives casadi's uncompiled numbers bit for bit (with
-    contraction the last bits depended on what the compiler inlined; the cost is within the
-    noise of a filter pass). The compiler's scratch files (C source, object, shared library) go to
-    :func:`jit_directory`, never to the working directory.
-    """
-    return {"jit": True, "compiler": "shell",
-            "jit_options": {"flags": list(FLAGS), "verbose": False, "directory": jit_directory()}}
-
-
-_PRIVATE_JIT: list[str] = []  # a fresh private folder of this process, when the shared one cannot be trusted
-
-
-def _trusted(path: str) -> bool:
-    """A real folder (not a symlink), owned by this user, that nobody else can read or write."""
-    try:
-        st = os.lstat(path)
-    except OSError:
-        return False
-    if stat.S_ISLNK(st.st_mode) or not stat.S_ISDIR(st.st_mode):
-        return False
-    if hasattr(os, "getuid") and st.st_uid != os.getuid():
-        return False
-    return not (os.name == "posix" and st.st_mode & 0o077)
-
-
-def jit_directory() -> str:
-    """The directory of the JIT compiler's scratch files: one private folder per user under the system temp
-    folder.
-
-    casadi names every file uniquely and deletes it with its Function, so processes can share the
-    folder; a process that is killed leaves its files there, not in the user's working directory.
-    The folder is trusted only if it is a real folder (not a symlink), owned by the user, mode 0700;
-    otherwise (someone planted a link or a folder there) a fresh private folder (``tempfile.mkdtemp``) is
-    used for this process, so obsnl never writes or loads compiled code from a folder others control.
-
-    Returns
-    -------
-    str
-        The folder, ending with the path separator.
-
-    Examples
-    --------
-    >>> import os, stat
-    >>> d = jit_directory()
-    >>> stat.S_IMODE(os.lstat(d).st_mode) & 0o077
-    0
-    """
-    try:
-        user = str(os.getuid())
-    except AttributeError:  # no uid on Windows
-        user = getpass.getuser()
-    path = os.path.join(tempfile.gettempdir(), f"obsnl-jit-{user}")
-    try:
-        os.mkdir(path, 0o700)
-    except FileExistsError:
-        pass
-    except OSError:
-        path = ""
-    if path and _trusted(path):
-        return path + os.sep
-    if not _PRIVATE_JIT:
-        _PRIVATE_JIT.append(tempfile.mkdtemp(prefix="obsnl-jit-"))  # mode 0700, new: nobody else's
-    return _PRIVATE_JIT[0] + os.sep
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,14 +58,14 @@ class NumericModel:
     jac_x, jac_u
         ``df/dx`` and ``df/du`` (derivatives of ``sign`` are 0), for implicit steps.
     signature
-        The model's identity (:class:`~obsnl.model.signature.ModelSignature`: name, fingerprint,
+        The model's identity (:class:`~obsnl.model.branching.signature.ModelSignature`: name, fingerprint,
         names in order, switching functions as text); the branch table must carry the same.
         ``name``, ``fingerprint``, ``states``, ... read it.
     values
         The model's nominal values.
     jumps
         For each switching function, whether the vector field may jump where it crosses 0
-        (:func:`obsnl.model.branches.field_jumps`; empty: all may). Only these crossings are refined.
+        (:func:`obsnl.model.branching.branches.field_jumps`; empty: all may). Only these crossings are refined.
     source
         ``(model, switching, constants)`` as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
         otherwise): the specification a worker compiles again (:mod:`obsnl.identification.replicates`).

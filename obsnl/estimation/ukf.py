@@ -32,54 +32,15 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from obsnl.errors import DataError, EstimatorError
+from obsnl.errors import EstimatorError
 from obsnl.estimation.evaluate import call
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.estimation.numeric import NumericModel, ParameterMap
 from obsnl.estimation.trajectory import Estimate, Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS, build_step
+from obsnl.estimation.accelerogram import check_inputs
 
-__all__ = ["UKF", "Estimate", "Trajectory", "check_inputs"]
-
-
-def check_inputs(ys: Any, us: Any, *, ny: int, nu: int) -> tuple[np.ndarray, np.ndarray]:
-    """Validate a record for a filter: shapes ``(T, ny)``, ``(T, nu)``, finite values.
-
-    Parameters
-    ----------
-    ys, us : array_like
-        Measured outputs and inputs, one row per sample (1-D allowed for one channel).
-    ny, nu : int
-        Numbers of outputs and inputs of the model.
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``(ys, us)`` as float arrays ``(T, ny)``, ``(T, nu)``.
-
-    Raises
-    ------
-    DataError
-        Wrong shapes, too short, or NaN/inf (naming the first bad sample).
-    """
-    ys = np.asarray(ys, float)
-    us = np.asarray(us, float)
-    ys = ys.reshape(-1, 1) if ys.ndim == 1 and ny == 1 else ys
-    us = us.reshape(-1, 1) if us.ndim == 1 and nu == 1 else us
-    if ys.ndim != 2 or ys.shape[1] != ny:
-        raise DataError(f"outputs must have shape (T, {ny}), got {ys.shape}")
-    if us.ndim != 2 or us.shape[1] != nu:
-        raise DataError(f"inputs must have shape (T, {nu}), got {us.shape}")
-    if len(ys) != len(us):
-        raise DataError(f"outputs have {len(ys)} samples but inputs {len(us)}; give one of each per sample")
-    if len(ys) < 2:
-        raise DataError("a record needs at least 2 samples")
-    for name, arr in (("outputs", ys), ("inputs", us)):
-        bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-        if bad.size:
-            raise DataError(f"{name} contain NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
-                            f"clean or interpolate the record first")
-    return ys, us
+__all__ = ["UKF", "Estimate", "Trajectory"]
 
 
 # --------------------------------------------------------------------------- the filter

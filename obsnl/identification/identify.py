@@ -18,7 +18,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -26,95 +26,25 @@ from obsnl._progress import Progress
 from obsnl.errors import AnalysisError, DataError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.experiments import Tuning
-from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured, simulation_study
+from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
+from obsnl.identification.simulation import simulation_study
 from obsnl.estimation.measured import MIN_SAMPLES, Measured, measured, read_measured
-from obsnl.estimation.records import Record, read_record
+from obsnl.estimation.records import read_record
+from obsnl.estimation.accelerogram import Record
 from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
 from obsnl.observability.analyze import analyze
-from obsnl.observability.table_check import check_table
-from obsnl.observability.branch_table import BranchTable
+from obsnl.observability.contract.table_check import check_table
+from obsnl.observability.contract.branch_table import BranchTable
+from obsnl.identification.structural import (
+    _structural_note, frozen_but_jointly_identifiable, structurally_unidentifiable,
+)
 
-__all__ = ["identify", "study", "structurally_unidentifiable", "frozen_but_jointly_identifiable", "write_identification", "parse_assignments",
-           "IDENTIFY_FILES"]
+__all__ = ["identify", "study", "write_identification", "IDENTIFY_FILES"]
 
 #: What :func:`write_identification` writes into its folder.
 IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png", "profiles.png")
-
-
-def structurally_unidentifiable(result: Any, parameters: Sequence[str]) -> tuple[tuple[str, ...], str]:
-    """The ``parameters`` the analysis calls structurally unidentifiable, and which verdict said so.
-
-    Parameters
-    ----------
-    result
-        An :class:`~obsnl.AnalysisResult`; when it has a joint verdict (an attribute ``joint`` with
-        ``unobservable``) that is used, else the per-branch union (``overall_unobservable``).
-    parameters
-        The names to check.
-
-    Returns
-    -------
-    tuple
-        ``(names, "joint" | "union")``.
-
-    Examples
-    --------
-    >>> from types import SimpleNamespace
-    >>> structurally_unidentifiable(SimpleNamespace(overall_unobservable=("z", "b")), ["a", "b"])
-    (('b',), 'union')
-    >>> joint = SimpleNamespace(unobservable=())
-    >>> structurally_unidentifiable(SimpleNamespace(overall_unobservable=("b",), joint=joint), ["a", "b"])
-    ((), 'joint')
-    """
-    joint = getattr(result, "joint", None)
-    if joint is not None and hasattr(joint, "unobservable"):
-        bad, kind = set(joint.unobservable), "joint"
-    else:
-        bad, kind = set(result.overall_unobservable), "union"
-    return tuple(p for p in parameters if p in bad), kind
-
-
-def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str, what: str) -> dict[str, float]:
-    """``NAME=VALUE`` items as a mapping; one-line errors naming a wrong name or value.
-
-    Parameters
-    ----------
-    items : sequence of str
-        ``NAME=VALUE`` texts.
-    names : sequence of str
-        Allowed names.
-    option : str
-        The option, named in the messages.
-    what : str
-        What the names are, named in the messages.
-
-    Returns
-    -------
-    dict of str to float
-
-    Raises
-    ------
-    OptionError
-        An unknown name, no ``=``, or a value that is not a number.
-
-    Examples
-    --------
-    >>> parse_assignments(["k=2.5"], ["k", "c"], option="--guess", what="parameter")
-    {'k': 2.5}
-    """
-    out = {}
-    for item in items:
-        name, eq, value = item.partition("=")
-        name = name.strip()
-        if not eq or name not in names:
-            raise OptionError(f"{option} {item!r}: {name!r} is not a {what} ({', '.join(names)}); write NAME=VALUE")
-        try:
-            out[name] = float(value)
-        except ValueError:
-            raise OptionError(f"{option} {item!r}: {value!r} is not a number") from None
-    return out
 
 
 def _model(model: Model | str | Path) -> Model:
@@ -126,7 +56,7 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
              ) -> tuple[Any, dict[str, float], BranchTable | None, dict]:
     """Table check, structural analysis (refusal), compilation, guesses."""
     if isinstance(table, (str, Path)):
-        from obsnl.observability.branch_table import load_branch_table
+        from obsnl.observability.contract.branch_table import load_branch_table
 
         table = load_branch_table(table)
     names = tuple(s.name for s in model.parameters)
@@ -163,38 +93,6 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
             raise OptionError(f"the guess of {k} is {v!r} (--guess or the model's [guess]); give a finite nonzero "
                               f"number below 1e100 in magnitude (the filter estimates log|{k}| from it)")
     return num, g, table, structural
-
-
-def frozen_but_jointly_identifiable(table: BranchTable | None, result: Any) -> tuple[str, ...]:
-    """Parameters every branch of ``table`` freezes (unidentifiable in each branch) that the joint verdict
-    of ``result`` (an analysis of the same model) identifies: a per-branch DUKF cannot learn them.
-
-    Parameters
-    ----------
-    table
-        The DUKF's branch table (None: nothing is frozen).
-    result
-        An :class:`~obsnl.observability.results.AnalysisResult` with its joint verdict.
-
-    Returns
-    -------
-    tuple of str
-    """
-    if table is None:
-        return ()
-    fresh = getattr(result, "joint", None)
-    return table.jointly_identifiable_but_frozen(
-        None if table.joint is not None or fresh is None else fresh.observable)
-
-
-def _structural_note(structural: Mapping[str, Any]) -> tuple[str, ...]:
-    bad = structural["unidentifiable"]
-    if not bad:
-        return (f"structural analysis ({structural['verdict']} verdict over {structural['branches']} branches): "
-                f"every parameter identifiable",)
-    return (f"structural analysis ({structural['verdict']} verdict over {structural['branches']} branches) calls "
-            f"{', '.join(bad)} unidentifiable; run anyway (--allow-unidentifiable): their estimates rest on what the "
-            f"data reveal beyond that verdict, judge them by the practical-identifiability flags",)
 
 
 def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str | Path, *,
@@ -310,7 +208,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
 
     Same structural check as :func:`identify`; see
-    :func:`obsnl.identification.runs.simulation_study` for the rest.
+    :func:`obsnl.identification.simulation.simulation_study` for the rest.
 
     Parameters
     ----------

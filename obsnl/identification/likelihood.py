@@ -44,21 +44,20 @@ more than ``sqrt(DECREMENT)`` of its std), the last accepted step moved no param
 from __future__ import annotations
 
 import math
-import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
 
 import casadi as ca
 import numpy as np
 
-from obsnl._text import block, names, number, one_line
 from obsnl.errors import EstimatorError
 from obsnl.estimation.evaluate import call
-from obsnl.identification.setup import BOUND, Data, Setup
+from obsnl.identification.setup import Data, Setup
 
-__all__ = ["Objective", "Fit", "Refinement", "objective", "levenberg_marquardt", "refine", "covariance",
-           "DECREMENT", "STEP_LIMIT", "NOISE_FLOOR"]
+__all__ = [
+    "Objective", "Fit", "objective", "levenberg_marquardt", "covariance", "DECREMENT", "STEP_LIMIT",
+    "NOISE_FLOOR",
+]
 
 #: First-order condition: the Newton decrement ``g' H^+ g`` (the chi2 decrease a full Gauss-Newton step
 #: would bring) at the estimate is below this; by Cauchy-Schwarz the step then moves no coordinate by
@@ -317,149 +316,3 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
     at_bound = tuple(int(i) for i in np.flatnonzero(free & ((z <= lower) | (z >= upper))))
     return Fit(z=z, chi2=cost, iterations=it, evaluations=evals, decrement=decrement, last_step=last,
                at_bound=at_bound, stalled=stalled, J=J, r=r)
-
-
-@dataclass(frozen=True, eq=False)
-class Refinement:
-    """The maximum-likelihood estimate and what it rests on.
-
-    ``theta``, ``x0``: the estimate; ``std``: per parameter, from the Fisher information at the estimate
-    (``inf`` along a flat direction); ``cov``: the covariance of ``z = (phi, s)``; ``sigma``: the noise std per
-    output estimated from the residuals (the weights of ``cov``); ``misfit``: per output, the RMS residual
-    over the noise level given or estimated before the fit (1: at the noise floor); ``converged`` with
-    ``reason``; ``objective`` and ``fit`` feed the profiles (:mod:`obsnl.identification.profile`).
-    """
-
-    theta: np.ndarray
-    x0: np.ndarray
-    std: np.ndarray
-    cov: np.ndarray = field(repr=False)
-    sigma: np.ndarray = field(repr=False)
-    misfit: dict[str, float] = field(default_factory=dict)
-    chi2: float = math.nan
-    converged: bool = False
-    reason: str = ""
-    iterations: int = 0
-    seconds: float = 0.0
-    held: tuple[str, ...] = ()
-    at_edge: tuple[str, ...] = ()
-    lower: np.ndarray = field(default=None, repr=False)
-    upper: np.ndarray = field(default=None, repr=False)
-    fit: Fit = field(default=None, repr=False)
-    objective: Objective = field(default=None, repr=False)
-
-    def _parameters(self) -> list[str]:
-        """The parameter names (from the objective; ``p0, p1, ...`` without one)."""
-        return list(self.objective.setup.model.parameters) if self.objective is not None else [
-            f"p{i}" for i in range(len(self.theta))]
-
-    def __repr__(self) -> str:
-        theta = names([f"{p}={number(v)}" for p, v in zip(self._parameters(), self.theta)], 6)
-        return one_line("Refinement", f"converged={self.converged}", f"chi2={number(self.chi2)}",
-                        f"iterations={self.iterations}", f"theta='{theta}'")
-
-    def summary(self) -> str:
-        """A few lines of plain text: converged or not and why, each parameter with its std, the misfit."""
-        rows = [f"{p} = {number(v)} (std {number(s)})" + (" held" if p in self.held else "") +
-                (" at the edge of the valid region" if p in self.at_edge else "")
-                for p, v, s in zip(self._parameters(), self.theta, self.std)]
-        return block(f"maximum likelihood: {'converged' if self.converged else 'NOT converged'} ({self.reason}), "
-                     f"chi2 {number(self.chi2)}, {self.iterations} iterations, {self.seconds:.3g} s", *rows[:9],
-                     f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
-                     f"RMS residual over the noise level: {names([f'{o} {number(v)}' for o, v in self.misfit.items()])}")
-
-    def to_dict(self) -> dict[str, Any]:
-        f = self.fit
-        return {"method": "maximum likelihood (output error, single shooting; Levenberg-Marquardt with exact "
-                          f"derivatives through the {self.objective.substeps}-substep integrator)",
-                "converged": self.converged, "reason": self.reason, "iterations": self.iterations,
-                "evaluations": f.evaluations, "newton_decrement": f.decrement, "last_step_in_std": f.last_step,
-                "chi2": self.chi2, "samples": int(len(f.r)), "seconds": self.seconds,
-                "noise_std": {o: float(s) for o, s in zip(self.objective.setup.model.outputs, self.sigma)},
-                "misfit_over_noise": dict(self.misfit),
-                "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)}}
-
-
-def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
-           substeps: int | None = None, max_iter: int = 60) -> Refinement:
-    """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
-
-    Parameters
-    ----------
-    setup : Setup
-        The experiment (model, coordinates, noise levels, valid region: ``BOUND`` around the guesses).
-    data : Data
-        Measured inputs and outputs.
-    theta0 : numpy.ndarray
-        The starting parameters (the filter's estimate).
-    held : sequence of str
-        Parameters kept at their value in ``theta0``.
-    substeps : int or None
-        RK4 substeps per sample of the objective (default: twice the filter's, ``2 * setup.substeps``; a
-        crossing substep is refined as everywhere).
-    max_iter : int
-        Levenberg-Marquardt iterations at most, per weighting.
-
-    Returns
-    -------
-    Refinement
-
-    Raises
-    ------
-    EstimatorError
-        The model cannot be simulated at ``theta0``.
-    """
-    t0 = time.perf_counter()
-    m = setup.model
-    obj = objective(setup, data, theta=theta0, substeps=substeps or 2 * setup.substeps)
-    phi0 = setup.coordinates.to_phi(theta0)
-    guess = setup.coordinates.to_phi(setup.theta_guess)
-    lower = np.r_[guess - BOUND, np.full(m.nx, -np.inf)]
-    upper = np.r_[guess + BOUND, np.full(m.nx, np.inf)]
-    free = np.r_[[p not in held for p in m.parameters], np.ones(m.nx, bool)]
-    z = np.r_[phi0, np.zeros(m.nx)]
-    noise = obj.sigma
-    fit = None
-    iterations = 0
-    for _ in range(2):  # the given noise levels, then the ML levels of the fit (concentrated likelihood)
-        fit = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter)
-        iterations += fit.iterations
-        res = fit.r.reshape(-1, m.ny) * obj.sigma
-        floor = NOISE_FLOOR * np.sqrt(np.mean(np.asarray(data.y, float) ** 2, axis=0))
-        sigma = np.maximum(np.sqrt(np.mean(res ** 2, axis=0)), np.maximum(floor, 1e-300))
-        z = fit.z
-        if np.allclose(sigma, obj.sigma, rtol=1e-3):
-            break
-        obj = obj.reweighted(sigma)
-    r, J = obj.evaluate(z)
-    fit = Fit(z=z, chi2=float(r @ r), iterations=fit.iterations, evaluations=fit.evaluations,
-              decrement=fit.decrement, last_step=fit.last_step, at_bound=fit.at_bound, stalled=fit.stalled, J=J, r=r)
-    C_free, _ = covariance(J[:, free])
-    C = np.zeros((len(z), len(z)))
-    C[np.ix_(free, free)] = C_free
-    theta = obj.theta(z)
-    std = np.array([abs(theta[i]) * math.sqrt(C[i, i]) if free[i] else 0.0 for i in range(m.np)])
-    res = r.reshape(-1, m.ny) * obj.sigma
-    misfit = {o: float(np.sqrt(np.mean(res[:, j] ** 2)) / noise[j]) for j, o in enumerate(m.outputs)}
-    converged, reason = _verdict(fit, m.parameters)
-    return Refinement(theta=theta, x0=obj.x0(z), std=std, cov=C, sigma=obj.sigma, misfit=misfit, chi2=fit.chi2,
-                      converged=converged, reason=reason, iterations=iterations,
-                      at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
-                      seconds=time.perf_counter() - t0, held=tuple(held), lower=lower, upper=upper, fit=fit,
-                      objective=obj)
-
-
-def _verdict(fit: Fit, parameters: Sequence[str]) -> tuple[bool, str]:
-    edge = [parameters[i] for i in fit.at_bound if i < len(parameters)]
-    if fit.decrement > DECREMENT:
-        what = "no step lowers the misfit any more" if fit.stalled else f"stopped after {fit.iterations} iterations"
-        return False, (f"first-order condition not met: a Gauss-Newton step would still lower chi2 by "
-                       f"{fit.decrement:.3g} ({what}); the objective may be rough here (a switch of the field "
-                       f"inside a step): try other --guess values or more --passes")
-    if fit.last_step > STEP_LIMIT:
-        return False, (f"the last step moved a parameter by {fit.last_step:.2g} of its std (more than {STEP_LIMIT:g}); "
-                       f"run again with more --passes")
-    note = (f"; {', '.join(edge)} rests on the edge of its valid region (a factor 100 from the guess; the first-order "
-            f"conditions of the bounded problem hold there)" if edge else "")
-    return True, (f"first-order condition met (Newton decrement {fit.decrement:.2g} <= {DECREMENT:g}) and the last "
-                  f"step moved no parameter by more than {STEP_LIMIT:g} of its std" + note)

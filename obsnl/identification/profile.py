@@ -34,9 +34,13 @@ import numpy as np
 
 from obsnl._text import block, number, one_line
 from obsnl.errors import EstimatorError
-from obsnl.identification.likelihood import Refinement, levenberg_marquardt
+from obsnl.identification.likelihood import levenberg_marquardt
+from obsnl.identification.refine import Refinement
 
-__all__ = ["Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND", "MAX_SECONDS"]
+__all__ = [
+    "Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND",
+    "MAX_SECONDS",
+]
 
 #: chi2(1) 0.95 quantile (scipy.stats.chi2.ppf(0.95, 1)).
 THRESHOLD = 3.841458820694124
@@ -110,7 +114,7 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
     Parameters
     ----------
     ref : Refinement
-        The maximum-likelihood estimate (:func:`obsnl.identification.likelihood.refine`).
+        The maximum-likelihood estimate (:func:`obsnl.identification.refine.refine`).
     name : str
         The parameter (not held).
     search : float

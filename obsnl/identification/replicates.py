@@ -93,7 +93,7 @@ def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
 
     def build() -> tuple[Setup, UKF]:
         from obsnl.estimation.codegen import to_casadi
-        from obsnl.observability.branch_table import BranchTable
+        from obsnl.observability.contract.branch_table import BranchTable
 
         num = to_casadi(recipe.model, switching=recipe.switching, constants=recipe.constants)
         setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]),

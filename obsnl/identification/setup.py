@@ -15,7 +15,8 @@ import numpy as np
 from obsnl.errors import EstimatorError, OptionError
 from obsnl.estimation.codegen import NumericModel, ParameterMap, parameter_map
 from obsnl.estimation.dukf import DUKF
-from obsnl.estimation.records import Record, add_noise
+from obsnl.estimation.records import add_noise
+from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import UKF
 

@@ -34,16 +34,9 @@ from obsnl._text import block, names, number, one_line
 from obsnl.errors import AnalysisError, DataError
 from obsnl.linear.systems import as_linear_system
 from obsnl.linear.observer import (
-    ExtendedObservability,
-    ExtendedSystem,
-    FictitiousModel,
-    ObserverDesign,
-    _samples,
-    extend,
-    extended_observability,
-    observer_matrices,
-    riccati_gain,
+    ExtendedObservability, ExtendedSystem, FictitiousModel, ObserverDesign, extend, extended_observability, riccati_gain,
 )
+from obsnl.linear.simulation import _samples, observer_matrices
 
 __all__ = [
     "ObserverBank",

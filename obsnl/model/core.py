@@ -17,12 +17,12 @@ from typing import Any
 import sympy as sp
 
 from obsnl.errors import ModelError, ParseError
-from obsnl.model.unknown_inputs import check_unknown_input_derivatives
-from obsnl.model.latex import latex_clash, latex_problem
-from obsnl.model.names import check_distinct, check_name as _check_identifier, check_text as _check_text
-from obsnl.model.names import close_name as _close, name_list as _name_list
-from obsnl.model.parse import make_symbol, parse_expression, quote, shorten
-from obsnl.model.textsize import check_model_size
+from obsnl.model.reading.unknown_inputs import check_unknown_input_derivatives
+from obsnl.model.reading.latex import latex_clash, latex_problem
+from obsnl.model.reading.names import check_distinct, check_name as _check_identifier, check_text as _check_text
+from obsnl.model.reading.names import close_name as _close, name_list as _name_list
+from obsnl.model.reading.parse import make_symbol, parse_expression, quote, shorten
+from obsnl.model.bounds.textsize import check_model_size
 
 __all__ = ["Model", "NONSMOOTH_FUNCTIONS"]
 
@@ -341,7 +341,7 @@ class Model:
         return cls(metadata=meta, **kwargs)
 
     def __copy__(self) -> Model:
-        """A shallow copy of the validated fields (no parse; :func:`obsnl.model.branches.derived_model`)."""
+        """A shallow copy of the validated fields (no parse; :func:`obsnl.model.branching.branches.derived_model`)."""
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
         return new
@@ -492,5 +492,5 @@ class Model:
 
 
 def _expr_text(e: sp.Basic) -> str:
-    """Expression as text that :func:`obsnl.model.parse.parse_expression` reads back exactly."""
+    """Expression as text that :func:`obsnl.model.reading.parse.parse_expression` reads back exactly."""
     return sp.sstr(e, full_prec=True)

@@ -1,1 +1,16 @@
-"""observability"""
+"""Observability: does a model's output determine its states and parameters, branch by branch and jointly.
+
+Owns :func:`~obsnl.observability.analyze.analyze` and its result values. Its inner order, lowest
+first (a module imports only what stands below it, or its own sub-room):
+
+1. ``limits`` (how big an analysis may be) and ``verdicts`` (one branch's answer);
+2. ``engines/``: the per-branch rank tests (ORC, Sedoglavic's power series, the Jacobian mod p);
+3. ``joint/``: which branches are analysed and the joint verdict over all of them;
+4. ``certificates/``: verified symmetries that prove a verdict of unobservability;
+5. ``results`` (the whole analysis as one value), then ``analyze`` (the verb);
+6. ``contract/``: the branch table, the estimators' only view of an analysis, and its check.
+
+May import: ``errors``, ``_text``, ``model``, ``algebra``. Must never import: ``recombination``,
+``estimation``, ``report``, ``identification`` or anything above them; sympy results never leave as
+numbers (that bridge is ``estimation.codegen``).
+"""

@@ -1,16 +1,16 @@
 """``analyze``: observability of every smooth branch of a model, their union, and the joint verdict.
 
 The per-branch results and their union are the seed paper's rule (Chatzis, Chatzi & Smyth 2015);
-the joint verdict (:mod:`obsnl.observability.joint`) is what the visited branches and the visible
+the joint verdict (:mod:`obsnl.observability.joint.verdict`) is what the visited branches and the visible
 switching surfaces reveal together, parameters being shared. Which branches are visited is decided by
-:mod:`obsnl.observability.selection` (every feasible branch by default).
+:mod:`obsnl.observability.joint.selection` (every feasible branch by default).
 
 Per branch (:func:`obsnl.split_branches`): variables absent from the branch's equations are listed
 as unobservable and absent (they count in the transcendence degree, as the seed paper counts
 ``w_h`` in branches (b), (d)); the output-reachable submodel is split into independent blocks
-(:mod:`obsnl.observability.decompose`); each block is rationalized (:mod:`obsnl.algebra.augment`) and analysed by the
-chosen engine: ``"orc"`` (:mod:`obsnl.observability.orc`, symbolic Lie derivatives evaluated mod p) or
-``"sedoglavic"`` (:mod:`obsnl.observability.sedoglavic`, power series mod p). ``"auto"`` uses the series engine,
+(:mod:`obsnl.observability.engines.decompose`); each block is rationalized (:mod:`obsnl.algebra.augment`) and analysed by the
+chosen engine: ``"orc"`` (:mod:`obsnl.observability.engines.orc`, symbolic Lie derivatives evaluated mod p) or
+``"sedoglavic"`` (:mod:`obsnl.observability.engines.sedoglavic`, power series mod p). ``"auto"`` uses the series engine,
 and the ORC (with a short time budget) only on a small block (at most 6 unknowns) that the series
 engine left undecided.
 
@@ -26,21 +26,22 @@ from collections.abc import Mapping, Sequence
 from dataclasses import replace
 from typing import Any
 
-from obsnl.model.budget import deadline as budget_deadline
+from obsnl.model.bounds.budget import deadline as budget_deadline
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
-from obsnl.model.signature import ModelSignature
-from obsnl.model.switching import expr_text
-from obsnl.observability.joint import joint_verdict
-from obsnl.observability.joint_certify import (
+from obsnl.model.branching.signature import ModelSignature
+from obsnl.model.branching.switching import expr_text
+from obsnl.observability.joint.verdict import joint_verdict
+from obsnl.observability.certificates.certify import (
     certify_by_symmetry,
     undecided_beyond_visits,
 )
 from obsnl.observability.limits import out_of_memory
-from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
-from obsnl.observability.selection import select_branches
-from obsnl.observability.smooth import (METHODS, _branch_result, _check, _fresh_seed, _variable_names,
-                                       resolve_unknown_input_derivatives)
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import BranchResult, Verdict
+from obsnl.observability.joint.selection import select_branches
+from obsnl.observability.engines.inputs import METHODS, _check, _variable_names, resolve_unknown_input_derivatives
+from obsnl.observability.engines.smooth import _branch_result, _fresh_seed
 
 __all__ = ["analyze", "assumptions", "METHODS"]
 
@@ -75,7 +76,7 @@ def analyze(
     max_seconds
         Time limit for the whole analysis; branches or blocks not finished are ``INCONCLUSIVE``. The split
         into branches gets at least 2 s of it and raises :class:`~obsnl.errors.AnalysisError` past that. Inside a
-        command's :func:`obsnl.model.budget.time_budget` (``obsnl analyze --max-seconds``, started before the
+        command's :func:`obsnl.model.bounds.budget.time_budget` (``obsnl analyze --max-seconds``, started before the
         model was read) that budget's deadline holds as well, without the 2 s floor.
     prob
         Wanted lower bound on the probability that every verdict is right; more independent runs
@@ -84,19 +85,19 @@ def analyze(
         What the unknown inputs are: ``"arbitrary"`` (any function of time: each Taylor coefficient
         the test reads is a new unknown, see :func:`obsnl.algebra.problem.arbitrary_terms`) or ``K``
         (polynomials with K non-zero derivatives, STRIKE-GOLDD ``nnzDerW``; 0: constants), K at most the
-        model's states + parameters + 16 (:func:`obsnl.model.unknown_inputs.max_unknown_input_derivatives`:
+        model's states + parameters + 16 (:func:`obsnl.model.reading.unknown_inputs.max_unknown_input_derivatives`:
         more derivatives add nothing to the rank test). None (the default): the model's
         ``unknown_input_derivatives`` key, else ``"arbitrary"``.
     input_derivatives
         Non-zero derivatives of the known inputs (None: generic inputs).
     decompose
-        Use the exact dependency-graph decomposition (:mod:`obsnl.observability.decompose`).
+        Use the exact dependency-graph decomposition (:mod:`obsnl.observability.engines.decompose`).
     branches
         Labels of the branches to visit (default: every feasible branch; representative branches
-        when the model has more than 8 switching functions, see :mod:`obsnl.model.representatives`).
+        when the model has more than 8 switching functions, see :mod:`obsnl.model.branching.representatives`).
     visited
         Sign patterns a record visits, with the seconds spent in each
-        (:func:`obsnl.observability.visited.visited_patterns`); overrides ``branches``.
+        (:func:`obsnl.observability.joint.visited.visited_patterns`); overrides ``branches``.
     crossings
         Crossings per switching function seen with ``visited`` (reported only).
     joint
@@ -109,8 +110,8 @@ def analyze(
     Returns
     -------
     AnalysisResult
-        One :class:`~obsnl.observability.results.BranchResult` per visited branch, the union, the joint
-        verdict (:class:`~obsnl.observability.joint.JointResult`), how the branches were chosen, the
+        One :class:`~obsnl.observability.verdicts.BranchResult` per visited branch, the union, the joint
+        verdict (:class:`~obsnl.observability.joint.result.JointResult`), how the branches were chosen, the
         seed, the bound and the ``assumptions`` the verdicts rest on (unknown and known inputs,
         initial conditions).
 
@@ -122,7 +123,7 @@ def analyze(
         :data:`obsnl.observability.limits.MAX_UNKNOWNS`, refused before any work; running out of memory.
     OptionError
         ``unknown_input_derivatives`` larger than the model can use (its states + parameters + 16, see
-        :func:`obsnl.model.unknown_inputs.max_unknown_input_derivatives`), refused before any work.
+        :func:`obsnl.model.reading.unknown_inputs.max_unknown_input_derivatives`), refused before any work.
     ModelError
         The same for the model's ``unknown_input_derivatives`` key.
     NotSupportedError
@@ -162,7 +163,7 @@ def _analyze(
     """The body of :func:`analyze`, its arguments checked and ``unknown_input_derivatives`` resolved."""
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
-    outer = budget_deadline()  # a command's budget (obsnl.model.budget.time_budget), started before reading
+    outer = budget_deadline()  # a command's budget (obsnl.model.bounds.budget.time_budget), started before reading
     deadline = outer if deadline is None else deadline if outer is None else min(deadline, outer)
     seed = _fresh_seed(seed)
     variables = _variable_names(model)

@@ -1,8 +1,8 @@
 """What the exact engines refuse before any heavy work: models too large for their dense arrays, and
 unknown inputs with more derivatives than the rank test can use.
 
-Size. Both engines (:mod:`obsnl.observability.sedoglavic`, :mod:`obsnl.observability.orc`) and the
-joint verdict (:mod:`obsnl.observability.joint`, which works on the whole model, not on its
+Size. Both engines (:mod:`obsnl.observability.engines.sedoglavic`, :mod:`obsnl.observability.engines.orc`) and the
+joint verdict (:mod:`obsnl.observability.joint.verdict`, which works on the whole model, not on its
 independent blocks) hold dense int64 *jets*: a value and its gradient with respect to the ``M``
 unknowns (initial states, parameters, Taylor coefficients of the unknown inputs). The Taylor stepper
 (:class:`obsnl.algebra.taylor.Stepper`) keeps the tangent map of every node of the model's program,
@@ -15,7 +15,7 @@ chain ``s_i' = -k s_i + u`` with ``y = s_0``, ``obsnl analyze`` measured (2 core
 :data:`MAX_UNKNOWNS` (300) is seven times the largest model of the catalogue and the test cases
 (42 states and parameters, ``genssi_highdimnonlin``) and keeps such a model within a few GB.
 
-Unknown-input derivatives: at most :func:`obsnl.model.unknown_inputs.max_unknown_input_derivatives`
+Unknown-input derivatives: at most :func:`obsnl.model.reading.unknown_inputs.max_unknown_input_derivatives`
 (states + parameters + 16); its docstring says why more cannot change a verdict.
 """
 
@@ -25,9 +25,9 @@ from collections.abc import Mapping
 from typing import Any
 
 from obsnl.errors import AnalysisError, ModelError, OptionError
-from obsnl.model.textsize import shorten
+from obsnl.model.bounds.textsize import shorten
 from obsnl.model.core import Model
-from obsnl.model.unknown_inputs import (ARBITRARY, DERIVATIVES_MARGIN, check_unknown_input_derivatives,
+from obsnl.model.reading.unknown_inputs import (ARBITRARY, DERIVATIVES_MARGIN, check_unknown_input_derivatives,
                                         max_unknown_input_derivatives)
 
 __all__ = ["MAX_UNKNOWNS", "analysis_size", "dense_bytes", "check_analysis_limits", "out_of_memory",
@@ -114,7 +114,7 @@ def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | N
 
     Checks that ``unknown_input_derivatives`` (the caller's option, else the model's key, else
     ``"arbitrary"``) is valid and, when the model has unknown inputs, at most
-    :func:`~obsnl.model.unknown_inputs.max_unknown_input_derivatives`; then that the number of unknowns
+    :func:`~obsnl.model.reading.unknown_inputs.max_unknown_input_derivatives`; then that the number of unknowns
     (:func:`analysis_size`) is at most :data:`MAX_UNKNOWNS`.
 
     Parameters

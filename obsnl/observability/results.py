@@ -1,141 +1,28 @@
 """Result values of the observability analyses: frozen, JSON-ready, rendered only in ``report``.
 
-A :class:`BranchResult` is the verdict for one smooth branch; an :class:`AnalysisResult` gathers
-the branches of one model and their union (a variable is observable for the non-smooth system
-when it is observable in at least one branch, Chatzis et al. 2015).
+A :class:`~obsnl.observability.verdicts.BranchResult` is the verdict for one smooth branch; an
+:class:`AnalysisResult` gathers the branches of one model and their union (a variable is observable
+for the non-smooth system when it is observable in at least one branch, Chatzis et al. 2015).
 """
 
 from __future__ import annotations
 
-import enum
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
 from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
-from obsnl.model.signature import ModelSignature
-from obsnl.observability.joint import JointResult
-from obsnl.observability.selection import Visited
+from obsnl.model.branching.signature import ModelSignature
+from obsnl.observability.joint.result import JointResult
+from obsnl.observability.joint.selection import Visited
+from obsnl.observability.verdicts import BranchResult, Verdict
 
-__all__ = ["Verdict", "BranchResult", "AnalysisResult"]
+__all__ = ["AnalysisResult"]
 
 
 #: Notebook renderers (format -> function of a result), filled by :mod:`obsnl.report` when it is
 #: imported (``import obsnl`` does): results never import the report, the report registers itself.
 DISPLAY: dict[str, Any] = {}
-
-
-class Verdict(str, enum.Enum):
-    """Outcome of a test: every variable decided, some unobservable, or not decided (with a reason)."""
-
-    OBSERVABLE = "observable"
-    UNOBSERVABLE = "unobservable"
-    INCONCLUSIVE = "inconclusive"
-
-
-@dataclass(frozen=True)
-class BranchResult:
-    """Observability of one smooth branch.
-
-    Attributes
-    ----------
-    label, guard
-        The branch label and its guard as text (``"true"`` for a smooth model).
-    observable, unobservable
-        Names of states (initial values) and parameters, in model order. Variables that do not
-        appear in the branch's equations are unobservable and also listed in ``absent``.
-    absent
-        Variables that do not appear in this branch's equations or outputs.
-    rank, size
-        Rank of the observability-identifiability Jacobian and the number of unknowns.
-    transcendence_degree
-        ``size - rank``: how many unknowns must be known for all the others to be observable
-        (absent variables count, as the seed paper counts w_h in branches (b), (d)).
-    seconds
-        Wall time of this branch's analysis.
-    verdict
-        :class:`Verdict`; ``INCONCLUSIVE`` comes with ``reason`` and then the lists hold only
-        what was decided (undecided variables are in ``undecided``).
-    order
-        Number of Lie derivatives (ORC) or power-series terms (randomized test) used.
-    method
-        ``"orc"`` or ``"sedoglavic"``.
-    unknown_inputs
-        Classes of unknown inputs ``{"observable": [...], "unobservable": [...]}`` when the model has some.
-    notes
-        Plain-text notes: what was decomposed, augmented non-rational terms and what that means.
-    signs
-        The sign of each switching function of the model in this branch (empty for a smooth model).
-    """
-
-    label: str
-    guard: str
-    observable: tuple[str, ...]
-    unobservable: tuple[str, ...]
-    absent: tuple[str, ...]
-    rank: int
-    size: int
-    transcendence_degree: int
-    seconds: float
-    verdict: Verdict = Verdict.OBSERVABLE
-    reason: str = ""
-    undecided: tuple[str, ...] = ()
-    order: int | None = None
-    method: str = ""
-    unknown_inputs: Mapping[str, tuple[str, ...]] = field(default_factory=dict)
-    notes: tuple[str, ...] = ()
-    signs: tuple[int, ...] = ()
-
-    def __repr__(self) -> str:
-        return one_line("BranchResult", f"label={self.label!r}", f"guard={self.guard!r}", f"verdict={self.verdict.value!r}",
-                        f"rank={self.rank}/{self.size}", f"unobservable={names(self.unobservable, 6)!r}")
-
-    def summary(self) -> str:
-        """A few lines of plain text: the branch's verdict, then its lists."""
-        degree = "not decided" if self.verdict is Verdict.INCONCLUSIVE else self.transcendence_degree
-        return block(f"branch ({self.label}) {self.guard}: {self.verdict.value} (rank {self.rank}/{self.size}, "
-                     f"transcendence degree {degree}, {self.method or 'method not recorded'}, {self.seconds:.3g} s)",
-                     f"observable: {names(self.observable, 12)}", f"unobservable: {names(self.unobservable, 12)}",
-                     f"absent: {names(self.absent, 12)}" if self.absent else "",
-                     f"undecided: {names(self.undecided, 12)} ({self.reason})" if self.undecided else "")
-
-    def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
-        """The branch as JSON-ready data.
-
-        The default keys are those of ``obsnl analyze --format json``: ``label, guard, observable,
-        unobservable, absent, rank, size, transcendence_degree, seconds, verdict``, with
-        ``unknown_inputs`` (``{"observable": [...], "unobservable": [...]}``) when the model has
-        some, and ``reason, undecided`` for an inconclusive branch, whose ``transcendence_degree`` is
-        None (nothing is claimed for what was not decided). ``extended=True`` adds ``reason,
-        undecided, order, method, unknown_inputs, notes`` always.
-        """
-        inconclusive = self.verdict is Verdict.INCONCLUSIVE
-        d: dict[str, Any] = {
-            "label": self.label,
-            "guard": self.guard,
-            "observable": list(self.observable),
-            "unobservable": list(self.unobservable),
-            "absent": list(self.absent),
-            "rank": self.rank,
-            "size": self.size,
-            "transcendence_degree": None if inconclusive else self.transcendence_degree,
-            "seconds": self.seconds,
-            "verdict": self.verdict.value,
-        }
-        if self.unknown_inputs:
-            d["unknown_inputs"] = {k: list(v) for k, v in self.unknown_inputs.items()}
-        if inconclusive:
-            d.update(reason=self.reason, undecided=list(self.undecided))
-        if extended:
-            d.update(
-                reason=self.reason,
-                undecided=list(self.undecided),
-                order=self.order,
-                method=self.method,
-                unknown_inputs={k: list(v) for k, v in self.unknown_inputs.items()},
-                notes=list(self.notes),
-            )
-        return d
 
 
 @dataclass(frozen=True)
@@ -166,14 +53,14 @@ class AnalysisResult:
     latex
         LaTeX names of symbols (from the model file), for reports.
     signature
-        The analysed model's :class:`~obsnl.model.signature.ModelSignature` (names, order,
+        The analysed model's :class:`~obsnl.model.branching.signature.ModelSignature` (names, order,
         fingerprint, switching functions): a branch table is written from the result alone.
     joint
-        The joint verdict (:class:`~obsnl.observability.joint.JointResult`): what the visited
+        The joint verdict (:class:`~obsnl.observability.joint.result.JointResult`): what the visited
         branches and visible switching surfaces reveal together, parameters shared. None when not
         computed.
     visited
-        How the analysed branches were chosen (:class:`~obsnl.observability.selection.Visited`).
+        How the analysed branches were chosen (:class:`~obsnl.observability.joint.selection.Visited`).
 
     The per-branch union is :attr:`overall_observable` / :attr:`overall_unobservable` (also named
     :attr:`union_observable` / :attr:`union_unobservable`: the seed paper's rule); the joint verdict is

@@ -132,7 +132,7 @@ class FieldComparison:
 
 
 def _as_exprs(exprs: Iterable[Any], names: Mapping[str, sp.Symbol], where: str) -> list[sp.Expr]:
-    from obsnl.model.parse import parse_expression
+    from obsnl.model.reading.parse import parse_expression
 
     return [parse_expression(e, names, where=where) for e in exprs]
 
@@ -182,7 +182,7 @@ def same_field(exprs_a: Iterable[Any], exprs_b: Iterable[Any], variables: Sequen
     >>> bool(same_field(["a*b"], ["a", "b"], ["a", "b"]))
     False
     """
-    from obsnl.model.parse import make_symbol
+    from obsnl.model.reading.parse import make_symbol
 
     vs = [v if isinstance(v, sp.Symbol) else make_symbol(str(v)) for v in variables]
     names = {v.name: make_symbol(v.name) for v in vs}

@@ -18,7 +18,7 @@ raises the rank. The sources, in order (``method`` names those that were needed)
 
 The answer is checked again at an independent random point (``complete`` is that check). Error
 probability: ranks and kernels are those of the engine's Jacobian at one random point
-(:mod:`obsnl.observability.jacobian`), exact unless the prime or the point is special: probability at most
+(:mod:`obsnl.observability.engines.jacobian`), exact unless the prime or the point is special: probability at most
 ``J.failure``, Sedoglavic's Prop. 3.3 bound (:mod:`obsnl.algebra.bounds`).
 """
 
@@ -36,10 +36,11 @@ import sympy as sp
 from obsnl._text import block, names, one_line
 from obsnl.algebra.jets import Expressions
 from obsnl.errors import AnalysisError, NotSupportedError
-from obsnl.observability.jacobian import ModularJacobian, observability_jacobian
+from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
 from obsnl.model.core import Model
 from obsnl.algebra.modp import PRIME, nullspace_mod_p, rank_mod_p, rational_reconstruction
-from obsnl.observability.symmetry import Symmetries, _monomials, symmetries as find_symmetries
+from obsnl.observability.certificates.symmetry import _monomials, symmetries as find_symmetries
+from obsnl.observability.certificates.generators import Symmetries
 
 __all__ = ["IdentifiableFunctions", "identifiable_functions"]
 

@@ -4,7 +4,7 @@ Algorithm (algorithms.md §4.2, step C, extended to non-smooth models):
 
 1. Split the model into branches and find the generators of each (:func:`obsnl.symmetries`).
 2. The scalings shared by *every* branch form a group whose Hubert-Labahn invariants are the new
-   coordinates (:func:`obsnl.recombination.invariants.scaling_section`; exponents may depend on ``N``).
+   coordinates (:func:`obsnl.recombination.scalings.scaling_section`; exponents may depend on ``N``).
 3. Every other generator is pushed forward to these coordinates; a translation there is kept.
    Translations common to all branches are divided out (linear invariants); those of some branches
    only are kept as *branch-adapted* coordinates: ``Delta1 = beta' + gamma'`` (identifiable in the
@@ -23,112 +23,27 @@ from __future__ import annotations
 
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
-from typing import Any
 
 import flint
 import sympy as sp
 
-from obsnl._text import block, names, one_line
-from obsnl.model.branches import split_branches
+from obsnl.model.branching.branches import split_branches
 from obsnl.errors import ModelError
-from obsnl.recombination.invariants import (adapted_forms, coordinates, pushforward, scaling_section, section_map, span_intersection,
-                         translation_invariants)
+from obsnl.recombination.invariants import (
+    adapted_forms, coordinates, pushforward, span_intersection, translation_invariants,
+)
+from obsnl.recombination.scalings import section_map
+from obsnl.recombination.scalings import scaling_section
 from obsnl.observability.limits import check_analysis_limits
-from obsnl.observability.smooth import analyze_smooth
+from obsnl.observability.engines.smooth import analyze_smooth
 from obsnl.model.core import Model
-from obsnl.model.parse import make_symbol
-from obsnl.observability.proofs import verify_reparametrization
-from obsnl.observability.symmetry import Symmetries, Symmetry, symmetries
-from obsnl.model.files import model_to_toml
+from obsnl.model.reading.parse import make_symbol
+from obsnl.observability.certificates.proofs import verify_reparametrization
+from obsnl.observability.certificates.symmetry import symmetries
+from obsnl.observability.certificates.generators import Symmetry
+from obsnl.recombination.reparametrization import Reparametrization
 
-__all__ = ["Reparametrization", "reparametrize"]
-
-
-@dataclass(frozen=True)
-class Reparametrization:
-    """A proposed identifiable reparametrization.
-
-    Attributes
-    ----------
-    model
-        The new model (states and parameters are the new coordinates; ``definitions`` holds each
-        new symbol in the old ones).
-    mapping
-        ``{new name: expression in the old symbols}``.
-    section
-        ``{old name: expression in the new symbols}`` on the section (pivots 1, translation pivots 0).
-    pivots
-        Old parameters normalised away (scaling pivots set to 1, translation pivots to 0).
-    functions
-        Identifiable functions of the old symbols that generate the field of identifiable functions
-        (smooth models; for a non-smooth model the coordinates identifiable in at least one branch).
-    complete
-        True when ``functions`` generate the whole field of identifiable functions (checked again at
-        an independent random point for a smooth model; for a non-smooth model: every unobservable
-        direction of every branch got a closed form and the new model is observable).
-    observable
-        Every coordinate of the new model is observable in at least one of its branches.
-    method
-        How ``functions`` were obtained: ``"symmetries"`` or ``"symmetries+..."`` (see
-        :func:`obsnl.recombination.identifiable.identifiable_functions`).
-    branches
-        The :class:`obsnl.Symmetries` of each branch of the original model.
-    unobservable
-        Per branch of the new model, its unobservable coordinates.
-    verified
-        The new model's equations and outputs were checked symbolically against the old ones.
-    divided
-        The group divided out, one generator per pivot (scalings in rref form over the pivots, e.g.
-        the seed model's ``L``-scaling ``L d/dL - sigma d/dsigma - ...``), as text.
-    """
-
-    model: Model
-    original: str
-    mapping: Mapping[str, sp.Expr]
-    section: Mapping[str, sp.Expr]
-    pivots: tuple[str, ...]
-    functions: tuple[sp.Expr, ...]
-    complete: bool
-    observable: bool
-    method: str
-    branches: tuple[Symmetries, ...]
-    unobservable: Mapping[str, tuple[str, ...]]
-    verified: bool
-    notes: tuple[str, ...] = ()
-    seconds: float = 0.0
-    divided: tuple[str, ...] = ()
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"original": self.original, "model": self.model.name,
-                "mapping": {k: sp.sstr(v) for k, v in self.mapping.items()},
-                "section": {k: sp.sstr(v) for k, v in self.section.items()}, "pivots": list(self.pivots),
-                "functions": [sp.sstr(f) for f in self.functions], "complete": self.complete,
-                "observable": self.observable,
-                "method": self.method, "verified": self.verified,
-                "unobservable": {k: list(v) for k, v in self.unobservable.items()},
-                "branches": [b.to_dict() for b in self.branches], "notes": list(self.notes),
-                "divided": list(self.divided),
-                "seconds": self.seconds}
-
-    def __repr__(self) -> str:
-        return one_line("Reparametrization", f"original={self.original!r}", f"model={self.model.name!r}",
-                        f"new={names(self.mapping, 6)!r}", f"pivots={names(self.pivots, 4)!r}",
-                        f"complete={self.complete}", f"observable={self.observable}")
-
-    def summary(self) -> str:
-        """A few lines of plain text: is the new model observable, the group divided out, the new symbols."""
-        seen = "every new coordinate observable in some branch" if self.observable else "NOT every new coordinate observable"
-        return block(f"{self.original} -> {self.model.name}: {seen}, {'complete' if self.complete else 'incomplete'}, "
-                     f"{'verified' if self.verified else 'not verified'} symbolically",
-                     f"normalised away: {names(self.pivots, 8)}",
-                     *(f"{k} = {sp.sstr(v)}" for k, v in list(self.mapping.items())[:8]),
-                     f"... and {len(self.mapping) - 8} more symbols" if len(self.mapping) > 8 else "")
-
-    def to_toml(self) -> str:
-        """The new model as a model file (loads with :func:`obsnl.load_model`)."""
-        return model_to_toml(self.model, header=f"Identifiable reparametrization of '{self.original}' "
-                                                f"(obsnl.reparametrize). New symbols are defined in [definitions].")
+__all__ = ["reparametrize"]
 
 
 # --------------------------------------------------------------------------- helpers
@@ -397,5 +312,3 @@ def _build(model: Model, new: list, section: Mapping[sp.Symbol, sp.Expr], notes:
                  equations=eqs, outputs=outs, switching=switching, known_initial_conditions=[s.name for s in kic],
                  initial_condition_values=icv, description=desc, source=model.source, latex=latex,
                  values=values, definitions=defs)
-
-

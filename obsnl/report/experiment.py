@@ -15,7 +15,7 @@ from typing import Any
 
 from obsnl.errors import OptionError
 from obsnl.report.figures import _plt, _save
-from obsnl.report.tables import tex_escape
+from obsnl.report.tex import tex_escape
 
 __all__ = ["design_text", "design_markdown", "design_latex", "render_design", "plot_visits", "DESIGN_FORMATS"]
 

@@ -1,4 +1,4 @@
-"""Renderings of a sensor search (:class:`obsnl.design.sensors.SensorSearch`): text, Markdown, LaTeX and JSON.
+"""Renderings of a sensor search (:class:`obsnl.design.sensor_search.SensorSearch`): text, Markdown, LaTeX and JSON.
 
 The search is read by its attributes (this room sits below :mod:`obsnl.design` and does not import it).
 The minimal sets come first, each with how its sufficiency was certified and how each set with one sensor

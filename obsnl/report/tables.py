@@ -9,19 +9,19 @@ seed model ``(r - eta') x2 > 0``), else it is the disjunction of the branch guar
 
 from __future__ import annotations
 
-import itertools
 import json
 import re
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass, replace
+from collections.abc import Sequence
+from dataclasses import replace
 
 import sympy as sp
 
 from obsnl.errors import OptionError
 from obsnl.model.core import Model
-from obsnl.model.signature import ModelSignature
-from obsnl.observability.branch_table import BranchTable
-from obsnl.observability.results import AnalysisResult, BranchResult, Verdict
+from obsnl.model.branching.signature import ModelSignature
+from obsnl.observability.contract.branch_table import BranchTable
+from obsnl.observability.results import AnalysisResult
+from obsnl.observability.verdicts import Verdict
 from obsnl.report.sentences import (
     _first_lines,
     _names,
@@ -31,12 +31,12 @@ from obsnl.report.sentences import (
     probability_text,
     union_text,
 )
+from obsnl.report.tex import _latex_expr, _latex_factor, _latex_name, tex_escape
+from obsnl.report.groups import BranchGroup, branch_groups
 
 __all__ = [
     "ROWS",
-    "BranchGroup",
     "complete",
-    "branch_groups",
     "branch_table",
     "to_markdown",
     "to_latex",
@@ -47,7 +47,6 @@ __all__ = [
     "FORMATS",
     "union_text",
     "joint_text",
-    "tex_escape",
 ]
 
 #: Row keys of a branch table and their headings.
@@ -74,8 +73,8 @@ def complete(result: AnalysisResult, model: Model) -> AnalysisResult:
     -------
     AnalysisResult
     """
-    from obsnl.model.branches import split_branches
-    from obsnl.model.switching import expr_text
+    from obsnl.model.branching.branches import split_branches
+    from obsnl.model.branching.switching import expr_text
 
     changes: dict = {}
     if result.signature is None:
@@ -101,104 +100,6 @@ def complete(result: AnalysisResult, model: Model) -> AnalysisResult:
                 new_b.append(b)
             changes["branches"] = tuple(new_b)
     return replace(result, **changes) if changes else result
-
-
-# --------------------------------------------------------------------------- grouping
-@dataclass(frozen=True)
-class BranchGroup:
-    """Branches with identical results, rendered as one column."""
-
-    labels: tuple[str, ...]
-    branches: tuple[BranchResult, ...]
-    condition: str  # plain text, sympy syntax
-    condition_expr: sp.Basic | None
-    factors: tuple[sp.Expr, ...] = ()  # when the condition is "product of factors <sign> 0"
-    sign: int = 0
-
-    @property
-    def observable(self) -> tuple[str, ...]:
-        return self.branches[0].observable
-
-    @property
-    def unobservable(self) -> tuple[str, ...]:
-        return self.branches[0].unobservable
-
-    @property
-    def degree(self) -> int:
-        return self.branches[0].transcendence_degree
-
-    @property
-    def heading(self) -> str:
-        return ", ".join(f"({lab})" for lab in self.labels)
-
-
-def _key(b: BranchResult) -> tuple:
-    return (b.verdict, frozenset(b.observable), frozenset(b.unobservable), frozenset(b.undecided),
-            b.transcendence_degree)
-
-
-def _symbols_in(texts: Iterable[str]) -> dict[str, sp.Symbol]:
-    """The names of the symbols in expression texts (function names such as ``exp`` are not symbols)."""
-    from obsnl.model.parse import ALLOWED_FUNCTIONS, make_symbol
-
-    names = set()
-    for t in texts:
-        names.update(re.findall(r"[^\W\d]\w*", t))
-    return {n: make_symbol(n) for n in names if n not in ALLOWED_FUNCTIONS and n != "pi"}
-
-
-def branch_groups(result: AnalysisResult) -> tuple[BranchGroup, ...]:
-    """Group branches with identical verdicts and lists, in order of first appearance."""
-    groups: dict[tuple, list[BranchResult]] = {}
-    for b in result.branches:
-        groups.setdefault(_key(b), []).append(b)
-    sw_exprs: list[sp.Expr] = []
-    if result.switching:
-        loc = _symbols_in(result.switching)
-        from obsnl.model.parse import parse_expression
-
-        sw_exprs = [parse_expression(t, loc, where="switching function") for t in result.switching]
-    all_patterns = [b.signs for b in result.branches]
-    out = []
-    for members in groups.values():
-        text, expr, factors, sign = _group_condition(members, sw_exprs, all_patterns)
-        out.append(BranchGroup(tuple(b.label for b in members), tuple(members), text, expr, factors, sign))
-    return tuple(out)
-
-
-def _group_condition(members: Sequence[BranchResult], sw: Sequence[sp.Expr],
-                     all_patterns: Sequence[tuple[int, ...]]) -> tuple[str, sp.Basic | None, tuple, int]:
-    from obsnl.model.switching import expr_text
-
-    if len(members) == len(all_patterns):
-        return "true", sp.true, (), 0
-    if not sw or any(len(b.signs) != len(sw) for b in members):
-        texts = [b.guard for b in members]
-        return (" | ".join(f"({t})" for t in texts) if len(texts) > 1 else texts[0]), None, (), 0
-    mine = {b.signs for b in members}
-    # the smallest product of switching functions whose sign singles out exactly this group
-    for size in range(1, len(sw) + 1):
-        for subset in itertools.combinations(range(len(sw)), size):
-            for s in (1, -1):
-                chosen = {p for p in all_patterns if _prod(p, subset) == s}
-                if chosen == mine:
-                    prod = sp.Mul(*[sw[i] for i in subset])
-                    rel = sp.StrictGreaterThan(prod, 0) if s > 0 else sp.StrictLessThan(prod, 0)
-                    factors = [expr_text(sw[i]) for i in subset]
-                    if len(factors) > 1:
-                        factors = [f"({f})" if isinstance(sw[i], sp.Add) else f for f, i in zip(factors, subset)]
-                    return (f"{'*'.join(factors)} {'>' if s > 0 else '<'} 0", rel,
-                            tuple(sw[i] for i in subset), s)
-    rels = [sp.And(*[sp.StrictGreaterThan(g, 0) if si > 0 else sp.StrictLessThan(g, 0) for g, si in zip(sw, b.signs)])
-            for b in members]
-    return " | ".join(f"({b.guard})" for b in members), sp.Or(*rels), (), 0
-
-
-def _prod(pattern: tuple[int, ...], subset: Sequence[int]) -> int:
-    out = 1
-    for i in subset:
-        out *= pattern[i]
-    return out
 
 
 # --------------------------------------------------------------------------- branch table (JSON)
@@ -404,42 +305,6 @@ def render(result: AnalysisResult, fmt: str) -> str:
     if fmt == "json-table":
         return to_json(result)
     raise OptionError(f"unknown format {fmt!r}; formats are {', '.join(FORMATS)}")
-
-
-# --------------------------------------------------------------------------- latex
-_TEX_SPECIAL = {"_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#", "$": r"\$", "{": r"\{", "}": r"\}",
-                "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "\\": r"\textbackslash{}"}
-
-
-def tex_escape(text: str) -> str:
-    return "".join(_TEX_SPECIAL.get(c, c) for c in text)
-
-
-def _latex_name(name: str, result: AnalysisResult) -> str:
-    from obsnl.model.latex import default_latex, latex_problem
-
-    given = result.latex.get(name)
-    if isinstance(given, str) and latex_problem(given) is None:  # only a whitelisted name reaches the .tex
-        return given
-    return default_latex(name)
-
-
-def _latex_factor(f: sp.Expr, result: AnalysisResult, *, wrap: bool) -> str:
-    """LaTeX of a switching function with positive terms first (``r - \\eta'``, not ``-\\eta' + r``)."""
-    if not isinstance(f, sp.Add):
-        return _latex_expr(f, result)
-    terms = sorted(f.args, key=lambda t: (t.could_extract_minus_sign(), sp.default_sort_key(t)))
-    out = ""
-    for i, t in enumerate(terms):
-        neg = t.could_extract_minus_sign()
-        body = _latex_expr(-t if neg else t, result)
-        out += (" - " if neg else " + ") + body if i else ("-" if neg else "") + body
-    return f"\\left({out}\\right)" if wrap else out
-
-
-def _latex_expr(expr: sp.Basic, result: AnalysisResult) -> str:
-    names = {s: _latex_name(s.name, result) for s in expr.free_symbols}
-    return sp.latex(expr, symbol_names=names)
 
 
 def to_latex(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, caption: str | None = None,

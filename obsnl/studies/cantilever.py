@@ -25,7 +25,7 @@ import scipy.linalg as sla
 
 from obsnl.errors import DataError, ModelError
 from obsnl.linear.systems import LinearSystem
-from obsnl.linear.observer import zoh
+from obsnl.linear.simulation import zoh
 from obsnl.studies.link_model import _DOF_NAME, DEFAULT_LINK_FILE, LinkSpec, load_link_spec
 
 # DEFAULT_LINK_FILE, LinkSpec and load_link_spec live in obsnl.studies.link_model; named here as before

@@ -218,7 +218,7 @@ def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
     """The branch table of the seed model from obsnl's analysis, checked against the paper's Table 1."""
     from obsnl.observability.analyze import analyze
     from obsnl.model.files import load_model
-    from obsnl.observability.branch_table import BranchTable
+    from obsnl.observability.contract.branch_table import BranchTable
 
     model = load_model(seed_model_path())
     table = BranchTable.from_result(analyze(model, seed=seed))

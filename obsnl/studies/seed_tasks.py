@@ -329,7 +329,7 @@ def context(spec: Spec) -> dict[str, Any]:
     """``{"setup", "table", "filters"}`` for ``spec``, built once per process (:func:`obsnl.executor.built_once`)."""
 
     def build() -> dict[str, Any]:
-        from obsnl.observability.branch_table import BranchTable
+        from obsnl.observability.contract.branch_table import BranchTable
         setup = seed_setup(record=spec.record, samples=spec.samples, jit=spec.jit)
         table = BranchTable.from_dict(json.loads(spec.table_json))
         filters = {"ukf": make_filter(setup, "ukf"), "dukf": make_filter(setup, "dukf", table=table),

@@ -1,0 +1,391 @@
+"""Split a non-smooth model into smooth branches (Chatzis et al., as in the seed paper §3.1).
+
+A *switching function* is the argument of ``sign``/``Abs``/``Heaviside``, the difference of the
+two sides of a ``Piecewise`` condition, or a pairwise difference of ``Max``/``Min`` arguments.
+Each is factored; the sign of a product or power follows from its factors, so
+``sign((sigma - eta)*x2)`` adds no switching function beyond ``sigma - eta`` and ``x2``.
+A branch fixes the sign of every switching function; inside it every non-smooth function is
+replaced by its analytic extension (``sign(g) -> ±1``, ``Abs(g) -> ±g``, ...). Sign patterns that
+no point satisfies are dropped (exactly by linear programming when the switching functions are
+affine, by a search for a witness point otherwise). Nested non-smooth functions are resolved
+level by level.
+
+Branches are ordered in reflected Gray-code order over the switching functions (neighbours differ
+across one switching surface); for the seed model this is the paper's order (a)-(d).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+import string
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from types import MappingProxyType
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from obsnl.errors import AnalysisError, ModelError, NotSupportedError
+from obsnl.model.bounds.budget import check_time
+from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
+from obsnl.model.branching.feasibility import feasible
+from obsnl.model.bounds.work import can_expand, can_factor, same_up_to_sign
+from obsnl.model.reading.parse import shorten
+from obsnl.model.branching.switching import (
+    check_declared,
+    expr_text,
+    innermost_nonsmooth,
+    resolve,
+    switching_functions,
+    switching_of,
+)
+
+__all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of", "check_finite"]
+
+_MAX_SWITCHING = 12  # switching functions in all (nested ones included): 2**12 sign patterns at most
+_MAX_BRANCHES = 1024  # smooth branches in all
+_FIELDS = {f.name for f in dataclasses.fields(Model)}
+
+
+@dataclass(frozen=True)
+class Branch:
+    """One smooth branch of a model.
+
+    Attributes
+    ----------
+    label
+        Short label: ``"a"``, ``"b"``, ... in Gray-code order (``"smooth"`` for a smooth model).
+    switching
+        The switching functions, in order.
+    signs
+        The sign (+1 or -1) of each switching function in this branch.
+    model
+        The smooth model valid in this branch (no sign/Abs/Heaviside/Piecewise/Max/Min left).
+    witness
+        A point (name -> value) inside the branch, found while checking feasibility (empty when undecided).
+    undecided
+        Empty for a branch with a witness; else why its feasibility is not decided (no point was found and
+        none was proved impossible): such a branch is returned only on request
+        (``split_branches(..., undecided=True)``), and :func:`obsnl.analyze` reports it as inconclusive.
+    """
+
+    label: str
+    switching: tuple[sp.Expr, ...]
+    signs: tuple[int, ...]
+    model: Model
+    witness: Mapping[str, float] = field(default_factory=dict, compare=False)
+    undecided: str = field(default="", compare=False)
+
+    @property
+    def relations(self) -> tuple[sp.Rel, ...]:
+        """The guard as sympy relations, e.g. ``(sigma - eta > 0, x2 < 0)``."""
+        return tuple(sp.StrictGreaterThan(g, 0) if s > 0 else sp.StrictLessThan(g, 0)
+                     for g, s in zip(self.switching, self.signs))
+
+    @property
+    def guard(self) -> sp.Basic:
+        """The guard as one sympy boolean over the model's symbols (``True`` for a smooth model)."""
+        return sp.And(*self.relations) if self.switching else sp.true
+
+    @property
+    def guard_text(self) -> str:
+        """The guard as text that sympy reads back, e.g. ``"(sigma - eta > 0) & (x2 < 0)"``.
+
+        ``"true"`` for a smooth model; a single relation has no parentheses (``"v > 0"``).
+        """
+        if not self.switching:
+            return "true"
+        rels = [f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(self.switching, self.signs)]
+        return rels[0] if len(rels) == 1 else " & ".join(f"({r})" for r in rels)
+
+    def contains(self, point: Mapping[str, float]) -> bool:
+        """True when ``point`` (name -> value) lies strictly inside this branch."""
+        for g, s in zip(self.switching, self.signs):
+            val = float(g.xreplace({sym: point[sym.name] for sym in g.free_symbols}))
+            if not s * val > 0:
+                return False
+        return True
+
+
+@dataclass(frozen=True)
+class DroppedPattern:
+    """A sign pattern with no point in it (why it was dropped); ``proved`` False: no point was found but
+    none was proved impossible either (the pattern is undecided, see :attr:`Branch.undecided`)."""
+
+    switching: tuple[sp.Expr, ...]
+    signs: tuple[int, ...]
+    reason: str
+    proved: bool = True
+
+
+def _gray(k: int) -> list[tuple[int, ...]]:
+    """Reflected Gray code over k signs, +1 first; the first function is the slowest."""
+    out = []
+    for i in range(2**k):
+        g = i ^ (i >> 1)
+        out.append(tuple(-1 if (g >> (k - 1 - j)) & 1 else 1 for j in range(k)))
+    return out
+
+
+# --------------------------------------------------------------------------- splitting
+def derived_model(base: Model, **changes: Any) -> Model:
+    """``base.replace(**changes)`` for changes made of ``base``'s own validated parts, without re-parsing.
+
+    :meth:`Model.replace` validates every expression again, and validation prints each one (about
+    15 ms per branch of the seed model, as much as analysing the branch). The models derived here
+    only substitute signs into ``base``'s expressions (branches) or keep subsets of its names and
+    expressions (blocks of :mod:`obsnl.observability.engines.decompose`): the symbols are ``base``'s own and no
+    non-smooth function or undeclared name can appear, so re-validation cannot fail. Mappings are
+    keyed like the validated model's (``equations`` and ``initial_condition_values`` by symbol,
+    ``outputs`` by name) and frozen the same way; tests compare every field with ``replace``.
+    """
+    new = copy.copy(base)
+    for key, value in changes.items():
+        if key not in _FIELDS:
+            raise TypeError(f"derived_model: unknown field {key!r}")
+        if isinstance(value, Mapping):
+            value = MappingProxyType(dict(value))
+        elif isinstance(value, list):
+            value = tuple(value)
+        object.__setattr__(new, key, value)
+    return new
+
+
+def _labels(n: int) -> list[str]:
+    """``a, ..., z, aa, ..., az, ba, ..., zz, aaa, ...`` (bijective base 26: a label for any count)."""
+    out = []
+    for i in range(n):
+        k, label = i + 1, ""
+        while k:
+            k, r = divmod(k - 1, 26)
+            label = string.ascii_lowercase[r] + label
+        out.append(label)
+    return out
+
+
+def split_branches(
+    model: Model, *, seed: int = 0, with_dropped: bool = False, max_seconds: float | None = None,
+    undecided: bool = False,
+) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
+    """Split ``model`` into its smooth branches.
+
+    Parameters
+    ----------
+    model
+        Any model; a smooth one gives a single branch labelled ``"smooth"``.
+    seed
+        Seed of the witness search used for non-affine switching functions.
+    with_dropped
+        Also return the sign patterns dropped as contradictory (and, without ``undecided``, those whose
+        feasibility is undecided, with ``proved=False``).
+    max_seconds
+        Time limit of the split (None: none; a budget of :func:`obsnl.model.bounds.budget.time_budget` holds too).
+    undecided
+        Also return the branches whose feasibility is not decided (:attr:`Branch.undecided`: no point was
+        found in them, none was proved impossible). Labels count them either way, so that a label names
+        the same branch with and without them.
+
+    Returns
+    -------
+    tuple[Branch, ...] or (tuple[Branch, ...], tuple[DroppedPattern, ...])
+
+    Raises
+    ------
+    NotSupportedError
+        More than 12 switching functions in all (nested ones included), more than 1024 branches, or
+        an unsupported Piecewise condition.
+    AnalysisError
+        The split took longer than ``max_seconds``.
+
+    Examples
+    --------
+    >>> from obsnl import Model, split_branches
+    >>> m = Model(name="coulomb", states=["x", "v"], parameters=["k", "mu"], inputs=["u"],
+    ...           equations={"x": "v", "v": "u - k*x - mu*sign(v)"}, outputs={"y": "x"})
+    >>> [(b.label, b.guard_text) for b in split_branches(m)]
+    [('a', 'v > 0'), ('b', 'v < 0')]
+    """
+    rng = np.random.default_rng(seed)
+    exprs = list(model.rhs) + list(model.output_exprs)
+    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
+        check_declared(model, ())
+        branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
+        return (branches, ()) if with_dropped else branches
+    found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float], str]] = []
+    dropped: list[DroppedPattern] = []
+    deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
+    memo: dict = {"__deadline__": deadline, "__seen__": {}}
+    _split_level(exprs, model.switching, (), (), ({}, ""), rng, found, dropped, memo)
+    check_declared(model, tuple(memo["__seen__"]))
+    labels = _labels(len(found))
+    n_rhs = len(model.states)
+    branches = []
+    for label, (sw, signs, new_exprs, witness, why) in zip(labels, found):
+        if why and not undecided:
+            dropped.append(DroppedPattern(sw, signs, why, proved=False))
+            continue
+        if not why:  # an undecided branch is not analysed: a division by zero there may be in no point at all
+            check_finite(model, new_exprs, sw, signs)
+        eqs = dict(zip(model.states, new_exprs[:n_rhs]))
+        outs = dict(zip(model.output_names, new_exprs[n_rhs:]))
+        sub = derived_model(model, name=f"{model.name}[{label}]", equations=eqs, outputs=outs, switching=())
+        branches.append(Branch(label, sw, signs, sub, witness, undecided=why))
+    result = tuple(branches)
+    return (result, tuple(dropped)) if with_dropped else result
+
+
+def _split_level(
+    exprs: list[sp.Expr],
+    declared: Sequence[sp.Expr],
+    outer_sw: tuple[sp.Expr, ...],
+    outer_signs: tuple[int, ...],
+    witness: tuple[dict[str, float], str],
+    rng: np.random.Generator,
+    found: list,
+    dropped: list,
+    memo: dict,
+) -> None:
+    """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own."""
+    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
+        found.append((outer_sw, outer_signs, exprs, *witness))
+        return
+    sw = switching_of(exprs, declared, memo)
+    memo.setdefault("__seen__", {}).update(dict.fromkeys(sw))  # every level's functions, in order
+    if len(outer_sw) + len(sw) > _MAX_SWITCHING:
+        n = len(outer_sw) + len(sw)
+        raise NotSupportedError(
+            f"{n} switching functions{' (nested ones included)' if outer_sw else ''} ({2 ** n} sign patterns); "
+            f"at most {_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
+        )
+    nodes = innermost_nonsmooth(exprs)
+    deadline = memo.get("__deadline__")
+    for signs in _gray(len(sw)):
+        if deadline is not None and time.perf_counter() > deadline:
+            raise AnalysisError("splitting the model into branches ran past the time limit; raise --max-seconds "
+                                "or smooth some switching functions")
+        check_time("splitting the model into branches", "raise --max-seconds or smooth some switching functions")
+        if len(found) >= _MAX_BRANCHES:
+            raise NotSupportedError(f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
+                                    f"switching functions (e.g. tanh(v/eps) for sign(v))")
+        all_sw = outer_sw + sw
+        all_signs = outer_signs + signs
+        point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, memo)
+        if point is None and proved:
+            dropped.append(DroppedPattern(all_sw, all_signs, reason))
+            continue
+        repl = {node: resolve(node, sw, signs, memo) for node in nodes}
+        new_exprs = [e.xreplace(repl) for e in exprs]
+        # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
+        _split_level(new_exprs, declared, all_sw, all_signs, (point or {}, reason if point is None else ""),
+                     rng, found, dropped, memo)
+
+
+def check_finite(model: Model, exprs: Sequence[sp.Expr], switching: Sequence[sp.Expr], signs: Sequence[int]) -> None:
+    """Refuse a branch where an equation or output divides by zero (``1/(1 - sign(v))`` where ``v > 0``).
+
+    Parameters
+    ----------
+    model : Model
+        The non-smooth model.
+    exprs : sequence of sympy.Expr
+        The branch's right-hand sides, then its outputs (in the model's order).
+    switching, signs : sequence
+        The switching functions and their signs in the branch.
+
+    Raises
+    ------
+    ModelError
+        Naming the equation or output as the user wrote it, the branch and the fix.
+    """
+    bad = (sp.zoo, sp.nan, sp.oo, -sp.oo)
+    names = [f"the equation of {s}" for s in model.states] + [f"output {y}" for y in model.output_names]
+    for name, before, after in zip(names, list(model.rhs) + list(model.output_exprs), exprs):
+        if after.has(*bad):
+            where = " and ".join(f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(switching, signs))
+            raise ModelError(f"{name}, {shorten(str(before))!r}, divides by zero where {where}; rewrite it so that "
+                             f"it is finite on both sides of every switching surface")
+
+
+#: Above this many switching functions :func:`field_jumps` does not split the model (all may jump).
+_MAX_JUMP_CHECK = 6
+
+
+def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
+    """For each switching function ``g``: may the vector field jump where ``g`` crosses 0?
+
+    ``False`` only when it is proved continuous there: for every two branches whose sign patterns
+    differ in ``g`` alone, the difference of their vector fields vanishes identically on ``g = 0``
+    (``g`` solved for one of its states or parameters, then cancelled). Anything not proved, a
+    nested split, a switching function that cannot be solved, or a model with more than
+    ``_MAX_JUMP_CHECK`` switching functions (the check splits the model), counts as a jump. Used by the
+    discrete steps to refine only the substeps where the field really jumps (for the seed model
+    ``r - eta'``, where the healing term switches, but not ``x2``, where every switched term
+    carries a factor ``x2``).
+    """
+    switching = list(switching)
+    if len(switching) > _MAX_JUMP_CHECK:
+        return (True,) * len(switching)
+    try:
+        branches = split_branches(model)
+    except (ModelError, NotSupportedError):
+        return (True,) * len(switching)
+    if len(branches) < 2 or any(b.switching != branches[0].switching for b in branches):
+        return (True,) * len(switching)
+    sw = list(branches[0].switching)
+    by_signs = {b.signs: b for b in branches}
+    out = []
+    for g in switching:
+        j = next((i for i, s in enumerate(sw) if same_up_to_sign(s, g)), None)
+        out.append(True if j is None else not _continuous_across(g, j, by_signs, model))
+    return tuple(out)
+
+
+def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model) -> bool:
+    """Whether the branch fields on the two sides of ``g = 0`` (``g`` the ``j``-th switching
+    function) agree identically on ``g = 0`` for every pair of neighbouring branches."""
+    sol = None
+    if not can_factor(g):  # solving it could run for minutes: not proved continuous, counted as a jump
+        return False
+    for s in [s for s in list(model.states) + list(model.parameters) if s in g.free_symbols]:
+        try:
+            roots = sp.solve(g, s)
+        except NotImplementedError:  # pragma: no cover - sympy cannot solve it
+            continue
+        if len(roots) == 1:
+            sol = (s, roots[0])
+            break
+    if sol is None:
+        return False
+    pairs = 0
+    for signs, b in by_signs.items():
+        other = by_signs.get(signs[:j] + (-1,) + signs[j + 1:]) if signs[j] > 0 else None
+        if other is None:
+            continue
+        pairs += 1
+        for fa, fb in zip(b.model.rhs, other.model.rhs):
+            if not can_expand(fa - fb) or sp.cancel(sp.together((fa - fb).subs(*sol))) != 0:
+                return False
+    return pairs > 0
+
+
+def branch_of(branches: Sequence[Branch], point: Mapping[str, float]) -> Branch | None:
+    """The branch containing ``point`` (None on a switching surface or outside every branch).
+
+    Parameters
+    ----------
+    branches : sequence of Branch
+        The model's branches.
+    point : mapping of str to float
+        Values of the symbols the switching functions use.
+
+    Returns
+    -------
+    Branch or None
+    """
+    for b in branches:
+        if b.contains(point):
+            return b
+    return None

@@ -1,0 +1,87 @@
+"""The checks of a model and of the options before any engine runs: the method, the bounds, the
+unknown inputs' derivatives, the names of the variables.
+"""
+
+from __future__ import annotations
+
+
+from obsnl.errors import AnalysisError, ModelError
+from obsnl.model.core import Model
+from obsnl.model.reading.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
+from obsnl.observability.limits import check_analysis_limits
+__all__ = ["METHODS", "resolve_unknown_input_derivatives"]
+
+#: The engines that ``method=`` names (``auto`` picks one per branch).
+METHODS = ("auto", "orc", "sedoglavic")
+
+
+def _check(model: Model, method: str, seed: int | None, max_seconds: float | None, prob: float,
+           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> None:
+    if not isinstance(model, Model):
+        raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.load_model")
+    if method not in METHODS:
+        raise AnalysisError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
+    if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or seed < 0):
+        raise AnalysisError(f"seed must be a non-negative integer or None, got {seed!r}")
+    if max_seconds is not None and not (isinstance(max_seconds, (int, float)) and max_seconds > 0):
+        raise AnalysisError(f"max_seconds must be a positive number or None, got {max_seconds!r}")
+    if not (isinstance(prob, float | int) and 0 < prob < 1):
+        raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
+    if unknown_input_derivatives is not None:
+        try:
+            check_unknown_input_derivatives(unknown_input_derivatives)
+        except ModelError as exc:
+            raise AnalysisError(str(exc)) from None
+    if input_derivatives is not None and (not isinstance(input_derivatives, int) or input_derivatives < 0):
+        raise AnalysisError(f"input_derivatives must be a non-negative integer or None, got {input_derivatives!r}")
+    if not model.outputs:
+        raise AnalysisError(f"model {model.name!r} has no outputs; add at least one measured quantity")
+    states = set(model.states)
+    unknowns = states | set(model.parameters) | set(model.unknown_inputs)
+    for name, expr in model.outputs.items():
+        if not (expr.free_symbols & unknowns):
+            raise AnalysisError(
+                f"output {name!r} = {expr} of model {model.name!r} depends on no state, parameter or unknown "
+                f"input; it carries no information: remove it or write what it measures"
+            )
+    if not any(expr.free_symbols & states for expr in model.outputs.values()):
+        raise AnalysisError(
+            f"no output of model {model.name!r} depends on a state; measure at least one state"
+        )
+    # last: the size of what the engines will hold (refused before any heavy work)
+    check_analysis_limits(model, unknown_input_derivatives)
+
+
+def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> int | str:
+    """The unknown-input assumption in force: ``value`` if given, else the model's
+    ``unknown_input_derivatives`` key, else ``"arbitrary"`` (any function of time).
+
+    Parameters
+    ----------
+    model : Model
+        The model.
+    value : int, str or None
+        The caller's option.
+
+    Returns
+    -------
+    int or "arbitrary"
+
+    Raises
+    ------
+    ModelError
+        When the value is neither ``"arbitrary"`` nor a non-negative integer.
+    """
+    if value is None:
+        value = model.unknown_input_derivatives
+    return ARBITRARY if value is None else check_unknown_input_derivatives(value)
+
+
+def _unknown_names(model: Model) -> tuple[str, ...]:
+    known = set(model.known_initial_conditions)
+    return tuple(s.name for s in model.states if s not in known) + tuple(s.name for s in model.parameters)
+
+
+def _variable_names(model: Model) -> tuple[str, ...]:
+    """Reported variables: every state (a known initial value is observable) and parameter."""
+    return tuple(s.name for s in model.states) + tuple(s.name for s in model.parameters)

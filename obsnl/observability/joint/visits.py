@@ -1,0 +1,379 @@
+"""The visits of the joint verdict (:mod:`obsnl.observability.joint.verdict`): one smooth model, or the two
+sides of a switching surface, evaluated at a point of the run's prime field.
+
+A branch visit is the branch's output series at its own generic point; a surface visit places a
+generic point on ``g = 0`` (one state solved from ``g``, where ``g`` is affine in it with a nonzero
+coefficient), evaluates both sides there with the same state, parameters, known-input series,
+unknown-input coefficients and atom stand-ins, compares the output coefficient values (visible
+crossing) and adds the gradient of ``g``. Each visit's rows are brought to reduced echelon form
+with its private columns first; the rows without private entries are its parameter information.
+"""
+
+from __future__ import annotations
+
+import random
+from collections.abc import Callable, MutableMapping
+from dataclasses import dataclass, replace
+from functools import cached_property
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from obsnl.algebra.augment import rationalize
+from obsnl.algebra.bounds import bound_sizes, failure_bound
+from obsnl.algebra.modp import Echelon
+from obsnl.algebra.problem import Problem, make_problem
+from obsnl.algebra.series import run_series
+from obsnl.errors import AnalysisError
+from obsnl.model.branching.branches import derived_model, expr_text
+from obsnl.model.bounds.work import degree_in
+from obsnl.model.core import Model
+from obsnl.observability.engines.sedoglavic import RankTracker, stall_safe
+from obsnl.observability.joint.modular import _mod, _rref, kernel_rows
+
+__all__ = ["JointVisit", "NewPrime", "Plan", "Prepared", "VisitData", "branch_visit", "classify_visit", "private_names", "replace_visit", "strip_ic", "surface_visit"]
+
+
+# --------------------------------------------------------------------------- the visit record
+@dataclass(frozen=True)
+class JointVisit:
+    """One visit of the joint stack.
+
+    Attributes
+    ----------
+    kind
+        ``"branch"`` or ``"surface"``.
+    labels
+        The branch label (branch visit) or the labels of the two sides (surface visit).
+    switching
+        The switching function crossed (surface visits; ``""`` for branch visits).
+    visible
+        Whether the output shows the crossing (surface visits; always True for branch visits).
+        None when the surface could not be placed.
+    parameter_rank
+        Rank of the parameter information the visit carries on its own (its rows with its private
+        unknowns eliminated).
+    rank_gain
+        By how much it raised the joint parameter rank when it was added (in visit order).
+    solved_for
+        The state solved from ``switching = 0`` to place the point on the surface.
+    reason
+        Why a surface was skipped (no state in which the switching function is affine, ...).
+    """
+
+    kind: str
+    labels: tuple[str, ...]
+    switching: str = ""
+    visible: bool | None = True
+    parameter_rank: int = 0
+    rank_gain: int = 0
+    solved_for: str = ""
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "labels": list(self.labels), "switching": self.switching,
+                "visible": self.visible, "parameter_rank": self.parameter_rank, "rank_gain": self.rank_gain,
+                "solved_for": self.solved_for, "reason": self.reason}
+
+
+# --------------------------------------------------------------------------- prepared problems
+@dataclass
+class Prepared:
+    """One smooth model ready for the series: its problem and where its columns are."""
+
+    problem: Problem
+    K: int
+    n_priv: int
+    priv: list[int]  # problem columns that are private to the visit
+    par: list[int]  # problem columns of the model's parameters, in model order
+    bound: dict[str, int]
+
+    @staticmethod
+    def of(model: Model, unknown_input_derivatives: int) -> Prepared:
+        problem = make_problem(rationalize(model), unknown_input_derivatives=unknown_input_derivatives)
+        col = {c: j for j, c in enumerate(problem.columns)}
+        par = [col[s.name] for s in model.parameters]
+        ps = set(par)
+        priv = [j for j in range(problem.size) if j not in ps]
+        return Prepared(problem, problem.order_bound(), len(priv), priv, par, bound_sizes(problem))
+
+    def failure(self, p: int) -> float:
+        return failure_bound(p, nfuncs=max(1, self.problem.size), **self.bound)
+
+
+@dataclass
+class Plan:
+    """A visit to make: its kind, labels and its sides' problems (prepared when first visited, so
+    that an early stop also saves the preparation of the visits it skips)."""
+
+    kind: str
+    labels: tuple[str, ...]
+    makers: list[Callable[[], Prepared]]
+    g: sp.Expr | None = None
+
+    @cached_property
+    def sides(self) -> list[Prepared]:
+        return [make() for make in self.makers]
+
+
+class _Atoms(MutableMapping):
+    """Atom stand-ins: constant atoms shared by all visits of a run, time-varying ones per visit."""
+
+    def __init__(self, shared: dict) -> None:
+        self.shared, self.local = shared, {}
+
+    def _d(self, key: tuple) -> dict:
+        return self.local if key[3] else self.shared
+
+    def __getitem__(self, key):
+        return self._d(key)[key]
+
+    def __setitem__(self, key, value):
+        self._d(key)[key] = value
+
+    def __delitem__(self, key):
+        del self._d(key)[key]
+
+    def __contains__(self, key):
+        return key in self._d(key)
+
+    def __iter__(self):
+        yield from self.shared
+        yield from self.local
+
+    def __len__(self):
+        return len(self.shared) + len(self.local)
+
+
+class NewPrime(Exception):
+    """A visit could not be evaluated modulo the run's prime."""
+
+
+# --------------------------------------------------------------------------- one visit
+@dataclass
+class VisitData:
+    plan: Plan
+    rows: np.ndarray  # columns ordered [private | parameters]
+    pi: np.ndarray  # parameter information (rows over the parameter columns)
+    record: JointVisit
+    used: bool = True  # False: an invisible or skipped surface
+
+
+def _unused(plan: Plan, model: Model, record: JointVisit) -> VisitData:
+    """A surface visit that adds no rows (invisible, or skipped for the reason in ``record``)."""
+    return VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
+                     record, used=False)
+
+
+def strip_ic(model: Model) -> Model:
+    if not model.known_initial_conditions:
+        return model
+    return derived_model(model, known_initial_conditions=(), initial_condition_values={})
+
+
+def branch_visit(plan: Plan, p: int, shared: dict, atoms: dict, key: str, deadline: float | None) -> VisitData:
+    """One branch visit: the branch's series at its own point, reduced to private and parameter rows.
+
+    Parameters
+    ----------
+    plan : Plan
+        The visit's plan (one prepared side).
+    p : int
+        The run's prime.
+    shared : dict
+        Parameter and constant values (mod ``p``) shared by all visits.
+    atoms : dict
+        The run's shared atom table.
+    key : str
+        Seed of this visit's random stream.
+    deadline : float or None
+        Time limit passed to :func:`obsnl.algebra.series.run_series`.
+
+    Returns
+    -------
+    VisitData
+
+    Raises
+    ------
+    NewPrime
+        When the series had to change prime.
+    """
+    prep = plan.sides[0]
+    tracker = RankTracker(prep.problem.size, stall=stall_safe(prep.problem))  # the visit's own rank stops growing
+    run = run_series(prep.problem, random.Random(key), K=prep.K, p=p, deadline=deadline, fixed=shared,
+                     atom_values=_Atoms(atoms), stop=tracker)
+    if run.p != p:
+        raise NewPrime(f"branch {plan.labels[0]}")
+    R = np.vstack(run.rows) if run.rows else np.zeros((0, prep.problem.size), dtype=np.int64)
+    return _finish(plan, R[:, prep.priv + prep.par], prep.n_priv, p, JointVisit("branch", plan.labels))
+
+
+def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, key: str,
+                   deadline: float | None) -> VisitData:
+    """One surface visit: both sides of ``plan.g = 0`` at one point on the surface (module docstring).
+
+    Parameters
+    ----------
+    plan : Plan
+        The surface and its two prepared sides.
+    model : Model
+        The non-smooth model.
+    p : int
+        The run's prime.
+    shared : dict
+        Parameter and constant values (mod ``p``) shared by all visits.
+    atoms : dict
+        The run's shared atom table.
+    key : str
+        Seed of this visit's random stream.
+    deadline : float or None
+        Time limit passed to :func:`obsnl.algebra.series.run_series`.
+
+    Returns
+    -------
+    VisitData
+        ``used=False`` with a reason when the surface is invisible or cannot be visited.
+
+    Raises
+    ------
+    NewPrime
+        When a side's series had to change prime.
+    """
+    g = plan.g
+    a_side, b_side = plan.sides
+    K = max(a_side.K, b_side.K)
+    text = expr_text(g)
+    rng = random.Random(key + ":surface")
+    states = {s: rng.randrange(1, p) for s in model.states}
+    inputs = {u: [rng.randrange(p) for _ in range(K + 1)] for u in model.inputs}
+    record = JointVisit("surface", plan.labels, switching=text, visible=None)
+    if g.free_symbols & set(model.unknown_inputs):
+        return _unused(plan, model, replace_visit(record, reason="the switching function depends on an unknown input"))
+    values: dict[sp.Symbol, int] = dict(shared)
+    values.update(states)
+    values.update({u: c[0] for u, c in inputs.items()})
+    solved = None
+    for s in model.states:
+        if s not in g.free_symbols:
+            continue
+        if degree_in(g, s) != 1:  # g = a*s + b read without expanding g (which may be huge)
+            continue
+        a, b = sp.diff(g, s), g.xreplace({s: sp.Integer(0)})
+        av, bv = _mod(a, values, p), _mod(b, values, p)
+        if av is None or bv is None or av == 0:
+            continue
+        states[s] = (-bv) * pow(av, -1, p) % p
+        values[s] = states[s]
+        solved = s
+        break
+    if solved is None:
+        return _unused(plan, model, replace_visit(record, reason=f"{text} = 0 cannot be solved for a state in which it is affine "
+                                              f"(with a rational, nonzero coefficient at the point)"))
+    record = replace_visit(record, solved_for=solved.name)
+    runs = []
+    local: dict = {}  # both sides share the point, so also the time-varying atoms' stand-ins
+    for label, side in zip(plan.labels, (a_side, b_side)):
+        table = _Atoms(atoms)
+        table.local = local
+        try:
+            run = run_series(side.problem, random.Random(key), K=K, p=p, deadline=deadline, fixed=shared,
+                             states=states, input_series=inputs, atom_values=table)
+        except AnalysisError:  # e.g. |g|**N with N unknown: its logarithm is singular on g = 0
+            return _unused(plan, model, replace_visit(record, reason=f"the field of side {label} is singular on {text} = 0 (a denominator or a "
+                                                          f"logarithm vanishes there, e.g. |g|**N with N unknown)"))
+        if run.p != p:
+            raise NewPrime(f"surface {text}")
+        runs.append(run)
+    ra, rb = runs
+    if ra.point.unknown_inputs != rb.point.unknown_inputs:  # pragma: no cover - same stream, same draws
+        raise AnalysisError("internal: the two sides of a surface drew different unknown-input coefficients")
+    visible = any(int(x) != int(y) for va, vb in zip(ra.values, rb.values) for x, y in zip(va, vb))
+    record = replace_visit(record, visible=visible)
+    cols = a_side.problem.columns
+    if cols != b_side.problem.columns:  # pragma: no cover - both sides are derived from one model
+        raise AnalysisError("internal: the two sides of a surface have different unknowns")
+    if not visible:
+        return _unused(plan, model, record)
+    syms = model.symbols
+    grow = []
+    for c in cols:
+        s = syms.get(c)
+        d = _mod(sp.diff(g, s), values, p) if s is not None else 0
+        if d is None:
+            return _unused(plan, model, replace_visit(record, reason=f"the gradient of {text} is not rational at the point"))
+        grow.append(d)
+    R = np.vstack(ra.rows + rb.rows + [np.array([grow], dtype=np.int64)])
+    return _finish(plan, R[:, a_side.priv + a_side.par], a_side.n_priv, p, record)
+
+
+def replace_visit(v: JointVisit, **kw: Any) -> JointVisit:
+    return replace(v, **kw)
+
+
+def _finish(plan: Plan, R: np.ndarray, n_priv: int, p: int, record: JointVisit) -> VisitData:
+    E = _rref(R, p)
+    keep = [i for i in range(E.shape[0]) if not E[i, :n_priv].any()]
+    pi = E[keep, n_priv:] if keep else np.zeros((0, R.shape[1] - n_priv), dtype=np.int64)
+    return VisitData(plan, E, pi, replace_visit(record, parameter_rank=len(keep)))
+
+
+def private_names(prep: Prepared) -> list[str]:
+    return [prep.problem.columns[j] for j in prep.priv]
+
+
+def classify_visit(v: VisitData, Pi: np.ndarray, p: int) -> dict[str, bool]:
+    """Private column name -> determined at this visit given its rows and ``Pi``.
+
+    Parameters
+    ----------
+    v : VisitData
+        The visit.
+    Pi : numpy.ndarray
+        Parameter information rows (over the parameter columns) to add.
+    p : int
+        The run's prime.
+
+    Returns
+    -------
+    dict of str to bool
+    """
+    prep = v.plan.sides[0]
+    n_priv, n_par = prep.n_priv, len(prep.par)
+    if n_priv == 0:
+        return {}
+    stack = v.rows if v.rows.size else np.zeros((0, n_priv + n_par), dtype=np.int64)  # a visit may show nothing
+    if Pi.shape[0]:
+        stack = np.vstack([stack, np.hstack([np.zeros((Pi.shape[0], n_priv), dtype=np.int64), Pi])])
+    unobs = kernel_rows(stack, n_priv + n_par, p)
+    return {c: not unobs[i] for i, c in enumerate(private_names(prep))}
+
+
+class _Classes:
+    """The joint classes of one run, kept up to date as visits are added.
+
+    ``Pi`` only grows, and with it what each visit determines: a visit classified at some rank of
+    ``Pi`` keeps its observable columns, and is classified again only when the rank has grown since
+    (so a run costs one classification per visit once ``Pi`` is full, not one per visit and check).
+    """
+
+    def __init__(self, p: int, states: list[str], params: list[str], ws: list[str], known: set[str]) -> None:
+        self.p, self.params = p, params
+        self.seen: dict[str, bool] = {c: c in known for c in states}
+        self.seen.update({w: False for w in ws})
+        self.at_rank: dict[int, int] = {}  # id of a visit -> rank of Pi at its last classification
+
+    def update(self, done: list[VisitData], ech: Echelon) -> dict[str, bool]:
+        p, n_par = self.p, len(self.params)
+        Pi = ech.rows if ech.rank else np.zeros((0, n_par), dtype=np.int64)
+        unobs_par = kernel_rows(Pi, n_par, p)
+        for v in done:
+            if not v.used or self.at_rank.get(id(v), -1) >= ech.rank:
+                continue
+            self.at_rank[id(v)] = ech.rank
+            for c, ok in classify_visit(v, Pi, p).items():
+                if ok and c in self.seen:
+                    self.seen[c] = True
+        out = {c: not u for c, u in zip(self.params, unobs_par)}
+        out.update(self.seen)
+        return out
