@@ -95,7 +95,7 @@ class Reproduction:
 
 #: How the third column of Table 2 is made (written into ``table2.json``).
 ML_PROTOCOL = ("maximum likelihood of the measured output given the measured input (output error, single shooting: "
-               "obsnl.identification.likelihood.refine), started on each reported seed from the estimate of the "
+               "obsnl.identification.refine.refine), started on each reported seed from the estimate of the "
                "filter (UKF or DUKF, refined protocol) whose free-run output misfit on that seed is the smaller (no "
                "true value used); every parameter free (none held), the initial state estimated; Levenberg-Marquardt "
                f"with exact derivatives, at most {ML_MAX_ITER} iterations per weighting; std from the Fisher "

@@ -40,7 +40,7 @@ SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_
 #: measured data only, never the truth.
 FALLBACKS = 2
 #: Levenberg-Marquardt iterations at most per weighting of the maximum-likelihood refinement of a reported
-#: seed (:func:`obsnl.identification.likelihood.refine` fits with the stated noise level, then again with the
+#: seed (:func:`obsnl.identification.refine.refine` fits with the stated noise level, then again with the
 #: noise level of its residuals). Bounds its time: on this model's rough objective (the healing switch) the
 #: iteration reaches its lowest chi2 within about 10 iterations and then takes steps that gain less than 0.5 in
 #: chi2 (measured on the five reported seeds: the errors after 12 and after 40 iterations agree to 0.01
@@ -95,7 +95,7 @@ class RunResult:
 
 @dataclass(frozen=True, eq=False)
 class Refined:
-    """The maximum-likelihood refinement of one reported seed (:func:`obsnl.identification.likelihood.refine`).
+    """The maximum-likelihood refinement of one reported seed (:func:`obsnl.identification.refine.refine`).
 
     ``start``: the filter run it started from (``method``, ``passes``, ``output_misfit``); ``std``: the Fisher
     std per parameter at the estimate (``inf`` along a flat direction); ``converged`` and ``reason`` as the
@@ -382,7 +382,7 @@ def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) ->
     described by ``start``); every parameter free, the initial state estimated, Fisher std at the estimate."""
     import time
 
-    from obsnl.identification.likelihood import refine
+    from obsnl.identification.refine import refine
 
     spec, seed, theta, start = task
     setup = context(spec)["setup"]
