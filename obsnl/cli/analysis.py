@@ -6,7 +6,8 @@ import argparse
 import json
 from typing import Any
 
-from obsnl.cli.common import _Exit, _add_executor, _executor, _load, _progress, _seed, write_output  # noqa: F401
+from obsnl.cli.common import (_Exit, _add_executor, _executor, _load, _one_input_record, _progress,  # noqa: F401
+                              _seed, write_output)
 from obsnl.model.reading.unknown_inputs import DERIVATIVES_MARGIN
 from obsnl.model.bounds.budget import time_budget
 from obsnl.observability.limits import MAX_UNKNOWNS, check_analysis_limits, check_file_limits, out_of_memory
@@ -151,13 +152,9 @@ def _record_visits(model: Any, path: str) -> Any:
     """The sign patterns a simulation of the model's [values] under the record at ``path`` visits."""
     import numpy as np
 
-    from obsnl.estimation.records import read_record
     from obsnl.observability.joint.visited import visited_patterns
 
-    if len(model.inputs) != 1:
-        raise _Exit(2, f"--record drives one input, model {model.name!r} has {len(model.inputs)}; give a model with "
-                    "one known input")
-    rec = read_record(path)
+    rec = _one_input_record(model, path)
     t = rec.dt * np.arange(len(rec.accel))
     return visited_patterns(model, t, {model.inputs[0].name: rec.accel})
 

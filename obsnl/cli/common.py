@@ -90,6 +90,16 @@ def write_output(text: str, out: str | None, *, force: bool) -> None:
     safe_write(out, text, force=force)  # refuses symlinks, folders, a parent that is a file
 
 
+def _one_input_record(model: Any, path: str) -> Any:
+    """The record at ``path`` as the one known input of ``model`` (``--record`` of analyze, sensors and design)."""
+    from obsnl.estimation.records import read_record
+
+    if len(model.inputs) != 1:
+        raise _Exit(2, f"--record drives one input, model {model.name!r} has {len(model.inputs)}; give a model with "
+                    "one known input")
+    return read_record(path)
+
+
 def _progress(desc: str, total: int | None, unit: str) -> Any:
     """A progress bar on stderr (tqdm), or None when tqdm is missing."""
     try:

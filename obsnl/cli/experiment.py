@@ -7,7 +7,7 @@ import argparse
 import dataclasses
 from pathlib import Path
 
-from obsnl.cli.common import _Exit, _load, _seed, write_output
+from obsnl.cli.common import _Exit, _load, _one_input_record, _seed, write_output
 from obsnl.model.bounds.budget import time_budget
 from obsnl.observability.limits import check_analysis_limits, check_file_limits
 
@@ -53,7 +53,6 @@ def _add_design(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_design(args: argparse.Namespace) -> int:
     from obsnl.design.experiment import design
-    from obsnl.estimation.records import read_record
     from obsnl.report.experiment import plot_visits, render_design
     from obsnl.report.files import OutputFolder, check_target
 
@@ -70,10 +69,7 @@ def _cmd_design(args: argparse.Namespace) -> int:
     with time_budget(args.max_seconds):
         model = _load(args.model, check=check_file_limits)
         check_analysis_limits(model)
-        if len(model.inputs) != 1:
-            raise _Exit(2, f"--record drives one input, model {model.name!r} has {len(model.inputs)}; give a model "
-                        "with one known input")
-        records = [read_record(path) for path in args.record]
+        records = [_one_input_record(model, path) for path in args.record]
         stems = [r.name for r in records]
         if len(set(stems)) < len(stems):  # same file names in different folders: name them by their paths
             records = [dataclasses.replace(r, name=path) for r, path in zip(records, args.record)]

@@ -5,7 +5,8 @@ from __future__ import annotations
 
 import argparse
 
-from obsnl.cli.common import _Exit, _add_executor, _at_least, _executor, _load, _seed, write_output
+from obsnl.cli.common import (_Exit, _add_executor, _at_least, _executor, _load, _one_input_record, _seed,
+                              write_output)
 from obsnl.model.bounds.budget import time_budget
 from obsnl.observability.limits import check_file_limits
 
@@ -47,7 +48,6 @@ def _add_sensors(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_sensors(args: argparse.Namespace) -> int:
     from obsnl.design.sensors import rank_sufficient_sets, sensors
-    from obsnl.estimation.records import read_record
     from obsnl.report.files import check_target
     from obsnl.report.sensors import render_sensors
 
@@ -56,12 +56,9 @@ def _cmd_sensors(args: argparse.Namespace) -> int:
     with time_budget(None):
         model = _load(args.model, check=check_file_limits)
     if args.record is not None:
-        if len(model.inputs) != 1:
-            raise _Exit(2, f"--record drives one input, model {model.name!r} has {len(model.inputs)}; give a model "
-                        "with one known input")
         if not (0.0 < args.noise < 10.0):
             raise _Exit(2, f"--noise {args.noise} is not a relative level between 0 and 10 (0.01 is 1 %)")
-        rec = read_record(args.record)  # read before the search: a bad record is refused before any work
+        rec = _one_input_record(model, args.record)  # read before the search: a bad record is refused before any work
     result = sensors(model, target=args.target, max_size=args.max_size, seed=args.seed,
                      max_seconds=args.max_seconds, executor=_executor(args), progress=args.progress)
     if args.record is not None:

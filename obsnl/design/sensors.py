@@ -155,6 +155,15 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     minimal: list[tuple[str, ...]] = []
     undecided: list[tuple[str, ...]] = []
     essential_done = False
+
+    def check(sets: list[tuple[str, ...]], done: Callable[[int, Any], None] | None = None) -> list[Sufficiency]:
+        """Analyse ``sets`` on the executor, count the analyses, keep the answers."""
+        nonlocal analyses
+        found = executor.map(_check_task, [(model, x, targets, seed, prob, max_seconds) for x in sets], done=done)
+        analyses += sum(r.how == "analysis" for r in found)
+        known.update((frozenset(x), r) for x, r in zip(sets, found))
+        return found
+
     anc = {c: output_reachable(restrict(model, [c])) for c in candidates}  # reach of a set: the union
     for k in range(1, max_size + 1):
         level = [tuple(candidates[i] for i in idx) for idx in itertools.combinations(range(m), k)]
@@ -176,11 +185,7 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
                 bar()
                 continue
             todo.append(s)
-        results = executor.map(_check_task, [(model, s, targets, seed, prob, max_seconds) for s in todo],
-                               done=lambda i, r: bar())
-        analyses += sum(r.how == "analysis" for r in results)
-        for s, r in zip(todo, results):
-            known[frozenset(s)] = r
+        check(todo, done=lambda i, r: bar())
         for s in level:
             if frozenset(s) in covered:
                 continue
@@ -208,10 +213,7 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
             essential_done = True
             rest = [tuple(c for c in candidates if c != x) for x in candidates]
             rest = [r for r in rest if frozenset(r) not in known]
-            found = executor.map(_check_task, [(model, r, targets, seed, prob, max_seconds) for r in rest])
-            analyses += sum(r.how == "analysis" for r in found)
-            for r_set, r in zip(rest, found):
-                known[frozenset(r_set)] = r
+            for r_set, r in zip(rest, check(rest)):
                 if r.sufficient is False:
                     insufficient.append(frozenset(r_set))
     bar.close()
