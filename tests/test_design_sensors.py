@@ -298,3 +298,16 @@ def test_cli_says_undecided_sets_with_exit_2(tmp_path, capsys, monkeypatch):
     cap = capsys.readouterr()
     assert json.loads(cap.out)["undecided_sets"] == [["a1", "a2"]]  # the answer is printed first
     assert cap.err.count("\n") == 1 and "undecided" in cap.err and "{a1, a2}" in cap.err
+
+
+@pytest.mark.parametrize("command", [["analyze"], ["sensors"], ["design"]])
+def test_record_of_a_model_with_two_inputs_is_refused_in_one_line(tmp_path, capsys, command):
+    # a record drives one known input; SEPARATE has two (u1, u2), so each command refuses before any work
+    path = tmp_path / "sep.json"
+    path.write_text(json.dumps(SEPARATE.to_dict()), encoding="utf-8")
+    rec = tmp_path / "rec.csv"
+    rec.write_text("time_s,accel_m_s2\n" + "\n".join(f"{0.01 * i:.2f},{np.sin(0.1 * i):.6f}" for i in range(50)) + "\n",
+                   encoding="utf-8")
+    assert main([*command, str(path), "--record", str(rec)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--record drives one input" in err and "has 2" in err
