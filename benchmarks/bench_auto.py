@@ -42,7 +42,7 @@ def main() -> None:
 
     rows = []
     for path in _cases():
-        model = obsnl.load_model(path)
+        model = obsnl.read_model(path)
         times = {"auto": [], "sedoglavic": []}
         res = {}
         for m in times:  # warm-up

@@ -52,9 +52,9 @@ def _symident_models(path: str) -> list[tuple[str, dict]]:
 
     import obsnl
 
-    model = obsnl.load_model(path)
+    model = obsnl.read_model(path)
     out = []
-    for br in obsnl.split_branches(model):
+    for br in obsnl.model.split_branches(model):
         m = br.model
         kw = dict(
             odes={s.name: sp.sstr(m.equations[s]) for s in m.states},
@@ -121,7 +121,7 @@ def run_case(path: Path, repeat: int, method: str) -> dict:
     except ImportError:
         symident = None
     out["import_symident"] = time.perf_counter() - t0
-    model = obsnl.load_model(path)
+    model = obsnl.read_model(path)
     branches = _symident_models(str(path)) if symident is not None else []
 
     def call_obsnl():

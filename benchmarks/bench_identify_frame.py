@@ -56,7 +56,7 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=None)
     ap.add_argument("--passes", type=int, default=4)
     args = ap.parse_args(argv)
-    model = obsnl.load_model(MODEL)
+    model = obsnl.read_model(MODEL)
     truth = {k: float(model.values[k]) for k in (s.name for s in model.parameters)}
     rec = read_record(RECORD)
     xg = rec.accel[: args.samples] if args.samples else rec.accel

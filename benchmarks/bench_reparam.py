@@ -31,13 +31,13 @@ ROOT = Path(__file__).resolve().parents[1]
 def _models():
     import obsnl
 
-    seed = obsnl.load_model(ROOT / "models" / "damage_healing.toml")
+    seed = obsnl.read_model(ROOT / "models" / "damage_healing.toml")
     N = seed.symbol("N")
     fixed = seed.replace(
         name="damage_healing_N2", parameters=[p.name for p in seed.parameters if p != N],
         equations={s.name: e.subs(N, 2) for s, e in seed.equations.items()},
         values={k: v for k, v in seed.values.items() if k != "N"}, latex={k: v for k, v in seed.latex.items() if k != "N"})
-    bw = obsnl.load_model(ROOT / "models" / "bouc_wen.toml")
+    bw = obsnl.read_model(ROOT / "models" / "bouc_wen.toml")
     return [("seed model (N unknown)", seed), ("seed model, N = 2 known", fixed), ("Bouc-Wen (n unknown)", bw)]
 
 
@@ -138,7 +138,8 @@ def catalogue(out: Path) -> None:
     import json
 
     import obsnl
-    from obsnl import reparametrize, same_field
+    from obsnl import reparametrize
+    from obsnl.recombination import same_field
 
     lines = ["# Identifiable functions of the peer catalogue (obsnl.reparametrize)", "",
              "Cases of `tests/data/peer_cases` that state `expected_identifiable_functions` (generating sets of "
@@ -154,7 +155,7 @@ def catalogue(out: Path) -> None:
         data = json.loads(p.read_text())
         if "expected_identifiable_functions" not in data:
             continue
-        m = obsnl.load_model(p)
+        m = obsnl.read_model(p)
         t = time.perf_counter()
         r = reparametrize(m, seed=0)
         dt = time.perf_counter() - t

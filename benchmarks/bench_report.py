@@ -37,7 +37,7 @@ def main() -> None:
 
     paths = sorted((ROOT / "tests" / "data" / "peer_cases").glob("*.json")) + [
         p for p in sorted((ROOT / "models").glob("*.toml")) if p.stem != "cantilever_link"]
-    models = [obsnl.load_model(p) for p in paths]
+    models = [obsnl.read_model(p) for p in paths]
     times: dict[str, list[float]] = {"serial": [], f"{args.workers} processes": []}
     same = True
     for _ in range(args.rounds):

@@ -59,7 +59,7 @@ def _sigma(z, P, alpha, beta, kappa):
 
 def numpy_ukf(setup, data, filt, P0, z0):
     """The same filter as obsnl's UKF, vectorised over sigma points with numpy."""
-    fns = numpy_model(obsnl.load_model(seed_model_path()))
+    fns = numpy_model(obsnl.read_model(seed_model_path()))
     f, gfun, nx, dt, n, r = fns["f"], fns["g"], setup.model.nx, setup.record.dt, filt.substeps, filt.refine
     scale = filt.state_scale
     signs = np.sign(setup.theta_guess)[:, None]
@@ -122,7 +122,7 @@ def filterpy_ukf(setup, data, filt, P0, z0):
     """filterpy's UKF with a scalar-Python model called per sigma point."""
     from filterpy.kalman import MerweScaledSigmaPoints, UnscentedKalmanFilter
 
-    fns = numpy_model(obsnl.load_model(seed_model_path()), scalar=True)
+    fns = numpy_model(obsnl.read_model(seed_model_path()), scalar=True)
     f, gfun = fns["f"], fns["g"]
     watch = [i for i, j in enumerate(setup.model.jumps) if j]  # switching functions where f can jump
 

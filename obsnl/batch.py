@@ -32,15 +32,19 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
 
     Parameters
     ----------
-    models
+    models : sequence of Model
         Models with distinct names (the names become file names).
-    out
+    out : str or Path
         The report folder.
-    method, seed, max_seconds
+    method : str
+        As :func:`obsnl.analyze`.
+    seed : int
         As :func:`obsnl.analyze` (one seed for every model).
-    force
+    max_seconds : float or None
+        As :func:`obsnl.analyze`.
+    force : bool
         Overwrite existing files.
-    executor
+    executor : Executor or None
         Where the models are analysed (:class:`obsnl.executor.Executor`; default: this process). A
         task carries the model's specification (``Model.to_dict()``) and the seed.
 

@@ -39,10 +39,10 @@ class Executor:
 
     Parameters
     ----------
-    scheduler
+    scheduler : Any
         None: this machine; an address (``"tcp://host:8786"``) or a ``distributed.Client``: that Dask
         cluster (its workers need obsnl installed).
-    workers
+    workers : int or None
         Local processes when ``scheduler`` is None (None: one per core; 1: in this process, no
         processes started).
 

@@ -15,7 +15,8 @@ import pytest
 import obsnl
 import obsnl.observability.analyze as analyze_module
 import obsnl.observability.engines.smooth as smooth_module
-from obsnl import Model, analyze, sedoglavic
+from obsnl import Model, analyze
+from obsnl.observability import sedoglavic
 from obsnl.cli import main
 from obsnl.errors import AnalysisError, ModelError, OptionError
 from obsnl.observability.limits import MAX_UNKNOWNS

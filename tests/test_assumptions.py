@@ -120,7 +120,7 @@ def test_default_is_arbitrary_and_the_model_key_overrides_it(tmp_path) -> None:
     # the key round-trips through a model file
     path = tmp_path / "m.toml"
     path.write_text(model_to_toml(m0))
-    assert obsnl.load_model(path).unknown_input_derivatives == 0
+    assert obsnl.read_model(path).unknown_input_derivatives == 0
 
 
 def test_bad_unknown_input_derivatives_is_a_clear_error(capsys) -> None:
@@ -136,7 +136,7 @@ def test_bad_unknown_input_derivatives_is_a_clear_error(capsys) -> None:
 def test_unknown_input_cases_state_the_K_of_their_source(name) -> None:
     # both answer sources list the inputs' unknowns as (u1, u1_d1) / (w, w_d1): nnzDerW = 1
     # (tests/test_engines_catalogue.py checks their published classes under that K)
-    assert obsnl.load_model(PEER_CASES / f"{name}.json").unknown_input_derivatives == 1
+    assert obsnl.read_model(PEER_CASES / f"{name}.json").unknown_input_derivatives == 1
 
 
 def test_every_format_states_the_assumptions_and_the_unknown_inputs(capsys) -> None:
@@ -167,7 +167,7 @@ def test_inconclusive_branch_claims_no_degree_and_no_probability(capsys) -> None
     (b,) = doc["branches"]
     assert b["verdict"] == "inconclusive" and b["transcendence_degree"] is None and b["reason"] and b["undecided"]
     assert doc["verdict"] == "inconclusive" and doc["probability"] is None
-    r = analyze(obsnl.load_model(PEER_CASES / "genssi_hiv.json"), method="orc", max_seconds=0.3, seed=0)
+    r = analyze(obsnl.read_model(PEER_CASES / "genssi_hiv.json"), method="orc", max_seconds=0.3, seed=0)
     assert "not decided" in render(r, "md") and "not decided" in render(r, "tex") and "not decided" in render(r, "text")
     assert "inconclusive" in render(r, "md") and "inconclusive" in render(r, "tex")
 
@@ -182,7 +182,7 @@ def test_betaig_with_numeric_fractional_powers_on_ten_seeds(seed) -> None:
     # unchanged: beta, I, p1, si are not identifiable (2 symmetries: transcendence degree 2); G, c,
     # gamma, alpha are (the invariant si I obeys (si I)' = si p1 beta rho(G) - gamma si I, and with
     # z = si p1 beta, z' = z f(G): G'' gives si I, then gamma and alpha through rho(G), c from G').
-    model = obsnl.load_model(ROOT / "tests" / "data" / "sg_big_autorepar.toml")
+    model = obsnl.read_model(ROOT / "tests" / "data" / "sg_big_autorepar.toml")
     r = analyze(model, method="sedoglavic", seed=seed)
     assert r.probability >= 0.99
     assert set(r.overall_observable) == {"G", "gamma", "c", "alpha"}

@@ -13,7 +13,7 @@ import pytest
 
 from obsnl.linear.bank import (
     BankRun,
-    BankVerdict,
+    Detection,
     build_bank,
     calibrate_thresholds,
     decide,
@@ -55,7 +55,7 @@ def test_thresholds_come_from_other_seeds(study):
 
 def test_no_false_alarm_on_the_healthy_link(study):
     for r in runs_of(study, "healthy"):
-        assert not r.decision.detected and r.decision.verdict is BankVerdict.NOT_DETECTED
+        assert not r.decision.detected and r.decision.outcome is Detection.NOT_DETECTED
 
 
 @pytest.mark.parametrize("element", [1, 2, 3, 4])
@@ -71,7 +71,7 @@ def test_crack_at_an_observer_is_located_there_by_both_rules(study, element):
     for r in runs_of(study, f"crack{element}"):
         d = r.decision
         assert d.by_magnitude == d.by_residual == str(element)
-        assert d.verdict is BankVerdict.LOCATED and d.located_at == str(element)
+        assert d.outcome is Detection.LOCATED and d.located_at == str(element)
         # estimation accuracy: within 15 % of the true dipole force
         assert abs(force(r, str(element)) - r.truth_rms) <= 0.15 * r.truth_rms
 
@@ -86,12 +86,12 @@ def test_crack_between_observers_gives_comparable_forces_at_both_neighbours(stud
         f2, f4, f6 = (force(r, k) for k in ("2", "4", "6"))
         assert f2 > tau(study, "2") and f4 > tau(study, "4") and f6 < tau(study, "6")
         assert 0.67 <= f2 / f4 <= 1.5
-        assert r.decision.verdict is BankVerdict.INCONCLUSIVE  # no single location is claimed
+        assert r.decision.outcome is Detection.INCONCLUSIVE  # no single location is claimed
 
 
 def test_tip_crack_is_reported_as_not_detected(study):
     for r in runs_of(study, "crack6"):
-        assert r.decision.verdict is BankVerdict.NOT_DETECTED and r.decision.by_magnitude is None
+        assert r.decision.outcome is Detection.NOT_DETECTED and r.decision.by_magnitude is None
 
 
 def test_crack_5_is_never_located_elsewhere_than_observer_4(study):
@@ -99,8 +99,8 @@ def test_crack_5_is_never_located_elsewhere_than_observer_4(study):
     # stays below tau (it is barely above the noise floor), which is also an honest answer
     for r in runs_of(study, "crack5"):
         d = r.decision
-        assert d.verdict in (BankVerdict.NOT_DETECTED, BankVerdict.INCONCLUSIVE, BankVerdict.DETECTED) or (
-            d.verdict is BankVerdict.LOCATED and d.located_at == "4")
+        assert d.outcome in (Detection.NOT_DETECTED, Detection.INCONCLUSIVE, Detection.DETECTED) or (
+            d.outcome is Detection.LOCATED and d.located_at == "4")
 
 
 def test_true_crack_forces_match_the_notes(study):
@@ -170,16 +170,16 @@ def test_thresholds_are_factor_times_the_healthy_sliding_rms(thresholds):
     assert thresholds.tau == pytest.approx((0.03, 0.03, 0.03), rel=0.01)
 
 
-@pytest.mark.parametrize("amps, best, verdict, located", [
-    ([0.0, 0.0, 0.0], None, BankVerdict.NOT_DETECTED, None),
-    ([1.0, 0.1, 0.1], 0, BankVerdict.LOCATED, "0"),
-    ([1.0, 0.9, 0.1], 0, BankVerdict.INCONCLUSIVE, None),  # within the ratio band
-    ([1.0, 0.1, 0.1], 2, BankVerdict.INCONCLUSIVE, None),  # rules disagree
+@pytest.mark.parametrize("amps, best, outcome, located", [
+    ([0.0, 0.0, 0.0], None, Detection.NOT_DETECTED, None),
+    ([1.0, 0.1, 0.1], 0, Detection.LOCATED, "0"),
+    ([1.0, 0.9, 0.1], 0, Detection.INCONCLUSIVE, None),  # within the ratio band
+    ([1.0, 0.1, 0.1], 2, Detection.INCONCLUSIVE, None),  # rules disagree
 ])
-def test_verdicts(thresholds, amps, best, verdict, located):
+def test_outcomes(thresholds, amps, best, outcome, located):
     d = decide(synthetic_run(amps, residual_best=best), thresholds, evaluation_window=4.0, onset=5.0)
-    assert d.verdict is verdict and d.located_at == located
-    if verdict is not BankVerdict.NOT_DETECTED:
+    assert d.outcome is outcome and d.located_at == located
+    if outcome is not Detection.NOT_DETECTED:
         assert d.rms_force[0] == pytest.approx(amps[0] / np.sqrt(2), rel=0.01)
         assert 0.0 <= d.time_to_detection < 0.5
 

@@ -17,7 +17,7 @@ import pytest
 
 from obsnl.cli import main
 from obsnl.errors import ModelError, ObsnlError, OutputError
-from obsnl.studies.cantilever import DEFAULT_LINK_FILE, Cantilever, load_link_spec
+from obsnl.studies.cantilever import DEFAULT_LINK_FILE, Cantilever, read_link_spec
 from obsnl.studies.link_study import run_link_study
 
 
@@ -45,7 +45,7 @@ def no_simulation(monkeypatch):
 def refusal(tmp_path: Path, *edits: str, seeds: int = 1) -> str:
     """The one-line message with which reading the edited model file and starting a study are refused."""
     with pytest.raises(ObsnlError) as info:
-        run_link_study(seeds=seeds, spec=load_link_spec(edited(tmp_path, *edits)), gates=False)
+        run_link_study(seeds=seeds, spec=read_link_spec(edited(tmp_path, *edits)), gates=False)
     msg = str(info.value)
     assert "\n" not in msg and "Traceback" not in msg
     return msg
@@ -62,7 +62,7 @@ def refused_by_cli(capsys, args: list[str]) -> str:
 @pytest.mark.parametrize("edit", ["driven_node = 0", "driven_node = 9", "driven_node = 1.5"])
 def test_1_driven_node_must_be_an_actuator(tmp_path, no_simulation, edit):
     with pytest.raises(ModelError, match=r"driven_node = .*actuator_nodes|driven_node = .*whole number"):
-        load_link_spec(edited(tmp_path, edit))
+        read_link_spec(edited(tmp_path, edit))
 
 
 # ----------------------------------------------------------------------------- 2 wrong types
@@ -86,7 +86,7 @@ def test_3_memory_of_the_whole_study_is_bounded(no_simulation):
         run_link_study(seeds=200, gates=False)
     with pytest.raises(ObsnlError, match="at most 1000"):
         run_link_study(seeds=10**9, gates=False)
-    spec = load_link_spec()
+    spec = read_link_spec()
     many = dataclasses.replace(spec, bank={**spec.bank, "dt": 1e-5})  # 600 001 samples
     with pytest.raises(ModelError, match="limit"):
         run_link_study(seeds=20, spec=many, gates=False)
@@ -122,15 +122,15 @@ def test_5_values_that_were_silently_accepted_are_refused(tmp_path, no_simulatio
 # ----------------------------------------------------------------------------- 6 messages, obsnl:NAME
 def test_6_model_path_messages_and_the_packaged_model(tmp_path, capsys):
     with pytest.raises(ModelError, match="is a folder") as info:
-        load_link_spec(tmp_path)
+        read_link_spec(tmp_path)
     assert "not found" not in str(info.value)
     err = refused_by_cli(capsys, ["bank", "--seeds", "1", "--out", str(tmp_path / "o"), "--model", str(tmp_path)])
     assert "folder" in err and not (tmp_path / "o").exists()
-    assert load_link_spec("obsnl:cantilever_link") == load_link_spec()
+    assert read_link_spec("obsnl:cantilever_link") == read_link_spec()
     missing = DEFAULT_LINK_FILE.read_text(encoding="utf-8").replace("\nonset = ", "\n# onset = ")
     (tmp_path / "m.toml").write_text(missing, encoding="utf-8")
     with pytest.raises(ModelError) as info:
-        run_link_study(seeds=1, spec=load_link_spec(tmp_path / "m.toml"), gates=False)
+        run_link_study(seeds=1, spec=read_link_spec(tmp_path / "m.toml"), gates=False)
     msg = str(info.value)
     assert "onset" in msg and "models/cantilever_link.toml" in msg and "obsnl/catalogue" not in msg
 
@@ -152,7 +152,7 @@ def _plain_files(out: Path, names: list[str]) -> bool:
 def test_7_the_report_writer_never_writes_through_a_link(tmp_path):
     from obsnl.report.bank import write_bank_report
 
-    spec = load_link_spec()
+    spec = read_link_spec()
     short = dataclasses.replace(spec, bank={**spec.bank, "dt": 1e-3, "duration": 0.6, "onset": 0.3,
                                             "evaluation_window": 0.3, "detection_window": 0.1, "crack_elements": [2]})
     study = run_link_study(seeds=1, spec=short, gates=False)

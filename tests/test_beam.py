@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from obsnl.studies.cantilever import DEFAULT_LINK_FILE, BreathingCrack, build_cantilever, element_channels, load_link_spec
+from obsnl.studies.cantilever import DEFAULT_LINK_FILE, BreathingCrack, build_cantilever, element_channels, read_link_spec
 from obsnl.errors import DataError, ModelError
 
 #: beta_n L of a clamped-free Euler-Bernoulli beam (roots of cos x cosh x = -1)
@@ -97,10 +97,10 @@ def test_bad_names_are_refused(beam, tmp_path):
     with pytest.raises(ModelError, match="severity"):
         BreathingCrack(2, 1.5)
     with pytest.raises(ModelError, match="not found"):
-        load_link_spec(tmp_path / "missing.toml")
+        read_link_spec(tmp_path / "missing.toml")
     bad = tmp_path / "bad.toml"
     bad.write_text(DEFAULT_LINK_FILE.read_text(encoding="utf-8").replace("[damping]", "[dampin]"))
     with pytest.raises(ModelError, match="damping"):
-        load_link_spec(bad)
+        read_link_spec(bad)
     with pytest.raises(DataError, match="dt"):
         beam.simulate(dt=0.0, duration=1.0)

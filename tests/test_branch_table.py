@@ -12,7 +12,7 @@ import json
 import pytest
 
 import obsnl
-from obsnl.observability.contract.branch_table import BranchTable, load_branch_table
+from obsnl.observability.contract.branch_table import BranchTable, read_branch_table
 from obsnl.errors import TableError
 
 from .conftest import MODELS
@@ -22,7 +22,7 @@ PARAMS = ["k_m", "c_dm", "c_eta_p", "w_h", "c_p", "h_p", "Delta1", "Delta2", "N"
 
 
 def paper_table1() -> dict:
-    m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    m = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     branches = []
     for label, signs in (("a", [1, 1]), ("b", [1, -1]), ("c", [-1, -1]), ("d", [-1, 1])):
         unid = ["Delta2"] if signs[0] * signs[1] > 0 else ["Delta1", "w_h"]
@@ -44,11 +44,11 @@ def test_round_trip_and_masks(tmp_path):
     t = BranchTable.from_dict(paper_table1())
     p = tmp_path / "t.json"
     p.write_text(t.to_json())
-    t2 = load_branch_table(p)
+    t2 = read_branch_table(p)
     assert t2 == t
     assert t.frozen_mask([1, 1]) == tuple(p == "Delta2" for p in PARAMS)
     assert t.frozen_mask([-1, 1]) == tuple(p in ("Delta1", "w_h") for p in PARAMS)
-    m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    m = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     t.check_model(states=[s.name for s in m.states], parameters=[s.name for s in m.parameters],
                   inputs=["xg_dd"], outputs=["y"], switching_count=2, fingerprint=m.fingerprint)
 
@@ -85,7 +85,7 @@ def test_corrupt_tables_are_refused(path, value, match):
 
 def test_mismatched_model_is_refused():
     t = BranchTable.from_dict(paper_table1())
-    orig = obsnl.load_model(MODELS / "damage_healing.toml")
+    orig = obsnl.read_model(MODELS / "damage_healing.toml")
     with pytest.raises(TableError, match=r"with states \['x1', 'x2', 'r', 'eta_p', 'Eh_p'\].*regenerate"):
         t.check_model(states=[s.name for s in orig.states], parameters=[s.name for s in orig.parameters],
                       inputs=["xg_dd"], outputs=["y"], switching_count=2, fingerprint=orig.fingerprint)
@@ -98,12 +98,12 @@ def test_not_json_and_missing(tmp_path):
     p = tmp_path / "t.json"
     p.write_text("{")
     with pytest.raises(TableError, match="not valid JSON"):
-        load_branch_table(p)
+        read_branch_table(p)
     with pytest.raises(TableError, match="does not exist"):
-        load_branch_table(tmp_path / "none.json")
+        read_branch_table(tmp_path / "none.json")
     p.write_text(json.dumps([1]))
     with pytest.raises(TableError, match="JSON object"):
-        load_branch_table(p)
+        read_branch_table(p)
 
 
 def test_identify_with_a_table_analyses_the_model_once(monkeypatch):
@@ -111,7 +111,7 @@ def test_identify_with_a_table_analyses_the_model_once(monkeypatch):
     import obsnl.identification.identify as ident
     import obsnl.observability.analyze as an
 
-    m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    m = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     table = obsnl.report.branch_table(obsnl.analyze(m, seed=0), m)
     calls = []
     real = an.analyze

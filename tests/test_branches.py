@@ -19,7 +19,7 @@ def _rel(model, text):
 
 
 def test_seed_model_has_exactly_the_papers_four_branches():
-    m = obsnl.load_model(MODELS / "damage_healing.toml")
+    m = obsnl.read_model(MODELS / "damage_healing.toml")
     branches = split_branches(m)
     assert [b.label for b in branches] == ["a", "b", "c", "d"]
     # seed paper §3.2: (a) sigma-eta > 0, x2 > 0; (b) sigma-eta > 0, x2 < 0;
@@ -34,7 +34,7 @@ def test_seed_model_has_exactly_the_papers_four_branches():
 
 
 def test_products_of_switching_functions_are_resolved_from_factors():
-    m = obsnl.load_model(MODELS / "damage_healing.toml")
+    m = obsnl.read_model(MODELS / "damage_healing.toml")
     # sign((sigma - eta)*x2) and sign(sigma - eta) appear; only the two factors switch
     assert len(switching_functions(m)) == 2
     m2 = Model(name="p", states=["x", "y"], parameters=["a"],
@@ -98,7 +98,7 @@ def _sample(model, rng, n):
 @pytest.mark.parametrize("path", MODEL_FILES, ids=lambda p: p.stem)
 def test_branch_fields_equal_the_nonsmooth_model_inside_each_branch(path):
     """Each branch's smooth field equals the non-smooth model at random points inside that branch."""
-    model = obsnl.load_model(path)
+    model = obsnl.read_model(path)
     branches = split_branches(model)
     rng = np.random.default_rng(20261122)
     n = 4000
@@ -125,7 +125,7 @@ def test_branch_fields_equal_the_nonsmooth_model_inside_each_branch(path):
 
 
 def test_guard_text_reads_back_as_the_guard():
-    m = obsnl.load_model(MODELS / "damage_healing.toml")
+    m = obsnl.read_model(MODELS / "damage_healing.toml")
     for b in split_branches(m):
         assert sp.sympify(b.guard_text, locals=m.symbols) == b.guard
 
@@ -133,7 +133,7 @@ def test_guard_text_reads_back_as_the_guard():
 def test_field_jumps_only_where_the_vector_field_is_discontinuous():
     # seed model (16): across x2 = 0 every switched term carries a factor x2 (continuous); across
     # r = eta' the healing factor (1 + w_h c'_eta E'_h (1 + sign((r - eta')x2))/2) switches while x2 != 0
-    seed = obsnl.load_model(next(p for p in MODEL_FILES if p.stem == "damage_healing_reparam"))
+    seed = obsnl.read_model(next(p for p in MODEL_FILES if p.stem == "damage_healing_reparam"))
     gs = switching_functions(seed)
     assert [str(g) for g in gs] == ["-eta_p + r", "x2"]
     assert field_jumps(seed, gs) == (True, False)

@@ -20,7 +20,7 @@ from .conftest import MODEL_FILES, MODELS
 
 @pytest.mark.parametrize("path", MODEL_FILES, ids=lambda p: p.stem)
 def test_casadi_equals_lambdify(path):
-    model = obsnl.load_model(path)
+    model = obsnl.read_model(path)
     num = to_casadi(model)
     ref = numpy_model(model)
     rng = np.random.default_rng(0)  # random points, fixed seed
@@ -50,7 +50,7 @@ def test_nonsmooth_functions_translate():
 
 
 def test_switching_functions_follow_the_table_orientation():
-    m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    m = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     assert to_casadi(m).switching == ("r - eta_p", "x2")
     num = to_casadi(m, switching=["eta_p - r", "x2"])
     g = np.asarray(num.g([0, 2.0, 1.0, 3.0, 0], num.nominal(num.parameters), [0.0])).ravel()

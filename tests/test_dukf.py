@@ -14,6 +14,7 @@ from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.estimation.codegen import log_map, to_casadi
 from obsnl.estimation.records import read_record
 from obsnl.estimation.dukf import DUKF
+from obsnl.estimation.ukf import UKF
 from obsnl.errors import EstimatorError, TableError
 from obsnl.identification.setup import coordinates
 from obsnl.studies.seed_paper import SEED_GUESS
@@ -21,7 +22,7 @@ from obsnl.studies.seed_paper import SEED_GUESS
 from .conftest import MODELS
 from .test_branch_table import paper_table1
 
-MODEL = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+MODEL = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
 NUM = to_casadi(MODEL)
 TABLE = BranchTable.from_dict(paper_table1())
 SCALE = np.array([5e-3, 0.1, 3e-3, 3e-5, 3e-5])
@@ -65,7 +66,7 @@ def test_frozen_parameters_get_no_spread_update_or_noise(signs, frozen):
     np.testing.assert_array_equal(nxt.P[np.ix_(idx, idx)], est.P[np.ix_(idx, idx)])  # no spread, no noise
     assert np.any(nxt.z[active] != est.z[active])
     # the same step with everything active (the UKF) does move them
-    ukf = obsnl.UKF(NUM, dt=0.01, coordinates=f.coordinates, state_scale=SCALE, R=1e-10, Q=f.Q)
+    ukf = UKF(NUM, dt=0.01, coordinates=f.coordinates, state_scale=SCALE, R=1e-10, Q=f.Q)
     moved = ukf.step(est, y=[2e-3], u0=[0.5], u1=[0.6])
     assert np.any(moved.z[idx] != est.z[idx])
 
@@ -108,7 +109,7 @@ def test_tables_for_another_model_are_refused():
     other["fingerprint"] = "0" * 32
     with pytest.raises(TableError, match="fingerprint"):
         _dukf().with_options(table=BranchTable.from_dict(other))
-    bw = obsnl.load_model(MODELS / "bouc_wen.toml")
+    bw = obsnl.read_model(MODELS / "bouc_wen.toml")
     with pytest.raises(TableError, match="states"):
         DUKF(to_casadi(bw), dt=0.01, R=1.0, table=TABLE)
     swapped = to_casadi(MODEL, switching=["eta_p - r", "x2"])
@@ -121,7 +122,7 @@ def test_tables_for_another_model_are_refused():
 def test_putting_frozen_rows_back_is_not_positive_semidefinite():
     """Negative control of the test above: the naive rule (update everything, then restore the frozen
     rows and columns of the old covariance) breaks positive semidefiniteness in the same trials."""
-    ukf = obsnl.UKF(NUM, dt=0.01, coordinates=log_map(NUM.parameters, signs={"Delta2": -1}), state_scale=SCALE,
+    ukf = UKF(NUM, dt=0.01, coordinates=log_map(NUM.parameters, signs={"Delta2": -1}), state_scale=SCALE,
                     R=1e-10, Q=np.diag(np.r_[np.full(5, 1e-8), np.full(9, 1e-8)]))
     f = _dukf()
     rng = np.random.default_rng(1)

@@ -19,12 +19,9 @@ from obsnl import (
     NotSupportedError,
     Verdict,
     analyze,
-    decompose,
-    dependency_graph,
-    load_model,
-    orc,
-    sedoglavic,
+    read_model,
 )
+from obsnl.observability import decompose, dependency_graph, orc, sedoglavic
 from obsnl.algebra.bounds import failure_bound
 from tests.conftest import MODELS, PEER_CASES
 
@@ -42,7 +39,7 @@ def _classes(res):
 
 @pytest.mark.parametrize("case", ORACLE_CASES)
 def test_orc_and_randomized_test_agree(case) -> None:
-    model = load_model(PEER_CASES / f"{case}.json")
+    model = read_model(PEER_CASES / f"{case}.json")
     a = analyze(model, method="orc", seed=11, max_seconds=60)
     b = analyze(model, method="sedoglavic", seed=12)
     assert _classes(a) == _classes(b)
@@ -51,7 +48,7 @@ def test_orc_and_randomized_test_agree(case) -> None:
 
 @pytest.mark.parametrize("name", ["bouc_wen.toml", "coulomb_friction.toml"])
 def test_orc_and_randomized_test_agree_on_nonsmooth_models(name) -> None:
-    model = load_model(MODELS / name)
+    model = read_model(MODELS / name)
     a = analyze(model, method="orc", seed=5, max_seconds=60)
     b = analyze(model, method="sedoglavic", seed=6)
     if any(br.verdict is Verdict.INCONCLUSIVE for br in a.branches):
@@ -61,7 +58,7 @@ def test_orc_and_randomized_test_agree_on_nonsmooth_models(name) -> None:
 
 @pytest.mark.parametrize("case", ["si_lotka_volterra_input", "si_bench_seir34", "si_mbs2011_sec6", "si_if_chain"])
 def test_unobservable_variables_as_outputs_make_the_model_observable(case) -> None:
-    model = load_model(PEER_CASES / f"{case}.json")
+    model = read_model(PEER_CASES / f"{case}.json")
     res = analyze(model, method="sedoglavic", seed=3)
     lost = res.overall_unobservable
     assert lost, "the oracle needs an unobservable variable"
@@ -100,7 +97,7 @@ def test_linear_model_orc_rank_equals_kalman_rank(seed) -> None:
 @pytest.mark.parametrize("path", [MODELS / "damage_healing_reparam.toml", PEER_CASES / "si_fujita.json",
                                   PEER_CASES / "sg_pk_unknown_input.json"])
 def test_two_seeds_give_the_same_verdicts(path) -> None:
-    model = load_model(path)
+    model = read_model(path)
     a = analyze(model, method="sedoglavic", seed=101)
     b = analyze(model, method="sedoglavic", seed=202)
     assert _classes(a) == _classes(b)
@@ -186,13 +183,13 @@ def test_nonsmooth_model_needs_analyze() -> None:
 
 
 def test_time_limit_gives_inconclusive_never_a_wrong_answer() -> None:
-    model = load_model(PEER_CASES / "genssi_hiv.json")  # 8 parameters truly nonidentifiable
+    model = read_model(PEER_CASES / "genssi_hiv.json")  # 8 parameters truly nonidentifiable
     res = analyze(model, method="orc", seed=0, max_seconds=0.5)
     (b,) = res.branches
     assert b.verdict is Verdict.INCONCLUSIVE and b.reason
     assert b.unobservable == () and b.observable == ("x1", "x2", "x3", "x4")  # known initial values only
     assert res.verdict is Verdict.INCONCLUSIVE
-    res2 = analyze(load_model(MODELS / "damage_healing.toml"), method="sedoglavic", seed=0, max_seconds=1e-3)
+    res2 = analyze(read_model(MODELS / "damage_healing.toml"), method="sedoglavic", seed=0, max_seconds=1e-3)
     assert all(br.verdict is Verdict.INCONCLUSIVE for br in res2.branches)
     assert res2.overall_unobservable == ()
 
@@ -224,7 +221,7 @@ def test_failure_bound_matches_the_worked_prime_sizes() -> None:
 def test_constant_input_loses_identifiability_of_c2m(method) -> None:
     # STRIKE-GOLDD manual 4.3.1 (answer_source of the case): unidentifiable with nnzDerU = 0, identifiable
     # with a ramp (nnzDerU = 1) and with a generic input
-    model = load_model(PEER_CASES / "sg_c2m_known_input.json")
+    model = read_model(PEER_CASES / "sg_c2m_known_input.json")
     assert analyze(model, method=method, seed=2, input_derivatives=0).overall_unobservable != ()
     assert analyze(model, method=method, seed=2, input_derivatives=1).overall_unobservable == ()
 

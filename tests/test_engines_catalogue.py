@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import pytest
 
-from obsnl import Verdict, analyze, load_model
+from obsnl import Verdict, analyze, read_model
 from tests.conftest import PEER_CASE_FILES
 
 #: Cases on which the symbolic ORC swells past its limits (measured: 2.9M-term Lie derivatives for
@@ -29,7 +29,7 @@ CASES = [pytest.param(p, id=p.stem) for p in PEER_CASE_FILES]
 
 
 def _check_case(path, method: str) -> None:
-    model = load_model(path)
+    model = read_model(path)
     expected = model.metadata["expected"]
     result = analyze(model, method=method, seed=20240611, max_seconds=120)
     assert all(b.verdict is not Verdict.INCONCLUSIVE for b in result.branches), [b.reason for b in result.branches]

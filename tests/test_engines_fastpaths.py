@@ -19,7 +19,9 @@ import pytest
 import sympy as sp
 from flint import nmod_mat
 
-from obsnl import Model, decompose, load_model, split_branches
+from obsnl import Model, read_model
+from obsnl.model import split_branches
+from obsnl.observability import decompose
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import classify
 from obsnl.algebra.modp import Echelon, MatMod, mulmod
@@ -194,7 +196,7 @@ def test_batched_taylor_steps_equal_the_plain_recursion(case) -> None:
 
 @pytest.mark.parametrize("name", ["damage_healing.toml", "bouc_wen.toml"])
 def test_batched_taylor_steps_on_the_mechanical_models(name) -> None:
-    for br in split_branches(load_model(MODELS / name)):
+    for br in split_branches(read_model(MODELS / name)):
         problem = make_problem(rationalize(decompose(br.model).blocks[0]))
         K = min(problem.order_bound(), 8)
         run = run_series(problem, random.Random(br.label), K=K, p=P50)
@@ -213,7 +215,7 @@ def _validated(m: Model) -> Model:
                                   PEER_CASES / "si_bench_seir34.json", PEER_CASES / "si_knownic_quadratic.json",
                                   PEER_CASES / "sg_pk_unknown_input.json"])
 def test_branches_and_blocks_equal_their_validated_construction(path) -> None:
-    for br in split_branches(load_model(path)):
+    for br in split_branches(read_model(path)):
         for m in [br.model, *decompose(br.model).blocks]:
             v = _validated(m)
             for f in dataclasses.fields(Model):
@@ -224,7 +226,7 @@ def test_branches_and_blocks_equal_their_validated_construction(path) -> None:
 def test_seed_model_has_no_log_of_minus_one() -> None:
     """Real logarithms: log|eta - sigma| serves both orientations; no log(-1) stand-in, no exp of it."""
     kinds = []
-    for br in split_branches(load_model(MODELS / "damage_healing.toml")):
+    for br in split_branches(read_model(MODELS / "damage_healing.toml")):
         rat = rationalize(br.model)
         assert all("-1" not in a.text for a in rat.atoms)
         kinds.append(sorted(a.kind for a in rat.atoms))

@@ -46,7 +46,7 @@ def test_reproduce_on_a_local_dask_cluster_equals_the_serial_run():
 
 
 def test_report_in_local_processes_equals_the_serial_report(tmp_path):
-    models = [obsnl.load_model(p) for p in PEER_CASE_FILES[:4]]
+    models = [obsnl.read_model(p) for p in PEER_CASE_FILES[:4]]
     serial = obsnl.batch.report_models(models, tmp_path / "a", seed=3)
     parallel = obsnl.batch.report_models(models, tmp_path / "b", seed=3, executor=Executor(workers=2))
     for m in models:
@@ -119,7 +119,7 @@ def test_a_model_travels_to_workers_as_its_model_file_dictionary():
 
     from .conftest import MODELS
 
-    models = [obsnl.load_model(p) for p in list(PEER_CASE_FILES) + sorted(MODELS.glob("*.toml"))
+    models = [obsnl.read_model(p) for p in list(PEER_CASE_FILES) + sorted(MODELS.glob("*.toml"))
               if "cantilever_link" not in str(p)]  # the link study's file is a structure, not a model
     assert len(models) > 50
     for m in models:
@@ -134,6 +134,6 @@ def test_a_shallow_copy_of_a_model_does_not_parse_it_again():
     # validated parts, not go through the model-file dictionary that pickling uses
     import copy
 
-    m = obsnl.load_model("obsnl:damage_healing_reparam")
+    m = obsnl.read_model("obsnl:damage_healing_reparam")
     c = copy.copy(m)
     assert c is not m and c.equations is m.equations and c.fingerprint == m.fingerprint

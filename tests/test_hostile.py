@@ -230,7 +230,7 @@ def test_7_total_switching_limit_and_labels_for_any_count():
     nested = "+".join(f"sign(x - {i} + sign(v - {i}))" for i in range(1, 11))  # 10 + 10 nested
     m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x + " + nested}})
     with pytest.raises(NotSupportedError, match="at most 12"):
-        obsnl.split_branches(m)
+        obsnl.model.split_branches(m)
     labels = _labels(1000)  # bijective base 26: a..z, aa..zz (702), aaa...
     assert len(set(labels)) == 1000 and labels[701] == "zz" and labels[702] == "aaa"
 
@@ -241,7 +241,7 @@ def test_7_branch_splitting_honours_the_time_limit():
     sw = " + ".join(f"sign(x*v - {i}*k)" for i in range(1, 9))  # non-affine: random witness search per pattern
     m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x + " + sw}})
     with pytest.raises(AnalysisError, match="time limit"):
-        obsnl.split_branches(m, max_seconds=0.0)
+        obsnl.model.split_branches(m, max_seconds=0.0)
 
 
 # ----------------------------------------------------------------------------- 8 functions in switching
@@ -259,7 +259,7 @@ def _damage_table():
     from obsnl.observability.analyze import analyze
     from obsnl.observability.contract.branch_table import BranchTable
 
-    m = obsnl.load_model("obsnl:coulomb_friction")
+    m = obsnl.read_model("obsnl:coulomb_friction")
     return m, BranchTable.from_result(analyze(m, seed=0)).to_dict()
 
 
@@ -323,7 +323,7 @@ def test_9_identify_refuses_a_swapped_table(tmp_path, capsys):
     from obsnl.observability.contract.branch_table import BranchTable
 
     p = model_file(tmp_path, equations={"x": "v", "v": "-k*x*Heaviside(v) - x"})
-    d = BranchTable.from_result(analyze(obsnl.load_model(p), seed=0)).to_dict()
+    d = BranchTable.from_result(analyze(obsnl.read_model(p), seed=0)).to_dict()
     _swap_first_two(d)
     (tmp_path / "t.json").write_text(json.dumps(d))
     rec = tmp_path / "r.csv"
@@ -383,13 +383,13 @@ def test_10_negative_seed_and_parent_that_is_a_file(tmp_path, capsys):
 def test_10_bank_model_with_wrong_types(tmp_path, edit):
     import re
 
-    from obsnl.studies.cantilever import DEFAULT_LINK_FILE, load_link_spec
+    from obsnl.studies.cantilever import DEFAULT_LINK_FILE, read_link_spec
 
     key = edit.split(" =")[0]
     text = re.sub(rf"^{key} = .*$", edit, DEFAULT_LINK_FILE.read_text(), flags=re.M)
     (tmp_path / "l.toml").write_text(text)
     with pytest.raises(ModelError):
-        load_link_spec(tmp_path / "l.toml")
+        read_link_spec(tmp_path / "l.toml")
 
 
 # ----------------------------------------------------------------------------- 11 reproduce overwrites
@@ -553,7 +553,7 @@ def test_10_degenerate_measured_data_are_named(tmp_path, capsys, column, words):
 
 
 def test_9_a_folder_given_as_a_branch_table_is_named(tmp_path):
-    from obsnl.observability.contract.branch_table import load_branch_table
+    from obsnl.observability.contract.branch_table import read_branch_table
 
     with pytest.raises(TableError, match="is a folder"):  # used to say "does not exist"
-        load_branch_table(tmp_path)
+        read_branch_table(tmp_path)

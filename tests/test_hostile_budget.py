@@ -110,7 +110,7 @@ def test_3_a_published_size_equation_of_12000_nodes_is_read(tmp_path, capsys):
     terms = [f"{i % 97 + 1}*{'kcab'[i % 4]}*x**{i % 5}*v**{(i // 5) % 5}" for i in range(3000)]
     p = model_file(tmp_path, parameters=["k", "c", "a", "b"], equations={"x": "v", "v": " + ".join(terms)})
     t0 = time.perf_counter()
-    m = obsnl.load_model(p)
+    m = obsnl.read_model(p)
     assert time.perf_counter() - t0 < 8
     assert len(m.equations[m.symbol("v")].args) == 100  # 3000 products of 100 distinct monomials, collected
     code, _, err = run(capsys, "analyze", str(p), "--seed", "0")
@@ -132,14 +132,14 @@ def test_3_a_long_sum_parses_to_the_same_expression():
 
 def test_3_every_published_peer_case_still_loads(peer_dir):
     for path in sorted(peer_dir.glob("*.json")):
-        assert obsnl.load_model(path).states
+        assert obsnl.read_model(path).states
 
 
 # ----------------------------------------------------------------------------- 4 dropped branches
 def test_4_a_branch_at_large_magnitudes_is_found():
     # sign(k*x - 1e20) gave one branch, certified, no note: random points at scale 1 never reach k*x > 1e20
     m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x + sign(k*x - 1e20)"}})
-    branches = obsnl.split_branches(m)
+    branches = obsnl.model.split_branches(m)
     assert [b.signs for b in branches] == [(1,), (-1,)]
     for b in branches:
         assert b.contains(b.witness)
@@ -150,16 +150,16 @@ def test_4_a_branch_at_large_magnitudes_is_found():
 def test_4_dependent_affine_functions_at_large_magnitudes():
     # the linear program bounded its unknowns to +-1000: x > 1e20 was "contradictory", 1 branch of 3
     m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x + sign(x - 1e20) + sign(x - 2e20)"}})
-    assert sorted(b.signs for b in obsnl.split_branches(m)) == [(-1, -1), (-1, 1), (1, 1)]
+    assert sorted(b.signs for b in obsnl.model.split_branches(m)) == [(-1, -1), (-1, 1), (1, 1)]
 
 
 def test_4_an_undecided_branch_is_reported_never_dropped(tmp_path, capsys):
     # a sign pattern no point was found in was dropped as if proved empty, and the answer certified
     eq = {"x": "v", "v": "-k*x + sign(x**2 + v**2 - 1) + sign(x - 2)"}
     m = Model.from_dict({**BASE, "equations": eq})
-    branches, dropped = obsnl.split_branches(m, with_dropped=True)
+    branches, dropped = obsnl.model.split_branches(m, with_dropped=True)
     assert any(not d.proved and "no point was found" in d.reason for d in dropped)
-    every = obsnl.split_branches(m, undecided=True)
+    every = obsnl.model.split_branches(m, undecided=True)
     assert len(every) == len(branches) + 1 and sum(bool(b.undecided) for b in every) == 1
     code, out, err = run(capsys, "analyze", str(model_file(tmp_path, equations=eq)), "--format", "json", "--seed", "0")
     doc = json.loads(out)
@@ -182,7 +182,7 @@ def test_4_contradictions_of_products_are_proved_not_searched():
     assert feasible([(x * v - 1, 1), (x, 1), (v, -1)], rng)[2]  # proved: x > 0, v < 0 makes x*v negative
     sw = " + ".join(f"sign(x*v - {i}*k)" for i in range(1, 5))
     m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x + " + sw}})
-    _, dropped = obsnl.split_branches(m, with_dropped=True)
+    _, dropped = obsnl.model.split_branches(m, with_dropped=True)
     assert dropped and all(d.proved for d in dropped)
 
 
@@ -262,10 +262,10 @@ def test_10_a_huge_branch_table_is_refused_before_its_schema(tmp_path, monkeypat
     import jsonschema
 
     monkeypatch.setattr(jsonschema, "validate", lambda *a, **k: pytest.fail("validated before the size cap"))
-    from obsnl.observability.contract.branch_table import load_branch_table
+    from obsnl.observability.contract.branch_table import read_branch_table
 
     with pytest.raises(TableError, match="60000 branches, more than the 4096"):
-        load_branch_table(p)
+        read_branch_table(p)
 
 
 def test_10_record_simulation_is_inside_the_budget(tmp_path, capsys):

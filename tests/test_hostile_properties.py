@@ -14,7 +14,7 @@ The properties (each asserts the error type and the one-line message, so each ca
     ``analyze obsnl:bouc_wen --format json-table``), mutated 1-4 times at random places (a value replaced
     by a wrong type, NaN, +-inf, a 400-digit integer, an unknown name or a 10 kB string; a key deleted;
     an unknown key added; a list replaced by a huge one of up to 5000 items, under and over the 4096 cap;
-    the file truncated or given a non-UTF-8 byte) is given to ``load_branch_table`` and to ``obsnl identify
+    the file truncated or given a non-UTF-8 byte) is given to ``read_branch_table`` and to ``obsnl identify
     ... --table``. It returns a valid :class:`BranchTable` or raises an :class:`ObsnlError` whose message is
     one line of at most :data:`MAX_MESSAGE` characters; the command line exits 0 or 2 with one error line.
 (b) ``test_random_csv_gives_a_valid_record_or_one_line``: a random CSV text (separator ``,``, ``;``, tab
@@ -49,7 +49,7 @@ from obsnl import ObsnlError
 from obsnl.cli import main
 from obsnl.estimation.measured import read_measured
 from obsnl.estimation.records import read_record
-from obsnl.observability.contract.branch_table import BranchTable, load_branch_table
+from obsnl.observability.contract.branch_table import BranchTable, read_branch_table
 
 #: Examples per property (the ``ci`` profile); ``OBSNL_HYPOTHESIS_EXAMPLES`` overrides it.
 EXAMPLES = int(os.environ.get("OBSNL_HYPOTHESIS_EXAMPLES", "60"))
@@ -119,7 +119,7 @@ def files(tmp_path_factory):
     data = d / "tiny.csv"
     data.write_text("time_s,u,y\n" + "".join(f"{i * 0.01:.2f},{math.sin(i * 0.05):.6f},{math.cos(i * 0.03):.6f}\n"
                                              for i in range(40)), encoding="utf-8")
-    assert isinstance(load_branch_table(table), BranchTable)
+    assert isinstance(read_branch_table(table), BranchTable)
     return {"dir": d, "table": table, "table_data": json.loads(table.read_text(encoding="utf-8")),
             "model": model, "data": data}
 
@@ -203,12 +203,12 @@ def test_mutated_branch_table_is_refused_in_one_line_or_valid(files, data, capsy
     path = files["dir"] / "mutated.json"
     path.write_bytes(raw)
     try:
-        table = load_branch_table(path)
+        table = read_branch_table(path)
     except Exception as exc:  # noqa: BLE001 - the property: only obsnl's own one-line errors
         _check_message(exc)
-        event("load_branch_table: refused")
+        event("read_branch_table: refused")
     else:
-        event("load_branch_table: a valid table")
+        event("read_branch_table: a valid table")
         assert isinstance(table, BranchTable)
         assert table.branches and len(table.branches) <= 2 ** len(table.switching)
     # the command line reads it before any filter work: a one-line refusal (the table is for bouc_wen, the

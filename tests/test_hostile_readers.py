@@ -19,7 +19,7 @@ from obsnl.errors import DataError, ModelError, ObsnlError, ParseError
 from obsnl.estimation.measured import MIN_SAMPLES, estimate_noise, measured, read_measured
 from obsnl.estimation.records import read_at2, read_csv
 from obsnl.model.branching.branches import split_branches
-from obsnl.model.files import load_model
+from obsnl.model.files import read_model
 
 BASE = {"name": "msd", "states": ["x", "v"], "parameters": ["k", "c"], "inputs": ["f"],
         "equations": {"x": "v", "v": "f - k*x - c*v"}, "outputs": {"y": "x"}, "guess": {"k": 1.5, "c": 0.2}}
@@ -133,7 +133,7 @@ def test_11_a_byte_order_mark_is_accepted(tmp_path):
     m = tmp_path / "m.toml"
     m.write_text('name = "bom"\nstates = ["x"]\nparameters = ["a"]\n[equations]\nx = "-a*x"\n[outputs]\ny = "x"\n',
                  encoding="utf-8-sig")
-    assert load_model(m).name == "bom"
+    assert read_model(m).name == "bom"
 
 
 @pytest.mark.parametrize("sep", [";", "\t"])

@@ -51,7 +51,7 @@ def bouc_wen_a1(tmp_path_factory):
     folder = tmp_path_factory.mktemp("bw1")
     path = folder / "bw1.json"
     path.write_text(json.dumps(BOUC_WEN_A1), encoding="utf-8")
-    model = obsnl.load_model(path)
+    model = obsnl.read_model(path)
     table = BranchTable.from_result(analyze(model, seed=0))
     assert set(table.frozen_everywhere) >= {"beta", "gamma"} and {"beta", "gamma"} <= set(table.joint["observable"])
     return path, model, table
@@ -176,7 +176,7 @@ def test_2_force_replaces_a_hard_linked_file_instead_of_truncating_it(tmp_path, 
 def _result():
     from obsnl.observability.analyze import analyze
 
-    return analyze(obsnl.load_model("obsnl:coulomb_friction"), seed=0)
+    return analyze(obsnl.read_model("obsnl:coulomb_friction"), seed=0)
 
 
 def test_6_a_file_another_run_wrote_meanwhile_is_kept_and_nothing_of_ours_lands(tmp_path, monkeypatch):

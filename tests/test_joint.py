@@ -10,7 +10,8 @@ import json
 
 import pytest
 
-from obsnl import Model, analyze, load_model, split_branches
+from obsnl import Model, analyze, read_model
+from obsnl.model import split_branches
 from obsnl.observability.joint.verdict import joint_verdict
 from obsnl.observability.joint.result import JointResult
 
@@ -151,7 +152,7 @@ def mass_spring_damper() -> Model:
                  equations={"x": "v", "v": "(u - c*v - k*x)/m"}, outputs={"y": "x"})
 
 
-@pytest.mark.parametrize("make", [lambda: load_model(PEER_CASES / "si_bench_seir34.json"), mass_spring_damper],
+@pytest.mark.parametrize("make", [lambda: read_model(PEER_CASES / "si_bench_seir34.json"), mass_spring_damper],
                          ids=["seir34", "msd"])
 def test_smooth_model_joint_equals_per_branch(make):
     # A smooth model has one branch and no surface: the joint verdict is the branch's verdict.

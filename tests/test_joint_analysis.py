@@ -30,20 +30,20 @@ def test_seed_models_joint_verdicts():
     # hidden: the scalings x -> lambda^w x that the paper's recombination (16) divides out (r = sigma L/E,
     # k_m = A_m E/L, ...) act on every branch and keep sigma - eta = 0 and x2 = 0 in place. So the joint
     # unobservable set is the twelve, each certified by a symmetry shared by the four branches.
-    m = obsnl.load_model(MODELS / "damage_healing.toml")
+    m = obsnl.read_model(MODELS / "damage_healing.toml")
     r = obsnl.analyze(m, seed=0)
     twelve = {"sigma", "eta", "E_h", "A_m", "L", "E", "sigma_y", "c_eta", "c", "h", "beta", "gamma"}
     assert set(r.joint.unobservable) == twelve and not r.joint.inconclusive
     assert set(r.union_unobservable) == twelve  # w_h is observable in (a), (c): union and joint agree here
     assert r.joint.assumptions["symmetry_certificates"]
     # the reparametrized model (16) is observable per branch union (Table 1) and jointly
-    rep = obsnl.analyze(obsnl.load_model(MODELS / "damage_healing_reparam.toml"), seed=0)
+    rep = obsnl.analyze(obsnl.read_model(MODELS / "damage_healing_reparam.toml"), seed=0)
     assert rep.union_unobservable == () and rep.joint.unobservable == () and rep.joint.inconclusive == ()
 
 
 def test_json_overall_is_joint_and_union_is_per_branch(tmp_path, capsys):
     f = tmp_path / "bilinear.toml"
-    f.write_text(obsnl.model_to_toml(BILINEAR))
+    f.write_text(obsnl.model.model_to_toml(BILINEAR))
     assert main(["analyze", str(f), "--format", "json", "--seed", "0"]) == 0
     doc = json.loads(capsys.readouterr().out)
     # the elastic branch gives k, the yielded one alpha*k and (1 - alpha)*k*x_y: jointly everything
@@ -54,7 +54,7 @@ def test_json_overall_is_joint_and_union_is_per_branch(tmp_path, capsys):
 
 def test_branches_option_restricts_the_visits(tmp_path, capsys):
     f = tmp_path / "bilinear.toml"
-    f.write_text(obsnl.model_to_toml(BILINEAR))
+    f.write_text(obsnl.model.model_to_toml(BILINEAR))
     # branch b (x < x_y) is the elastic one: alpha and x_y do not appear there, so over b alone they are
     # unobservable: the answer is about the visited branch, and says so
     assert main(["analyze", str(f), "--format", "json", "--seed", "0", "--branches", "b"]) == 0
@@ -71,7 +71,7 @@ def test_record_option_lists_the_visited_branches(tmp_path, capsys):
     rec = tmp_path / "sine.csv"
     rec.write_text("time_s,accel_m_s2\n" + "\n".join(f"{a:.4f},{20 * np.sin(2 * a):.6f}" for a in t) + "\n")
     f = tmp_path / "bilinear.toml"
-    f.write_text(obsnl.model_to_toml(BILINEAR))
+    f.write_text(obsnl.model.model_to_toml(BILINEAR))
     assert main(["analyze", str(f), "--format", "json", "--seed", "0", "--record", str(rec)]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["visited"]["how"] == "record"

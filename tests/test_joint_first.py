@@ -90,7 +90,7 @@ def test_index_has_the_joint_verdict_first(bilinear, tmp_path):
 
 def test_json_names_what_is_identifiable_only_jointly(tmp_path, capsys):
     f = tmp_path / "bilinear.toml"
-    f.write_text(obsnl.model_to_toml(BILINEAR))
+    f.write_text(obsnl.model.model_to_toml(BILINEAR))
     assert main(["analyze", str(f), "--format", "json", "--seed", "0"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["overall"]["only_jointly"] == ["alpha", "x_y"] and doc["overall"]["unobservable"] == []

@@ -17,10 +17,10 @@ PKG = Path(__file__).resolve().parents[1] / "obsnl"
 LAYERS = {
     "errors": 0, "_progress": 0, "_text": 0,
     "executor": 1,
-    "model": 1, "linear": 1,
+    "model": 1,
     "algebra": 2,
     "observability": 3,
-    "recombination": 4, "estimation": 4,
+    "recombination": 4, "estimation": 4, "linear": 4,
     "report": 5,
     "identification": 6,
     "studies": 7, "design": 7,

@@ -21,6 +21,7 @@ from obsnl.identification.likelihood import DECREMENT, STOP, covariance, levenbe
 from obsnl.identification.refine import refine
 from obsnl.identification.profile import THRESHOLD, judge, profile, profiles
 from obsnl.estimation.accelerogram import Record
+from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.setup import Data, Setup
 
 MSD = obsnl.Model(name="msd", states=["x", "v"], parameters=["k", "c"], inputs=["u"],
@@ -41,7 +42,7 @@ def msd_data(seed: int, T: int = 300, dt: float = 0.02, ratio: float = 0.01) -> 
 
 def setup_of(model: obsnl.Model, u: np.ndarray, y: np.ndarray, dt: float, guess: dict, sigma: float
              ) -> tuple[Setup, Data]:
-    num = obsnl.to_casadi(model)
+    num = to_casadi(model)
     u2 = u.reshape(len(u), -1)
     y2 = y.reshape(len(y), -1)
     rec = Record("d", u2 if u2.shape[1] > 1 else u2[:, 0], dt, channels=tuple(s.name for s in model.inputs))

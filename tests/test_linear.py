@@ -15,11 +15,11 @@ import pytest
 
 from obsnl.studies.cantilever import build_cantilever
 from obsnl.errors import AnalysisError, DataError
-from obsnl.linear.systems import LinearSystem, ObsVerdict, as_linear_system, kalman_rank, system_scaling
+from obsnl.linear.systems import LinearSystem, as_linear_system, kalman_rank, system_scaling
+from obsnl.observability.verdicts import Verdict
 from obsnl.linear.hautus import hautus
-from obsnl.linear.observer import (
-    extend, extended_observability, integrator, oscillator, place_gain, riccati_gain,
-)
+from obsnl.linear.gains import place_gain, riccati_gain
+from obsnl.linear.observer import extend, extended_observability, integrator, oscillator
 from obsnl.linear.simulation import simulate_observer, zoh
 
 
@@ -89,7 +89,7 @@ def test_scaled_hautus_decides_where_numpy_default_rank_does_not(beam):
     ext = extend(sysm, N, integrator(2))
     assert hautus(ext.A, ext.C).observable  # balanced: full rank
     chk = extended_observability(sysm, N, integrator(2))
-    assert chk.observable and chk.verdict is ObsVerdict.WEAK
+    assert chk.observable and chk.verdict is Verdict.WEAK
     # the static-gain test confirms rank 2 with the singular values stated in the notes (2.0e-4, 6.7e-7)
     sv = chk.channels[0].singular_values
     assert sv[0] == pytest.approx(2.0e-4, rel=0.05) and sv[1] == pytest.approx(6.7e-7, rel=0.05)
@@ -109,7 +109,7 @@ def test_explicit_tolerance_makes_weak_observability_visible():
     eps = 1e-10
     A, C = [[-1.0, eps], [0.0, -2.0]], [[1.0, 0.0]]
     r = hautus(A, C, scaling="none")
-    assert r.observable and r.verdict is ObsVerdict.WEAK and r.margin < 1e-8
+    assert r.observable and r.verdict is Verdict.WEAK and r.margin < 1e-8
     assert not hautus(A, C, scaling="none", rtol=1e-6).observable
 
 
@@ -169,7 +169,7 @@ def test_p_less_than_s_is_rejected_before_anything_else():
 def test_integrator_static_gain_test_matches_the_analytic_gain():
     # G(0) = C (-A)^-1 N_R = 1/k for a unit force on the mass
     chk = extended_observability(msd(), [[0.0], [1.0]], integrator(1))
-    assert chk.verdict is ObsVerdict.OBSERVABLE and chk.detectable
+    assert chk.verdict is Verdict.OBSERVABLE and chk.detectable
     assert chk.channels[0].method == "G"
     assert chk.channels[0].singular_values[0] == pytest.approx(1 / 4.0)
 

@@ -94,7 +94,7 @@ def test_garbage_in_each_optional_key_gives_model_or_obsnl_error(key, value):
 def test_garbage_files_give_model_or_obsnl_error(tmp_path_factory, raw, suffix):
     p = tmp_path_factory.mktemp("g") / f"m{suffix}"
     p.write_bytes(raw)
-    _load_or_own_error(obsnl.load_model, p)
+    _load_or_own_error(obsnl.read_model, p)
 
 
 @st.composite
@@ -134,7 +134,7 @@ def test_well_formed_models_load_and_mean_what_they_say(tmp_path_factory, d, as_
         lines += ["[outputs]"] + [f'{k} = "{v}"' for k, v in d["outputs"].items()]
         p.write_text("\n".join(lines))
     try:
-        m = obsnl.load_model(p)
+        m = obsnl.read_model(p)
     except ObsnlError as exc:
         # the only refusals a well-formed model may get: an expression that evaluates to an
         # infinity, e.g. log((x) - (x)) = log(0), or to a complex number, e.g. log(1/3 - 2)

@@ -113,7 +113,7 @@ def test_undeclared_builtin_name_is_an_error_not_a_constant():
 
 
 def test_round_trip_through_dict_and_json():
-    m = obsnl.load_model(MODEL_FILES[0])
+    m = obsnl.read_model(MODEL_FILES[0])
     d = json.loads(json.dumps(m.to_dict()))
     again = Model.from_dict(d)
     assert again == m
@@ -137,7 +137,7 @@ def test_with_outputs_and_replace_return_new_models():
 
 @pytest.mark.parametrize("path", PEER_CASE_FILES, ids=lambda p: p.stem)
 def test_every_peer_case_loads_unchanged(path):
-    m = obsnl.load_model(path)
+    m = obsnl.read_model(path)
     raw = json.loads(path.read_text())
     assert [s.name for s in m.states] == raw["states"]
     assert [s.name for s in m.parameters] == raw["parameters"]
@@ -153,25 +153,25 @@ def test_every_peer_case_loads_unchanged(path):
 
 @pytest.mark.parametrize("path", MODEL_FILES, ids=lambda p: p.stem)
 def test_catalogue_models_load_and_cite_a_source(path):
-    m = obsnl.load_model(path)
+    m = obsnl.read_model(path)
     assert m.source.strip(), f"{path.name} must cite its source"
 
 
 def test_file_errors(tmp_path):
     with pytest.raises(ParseError, match="does not exist"):
-        obsnl.load_model(tmp_path / "nope.toml")
+        obsnl.read_model(tmp_path / "nope.toml")
     bad = tmp_path / "m.yaml"
     bad.write_text("name: x")
     with pytest.raises(ParseError, match="unknown model file type"):
-        obsnl.load_model(bad)
+        obsnl.read_model(bad)
     bad = tmp_path / "m.toml"
     bad.write_text("name = [")
     with pytest.raises(ParseError, match="not valid TOML"):
-        obsnl.load_model(bad)
+        obsnl.read_model(bad)
     bad = tmp_path / "m.json"
     bad.write_text("[1, 2]")
     with pytest.raises(ParseError, match="top level"):
-        obsnl.load_model(bad)
+        obsnl.read_model(bad)
     bad.write_text('{"name": "m", "states": ["x"], "equations": {"x": "-k*x"}}')
     with pytest.raises(ParseError, match=r"m.json: equation of x: undeclared symbol 'k'"):
-        obsnl.load_model(bad)
+        obsnl.read_model(bad)

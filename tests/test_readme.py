@@ -21,7 +21,7 @@ def test_python_example_runs(tmp_path, monkeypatch, capsys):
     assert (tmp_path / "bouc_wen_identifiable.toml").exists() and (tmp_path / "bouc_wen_table.json").exists()
     import obsnl
 
-    assert obsnl.load_model(tmp_path / "bouc_wen_identifiable.toml").definitions
+    assert obsnl.read_model(tmp_path / "bouc_wen_identifiable.toml").definitions
 
 
 def test_ci_runs_the_readme_test_command():

@@ -38,7 +38,7 @@ def _same_expr(a: sp.Expr, b: sp.Expr) -> bool:
 
 @pytest.fixture(scope="module")
 def seed():
-    m = obsnl.load_model(MODELS / "damage_healing.toml")
+    m = obsnl.read_model(MODELS / "damage_healing.toml")
     return m, reparametrize(m, seed=0)
 
 
@@ -79,7 +79,7 @@ def test_written_seed_model_loads_and_is_observable(seed, tmp_path):
     _, r = seed
     path = tmp_path / "new.toml"
     path.write_text(r.to_toml())
-    m2 = obsnl.load_model(path)
+    m2 = obsnl.read_model(path)
     assert m2 == r.model
     names = [s.name for s in m2.states + m2.parameters]
     assert set(m2.definitions) == set(names)
@@ -97,7 +97,7 @@ def test_cli_end_to_end_on_the_seed_model(tmp_path, capsys):
 
 
 def test_bouc_wen_amplitude_normalisation():
-    m = obsnl.load_model(MODELS / "bouc_wen.toml")
+    m = obsnl.read_model(MODELS / "bouc_wen.toml")
     r = reparametrize(m)
     assert r.complete and r.verified and r.pivots == ("A",)
     z, A, k2, b, g, n = (sp.Symbol(s, real=True) for s in ("z", "A", "k2", "beta", "gamma", "n"))
@@ -111,7 +111,7 @@ def test_bouc_wen_amplitude_normalisation():
 
 
 def test_bouc_wen_hints():
-    m = obsnl.load_model(MODELS / "bouc_wen.toml")
+    m = obsnl.read_model(MODELS / "bouc_wen.toml")
     assert reparametrize(m, keep=["A"]).pivots == ("k2",)
     r = reparametrize(m, names={"z_p": "zeta"})
     assert "zeta" in r.mapping and "zeta" in {s.name for s in r.model.states}
@@ -122,7 +122,7 @@ def test_bouc_wen_hints():
 
 
 def test_mass_spring_damper_textbook_groups():
-    m = obsnl.load_model(MODELS / "msd_force_accel.toml")
+    m = obsnl.read_model(MODELS / "msd_force_accel.toml")
     r = reparametrize(m)
     k, c, g, mm, x, v = (sp.Symbol(s, real=True) for s in ("k", "c", "g", "m", "x", "v"))
     assert sorted(map(str, r.mapping.values())) == sorted(map(str, [x, v, k / mm, c / mm, g / mm]))
@@ -145,7 +145,7 @@ def _cases():
 @pytest.mark.parametrize("path", _cases())
 def test_catalogue_identifiable_functions(path):
     data = json.loads(path.read_text())
-    m = obsnl.load_model(path)
+    m = obsnl.read_model(path)
     r = reparametrize(m, seed=0)
     variables = list(m.states) + list(m.parameters)
     stated = data["expected_identifiable_functions"]
@@ -164,10 +164,10 @@ def test_catalogue_identifiable_functions(path):
 
 @pytest.mark.parametrize("path", MODEL_FILES, ids=[p.stem for p in MODEL_FILES])
 def test_writer_round_trip(path, tmp_path):
-    m = obsnl.load_model(path)
+    m = obsnl.read_model(path)
     out = tmp_path / "m.toml"
     out.write_text(model_to_toml(m))
-    m2 = obsnl.load_model(out)
+    m2 = obsnl.read_model(out)
     assert m2 == m and dict(m2.values) == dict(m.values) and dict(m2.latex) == dict(m.latex)
     assert dict(m2.definitions) == dict(m.definitions) and m2.description == m.description
 
@@ -176,7 +176,7 @@ def test_cli_reparametrize(tmp_path, capsys):
     out = tmp_path / "bw.toml"
     assert main(["reparametrize", str(MODELS / "bouc_wen.toml"), "-o", str(out)]) == 0
     assert "z_p = z/A" in capsys.readouterr().out
-    assert obsnl.load_model(out).definitions["k2_p"] == "A*k2"
+    assert obsnl.read_model(out).definitions["k2_p"] == "A*k2"
     assert main(["reparametrize", str(MODELS / "bouc_wen.toml"), "-o", str(out)]) == 2
     err = capsys.readouterr().err
     assert "--force" in err and len(err.strip().splitlines()) == 1
@@ -215,7 +215,7 @@ def test_identifiable_functions_standalone():
     from obsnl.recombination.identifiable import identifiable_functions
 
     path = PEER_CASES / "si_bench_hiv2.json"
-    m = obsnl.load_model(path)
+    m = obsnl.read_model(path)
     r = identifiable_functions(m)
     assert r.complete and r.rank == len(r.functions)
     assert set(r.sources) <= {"symmetries", "invariant pairs", "polynomial invariants", "output derivatives"}
@@ -223,4 +223,4 @@ def test_identifiable_functions_standalone():
     assert same_field(list(r.functions), stated, list(m.states) + list(m.parameters))
     json.dumps(r.to_dict())
     with pytest.raises(obsnl.ObsnlError, match="not smooth"):
-        identifiable_functions(obsnl.load_model(MODELS / "bouc_wen.toml"))
+        identifiable_functions(obsnl.read_model(MODELS / "bouc_wen.toml"))

@@ -25,9 +25,9 @@ from .conftest import MODELS
 
 
 def paper_table1_result() -> tuple[AnalysisResult, obsnl.Model]:
-    m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    m = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     names = [s.name for s in m.variables]
-    guards = {b.label: b.guard_text for b in obsnl.split_branches(m)}
+    guards = {b.label: b.guard_text for b in obsnl.model.split_branches(m)}
     brs = []
     for label, signs in (("a", (1, 1)), ("b", (1, -1)), ("c", (-1, -1)), ("d", (-1, 1))):
         un = {"Delta2"} if signs[0] * signs[1] > 0 else {"Delta1", "w_h"}  # Table 1
@@ -63,9 +63,9 @@ def test_markdown_table():
 def test_analyze_result_renders_the_paper_table_without_the_model():
     # analyze() carries the branch signs, switching functions, parameters and LaTeX names, so the
     # notebook display of a bare result merges and conditions the columns as the paper's Table 1
-    m = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    m = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     r = obsnl.analyze(m, seed=3)
-    assert [b.signs for b in r.branches] == [b.signs for b in obsnl.split_branches(m)]
+    assert [b.signs for b in r.branches] == [b.signs for b in obsnl.model.split_branches(m)]
     assert r.switching == ("r - eta_p", "x2") and r.parameters[0] == "k_m" and r.latex["Delta1"] == r"\Delta_1"
     md = r._repr_markdown_()
     assert "| Condition | `(r - eta_p)*x2 > 0` | `(r - eta_p)*x2 < 0` |" in md

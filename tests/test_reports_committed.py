@@ -22,7 +22,7 @@ import obsnl
 import obsnl.batch
 from obsnl import report
 from obsnl.observability.analyze import analyze
-from obsnl.observability.contract.branch_table import BranchTable, load_branch_table, schema
+from obsnl.observability.contract.branch_table import BranchTable, read_branch_table, schema
 
 from .conftest import MODEL_FILES, MODELS, PEER_CASE_FILES, ROOT
 from .test_report import latex_structure_ok
@@ -33,7 +33,7 @@ SEED_MODELS = [MODELS / "damage_healing_reparam.toml", MODELS / "damage_healing.
 
 
 def test_committed_tables_are_what_obsnl_report_writes_today(tmp_path):
-    models = [obsnl.load_model(p) for p in SEED_MODELS]
+    models = [obsnl.read_model(p) for p in SEED_MODELS]
     obsnl.batch.report_models(models, tmp_path, method="auto", seed=0)
     for m in models:
         for ext in ("md", "tex", "json"):
@@ -44,7 +44,7 @@ def test_committed_tables_are_what_obsnl_report_writes_today(tmp_path):
 
 
 def test_table1_content_equals_the_paper():
-    t = load_branch_table(TABLES / "damage_healing_reparam.json")
+    t = read_branch_table(TABLES / "damage_healing_reparam.json")
     observable_ac = {"x1", "x2", "r", "eta_p", "Eh_p", "k_m", "c_dm", "c_eta_p", "w_h", "c_p", "h_p", "Delta1", "N"}
     observable_bd = {"x1", "x2", "r", "eta_p", "Eh_p", "k_m", "c_dm", "c_eta_p", "c_p", "h_p", "Delta2", "N"}
     for b in t.branches:
@@ -66,7 +66,7 @@ def test_section_3_2_table_content_equals_the_paper():
     # seed paper §3.2: (a),(c) unobservable sigma, eta, E_h, A_m, L, E, sigma_y, c_eta, c, h, beta, gamma,
     # transcendence degree 4; (b),(d) the same plus w_h, degree 5
     base = {"sigma", "eta", "E_h", "A_m", "L", "E", "sigma_y", "c_eta", "c", "h", "beta", "gamma"}
-    t = load_branch_table(TABLES / "damage_healing.json")
+    t = read_branch_table(TABLES / "damage_healing.json")
     for b in t.branches:
         if b.label in ("a", "c"):
             assert set(b.unobservable) == base and b.transcendence_degree == 4
@@ -98,7 +98,7 @@ def test_committed_latex_is_well_formed(name, tmp_path):
 
 def test_golden_renderings_of_a_peer_case():
     path = next(p for p in PEER_CASE_FILES if p.stem == "si_bench_seir34")
-    m = obsnl.load_model(path)
+    m = obsnl.read_model(path)
     r = report.complete(analyze(m, seed=0), m)
     assert report.to_markdown(r) == (GOLDEN / "si_bench_seir34.md").read_text()
     assert report.to_latex(r) == (GOLDEN / "si_bench_seir34.tex").read_text()
@@ -115,7 +115,7 @@ def test_golden_renderings_of_a_peer_case():
 
 @pytest.mark.parametrize("path", PEER_CASE_FILES + MODEL_FILES, ids=lambda p: p.stem)
 def test_every_catalogue_branch_table_validates(path):
-    m = obsnl.load_model(path)
+    m = obsnl.read_model(path)
     doc = json.loads(report.render(analyze(m, seed=1), "json-table"))
     jsonschema.validate(doc, schema())
     t = BranchTable.from_dict(doc)

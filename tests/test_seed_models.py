@@ -37,8 +37,8 @@ def _simulate(model, params, x0, ag, t_end):
 
 
 def test_reparametrized_model_reproduces_original_x1():
-    orig = obsnl.load_model(MODELS / "damage_healing.toml")
-    rep = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    orig = obsnl.read_model(MODELS / "damage_healing.toml")
+    rep = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     po = dict(orig.values)
     # values of the new symbols from the definitions of (16), evaluated at the original values
     old = {n: sp.Symbol(n) for n in po}
@@ -86,7 +86,7 @@ def test_simulate_default_and_filter_steps_against_lsoda():
     from obsnl.estimation.records import read_record
     from obsnl.estimation.simulate import simulate
 
-    rep = obsnl.load_model(MODELS / "damage_healing_reparam.toml")
+    rep = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     rec = read_record(MODELS.parent / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(1001)
     vals = {k: float(v) for k, v in rep.values.items()}
     t = np.arange(len(rec.accel)) * rec.dt

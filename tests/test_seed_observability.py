@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import pytest
 
-from obsnl import Verdict, analyze, load_model
+from obsnl import Verdict, analyze, read_model
 from tests.conftest import MODELS
 
 PAPER_LOST = ["sigma", "eta", "E_h", "A_m", "L", "E", "sigma_y", "c_eta", "c", "h", "beta", "gamma"]
@@ -20,12 +20,12 @@ PAPER_LOST = ["sigma", "eta", "E_h", "A_m", "L", "E", "sigma_y", "c_eta", "c", "
 
 @pytest.fixture(scope="module")
 def original():
-    return analyze(load_model(MODELS / "damage_healing.toml"), method="sedoglavic", seed=7)
+    return analyze(read_model(MODELS / "damage_healing.toml"), method="sedoglavic", seed=7)
 
 
 @pytest.fixture(scope="module")
 def reparam():
-    return analyze(load_model(MODELS / "damage_healing_reparam.toml"), method="sedoglavic", seed=7)
+    return analyze(read_model(MODELS / "damage_healing_reparam.toml"), method="sedoglavic", seed=7)
 
 
 def test_original_model_branches_match_section_3_2(original) -> None:
@@ -63,7 +63,7 @@ def test_augmentation_is_reported_in_the_notes(reparam) -> None:
 def test_orc_on_reparametrized_branch_is_right_or_inconclusive() -> None:
     # The symbolic path swells (the issue: a naive symbolic ORC does not reach 10 derivatives in 10
     # minutes); with a time limit it must never give a wrong answer.
-    res = analyze(load_model(MODELS / "damage_healing_reparam.toml"), method="orc", seed=3, max_seconds=60)
+    res = analyze(read_model(MODELS / "damage_healing_reparam.toml"), method="orc", seed=3, max_seconds=60)
     for b in res.branches:
         if b.verdict is Verdict.INCONCLUSIVE:
             assert b.reason

@@ -77,13 +77,13 @@ class Rewriter:
 
     Parameters
     ----------
-    declared
+    declared : iterable of sympy.Symbol
         The symbols the expressions may use (monomials of exponents and angles are products of them).
-    time_symbols
+    time_symbols : iterable of sympy.Symbol
         The symbols that vary in time (states and inputs); an atom depending on one varies too.
-    factor_cache
+    factor_cache : dict or None
         Factorizations of logarithm arguments shared with other rewritings (one analysis).
-    unit
+    unit : bool
         Make the atom of a monomial ``m`` ``exp(u m)`` (``sin(u m)``) with ``u`` dividing 1 as well as
         every coefficient met, so that expressions rewritten later (:meth:`extend`) with integer
         coefficients are powers of it (``x**(2*N)`` becomes ``exp(N log x)**2``). Default: ``u`` the
@@ -176,7 +176,7 @@ class Rewriter:
         if isinstance(e, NONSMOOTH_FUNCTIONS):
             raise NotSupportedError(
                 f"{type(e).__name__} in {e} is not smooth; split the model into branches first "
-                f"(obsnl.split_branches, or obsnl.observability.analyze which does it)"
+                f"(obsnl.model.split_branches, or obsnl.observability.analyze which does it)"
             )
         name = getattr(e.func, "__name__", type(e).__name__)
         raise NotSupportedError(
@@ -458,7 +458,8 @@ def rewrite(exprs: Iterable[sp.Expr], symbols: Iterable[sp.Symbol]) -> tuple[lis
 
     Parameters
     ----------
-    exprs, symbols : iterable of sympy.Expr, iterable of sympy.Symbol
+    exprs : iterable of sympy.Expr
+    symbols : iterable of sympy.Symbol
         Expressions to rewrite, and their variables (other free symbols are constants).
 
     Examples

@@ -113,12 +113,12 @@ def rationalize(model: Model, *, factor_cache: dict | None = None, unit: bool = 
 
     Parameters
     ----------
-    model
+    model : Model
         A smooth model (no ``sign``/``Abs``/``Heaviside``/``Piecewise``/``Max``/``Min``).
-    factor_cache
+    factor_cache : dict or None
         A dictionary shared by several calls (the branches of one analysis) that remembers the
         factorizations of logarithm arguments; None: one for this call.
-    unit
+    unit : bool
         Exponentials (and sines) of a monomial ``m`` as powers of ``exp(u m)`` with ``u`` dividing 1, so
         that later expressions over the same atoms need no roots (:class:`obsnl.algebra.atoms.Rewriter`).
 

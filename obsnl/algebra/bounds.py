@@ -95,6 +95,11 @@ def failure_bound(p: int, *, n: int, l: int, m: int, r: int, d: int, h: int, nfu
     -------
     float
         Upper bound of the failure probability, at most 1.
+
+    References
+    ----------
+    .. [1] A. Sedoglavic, "A probabilistic algorithm to test local algebraic observability in polynomial time", J.
+       Symbolic Computation 33(5), 735-755, 2002. doi:10.1006/jsco.2002.0532
     """
     n = max(n, 1)
     d = max(d, 1)

@@ -260,9 +260,9 @@ class Expressions:
 
     Parameters
     ----------
-    exprs
+    exprs : iterable of sympy.Expr
         sympy expressions (rational, or with the non-rational terms of :mod:`obsnl.algebra.augment`).
-    symbols
+    symbols : iterable of sympy.Symbol
         Every symbol the expressions may use.
 
     Attributes

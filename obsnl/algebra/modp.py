@@ -164,9 +164,9 @@ class MatMod:
 
     Parameters
     ----------
-    A
+    A : ndarray
         int64 matrix of shape ``(m, n)`` with ``n < 2**13``.
-    p
+    p : int
         The modulus, below ``2**50``.
     """
 

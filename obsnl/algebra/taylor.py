@@ -84,18 +84,18 @@ def make_plan(
 
     Parameters
     ----------
-    ops
+    ops : sequence
         The program's operations (:class:`obsnl.algebra.slp.Op`).
-    tv
+    tv : sequence of bool
         Per node: True when it varies in time (its coefficients ``k >= 1`` may be nonzero).
-    topo
+    topo : sequence of int
         A topological order of all nodes (atoms after their arguments, cosines after sines).
-    atoms
+    atoms : mapping of int to tuple (str, int, int, int, int)
         Time-varying atom leaves: ``{node: (kind, argument node, denominator node (atan) or -1,
         partner node (sin/cos) or -1, q (roots) or 0)}``.
-    sources
+    sources : sequence of int
         Leaves whose coefficients ``k >= 1`` are given (states first, then inputs).
-    wanted
+    wanted : sequence of int
         Nodes whose series are needed besides the history operands (right-hand sides, outputs).
     """
     edges: list[tuple[int, tuple[tuple[int, tuple], ...]]] = []
@@ -169,19 +169,19 @@ class Stepper:
 
     Parameters
     ----------
-    plan
+    plan : Plan
         The :class:`Plan`.
-    X0
+    X0 : ndarray
         Order-0 jets of all nodes, int64 array ``(n_nodes, M + 1)`` (column 0 the value).
-    p
+    p : int
         The prime.
-    K
+    K : int
         Number of orders to allocate.
-    state_rhs
+    state_rhs : sequence of int
         For each state source (the first ones of ``plan.sources``): its right-hand side node.
-    given
+    given : callable
         ``given(k)`` returns the coefficients ``k`` of the other sources, ``(n_other, M + 1)``.
-    tv
+    tv : sequence of bool
         Time variation per node (a time-invariant right-hand side has no coefficients ``k >= 1``).
     """
 

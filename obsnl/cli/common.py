@@ -55,9 +55,9 @@ _seed = _at_least(0)
 
 def _load(path: str, check: Any = None):
     """The model file at ``path``; ``check`` sees the file's raw keys before any expression is parsed."""
-    from obsnl.model.files import load_model
+    from obsnl.model.files import read_model
 
-    return load_model(path, check=check)
+    return read_model(path, check=check)
 
 
 def write_output(text: str, out: str | None, *, force: bool) -> None:

@@ -27,10 +27,10 @@ def _add_bank(sub: argparse._SubParsersAction) -> None:
 
 def _cmd_bank(args: argparse.Namespace) -> int:
     from obsnl.report.bank import check_bank_output, write_bank_report
-    from obsnl.studies.link_model import load_link_spec
+    from obsnl.studies.link_model import read_link_spec
     from obsnl.studies.link_study import check_bank_settings, run_link_study
 
-    spec = load_link_spec(args.model)  # the model file and its [bank] table are checked before any work
+    spec = read_link_spec(args.model)  # the model file and its [bank] table are checked before any work
     scenarios = ["healthy"] + [f"crack{c}" for c in check_bank_settings(spec)["crack_elements"]]
     check_bank_output(args.out, scenarios, force=args.force)
     study = run_link_study(seeds=args.seeds, spec=spec)

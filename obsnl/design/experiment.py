@@ -7,20 +7,19 @@ at scale ``s`` visits, and the set suffices when :func:`obsnl.design.sufficiency
 ``visited=`` that set finds every target jointly identifiable. The verdict depends on the visited *set*
 only (seconds and crossings are reported, not analysed): it is cached by the frozenset of patterns.
 
-**The scale.** The default grid is the powers of 2 from ``2**-10`` (about 1e-3) to ``2**10`` (about
-1e3). The first sufficient grid scale and the one below it bracket the smallest sufficient scale; the
-bracket is bisected (geometric mid-points) until ``(hi - lo) / hi <= tol``. This assumes that the visited
-set grows with the scale (a larger motion reaches every branch a smaller one reaches). When it does not,
-the bisection still ends on a boundary between an insufficient ``lo`` and a sufficient ``hi`` (both
-simulated), reported with the bracket, which need not be the smallest sufficient scale;
-:attr:`ExperimentDesign.notes` says where the visited set shrank and which larger grid scales fail.
+**The scale.** The default grid is the powers of 2 from ``2**-10`` to ``2**10`` (about 1e-3 to 1e3). The first
+sufficient grid scale and the one below it bracket the smallest sufficient scale; the bracket is bisected (geometric
+mid-points) until ``(hi - lo) / hi <= tol``. This assumes that the visited set grows with the scale (a larger motion
+reaches every branch a smaller one does). When it does not, the bisection still ends on a boundary between an
+insufficient ``lo`` and a sufficient ``hi`` (both simulated), reported with the bracket (not always the smallest
+sufficient scale); :attr:`ExperimentDesign.notes` says where the visited set shrank and which larger grid scales fail.
 
-**Several records** are experiments sharing the parameters, each with its own states: their verdict is the
-joint verdict over the union of their visited patterns (obsnl's joint verdict gives every visit its own
-states already). It also pairs switching surfaces between visited branches, which may come from different
-records: a crossing it credits may be one no single record makes. ``sufficient_records`` are the minimal
-subsets of the records (at scale 1) whose union suffices, by increasing size; a superset of a sufficient
-subset is sufficient (more branches add rows to the verdict) and is not listed.
+**Several records** are experiments sharing the parameters, each with its own states: their verdict is the joint
+verdict over the union of their visited patterns (obsnl's joint verdict gives every visit its own states already). It
+also pairs switching surfaces between visited branches, which may come from different records: a crossing it credits
+may be one no single record makes. ``sufficient_records`` are the minimal subsets of the records (at scale 1) whose
+union suffices, by increasing size; a superset of a sufficient subset is sufficient (more branches add rows to the
+verdict) and is not listed.
 """
 
 from __future__ import annotations
@@ -98,8 +97,8 @@ class ScaleVisit:
         The factor on every record; the visited branches (union over the records, seconds summed) in order
         of first visit; sign changes per switching function (summed).
     sufficient, missing, undecided, reason
-        The joint verdict over ``branches`` (True, False or None: inconclusive), the targets proven not
-        identifiable and those undecided, and why (:attr:`Sufficiency.reason`).
+        The joint verdict over ``branches`` (True, False or None: inconclusive), the targets proven not identifiable
+        and those undecided, and why (:attr:`Sufficiency.reason`).
     bisection, by_record
         True for a point of the bisection; the sign patterns each record visits (several records only).
     """
@@ -237,7 +236,7 @@ class _Runs:
         return self.verdicts[key]
 
     def labels(self, switching: int) -> dict[tuple[int, ...], str]:
-        """Branch labels by sign pattern (:func:`obsnl.split_branches`); none past :data:`LABEL_UP_TO` surfaces."""
+        """Branch labels by sign pattern (:func:`obsnl.model.split_branches`); none past :data:`LABEL_UP_TO` surfaces."""
         if self._labels is None:
             try:
                 found = split_branches(self.sub, seed=self.seed, undecided=True, max_seconds=remaining()) \
@@ -321,21 +320,23 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
 
     Parameters
     ----------
-    model
+    model : Model
         A model with numbers for every parameter in its ``[values]`` and only known inputs.
-    records
-        Each a :class:`~obsnl.estimation.accelerogram.Record` (one column drives the model's one input; named
-        columns drive the inputs of their names) or ``(name, t, {input: samples})``; names unique, at
-        most :data:`MAX_RECORDS`.
-    target, sensors
-        ``"all"``, ``"parameters"`` or names (:func:`obsnl.design.sufficiency.resolve_targets`); the outputs
-        measured (a sequence or ``"a,b"``; None: every output).
-    scales, tol
-        The grid of factors on every record (default :data:`DEFAULT_SCALES`, 2**-10 to 2**10); the relative
-        width ``(hi - lo) / hi`` at which the bisection stops (1e-12 to below 1).
-    seed, max_seconds
-        Seed of every analysis; time limit of the whole design (simulations and verdicts), past which an
-        :class:`~obsnl.errors.AnalysisError` says what was running.
+    records : sequence of RecordLike
+        Each a :class:`~obsnl.estimation.accelerogram.Record` (one column drives the model's one input; named columns
+        drive the inputs of their names) or ``(name, t, {input: samples})``; names unique, at most :data:`MAX_RECORDS`.
+    target : str or sequence of str
+        ``"all"``, ``"parameters"`` or names (:func:`obsnl.design.sufficiency.resolve_targets`).
+    sensors : str or sequence of str or None
+        The outputs measured (a sequence or ``"a,b"``; None: every output).
+    scales : sequence of float or None
+        The grid of factors on every record (default :data:`DEFAULT_SCALES`, 2**-10 to 2**10).
+    tol : float
+        The relative width ``(hi - lo) / hi`` at which the bisection stops (1e-12 to below 1).
+    seed : int
+        Seed of every analysis.
+    max_seconds : float or None
+        Time limit of the whole design (simulations and verdicts); past it an ``AnalysisError`` says what ran.
 
     Returns
     -------
@@ -350,13 +351,12 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
 
     Notes
     -----
-    The bisection assumes that the visited set grows with the scale. When it does not, it still ends on a
-    boundary between an insufficient and a sufficient scale, reported with the bracket (and in ``notes``).
+    The bisection assumes that the visited set grows with the scale; when it does not, it still ends on a boundary
+    between an insufficient and a sufficient scale, reported with the bracket (and in ``notes``).
 
     Examples
     --------
-    A gap spring that closes at ``x = g``: the contact branch, the only one where ``kc`` and ``g`` act, is
-    reached once the record is large enough.
+    A gap spring closing at ``x = g``: its contact branch (where ``kc`` and ``g`` act) is reached once the record is large.
 
     >>> import numpy as np
     >>> from obsnl import Model

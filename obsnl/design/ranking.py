@@ -28,11 +28,8 @@ parameters' information once the initial states are eliminated (the Schur comple
 of the parameters' block of the bound), in the log coordinates, i.e. of the relative-scaled
 information (D-optimality); ``-inf`` when a bound is infinite.
 
-:func:`effective_independence` answers without a record: Kammer's effective independence (Kammer 1991)
-on the mode shapes of the model linearised at rest.
-
-Reference: Kammer, D. C. (1991), Sensor placement for on-orbit modal identification and correlation of
-large space structures, J. Guidance Control Dyn. 14(2), 251-259, doi:10.2514/3.20635.
+:func:`effective_independence` answers without a record: Kammer's effective independence (Kammer 1991,
+doi:10.2514/3.20635) on the mode shapes of the model linearised at rest.
 """
 
 from __future__ import annotations
@@ -177,24 +174,24 @@ def rank_sensor_sets(model: Model | NumericModel, sets: Sequence[Sequence[str]],
 
     Parameters
     ----------
-    model
+    model : Model or NumericModel
         The model with every candidate sensor as an output, with ``[values]`` for every parameter
         (nonzero: the bounds are relative) and optionally the initial states (default 0).
-    sets
+    sets : sequence of sequence of str
         Candidate sets, each a sequence of output names.
-    t
+    t : Any
         Sample times of the record (evenly spaced).
-    inputs
+    inputs : Any
         Input samples: ``(T,)`` for one input, ``(T, nu)``, or ``{input name: samples}``.
-    noise
+    noise : float or mapping of str to float
         Relative noise level of every output, or ``{output: level}`` (default 0.01 each): the noise std of
         output ``c`` is ``level_c * RMS(y_c)`` along the response (module docstring).
-    parameters
+    parameters : sequence of str or None
         The parameters ranked (default all); the others are taken as known.
-    estimate_x0
+    estimate_x0 : bool
         The initial states are unknown nuisance parameters (default, as in the likelihood fit); False:
         known.
-    substeps, refine
+    substeps, refine : int
         RK4 substeps per sample and the refinement of a crossing substep (the integrator of the
         likelihood fit, :meth:`obsnl.estimation.codegen.NumericModel.step`).
 
@@ -210,6 +207,11 @@ def rank_sensor_sets(model: Model | NumericModel, sets: Sequence[Sequence[str]],
         Irregular times, inputs of the wrong shape.
     EstimatorError
         The model cannot be simulated at its values.
+
+    References
+    ----------
+    .. [1] D. C. Kammer, "Sensor placement for on-orbit modal identification and correlation of large space
+       structures", J. Guidance, Control, and Dynamics 14(2), 251-259, 1991. doi:10.2514/3.20635
 
     Examples
     --------
@@ -292,11 +294,11 @@ def mode_shapes(model: Model | NumericModel, modes: int, *, candidates: Sequence
 
     Parameters
     ----------
-    model
+    model : Model or NumericModel
         The model with ``[values]`` for every parameter.
-    modes
+    modes : int
         How many modes.
-    candidates
+    candidates : sequence of str or None
         The outputs (rows of ``Psi``; default every output), in this order.
 
     Returns
@@ -352,11 +354,11 @@ def effective_independence(model: Model | NumericModel, size: int, *,
 
     Parameters
     ----------
-    model
+    model : Model or NumericModel
         The model with ``[values]`` for every parameter.
-    size
+    size : int
         Sensors to keep (and modes targeted).
-    candidates
+    candidates : sequence of str or None
         Outputs to choose from (default every output).
 
     Returns
@@ -368,6 +370,11 @@ def effective_independence(model: Model | NumericModel, size: int, *,
     ------
     OptionError
         ``size`` not between 1 and the number of candidates, or fewer vibration modes than ``size``.
+
+    References
+    ----------
+    .. [1] D. C. Kammer, "Sensor placement for on-orbit modal identification and correlation of large space
+       structures", J. Guidance, Control, and Dynamics 14(2), 251-259, 1991. doi:10.2514/3.20635
 
     Examples
     --------

@@ -44,7 +44,7 @@ from obsnl._progress import Progress
 from obsnl.errors import OptionError
 from obsnl.executor import Executor
 from obsnl.model.core import Model
-from obsnl.model.files import load_model
+from obsnl.model.files import read_model
 from obsnl.observability.analyze import assumptions
 from obsnl.observability.certificates.certify import shared_symmetries
 from obsnl.observability.joint.selection import select_branches
@@ -89,20 +89,22 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
 
     Parameters
     ----------
-    model
+    model : Model or str
         A model whose outputs are the candidate sensors, or its file (a path or ``obsnl:NAME``).
-    target
+    target : str or sequence of str
         ``"all"`` (every state and parameter), ``"parameters"`` or names (see
         :func:`obsnl.design.sufficiency.resolve_targets`).
-    max_size
+    max_size : int or None
         Largest set searched (default: every size).
-    seed, prob
-        Seed and wanted probability bound of every analysis (:func:`obsnl.analyze`).
-    max_seconds
+    seed : int
+        Seed of every analysis (:func:`obsnl.analyze`).
+    prob : float
+        Wanted probability bound of every analysis (:func:`obsnl.analyze`).
+    max_seconds : float or None
         Time limit of each analysis (its undecided targets leave the set undecided).
-    executor
+    executor : Executor or None
         Where the analyses of one size run (default: this process).
-    progress
+    progress : bool or callable
         True: a progress bar on stderr (tqdm); a callable: called with the number of sets decided.
 
     Returns
@@ -128,7 +130,7 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     3
     """
     if isinstance(model, str) or hasattr(model, "__fspath__"):
-        model = load_model(model)
+        model = read_model(model)
     candidates = tuple(model.output_names)
     if not candidates:
         raise OptionError(f"model {model.name!r} has no outputs: list every quantity one could measure as an output")
@@ -238,15 +240,15 @@ def rank_sufficient_sets(search: SensorSearch, model: Model, *, t: Any, inputs: 
 
     Parameters
     ----------
-    search
+    search : SensorSearch
         The result of :func:`sensors` on ``model``.
-    model
+    model : Model
         The model, with ``[values]`` for every parameter (nonzero) and optionally the initial states.
-    t, inputs
+    t, inputs : Any
         The record: sample times and the known inputs (:func:`obsnl.design.ranking.rank_sensor_sets`).
-    size
+    size : int or None
         Size of the sets ranked (default: the size of the smallest minimal set).
-    noise
+    noise : float
         Relative noise level of every output (std = level x RMS of the noise-free output).
 
     Returns

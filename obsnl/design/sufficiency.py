@@ -86,9 +86,9 @@ def resolve_targets(model: Model, target: str | Sequence[str] = "all") -> tuple[
 
     Parameters
     ----------
-    model
+    model : Model
         The model.
-    target
+    target : str or sequence of str
         ``"all"`` (every state and parameter), ``"parameters"``, or names of states and parameters (a
         sequence, or one comma-separated string).
 
@@ -131,9 +131,9 @@ def restrict(model: Model, sensors: Sequence[str]) -> Model:
 
     Parameters
     ----------
-    model
+    model : Model
         The model with every candidate sensor as an output.
-    sensors
+    sensors : sequence of str
         Names of the outputs to keep.
 
     Returns
@@ -172,17 +172,24 @@ def check_sensors(model: Model, sensors: Sequence[str], targets: Sequence[str], 
 
     Parameters
     ----------
-    model
+    model : Model
         The model with every candidate sensor as an output.
-    sensors
+    sensors : sequence of str
         The outputs used.
-    targets
+    targets : sequence of str
         States and parameters that must be identifiable (:func:`resolve_targets`).
-    seed, prob, max_seconds
+    seed : int
         Passed to :func:`obsnl.analyze`.
-    visited, crossings
+    prob : float
+        Passed to :func:`obsnl.analyze`.
+    max_seconds : float or None
+        Passed to :func:`obsnl.analyze`.
+    visited : mapping of tuple of int to float or None
         Sign patterns an experiment visits (of the restricted model's switching functions, see
         :func:`obsnl.observability.joint.visited.visited_patterns`); None: every feasible branch.
+    crossings : mapping of str to int or None
+        ``{switching function: number of sign changes}`` along the same experiment (passed to
+        :func:`obsnl.analyze`).
 
     Returns
     -------

@@ -10,3 +10,28 @@ May import: ``errors``, ``model`` (codegen only) and of ``observability`` only t
 model signature (the DUKF reads the analysis through that contract). Must never import
 ``identification``, ``report``, ``studies`` or ``cli``; only ``codegen`` imports sympy.
 """
+
+#: The room's public names, each imported from the module that defines it on first use (so that importing
+#: one module of the room loads nothing else): name -> module.
+_LAZY: dict[str, str] = {
+    "to_casadi": "codegen", "NumericModel": "numeric", "ParameterMap": "numeric", "parameter_map": "codegen",
+    "log_map": "codegen", "UKF": "ukf", "Estimate": "trajectory", "Trajectory": "trajectory", "DUKF": "dukf",
+    "Record": "accelerogram", "read_record": "records", "add_noise": "records", "Measured": "measured",
+    "read_measured": "measured",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        from importlib import import_module
+
+        value = getattr(import_module(f"{__name__}.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -135,13 +135,13 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
 
     Parameters
     ----------
-    model
+    model : Model
         The model (non-smooth functions allowed; unknown inputs are not).
-    switching
+    switching : sequence of str or None
         Switching functions as text, e.g. a branch table's ``switching``; each must be one of the
         model's switching functions (up to sign) and is compiled in the orientation given.
         Default: the model's own (:func:`obsnl.model.branching.branches.switching_functions`).
-    constants
+    constants : mapping of str to float or None
         Values of known constants (default: the model's ``values``).
 
     Returns
@@ -217,13 +217,13 @@ def parameter_map(parameters: Sequence[str], forward: Mapping[str, str], inverse
 
     Parameters
     ----------
-    parameters
+    parameters : sequence of str
         The model's parameter names, in order.
-    forward
+    forward : mapping of str to str
         ``{parameter: expression in the new coordinates}``, one per parameter.
-    inverse
+    inverse : mapping of str to str
         ``{coordinate: expression in the parameters}``, in the order of the new coordinates.
-    check
+    check : mapping of str to float or None
         Parameter values at which ``forward(inverse(theta)) == theta`` is verified.
 
     Examples

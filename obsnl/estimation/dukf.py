@@ -51,17 +51,22 @@ class DUKF(UKF):
 
     Parameters
     ----------
-    table
-        The branch table (:func:`obsnl.observability.contract.branch_table.load_branch_table`); it must be made for this
+    table : BranchTable or None
+        The branch table (:func:`obsnl.observability.contract.branch_table.read_branch_table`); it must be made for this
         model (names, fingerprint, switching functions), else :class:`~obsnl.errors.TableError`.
-    cross
+    cross : str
         ``"regression"`` (default) or ``"zero"``: the rule for the frozen-active covariance
         (module docstring).
-    band
+    band : Any
         A switching function counts as signed only beyond ``band`` (scalar or one per switching
         function); inside the band the previous mask is kept (against chattering). Default 0.
-    **UKF options
-        As :class:`obsnl.UKF`.
+    **options : Any
+        The options of :class:`obsnl.estimation.UKF`.
+
+    References
+    ----------
+    .. [1] M. N. Chatzis and E. N. Chatzi, "A discontinuous unscented Kalman filter for non-smooth dynamic problems",
+       Frontiers in Built Environment 3:56, 2017. doi:10.3389/fbuil.2017.00056
     """
 
     table: BranchTable | None = None
@@ -72,7 +77,7 @@ class DUKF(UKF):
         super().__post_init__()
         t = self.table
         if not isinstance(t, BranchTable):
-            raise TableError("the DUKF needs a branch table: table=load_branch_table(path)")
+            raise TableError("the DUKF needs a branch table: table=read_branch_table(path)")
         t.signature.check(self.model.signature, exact_switching=True)
         if self.cross not in ("regression", "zero"):
             raise EstimatorError(f"unknown cross-covariance rule {self.cross!r}; use 'regression' or 'zero'")

@@ -227,7 +227,7 @@ def jit_compile(fn: ca.Function) -> ca.Function:
 
     Parameters
     ----------
-    fn
+    fn : casadi.Function
         A casadi Function (SX or MX, not itself compiled).
 
     Returns

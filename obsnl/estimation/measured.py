@@ -98,11 +98,11 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
 
     Parameters
     ----------
-    columns
+    columns : mapping of str to Any
         ``{name: samples}``; the time column is ``time_s`` or ``t``; extra columns are ignored.
-    inputs, outputs
+    inputs, outputs : sequence of str
         The model's input and output names, in model order.
-    name, source
+    name, source : str
         Labels of the record.
 
     Returns
@@ -159,9 +159,9 @@ def read_measured(path: str | Path, *, inputs: Sequence[str], outputs: Sequence[
 
     Parameters
     ----------
-    path
+    path : str or Path
         The CSV file.
-    inputs, outputs
+    inputs, outputs : sequence of str
         The model's input and output names: the columns read (others are ignored).
 
     Returns
@@ -228,9 +228,9 @@ def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float,
 
     Parameters
     ----------
-    x
+    x : Any
         The samples of one channel.
-    orders
+    orders : sequence of int
         Difference orders tried.
 
     Returns

@@ -140,9 +140,9 @@ class NumericModel:
 
         Parameters
         ----------
-        dt
+        dt : float
             Sampling interval.
-        method
+        method : str
             ``"auto"`` (default): RK4, redone with ROS2 when the step is stiff for RK4, that is when
             ``h * rho`` exceeds ``threshold``, with ``rho`` an upper bound of the spectral radius of
             ``J = df/dx`` at the RK4 end point (the Collatz-Wielandt bound of ``|D^-1 J D|``,
@@ -154,16 +154,22 @@ class NumericModel:
             function across which the field can jump (``jumps``) changed sign between two substeps,
             RK4 again with that substep split into ``refine`` (``refined`` is 1). ``"rk4"`` or
             ``"ros2"``: always that one, no refinement.
-        substeps
+        substeps : int
             Equal substeps per interval.
-        refine
+        refine : int
             Substep factor of the fallbacks of ``"auto"`` (1: no refinement).
-        scale
+        scale : Any
             Typical magnitude of each state: the start of the stiffness estimate (default 1).
-        threshold
+        threshold : float
             Stiffness bound for RK4 (its real stability interval is ``[-2.785, 0]``).
-        jit
+        jit : bool
             Compile the inner functions to C.
+
+        References
+        ----------
+        .. [1] J. G. Verwer, E. J. Spee, J. G. Blom and W. Hundsdorfer, "A second-order Rosenbrock method applied to
+           photochemical dispersion problems", SIAM J. Sci. Comput. 20(4), 1456-1480, 1999.
+           doi:10.1137/S1064827597326651
         """
         if not (np.isfinite(dt) and dt > 0):
             raise ModelError(f"dt must be a positive number, got {dt!r}")

@@ -35,9 +35,9 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
 
     Parameters
     ----------
-    path
+    path : str or Path
         The file; values in m/s², time in s; columns separated by commas, semicolons or tabs.
-    column
+    column : str or int or None
         Name or index of the acceleration column (default: the one whose name starts with ``acc``, or
         the only column besides time; anything else is refused, never guessed).
     """

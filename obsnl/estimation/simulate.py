@@ -106,17 +106,19 @@ def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, met
 
     Parameters
     ----------
-    model
+    model : NumericModel
         Compiled model.
-    theta, x0
+    theta, x0 : Any
         Parameter values and initial state (model order).
-    u
+    u : Any
         Input samples, shape ``(T,)`` for one input or ``(T, nu)``.
-    dt
+    dt : float
         Sampling interval.
-    method, substeps, refine
-        Discretisation (:meth:`obsnl.estimation.codegen.NumericModel.step`).
-    jit
+    method : str
+        Discretisation (:meth:`obsnl.estimation.numeric.NumericModel.step`).
+    substeps, refine : int
+        Discretisation (:meth:`obsnl.estimation.numeric.NumericModel.step`).
+    jit : bool
         Compile the step to C once per model, step and record length (a few seconds), for
         repeated simulations (tuning, sensitivities); the same numbers as without.
 

@@ -75,46 +75,52 @@ class UKF:
 
     Parameters
     ----------
-    model
+    model : NumericModel
         The compiled model (:func:`obsnl.estimation.codegen.to_casadi`).
-    dt
+    dt : float
         Sampling interval of the records it will filter.
-    coordinates
+    coordinates : ParameterMap or None
         Parameter coordinates (:func:`obsnl.estimation.codegen.log_map`, :func:`obsnl.estimation.codegen.parameter_map`);
         default: the parameters themselves.
-    state_scale
+    state_scale : Any
         Filter states are ``x / state_scale`` (default 1).
-    Q, R
+    Q, R : Any
         Process noise per step (``L x L`` in filter coordinates, or its diagonal) and measurement
         noise covariance (``ny x ny``). Changing them with :meth:`with_options` does not recompile.
-    alpha, beta, kappa
+    alpha, beta, kappa : float
         Scaled unscented transform (default ``1, 2, 0``: all covariance weights ``>= 0``).
-    method, substeps, refine
-        Discrete step of the model (:meth:`obsnl.estimation.codegen.NumericModel.step`): RK4 with ``substeps``
-        (default 4); a sigma point whose step is stiff for RK4 is redone with ROS2 and
-        ``refine * substeps``, one whose step crosses a switching function across which the field
-        can jump with that substep split into ``refine`` (default 8).
-    jit
+    method : str
+    substeps, refine : int
+        Discrete step of the model (:meth:`obsnl.estimation.numeric.NumericModel.step`): RK4 with ``substeps``
+        (default 4); a sigma point whose step is stiff for RK4 is redone with ROS2 and ``refine * substeps``, one
+        whose step crosses a switching function across which the field can jump with that substep split into
+        ``refine`` (default 8).
+    jit : bool
         Compile the step to C (needs a C compiler; off by default).
-    fixed
+    fixed : tuple of str
         Parameters held at their initial value (no spread, no update, no noise), e.g. parameters
         found practically unidentifiable; the coordinates that move only them are frozen.
-    gate
+    gate : float
         Innovation gate: beyond this Mahalanobis distance the gain is scaled down (Huber-type,
         :mod:`obsnl.estimation.ukf_step`); default ``inf`` (off). Changing it does not recompile.
-    cap
+    cap : Any
         Ceiling of the standard deviations in filter coordinates (scalar or one per coordinate;
         default ``inf``, off); larger ones are scaled down by a congruence (PSD kept) and counted.
-    bounds
+    bounds : Any
         ``(lo, hi)`` in filter coordinates (``-inf``/``inf`` allowed): the valid region. A mean that an
         update takes outside is put back on the edge and counted as a repair (a filter diverging
         along a direction the data do not yet inform otherwise runs to ``exp`` overflow).
 
+    References
+    ----------
+    .. [1] S. J. Julier and J. K. Uhlmann, "Unscented filtering and nonlinear estimation", Proc. IEEE 92(3), 401-422,
+       2004. doi:10.1109/JPROC.2003.823141
+
     Examples
     --------
     >>> import numpy as np
-    >>> from obsnl import Model, UKF
-    >>> from obsnl.estimation.codegen import to_casadi
+    >>> from obsnl import Model
+    >>> from obsnl.estimation import UKF, to_casadi
     >>> m = Model(name="osc", states=["x", "v"], parameters=["k"], inputs=["u"],
     ...           equations={"x": "v", "v": "u - k*x - v"}, outputs={"y": "x"})
     >>> f = UKF(to_casadi(m), dt=0.1, Q=1e-8, R=1e-4)

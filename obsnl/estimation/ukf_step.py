@@ -1,7 +1,8 @@
 """The symbolic UKF/DUKF step: one casadi Function per filter configuration (used by :mod:`obsnl.estimation.ukf`).
 
-Sigma points (scaled unscented transform, Julier 2002) from a Cholesky factor over the *active*
-coordinates, every sigma point through the full non-smooth discrete model (``Function.map``; RK4,
+Sigma points (the scaled unscented transform: Julier, Proc. American Control Conference 2002,
+doi:10.1109/ACC.2002.1025369) from a Cholesky factor over the *active* coordinates, every sigma point through
+the full non-smooth discrete model (``Function.map``; RK4,
 with the implicit ROS2 fallback only for the sigma points where RK4 is unstable, see
 :mod:`obsnl.estimation.codegen`; the two sigma points of a frozen coordinate are the mean point bit
 for bit and get its propagation without computing it again), unscented mean and covariance, the DUKF's frozen-active covariance rule

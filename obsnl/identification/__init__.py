@@ -12,3 +12,27 @@ May import: ``errors``, ``executor``, ``model``, ``observability`` (the structur
 UKF/DUKF, records) and ``report`` (only to write a result folder). Must never import ``studies``, ``cli``
 or ``batch``, and nothing here imports sympy except through ``model``/``observability`` at the door.
 """
+
+#: The room's public names, each imported from the module that defines it on first use (so that importing
+#: one module of the room loads nothing else): name -> module.
+_LAZY: dict[str, str] = {
+    "Identification": "results", "Setup": "setup", "Tuning": "setup", "make_data": "setup",
+    "make_filter": "setup", "output_misfit": "setup", "run_passes": "experiments",
+    "monte_carlo": "experiments", "practical_identifiability": "practical", "Practical": "practical",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        from importlib import import_module
+
+        value = getattr(import_module(f"{__name__}.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -174,33 +174,35 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
                 progress: Callable[[], None] | None = None) -> Spread:
     """Spread of the whole identification protocol at the estimate ``theta`` (no true value used).
 
-    The linearised Cramér-Rao bound of :func:`practical_identifiability` can be far too optimistic
-    where the response is not smooth in a parameter (the seed model's Delta-N ridge: 4x on 20 noise
-    seeds, ``reports/identification/notes.md``). This measures the estimator itself, as in the
-    Monte-Carlo practical-identifiability analysis of Miao, Xia, Perelson and Wu (SIAM Review 53,
-    2011): each replicate takes the measured input as the true one, simulates the output at
-    ``theta``, adds fresh input and output noise at the experiment's levels and runs
-    :func:`run_passes` with the same filter, tuning and ``passes``.
+    The linearised Cramér-Rao bound of :func:`practical_identifiability` can be far too optimistic where the
+    response is not smooth in a parameter (the seed model's Delta-N ridge: 4x on 20 noise seeds,
+    ``reports/identification/notes.md``). This measures the estimator itself, as in the Monte-Carlo analysis of
+    Miao, Xia, Perelson and Wu (SIAM Review 53(1), 2011, doi:10.1137/090757009): each replicate takes the
+    measured input as the true one, simulates the output at ``theta``, adds fresh input and output noise at the
+    experiment's levels and runs :func:`run_passes` with the same filter, tuning and ``passes``.
 
     Parameters
     ----------
-    setup, filt, tuning, passes
+    setup : Setup
+    filt : UKF
+    tuning : Tuning
+    passes : int
         The experiment, the filter, its configuration and the number of passes (as in the reported run).
-    theta
+    theta : ndarray
         The estimate (the replicates' truth).
-    data
+    data : Data
         The measured record (its input is the replicates' input; the noise levels come from it).
-    replicates
-        Number of replicates. With 32 and ``confidence=0.99`` (chi-square, Gaussian estimates): a
-        parameter whose true spread is at the limit is flagged with probability at most 0.005, one at
-        twice the limit is flagged with probability 0.997, one at half the limit is cleared (neither
-        flagged nor undecided) with probability 0.998; in between it may be named undecided.
-    seed
+    replicates : int
+        Number of replicates. With 32 and ``confidence=0.99`` (chi-square, Gaussian estimates): a parameter whose
+        true spread is at the limit is flagged with probability at most 0.005, one at twice the limit is flagged with
+        probability 0.997, one at half the limit is cleared (neither flagged nor undecided) with probability 0.998; in
+        between it may be named undecided.
+    seed : int
         Noise seed of the replicates.
-    confidence
-        Level of the two-sided interval of each std; a decision against a limit then errs with
-        probability at most ``(1 - confidence) / 2``.
-    progress
+    confidence : float
+        Level of the two-sided interval of each std; a decision against a limit then errs with probability at most
+        ``(1 - confidence) / 2``.
+    progress : callable or None
         Called once per replicate.
     """
     if replicates < 3:

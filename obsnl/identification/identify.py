@@ -33,7 +33,7 @@ from obsnl.estimation.records import read_record
 from obsnl.estimation.accelerogram import Record
 from obsnl.executor import Executor
 from obsnl.model.core import Model
-from obsnl.model.files import load_model
+from obsnl.model.files import read_model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.contract.table_check import check_table
 from obsnl.observability.contract.branch_table import BranchTable
@@ -48,7 +48,7 @@ IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png", "profiles.png")
 
 
 def _model(model: Model | str | Path) -> Model:
-    return model if isinstance(model, Model) else load_model(model)
+    return model if isinstance(model, Model) else read_model(model)
 
 
 def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mapping[str, float] | None,
@@ -56,9 +56,9 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
              ) -> tuple[Any, dict[str, float], BranchTable | None, dict]:
     """Table check, structural analysis (refusal), compilation, guesses."""
     if isinstance(table, (str, Path)):
-        from obsnl.observability.contract.branch_table import load_branch_table
+        from obsnl.observability.contract.branch_table import read_branch_table
 
-        table = load_branch_table(table)
+        table = read_branch_table(table)
     names = tuple(s.name for s in model.parameters)
     # a table made for another model, or one that contradicts it, is refused first; its check's analysis is the
     # structural check (one analysis per call)
@@ -105,35 +105,37 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
 
     Parameters
     ----------
-    model
+    model : Model or str or Path
         A :class:`~obsnl.Model` or a model file.
-    data
+    data : Measured or mapping of str to Any or str or Path
         A CSV file (time column ``time_s`` or ``t``, one column per model input and output, named as
         in the model), ``{column: samples}``, or :class:`~obsnl.estimation.measured.Measured`.
-    guess
+    guess : mapping of str to float or None
         Initial guesses (default: the model file's ``[guess]`` table; these override it).
-    noise
+    noise : mapping of str to float or None
         Noise-to-signal RMS ratio per channel; channels not named are estimated from the data.
-    method, table
-        ``"ukf"`` or ``"dukf"`` (with the model's branch table, a file or a value).
-    passes, replicates, seed
+    method : {"ukf", "dukf"}
+        The filter (the DUKF needs ``table``).
+    table : BranchTable or str or Path or None
+        The model's branch table, a file or a value.
+    passes, replicates, seed : int
         Passes over the record; Monte-Carlo replicates (0: off) and their seed (also the analysis seed).
-    tuning
+    tuning : Tuning or None
         One filter configuration; default: tuned over ``MEASURED_GRID`` by the output misfit.
-    allow_unidentifiable
+    allow_unidentifiable : bool
         Run although the structural analysis calls a parameter unidentifiable.
-    jit
+    jit : bool
         Compile the filter to C.
-    hold
+    hold : bool
         Hold poorly informed parameters at their guess once the filter reaches the noise floor
         (:func:`obsnl.identification.runs.identify_measured`; default off).
-    progress
+    progress : bool or callable or None
         True (default): a progress bar on standard error over the filter passes (tuning included), the
         refinement, the profiles and the replicates; False: none; a callable: called after each of those steps.
-    executor
+    executor : Executor or None
         Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`: local processes or a Dask
         cluster; default: this process). The same numbers on any executor.
-    refine
+    refine : bool
         Refine the filter's estimate by maximum likelihood (the default last step): Fisher std, 95 %
         profile-likelihood intervals, flags from the intervals, ``converged`` from the optimizer's
         first-order conditions (:mod:`obsnl.identification.likelihood`). ``False``: the filter alone.

@@ -254,6 +254,11 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
     EstimatorError
         The residuals are not finite at ``z0``.
 
+    References
+    ----------
+    .. [1] D. W. Marquardt, "An algorithm for least-squares estimation of nonlinear parameters", J. SIAM 11(2),
+       431-441, 1963. doi:10.1137/0111030
+
     Examples
     --------
     >>> A = np.array([[1.0, 0.0], [1.0, 1.0], [1.0, 2.0]]); b = np.array([1.0, 2.0, 2.0])

@@ -251,15 +251,17 @@ def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, fi
 
     Parameters
     ----------
-    setup, data
-        The experiment and the measured record.
-    theta
+    setup : Setup
+        The experiment.
+    data : Data
+        The measured record.
+    theta : ndarray
         The estimate at which the output sensitivities are taken.
-    first
+    first : Trajectory
         The first pass of the filter (its final covariance against ``prior_std``).
-    prior_std
+    prior_std : float
         The filter's prior std of the log-parameters.
-    misfit
+    misfit : float or None
         The free-run output misfit of ``theta`` if already computed (else computed here). Above
         ``DIVERGED`` x the noise level, or when ``theta`` cannot be simulated, the result is
         inconclusive: sensitivities of a diverged estimate say nothing about these data.

@@ -125,6 +125,12 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
     Returns
     -------
     Profile
+
+    References
+    ----------
+    .. [1] A. Raue, C. Kreutz, T. Maiwald, J. Bachmann, M. Schilling, U. Klingmueller and J. Timmer, "Structural and
+       practical identifiability analysis of partially observed dynamical models by exploiting the profile
+       likelihood", Bioinformatics 25(15), 1923-1929, 2009. doi:10.1093/bioinformatics/btp358
     """
     m = ref.objective.setup.model
     i = m.parameters.index(name)
@@ -217,6 +223,12 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
     ------
     EstimatorError
         A profile point cannot be simulated.
+
+    References
+    ----------
+    .. [1] A. Raue, C. Kreutz, T. Maiwald, J. Bachmann, M. Schilling, U. Klingmueller and J. Timmer, "Structural and
+       practical identifiability analysis of partially observed dynamical models by exploiting the profile
+       likelihood", Bioinformatics 25(15), 1923-1929, 2009. doi:10.1093/bioinformatics/btp358
     """
     names = names or tuple(p for p in ref.objective.setup.model.parameters if p not in ref.held)
     out = []

@@ -69,7 +69,7 @@ def recipe_of(setup: Setup, method: str, table: Any) -> Recipe:
     """
     source = setup.model.source
     if source is None:
-        raise OptionError(f"the compiled model {setup.model.name!r} was not made by obsnl.to_casadi; run its "
+        raise OptionError(f"the compiled model {setup.model.name!r} was not made by obsnl.estimation.to_casadi; run its "
                           f"replicates in this process (workers=1)")
     model, switching, constants = source
     return Recipe(model=model, switching=switching, constants=constants,

@@ -64,7 +64,7 @@ def check_replicates(replicates: int) -> int:
 
     Parameters
     ----------
-    replicates
+    replicates : int
         The number asked for.
 
     Returns
@@ -270,34 +270,36 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
 
     Parameters
     ----------
-    num
-        The compiled model (:func:`obsnl.to_casadi`).
-    data
+    num : NumericModel
+        The compiled model (:func:`obsnl.estimation.to_casadi`).
+    data : Measured
         Measured inputs and outputs (:func:`obsnl.estimation.measured.read_measured`), named as in the model.
-    guess
+    guess : mapping of str to float
         Initial guess of every parameter.
-    method, table
-        ``"ukf"`` or ``"dukf"`` (needs the branch table).
-    noise
+    method : {"ukf", "dukf"}
+        The filter (the DUKF needs the branch table).
+    table : BranchTable or None
+        The model's branch table.
+    noise : mapping of str to float or None
         Noise-to-signal RMS ratio per channel (input or output name); the others are estimated from
         the data (:func:`obsnl.estimation.measured.estimate_noise`), floored at ``NOISE_FLOOR``.
-    grid
+    grid : sequence of Tuning
         Tuning configurations, run one pass each; the smallest output misfit wins (one: no tuning).
-    passes, replicates, seed
+    passes, replicates, seed : int
         Passes over the record; Monte-Carlo replicates of the practical-identifiability check (0: off)
         and their noise seed.
-    jit
+    jit : bool
         Compile the filter to C.
-    hold
+    hold : bool
         Hold the parameters flagged once the filter reached the noise floor at their guess (default:
         off; every parameter is estimated in every pass and the flags are judged at the end).
-    progress
+    progress : callable or None
         Called after every pass (tuning passes included: ``len(grid) + passes`` calls when tuning) and
         once per Monte-Carlo replicate.
-    executor
+    executor : Executor or None
         Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`; default: this process);
         the same numbers on any executor.
-    refined
+    refined : bool
         Refine the filter's estimate by maximum likelihood, with Fisher std and profile-likelihood
         intervals (:mod:`obsnl.identification.likelihood`, :mod:`obsnl.identification.profile`; default on).
 

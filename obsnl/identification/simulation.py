@@ -29,30 +29,36 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
 
     Parameters
     ----------
-    num
-        The compiled model (:func:`obsnl.to_casadi`); ``num.values`` must hold every parameter.
-    record
+    num : NumericModel
+        The compiled model (:func:`obsnl.estimation.to_casadi`); ``num.values`` must hold every parameter.
+    record : Record
         The record driving the model's inputs (one column per input).
-    guess
+    guess : mapping of str to float
         Initial guess of every parameter.
-    method, table
-        ``"ukf"`` or ``"dukf"`` (needs ``table``).
-    seed, noise
-        Noise seed and noise-to-signal RMS ratio of inputs and outputs.
-    tuning, passes
+    method : {"ukf", "dukf"}
+        The filter (the DUKF needs ``table``).
+    table : BranchTable or None
+        The model's branch table.
+    seed : int
+        Noise seed.
+    noise : float
+        Noise-to-signal RMS ratio of inputs and outputs.
+    tuning : Tuning or None
         Filter tuning (None: chosen from ``MEASURED_GRID`` by the output misfit after one pass, as for
-        measured data; no true value is used) and passes over the record.
-    replicates
+        measured data; no true value is used).
+    passes : int
+        Passes over the record.
+    replicates : int
         Monte-Carlo replicates of the practical-identifiability check (0: off, else at least 3).
-    jit
+    jit : bool
         Compile the filter to C.
-    progress
+    progress : callable or None
         Called after every pass (tuning passes included) and once per Monte-Carlo replicate.
-    executor
+    executor : Executor or None
         Where the Monte-Carlo replicates run (default: this process).
-    hold
+    hold : bool
         Hold poorly informed parameters at their guess (default off).
-    refined
+    refined : bool
         Refine by maximum likelihood (default on; :func:`identify_measured`).
 
     Returns

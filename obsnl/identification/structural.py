@@ -18,10 +18,10 @@ def structurally_unidentifiable(result: Any, parameters: Sequence[str]) -> tuple
 
     Parameters
     ----------
-    result
+    result : Any
         An :class:`~obsnl.AnalysisResult`; when it has a joint verdict (an attribute ``joint`` with
         ``unobservable``) that is used, else the per-branch union (``overall_unobservable``).
-    parameters
+    parameters : sequence of str
         The names to check.
 
     Returns
@@ -93,9 +93,9 @@ def frozen_but_jointly_identifiable(table: BranchTable | None, result: Any) -> t
 
     Parameters
     ----------
-    table
+    table : BranchTable or None
         The DUKF's branch table (None: nothing is frozen).
-    result
+    result : Any
         An :class:`~obsnl.observability.results.AnalysisResult` with its joint verdict.
 
     Returns

@@ -1,1 +1,28 @@
 """linear"""
+
+#: The room's public names, each imported from the module that defines it on first use (so that importing
+#: one module of the room loads nothing else): name -> module.
+_LAZY: dict[str, str] = {
+    "LinearSystem": "systems", "as_linear_system": "systems", "system_scaling": "systems",
+    "kalman_rank": "systems", "KalmanRankResult": "systems", "HautusResult": "hautus",
+    "integrator": "observer", "oscillator": "observer", "extend": "observer",
+    "extended_observability": "observer", "riccati_gain": "gains", "place_gain": "gains",
+    "simulate_observer": "simulation", "build_bank": "bank", "ObserverBank": "bank",
+    "calibrate_thresholds": "bank", "decide": "bank", "BankDecision": "bank", "Detection": "bank",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        from importlib import import_module
+
+        value = getattr(import_module(f"{__name__}.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -13,7 +13,7 @@ section 2.4):
   the evaluation window;
 - **location by residual**: the observer with the smallest normalised output residual.
 
-A run's verdict is honest: ``not detected``; ``detected`` (an alarm, but no observer's
+A run's outcome (:class:`Detection`) is honest: ``not detected``; ``detected`` (an alarm, but no observer's
 windowed force clears its threshold); ``located`` (clear winner, both rules agree);
 ``inconclusive`` (the top two forces lie within ``ratio_band`` of each other, as for a
 fault between two observers, or the rules disagree).
@@ -33,16 +33,15 @@ import scipy.linalg as sla
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import AnalysisError, DataError
 from obsnl.linear.systems import as_linear_system
-from obsnl.linear.observer import (
-    ExtendedObservability, ExtendedSystem, FictitiousModel, ObserverDesign, extend, extended_observability, riccati_gain,
-)
+from obsnl.linear.gains import ObserverDesign, riccati_gain
+from obsnl.linear.observer import ExtendedObservability, ExtendedSystem, FictitiousModel, extend, extended_observability
 from obsnl.linear.simulation import _samples, observer_matrices
 
 __all__ = [
     "ObserverBank",
     "BankRun",
     "Thresholds",
-    "BankVerdict",
+    "Detection",
     "BankDecision",
     "build_bank",
     "sliding_rms",
@@ -123,19 +122,21 @@ def build_bank(system: Any, distributions: Mapping[Any, Any], model: FictitiousM
 
     Parameters
     ----------
-    system
+    system : Any
         The healthy plant (``.A, .B, .C`` object such as ``control.StateSpace``, or a tuple).
-    distributions
+    distributions : mapping
         ``{label: N_R}``: the force distribution (n x s) of each candidate location.
-    model
+    model : FictitiousModel
         The fictitious force model shared by all observers (e.g. ``integrator(1)``).
-    dt
+    dt : float
         Sample time; the observers are discretised exactly (zero-order hold).
-    R, q_x, q_v
-        Riccati weights, see :func:`obsnl.linear.observer.riccati_gain`.
-    output_scale
+    R : Any
+        Output weight, see :func:`obsnl.linear.gains.riccati_gain`.
+    q_x, q_v : float
+        State and fictitious-state weights, see :func:`obsnl.linear.gains.riccati_gain`.
+    output_scale : Any
         Per-output scale of the residuals (default: ``sqrt(diag(R))``).
-    weak_cond
+    weak_cond : float
         Passed to :func:`obsnl.linear.observer.extended_observability`; weak observers are kept
         (their check is in ``checks``), unobservable ones are refused.
 
@@ -262,8 +263,8 @@ def calibrate_thresholds(healthy: Sequence[BankRun], *, window: float, factor: f
                       float(factor), float(window), tuple(int(s) for s in seeds))
 
 
-class BankVerdict(str, enum.Enum):
-    """What a bank run may honestly claim."""
+class Detection(str, enum.Enum):
+    """The detection outcome of a bank run: what it may honestly claim (a detection, not an observability verdict)."""
 
     NOT_DETECTED = "not detected"
     DETECTED = "detected"
@@ -271,11 +272,11 @@ class BankVerdict(str, enum.Enum):
     INCONCLUSIVE = "inconclusive"
 
     def summary(self) -> str:
-        """What the verdict claims, in one line.
+        """What the outcome claims, in one line.
 
         Examples
         --------
-        >>> BankVerdict.DETECTED.summary()
+        >>> Detection.DETECTED.summary()
         'detected: an alarm, but no windowed RMS force clears its threshold (no location claimed)'
         """
         return {"not detected": "not detected: no force estimate exceeded its threshold",
@@ -290,7 +291,8 @@ class BankDecision:
 
     ``t_detect`` is the first alarm at or after ``onset`` (None without); ``false_alarm`` is true
     when an alarm came before ``onset``; ``margin`` is the ratio of the largest to the second
-    largest windowed RMS force; ``rms_force`` and ``rms_residual`` are per observer.
+    largest windowed RMS force; ``rms_force`` and ``rms_residual`` are per observer; ``outcome`` is the
+    :class:`Detection` (written under the key ``verdict`` by :meth:`to_dict`, as in the committed reports).
     """
 
     labels: tuple[str, ...]
@@ -303,24 +305,24 @@ class BankDecision:
     margin: float
     rms_force: tuple[float, ...]
     rms_residual: tuple[float, ...]
-    verdict: BankVerdict
+    outcome: Detection
     reason: str
 
     @property
     def located_at(self) -> str | None:
-        return self.by_magnitude if self.verdict is BankVerdict.LOCATED else None
+        return self.by_magnitude if self.outcome is Detection.LOCATED else None
 
     def __repr__(self) -> str:
-        return one_line("BankDecision", f"verdict={self.verdict.value!r}", f"located_at={self.located_at!r}",
+        return one_line("BankDecision", f"outcome={self.outcome.value!r}", f"located_at={self.located_at!r}",
                         f"t_detect={number(self.t_detect)}", f"false_alarm={self.false_alarm}",
                         f"margin={number(self.margin)}")
 
     def summary(self) -> str:
-        """A few lines of plain text: the verdict and its reason, when, and each observer's RMS force."""
+        """A few lines of plain text: the outcome and its reason, when, and each observer's RMS force."""
         when = "" if self.t_detect is None else f"first alarm at t = {number(self.t_detect)} s" + (
             f" ({number(self.time_to_detection)} s after the onset)" if self.time_to_detection is not None else "")
         forces = [f"{lab} {number(f)}" for lab, f in zip(self.labels, self.rms_force)]
-        return block(self.verdict.summary(), self.reason, when,
+        return block(self.outcome.summary(), self.reason, when,
                      "false alarm before the onset" if self.false_alarm else "",
                      f"largest force: {self.by_magnitude}; smallest residual: {self.by_residual}; margin "
                      f"{number(self.margin)}", f"RMS force per observer: {names(forces, 8)}")
@@ -328,27 +330,27 @@ class BankDecision:
     def to_dict(self) -> dict:
         return {"detected": self.detected, "false_alarm": self.false_alarm, "t_detect": _f(self.t_detect),
                 "time_to_detection": _f(self.time_to_detection), "by_magnitude": self.by_magnitude,
-                "by_residual": self.by_residual, "margin": _f(self.margin), "verdict": self.verdict.value,
+                "by_residual": self.by_residual, "margin": _f(self.margin), "verdict": self.outcome.value,
                 "reason": self.reason, "rms_force": dict(zip(self.labels, map(_f, self.rms_force))),
                 "rms_residual": dict(zip(self.labels, map(_f, self.rms_residual)))}
 
 
 def decide(run: BankRun, thresholds: Thresholds, *, evaluation_window: float, onset: float | None = None,
            ratio_band: float = 1.5) -> BankDecision:
-    """Detect, locate and give an honest verdict for one bank run.
+    """Detect, locate and state an honest outcome for one bank run.
 
     Parameters
     ----------
-    run
+    run : BankRun
         Output of :meth:`ObserverBank.run`.
-    thresholds
+    thresholds : Thresholds
         From :func:`calibrate_thresholds` on healthy runs with other noise seeds.
-    evaluation_window
+    evaluation_window : float
         Seconds at the end of the run over which the RMS force and residual are compared.
-    onset
+    onset : float or None
         Fault onset if known (simulation): alarms before it are false alarms and the time to
         detection is measured from it. ``None``: every alarm counts as a detection.
-    ratio_band
+    ratio_band : float
         The magnitude rule claims a location only when the largest windowed force exceeds the
         second largest by at least this factor (and the residual rule agrees).
     """
@@ -368,19 +370,19 @@ def decide(run: BankRun, thresholds: Thresholds, *, evaluation_window: float, on
     margin = float(f[order[0]] / f[order[1]]) if f.size > 1 and f[order[1]] > 0 else float("inf")
     if not after.size:
         return BankDecision(run.labels, False, false_alarm, None, None, None, None, margin, tuple(map(float, f)),
-                            tuple(map(float, r)), BankVerdict.NOT_DETECTED, "no force estimate exceeded its threshold")
+                            tuple(map(float, r)), Detection.NOT_DETECTED, "no force estimate exceeded its threshold")
     t_det = float(run.t[after[0]])
     mag, res = run.labels[order[0]], run.labels[int(np.argmin(r))]
     above = [run.labels[j] for j in range(f.size) if f[j] > tau[j]]
     if not above:
-        verdict, reason = BankVerdict.DETECTED, "alarm raised, but no windowed RMS force clears its threshold"
+        outcome, reason = Detection.DETECTED, "alarm raised, but no windowed RMS force clears its threshold"
     elif margin < ratio_band:
-        verdict = BankVerdict.INCONCLUSIVE
+        outcome = Detection.INCONCLUSIVE
         reason = (f"forces at {run.labels[order[0]]} and {run.labels[order[1]]} within a ratio of {margin:.2f} "
                   f"< {ratio_band:g} (fault between them?)")
     elif mag != res:
-        verdict, reason = BankVerdict.INCONCLUSIVE, f"magnitude rule picks {mag}, residual rule picks {res}"
+        outcome, reason = Detection.INCONCLUSIVE, f"magnitude rule picks {mag}, residual rule picks {res}"
     else:
-        verdict, reason = BankVerdict.LOCATED, f"largest force at {mag} (margin {margin:.2f}), residual rule agrees"
+        outcome, reason = Detection.LOCATED, f"largest force at {mag} (margin {margin:.2f}), residual rule agrees"
     return BankDecision(run.labels, True, false_alarm, t_det, None if onset is None else t_det - onset, mag, res,
-                        margin, tuple(map(float, f)), tuple(map(float, r)), verdict, reason)
+                        margin, tuple(map(float, f)), tuple(map(float, r)), outcome, reason)

@@ -8,7 +8,8 @@ from typing import Any
 import numpy as np
 
 from obsnl._text import block, number, one_line
-from obsnl.linear.systems import DEFAULT_RTOL, DEFAULT_WEAK_RTOL, ObsVerdict, as_linear_system, system_scaling
+from obsnl.linear.systems import DEFAULT_RTOL, DEFAULT_WEAK_RTOL, as_linear_system, claim, system_scaling
+from obsnl.observability.verdicts import Verdict
 
 __all__ = ["EigenTest", "HautusResult", "hautus"]
 
@@ -26,7 +27,7 @@ class EigenTest:
     margin: float
     deficiency: int
     mode_index: float
-    verdict: ObsVerdict
+    verdict: Verdict
 
     def to_dict(self) -> dict:
         lam = complex(self.eigenvalue)
@@ -67,12 +68,12 @@ class HautusResult:
         return min((t.margin for t in self.tests), default=float("inf"))
 
     @property
-    def verdict(self) -> ObsVerdict:
+    def verdict(self) -> Verdict:
         if not self.observable:
-            return ObsVerdict.UNOBSERVABLE
-        if any(t.verdict is ObsVerdict.WEAK for t in self.tests):
-            return ObsVerdict.WEAK
-        return ObsVerdict.OBSERVABLE
+            return Verdict.UNOBSERVABLE
+        if any(t.verdict is Verdict.WEAK for t in self.tests):
+            return Verdict.WEAK
+        return Verdict.OBSERVABLE
 
     def __repr__(self) -> str:
         return one_line("HautusResult", f"verdict={self.verdict.value!r}", f"eigenvalues={len(self.tests)}",
@@ -82,7 +83,7 @@ class HautusResult:
         """A few lines of plain text: the verdict, then each eigenvalue's test."""
         rows = [f"lambda = {number(t.eigenvalue)}: {t.verdict.value} (margin {number(t.margin)}, rank loss {t.deficiency}, mode index "
                 f"{number(t.mode_index)})" for t in self.tests]
-        return block(f"{self.verdict.summary()}; {'detectable' if self.detectable else 'NOT detectable'}, "
+        return block(f"{claim(self.verdict)}; {'detectable' if self.detectable else 'NOT detectable'}, "
                      f"margin {number(self.margin)} (Hautus test, {self.n} states)", *rows[:10],
                      f"... and {len(rows) - 10} more eigenvalues" if len(rows) > 10 else "")
 
@@ -110,16 +111,16 @@ def hautus(system: Any, C: Any = None, *, eigenvalues: Any = None, rtol: float =
 
     Parameters
     ----------
-    system, C
+    system, C : Any
         A system object (``.A, .C``, e.g. ``control.StateSpace``) or tuple, or the matrices.
-    eigenvalues
+    eigenvalues : Any
         Points to test (default: the distinct eigenvalues of ``A``, upper half plane only:
         a real pair gives the same singular values at ``lam`` and ``conj(lam)``).
-    rtol
+    rtol : float
         Rank tolerance relative to ``||[A; C]||`` of the scaled pair (explicit, not numpy's).
-    weak_rtol
+    weak_rtol : float
         An eigenvalue with full rank but ``margin < weak_rtol`` is reported as weak.
-    scaling
+    scaling : str
         ``"balance"`` (default) or ``"none"``, see :func:`system_scaling`.
 
     Returns
@@ -128,6 +129,11 @@ def hautus(system: Any, C: Any = None, *, eigenvalues: Any = None, rtol: float =
         Per eigenvalue: smallest singular value, relative margin, rank deficiency, the modal
         index ``||C v|| / max ||C v||`` (unit eigenvectors ``v`` of the scaled ``A``) and a verdict;
         overall ``observable``, ``detectable`` and ``margin``.
+
+    References
+    ----------
+    .. [1] M. L. J. Hautus, "Controllability and observability conditions of linear autonomous systems", Proc.
+       Koninklijke Nederlandse Akademie van Wetenschappen, Ser. A, 72, 443-448, 1969.
 
     Examples
     --------
@@ -150,6 +156,6 @@ def hautus(system: Any, C: Any = None, *, eigenvalues: Any = None, rtol: float =
         defic = int(np.sum(s <= rtol * scale))
         rel = float(s[-1] / scale)
         mode = float(cv[np.argmin(np.abs(w - lam))] / cmax) if w.size else 0.0
-        verdict = ObsVerdict.UNOBSERVABLE if defic else (ObsVerdict.WEAK if rel < weak_rtol else ObsVerdict.OBSERVABLE)
+        verdict = Verdict.UNOBSERVABLE if defic else (Verdict.WEAK if rel < weak_rtol else Verdict.OBSERVABLE)
         tests.append(EigenTest(complex(lam), float(s[-1]), rel, defic, mode, verdict))
     return HautusResult(n, tuple(tests), rtol, weak_rtol, sc.method)

@@ -1,4 +1,4 @@
-"""Extended (disturbance / PI) observers: fictitious force models, their Hautus test, gains, simulation.
+"""Extended (disturbance / PI) observers: fictitious force models and their Hautus test (gains: :mod:`obsnl.linear.gains`).
 
 An unknown force ``n(t)`` entering the plant through ``N_R`` is approximated by a signal
 model ``n ~ H v``, ``dv/dt = V v`` (integrator or oscillator). Appending ``v`` to the state
@@ -22,17 +22,15 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg as sla
-import scipy.signal
 
-from obsnl.errors import AnalysisError, DataError
-from obsnl.linear.systems import (
-    DEFAULT_RTOL, DEFAULT_WEAK_RTOL, LinearSystem, ObsVerdict, _matrix, as_linear_system, system_scaling,
-)
+from obsnl.errors import DataError
+from obsnl.linear.systems import DEFAULT_RTOL, DEFAULT_WEAK_RTOL, LinearSystem, _matrix, as_linear_system, system_scaling
 from obsnl.linear.hautus import HautusResult, distinct_eigenvalues, hautus
+from obsnl.observability.verdicts import Verdict
 
 __all__ = [
     "FictitiousModel", "integrator", "oscillator", "ExtendedSystem", "extend", "ChannelTest",
-    "ExtendedObservability", "extended_observability", "ObserverDesign", "riccati_gain", "place_gain",
+    "ExtendedObservability", "extended_observability",
 ]
 
 
@@ -76,7 +74,9 @@ def oscillator(omegas: Sequence[float], s: int = 1, *, bias: bool = True) -> Fic
 
     Parameters
     ----------
-    omegas, s, bias : sequence of float, int, bool
+    omegas : sequence of float
+    s : int
+    bias : bool
         Frequencies (rad/s, positive); channels (>= 1); add a bias state per channel.
 
     Returns
@@ -132,7 +132,9 @@ def extend(system: Any, N_R: Any, model: FictitiousModel) -> ExtendedSystem:
 
     Parameters
     ----------
-    system, N_R, model : Any, array_like, FictitiousModel
+    system : Any
+    N_R : array_like
+    model : FictitiousModel
         The plant (:func:`~obsnl.linear.systems.as_linear_system`), force input matrix, force model.
 
     Returns
@@ -190,7 +192,7 @@ class ExtendedObservability:
     n_channels: int
     plant: HautusResult
     channels: tuple[ChannelTest, ...]
-    verdict: ObsVerdict
+    verdict: Verdict
     detectable: bool
     reason: str
     weak_cond: float
@@ -202,7 +204,7 @@ class ExtendedObservability:
 
     @property
     def observable(self) -> bool:
-        return self.verdict is not ObsVerdict.UNOBSERVABLE
+        return self.verdict is not Verdict.UNOBSERVABLE
 
     def to_dict(self) -> dict:
         return {"verdict": self.verdict.value, "observable": self.observable, "detectable": self.detectable,
@@ -218,13 +220,19 @@ def extended_observability(system: Any, N_R: Any, model: FictitiousModel, *, rto
 
     Parameters
     ----------
-    system, N_R, model
-        Plant (``.A, .B, .C`` object or tuple), force distribution (n x s), fictitious model.
-    rtol, weak_rtol, scaling
+    system : object
+        Plant (``.A, .B, .C`` object or tuple).
+    N_R : Any
+        Force distribution (n x s).
+    model : FictitiousModel
+        The fictitious model of the unknown forces.
+    rtol, weak_rtol : float
         As in :func:`obsnl.linear.hautus.hautus`; ``rtol`` is also the relative rank tolerance for ``G``.
-    weak_cond
+    scaling : str
+        As in :func:`obsnl.linear.hautus.hautus`.
+    weak_cond : float
         A channel test with ``cond(G(lam)) > weak_cond`` makes the verdict "weakly observable".
-    output_scale
+    output_scale : Any
         Optional per-output scale (e.g. the noise level) dividing the rows of ``G`` before its
         condition number is taken; ranks do not depend on it, the condition number does.
 
@@ -279,122 +287,12 @@ def extended_observability(system: Any, N_R: Any, model: FictitiousModel, *, rto
         reasons.append(f"force channels unobservable at lam = {bad_ch[0].eigenvalue:.4g} (rank of G(lam) < s)")
     weak = [c for c in channels if c.method == "G" and c.condition > weak_cond]
     if reasons:
-        verdict = ObsVerdict.UNOBSERVABLE
-    elif weak or plant.verdict is ObsVerdict.WEAK:
-        verdict = ObsVerdict.WEAK
+        verdict = Verdict.UNOBSERVABLE
+    elif weak or plant.verdict is Verdict.WEAK:
+        verdict = Verdict.WEAK
         reasons.append(f"cond(G(lam)) = {weak[0].condition:.3g} > {weak_cond:g}" if weak
                        else f"plant PBH margin {plant.margin:.2e} < {weak_rtol:g}")
     else:
-        verdict = ObsVerdict.OBSERVABLE
+        verdict = Verdict.OBSERVABLE
     detectable = not bad_ch and p >= s and all(t.eigenvalue.real < 0 for t in bad_plant)
     return ExtendedObservability(p, s, plant, tuple(channels), verdict, detectable, "; ".join(reasons), weak_cond)
-
-
-# --------------------------------------------------------------------------- gains
-@dataclass(frozen=True, eq=False)
-class ObserverDesign:
-    """An observer gain ``L`` for an extended system and what it does.
-
-    ``eigenvalues`` are those of ``A_e - L C_e``; ``force_eigenvalues`` the ``q`` of them with
-    the largest participation of the fictitious states; ``residual`` the relative Riccati
-    residual (NaN for pole placement).
-    """
-
-    L: np.ndarray
-    method: str
-    eigenvalues: np.ndarray
-    force_eigenvalues: np.ndarray
-    residual: float
-
-    @property
-    def stable(self) -> bool:
-        return bool(np.all(self.eigenvalues.real < 0))
-
-    def to_dict(self) -> dict:
-        c = lambda z: [[float(v.real), float(v.imag)] for v in z]  # noqa: E731
-        return {"method": self.method, "stable": self.stable, "eigenvalues": c(self.eigenvalues),
-                "force_eigenvalues": c(self.force_eigenvalues), "residual": self.residual,
-                "gain_norm": float(np.linalg.norm(self.L, 2))}
-
-
-def _design(ext: ExtendedSystem, L: np.ndarray, method: str, residual: float) -> ObserverDesign:
-    Acl = ext.A - L @ ext.C
-    w, vl, vr = sla.eig(Acl, left=True, right=True)
-    vl = vl / np.conj(np.sum(np.conj(vl) * vr, axis=0))[None, :]
-    part = np.abs(vl * vr)
-    frac = part[ext.n:].sum(axis=0) / part.sum(axis=0)
-    idx = np.argsort(-frac)[: ext.q]
-    bad = int(np.sum(w.real >= -1e-9 * np.abs(w).max(initial=1.0)))
-    if bad:
-        raise AnalysisError(f"the {method} gain leaves {bad} observer eigenvalue(s) unstable or on the imaginary "
-                            "axis; check extended_observability (an unobservable fictitious mode?)")
-    return ObserverDesign(L, method, w, w[idx], residual)
-
-
-def riccati_gain(ext: ExtendedSystem, *, R: Any, q_x: float = 1.0, q_v: float = 1.0, Q: Any = None) -> ObserverDesign:
-    """Stationary Kalman-Bucy gain: ``A_e P + P A_e^T - P C_e^T R^-1 C_e P + Q = 0``, ``L = P C_e^T R^-1``.
-
-    Parameters
-    ----------
-    ext
-        The extended system.
-    R
-        Output weight (p x p, or a vector of variances).
-    q_x, q_v
-        ``Q = blkdiag(q_x I_n, q_v I_q)`` unless ``Q`` is given; ``q_v`` is the random-walk
-        intensity of the fictitious states and sets how fast the force estimate follows.
-
-    Raises
-    ------
-    AnalysisError
-        scipy cannot isolate the stable subspace (unobservable fictitious modes) or the gain
-        is not stabilising.
-    """
-    nq, p = ext.A.shape[0], ext.C.shape[0]
-    Rm = np.diag(np.asarray(R, dtype=float)) if np.ndim(R) == 1 else _matrix(R, "R")
-    if Rm.shape != (p, p) or not np.all(np.isfinite(Rm)):
-        raise DataError(f"R must be {p} x {p} (or {p} variances) and finite")
-    if Q is None:
-        Qm = np.diag(np.r_[np.full(ext.n, float(q_x)), np.full(ext.q, float(q_v))])
-    else:
-        Qm = _matrix(Q, "Q", rows=nq, cols=nq)
-    Qm, Rm = (Qm + Qm.T) / 2, (Rm + Rm.T) / 2
-    try:
-        P = sla.solve_continuous_are(ext.A.T, ext.C.T, Qm, Rm)
-    except (np.linalg.LinAlgError, ValueError) as exc:
-        raise AnalysisError(f"the observer Riccati equation has no stabilising solution ({exc}); "
-                            "check extended_observability and that Q excites the fictitious states") from exc
-    L = np.linalg.solve(Rm, ext.C @ P).T
-    res = ext.A @ P + P @ ext.A.T - P @ ext.C.T @ np.linalg.solve(Rm, ext.C @ P) + Qm
-    rel = float(np.linalg.norm(res) / max(np.linalg.norm(Qm), np.linalg.norm(ext.A @ P), 1e-300))
-    return _design(ext, L, "riccati", rel)
-
-
-def place_gain(ext: ExtendedSystem, poles: Any, *, method: str = "YT") -> ObserverDesign:
-    """Observer gain by pole placement on the dual pair: ``L = place(A_e^T, C_e^T, poles)^T``.
-
-    The MIMO gain is not unique, and YT cannot place a pole more often than rank(C); prefer
-    :func:`riccati_gain` for large, stiff systems.
-
-    Parameters
-    ----------
-    ext, poles, method : ExtendedSystem, array_like, str
-        The system; one pole per extended state; the ``scipy.signal.place_poles`` method.
-
-    Returns
-    -------
-    ObserverDesign
-
-    Raises
-    ------
-    DataError, AnalysisError
-        Wrong number of poles; the placement failed.
-    """
-    poles = np.asarray(poles, dtype=complex).ravel()
-    if poles.size != ext.A.shape[0]:
-        raise DataError(f"give {ext.A.shape[0]} poles (one per extended state), got {poles.size}")
-    try:
-        res = scipy.signal.place_poles(ext.A.T, ext.C.T, poles, method=method)
-    except ValueError as exc:
-        raise AnalysisError(f"pole placement failed: {exc}") from exc
-    return _design(ext, np.real(res.gain_matrix.T), "place", float("nan"))

@@ -23,7 +23,9 @@ def zoh(A: np.ndarray, B: np.ndarray, dt: float) -> tuple[np.ndarray, np.ndarray
 
     Parameters
     ----------
-    A, B, dt : numpy.ndarray, numpy.ndarray, float
+    A : numpy.ndarray
+    B : numpy.ndarray
+    dt : float
         System (n x n) and input (n x m) matrices; step (s).
 
     Returns
@@ -42,7 +44,9 @@ def run_discrete(Phi: np.ndarray, g: np.ndarray, x0: np.ndarray | None = None) -
 
     Parameters
     ----------
-    Phi, g, x0 : numpy.ndarray, numpy.ndarray, numpy.ndarray or None
+    Phi : numpy.ndarray
+    g : numpy.ndarray
+    x0 : numpy.ndarray or None
         Transition matrix (n x n); forcing per step (N x n); initial state (None: zero).
 
     Returns
@@ -94,9 +98,13 @@ def simulate_observer(ext: ExtendedSystem, L: Any, *, dt: float, u: Any, y: Any,
 
     Parameters
     ----------
-    ext, L, dt : ExtendedSystem, array_like, float
+    ext : ExtendedSystem
+    L : array_like
+    dt : float
         The system; observer gain (extended states x outputs); sample step (s).
-    u, y, x0 : array_like, array_like, array_like or None
+    u : array_like
+    y : array_like
+    x0 : array_like or None
         Sampled inputs and outputs; initial estimate (None: zero).
 
     Returns

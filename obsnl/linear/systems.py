@@ -12,7 +12,6 @@ attributes, e.g. a python-control ``StateSpace``.
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,9 +20,10 @@ import scipy.linalg as sla
 
 from obsnl._text import block, numbers, one_line
 from obsnl.errors import DataError
+from obsnl.observability.verdicts import Verdict
 
 __all__ = [
-    "LinearSystem", "as_linear_system", "Scaling", "system_scaling", "ObsVerdict", "KalmanRankResult",
+    "LinearSystem", "as_linear_system", "Scaling", "system_scaling", "claim", "KalmanRankResult",
     "kalman_rank", "DEFAULT_RTOL", "DEFAULT_WEAK_RTOL",
 ]
 
@@ -175,7 +175,7 @@ def system_scaling(A: Any, C: Any, *, method: str = "balance") -> Scaling:
 
     Parameters
     ----------
-    A, C
+    A, C : Any
         State and output matrices.
     method : {"balance", "none"}
         ``"balance"`` balances ``[[A, 0], [C, 0]]`` with ``scipy.linalg.matrix_balance``
@@ -198,25 +198,23 @@ def system_scaling(A: Any, C: Any, *, method: str = "balance") -> Scaling:
     return Scaling("balance", t, rows)
 
 
-class ObsVerdict(str, enum.Enum):
-    """Closed vocabulary of the linear tests."""
+def claim(verdict: Verdict) -> str:
+    """What a linear test's verdict claims, in one line (the modes of a linear system).
 
-    OBSERVABLE = "observable"
-    WEAK = "weakly observable"
-    UNOBSERVABLE = "unobservable"
+    Parameters
+    ----------
+    verdict : Verdict
+        ``OBSERVABLE``, ``WEAK`` or ``UNOBSERVABLE`` (the linear tests never answer ``INCONCLUSIVE``).
 
-    def summary(self) -> str:
-        """What the verdict claims, in one line.
-
-        Examples
-        --------
-        >>> ObsVerdict.WEAK.summary()
-        'weakly observable: full rank, but some mode reaches the outputs only by a margin below the weak tolerance'
-        """
-        return {"observable": "observable: every mode reaches the outputs with a margin",
-                "weakly observable": "weakly observable: full rank, but some mode reaches the outputs only by a "
-                                     "margin below the weak tolerance",
-                "unobservable": "unobservable: some mode never reaches the outputs (rank lost at an eigenvalue)"}[self.value]
+    Examples
+    --------
+    >>> claim(Verdict.WEAK)
+    'weakly observable: full rank, but some mode reaches the outputs only by a margin below the weak tolerance'
+    """
+    return {"observable": "observable: every mode reaches the outputs with a margin",
+            "weakly observable": "weakly observable: full rank, but some mode reaches the outputs only by a "
+                                 "margin below the weak tolerance",
+            "unobservable": "unobservable: some mode never reaches the outputs (rank lost at an eigenvalue)"}[verdict.value]
 
 
 @dataclass(frozen=True)
@@ -264,14 +262,19 @@ def kalman_rank(system: Any, C: Any = None, *, rtol: float = 1e-8, scaling: str 
 
     Parameters
     ----------
-    system, C
+    system, C : Any
         A system object (``.A, .C``) or tuple, or the matrices ``A`` and ``C``.
-    rtol
+    rtol : float
         A new direction is accepted when its singular value exceeds ``rtol * ||A||`` (after
         scaling); at the first step, when it exceeds ``rtol * ||C||``. The orthogonalisation
         leaves round-off directions of order 1e-10 on badly scaled systems, hence the default.
-    scaling
+    scaling : str
         ``"balance"`` (default) or ``"none"``, see :func:`system_scaling`.
+
+    References
+    ----------
+    .. [1] R. E. Kalman, "Mathematical description of linear dynamical systems", J. SIAM Control Ser. A 1(2), 152-192,
+       1963. doi:10.1137/0301010
 
     Examples
     --------

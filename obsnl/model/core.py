@@ -26,7 +26,7 @@ from obsnl.model.bounds.textsize import check_model_size
 
 __all__ = ["Model", "NONSMOOTH_FUNCTIONS"]
 
-#: sympy classes that make a vector field non-smooth (handled by :func:`obsnl.split_branches`).
+#: sympy classes that make a vector field non-smooth (handled by :func:`obsnl.model.split_branches`).
 NONSMOOTH_FUNCTIONS: tuple[type, ...] = (sp.sign, sp.Abs, sp.Heaviside, sp.Piecewise, sp.Max, sp.Min)
 
 #: Keys of a model file/dict, in the order they are written.
@@ -58,52 +58,52 @@ class Model:
     """An ODE model with declared roles for every symbol.
 
     Build it from strings (or sympy expressions) directly, or with
-    :func:`obsnl.load_model` from a TOML/JSON file. Every symbol must be declared;
+    :func:`obsnl.read_model` from a TOML/JSON file. Every symbol must be declared;
     mistakes raise :class:`~obsnl.errors.ModelError` naming the culprit and the fix.
 
     Parameters
     ----------
-    name
+    name : str
         Short identifier of the model.
-    states
+    states : tuple of sympy.Symbol
         State names, in order.
-    parameters
+    parameters : tuple of sympy.Symbol
         Unknown constant parameters (to be identified), in order.
-    equations
+    equations : mapping of sympy.Symbol to sympy.Expr
         ``{state: right-hand side}``, one per state.
-    outputs
+    outputs : mapping of str to sympy.Expr
         ``{output name: expression}`` (the measurements).
-    inputs
+    inputs : tuple of sympy.Symbol
         Known inputs (measured excitation).
-    unknown_inputs
+    unknown_inputs : tuple of sympy.Symbol
         Unmeasured inputs ``w(t)``.
-    known_constants
+    known_constants : tuple of sympy.Symbol
         Symbols whose value is known (not estimated).
-    known_initial_conditions
+    known_initial_conditions : tuple of sympy.Symbol
         States whose initial value is known.
-    initial_condition_values
+    initial_condition_values : mapping of sympy.Symbol to sympy.Expr
         ``{state: value}`` for known initial conditions with a specific value (number,
         known constant or expression in the parameters); a known-IC state without a value
         has a known but generic initial value.
-    description, source
+    description, source : str
         Free text; ``source`` should cite the paper the model comes from.
-    switching
+    switching : tuple of sympy.Expr
         Optional order (and sign convention) of the switching functions of a non-smooth
         model, e.g. ``["sigma - eta", "x2"]``; branch labels follow it.
-    latex
+    latex : mapping of str to str
         ``{name: LaTeX}`` for reports, e.g. ``{"Delta1": "\\\\Delta_1"}``.
-    values
+    values : mapping of str to float
         Nominal numbers ``{name: value}`` for parameters and initial states (simulation,
         true values of an identification experiment).
-    guess
+    guess : mapping of str to float
         Initial guesses ``{parameter: value}`` of an identification (``obsnl identify``; ``--guess``
         overrides them).
-    definitions
+    definitions : mapping of str to str
         ``{name: expression}`` defining symbols of this model in terms of another model's
         symbols (written by :func:`obsnl.reparametrize`).
-    metadata
+    metadata : mapping of str to Any
         Anything else a file carried (published answers of a peer case, notes).
-    unknown_input_derivatives
+    unknown_input_derivatives : int or str or None
         What the unknown inputs are assumed to be: ``"arbitrary"`` (any analytic function of time) or
         ``K``, a polynomial in t with K non-zero derivatives (STRIKE-GOLDD's ``nnzDerW``; 0 = a
         constant). None (not stated): the analyses assume ``"arbitrary"``.
@@ -321,7 +321,7 @@ class Model:
     # ------------------------------------------------------------------ constructors
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> Model:
-        """Build a model from the keys of a model file (see :func:`obsnl.load_model`).
+        """Build a model from the keys of a model file (see :func:`obsnl.read_model`).
 
         Unknown keys are errors (a misspelled ``ouputs`` would otherwise be lost).
         """

@@ -1,5 +1,5 @@
 """Model files: read a TOML or JSON file into a :class:`~obsnl.model.core.Model`, write a model back as
-TOML (no dependency; ``load_model(model_to_toml(m))`` gives an equal model), and find the models packaged
+TOML (no dependency; ``read_model(model_to_toml(m))`` gives an equal model), and find the models packaged
 with obsnl (the repository's top-level ``models/`` folder, installed as ``share/obsnl/models``)."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from typing import Any
 from obsnl.errors import ParseError
 from obsnl.model.core import Model
 
-__all__ = ["read_model_file", "parse_text", "load_model", "catalogue_path", "catalogue_folder", "model_to_toml", "PACKAGED"]
+__all__ = ["read_model_file", "parse_text", "read_model", "catalogue_path", "catalogue_folder", "model_to_toml", "PACKAGED"]
 
 #: Prefix of a packaged model's name where a file name is expected (``obsnl:bouc_wen``).
 PACKAGED = "obsnl:"
@@ -72,11 +72,11 @@ def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
 
     Parameters
     ----------
-    text
+    text : str
         The file's text.
-    kind
+    kind : str
         ``"toml"`` or ``"json"``.
-    where
+    where : str
         How to name the file in messages.
 
     Raises
@@ -171,7 +171,7 @@ def catalogue_path(name: str) -> Path:
 
     Parameters
     ----------
-    name
+    name : str
         The model's file name without ``.toml`` (``damage_healing``, ``bouc_wen``, ...).
 
     Returns
@@ -195,8 +195,8 @@ def catalogue_path(name: str) -> Path:
     return folder / f"{name}.toml"
 
 
-def load_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None = None) -> Model:
-    """Load a model from a TOML or JSON file.
+def read_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None = None) -> Model:
+    """Read a model from a TOML or JSON file.
 
     The keys are those of ``shared/peer_cases/*.json``: ``name, description, source,
     states, parameters, inputs, outputs {name: expr}, equations {state: rhs}`` and the
@@ -207,10 +207,10 @@ def load_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None 
 
     Parameters
     ----------
-    path
+    path : str or Path
         A ``.toml`` or ``.json`` file, or ``obsnl:NAME`` for a model packaged with obsnl
         (:func:`catalogue_path`).
-    check
+    check : callable or None
         Called with the file's raw keys before any expression is parsed (e.g. a size bound,
         :func:`obsnl.observability.limits.check_file_limits`).
 
@@ -226,7 +226,7 @@ def load_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None 
     Examples
     --------
     >>> import obsnl
-    >>> obsnl.load_model("obsnl:coulomb_friction").states
+    >>> obsnl.read_model("obsnl:coulomb_friction").states
     (x, v)
     """
     if isinstance(path, str) and path.startswith(PACKAGED):
@@ -271,9 +271,9 @@ def model_to_toml(model: Model, *, header: str = "") -> str:
 
     Parameters
     ----------
-    model
+    model : Model
         Any model; its ``to_dict()`` keys are written, scalars and lists first, then tables.
-    header
+    header : str
         Comment lines put at the top (each line gets a ``#``).
 
     Examples

@@ -14,3 +14,29 @@ May import: ``errors``, ``_text``, ``model``, ``algebra``. Must never import: ``
 ``estimation``, ``report``, ``identification`` or anything above them; sympy results never leave as
 numbers (that bridge is ``estimation.codegen``).
 """
+
+#: The room's public names, each imported from the module that defines it on first use (so that importing
+#: one module of the room loads nothing else): name -> module.
+_LAZY: dict[str, str] = {
+    "Verdict": "verdicts", "BranchResult": "verdicts", "AnalysisResult": "results", "orc": "engines.smooth",
+    "sedoglavic": "engines.smooth", "decompose": "engines.decompose", "dependency_graph": "engines.decompose",
+    "symmetries": "certificates.symmetry", "Symmetry": "certificates.generators",
+    "Symmetries": "certificates.generators", "BranchTable": "contract.branch_table",
+    "read_branch_table": "contract.branch_table",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        from importlib import import_module
+
+        value = getattr(import_module(f"{__name__}.{_LAZY[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_LAZY))

@@ -5,7 +5,7 @@ the joint verdict (:mod:`obsnl.observability.joint.verdict`) is what the visited
 switching surfaces reveal together, parameters being shared. Which branches are visited is decided by
 :mod:`obsnl.observability.joint.selection` (every feasible branch by default).
 
-Per branch (:func:`obsnl.split_branches`): variables absent from the branch's equations are listed
+Per branch (:func:`obsnl.model.split_branches`): variables absent from the branch's equations are listed
 as unobservable and absent (they count in the transcendence degree, as the seed paper counts
 ``w_h`` in branches (b), (d)); the output-reachable submodel is split into independent blocks
 (:mod:`obsnl.observability.engines.decompose`); each block is rationalized (:mod:`obsnl.algebra.augment`) and analysed by the
@@ -28,7 +28,7 @@ from typing import Any
 
 from obsnl.model.bounds.budget import deadline as budget_deadline
 from obsnl.model.core import Model
-from obsnl.model.files import load_model
+from obsnl.model.files import read_model
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text
 from obsnl.observability.joint.verdict import joint_verdict
@@ -66,43 +66,43 @@ def analyze(
 
     Parameters
     ----------
-    model
+    model : Model or str or os.PathLike
         Any model (smooth or not), or its file (a path, or ``obsnl:NAME`` for a packaged one, read with
-        :func:`obsnl.load_model`); non-smooth models are split with :func:`obsnl.split_branches`.
-    method
+        :func:`obsnl.read_model`); non-smooth models are split with :func:`obsnl.model.split_branches`.
+    method : str
         ``"auto"``, ``"orc"`` or ``"sedoglavic"``.
-    seed
+    seed : int or None
         Seed of all random choices; None draws one (reported in the result).
-    max_seconds
+    max_seconds : float or None
         Time limit for the whole analysis; branches or blocks not finished are ``INCONCLUSIVE``. The split
         into branches gets at least 2 s of it and raises :class:`~obsnl.errors.AnalysisError` past that. Inside a
         command's :func:`obsnl.model.bounds.budget.time_budget` (``obsnl analyze --max-seconds``, started before the
         model was read) that budget's deadline holds as well, without the 2 s floor.
-    prob
+    prob : float
         Wanted lower bound on the probability that every verdict is right; more independent runs
         are made while a block's bound is weaker (up to a few; the result reports what was reached).
-    unknown_input_derivatives
+    unknown_input_derivatives : int or str or None
         What the unknown inputs are: ``"arbitrary"`` (any function of time: each Taylor coefficient
         the test reads is a new unknown, see :func:`obsnl.algebra.problem.arbitrary_terms`) or ``K``
         (polynomials with K non-zero derivatives, STRIKE-GOLDD ``nnzDerW``; 0: constants), K at most the
         model's states + parameters + 16 (:func:`obsnl.model.reading.unknown_inputs.max_unknown_input_derivatives`:
         more derivatives add nothing to the rank test). None (the default): the model's
         ``unknown_input_derivatives`` key, else ``"arbitrary"``.
-    input_derivatives
+    input_derivatives : int or None
         Non-zero derivatives of the known inputs (None: generic inputs).
-    decompose
+    decompose : bool
         Use the exact dependency-graph decomposition (:mod:`obsnl.observability.engines.decompose`).
-    branches
+    branches : sequence of str or None
         Labels of the branches to visit (default: every feasible branch; representative branches
         when the model has more than 8 switching functions, see :mod:`obsnl.model.branching.representatives`).
-    visited
+    visited : mapping of tuple of int to float or None
         Sign patterns a record visits, with the seconds spent in each
         (:func:`obsnl.observability.joint.visited.visited_patterns`); overrides ``branches``.
-    crossings
+    crossings : mapping of str to int or None
         Crossings per switching function seen with ``visited`` (reported only).
-    joint
+    joint : bool
         Also compute the joint verdict (default True).
-    per_branch
+    per_branch : bool
         Also analyse each branch on its own (default True); False gives the joint verdict only
         (``branches`` then holds just the branches whose feasibility is undecided), about a third of
         the time on a building: what a search over sensor sets (:mod:`obsnl.design`) needs.
@@ -129,6 +129,16 @@ def analyze(
     NotSupportedError
         A function or term the exact engines cannot handle (the message says what to do).
 
+    References
+    ----------
+    .. [1] M. N. Chatzis, E. N. Chatzi and A. W. Smyth, "On the observability and identifiability of nonlinear
+       structural and mechanical systems", Structural Control and Health Monitoring 22(3), 574-593, 2015.
+       doi:10.1002/stc.1690
+    .. [2] A. Sedoglavic, "A probabilistic algorithm to test local algebraic observability in polynomial time", J.
+       Symbolic Computation 33(5), 735-755, 2002. doi:10.1006/jsco.2002.0532
+    .. [3] R. Hermann and A. J. Krener, "Nonlinear controllability and observability", IEEE Trans. Automatic Control
+       22(5), 728-740, 1977. doi:10.1109/TAC.1977.1101601
+
     Examples
     --------
     >>> from obsnl import Model, analyze
@@ -141,7 +151,7 @@ def analyze(
     ()
     """
     if isinstance(model, (str, os.PathLike)):  # a path is accepted wherever a model is, as identify does
-        model = load_model(model)
+        model = read_model(model)
     _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
     unknown_input_derivatives = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
     try:

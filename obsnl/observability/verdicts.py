@@ -15,11 +15,34 @@ __all__ = ["Verdict", "BranchResult"]
 
 
 class Verdict(str, enum.Enum):
-    """Outcome of a test: every variable decided, some unobservable, or not decided (with a reason)."""
+    """The one answer of an observability test, nonlinear or linear.
+
+    ``OBSERVABLE``: every unknown is decided and determined by the outputs; ``UNOBSERVABLE``: some
+    unknown is not; ``INCONCLUSIVE``: not decided (the result says why). ``WEAK`` ("weakly
+    observable") is said only by the linear tests (:func:`obsnl.kalman_rank`, :func:`obsnl.hautus`):
+    full rank, but some mode reaches the outputs only by a margin below the weak tolerance. The
+    values are the strings that JSON files and reports carry.
+
+    Examples
+    --------
+    >>> Verdict("weakly observable") is Verdict.WEAK
+    True
+    >>> Verdict.INCONCLUSIVE.summary()
+    'inconclusive: some unknowns were not decided (the result gives the reason)'
+    """
 
     OBSERVABLE = "observable"
+    WEAK = "weakly observable"
     UNOBSERVABLE = "unobservable"
     INCONCLUSIVE = "inconclusive"
+
+    def summary(self) -> str:
+        """What the verdict claims, in one line."""
+        return {"observable": "observable: the outputs determine every unknown",
+                "weakly observable": "weakly observable: full rank, but some mode reaches the outputs only by a "
+                                     "margin below the weak tolerance",
+                "unobservable": "unobservable: some unknown is not determined by the outputs",
+                "inconclusive": "inconclusive: some unknowns were not decided (the result gives the reason)"}[self.value]
 
 
 @dataclass(frozen=True)

@@ -158,13 +158,13 @@ def same_field(exprs_a: Iterable[Any], exprs_b: Iterable[Any], variables: Sequen
 
     Parameters
     ----------
-    exprs_a, exprs_b
+    exprs_a, exprs_b : iterable
         Expressions (strings or sympy) in ``variables`` (and possibly other symbols, held constant).
-    variables
+    variables : sequence
         The variables (names or symbols) the functions depend on, e.g. states and parameters.
-    constants
+    constants : sequence
         Further names the expressions may use, held constant (known constants, inputs).
-    seed
+    seed : int
         Seed of the random point mod p.
 
     Returns
@@ -176,7 +176,7 @@ def same_field(exprs_a: Iterable[Any], exprs_b: Iterable[Any], variables: Sequen
 
     Examples
     --------
-    >>> from obsnl import same_field
+    >>> from obsnl.recombination import same_field
     >>> bool(same_field(["k/m", "c/m", "1/m"], ["m", "c", "k"], ["m", "c", "k"]))
     True
     >>> bool(same_field(["a*b"], ["a", "b"], ["a", "b"]))

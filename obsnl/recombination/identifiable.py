@@ -260,17 +260,17 @@ def identifiable_functions(model: Model, *, seed: int = 0, symmetries: Symmetrie
 
     Parameters
     ----------
-    model
+    model : Model
         A smooth model (one branch).
-    seed
+    seed : int
         Seed of the random points.
-    symmetries
+    symmetries : Symmetries or None
         The model's :func:`obsnl.symmetries` (computed when not given).
-    invariants
+    invariants : sequence of sympy.Expr
         Preferred candidates (e.g. the coordinates proposed by :func:`obsnl.reparametrize`).
-    degree
+    degree : int
         Highest degree of the polynomial invariants searched.
-    max_seconds
+    max_seconds : float
         Time budget of the searches (the answer says whether it is complete).
 
     Examples

@@ -46,7 +46,7 @@ class Reparametrization:
         How ``functions`` were obtained: ``"symmetries"`` or ``"symmetries+..."`` (see
         :func:`obsnl.recombination.identifiable.identifiable_functions`).
     branches
-        The :class:`obsnl.Symmetries` of each branch of the original model.
+        The :class:`obsnl.observability.Symmetries` of each branch of the original model.
     unobservable
         Per branch of the new model, its unobservable coordinates.
     verified
@@ -99,6 +99,6 @@ class Reparametrization:
                      f"... and {len(self.mapping) - 8} more symbols" if len(self.mapping) > 8 else "")
 
     def to_toml(self) -> str:
-        """The new model as a model file (loads with :func:`obsnl.load_model`)."""
+        """The new model as a model file (loads with :func:`obsnl.read_model`)."""
         return model_to_toml(self.model, header=f"Identifiable reparametrization of '{self.original}' "
                                                 f"(obsnl.reparametrize). New symbols are defined in [definitions].")

@@ -95,22 +95,27 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
 
     Parameters
     ----------
-    model
+    model : Model
         Any model (smooth or non-smooth; unknown inputs are not supported).
-    keep
+    keep : sequence of str
         Parameters that must not be pivots (they stay, possibly rescaled).
-    eliminate
+    eliminate : sequence of str
         Parameters to use as scaling pivots (normalised to 1), e.g. ``["E", "L", "sigma_y"]``.
-    names
+    names : mapping of str to str or None
         Renaming of the proposed symbols, e.g. ``{"sigma_p": "r", "A_m_p": "k_m"}``.
-    seed
+    seed : int
         Seed of every random point (error probabilities: see :func:`obsnl.symmetries`).
-    degree
+    degree : int
         Ansatz degree of the symmetry search (1 affine, 2 quadratic).
 
     Returns
     -------
     Reparametrization
+
+    References
+    ----------
+    .. [1] E. Hubert and G. Labahn, "Scaling invariants and symmetry reduction of dynamical systems", Foundations of
+       Computational Mathematics 13(4), 479-516, 2013. doi:10.1007/s10208-013-9165-9
 
     Examples
     --------

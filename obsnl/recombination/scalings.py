@@ -120,6 +120,11 @@ def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: S
     ------
     ModelError
         No parameter pivots exist (the group moves states only) or the hints cannot be met.
+
+    References
+    ----------
+    .. [1] E. Hubert and G. Labahn, "Scaling invariants and symmetry reduction of dynamical systems", Foundations of
+       Computational Mathematics 13(4), 479-516, 2013. doi:10.1007/s10208-013-9165-9
     """
     variables = list(variables)
     rows = _basis([[sp.sympify(w.get(v, 0)) for v in variables] for w in weights])

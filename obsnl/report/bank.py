@@ -49,7 +49,7 @@ def bank_table_markdown(doc: Mapping[str, Any]) -> str:
 
     Parameters
     ----------
-    doc
+    doc : mapping of str to Any
         ``LinkStudy.to_dict()`` (the content of ``bank.json``).
     """
     st, thr = doc["settings"], doc["thresholds"]
@@ -103,7 +103,7 @@ def bank_file_names(scenarios: Sequence[str]) -> list[str]:
 
     Parameters
     ----------
-    scenarios
+    scenarios : sequence of str
         Scenario names (``"healthy"``, ``"crack3"``, ...); they become file names.
 
     Returns
@@ -138,11 +138,11 @@ def check_bank_output(out: str | Path, scenarios: Sequence[str], *, force: bool)
 
     Parameters
     ----------
-    out
+    out : str or Path
         The report folder (created by :func:`write_bank_report` if missing).
-    scenarios
+    scenarios : sequence of str
         The scenario names (see :func:`bank_file_names`).
-    force
+    force : bool
         Allow replacing existing files (links are replaced, never followed).
 
     Returns
@@ -171,11 +171,11 @@ def write_bank_report(study: Any, out: str | Path, *, force: bool = False) -> li
 
     Parameters
     ----------
-    study
+    study : Any
         A :class:`obsnl.studies.link_study.LinkStudy`.
-    out
+    out : str or Path
         The report folder (created if missing).
-    force
+    force : bool
         Replace existing files (and links).
 
     Returns

@@ -117,9 +117,10 @@ def render_design(design: Any, fmt: str) -> str:
 
     Parameters
     ----------
-    design, fmt
-        An :class:`~obsnl.design.experiment.ExperimentDesign`; ``"text"``, ``"json"`` (its ``to_dict``),
-        ``"md"`` or ``"tex"``.
+    design : ExperimentDesign
+        An :class:`~obsnl.design.experiment.ExperimentDesign`.
+    fmt : {"text", "json", "md", "tex"}
+        The format (``"json"``: its ``to_dict``).
     """
     if fmt == "json":
         return json.dumps(design.to_dict(), indent=2)
@@ -135,9 +136,9 @@ def plot_visits(design: Any, path: str | Path) -> Path:
 
     Parameters
     ----------
-    design
+    design : Any
         An :class:`~obsnl.design.experiment.ExperimentDesign`.
-    path
+    path : str or Path
         The PNG file (the caller has decided that it may be written).
 
     Returns

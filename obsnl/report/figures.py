@@ -211,12 +211,12 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
 
     Parameters
     ----------
-    study
+    study : Any
         A :class:`obsnl.linear.bank.LinkStudy` (its ``traces`` hold the time series).
-    out_dir
+    out_dir : str or Path
         Folder for ``forces_<scenario>.png`` (created if needed; existing files are replaced,
         the caller decides whether that is allowed).
-    every
+    every : int
         Plot every ``every``-th sample (the figures stay small).
     """
     plt = _plt()

@@ -40,12 +40,12 @@ def check_target(path: str | Path, *, force: bool, root: str | Path | None = Non
 
     Parameters
     ----------
-    path
+    path : str or Path
         The file to write.
-    force
+    force : bool
         Allow replacing an existing file or symlink (the symlink itself is replaced, never followed; a
         file with other hard links is replaced by a new file, never written in place).
-    root
+    root : str or Path or None
         The folder the user named; ``path`` must stay inside it.
 
     Returns
@@ -97,11 +97,11 @@ def check_folder(out: str | Path, names: Sequence[str], *, force: bool) -> Path:
 
     Parameters
     ----------
-    out
+    out : str or Path
         The folder the user named.
-    names
+    names : sequence of str
         The file names to be written there.
-    force
+    force : bool
         Allow replacing existing files (and links, which are replaced, never followed).
 
     Returns
@@ -151,13 +151,13 @@ class OutputFolder:
 
     Parameters
     ----------
-    out
+    out : str or Path
         The folder (created if missing; it must not be a symlink).
-    names
+    names : sequence of str
         The plain file names this run writes (checked with :func:`check_folder` first).
-    force
+    force : bool
         Replace existing files (and links).
-    folder_link_ok
+    folder_link_ok : bool
         Accept ``out`` being a symlink (only :func:`safe_write` of a file the user named, whose parent
         folder is the user's business).
 
@@ -323,10 +323,14 @@ def safe_write(path: str | Path, text: str, *, force: bool, root: str | Path | N
 
     Parameters
     ----------
-    path, force, root
-        As :func:`check_target` (``root``: the folder the user named; without it the parent folder of
-        ``path`` may be a link, the user named the file).
-    text
+    path : str or Path
+        As :func:`check_target`.
+    force : bool
+        As :func:`check_target`.
+    root : str or Path or None
+        As :func:`check_target` (the folder the user named; without it the parent folder of ``path`` may be
+        a link, the user named the file).
+    text : str
         UTF-8 text.
 
     Returns

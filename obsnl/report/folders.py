@@ -48,9 +48,9 @@ def report_files(names: Sequence[str], out: str | Path) -> list[Path]:
 
     Parameters
     ----------
-    names
+    names : sequence of str
         Model names (they become file names).
-    out
+    out : str or Path
         The report folder.
 
     Returns
@@ -91,11 +91,11 @@ def write_tables(results: Sequence[AnalysisResult], out: str | Path, *, force: b
 
     Parameters
     ----------
-    results
+    results : sequence of AnalysisResult
         Analysis results of distinct models (each carries its model's signature).
-    out
+    out : str or Path
         The report folder (created if missing).
-    force
+    force : bool
         Overwrite existing files.
 
     Returns

@@ -66,7 +66,8 @@ def complete(result: AnalysisResult, model: Model) -> AnalysisResult:
 
     Parameters
     ----------
-    result, model : AnalysisResult, Model
+    result : AnalysisResult
+    model : Model
         The result and the analysed model.
 
     Returns
@@ -111,7 +112,8 @@ def branch_table(result: AnalysisResult, model: Model | None = None) -> BranchTa
 
     Parameters
     ----------
-    result, model : AnalysisResult, Model or None
+    result : AnalysisResult
+    model : Model or None
         The analysis; its model, needed for a result built by hand.
 
     Returns
@@ -128,7 +130,8 @@ def to_json(result: AnalysisResult, model: Model | None = None) -> str:
 
     Parameters
     ----------
-    result, model : AnalysisResult, Model or None
+    result : AnalysisResult
+    model : Model or None
         As for :func:`branch_table`.
 
     Returns
@@ -282,7 +285,8 @@ def render(result: AnalysisResult, fmt: str) -> str:
 
     Parameters
     ----------
-    result, fmt : AnalysisResult, str
+    result : AnalysisResult
+    fmt : str
         The analysis; one of :data:`FORMATS`.
 
     Returns
@@ -313,11 +317,11 @@ def to_latex(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, capt
 
     Parameters
     ----------
-    rows
+    rows : sequence of str
         Row keys among :data:`ROWS`, in order.
-    caption, label
+    caption, label : str or None
         Caption and label of the ``table`` environment (defaults name the model).
-    environment
+    environment : bool
         False gives the bare ``tabular`` (e.g. for notebooks or your own float).
     """
     _check_rows(rows)

@@ -28,11 +28,11 @@ def bouc_wen_building(n: int, *, masses: Sequence[float] | None = None, measured
 
     Parameters
     ----------
-    n
+    n : int
         Number of storeys (at least 1).
-    masses
+    masses : sequence of float or None
         Floor masses (default: all 1).
-    measured
+    measured : sequence of int or None
         Floors whose absolute acceleration is measured (1-based; default: every floor).
 
     Returns
@@ -44,6 +44,13 @@ def bouc_wen_building(n: int, *, masses: Sequence[float] | None = None, measured
     ------
     OptionError
         ``n < 1``, masses of the wrong length or not positive, an unknown floor.
+
+    References
+    ----------
+    .. [1] R. Bouc, "Forced vibrations of mechanical systems with hysteresis", Proc. 4th Conference on Nonlinear
+       Oscillations, Prague, 1967.
+    .. [2] Y.-K. Wen, "Method for random vibration of hysteretic systems", J. Engineering Mechanics Division (ASCE)
+       102(2), 249-263, 1976. doi:10.1061/JMCEA3.0002106
 
     Examples
     --------

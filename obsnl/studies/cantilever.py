@@ -26,10 +26,10 @@ import scipy.linalg as sla
 from obsnl.errors import DataError, ModelError
 from obsnl.linear.systems import LinearSystem
 from obsnl.linear.simulation import zoh
-from obsnl.studies.link_model import _DOF_NAME, DEFAULT_LINK_FILE, LinkSpec, load_link_spec
+from obsnl.studies.link_model import _DOF_NAME, DEFAULT_LINK_FILE, LinkSpec, read_link_spec
 
-# DEFAULT_LINK_FILE, LinkSpec and load_link_spec live in obsnl.studies.link_model; named here as before
-__all__ = ["DEFAULT_LINK_FILE", "LinkSpec", "Cantilever", "BreathingCrack", "LinkSimulation", "load_link_spec",
+# DEFAULT_LINK_FILE, LinkSpec and read_link_spec live in obsnl.studies.link_model; named here as before
+__all__ = ["DEFAULT_LINK_FILE", "LinkSpec", "Cantilever", "BreathingCrack", "LinkSimulation", "read_link_spec",
            "build_cantilever", "element_channels"]
 
 def element_channels(le: float, channels: Sequence[str] = ("moment",)) -> np.ndarray:
@@ -258,7 +258,7 @@ def _rayleigh(w_i: float, w_j: float, zeta: float) -> tuple[float, float]:
 
 
 def build_cantilever(spec: LinkSpec | None = None) -> Cantilever:
-    """Assemble the clamped link from its spec (default: :func:`load_link_spec` of the model file).
+    """Assemble the clamped link from its spec (default: :func:`read_link_spec` of the model file).
 
     Examples
     --------
@@ -266,7 +266,7 @@ def build_cantilever(spec: LinkSpec | None = None) -> Cantilever:
     >>> beam.n_dof, round(float(beam.modal_frequencies()[0]), 2)
     (12, 5.8)
     """
-    spec = load_link_spec() if spec is None else spec
+    spec = read_link_spec() if spec is None else spec
     ne, (i, j) = spec.n_elements, spec.damping_modes
     if ne < 2:
         raise ModelError(f"n_elements must be at least 2, got {ne}")

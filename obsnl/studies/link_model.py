@@ -19,7 +19,7 @@ from typing import Any
 from obsnl.errors import ModelError
 from obsnl.model.files import PACKAGED, catalogue_path, parse_text
 
-__all__ = ["DEFAULT_LINK_FILE", "LinkSpec", "load_link_spec", "MAX_ELEMENTS", "MAX_FILE_BYTES", "OPENS_WHEN"]
+__all__ = ["DEFAULT_LINK_FILE", "LinkSpec", "read_link_spec", "MAX_ELEMENTS", "MAX_FILE_BYTES", "OPENS_WHEN"]
 
 #: The benchmark's data file (packaged with obsnl).
 DEFAULT_LINK_FILE = catalogue_path("cantilever_link")
@@ -147,13 +147,13 @@ def _choices(choices: Sequence[str]) -> str:
     return f"one of {', '.join(map(repr, choices))}" if len(choices) > 1 else f"{choices[0]!r} (the only one obsnl has)"
 
 
-def load_link_spec(path: str | Path | None = None) -> LinkSpec:
+def read_link_spec(path: str | Path | None = None) -> LinkSpec:
     """Read the benchmark's numbers from a TOML file, checking every value (the ``[bank]`` table is kept as
     written; :func:`obsnl.studies.link_study.check_bank_settings` checks it).
 
     Parameters
     ----------
-    path
+    path : str or Path or None
         A link model file, ``obsnl:cantilever_link`` or None (the packaged ``models/cantilever_link.toml``).
 
     Raises

@@ -15,7 +15,7 @@ from obsnl.linear.bank import (BankDecision, Thresholds, build_bank,
                                calibrate_thresholds, decide, _f)
 from obsnl.linear.observer import ExtendedObservability, extended_observability, integrator
 from obsnl.studies.cantilever import BreathingCrack, build_cantilever
-from obsnl.studies.link_model import LinkSpec, _Table, load_link_spec
+from obsnl.studies.link_model import LinkSpec, _Table, read_link_spec
 
 __all__ = ["ScenarioRun", "GateCheck", "LinkStudy", "run_link_study", "check_bank_settings", "study_cost",
            "BANK_KEYS", "MAX_SAMPLES", "MAX_SEEDS", "MAX_STUDY_BYTES", "MAX_STUDY_WORK"]
@@ -98,13 +98,13 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
 
     Parameters
     ----------
-    seeds
+    seeds : int or sequence of int
         Number of evaluation seeds (``0..K-1``) or the seeds themselves.
-    calibration_seeds
+    calibration_seeds : sequence of int or None
         Noise seeds of the healthy calibration runs.
-    spec
+    spec : LinkSpec or None
         A :class:`obsnl.studies.link_model.LinkSpec` (default: the packaged ``obsnl:cantilever_link``).
-    gates
+    gates : bool
         Also run the observability gate of section 2.6.6 (S4 with s = 2, S1 with s = 1 and 2).
 
     Returns
@@ -116,7 +116,7 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
     DataError
         No, too many (over :data:`MAX_SEEDS`) or shared evaluation and calibration seeds.
     ModelError
-        A bad spec (see :func:`obsnl.studies.link_model.load_link_spec`), or a study whose estimated
+        A bad spec (see :func:`obsnl.studies.link_model.read_link_spec`), or a study whose estimated
         memory or work (:func:`study_cost`) is over :data:`MAX_STUDY_BYTES` or :data:`MAX_STUDY_WORK`;
         checked before any simulation.
     AnalysisError
@@ -127,7 +127,7 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
                                                                                           "calibration")
     if set(cal) & set(ev):
         raise DataError(f"calibration seeds {cal} must be non-empty and differ from the evaluation seeds {ev}")
-    spec = load_link_spec() if spec is None else spec
+    spec = read_link_spec() if spec is None else spec
     cfg = check_bank_settings(spec)
     size, work = study_cost(spec, n_seeds=len(ev), n_calibration=len(cal))
     if size > MAX_STUDY_BYTES or work > MAX_STUDY_WORK:
@@ -233,8 +233,8 @@ def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
 
     Parameters
     ----------
-    spec
-        From :func:`obsnl.studies.link_model.load_link_spec`.
+    spec : LinkSpec
+        From :func:`obsnl.studies.link_model.read_link_spec`.
 
     Returns
     -------
@@ -248,7 +248,7 @@ def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
 
     Examples
     --------
-    >>> check_bank_settings(load_link_spec())["observer_elements"]
+    >>> check_bank_settings(read_link_spec())["observer_elements"]
     (2, 4, 6)
     """
     bk = _Table({"bank": spec.bank} if spec.bank else {}, "bank", spec.file or "link model", BANK_KEYS)
@@ -298,9 +298,9 @@ def study_cost(spec: LinkSpec, *, n_seeds: int, n_calibration: int) -> tuple[flo
 
     Parameters
     ----------
-    spec
-        From :func:`obsnl.studies.link_model.load_link_spec`.
-    n_seeds, n_calibration
+    spec : LinkSpec
+        From :func:`obsnl.studies.link_model.read_link_spec`.
+    n_seeds, n_calibration : int
         Numbers of evaluation and calibration seeds.
 
     Returns
@@ -310,7 +310,7 @@ def study_cost(spec: LinkSpec, *, n_seeds: int, n_calibration: int) -> tuple[flo
 
     Examples
     --------
-    >>> size, work = study_cost(load_link_spec(), n_seeds=3, n_calibration=3)
+    >>> size, work = study_cost(read_link_spec(), n_seeds=3, n_calibration=3)
     >>> size < MAX_STUDY_BYTES and work < MAX_STUDY_WORK
     True
     """

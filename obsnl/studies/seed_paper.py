@@ -217,10 +217,10 @@ def rate_from_here(progress: Any) -> None:
 def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
     """The branch table of the seed model from obsnl's analysis, checked against the paper's Table 1."""
     from obsnl.observability.analyze import analyze
-    from obsnl.model.files import load_model
+    from obsnl.model.files import read_model
     from obsnl.observability.contract.branch_table import BranchTable
 
-    model = load_model(seed_model_path())
+    model = read_model(seed_model_path())
     table = BranchTable.from_result(analyze(model, seed=seed))
     paper = {1: {"Delta2"}, -1: {"Delta1", "w_h"}}  # Table 1: by the sign of (r - eta') x2
     agrees = all(set(b.unidentifiable_parameters) == paper[b.signs[0] * b.signs[1]] for b in table.branches)
@@ -238,34 +238,34 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
 
     Parameters
     ----------
-    record
+    record : Record or None
         Another ground motion (default: Northridge 1994, the paper's record).
-    seeds, tuning_seeds
+    seeds, tuning_seeds : int
         Reported noise seeds ``0..seeds-1``; tuning seeds ``1000..`` (never reported; five by default,
         decided before any reported seed was looked at). A reported run that diverged (it stopped, or
         its free-run output misfit is above ``DIVERGED`` times the output noise level) is redone with
         the next configuration of the tuning ranking, at most ``FALLBACKS`` times; the discarded
         attempts are kept in the run's ``redone`` list.
-    passes
+    passes : int
         Passes of the refined protocol (the paper's protocol is one pass).
-    grid
+    grid : sequence of Tuning
         Tuning configurations.
-    jit
+    jit : bool
         Compile the filters to C (cached on disk: :mod:`obsnl.estimation.jitcache`).
-    samples
+    samples : int or None
         Use only the first samples of the record (quick runs).
-    replicates
+    replicates : int
         Monte-Carlo replicates of the practical-identifiability check per reported run of the UKF and
         the DUKF that did not diverge (0: off; the ablation ``dukf-zero`` gets none).
-    progress
+    progress : Any
         A tqdm-like object (``total``, ``update(n)``) or None.
-    executor
+    executor : Executor or None
         Where the independent runs go (:class:`obsnl.executor.Executor`; default: this process).
         Every run's noise is fixed by its own seeds: the result does not depend on the executor.
-    keep
+    keep : int or None
         Configurations per protocol that go on after the first tuning seed (:func:`successive_halving`;
         None: the full grid on every tuning seed, the protocol before issue 27).
-    refine
+    refine : bool
         Refine each reported seed by maximum likelihood (the third column of Table 2).
     """
     check_replicates(replicates)

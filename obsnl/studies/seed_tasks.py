@@ -230,9 +230,9 @@ def seed_setup(*, record: Record | None = None, samples: int | None = None, jit:
     Setup
     """
     from obsnl.estimation.codegen import to_casadi
-    from obsnl.model.files import load_model
+    from obsnl.model.files import read_model
 
-    model = load_model(seed_model_path())
+    model = read_model(seed_model_path())
     record = seed_record(record, samples)
     num = to_casadi(model)
     truth = {p: float(model.values[p]) for p in num.parameters}

@@ -174,16 +174,16 @@ def split_branches(
 
     Parameters
     ----------
-    model
+    model : Model
         Any model; a smooth one gives a single branch labelled ``"smooth"``.
-    seed
+    seed : int
         Seed of the witness search used for non-affine switching functions.
-    with_dropped
+    with_dropped : bool
         Also return the sign patterns dropped as contradictory (and, without ``undecided``, those whose
         feasibility is undecided, with ``proved=False``).
-    max_seconds
+    max_seconds : float or None
         Time limit of the split (None: none; a budget of :func:`obsnl.model.bounds.budget.time_budget` holds too).
-    undecided
+    undecided : bool
         Also return the branches whose feasibility is not decided (:attr:`Branch.undecided`: no point was
         found in them, none was proved impossible). Labels count them either way, so that a label names
         the same branch with and without them.
@@ -200,9 +200,16 @@ def split_branches(
     AnalysisError
         The split took longer than ``max_seconds``.
 
+    References
+    ----------
+    .. [1] M. N. Chatzis, E. N. Chatzi and A. W. Smyth, "On the observability and identifiability of nonlinear
+       structural and mechanical systems", Structural Control and Health Monitoring 22(3), 574-593, 2015.
+       doi:10.1002/stc.1690
+
     Examples
     --------
-    >>> from obsnl import Model, split_branches
+    >>> from obsnl import Model
+    >>> from obsnl.model import split_branches
     >>> m = Model(name="coulomb", states=["x", "v"], parameters=["k", "mu"], inputs=["u"],
     ...           equations={"x": "v", "v": "u - k*x - mu*sign(v)"}, outputs={"y": "x"})
     >>> [(b.label, b.guard_text) for b in split_branches(m)]

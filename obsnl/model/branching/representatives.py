@@ -102,7 +102,7 @@ def switching_groups(model: Model) -> tuple[tuple[sp.Expr, ...], tuple[tuple[int
 
     Parameters
     ----------
-    model
+    model : Model
         A non-smooth model whose non-smooth functions are not nested.
 
     Returns
@@ -113,7 +113,7 @@ def switching_groups(model: Model) -> tuple[tuple[sp.Expr, ...], tuple[tuple[int
     Raises
     ------
     NotSupportedError
-        Nested non-smooth functions (use :func:`obsnl.split_branches`).
+        Nested non-smooth functions (use :func:`obsnl.model.split_branches`).
 
     Examples
     --------
@@ -140,7 +140,7 @@ def switching_groups(model: Model) -> tuple[tuple[sp.Expr, ...], tuple[tuple[int
             continue
         nodes = innermost_nonsmooth([e])
         if any(a.has(*NONSMOOTH_FUNCTIONS) for n in nodes for a in n.args):
-            raise NotSupportedError("nested non-smooth functions: use obsnl.split_branches")
+            raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")
         idx = sorted({_index_of(g, sw) for g in switching_of([e], model.switching, memo)})
         for j in idx[1:]:
             parent[find(j)] = find(idx[0])
@@ -155,9 +155,9 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
 
     Parameters
     ----------
-    model
+    model : Model
         A non-smooth model without nested non-smooth functions.
-    seed
+    seed : int
         Seed of the witness search for non-affine switching functions.
 
     Returns
@@ -241,13 +241,13 @@ def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, la
 
     Parameters
     ----------
-    model
+    model : Model
         A non-smooth model without nested non-smooth functions.
-    signs
+    signs : tuple of int
         One sign (+1 or -1) per switching function, in the order of :func:`switching_groups`.
-    seed
+    seed : int
         Seed of the witness search.
-    label
+    label : str or None
         The branch's label (default: the pattern as a string of ``+`` and ``-``).
 
     Returns

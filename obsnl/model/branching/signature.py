@@ -60,9 +60,9 @@ class ModelSignature:
 
         Parameters
         ----------
-        model
+        model : Model
             Any model, smooth or not.
-        switching
+        switching : sequence of str or None
             The switching functions as text when the caller has them already (the branches' order and
             orientation); default: :func:`obsnl.model.branching.switching.switching_functions`.
 
@@ -100,15 +100,15 @@ class ModelSignature:
 
         Parameters
         ----------
-        other
+        other : ModelSignature
             The signature of the model at hand.
-        exact_switching
+        exact_switching : bool
             Also require the same switching-function texts (a compiled model compiled for this
             table); otherwise the same number is enough (the orientation of a table's switching
-            functions may differ from the model's own, see :func:`obsnl.to_casadi`).
-        fix
+            functions may differ from the model's own, see :func:`obsnl.estimation.to_casadi`).
+        fix : str
             What the user should do, appended to the message.
-        what
+        what : str
             How to name the owner of this signature in the message.
 
         Raises

@@ -41,7 +41,7 @@ def latex_problem(text: str) -> str | None:
 
     Parameters
     ----------
-    text
+    text : str
         A LaTeX name such as ``\\Delta_1`` or ``c'_{\\eta}``.
 
     Returns
@@ -85,9 +85,9 @@ def rendering(name: str, latex: Mapping[str, str]) -> str:
 
     Parameters
     ----------
-    name
+    name : str
         A symbol or output of the model.
-    latex
+    latex : mapping of str to str
         The model's ``latex`` table.
 
     Returns
@@ -131,9 +131,9 @@ def latex_clash(latex: Mapping[str, str], names: Iterable[str]) -> str | None:
 
     Parameters
     ----------
-    latex
+    latex : mapping of str to str
         The model's ``latex`` table (checked by :func:`latex_problem`).
-    names
+    names : iterable of str
         Every symbol and output of the model.
 
     Returns

@@ -160,16 +160,16 @@ def parse_expression(
 
     Parameters
     ----------
-    text
+    text : str or int or float or sympy.Basic
         Expression in sympy syntax (``^`` is accepted for powers), a number, or a sympy
         expression (whose symbols are matched to the declared ones by name).
-    symbols
+    symbols : mapping of str to sympy.Symbol
         Declared names -> symbols. Every name used must be one of them.
-    where
+    where : str
         Where the expression comes from, for error messages (e.g. ``"equation of x2"``).
-    allow_relations
+    allow_relations : bool
         Accept a relation such as ``x > 0`` (for guards).
-    reserved
+    reserved : mapping of str to str or None
         Names that are not allowed here, each with the message to give (e.g. output names
         used on a right-hand side).
 

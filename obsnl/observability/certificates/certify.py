@@ -60,13 +60,13 @@ def shared_symmetries(model: Model, branches: Sequence[Branch], *, seed: int = 0
 
     Parameters
     ----------
-    model
+    model : Model
         The non-smooth model (its switching functions are the surfaces).
-    branches
+    branches : sequence of Branch
         The visited branches (at least one).
-    seed
+    seed : int
         Seed of the symmetry search.
-    kinds
+    kinds : sequence of str or None
         Kinds of generators allowed (default: every kind).
 
     Returns
@@ -76,7 +76,8 @@ def shared_symmetries(model: Model, branches: Sequence[Branch], *, seed: int = 0
 
     Examples
     --------
-    >>> from obsnl import Model, split_branches
+    >>> from obsnl import Model
+    >>> from obsnl.model import split_branches
     >>> m = Model(name="friction", states=["x", "v"], parameters=["m", "c", "k", "F"], inputs=["ag"],
     ...           equations={"x": "v", "v": "-ag - (c*v + k*x + F*sign(v))/m"}, outputs={"y": "x"})
     >>> [str(s) for s in shared_symmetries(m, split_branches(m))]
@@ -111,13 +112,15 @@ def certify_by_symmetry(result: JointResult, model: Model, branches: Sequence[Br
 
     Parameters
     ----------
-    result
+    result : JointResult
         A joint verdict with undecided variables.
-    model, branches
-        The model and the visited branches.
-    seed
+    model : Model
+        The model.
+    branches : sequence of Branch
+        The visited branches.
+    seed : int
         Seed of the symmetry search.
-    kinds
+    kinds : sequence of str or None
         Kinds of generators allowed (``("scaling", "translation")`` for representative branches).
 
     Returns
@@ -151,9 +154,9 @@ def undecided_beyond_visits(result: JointResult, why: str) -> JointResult:
 
     Parameters
     ----------
-    result
+    result : JointResult
         A joint verdict over some of the model's branches.
-    why
+    why : str
         How the branches were chosen (said in the reason).
 
     Returns

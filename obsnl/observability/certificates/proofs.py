@@ -116,7 +116,7 @@ def canonical(expr: sp.Expr) -> sp.Expr:
 @functools.lru_cache(maxsize=8192)
 def _canonical(expr: sp.Expr) -> sp.Expr:
     if expr.has(*NONSMOOTH_FUNCTIONS):
-        raise NotSupportedError(f"{expr} is not smooth; split the model into branches first (obsnl.split_branches)")
+        raise NotSupportedError(f"{expr} is not smooth; split the model into branches first (obsnl.model.split_branches)")
 
     def walk(e: sp.Basic) -> sp.Basic:
         if e.is_Atom:

@@ -203,14 +203,14 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
 
     Parameters
     ----------
-    model
-        A smooth model (a branch: ``[b.model for b in obsnl.split_branches(model)]``).
-    seed
+    model : Model
+        A smooth model (a branch: ``[b.model for b in obsnl.model.split_branches(model)]``).
+    seed : int
         Seed of the random points (the Jacobian and the determining equations).
-    degree
+    degree : int
         Highest polynomial degree of the ansatz after translations and scalings: 1 (affine,
         default) or 2 (quadratic in the states and parameters).
-    jacobian
+    jacobian : ModularJacobian or None
         A precomputed :func:`obsnl.observability.engines.jacobian.observability_jacobian` of ``model`` (to share the point).
 
     Returns
@@ -221,6 +221,11 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
         generators (they would count in ``missing``): the dimension and the unobservable set come
         from the Jacobian (error probability at most ``jacobian.failure``, :mod:`obsnl.algebra.bounds`), the
         determining equations are solved mod :data:`obsnl.algebra.modp.PRIME` (62 bits).
+
+    References
+    ----------
+    .. [1] A. Sedoglavic, "A probabilistic algorithm to test local algebraic observability in polynomial time", J.
+       Symbolic Computation 33(5), 735-755, 2002. doi:10.1006/jsco.2002.0532
 
     Examples
     --------
@@ -233,7 +238,7 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
     t0 = time.perf_counter()
     if not model.is_smooth:
         raise NotSupportedError(f"model {model.name!r} is not smooth; pass one branch at a time "
-                                f"([b.model for b in obsnl.split_branches(model)])")
+                                f"([b.model for b in obsnl.model.split_branches(model)])")
     if degree not in (1, 2):
         raise NotSupportedError(f"degree must be 1 or 2, got {degree!r}")
     check_analysis_limits(model)  # the size the dense Jacobian and series can hold, before any work

@@ -20,7 +20,7 @@ from obsnl.errors import TableError
 from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
 from obsnl.model.bounds.textsize import quote, shorten
 
-__all__ = ["SCHEMA_ID", "BranchEntry", "BranchTable", "load_branch_table", "schema"]
+__all__ = ["SCHEMA_ID", "BranchEntry", "BranchTable", "read_branch_table", "schema"]
 
 SCHEMA_ID = "obsnl.branch-table/1"
 
@@ -31,7 +31,7 @@ def schema() -> dict[str, Any]:
     return json.loads(text)
 
 
-#: Most branches of a table: an analysis splits into at most 1024 (:func:`obsnl.split_branches`); 4096 =
+#: Most branches of a table: an analysis splits into at most 1024 (:func:`obsnl.model.split_branches`); 4096 =
 #: 2**12 sign patterns, the most switching functions of one group of representative branches.
 MAX_TABLE_BRANCHES = 4096
 #: Most names in one list of a table (states, parameters, inputs, outputs, switching functions).
@@ -177,7 +177,7 @@ class BranchTable:
 
         Parameters
         ----------
-        joint_observable
+        joint_observable : sequence of str or None
             The jointly observable variables (default: the table's own ``joint`` key; none without it).
 
         Returns
@@ -321,7 +321,7 @@ class BranchTable:
         return tuple(p in frozen for p in self.parameters)
 
 
-def load_branch_table(path: str | Path) -> BranchTable:
+def read_branch_table(path: str | Path) -> BranchTable:
     """Read and validate a branch table JSON file.
 
     Raises

@@ -55,11 +55,11 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
 
     Parameters
     ----------
-    table
-        A table read with :func:`~obsnl.observability.contract.branch_table.load_branch_table`.
-    model
+    table : BranchTable
+        A table read with :func:`~obsnl.observability.contract.branch_table.read_branch_table`.
+    model : Model
         The model the estimator will run.
-    max_seconds
+    max_seconds : float or None
         Time limit of the fresh analysis.
 
     Returns
@@ -77,7 +77,7 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     --------
     >>> import obsnl
     >>> from obsnl.observability.analyze import analyze
-    >>> m = obsnl.load_model("obsnl:coulomb_friction")
+    >>> m = obsnl.read_model("obsnl:coulomb_friction")
     >>> table = BranchTable.from_result(analyze(m, seed=0))
     >>> check_table(table, m).model
     'coulomb_friction'

@@ -18,7 +18,7 @@ METHODS = ("auto", "orc", "sedoglavic")
 def _check(model: Model, method: str, seed: int | None, max_seconds: float | None, prob: float,
            unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> None:
     if not isinstance(model, Model):
-        raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.load_model")
+        raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.read_model")
     if method not in METHODS:
         raise AnalysisError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or seed < 0):

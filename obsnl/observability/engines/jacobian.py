@@ -150,11 +150,11 @@ def observability_jacobian(model: Model, *, seed: int = 0, p: int | None = None)
 
     Parameters
     ----------
-    model
+    model : Model
         A smooth model (one branch); unknown inputs are not supported here.
-    seed
+    seed : int
         Seed of the random prime, point and input series.
-    p
+    p : int or None
         A prime below ``2**50`` to use instead of a random one (several Jacobians in one field).
 
     Returns
@@ -171,7 +171,7 @@ def observability_jacobian(model: Model, *, seed: int = 0, p: int | None = None)
     (2, ['a', 'b'], [True])
     """
     if not model.is_smooth:
-        raise NotSupportedError(f"model {model.name!r} is not smooth; pass a branch (obsnl.split_branches)")
+        raise NotSupportedError(f"model {model.name!r} is not smooth; pass a branch (obsnl.model.split_branches)")
     if model.unknown_inputs:
         raise NotSupportedError("unknown inputs are not supported by the symmetry search; "
                                 "declare them as parameters or known inputs")

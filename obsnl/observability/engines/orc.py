@@ -130,6 +130,11 @@ def orc_block(
     Returns
     -------
     BlockOutcome
+
+    References
+    ----------
+    .. [1] R. Hermann and A. J. Krener, "Nonlinear controllability and observability", IEEE Trans. Automatic Control
+       22(5), 728-740, 1977. doi:10.1109/TAC.1977.1101601
     """
     M = problem.size
     out = BlockOutcome(method="orc", columns=problem.columns)

@@ -131,6 +131,11 @@ def sedoglavic_block(
     -------
     BlockOutcome
         Rank, unobservable columns, runs and failure bound (or a reason when undecided).
+
+    References
+    ----------
+    .. [1] A. Sedoglavic, "A probabilistic algorithm to test local algebraic observability in polynomial time", J.
+       Symbolic Computation 33(5), 735-755, 2002. doi:10.1006/jsco.2002.0532
     """
     M = problem.size
     out = BlockOutcome(method="sedoglavic", columns=problem.columns)

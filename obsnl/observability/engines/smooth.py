@@ -191,7 +191,7 @@ def analyze_smooth(
     input_derivatives: int | None = None,
     decompose: bool = True,
 ) -> BranchResult:
-    """One smooth model, one engine: the common body of :func:`obsnl.orc` and :func:`obsnl.observability.engines.sedoglavic`.
+    """One smooth model, one engine: the common body of :func:`obsnl.observability.orc` and :func:`obsnl.observability.sedoglavic`.
 
     Parameters
     ----------
@@ -231,7 +231,7 @@ def analyze_smooth(
     if not model.is_smooth:
         raise ModelError(
             f"model {model.name!r} is not smooth; use obsnl.observability.analyze (which splits it into branches) or "
-            f"obsnl.split_branches"
+            f"obsnl.model.split_branches"
         )
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
@@ -259,19 +259,28 @@ def orc(
 
     Parameters
     ----------
-    model
+    model : Model
         A smooth :class:`~obsnl.model.core.Model` (use :func:`obsnl.observability.analyze` for non-smooth ones).
-    seed
+    seed : int or None
         Seed of the random prime and point; None draws one.
-    max_seconds
+    max_seconds : float or None
         Time limit (symbolic Lie derivatives swell); reaching it gives ``INCONCLUSIVE``.
-    unknown_input_derivatives, input_derivatives, decompose
-        As in :func:`obsnl.observability.analyze`.
+    unknown_input_derivatives : int or str or None
+        As in :func:`obsnl.analyze`.
+    input_derivatives : int or None
+        As in :func:`obsnl.analyze`.
+    decompose : bool
+        As in :func:`obsnl.analyze`.
 
     Returns
     -------
     BranchResult
         ``order`` is the number of Lie derivatives used.
+
+    References
+    ----------
+    .. [1] R. Hermann and A. J. Krener, "Nonlinear controllability and observability", IEEE Trans. Automatic Control
+       22(5), 728-740, 1977. doi:10.1109/TAC.1977.1101601
 
     Examples
     --------
@@ -300,26 +309,31 @@ def sedoglavic(
 
     Parameters
     ----------
-    model
+    model : Model
         A smooth :class:`~obsnl.model.core.Model` (split non-smooth models with
-        :func:`obsnl.split_branches`, or use :func:`obsnl.observability.analyze`).
-    seed
+        :func:`obsnl.model.split_branches`, or use :func:`obsnl.observability.analyze`).
+    seed : int or None
         Seed of every random choice (prime, point, inputs); None draws one and reports it.
-    max_seconds
+    max_seconds : float or None
         Time limit; reaching it gives an ``INCONCLUSIVE`` verdict, never an unobservable one.
-    unknown_input_derivatives
+    unknown_input_derivatives : int or str or None
         ``K``: each unknown input a polynomial with K non-zero derivatives (STRIKE-GOLDD ``nnzDerW``);
         ``"arbitrary"``: any function of time; None: the model's ``unknown_input_derivatives`` key,
         else ``"arbitrary"``.
-    input_derivatives
+    input_derivatives : int or None
         Number of non-zero derivatives of the known inputs (None: generic inputs).
-    decompose
+    decompose : bool
         Analyse the output-reachable submodel and its independent blocks separately.
 
     Returns
     -------
     BranchResult
         Label ``"smooth"``, guard ``"true"``.
+
+    References
+    ----------
+    .. [1] A. Sedoglavic, "A probabilistic algorithm to test local algebraic observability in polynomial time", J.
+       Symbolic Computation 33(5), 735-755, 2002. doi:10.1006/jsco.2002.0532
 
     Examples
     --------

@@ -74,19 +74,19 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
 
     Parameters
     ----------
-    model
+    model : Model
         Any model.
-    labels
-        Branch labels to keep (of :func:`obsnl.split_branches`); None: every feasible branch.
-    patterns
+    labels : sequence of str or None
+        Branch labels to keep (of :func:`obsnl.model.split_branches`); None: every feasible branch.
+    patterns : mapping of tuple of int to float or None
         Sign patterns actually visited (e.g. by a simulation under a record), with the time spent
         in each; overrides ``labels``.
-    crossings
+    crossings : mapping of str to int or None
         Crossings seen per switching function (text), reported with ``patterns``.
-    seed
+    seed : int
         Seed of the feasibility search.
-    max_seconds
-        Time limit of the branch split (:func:`obsnl.split_branches`).
+    max_seconds : float or None
+        Time limit of the branch split (:func:`obsnl.model.split_branches`).
 
     Returns
     -------

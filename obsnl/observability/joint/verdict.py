@@ -190,24 +190,29 @@ def joint_verdict(
 
     Parameters
     ----------
-    model
+    model : Model
         Any model; a smooth one has a single branch and its joint verdict is the branch's.
-    branches
-        The visited branches: labels of :func:`obsnl.split_branches` or :class:`obsnl.Branch`
+    branches : sequence of str or Branch or None
+        The visited branches: labels of :func:`obsnl.model.split_branches` or :class:`obsnl.model.Branch`
         objects (a caller's representative branches); None visits every feasible branch.
-    seed
+    seed : int
         Seed of every random choice (primes, points, input series).
-    prob
+    prob : float
         Wanted lower bound on the probability that the decided verdicts are right; runs are added
         (up to four) while the bound is weaker or some variable has no majority of two runs or more.
-    max_seconds
+    max_seconds : float or None
         Time limit; verdicts not decided by then are ``inconclusive``.
-    unknown_input_derivatives
+    unknown_input_derivatives : int
         Non-zero derivatives of each unknown input (as in :func:`obsnl.analyze`).
 
     Returns
     -------
     JointResult
+
+    References
+    ----------
+    .. [1] A. Tanwani, H. Shim and D. Liberzon, "Observability for switched linear systems: characterization and
+       observer design", IEEE Trans. Automatic Control 58(4), 2013 (the switched linear case).
 
     Examples
     --------

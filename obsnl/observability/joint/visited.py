@@ -51,16 +51,16 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
 
     Parameters
     ----------
-    model
+    model : Model
         A model with numbers for every parameter and known constant in ``values`` (default: the
         model's ``[values]``); initial states from ``values`` too (0 when absent).
-    t
+    t : ndarray
         Sample times (increasing).
-    inputs
+    inputs : mapping of str to ndarray
         One array per model input, sampled at ``t``.
-    values
+    values : mapping of str to float or None
         Numbers to use instead of the model's ``[values]``.
-    substeps
+    substeps : int
         Fixed Runge-Kutta steps per sample interval (the input is linear in between).
 
     Returns
