@@ -227,7 +227,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         fit={o: float(100 * v) for o, v in zip(m.outputs, per)}, passes=passes, passes_run=len(trs),
         seconds=float(sum(t.seconds for t in trs)) + refine_seconds, converged=converged,
         output_misfit=misfit if math.isfinite(misfit) else None, noise=noise, tuning=tuning, tuning_scores=scores,
-        data=data_dict, practical=prac.to_dict(), assumptions=tuple(assumptions),
+        data=data_dict, practical=prac, assumptions=tuple(assumptions),
         repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
         y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs,
         converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
