@@ -43,7 +43,7 @@ from obsnl.errors import NotSupportedError
 from obsnl.model.core import Model
 from obsnl.observability.engines.decompose import output_reachable
 from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
-from obsnl.observability.limits import check_analysis_limits
+from obsnl.observability.limits import check_limits_once
 from obsnl.observability.certificates.proofs import verify_generator
 from obsnl.observability.certificates.generators import Symmetries, Symmetry
 
@@ -236,7 +236,7 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
                                 f"([b.model for b in obsnl.split_branches(model)])")
     if degree not in (1, 2):
         raise NotSupportedError(f"degree must be 1 or 2, got {degree!r}")
-    check_analysis_limits(model)  # the size the dense Jacobian and series can hold, before any work
+    check_limits_once(model)  # the size the dense Jacobian and series can hold, before any work (once per call)
     J = jacobian if jacobian is not None else observability_jacobian(model, seed=seed)
     d = len(J.variables) - J.rank
     moved = list(J.unobservable)

@@ -16,7 +16,9 @@ METHODS = ("auto", "orc", "sedoglavic")
 
 
 def _check(model: Model, method: str, seed: int | None, max_seconds: float | None, prob: float,
-           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> None:
+           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> int | str:
+    """Refuse bad options and a model the engines cannot take, before any work; return the unknown-input
+    assumption in force (the caller's option, else the model's key, else ``"arbitrary"``), resolved here once."""
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.load_model")
     if method not in METHODS:
@@ -49,7 +51,7 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
             f"no output of model {model.name!r} depends on a state; measure at least one state"
         )
     # last: the size of what the engines will hold (refused before any heavy work)
-    check_analysis_limits(model, unknown_input_derivatives)
+    return check_analysis_limits(model, unknown_input_derivatives)
 
 
 def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> int | str:
