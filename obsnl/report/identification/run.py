@@ -1,0 +1,175 @@
+"""The text ``obsnl identify`` prints: one identification run, rendered from its value.
+
+The value is an :class:`obsnl.identification.results.Identification`. The report room sits below the
+identification room on the data flow and does not import it: what the renderer reads is written down here
+as protocols (:class:`IdentificationRun` and the values it holds), which the identification's values
+satisfy as they are.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol
+
+__all__ = ["identify_text", "IdentificationRun"]
+
+
+class _Tuning(Protocol):
+    s0: float
+    q_theta: float
+    q_x: float
+    gate: float | None  # inf or None: off
+
+
+class _Estimate(Protocol):
+    name: str
+    guess: float
+    estimate: float | None
+    std: float | None
+    held: bool
+    flagged: bool
+    reason: str | None
+    true: float | None
+    error: float | None
+    error_kind: str | None
+    interval: tuple[float | None, float | None] | None
+
+
+class _Practical(Protocol):
+    inconclusive: str
+    undecided: Mapping[str, str]
+
+
+class IdentificationRun(Protocol):
+    """What :func:`identify_text` reads of a run (:class:`obsnl.identification.results.Identification`)."""
+
+    model: str
+    mode: str
+    method: str
+    parameters: Sequence[_Estimate]
+    fit: Mapping[str, float | None]
+    passes: int
+    passes_run: int
+    seconds: float
+    converged: bool
+    converged_reason: str
+    tuning: _Tuning
+    tuning_scores: Sequence[tuple[_Tuning, float]]
+    data: Mapping[str, Any]
+    practical: _Practical | None
+    refinement: Mapping[str, Any]
+
+
+def _given(v: float | None) -> bool:
+    return v is not None and math.isfinite(v)
+
+
+def identify_text(result: IdentificationRun | Mapping[str, Any]) -> str:
+    """The summary ``obsnl identify`` prints: the run, the chosen tuning, each parameter, the fit.
+
+    Parameters
+    ----------
+    result : Identification or mapping
+        The run. A mapping (``identify.json``, :meth:`Identification.to_dict`) is still read, the same way,
+        while the command line passes that form; it goes once the command line passes the value.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as Run
+    >>> k = Run(name="k", guess=3.0, estimate=2.0, std=0.01, held=False, flagged=False, reason=None, true=None,
+    ...         error=None, error_kind=None, interval=None)
+    >>> run = Run(model="m", mode="measured", method="ukf", parameters=[k], fit={"y": 1.234}, passes=1,
+    ...           passes_run=1, seconds=0.5, converged=True, converged_reason="", tuning=None, tuning_scores=(),
+    ...           data={"name": "d"}, practical=None, refinement={})
+    >>> print(identify_text(run))
+    UKF on m, measured data d, 1 pass(es), 0.50 s: converged
+      k          estimate 2          std 0.01
+      fit (NRMSE): y 1.23 %
+    >>> tuning = Run(s0=0.3, q_theta=0.0, q_x=100.0, gate=None)
+    >>> run.tuning, run.tuning_scores = tuning, [(tuning, 0.9), (tuning, 1.2)]  # chosen among two
+    >>> print(identify_text(run).splitlines()[1])
+      tuning: s0 0.3, q_theta 0, q_x 100, gate off (the smallest output misfit after one pass of 2 configurations)
+    """
+    if isinstance(result, Mapping):  # identify.json's form, read until the command line passes the value
+        return _text(_Json(result))
+    return _text(result)
+
+
+def _text(run: IdentificationRun) -> str:
+    prac, ref = run.practical, run.refinement or {}
+    why = run.converged_reason
+    state = "converged" if run.converged else "NOT converged" + (f": {why}" if why else "")
+    lines = [f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
+             f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s: {state}"]
+    if len(run.tuning_scores) > 1:
+        t = run.tuning
+        lines.append(f"  tuning: s0 {t.s0:g}, q_theta {t.q_theta:g}, q_x {t.q_x:g}, gate "
+                     f"{format(t.gate, 'g') if _given(t.gate) else 'off'} (the smallest output misfit after "
+                     f"one pass of {len(run.tuning_scores)} configurations)")
+    if run.passes_run < run.passes:
+        lines.append(f"  stopped after pass {run.passes_run}: its estimate cannot be simulated (the filter diverged)")
+    if prac is not None and not ref:  # with the refinement the profiles judge each parameter
+        if prac.inconclusive:
+            lines.append(f"  practical identifiability not decided: {prac.inconclusive}")
+        lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}"
+                  for q, why in prac.undecided.items()]
+    lines += [_parameter(p) for p in run.parameters]
+    held = sum(p.held for p in run.parameters)
+    if held:
+        lines.append(f"  {held} parameter(s) held at their guess")
+    fit = ", ".join(f"{k} {v:.2f} %" if _given(v) else f"{k} -" for k, v in run.fit.items())
+    lines.append(f"  fit (NRMSE): {fit}")
+    if ref.get("misfit_over_noise"):
+        lines.append("  residual RMS / noise level: " + ", ".join(f"{k} {v:.2f}" for k, v in
+                                                              ref["misfit_over_noise"].items()))
+    return "\n".join(lines)
+
+
+def _parameter(p: _Estimate) -> str:
+    """One parameter's line: the truth in a simulation study, the estimate (or held), the interval, the flag."""
+    head = f"  {p.name:10s} "
+    if p.true is not None:
+        head += f"true {p.true:<11.4g} "
+    if p.held:
+        return head + f"held at its guess {p.guess:.4g} (not estimated): {p.reason}"
+    std = f"{p.std:<9.2g}" if _given(p.std) else "-"
+    head += f"estimate {p.estimate:<10.4g} std {std}" if _given(p.estimate) else f"estimate {'-':<10s} std {std}"
+    if p.interval is not None:
+        lo, hi = (f"{v:.4g}" if _given(v) else "open" for v in p.interval)
+        head += f" 95 % [{lo}, {hi}]"
+    if _given(p.error):
+        head += f" error {p.error:.2f} %" if p.error_kind == "percent" else f" error {p.error:.3g} (absolute)"
+    return head.rstrip() + (f"  poorly informed: {p.reason}" if p.flagged else "")
+
+
+class _Json:
+    """An ``identify.json`` document read as the run it describes (only what :func:`_text` reads): the
+    command line's form, kept until it passes the value."""
+
+    def __init__(self, doc: Mapping[str, Any]) -> None:
+        self.model, self.mode, self.method = doc["model"], doc["mode"], doc["method"]
+        self.passes, self.passes_run, self.seconds = doc["passes"], doc["passes_run"], doc["seconds"]
+        self.converged, self.converged_reason = bool(doc.get("converged")), doc.get("converged_reason") or ""
+        self.fit, self.data, self.refinement = doc["fit"], doc.get("data") or {}, doc.get("refinement") or {}
+        t = doc.get("tuning")
+        self.tuning = _Attributes(t) if t else None
+        self.tuning_scores = [(None, s.get("output_misfit")) for s in doc.get("tuning_scores") or ()]
+        pi = doc.get("practical_identifiability") or {}
+        self.practical = (_Attributes({"inconclusive": pi.get("inconclusive") or "",
+                                       "undecided": pi.get("undecided") or {}}) if pi else None)
+        self.parameters = [_Attributes({"true": None, "error": None, "error_kind": None, "interval": None, **d,
+                                        "guess": d.get("held_at") if d["held"] else d.get("guess")})
+                           for d in doc["parameters"]]
+
+
+class _Attributes:
+    """A mapping's items as attributes."""
+
+    def __init__(self, items: Mapping[str, Any]) -> None:
+        self.__dict__.update(items)
+
