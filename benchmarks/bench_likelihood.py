@@ -328,12 +328,19 @@ def noisy(case: Case, seed: int = NOISE_SEED, scale: float = 1.0) -> dict[str, n
     return cols
 
 
+#: Local processes for the profiles (``--workers``; 1: this process, one profile after the other).
+WORKERS = 1
+
+
 def timed_identify(case: Case, data: dict, refine: bool):
+    from obsnl.executor import Executor
+
     stamps = []
     tic = time.perf_counter()
     noise = dict(case.noise) | {s.name: INPUT_NOISE for s in case.model.inputs}
     res = obsnl.identify(case.model, data, guess=case.guess, noise=noise, refine=refine,
-                         progress=lambda: stamps.append(time.perf_counter() - tic))
+                         progress=lambda: stamps.append(time.perf_counter() - tic),
+                         executor=Executor(workers=WORKERS) if WORKERS > 1 else None)
     return res, time.perf_counter() - tic, stamps
 
 
@@ -625,7 +632,11 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=None, help="repeat the refined run on the noise-free data and on "
                     "this many other noise seeds (default: DEFAULT_SEEDS of the case; 0: not repeated)")
     ap.add_argument("--gather", action="store_true", help="only rebuild likelihood.md from the case folders")
+    ap.add_argument("--workers", type=int, default=1, help="local processes for the profiles (default 1: in this "
+                    "process; `obsnl.identify(..., executor=Executor(workers=N))`)")
     args = ap.parse_args(argv)
+    global WORKERS
+    WORKERS = max(1, args.workers)
     out = Path(args.out)
     if args.gather:
         gather(out)
@@ -637,6 +648,7 @@ def main(argv=None) -> int:
         seeds = DEFAULT_SEEDS[name] if args.seeds is None else args.seeds
         case = CASES[name](args.samples)
         command = (f"{CMD} --case {name}" + (f" --samples {args.samples}" if args.samples else "")
+                   + (f" --workers {WORKERS}" if WORKERS > 1 else "")
                    + (f" --seeds {seeds}" if seeds != DEFAULT_SEEDS[name] else ""))
         summary, goals = run_case(case, out, seeds, command)
         ok &= all(g for g, _ in goals.values())

@@ -113,8 +113,9 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         True (default): a progress bar on standard error over the filter passes (tuning included), the
         refinement, the profiles and the replicates; False: none; a callable: called after each of those steps.
     executor
-        Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`: local processes or a Dask
-        cluster; default: this process). The same numbers on any executor.
+        Where the profile likelihoods and the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`:
+        local processes or a Dask cluster; default: this process, one after the other). The same numbers on
+        any executor; on a 2-core machine ``Executor(workers=2)`` about halves the profiles' time.
     refine
         Refine the filter's estimate by maximum likelihood (the default last step): Fisher std, 95 %
         profile-likelihood intervals, flags from the intervals, ``converged`` from the optimizer's
@@ -219,7 +220,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     progress : bool, callable or None
         A progress bar on standard error (True, the default), none (False), or a callback per step.
     executor : Executor or None
-        Where the Monte-Carlo replicates run (default: this process).
+        Where the profile likelihoods and the Monte-Carlo replicates run (default: this process).
     hold : bool
         Hold poorly informed parameters at their guess (default: off, nothing is held).
     refine : bool
