@@ -57,6 +57,24 @@ def test_the_structural_check_refuses_or_names_the_unidentifiable():
     assert union.verdict == "union" and union.unidentifiable == ("a", "b")
 
 
+def test_the_structural_check_names_what_the_dukf_would_freeze():
+    # one Bouc-Wen storey: every branch sees beta*s + gamma only (s = +1 or -1), the branches together identify
+    # both; a per-branch DUKF would hold them at the guess (the same case as test_joint_analysis, from Python)
+    storey = obsnl.Model(name="storey", states=["x", "v", "z"], parameters=["c", "k", "kh", "beta", "gamma"],
+                         inputs=["ag"], outputs={"a": "-c*v - k*x - kh*z"},
+                         equations={"x": "v", "v": "-ag - c*v - k*x - kh*z",
+                                    "z": "v - beta*Abs(v)*Abs(z)*z - gamma*v*z**2"})
+    result = analyze(storey, seed=0)
+    table = obsnl.report.branch_table(result, storey)
+    names = [p.name for p in storey.parameters]
+    with pytest.raises(AnalysisError, match="beta, gamma of 'storey' are identifiable only jointly"):
+        structural_check(result, "storey", names, table=table, method="dukf")
+    check = structural_check(result, "storey", names, table=table, method="dukf", allow_unidentifiable=True)
+    assert check.identifiable and check.frozen_by_the_dukf == ("beta", "gamma")
+    assert check.to_dict()["frozen_by_the_dukf"] == ["beta", "gamma"] and "frozen by the DUKF" in check.summary()
+    assert structural_check(result, "storey", names, table=table, method="ukf").frozen_by_the_dukf == ()
+
+
 # --------------------------------------------------------------------------- Identification holds values
 def _identification(**changes) -> Identification:
     params = (ParameterEstimate("k", 3.0, 2.0, 0.01, False, False, interval=(1.98, 2.02),

@@ -15,50 +15,83 @@ from typing import Any, Protocol
 __all__ = ["identify_text", "IdentificationRun"]
 
 
+# the members are read-only properties: the values read are frozen dataclasses
 class _Tuning(Protocol):
-    s0: float
-    q_theta: float
-    q_x: float
-    gate: float | None  # inf or None: off
+    @property
+    def s0(self) -> float: ...
+    @property
+    def q_theta(self) -> float: ...
+    @property
+    def q_x(self) -> float: ...
+    @property
+    def gate(self) -> float | None: ...  # inf or None: off
 
 
 class _Estimate(Protocol):
-    name: str
-    guess: float
-    estimate: float | None
-    std: float | None
-    held: bool
-    flagged: bool
-    reason: str | None
-    true: float | None
-    error: float | None
-    error_kind: str | None
-    interval: tuple[float | None, float | None] | None
+    @property
+    def name(self) -> str: ...
+    @property
+    def guess(self) -> float: ...
+    @property
+    def estimate(self) -> float | None: ...
+    @property
+    def std(self) -> float | None: ...
+    @property
+    def held(self) -> bool: ...
+    @property
+    def flagged(self) -> bool: ...
+    @property
+    def reason(self) -> str | None: ...
+    @property
+    def true(self) -> float | None: ...
+    @property
+    def error(self) -> float | None: ...
+    @property
+    def error_kind(self) -> str | None: ...
+    @property
+    def interval(self) -> tuple[float | None, float | None] | None: ...
 
 
 class _Practical(Protocol):
-    inconclusive: str
-    undecided: Mapping[str, str]
+    @property
+    def inconclusive(self) -> str: ...
+    @property
+    def undecided(self) -> Mapping[str, str]: ...
 
 
 class IdentificationRun(Protocol):
     """What :func:`identify_text` reads of a run (:class:`obsnl.identification.results.Identification`)."""
 
-    model: str
-    mode: str
-    method: str
-    parameters: Sequence[_Estimate]
-    fit: Mapping[str, float | None]
-    passes: int
-    passes_run: int
-    seconds: float
-    converged: bool
-    converged_reason: str
-    tuning: _Tuning
-    tuning_scores: Sequence[tuple[_Tuning, float]]
-    data: Mapping[str, Any]
-    practical: _Practical | None
-    refinement: Mapping[str, Any]
+    @property
+    def model(self) -> str: ...
+    @property
+    def mode(self) -> str: ...
+    @property
+    def method(self) -> str: ...
+    @property
+    def parameters(self) -> Sequence[_Estimate]: ...
+    @property
+    def fit(self) -> Mapping[str, float | None]: ...
+    @property
+    def passes(self) -> int: ...
+    @property
+    def passes_run(self) -> int: ...
+    @property
+    def seconds(self) -> float: ...
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def converged_reason(self) -> str: ...
+    @property
+    def tuning(self) -> _Tuning: ...
+    @property
+    def tuning_scores(self) -> Sequence[tuple[_Tuning, float]]: ...
+    @property
+    def data(self) -> Mapping[str, Any]: ...
+    @property
+    def practical(self) -> _Practical | None: ...
+    @property
+    def refinement(self) -> Mapping[str, Any]: ...
 
 
 def _given(v: float | None) -> bool:
