@@ -114,6 +114,9 @@ def test_identification_keeps_practical_and_structural_as_values_and_its_json_ke
     assert doc["practical_identifiability"]["crb_relative_std"][1] is None
     assert doc["structural"] == {"verdict": "joint", "unidentifiable": [], "allowed": False, "undecided": ["m"],
                                  "branches": 2, "frozen_by_the_dukf": []}
+    # the summary says the structural verdict under the run's line
+    assert run.summary().splitlines()[1] == "structural analysis (joint verdict over 2 branches): every parameter " \
+        "identifiable"
     # not computed: the empty objects identify.json had
     bare = _identification(practical=None, structural=None).to_dict()
     assert bare["practical_identifiability"] == {} and bare["structural"] == {}

@@ -140,13 +140,16 @@ class Identification:
                         f"converged={self.converged}", f"flagged={names(self.flagged, 4)!r}", f"estimates='{est}'")
 
     def summary(self) -> str:
-        """A few lines of plain text: the run, each parameter's estimate, what is flagged, the fit."""
+        """A few lines of plain text: the run, the structural verdict, each parameter's estimate, what is flagged,
+        the fit."""
         fit = names([f"{o} {number(v)} %" for o, v in self.fit.items()])
         rows = [p.summary().rstrip("\n") for p in self.parameters]
+        most = 8 if self.structural is None else 7  # a dozen lines in all
         return block(f"{self.model}: {self.mode}, {self.method}, {self.passes_run} of {self.passes} passes, "
                      f"{'converged' if self.converged else 'NOT converged'}"
                      f"{f' ({self.converged_reason})' if self.converged_reason else ''}, {self.seconds:.3g} s",
-                     *rows[:8], f"... and {len(rows) - 8} more parameters" if len(rows) > 8 else "",
+                     self.structural.note() if self.structural is not None else "", *rows[:most],
+                     f"... and {len(rows) - most} more parameters" if len(rows) > most else "",
                      f"flagged (poorly informed by these data): {names(self.flagged)}" if self.flagged else "",
                      f"fit (NRMSE of the model at the estimate): {fit}")
 
