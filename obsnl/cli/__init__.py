@@ -1,50 +1,166 @@
-"""The ``obsnl`` command line: thin argparse dispatch onto the public API.
+"""The ``obsnl`` command line: each subcommand parses its options, calls one library function and prints
+its rendering (:mod:`obsnl.cli.commands`). The parser is the table :data:`COMMANDS`.
 
-Exit codes: 0 success, 2 bad input (one line on stderr, no traceback), 1 an internal error.
-Each subcommand is one ``_cmd_*`` function plus its ``_add_*`` parser builder: the analysis side in
-:mod:`obsnl.cli.analysis`, identification and the studies in :mod:`obsnl.cli.estimation`, what they
-share in :mod:`obsnl.cli.common`.
+Exit codes: 0 success, 2 bad input (one line on stderr, no traceback), 1 an internal error. Nothing
+numeric is imported before a command runs: ``obsnl --help`` loads argparse and the package only.
 """
 
 from __future__ import annotations
 
 import argparse
-import atexit
-import os
 import sys
 from collections.abc import Sequence
 
-from obsnl.cli.analysis import _add_show, _add_branches, _add_analyze, _add_report, _add_symmetries, _add_reparametrize
-from obsnl.cli.common import _Exit, write_output
-from obsnl.cli.estimation import _add_bank, _add_identify, _add_reproduce
-from obsnl.cli.experiment import _add_design
-from obsnl.cli.sensors import _add_sensors
-from obsnl.errors import ObsnlError
+from obsnl.cli.common import _Exit, _at_least, _passes, _replicates, _seed
 
-__all__ = ["main", "run", "build_parser", "write_output"]
+__all__ = ["main", "run", "build_parser"]
 
 
-_BUILDERS = [_add_show, _add_branches, _add_analyze, _add_report, _add_symmetries, _add_reparametrize,
-             _add_identify, _add_reproduce, _add_bank, _add_sensors, _add_design]
+def _scales(text: str) -> list[float]:
+    """An argparse type: comma-separated positive numbers."""
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(0 < v < float("inf") for v in values):
+        raise argparse.ArgumentTypeError(f"{text[:30]!r} is not a list of positive numbers such as 0.1,1,10")
+    return values
+
+
+def _o(*flags: str, **kw: object) -> tuple:
+    return flags, kw
+
+
+def _int(low: int) -> dict:
+    return {"type": _at_least(low), "default": None}
+
+
+MODEL = _o("model", help="model file (.toml or .json) or obsnl:NAME")
+FMT, FMT4 = (_o("--format", choices=c, default="text", help="output format (default: text)")
+             for c in (("text", "json"), ("text", "json", "md", "tex")))
+OUT = [_o("-o", "--output", metavar="FILE", help="write to FILE instead of stdout"),
+       _o("--force", action="store_true", help="overwrite existing output files")]
+METHOD = _o("--method", choices=("auto", "orc", "sedoglavic"), default="auto", help="observability engine")
+SEED, SECONDS = _o("--seed", type=_seed, default=0, help="seed (default: 0)"), _o("--max-seconds", type=float)
+EXECUTOR = [_o("--workers", type=_at_least(1), help="local processes (1: none; default: one per core)"),
+            _o("--scheduler", metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")]
+ONE_WORKER = [_o("--workers", type=_at_least(1), default=1, help="local processes (default: 1)"), EXECUTOR[1]]
+RECORD = "(.csv or .AT2) driving the model's one input"
+
+
+def _commands() -> dict[str, tuple[str, str, list[tuple]]]:
+    """Each subcommand: its one-line help, its description and its options, in the order --help lists them."""
+    from obsnl.model.reading.unknown_inputs import DERIVATIVES_MARGIN
+    from obsnl.observability.limits import MAX_UNKNOWNS
+
+    big = (f"A model with more than {MAX_UNKNOWNS} unknowns (states + parameters + unknown-input coefficients) is "
+           "refused before any work.")
+    return {
+        "show": ("print a model's equations", "Print a model's equations and roles.", [MODEL, FMT]),
+        "branches": ("list the smooth branches of a non-smooth model", "Split a model at its switching functions "
+                     "and list each branch's label and guard.",
+                     [MODEL, FMT, _o("--equations", action="store_true", help="also print each branch's equations")]),
+        "analyze": ("observability/identifiability of every branch of a model", "Test each smooth branch with the "
+                    "ORC or Sedoglavic's randomized test, then the branches jointly. Exit code 2 when a branch is "
+                    "inconclusive (the result is still printed, the reason goes to stderr). " + big,
+                    [MODEL, _o("--format", choices=("text", "json", "md", "tex", "json-table"), default="text",
+                               help="json-table: the branch table read by the DUKF"), METHOD,
+                     _o("--seed", type=_seed, help="seed (default: drawn and reported)"), SECONDS,
+                     _o("--branches", metavar="LABELS", help="visit only these branches (e.g. a,c)"),
+                     _o("--record", metavar="FILE", help=f"analyse what the model's [values] visit under a record {RECORD}"),
+                     _o("--no-joint", action="store_true", help="skip the joint verdict"),
+                     _o("--unknown-input-derivatives", metavar="K|arbitrary", help="'arbitrary' or K non-zero "
+                        f"derivatives; K is at most the model's states + parameters + {DERIVATIVES_MARGIN}"), *OUT]),
+        "report": ("analyse models and write their branch tables (Markdown, LaTeX, JSON)", "Write DIR/<model>.md, "
+                   ".tex and .json, index.md and timings.md. " + big,
+                   [_o("models", nargs="+", metavar="MODEL"), _o("--out", required=True, metavar="DIR"), METHOD,
+                    SEED, SECONDS, OUT[1], *ONE_WORKER]),
+        "symmetries": ("generators of the unobservable directions of each branch", "Translations, scalings and "
+                       "affine fields that leave the outputs unchanged, per branch (exact over Q, verified).",
+                       [MODEL, FMT, _o("--degree", type=int, choices=(1, 2), default=1, help="ansatz degree"), SEED]),
+        "reparametrize": ("propose identifiable combinations and write the model in them", "Write the model in "
+                          "identifiable combinations, each defined in its [definitions] table.",
+                          [MODEL, _o("-o", "--output", metavar="NEW.toml"), OUT[1],
+                           _o("--eliminate", default="", metavar="P,Q", help="parameters to normalise to 1"),
+                           _o("--keep", default="", metavar="P,Q", help="parameters that must not be pivots"),
+                           _o("--name", action="append", default=[], metavar="OLD=NEW", help="rename a symbol"), SEED]),
+        "identify": ("identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
+                     "Analyse MODEL, then estimate its parameters from --data (CSV: time_s or t, one column per "
+                     "input and output) or a simulation study of its [values] under --record, refined by maximum "
+                     "likelihood. With --out: DIR/identify.json, fit.png, traces.png and profiles.png.",
+                     [MODEL, _o("--data", one_of=1, help="measured inputs and outputs (.csv)"),
+                      _o("--record", one_of=1, help=f"simulation study: a record {RECORD}"),
+                      _o("--table", help="branch table JSON (for --method dukf)"),
+                      _o("--method", choices=("ukf", "dukf"), default="ukf"),
+                      _o("--guess", action="append", default=[], metavar="P=V", help="initial guess (repeatable)"),
+                      _o("--noise", action="append", default=[], metavar="NAME=RATIO", help="noise-to-signal RMS "
+                         "ratio of a channel, or RATIO for all (default: estimated; in a study 0.001)"),
+                      _o("--passes", type=_passes, default=3), _o("--allow-unidentifiable", action="store_true"),
+                      _o("--hold", action="store_true", help="hold poorly informed parameters at their guess"),
+                      _o("--no-refine", action="store_true", help="skip the maximum-likelihood refinement"), SEED,
+                      *[_o(f, type=float, help="tuning (default: by the output misfit)") for f in
+                        ("--s0", "--q-theta", "--q-x", "--gate")],
+                      _o("--samples", **_int(2), help="first samples of a --record"), _o("--jit", action="store_true"),
+                      _o("--replicates", type=_replicates, default=0, help="Monte-Carlo replicates (0 or >= 3)"),
+                      *EXECUTOR, _o("--out", metavar="DIR"), OUT[1]]),
+        "reproduce": ("reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
+                      "Tune the UKF and the DUKF on unreported noise seeds, run them on --seeds seeds, write Table 2 "
+                      "and the figures. The default folder reports/identification (/RECORD) holds the committed "
+                      "results and is REGENERATED; --quick writes reproduce-quick/ here instead; any other folder "
+                      "is never overwritten without --force.",
+                      [_o("--quick", action="store_true", help="the quick form (under a minute; options given win)"),
+                       _o("--record", help="another ground motion (.csv or .AT2), resampled to 100 Hz"),
+                       _o("--seeds", **_int(1), help="reported seeds (default: 5)"),
+                       _o("--tuning-seeds", **_int(1), help="tuning seeds (default: 5)"),
+                       _o("--passes", type=_passes), _o("--samples", **_int(2), help="first samples only"),
+                       _o("--no-jit", action="store_true", help="do not compile the filters to C"),
+                       _o("--replicates", type=_replicates, help="Monte-Carlo replicates (default: 32; 0: off)"),
+                       _o("--out", help="output folder"), OUT[1], *EXECUTOR]),
+        "bank": ("run the observer-bank crack benchmark on the cantilever link", "Write bank.md, bank.json and "
+                 "forces_*.png for the healthy link and a breathing crack in each element.",
+                 [_o("--seeds", type=_at_least(1), default=3), _o("--out", default="reports/bank"),
+                  _o("--model", help="link model file (default: obsnl:cantilever_link)"), OUT[1]]),
+        "sensors": ("which sensors make every target identifiable (minimal sets of the model's outputs)", "The "
+                    "minimal sets of the model's outputs for which the targets are jointly identifiable.",
+                    [MODEL, _o("--target", default="all", metavar="all|parameters|NAMES"),
+                     _o("--max-size", **_int(1), metavar="K"), FMT4, *OUT, SEED,
+                     _o("--max-seconds", type=float, help="time limit of each analysis"),
+                     _o("--progress", action="store_true"), _o("--record", metavar="FILE", help="rank the sets by "
+                        f"the Cramer-Rao bound under a record {RECORD}"), _o("--rank-size", **_int(1), metavar="K"),
+                     _o("--noise", type=float, default=0.01, metavar="LEVEL", help="std = LEVEL x RMS"), *ONE_WORKER]),
+        "design": ("the smallest record scale and the records that make a model identifiable", "The branches "
+                   "visited per record scale, the smallest sufficient scale and the sufficient sets of records. "
+                   "Exit code 2 when inconclusive.",
+                   [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}"),
+                    _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
+                    _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", type=_scales, metavar="S1,S2"), SEED]),
+    }
 
 
 def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser (exposed for tests and documentation)."""
-    parser = argparse.ArgumentParser(
-        prog="obsnl",
-        description="Observability and identifiability of nonlinear, non-smooth mechanical models.",
-    )
+    """The full argument parser, built from :func:`_commands` (exposed for tests and documentation)."""
     from obsnl import __version__
+    from obsnl.cli import commands
 
+    parser = argparse.ArgumentParser(prog="obsnl", description="Observability and identifiability of nonlinear, "
+                                     "non-smooth mechanical models.")
     parser.add_argument("--version", action="version", version=f"obsnl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for build in _BUILDERS:
-        build(sub)
+    for name, (short, description, options) in _commands().items():
+        p = sub.add_parser(name, help=short, description=description)
+        group = None
+        for flags, kw in options:
+            if kw.get("one_of") and group is None:  # one of these options is required
+                group = p.add_mutually_exclusive_group(required=True)
+            (group if kw.get("one_of") else p).add_argument(*flags, **{k: v for k, v in kw.items() if k != "one_of"})
+        p.set_defaults(func=getattr(commands, name))
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (0 ok, 2 bad input, 1 internal error)."""
+    from obsnl.errors import ObsnlError
+
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -57,13 +173,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except _Exit as exc:
-        if exc.message:
-            print(f"obsnl {args.command}: error: {exc.message}", file=sys.stderr)
+        print(f"obsnl {args.command}: error: {exc.message}", file=sys.stderr)
         return exc.code
-    except ObsnlError as exc:
-        print(f"obsnl {args.command}: error: {exc}", file=sys.stderr)
-        return 2
-    except (FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+    except (ObsnlError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
         print(f"obsnl {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
@@ -72,26 +184,9 @@ def main(argv: Sequence[str] | None = None) -> int:
 
 
 def run() -> None:
-    """The ``obsnl`` program: :func:`main`, then exit without tearing the interpreter down.
-
-    Freeing the objects that importing sympy made, one by one, is about a sixth of the wall time of
-    a small analysis (0.15 s). By the time :func:`main` returns every file it wrote is closed and
-    its worker pools and Dask clients are shut down (they live in ``with`` blocks); the ``atexit``
-    handlers still run and the standard streams are flushed, so nothing but the freeing is skipped.
-    """
-    code = main()
-    try:
-        atexit._run_exitfuncs()  # what a normal exit runs first (CPython)
-    finally:
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except (OSError, ValueError):  # a closed pipe: nothing more can reach it
-                pass
-        os._exit(code)
+    """The ``obsnl`` program: :func:`main`, then a normal exit with its code."""
+    sys.exit(main())
 
 
 if __name__ == "__main__":  # pragma: no cover
     run()
-
-

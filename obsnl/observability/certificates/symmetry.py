@@ -40,6 +40,7 @@ from obsnl.algebra.modp import (
     rational_reconstruction,
 )
 from obsnl.errors import NotSupportedError
+from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.observability.engines.decompose import output_reachable
 from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
@@ -47,7 +48,7 @@ from obsnl.observability.limits import check_limits_once
 from obsnl.observability.certificates.proofs import verify_generator
 from obsnl.observability.certificates.generators import Symmetries, Symmetry
 
-__all__ = ["symmetries"]
+__all__ = ["symmetries", "branch_symmetries"]
 
 _MAX_UNKNOWNS = 2500
 
@@ -290,3 +291,24 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
                      f"{'quadratic' if degree == 2 else 'affine'} ansatz")
     return Symmetries(model.name, tuple(kept), d, missing, tuple(v.name for v in moved), tuple(e.name for e in exps),
                       time.perf_counter() - t0, seed, tuple(notes), J)
+
+
+def branch_symmetries(model: Model, *, seed: int = 0, degree: int = 1) -> list[tuple[Branch, Symmetries]]:
+    """:func:`symmetries` of each smooth branch of a model (the ``i``-th branch with seed ``seed + i``).
+
+    Parameters
+    ----------
+    model
+        A model, smooth or not.
+    seed
+        Seed of the split and of the first branch's random points.
+    degree
+        Ansatz degree, as for :func:`symmetries`.
+
+    Returns
+    -------
+    list of (Branch, Symmetries)
+        Each branch with the generators found on it.
+    """
+    return [(b, symmetries(b.model, seed=seed + i, degree=degree))
+            for i, b in enumerate(split_branches(model, seed=seed))]
