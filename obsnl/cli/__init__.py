@@ -11,129 +11,96 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from obsnl.cli.common import _Exit, _at_least, _passes, _replicates, _seed
+from obsnl.cli.common import _Exit, _at_least, _passes, _replicates, _scales, _seed
 
 __all__ = ["main", "run", "build_parser"]
-
-
-def _scales(text: str) -> list[float]:
-    """An argparse type: comma-separated positive numbers."""
-    try:
-        values = [float(x) for x in text.split(",") if x.strip()]
-    except ValueError:
-        values = []
-    if not values or not all(0 < v < float("inf") for v in values):
-        raise argparse.ArgumentTypeError(f"{text[:30]!r} is not a list of positive numbers such as 0.1,1,10")
-    return values
 
 
 def _o(*flags: str, **kw: object) -> tuple:
     return flags, kw
 
 
-def _int(low: int) -> dict:
-    return {"type": _at_least(low), "default": None}
-
-
-MODEL = _o("model", help="model file (.toml or .json) or obsnl:NAME")
-FMT, FMT4 = (_o("--format", choices=c, default="text", help="output format (default: text)")
-             for c in (("text", "json"), ("text", "json", "md", "tex")))
-OUT = [_o("-o", "--output", metavar="FILE", help="write to FILE instead of stdout"),
-       _o("--force", action="store_true", help="overwrite existing output files")]
+MODEL, SECONDS = _o("model", help="model file (.toml or .json) or obsnl:NAME"), _o("--max-seconds", type=float)
+FMT, FMT4 = (_o("--format", choices=c, default="text") for c in (("text", "json"), ("text", "json", "md", "tex")))
+FORCE, SEED = _o("--force", action="store_true", help="overwrite existing files"), _o("--seed", type=_seed, default=0)
+OUT = [_o("-o", "--output", metavar="FILE", help="write here instead of stdout"), FORCE]
 METHOD = _o("--method", choices=("auto", "orc", "sedoglavic"), default="auto", help="observability engine")
-SEED, SECONDS = _o("--seed", type=_seed, default=0, help="seed (default: 0)"), _o("--max-seconds", type=float)
-EXECUTOR = [_o("--workers", type=_at_least(1), help="local processes (1: none; default: one per core)"),
-            _o("--scheduler", metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")]
-ONE_WORKER = [_o("--workers", type=_at_least(1), default=1, help="local processes (default: 1)"), EXECUTOR[1]]
+SCHEDULER = _o("--scheduler", metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
+EXECUTOR = [_o("--workers", type=_at_least(1), help="local processes (default: one per core)"), SCHEDULER]
+ONE_WORKER = [_o("--workers", type=_at_least(1), default=1, help="local processes (default: 1)"), SCHEDULER]
 RECORD = "(.csv or .AT2) driving the model's one input"
 
 
-def _commands() -> dict[str, tuple[str, str, list[tuple]]]:
+def _int(low: int, **kw: object) -> dict:
+    return {"type": _at_least(low), "default": None, **kw}
+
+
+def _commands() -> dict[str, tuple[str, str | None, list[tuple]]]:
     """Each subcommand: its one-line help, its description and its options, in the order --help lists them."""
     from obsnl.model.reading.unknown_inputs import DERIVATIVES_MARGIN
     from obsnl.observability.limits import MAX_UNKNOWNS
 
-    big = (f"A model with more than {MAX_UNKNOWNS} unknowns (states + parameters + unknown-input coefficients) is "
-           "refused before any work.")
+    big = f"A model with more than {MAX_UNKNOWNS} unknowns (states + parameters + unknown inputs) is refused first."
     return {
-        "show": ("print a model's equations", "Print a model's equations and roles.", [MODEL, FMT]),
-        "branches": ("list the smooth branches of a non-smooth model", "Split a model at its switching functions "
-                     "and list each branch's label and guard.",
-                     [MODEL, FMT, _o("--equations", action="store_true", help="also print each branch's equations")]),
-        "analyze": ("observability/identifiability of every branch of a model", "Test each smooth branch with the "
-                    "ORC or Sedoglavic's randomized test, then the branches jointly. Exit code 2 when a branch is "
-                    "inconclusive (the result is still printed, the reason goes to stderr). " + big,
-                    [MODEL, _o("--format", choices=("text", "json", "md", "tex", "json-table"), default="text",
-                               help="json-table: the branch table read by the DUKF"), METHOD,
-                     _o("--seed", type=_seed, help="seed (default: drawn and reported)"), SECONDS,
-                     _o("--branches", metavar="LABELS", help="visit only these branches (e.g. a,c)"),
-                     _o("--record", metavar="FILE", help=f"analyse what the model's [values] visit under a record {RECORD}"),
+        "show": ("print a model's equations", None, [MODEL, FMT]),
+        "branches": ("list the smooth branches of a non-smooth model", None,
+                     [MODEL, FMT, _o("--equations", action="store_true", help="print each branch's equations")]),
+        "analyze": ("observability/identifiability of every branch of a model", "Test each smooth branch (ORC or "
+                    "Sedoglavic's randomized test), then the branches jointly. Exit code 2 when a branch is "
+                    "inconclusive: the result is printed, the reason goes to stderr. " + big,
+                    [MODEL, _o("--format", choices=("text", "json", "md", "tex", "json-table"), default="text"),
+                     METHOD, _o("--seed", type=_seed, help="default: drawn and reported"), SECONDS,
+                     _o("--branches", metavar="LABELS", help="only these branches (e.g. a,c)"),
+                     _o("--record", metavar="FILE", help=f"only what the [values] visit under a record {RECORD}"),
                      _o("--no-joint", action="store_true", help="skip the joint verdict"),
-                     _o("--unknown-input-derivatives", metavar="K|arbitrary", help="'arbitrary' or K non-zero "
-                        f"derivatives; K is at most the model's states + parameters + {DERIVATIVES_MARGIN}"), *OUT]),
+                     _o("--unknown-input-derivatives", metavar="K|arbitrary", help="K non-zero derivatives; K is "
+                        f"at most the model's states + parameters + {DERIVATIVES_MARGIN}"), *OUT]),
         "report": ("analyse models and write their branch tables (Markdown, LaTeX, JSON)", "Write DIR/<model>.md, "
-                   ".tex and .json, index.md and timings.md. " + big,
+                   ".tex, .json, index.md and timings.md. " + big,
                    [_o("models", nargs="+", metavar="MODEL"), _o("--out", required=True, metavar="DIR"), METHOD,
-                    SEED, SECONDS, OUT[1], *ONE_WORKER]),
-        "symmetries": ("generators of the unobservable directions of each branch", "Translations, scalings and "
-                       "affine fields that leave the outputs unchanged, per branch (exact over Q, verified).",
-                       [MODEL, FMT, _o("--degree", type=int, choices=(1, 2), default=1, help="ansatz degree"), SEED]),
-        "reparametrize": ("propose identifiable combinations and write the model in them", "Write the model in "
-                          "identifiable combinations, each defined in its [definitions] table.",
-                          [MODEL, _o("-o", "--output", metavar="NEW.toml"), OUT[1],
+                    SEED, SECONDS, FORCE, *ONE_WORKER]),
+        "symmetries": ("generators of the unobservable directions of each branch", None,
+                       [MODEL, FMT, _o("--degree", type=int, choices=(1, 2), default=1), SEED]),
+        "reparametrize": ("propose identifiable combinations and write the model in them", None,
+                          [MODEL, _o("-o", "--output", metavar="NEW.toml"), FORCE, SEED,
                            _o("--eliminate", default="", metavar="P,Q", help="parameters to normalise to 1"),
                            _o("--keep", default="", metavar="P,Q", help="parameters that must not be pivots"),
-                           _o("--name", action="append", default=[], metavar="OLD=NEW", help="rename a symbol"), SEED]),
+                           _o("--name", action="append", default=[], metavar="OLD=NEW", help="rename a symbol")]),
         "identify": ("identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
                      "Analyse MODEL, then estimate its parameters from --data (CSV: time_s or t, one column per "
-                     "input and output) or a simulation study of its [values] under --record, refined by maximum "
-                     "likelihood. With --out: DIR/identify.json, fit.png, traces.png and profiles.png.",
+                     "input and output) or a study of its [values] under --record, refined by maximum likelihood.",
                      [MODEL, _o("--data", one_of=1, help="measured inputs and outputs (.csv)"),
                       _o("--record", one_of=1, help=f"simulation study: a record {RECORD}"),
-                      _o("--table", help="branch table JSON (for --method dukf)"),
-                      _o("--method", choices=("ukf", "dukf"), default="ukf"),
-                      _o("--guess", action="append", default=[], metavar="P=V", help="initial guess (repeatable)"),
-                      _o("--noise", action="append", default=[], metavar="NAME=RATIO", help="noise-to-signal RMS "
-                         "ratio of a channel, or RATIO for all (default: estimated; in a study 0.001)"),
+                      _o("--table", help="branch table (for dukf)"), _o("--method", choices=("ukf", "dukf"),
+                                                                        default="ukf"),
+                      _o("--guess", action="append", default=[], metavar="P=V"), _o("--noise", action="append",
+                         default=[], metavar="NAME=RATIO", help="noise/signal RMS of a channel, or RATIO for all"),
                       _o("--passes", type=_passes, default=3), _o("--allow-unidentifiable", action="store_true"),
-                      _o("--hold", action="store_true", help="hold poorly informed parameters at their guess"),
-                      _o("--no-refine", action="store_true", help="skip the maximum-likelihood refinement"), SEED,
-                      *[_o(f, type=float, help="tuning (default: by the output misfit)") for f in
-                        ("--s0", "--q-theta", "--q-x", "--gate")],
-                      _o("--samples", **_int(2), help="first samples of a --record"), _o("--jit", action="store_true"),
-                      _o("--replicates", type=_replicates, default=0, help="Monte-Carlo replicates (0 or >= 3)"),
-                      *EXECUTOR, _o("--out", metavar="DIR"), OUT[1]]),
+                      _o("--hold", action="store_true"), _o("--no-refine", action="store_true"), SEED,
+                      *[_o(f, type=float, help="default: tuned") for f in ("--s0", "--q-theta", "--q-x", "--gate")],
+                      _o("--samples", **_int(2)), _o("--jit", action="store_true"),
+                      _o("--replicates", type=_replicates, default=0), *EXECUTOR, _o("--out", metavar="DIR"), FORCE]),
         "reproduce": ("reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
-                      "Tune the UKF and the DUKF on unreported noise seeds, run them on --seeds seeds, write Table 2 "
-                      "and the figures. The default folder reports/identification (/RECORD) holds the committed "
-                      "results and is REGENERATED; --quick writes reproduce-quick/ here instead; any other folder "
-                      "is never overwritten without --force.",
-                      [_o("--quick", action="store_true", help="the quick form (under a minute; options given win)"),
-                       _o("--record", help="another ground motion (.csv or .AT2), resampled to 100 Hz"),
-                       _o("--seeds", **_int(1), help="reported seeds (default: 5)"),
-                       _o("--tuning-seeds", **_int(1), help="tuning seeds (default: 5)"),
-                       _o("--passes", type=_passes), _o("--samples", **_int(2), help="first samples only"),
-                       _o("--no-jit", action="store_true", help="do not compile the filters to C"),
-                       _o("--replicates", type=_replicates, help="Monte-Carlo replicates (default: 32; 0: off)"),
-                       _o("--out", help="output folder"), OUT[1], *EXECUTOR]),
-        "bank": ("run the observer-bank crack benchmark on the cantilever link", "Write bank.md, bank.json and "
-                 "forces_*.png for the healthy link and a breathing crack in each element.",
+                      "The default folder reports/identification (/RECORD) holds the committed results and is "
+                      "REGENERATED; --quick writes reproduce-quick/ here; another --out is never overwritten "
+                      "without --force.",
+                      [_o("--quick", action="store_true", help="the quick form, under a minute (options given win)"),
+                       _o("--record", help="another ground motion (.csv or .AT2)"), _o("--seeds", **_int(1)),
+                       _o("--tuning-seeds", **_int(1)), _o("--passes", type=_passes), _o("--samples", **_int(2)),
+                       _o("--no-jit", action="store_true"), _o("--replicates", type=_replicates), _o("--out"), FORCE,
+                       *EXECUTOR]),
+        "bank": ("run the observer-bank crack benchmark on the cantilever link", None,
                  [_o("--seeds", type=_at_least(1), default=3), _o("--out", default="reports/bank"),
-                  _o("--model", help="link model file (default: obsnl:cantilever_link)"), OUT[1]]),
-        "sensors": ("which sensors make every target identifiable (minimal sets of the model's outputs)", "The "
-                    "minimal sets of the model's outputs for which the targets are jointly identifiable.",
-                    [MODEL, _o("--target", default="all", metavar="all|parameters|NAMES"),
-                     _o("--max-size", **_int(1), metavar="K"), FMT4, *OUT, SEED,
-                     _o("--max-seconds", type=float, help="time limit of each analysis"),
-                     _o("--progress", action="store_true"), _o("--record", metavar="FILE", help="rank the sets by "
-                        f"the Cramer-Rao bound under a record {RECORD}"), _o("--rank-size", **_int(1), metavar="K"),
-                     _o("--noise", type=float, default=0.01, metavar="LEVEL", help="std = LEVEL x RMS"), *ONE_WORKER]),
-        "design": ("the smallest record scale and the records that make a model identifiable", "The branches "
-                   "visited per record scale, the smallest sufficient scale and the sufficient sets of records. "
-                   "Exit code 2 when inconclusive.",
+                  _o("--model", help="link model file (default: obsnl:cantilever_link)"), FORCE]),
+        "sensors": ("which sensors make every target identifiable (minimal sets of the model's outputs)", None,
+                    [MODEL, _o("--target", default="all"), _o("--max-size", **_int(1)), FMT4, *OUT, SEED,
+                     _o("--max-seconds", type=float, help="of each analysis"), _o("--progress", action="store_true"),
+                     _o("--record", metavar="FILE", help=f"rank by the Cramer-Rao bound under a record {RECORD}"),
+                     _o("--rank-size", **_int(1)), _o("--noise", type=float, default=0.01), *ONE_WORKER]),
+        "design": ("the smallest record scale and the records that make a model identifiable", None,
                    [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}"),
                     _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
-                    _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", type=_scales, metavar="S1,S2"), SEED]),
+                    _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", type=_scales), SEED]),
     }
 
 

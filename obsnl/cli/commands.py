@@ -16,20 +16,17 @@ def _split(text: str | None) -> list[str]:
 def _load(path: str, limits: bool = True) -> Any:
     from obsnl.model.files import load_model
     from obsnl.observability.limits import check_file_limits
-
     return load_model(path, check=check_file_limits if limits else None)  # the size checked before parsing
 
 
 def _target(path: str | None, force: bool) -> None:
     from obsnl.report.files import check_target
-
     if path and path != "-":  # an output file that cannot be written is refused before any work
         check_target(path, force=force)
 
 
 def _executor(a: Namespace) -> Any:
     from obsnl.executor import Executor
-
     return Executor(scheduler=a.scheduler, workers=a.workers).probe()  # a dead scheduler refused before any work
 
 
@@ -40,24 +37,20 @@ def _stuck(line: str | None) -> None:
 
 def show(a: Namespace) -> None:
     from obsnl.report.structure import render_model
-
-    _write(render_model(_load(a.model, False), a.format), None, force=False)
+    _write(render_model(_load(a.model, False), a.format))
 
 
 def branches(a: Namespace) -> None:
     from obsnl.model.branching.branches import split_branches
     from obsnl.report.structure import render_branches
-
     model = _load(a.model, False)
-    _write(render_branches(model, split_branches(model, undecided=True), a.format, equations=a.equations),
-                 None, force=False)
+    _write(render_branches(model, split_branches(model, undecided=True), a.format, equations=a.equations))
 
 
 def analyze(a: Namespace) -> None:
     from obsnl.design.records import analyze_file
     from obsnl.report.structure import inconclusive_line
     from obsnl.report.tables import render
-
     _target(a.output, a.force)
     result = analyze_file(a.model, record=a.record, method=a.method, seed=a.seed, max_seconds=a.max_seconds,
                           branches=_split(a.branches) or None, joint=not a.no_joint, record_option="--record",
@@ -69,7 +62,6 @@ def analyze(a: Namespace) -> None:
 def report(a: Namespace) -> None:
     from obsnl.batch import report_paths
     from obsnl.report.structure import inconclusive_line
-
     results = report_paths(a.models, a.out, method=a.method, seed=a.seed, force=a.force, max_seconds=a.max_seconds,
                            executor=_executor(a))
     print(f"wrote {len(results)} table(s) with index.md and timings.md to {a.out}")
@@ -79,15 +71,12 @@ def report(a: Namespace) -> None:
 def symmetries(a: Namespace) -> None:
     from obsnl.observability.certificates.symmetry import branch_symmetries
     from obsnl.report.structure import render_symmetries
-
-    found = branch_symmetries(_load(a.model), seed=a.seed, degree=a.degree)
-    _write(render_symmetries(found, a.format), None, force=False)
+    _write(render_symmetries(branch_symmetries(_load(a.model), seed=a.seed, degree=a.degree), a.format))
 
 
 def reparametrize(a: Namespace) -> None:
     from obsnl.recombination.reparametrize import reparametrize
     from obsnl.report.structure import reparametrization_lines
-
     if bad := [n for n in a.name if n.count("=") != 1 or not all(n.split("="))]:
         raise _Exit(2, f"--name takes OLD=NEW, got {bad[0]!r}")
     names = {old.strip(): new.strip() for old, new in (n.split("=") for n in a.name)}
@@ -100,7 +89,6 @@ def reparametrize(a: Namespace) -> None:
 def identify(a: Namespace) -> None:
     from obsnl.report.identification import identify_text
     from obsnl.studies.jobs import identify_job, tuning_from
-
     if (a.workers is not None or a.scheduler) and a.replicates == 0:  # would be ignored: refused, not dropped
         raise _Exit(2, "--workers/--scheduler applies to the Monte-Carlo replicates: add --replicates N (nothing "
                     "else of identify runs in parallel)")
@@ -110,28 +98,24 @@ def identify(a: Namespace) -> None:
         passes=a.passes, replicates=a.replicates, seed=a.seed, allow_unidentifiable=a.allow_unidentifiable,
         jit=a.jit, hold=a.hold, refine=not a.no_refine, progress=True, executor=_executor(a),
         names={n: f"--{n}" for n in ("guess", "noise", "samples", "record")})
-    _write(identify_text(res), None, force=False)
+    _write(identify_text(res))
     if files:
         print(f"wrote {', '.join(str(f) for f in files)}")
 
 
 def reproduce(a: Namespace) -> None:
     from obsnl.studies.jobs import reproduce_job
-
-    def regenerating(folder: Any) -> None:
-        print(f"obsnl reproduce: regenerating the default folder {folder} (committed results); pass --out DIR "
-              "or --quick to keep them", file=sys.stderr)
-
-    out, files = reproduce_job(out=a.out, record=a.record, quick=a.quick, force=a.force, executor=_executor(a),
-                               regenerating=regenerating, seeds=a.seeds, tuning_seeds=a.tuning_seeds,
-                               passes=a.passes, samples=a.samples, replicates=a.replicates,
-                               jit=False if a.no_jit else None)
+    out, files = reproduce_job(
+        out=a.out, record=a.record, quick=a.quick, force=a.force, executor=_executor(a), seeds=a.seeds,
+        tuning_seeds=a.tuning_seeds, passes=a.passes, samples=a.samples, replicates=a.replicates,
+        jit=False if a.no_jit else None, regenerating=lambda folder: print(
+            f"obsnl reproduce: regenerating the default folder {folder} (committed results); pass --out DIR or "
+            "--quick to keep them", file=sys.stderr))
     print(f"wrote {len(files)} files to {out}: " + ", ".join(f.name for f in files))
 
 
 def bank(a: Namespace) -> None:
     from obsnl.studies.jobs import bank_job
-
     files = bank_job(out=a.out, model=a.model, seeds=a.seeds, force=a.force)
     print(f"wrote {', '.join(str(f) for f in files[:2])} and {len(files) - 2} force plots")
 
@@ -139,22 +123,20 @@ def bank(a: Namespace) -> None:
 def sensors(a: Namespace) -> None:
     from obsnl.design.records import sensors_file
     from obsnl.report.sensors import render_sensors
-
     _target(a.output, a.force)
     result = sensors_file(a.model, record=a.record, rank_size=a.rank_size, noise=a.noise, record_option="--record",
                           target=a.target, max_size=a.max_size, seed=a.seed, max_seconds=a.max_seconds,
                           executor=_executor(a), progress=a.progress)
     _write(render_sensors(result, a.format), a.output, force=a.force)
-    if result.undecided_sets:
-        first = result.answer(result.undecided_sets[0])
-        _stuck(f"{len(result.undecided_sets)} sensor set(s) undecided, e.g. {{{', '.join(first.sensors)}}}: "
+    if undecided := result.undecided_sets:
+        first = result.answer(undecided[0])
+        _stuck(f"{len(undecided)} sensor set(s) undecided, e.g. {{{', '.join(first.sensors)}}}: "
                f"{first.reason or 'minimality undecided'}; raise --max-seconds")
 
 
 def design(a: Namespace) -> None:
     from obsnl.design.records import design_file
     from obsnl.report.experiment import render_design
-
     _target(a.output, a.force)
     result = design_file(a.model, a.record, target=a.target, sensors=a.sensors, scales=a.scales, seed=a.seed,
                          max_seconds=a.max_seconds, figure=a.figure, output=a.output, force=a.force,

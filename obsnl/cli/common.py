@@ -6,7 +6,7 @@ import argparse
 import sys
 from typing import Any
 
-__all__ = ["_write"]
+__all__: list[str] = []
 
 
 class _Exit(Exception):
@@ -34,10 +34,7 @@ def _at_least(low: int, at_most: int | None = None, why: str = "") -> Any:
     return parse
 
 
-#: Most Monte-Carlo replicates of ``identify`` and ``reproduce`` (100 000 000 ended in a MemoryError after 13 s).
-MAX_REPLICATES = 10_000
-#: Most passes over the record of ``identify`` and ``reproduce``.
-MAX_PASSES = 100
+MAX_REPLICATES, MAX_PASSES = 10_000, 100  # of identify and reproduce (1e8 replicates: a MemoryError after 13 s)
 _replicates = _at_least(0, MAX_REPLICATES, "each replicate is one more filter run whose results are kept in memory; "
                                           "a few hundred give a Monte-Carlo interval")
 _passes = _at_least(1, MAX_PASSES, "each pass is one more filter run over the whole record; the estimates settle "
@@ -45,7 +42,18 @@ _passes = _at_least(1, MAX_PASSES, "each pass is one more filter run over the wh
 _seed = _at_least(0)  # numpy's generators refuse negative seeds
 
 
-def _write(text: str, out: str | None, *, force: bool) -> None:
+def _scales(text: str) -> list[float]:
+    """An argparse type: comma-separated positive numbers."""
+    try:
+        values = [float(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        values = []
+    if not values or not all(0 < v < float("inf") for v in values):
+        raise argparse.ArgumentTypeError(f"{text[:30]!r} is not a list of positive numbers such as 0.1,1,10")
+    return values
+
+
+def _write(text: str, out: str | None = None, *, force: bool = False) -> None:
     """Print ``text`` (out None or ``-``) or write it to the file ``out`` through
     :func:`obsnl.report.files.safe_write`: never over a file without ``force``, never through a symlink."""
     text = text if text.endswith("\n") else text + "\n"
