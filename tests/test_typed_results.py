@@ -3,8 +3,9 @@
 unchanged), the text of a run is rendered from the value, and one ``analyze`` checks its limits once.
 
 Before: ``Identification.structural`` and ``.practical`` were ``Mapping[str, Any]`` (the practical check
-flattened by ``to_dict()``), ``identify_text`` read ``identify.json``'s dict, and one ``analyze`` ran
-``check_analysis_limits`` two to three times (its own check, the joint verdict's, the symmetry search's).
+flattened by ``to_dict()``), ``identify_text`` read ``identify.json``'s dict (the command line printed from
+``to_dict()``), and one ``analyze`` ran ``check_analysis_limits`` two to three times (its own check, the joint
+verdict's, the symmetry search's).
 """
 
 from __future__ import annotations
@@ -123,39 +124,42 @@ def test_identification_keeps_practical_and_structural_as_values_and_its_json_ke
 
 
 # --------------------------------------------------------------------------- the text renders the value
-def test_identify_text_renders_the_value_and_the_json_form_says_the_same():
-    from obsnl.report.identification import identify_text as old_path
-    from obsnl.report.identification.run import identify_text
+#: The text of ``_identification()`` as the renderer of identify.json's dict wrote it: the value gives the same.
+TEXT = """\
+UKF + maximum likelihood on storey, measured data run1, 3 pass(es), 1.50 s: NOT converged: the profile of m moved
+  tuning: s0 0.3, q_theta 0, q_x 100, gate off (the smallest output misfit after one pass of 2 configurations)
+  stopped after pass 2: its estimate cannot be simulated (the filter diverged)
+  k          estimate 2          std 0.01      95 % [1.98, 2.02]
+  c          held at its guess 0.3 (not estimated): held at its guess: flat profile
+  m          true 1           estimate 1.1        std 0.5       error 10.00 %  poorly informed: Cramér-Rao std 40 %
+  1 parameter(s) held at their guess
+  fit (NRMSE): y 1.23 %, z -
+  residual RMS / noise level: y 1.02"""
+
+
+def test_identify_text_renders_the_value_as_the_json_renderer_did():
+    from obsnl.report.identification import identify_text
 
     run = _identification()
-    text = identify_text(run)
-    lines = text.splitlines()
-    assert lines[0] == ("UKF + maximum likelihood on storey, measured data run1, 3 pass(es), 1.50 s: NOT converged: "
-                        "the profile of m moved")
-    assert "(the smallest output misfit after one pass of 2 configurations)" in lines[1]
-    assert "stopped after pass 2" in lines[2]
-    assert any(ln.startswith("  c ") and "held at its guess 0.3 (not estimated)" in ln for ln in lines)
-    assert any("95 % [1.98, 2.02]" in ln for ln in lines)
-    assert any(ln.startswith("  m ") and "true 1" in ln and "error 10.00 %" in ln and "poorly informed" in ln
-               for ln in lines)
-    assert "  fit (NRMSE): y 1.23 %, z -" in lines and lines[-1] == "  residual RMS / noise level: y 1.02"
-    # the command line's form (identify.json's dict) gives the same text until it passes the value
-    assert identify_text(run.to_dict()) == text and old_path is identify_text
-    # without the refinement the practical check's undecided parameters are named
-    filt = _identification(refinement={})
-    assert any(ln.startswith("  k: not decided whether the record pins it within 5 %: Monte-Carlo std")
-               for ln in identify_text(filt).splitlines())
-    assert identify_text(filt.to_dict()) == identify_text(filt)
+    assert identify_text(run) == TEXT
+    # without the refinement the practical check's undecided parameters are named, before the parameters
+    lines = identify_text(_identification(refinement={})).splitlines()
+    assert lines[0] == "UKF on storey, measured data run1, 3 pass(es), 1.50 s: NOT converged: the profile of m moved"
+    assert lines[3] == ("  k: not decided whether the record pins it within 5 %: Monte-Carlo std of the relative "
+                        "error 1 % (95 % interval 0.5-2 %, 8 replicates) contains 1.7 %")
+    assert lines[4:] == TEXT.splitlines()[3:-1]
+    # identify.json's dict is no longer a run to render (the command line passes the value)
+    with pytest.raises(TypeError, match="renders the Identification value"):
+        identify_text(run.to_dict())
 
 
-def test_identify_text_takes_a_run_without_practical_check():
-    from obsnl.report.identification.run import identify_text
+def test_identify_text_takes_a_run_without_practical_check_nor_tuning_choice():
+    from obsnl.report.identification import identify_text
 
-    run = _identification(practical=None, refinement={}, tuning_scores=())
-    text = identify_text(run)
+    text = identify_text(_identification(practical=None, refinement={}, tuning_scores=()))
     assert text.splitlines()[0] == "UKF on storey, measured data run1, 3 pass(es), 1.50 s: NOT converged: " \
         "the profile of m moved"
-    assert "tuning:" not in text and "not decided" not in text and text == identify_text(run.to_dict())
+    assert "tuning:" not in text and "not decided" not in text and "  fit (NRMSE): y 1.23 %, z -" in text
 
 
 # --------------------------------------------------------------------------- limits checked once

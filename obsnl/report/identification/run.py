@@ -98,18 +98,22 @@ def _given(v: float | None) -> bool:
     return v is not None and math.isfinite(v)
 
 
-def identify_text(result: IdentificationRun | Mapping[str, Any]) -> str:
+def identify_text(result: IdentificationRun) -> str:
     """The summary ``obsnl identify`` prints: the run, the chosen tuning, each parameter, the fit.
 
     Parameters
     ----------
-    result : Identification or mapping
-        The run. A mapping (``identify.json``, :meth:`Identification.to_dict`) is still read, the same way,
-        while the command line passes that form; it goes once the command line passes the value.
+    result : Identification
+        The run (:func:`obsnl.identify`'s result, or anything with the members of :class:`IdentificationRun`).
 
     Returns
     -------
     str
+
+    Raises
+    ------
+    TypeError
+        ``result`` is a mapping (``identify.json``'s content): the text is rendered from the value.
 
     Examples
     --------
@@ -128,12 +132,10 @@ def identify_text(result: IdentificationRun | Mapping[str, Any]) -> str:
     >>> print(identify_text(run).splitlines()[1])
       tuning: s0 0.3, q_theta 0, q_x 100, gate off (the smallest output misfit after one pass of 2 configurations)
     """
-    if isinstance(result, Mapping):  # identify.json's form, read until the command line passes the value
-        return _text(_Json(result))
-    return _text(result)
-
-
-def _text(run: IdentificationRun) -> str:
+    if isinstance(result, Mapping):
+        raise TypeError("identify_text renders the Identification value (obsnl.identify's result), not the "
+                        "content of identify.json")
+    run = result
     prac, ref = run.practical, run.refinement or {}
     why = run.converged_reason
     state = "converged" if run.converged else "NOT converged" + (f": {why}" if why else "")
@@ -178,31 +180,4 @@ def _parameter(p: _Estimate) -> str:
     if _given(p.error):
         head += f" error {p.error:.2f} %" if p.error_kind == "percent" else f" error {p.error:.3g} (absolute)"
     return head.rstrip() + (f"  poorly informed: {p.reason}" if p.flagged else "")
-
-
-class _Json:
-    """An ``identify.json`` document read as the run it describes (only what :func:`_text` reads): the
-    command line's form, kept until it passes the value."""
-
-    def __init__(self, doc: Mapping[str, Any]) -> None:
-        self.model, self.mode, self.method = doc["model"], doc["mode"], doc["method"]
-        self.passes, self.passes_run, self.seconds = doc["passes"], doc["passes_run"], doc["seconds"]
-        self.converged, self.converged_reason = bool(doc.get("converged")), doc.get("converged_reason") or ""
-        self.fit, self.data, self.refinement = doc["fit"], doc.get("data") or {}, doc.get("refinement") or {}
-        t = doc.get("tuning")
-        self.tuning = _Attributes(t) if t else None
-        self.tuning_scores = [(None, s.get("output_misfit")) for s in doc.get("tuning_scores") or ()]
-        pi = doc.get("practical_identifiability") or {}
-        self.practical = (_Attributes({"inconclusive": pi.get("inconclusive") or "",
-                                       "undecided": pi.get("undecided") or {}}) if pi else None)
-        self.parameters = [_Attributes({"true": None, "error": None, "error_kind": None, "interval": None, **d,
-                                        "guess": d.get("held_at") if d["held"] else d.get("guess")})
-                           for d in doc["parameters"]]
-
-
-class _Attributes:
-    """A mapping's items as attributes."""
-
-    def __init__(self, items: Mapping[str, Any]) -> None:
-        self.__dict__.update(items)
 
