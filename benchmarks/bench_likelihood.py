@@ -344,6 +344,15 @@ def timed_identify(case: Case, data: dict, refine: bool):
     return res, time.perf_counter() - tic, stamps
 
 
+def clopper_pearson(k: int, n: int, level: float = 0.95) -> tuple[float, float]:
+    """The exact (Clopper-Pearson) binomial interval of a proportion ``k / n``."""
+    from scipy.stats import beta
+
+    a = (1 - level) / 2
+    return (0.0 if k == 0 else float(beta.ppf(a, k, n - k + 1)),
+            1.0 if k == n else float(beta.ppf(1 - a, k + 1, n - k)))
+
+
 def covers(interval, truth) -> bool | None:
     if interval is None:
         return None
@@ -437,8 +446,14 @@ def repeats(case: Case, seeds: int) -> list[str]:
               "| converged | " + " | ".join(str(res.converged) for _, res, _ in results) + " |",
               "| wall s | " + " | ".join(f"{w:.0f}" for _, _, w in results) + " |", ""]
     noisy_cov = sum(cov[1:])
+    lo, hi = clopper_pearson(noisy_cov, seeds * n)
+    meet = sum(c >= 0.8 * n for c in cov[1:])
     lines.append(f"Over these {seeds} seeds: {noisy_cov} of {seeds * n} intervals cover the truth "
-                 f"({100 * noisy_cov / (seeds * n):.0f} %; nominal 95 %). Not converged: "
+                 f"({100 * noisy_cov / (seeds * n):.0f} %, exact 95 % binomial interval {100 * lo:.0f}-{100 * hi:.0f} %; "
+                 f"nominal 95 %; the binomial interval takes the intervals as independent, those of one run are not, so it "
+                 f"is too narrow); "
+                 f"{meet} of {seeds} runs have at least 80 % of their intervals covering the truth (the goal of one "
+                 f"run). Not converged: "
                  + ("; ".join(f"{lab}: {res.converged_reason}" for lab, res, _ in results if not res.converged)
                     or "none")
                  + ".")
