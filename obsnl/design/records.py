@@ -14,20 +14,22 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from obsnl._text import quote
 from obsnl.errors import OptionError
-from obsnl.estimation.accelerogram import Record
-from obsnl.estimation.records import read_record
 from obsnl.model.bounds.budget import time_budget
 from obsnl.model.core import Model
 from obsnl.model.files import load_model
 from obsnl.observability.analyze import analyze
-from obsnl.observability.joint.visited import Visits, visited_patterns
 from obsnl.observability.limits import check_analysis_limits, check_file_limits, out_of_memory
 from obsnl.observability.results import AnalysisResult
+
+if TYPE_CHECKING:  # the record readers and the simulation load when a record is given
+    from obsnl.estimation.accelerogram import Record
+    from obsnl.observability.joint.visited import Visits
 
 __all__ = ["one_input_record", "record_visits", "analyze_file", "sensors_file", "design_file"]
 
@@ -59,6 +61,8 @@ def one_input_record(model: Model, path: str | Path, *, option: str = "a record"
     OptionError
         When the model has no input or more than one.
     """
+    from obsnl.estimation.records import read_record
+
     if len(model.inputs) != 1:
         raise OptionError(f"{option} drives one input, model {model.name!r} has {len(model.inputs)}; give a model "
                           "with one known input")
@@ -80,6 +84,8 @@ def record_visits(model: Model, record: Record) -> Visits:
     Visits
         The visited patterns and the crossings of each switching function.
     """
+    from obsnl.observability.joint.visited import visited_patterns
+
     t = record.dt * np.arange(len(record.accel))
     return visited_patterns(model, t, {model.inputs[0].name: record.accel})
 
@@ -130,7 +136,7 @@ def analyze_file(model: Model | str | Path, *, record: str | Path | None = None,
 
 
 def sensors_file(model: Model | str | Path, *, record: str | Path | None = None, rank_size: int | None = None,
-                 noise: float = 0.01, record_option: str = "record", **search: Any) -> Any:
+                 noise: float | None = None, record_option: str = "record", **search: Any) -> Any:
     """The minimal sensor sets of a model file, ranked along one record's response when one is given.
 
     Parameters
@@ -141,9 +147,10 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
         A record driving the model's one input: the sufficient sets of ``rank_size`` sensors are
         ranked by the Cramér-Rao bound along the response of the model's ``[values]`` to it.
     rank_size : int or None
-        Size of the sets ranked (default: the smallest minimal set's).
-    noise : float
-        Relative noise of every output for the ranking (std = ``noise`` x RMS), between 0 and 10.
+        Size of the sets ranked (default: the smallest minimal set's); only with a record.
+    noise : float or None
+        Relative noise of every output for the ranking (std = ``noise`` x RMS), between 0 and 10 (None:
+        0.01); only with a record.
     record_option : str
         How the caller names ``record`` in messages.
     **search
@@ -157,18 +164,24 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     """
     from obsnl.design.sensors import rank_sufficient_sets, sensors
 
+    if record is None and (rank_size is not None or noise is not None):  # would be ignored: refused, not dropped
+        raise OptionError(f"the rank size and the noise level rank the sensor sets along a record: add {record_option}")
+    if noise is not None and not (isinstance(noise, (int, float)) and 0.0 < noise < 10.0):
+        raise OptionError(f"noise {quote(noise, 30)} is not a relative level between 0 and 10 (0.01 is 1 %)")
     with time_budget(None):
         model = _model(model)
     rec = None
     if record is not None:  # read before the search: a bad record is refused before any work
-        if not (0.0 < noise < 10.0):
-            raise OptionError(f"noise {noise} is not a relative level between 0 and 10 (0.01 is 1 %)")
+        if rank_size is not None and not (isinstance(rank_size, int) and 1 <= rank_size <= len(model.output_names)):
+            raise OptionError(f"the rank size is a number of sensors from 1 to {len(model.output_names)} (the "
+                              f"model's outputs), got {quote(rank_size, 30)}")
         rec = one_input_record(model, record, option=record_option)
     result = sensors(model, **search)
     if rec is None:
         return result
     t = rec.dt * np.arange(len(rec.accel))
-    return rank_sufficient_sets(result, model, t=t, inputs=rec.accel, size=rank_size, noise=noise)
+    return rank_sufficient_sets(result, model, t=t, inputs=rec.accel, size=rank_size,
+                                noise=0.01 if noise is None else noise)
 
 
 def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max_seconds: float | None = None,
@@ -207,9 +220,9 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
 
     if not records:
         raise OptionError(f"give at least one {record_option} (.csv or .AT2)")
-    if figure:  # refused before any work
+    if figure is not None:  # refused before any work (an empty name too: never ignored)
         if Path(figure).suffix.lower() != ".png":
-            raise OptionError(f"the figure is a PNG; name a .png file, not {str(figure)!r}")
+            raise OptionError(f"the figure is a PNG; name a .png file, not {quote(str(figure))}")
         if output and output != "-" and Path(output).resolve() == Path(figure).resolve():
             raise OptionError("the figure and the output name the same file; give two files")
         check_target(figure, force=force)
