@@ -207,7 +207,8 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
     record_option : str
         How the caller names ``records`` in messages.
     **options
-        Passed to :func:`obsnl.design.experiment.design` (target, sensors, scales, seed).
+        Passed to :func:`obsnl.design.experiment.design` (target, sensors, scales, seed); ``scales`` may
+        be comma-separated text (``"0.1,1,10"``).
 
     Returns
     -------
@@ -220,6 +221,11 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
 
     if not records:
         raise OptionError(f"give at least one {record_option} (.csv or .AT2)")
+    if isinstance(options.get("scales"), str):  # "0.1,1,10"; what is not a positive number design refuses, quoted
+        try:
+            options["scales"] = [float(x) for x in options["scales"].split(",") if x.strip()]
+        except ValueError:
+            pass
     if figure is not None:  # refused before any work (an empty name too: never ignored)
         if Path(figure).suffix.lower() != ".png":
             raise OptionError(f"the figure is a PNG; name a .png file, not {quote(str(figure))}")
