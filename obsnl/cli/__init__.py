@@ -11,7 +11,9 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from obsnl.cli.common import _Exit, _at_least, _passes, _replicates, _scales, _seed
+from obsnl.cli.common import (_Exit, _More, _One, _Parser, _at_least, _noise, _os_error, _passes, _replicates,
+                               _scales, _seconds, _seed)
+from obsnl.executor import MAX_WORKERS
 
 __all__ = ["main", "run", "build_parser"]
 
@@ -20,14 +22,15 @@ def _o(*flags: str, **kw: object) -> tuple:
     return flags, kw
 
 
-MODEL, SECONDS = _o("model", help="model file (.toml or .json) or obsnl:NAME"), _o("--max-seconds", type=float)
+MODEL, SECONDS = _o("model", help="model file (.toml or .json) or obsnl:NAME"), _o("--max-seconds", type=_seconds)
 FMT, FMT4 = (_o("--format", choices=c, default="text") for c in (("text", "json"), ("text", "json", "md", "tex")))
 FORCE, SEED = _o("--force", action="store_true", help="overwrite existing files"), _o("--seed", type=_seed, default=0)
 OUT = [_o("-o", "--output", metavar="FILE", help="write here instead of stdout"), FORCE]
 METHOD = _o("--method", choices=("auto", "orc", "sedoglavic"), default="auto", help="observability engine")
 SCHEDULER = _o("--scheduler", metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
-EXECUTOR = [_o("--workers", type=_at_least(1), help="local processes (default: one per core)"), SCHEDULER]
-ONE_WORKER = [_o("--workers", type=_at_least(1), default=1, help="local processes (default: 1)"), SCHEDULER]
+WORKERS = _at_least(1, MAX_WORKERS, "each is a process of its own; a larger pool is a Dask cluster (--scheduler)")
+EXECUTOR = [_o("--workers", type=WORKERS, help="local processes (default: one per core)"), SCHEDULER]
+ONE_WORKER = [_o("--workers", type=WORKERS, default=1, help="local processes (default: 1)"), SCHEDULER]
 RECORD = "(.csv or .AT2) driving the model's one input"
 
 
@@ -94,9 +97,10 @@ def _commands() -> dict[str, tuple[str, str | None, list[tuple]]]:
                   _o("--model", help="link model file (default: obsnl:cantilever_link)"), FORCE]),
         "sensors": ("which sensors make every target identifiable (minimal sets of the model's outputs)", None,
                     [MODEL, _o("--target", default="all"), _o("--max-size", **_int(1)), FMT4, *OUT, SEED,
-                     _o("--max-seconds", type=float, help="of each analysis"), _o("--progress", action="store_true"),
+                     _o("--max-seconds", type=_seconds, help="of each analysis"), _o("--progress", action="store_true"),
                      _o("--record", metavar="FILE", help=f"rank by the Cramer-Rao bound under a record {RECORD}"),
-                     _o("--rank-size", **_int(1)), _o("--noise", type=float, default=0.01), *ONE_WORKER]),
+                     _o("--rank-size", **_int(1), help="with --record"),
+                     _o("--noise", type=_noise, help="with --record (default 0.01)"), *ONE_WORKER]),
         "design": ("the smallest record scale and the records that make a model identifiable", None,
                    [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}"),
                     _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
@@ -109,8 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
     from obsnl import __version__
     from obsnl.cli import commands
 
-    parser = argparse.ArgumentParser(prog="obsnl", description="Observability and identifiability of nonlinear, "
-                                     "non-smooth mechanical models.")
+    parser = _Parser(prog="obsnl", description="Observability and identifiability of nonlinear, "
+                     "non-smooth mechanical models.")
     parser.add_argument("--version", action="version", version=f"obsnl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name, (short, description, options) in _commands().items():
@@ -119,7 +123,10 @@ def build_parser() -> argparse.ArgumentParser:
         for flags, kw in options:
             if kw.get("one_of") and group is None:  # one of these options is required
                 group = p.add_mutually_exclusive_group(required=True)
-            (group if kw.get("one_of") else p).add_argument(*flags, **{k: v for k, v in kw.items() if k != "one_of"})
+            one = {k: v for k, v in kw.items() if k != "one_of"}
+            if "nargs" not in kw and kw.get("action") in (None, "append"):  # one value each: refused as '--'
+                one["action"] = _More if kw.get("action") == "append" else _One
+            (group if kw.get("one_of") else p).add_argument(*flags, **one)
         p.set_defaults(func=getattr(commands, name))
     return parser
 
@@ -142,8 +149,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _Exit as exc:
         print(f"obsnl {args.command}: error: {exc.message}", file=sys.stderr)
         return exc.code
-    except (ObsnlError, FileNotFoundError, IsADirectoryError, PermissionError) as exc:
+    except ObsnlError as exc:
         print(f"obsnl {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a name too long, a missing folder, no permission, a full disk: one line
+        print(f"obsnl {args.command}: error: {_os_error(exc)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"obsnl {args.command}: interrupted", file=sys.stderr)

@@ -1,10 +1,15 @@
-"""What the commands share: the one-line exit, the bounded option types, writing output."""
+"""What the commands share: the one-line exit, the bounded option types and actions, the one line of an
+operating system's refusal, writing output."""
 
 from __future__ import annotations
 
 import argparse
+import errno
+import math
 import sys
 from typing import Any
+
+from obsnl._text import quote, shorten
 
 __all__: list[str] = []
 
@@ -43,14 +48,92 @@ _seed = _at_least(0)  # numpy's generators refuse negative seeds
 
 
 def _scales(text: str) -> list[float]:
-    """An argparse type: comma-separated positive numbers."""
+    """An argparse type: at most :data:`obsnl.design.arguments.MAX_SCALES` comma-separated positive numbers."""
+    from obsnl.design.arguments import MAX_SCALES
+
+    items = [x for x in text.split(",") if x.strip()]
+    if len(items) > MAX_SCALES:
+        raise argparse.ArgumentTypeError(f"{len(items)} scales: give at most {MAX_SCALES} (each is one simulation "
+                                         "of every record; a bisection refines the boundary between them)")
     try:
-        values = [float(x) for x in text.split(",") if x.strip()]
+        values = [float(x) for x in items]
     except ValueError:
         values = []
     if not values or not all(0 < v < float("inf") for v in values):
-        raise argparse.ArgumentTypeError(f"{text[:30]!r} is not a list of positive numbers such as 0.1,1,10")
+        raise argparse.ArgumentTypeError(f"{quote(text, 40)} is not a list of positive numbers such as 0.1,1,10")
     return values
+
+
+def _real(low: float, high: float, what: str) -> Any:
+    """An argparse type: a number strictly between ``low`` and ``high`` (so never NaN, and finite when ``high``
+    is infinite), refused at parse time with the text shortened (argparse's own message echoes it whole)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not low < value < high:
+            raise argparse.ArgumentTypeError(f"{quote(text, 40)} is not {what}")
+        return value
+
+    parse.__name__ = what
+    return parse
+
+
+_seconds = _real(0.0, math.inf, "a positive finite number of seconds")  # every command's --max-seconds
+_noise = _real(0.0, 10.0, "a relative noise level above 0 and below 10 (0.01 is 1 %)")
+
+
+def _given(parser: argparse.ArgumentParser, values: Any, option: str | None) -> Any:
+    """``values``, or a usage error when Python 3.11's argparse turned ``--opt=--`` into ``[]`` (past the
+    option's type and choices)."""
+    if isinstance(values, list) and not values:
+        parser.error(f"argument {option}: expected one value, got '--' (a value that starts with '-' is written "
+                     f"{option}=VALUE)")
+    return values
+
+
+class _One(argparse.Action):
+    """``store`` for a single-valued option, with the check of :func:`_given`."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        setattr(namespace, self.dest, _given(parser, values, option_string))
+
+
+class _More(argparse.Action):
+    """``append`` for a repeatable option, with the check of :func:`_given`."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        items = list(getattr(namespace, self.dest, None) or [])
+        setattr(namespace, self.dest, [*items, _given(parser, values, option_string)])
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose usage errors never echo a value whole (an invalid choice, an argument it does
+    not know): a message over 300 characters keeps its start and its end (where the choices are)."""
+
+    def error(self, message: str) -> Any:  # argparse exits here (code 2)
+        if len(message) > 300:
+            message = f"{message[:200]} ... {message[-80:]}"
+        super().error(message)
+
+
+#: What to do about the system's refusals that a user can fix (else: check the path).
+_OS_FIXES = {errno.ENAMETOOLONG: "use a file name of at most 255 bytes", errno.ENOSPC: "free some space or write "
+             "elsewhere", errno.EROFS: "write to a writable file system", errno.EACCES: "choose a path you may use",
+             errno.EPERM: "choose a path you may use", errno.EISDIR: "name a file, not a folder",
+             errno.ENOTDIR: "a part of the path is a file, not a folder"}
+
+
+def _os_error(exc: OSError) -> str:
+    """The one line of the command line's error for a refusal of the operating system: the path (shortened),
+    the system's reason and the fix."""
+    where = f" {quote(str(exc.filename), 100)}" if exc.filename is not None else ""
+    why = exc.strerror or shorten(str(exc) or type(exc).__name__, 200)
+    return f"cannot use{where}: {why}; {_OS_FIXES.get(exc.errno or 0, 'check the path')}"
 
 
 def _write(text: str, out: str | None = None, *, force: bool = False) -> None:
