@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from obsnl.cli.common import (_Exit, _More, _One, _Parser, _at_least, _noise, _os_error, _passes, _replicates,
-                               _scales, _seconds, _seed)
+                               _seconds, _seed)
 from obsnl.executor import MAX_WORKERS
 
 __all__ = ["main", "run", "build_parser"]
@@ -104,7 +104,7 @@ def _commands() -> dict[str, tuple[str, str | None, list[tuple]]]:
         "design": ("the smallest record scale and the records that make a model identifiable", None,
                    [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}"),
                     _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
-                    _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", type=_scales), SEED]),
+                    _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", metavar="S1,S2,..."), SEED]),
     }
 
 

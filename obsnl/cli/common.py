@@ -47,23 +47,6 @@ _passes = _at_least(1, MAX_PASSES, "each pass is one more filter run over the wh
 _seed = _at_least(0)  # numpy's generators refuse negative seeds
 
 
-def _scales(text: str) -> list[float]:
-    """An argparse type: at most :data:`obsnl.design.arguments.MAX_SCALES` comma-separated positive numbers."""
-    from obsnl.design.arguments import MAX_SCALES
-
-    items = [x for x in text.split(",") if x.strip()]
-    if len(items) > MAX_SCALES:
-        raise argparse.ArgumentTypeError(f"{len(items)} scales: give at most {MAX_SCALES} (each is one simulation "
-                                         "of every record; a bisection refines the boundary between them)")
-    try:
-        values = [float(x) for x in items]
-    except ValueError:
-        values = []
-    if not values or not all(0 < v < float("inf") for v in values):
-        raise argparse.ArgumentTypeError(f"{quote(text, 40)} is not a list of positive numbers such as 0.1,1,10")
-    return values
-
-
 def _real(low: float, high: float, what: str) -> Any:
     """An argparse type: a number strictly between ``low`` and ``high`` (so never NaN, and finite when ``high``
     is infinite), refused at parse time with the text shortened (argparse's own message echoes it whole)."""
