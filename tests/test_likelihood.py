@@ -227,15 +227,19 @@ def test_the_profiles_work_within_a_time_budget():
     assert [p.shape for p in profiles(ref, max_seconds=None)] == ["closed", "closed"]
 
 
-def test_profiles_on_two_workers_are_the_profiles_of_this_process():
+def test_profiles_on_two_workers_are_the_profiles_of_this_process(monkeypatch):
     # each worker rebuilds the objective from plain data (the symbolic model, the record, the estimate) and
     # must then follow the same iterations: the same points, evaluations and interval ends, to rounding
     from obsnl.executor import Executor
+    from obsnl.identification import profile as profile_module
+
+    monkeypatch.setattr(profile_module, "PARALLEL_MIN", 2)  # two profiles go to the workers too
 
     u, y, sigma = msd_data(seed=3)
     setup, data = setup_of(MSD, u, y, 0.02, {"k": 18.0, "c": 1.2}, sigma)
     ref = refine(setup, data, setup.theta_guess)
     here = profiles(ref, max_seconds=None)
+    monkeypatch.setattr(profile_module, "profile", lambda *a, **k: pytest.fail("a profile ran in this process"))
     ticks: list[int] = []
     there = profiles(ref, max_seconds=None, executor=Executor(workers=2), progress=lambda: ticks.append(1))
     assert len(ticks) == 2 and [p.name for p in there] == ["k", "c"]

@@ -89,9 +89,9 @@ def reparametrize(a: Namespace) -> None:
 def identify(a: Namespace) -> None:
     from obsnl.report.identification import identify_text
     from obsnl.studies.jobs import identify_job, tuning_from
-    if (a.workers is not None or a.scheduler) and a.replicates == 0:  # would be ignored: refused, not dropped
-        raise _Exit(2, "--workers/--scheduler applies to the Monte-Carlo replicates: add --replicates N (nothing "
-                    "else of identify runs in parallel)")
+    if (a.workers is not None or a.scheduler) and a.replicates == 0 and a.no_refine:  # ignored: refused, not dropped
+        raise _Exit(2, "--workers/--scheduler applies to the profile likelihoods and the Monte-Carlo replicates: "
+                    "drop --no-refine or add --replicates N (nothing else of identify runs in parallel)")
     res, files = identify_job(
         a.model, data=a.data, record=a.record, guess=a.guess, noise=a.noise, samples=a.samples, out=a.out,
         force=a.force, tuning=tuning_from(a.s0, a.q_theta, a.q_x, a.gate), method=a.method, table=a.table,

@@ -40,7 +40,7 @@ from obsnl.identification.refine import Refinement
 
 __all__ = [
     "Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND",
-    "MAX_SECONDS",
+    "MAX_SECONDS", "PARALLEL_MIN",
 ]
 
 #: chi2(1) 0.95 quantile (scipy.stats.chi2.ppf(0.95, 1)).
@@ -55,6 +55,9 @@ FLAT = 0.1
 MAX_SECONDS = 900.0
 #: Profile points per side at most (each a re-optimisation of every other coordinate).
 POINTS = 8
+#: Fewer profiles than this run in this process even on an executor with several workers: starting a worker
+#: and compiling its objective costs a few seconds, about what two or three small profiles take.
+PARALLEL_MIN = 4
 
 
 @dataclass(frozen=True)
@@ -215,9 +218,9 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
         Time budget of all the profiles (None: none); on an executor, a profile not started by then
         (wall clock) is not computed.
     executor : Executor or None
-        Where the profiles run (default: this process, one after the other). A compiled model that
-        was not made by :func:`obsnl.estimation.codegen.to_casadi` cannot be rebuilt by a worker: its
-        profiles run in this process.
+        Where the profiles run (default: this process, one after the other). Fewer than
+        ``PARALLEL_MIN`` profiles, or a compiled model that was not made by
+        :func:`obsnl.estimation.codegen.to_casadi` (a worker cannot rebuild it), run in this process.
 
     Returns
     -------
@@ -234,7 +237,7 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
     'profiles'
     """
     names = names or tuple(p for p in ref.objective.setup.model.parameters if p not in ref.held)
-    if executor is not None and executor.kind != "serial" and len(names) > 1 and \
+    if executor is not None and executor.kind != "serial" and len(names) >= PARALLEL_MIN and \
             ref.objective.setup.model.source is not None:
         deadline = None if max_seconds is None else time.time() + max_seconds
         spec = _spec(ref)
