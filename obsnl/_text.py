@@ -1,6 +1,7 @@
 """Plain text shared by the one-line ``repr`` and the short ``summary()`` of every result value.
 
-Name lists cut to a few, numbers short, a probability bound that never rounds a near-certainty up to 1,
+Echoed values cut (:func:`quote`, :func:`shorten`: the one place every error message shortens what the user
+gave), name lists cut to a few, numbers short, a probability bound that never rounds a near-certainty up to 1,
 the joint verdict in words. Rank 0: it imports nothing of obsnl, so the result values of every room may
 use it; documents (Markdown, LaTeX, JSON, figures) are rendered in :mod:`obsnl.report`.
 """
@@ -9,13 +10,63 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
 
-__all__ = ["WIDTH", "LINES", "names", "number", "numbers", "probability_text", "bound", "one_line", "block",
-           "verdict_words"]
+__all__ = ["WIDTH", "LINES", "SHOWN", "shorten", "quote", "names", "number", "numbers", "probability_text", "bound",
+           "one_line", "block", "verdict_words"]
 
 #: Characters of a one-line ``repr`` at most.
 WIDTH = 160
 #: Lines of a ``summary()`` at most.
 LINES = 12
+#: Characters of a value a message echoes at most (a name, an expression, a path, an option's value).
+SHOWN = 80
+
+
+def shorten(text: str, limit: int = SHOWN) -> str:
+    """``text`` cut to ``limit`` characters (with ``...``) for an error message: every message that echoes
+    what the user gave (a name, an expression, a path, an option's value) cuts it here, never whole.
+
+    Parameters
+    ----------
+    text : str
+        The text to show.
+    limit : int
+        Largest length of the result.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> shorten("x + " * 30, 20)
+    'x + x + x + x + x...'
+    """
+    text = text.strip()
+    return text if len(text) <= limit else text[: limit - 3].rstrip() + "..."
+
+
+def quote(value: object, limit: int = SHOWN) -> str:
+    """``repr(value)`` cut to ``limit`` characters: how a message echoes what the user wrote.
+
+    Parameters
+    ----------
+    value : object
+        What the user wrote (a name, a value of a table).
+    limit : int
+        Largest length of the result.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> quote("z" * 100, 12)
+    "'zzzzzzzz..."
+    """
+    if isinstance(value, str) and len(value) > limit:  # the same cut, without writing out a huge value first
+        value = value[:limit]
+    return shorten(repr(value), limit)
 
 
 def names(items: Iterable[str], most: int | None = None, *, name: Callable[[str], str] = str) -> str:

@@ -9,13 +9,16 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from obsnl.executor import Executor
+from obsnl.model.bounds.budget import time_budget
 from obsnl.model.core import Model
+from obsnl.model.files import read_model
 from obsnl.observability.analyze import analyze
+from obsnl.observability.limits import check_analysis_limits, check_file_limits
 from obsnl.observability.results import AnalysisResult
 from obsnl.report.files import check_target
 from obsnl.report.folders import report_files, write_tables
 
-__all__ = ["report_models"]
+__all__ = ["report_models", "report_paths"]
 
 
 def _analyze_task(task: tuple[dict, str, int, float | None]) -> AnalysisResult:
@@ -67,3 +70,31 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
         results = tuple(executor.map(_analyze_task, [(m.to_dict(), method, seed, max_seconds) for m in models]))
     write_tables(results, out, force=force)
     return results
+
+
+def report_paths(paths: Sequence[str | Path], out: str | Path, *, max_seconds: float | None = None,
+                 **options: object) -> tuple[AnalysisResult, ...]:
+    """:func:`report_models` of model files, within one time budget (reading, splitting, analysing).
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        Model files (or ``obsnl:NAME``), each read with its size checked before any expression is parsed;
+        every model is checked against the analysis limits before the first is analysed.
+    out : str or Path
+        The report folder.
+    max_seconds : float or None
+        Time limit of the whole job (each model on a worker gets the same limit).
+    **options : object
+        Passed to :func:`report_models` (method, seed, force, executor).
+
+    Returns
+    -------
+    tuple of AnalysisResult
+        One per model, in order.
+    """
+    with time_budget(max_seconds):
+        models = [read_model(p, check=check_file_limits) for p in paths]
+        for m in models:
+            check_analysis_limits(m)
+        return report_models(models, out, max_seconds=max_seconds, **options)  # type: ignore[arg-type]

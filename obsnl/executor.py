@@ -23,6 +23,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
+from obsnl._text import quote
 from obsnl.errors import OptionError
 
 T = TypeVar("T")
@@ -30,7 +31,11 @@ T = TypeVar("T")
 #: A Dask scheduler address: an optional scheme, a host name or address ([...] for IPv6), an optional port.
 _ADDRESS = re.compile(r"^(?:(?P<scheme>tcp|tls)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)(?::(?P<port>\d{1,5}))?$")
 
-__all__ = ["Executor", "spawn_seeds", "built_once"]
+__all__ = ["Executor", "spawn_seeds", "built_once", "MAX_WORKERS"]
+
+#: Most local worker processes (each holds its own copy of the model and its compiled filters); past a
+#: machine integer the process pool itself fails with an OverflowError.
+MAX_WORKERS = 1024
 
 
 @dataclass(frozen=True)
@@ -56,8 +61,9 @@ class Executor:
     workers: int | None = None
 
     def __post_init__(self) -> None:
-        if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
-            raise OptionError(f"workers must be a whole number >= 1 or None (one per core), got {self.workers!r}")
+        if self.workers is not None and (not isinstance(self.workers, int) or not 1 <= self.workers <= MAX_WORKERS):
+            raise OptionError(f"workers must be a whole number from 1 to {MAX_WORKERS} or None (one per core), got "
+                              f"{quote(self.workers, 30)}; a larger pool is a Dask cluster (--scheduler)")
         if self.scheduler is not None and not isinstance(self.scheduler, str) and not hasattr(self.scheduler, "map"):
             raise OptionError(f"scheduler must be a Dask scheduler address like tcp://host:8786 or a "
                               f"distributed.Client, got {self.scheduler!r}")
@@ -158,9 +164,11 @@ class Executor:
 def _host_port(address: str) -> tuple[str, int]:
     """Host and port of a Dask scheduler address (port 8786 when none is given), or a one-line refusal."""
     m = _ADDRESS.match(address.strip())
-    if m is None or not 0 < int(m["port"] or 8786) < 65536:
-        raise OptionError(f"--scheduler {address!r} is not a Dask scheduler address; give one like tcp://HOST:8786 "
-                          f"(port 1-65535)")
+    labels = [] if m is None or m["host"].startswith("[") else m["host"].removesuffix(".").split(".")
+    if m is None or not 0 < int(m["port"] or 8786) < 65536 or len(m["host"]) > 253 or \
+            not all(0 < len(x) < 64 for x in labels):  # the labels a host name may have (an empty one: "a..b")
+        raise OptionError(f"--scheduler {quote(address)} is not a Dask scheduler address; give one like "
+                          f"tcp://HOST:8786 (port 1-65535, a host name of dot-separated labels of 1 to 63 characters)")
     return m["host"].strip("[]"), int(m["port"] or 8786)
 
 

@@ -87,10 +87,10 @@ def _untimed(doc):
     return [_untimed(v) for v in doc] if isinstance(doc, list) else doc
 
 
-def test_the_program_ends_without_teardown_but_loses_nothing(tmp_path, capsys):
-    """``obsnl.cli.run`` (the program) skips only the freeing of objects at exit: the printed output, a
-    written file, the exit codes (0, and 2 with its one-line error) and the atexit handlers are those
-    of a normal exit. Expected output: the in-process ``main`` on the same arguments."""
+def test_the_program_loses_nothing_at_exit(tmp_path, capsys):
+    """``obsnl.cli.run`` (the program) ends in a normal exit: the printed output, a written file, the exit
+    codes (0, and 2 with its one-line error) and the atexit handlers. Expected output: the in-process
+    ``main`` on the same arguments."""
     model = str(MODELS / "coulomb_friction.toml")
     code, want, _ = run(["analyze", model, "--seed", "3", "--format", "json"], capsys)
     assert code == 0

@@ -503,8 +503,9 @@ def test_10_filter_settings_are_refused_by_their_option_name(capsys, option, val
 
 @pytest.mark.parametrize("extra, words", [
     (["--data", "d.csv", "--samples", "50"], ["--samples", "--record"]),
-    (["--record", str(REC), "--workers", "2"], ["--workers", "--replicates"]),
-    (["--record", str(REC), "--scheduler", "tcp://127.0.0.1:1"], ["--scheduler", "--replicates"]),
+    # with --no-refine and no replicates nothing of identify runs on workers (the profiles and the replicates do)
+    (["--record", str(REC), "--no-refine", "--workers", "2"], ["--workers", "--replicates", "--no-refine"]),
+    (["--record", str(REC), "--no-refine", "--scheduler", "tcp://127.0.0.1:1"], ["--scheduler", "--replicates"]),
 ])
 def test_10_identify_refuses_options_it_would_ignore(capsys, extra, words):
     code, err = run(capsys, "identify", "obsnl:damage_healing_reparam", *extra)

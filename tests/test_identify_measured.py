@@ -117,7 +117,7 @@ def test_a_poorly_informed_parameter_is_reported_held_not_estimated():
     assert not a["held"] and a["estimate"] == pytest.approx(2.0, rel=0.05)
     from obsnl.report.identification import identify_text
 
-    assert "held at its guess 0.3 (not estimated)" in identify_text(doc)
+    assert "held at its guess 0.3 (not estimated)" in identify_text(res)  # rendered from the value
 
 
 def test_a_zero_truth_gives_an_absolute_error_and_the_json_has_no_infinity(tmp_path):
@@ -167,7 +167,7 @@ d = 1e-4
         assert all(abs(p["estimate"] - p["true"]) <= max(4 * p["std"], 0.01 * abs(p["true"]))
                    for p in doc["parameters"] if not p["flagged"])
     else:
-        assert doc["converged_reason"] and "NOT converged: " + doc["converged_reason"] in identify_text(doc)
+        assert doc["converged_reason"] and "NOT converged: " + doc["converged_reason"] in identify_text(res)
     assert clean_json([float("inf"), float("nan"), 1.0]) == [None, None, 1.0]
 
 

@@ -90,6 +90,30 @@ def test_ml_estimate_equals_least_squares_on_the_exact_discretisation():
     assert ref.std == pytest.approx(np.sqrt(np.diag(cov))[:2], rel=1e-4)
 
 
+def test_one_output_is_reweighted_without_a_refit(monkeypatch):
+    # with one output the re-estimated noise changes every weight by one factor: chi2 scales, its minimiser does
+    # not move, so the refit is skipped; a noise level given 3x too large must give the same estimate, std and
+    # verdict (the first-order measures carried into the final weights), with fewer evaluations of the objective
+    from obsnl.identification import likelihood
+
+    u, y, sigma = msd_data(seed=7)
+    calls = []
+    real = likelihood.Objective.evaluate
+    monkeypatch.setattr(likelihood.Objective, "evaluate", lambda self, z, **kw: calls.append(1) or real(self, z, **kw))
+    runs = {}
+    for given in (sigma, 3 * sigma):
+        setup, data = setup_of(MSD, u, y, 0.02, {"k": 18.0, "c": 1.2}, given)
+        calls.clear()
+        ref = refine(setup, data, setup.theta_guess)
+        runs[given] = (ref, len(calls))
+    (a, na), (b, nb) = runs.values()
+    assert a.converged and b.converged, (a.reason, b.reason)
+    assert b.theta == pytest.approx(a.theta, rel=1e-9) and b.std == pytest.approx(a.std, rel=1e-6)
+    assert b.sigma == pytest.approx(a.sigma, rel=1e-6)
+    # the fit from the given weights, then one evaluation in the final weights: no second Levenberg-Marquardt run
+    assert na == a.fit.evaluations + 1 and nb == b.fit.evaluations + 1
+
+
 def test_profile_interval_of_a_model_linear_in_its_parameters_is_the_analytic_interval():
     # x' = a u1 + b u2, y = x: y_k = x0 + a U1_k + b U2_k with U the exact integrals of the piecewise-linear
     # inputs (trapezoids); RK4 integrates this exactly. The likelihood is quadratic in (a, b, x0), so the
@@ -202,6 +226,30 @@ def test_the_profiles_work_within_a_time_budget():
     assert [p.shape for p in late] == ["not-computed", "not-computed"]
     assert all(p.interval == (None, None) and "time budget" in judge(p) for p in late)
     assert [p.shape for p in profiles(ref, max_seconds=None)] == ["closed", "closed"]
+
+
+def test_profiles_on_two_workers_are_the_profiles_of_this_process(monkeypatch):
+    # each worker rebuilds the objective from plain data (the symbolic model, the record, the estimate) and
+    # must then follow the same iterations: the same points, evaluations and interval ends, to rounding
+    from obsnl.executor import Executor
+    from obsnl.identification import profile as profile_module
+
+    monkeypatch.setattr(profile_module, "PARALLEL_MIN", 2)  # two profiles go to the workers too
+
+    u, y, sigma = msd_data(seed=3)
+    setup, data = setup_of(MSD, u, y, 0.02, {"k": 18.0, "c": 1.2}, sigma)
+    ref = refine(setup, data, setup.theta_guess)
+    here = profiles(ref, max_seconds=None)
+    monkeypatch.setattr(profile_module, "profile", lambda *a, **k: pytest.fail("a profile ran in this process"))
+    ticks: list[int] = []
+    there = profiles(ref, max_seconds=None, executor=Executor(workers=2), progress=lambda: ticks.append(1))
+    assert len(ticks) == 2 and [p.name for p in there] == ["k", "c"]
+    for a, b in zip(here, there):
+        assert a.shape == b.shape == "closed"
+        assert (a.evaluations, len(a.points)) == (b.evaluations, len(b.points))
+        assert np.allclose(a.interval, b.interval, rtol=1e-10, atol=0.0)
+    late = profiles(ref, max_seconds=0.0, executor=Executor(workers=2))  # the budget holds on workers too
+    assert [p.shape for p in late] == ["not-computed", "not-computed"]
 
 
 @pytest.mark.parametrize("kwargs, words", [({"guess": {"kk": 3.0}}, "'kk', which is not a parameter"),

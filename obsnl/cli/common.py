@@ -1,30 +1,31 @@
-"""What every command of the command line shares: the one-line exit, option types, model loading,
-writing output (never over a file without ``--force``), progress bars and the executor options."""
+"""What the commands share: the one-line exit, the bounded option types and actions, the one line of an
+operating system's refusal, writing output."""
 
 from __future__ import annotations
 
 import argparse
+import errno
+import math
 import sys
 from typing import Any
 
+from obsnl._text import quote, shorten
 
-__all__ = ["write_output"]
+__all__: list[str] = []
 
 
 class _Exit(Exception):
     def __init__(self, code: int, message: str = "") -> None:
         super().__init__(message)
-        self.code = code
-        self.message = message
+        self.code, self.message = code, message
 
 
 def _at_least(low: int, at_most: int | None = None, why: str = "") -> Any:
-    """An argparse type: a whole number ``>= low`` (and ``<= at_most`` when given, ``why`` saying why),
-    refused at parse time (before any work or bar starts)."""
+    """An argparse type: a whole number ``>= low`` (and ``<= at_most``, ``why`` saying why), refused at parse time."""
 
     def parse(text: str) -> int:
-        digits = text.strip().lstrip("-")
-        if at_most is not None and digits.isdigit() and not text.strip().startswith("-") and len(digits) > 20:
+        digits, negative = text.strip().lstrip("-"), text.strip().startswith("-")
+        if at_most is not None and digits.isdigit() and not negative and len(digits) > 20:
             value = at_most + 1  # not converted: Python refuses integers of over 4300 digits
         else:
             value = int(text) if digits.isdigit() and len(digits) < 4000 else None
@@ -38,87 +39,93 @@ def _at_least(low: int, at_most: int | None = None, why: str = "") -> Any:
     return parse
 
 
-#: Most Monte-Carlo replicates of ``identify`` and ``reproduce`` (100 000 000 ended in a MemoryError after 13 s).
-MAX_REPLICATES = 10_000
-#: Most passes over the record of ``identify`` and ``reproduce``.
-MAX_PASSES = 100
-#: ``--replicates``: 0 (off) to :data:`MAX_REPLICATES` (1 and 2 are refused by ``check_replicates``).
+MAX_REPLICATES, MAX_PASSES = 10_000, 100  # of identify and reproduce (1e8 replicates: a MemoryError after 13 s)
 _replicates = _at_least(0, MAX_REPLICATES, "each replicate is one more filter run whose results are kept in memory; "
                                           "a few hundred give a Monte-Carlo interval")
-#: ``--passes``: 1 to :data:`MAX_PASSES`.
 _passes = _at_least(1, MAX_PASSES, "each pass is one more filter run over the whole record; the estimates settle "
                                    "within a few passes")
-
-#: ``--seed``: a non-negative integer (numpy's generators refuse negative seeds).
-_seed = _at_least(0)
+_seed = _at_least(0)  # numpy's generators refuse negative seeds
 
 
-def _load(path: str, check: Any = None):
-    """The model file at ``path``; ``check`` sees the file's raw keys before any expression is parsed."""
-    from obsnl.model.files import read_model
+def _real(low: float, high: float, what: str) -> Any:
+    """An argparse type: a number strictly between ``low`` and ``high`` (so never NaN, and finite when ``high``
+    is infinite), refused at parse time with the text shortened (argparse's own message echoes it whole)."""
 
-    return read_model(path, check=check)
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not low < value < high:
+            raise argparse.ArgumentTypeError(f"{quote(text, 40)} is not {what}")
+        return value
+
+    parse.__name__ = what
+    return parse
 
 
-def write_output(text: str, out: str | None, *, force: bool) -> None:
-    """Print ``text`` or write it to ``out``; never overwrite an existing file without ``force``.
+_seconds = _real(0.0, math.inf, "a positive finite number of seconds")  # every command's --max-seconds
+_noise = _real(0.0, 10.0, "a relative noise level above 0 and below 10 (0.01 is 1 %)")
 
-    The file goes through the one output writer (:func:`obsnl.report.files.safe_write`): created
-    exclusively and moved onto ``out`` atomically, so with ``force`` a symlink or a hard-linked file
-    there is replaced by a new file, never written through or truncated in place.
 
-    Parameters
-    ----------
-    text : str
-        The text (a final newline is added).
-    out : str or None
-        The file, or None / ``"-"`` for standard output.
-    force : bool
-        Overwrite an existing file.
+def _given(parser: argparse.ArgumentParser, values: Any, option: str | None) -> Any:
+    """``values``, or a usage error when Python 3.11's argparse turned ``--opt=--`` into ``[]`` (past the
+    option's type and choices)."""
+    if isinstance(values, list) and not values:
+        parser.error(f"argument {option}: expected one value, got '--' (a value that starts with '-' is written "
+                     f"{option}=VALUE)")
+    return values
 
-    Raises
-    ------
-    OutputError
-        When the file exists without ``force`` or cannot be written.
-    """
-    from obsnl.report.files import safe_write
 
+class _One(argparse.Action):
+    """``store`` for a single-valued option, with the check of :func:`_given`."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        setattr(namespace, self.dest, _given(parser, values, option_string))
+
+
+class _More(argparse.Action):
+    """``append`` for a repeatable option, with the check of :func:`_given`."""
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
+                 option_string: str | None = None) -> None:
+        items = list(getattr(namespace, self.dest, None) or [])
+        setattr(namespace, self.dest, [*items, _given(parser, values, option_string)])
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse's parser, whose usage errors never echo a value whole (an invalid choice, an argument it does
+    not know): a message over 300 characters keeps its start and its end (where the choices are)."""
+
+    def error(self, message: str) -> Any:  # argparse exits here (code 2)
+        if len(message) > 300:
+            message = f"{message[:200]} ... {message[-80:]}"
+        super().error(message)
+
+
+#: What to do about the system's refusals that a user can fix (else: check the path).
+_OS_FIXES = {errno.ENAMETOOLONG: "use a file name of at most 255 bytes", errno.ENOSPC: "free some space or write "
+             "elsewhere", errno.EROFS: "write to a writable file system", errno.EACCES: "choose a path you may use",
+             errno.EPERM: "choose a path you may use", errno.EISDIR: "name a file, not a folder",
+             errno.ENOTDIR: "a part of the path is a file, not a folder"}
+
+
+def _os_error(exc: OSError) -> str:
+    """The one line of the command line's error for a refusal of the operating system: the path (shortened),
+    the system's reason and the fix."""
+    where = f" {quote(str(exc.filename), 100)}" if exc.filename is not None else ""
+    why = exc.strerror or shorten(str(exc) or type(exc).__name__, 200)
+    return f"cannot use{where}: {why}; {_OS_FIXES.get(exc.errno or 0, 'check the path')}"
+
+
+def _write(text: str, out: str | None = None, *, force: bool = False) -> None:
+    """Print ``text`` (out None or ``-``) or write it to the file ``out`` through
+    :func:`obsnl.report.files.safe_write`: never over a file without ``force``, never through a symlink."""
     text = text if text.endswith("\n") else text + "\n"
     if out is None or out == "-":
         sys.stdout.write(text.encode("utf-8", "backslashreplace").decode("utf-8"))
-        return
-    safe_write(out, text, force=force)  # refuses symlinks, folders, a parent that is a file
+    else:
+        from obsnl.report.files import safe_write
 
-
-def _one_input_record(model: Any, path: str) -> Any:
-    """The record at ``path`` as the one known input of ``model`` (``--record`` of analyze, sensors and design)."""
-    from obsnl.estimation.records import read_record
-
-    if len(model.inputs) != 1:
-        raise _Exit(2, f"--record drives one input, model {model.name!r} has {len(model.inputs)}; give a model with "
-                    "one known input")
-    return read_record(path)
-
-
-def _progress(desc: str, total: int | None, unit: str) -> Any:
-    """A progress bar on stderr (tqdm), or None when tqdm is missing."""
-    try:
-        from tqdm import tqdm
-    except ImportError:  # pragma: no cover
-        return None
-    return tqdm(desc=desc, total=total, unit=unit, file=sys.stderr)
-
-
-def _add_executor(p: argparse.ArgumentParser, workers: int | None = None) -> None:
-    p.add_argument("--workers", type=_at_least(1), default=workers,
-                   help=f"local processes (default: {workers or 'one per core'}; 1: none)")
-    p.add_argument("--scheduler", default=None, metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
-
-
-def _executor(args: argparse.Namespace) -> Any:
-    """The executor of ``--workers``/``--scheduler``; a scheduler nothing answers on is refused here, before any work."""
-    from obsnl.executor import Executor
-
-    return Executor(scheduler=args.scheduler, workers=args.workers).probe()
-
-
+        safe_write(out, text, force=force)

@@ -5,12 +5,14 @@ for which the targets are jointly identifiable (``sensors``, on the sufficiency 
 ``sufficiency``); the practical ranking of sufficient sets by the Cramer-Rao bound along a simulated
 response, compared with effective independence on the linear part's modes (``ranking``); and the
 experiment: the branches a record visits as its scale grows, the smallest scale that makes every target
-identifiable and which of several records suffice (``experiment``).
+identifiable and which of several records suffice (``experiment``). The workflows on a model file and
+its records that the command line runs (``records``: one time budget, the visits of a record, the design
+figure) and the checks of the public entries' arguments (``arguments``) live here too.
 
 May import: ``errors``, ``executor``, ``model``, ``observability`` (the joint verdict of each candidate
-set), ``estimation`` (simulation and the numeric model) and ``identification`` (the output sensitivities
-along a record). Must never import ``studies``, ``batch``, ``cli`` or ``report`` (the renderings of its
-results live in :mod:`obsnl.report`).
+set), ``estimation`` (simulation and the numeric model), ``identification`` (the output sensitivities
+along a record) and ``report`` (only to write the design figure in ``records``; the renderings of its
+results live in :mod:`obsnl.report`). Must never import ``studies``, ``batch`` or ``cli``.
 """
 
 #: The room's public names, each imported from the module that defines it on first use (so that importing

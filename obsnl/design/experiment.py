@@ -32,8 +32,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Union
 
-import numpy as np
-
+from obsnl.design.arguments import design_arguments, record_run
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
 from obsnl.errors import NotSupportedError, OptionError
 from obsnl.estimation.accelerogram import Record
@@ -177,22 +176,6 @@ class ExperimentDesign:
                 "sufficient_records": [list(s) for s in self.sufficient_records], "notes": list(self.notes),
                 "undecided_records": [list(s) for s in self.undecided_records], "seconds": round(self.seconds, 3),
                 "assumptions": dict(self.assumptions)}
-
-
-def _as_run(model: Model, rec: Any) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
-    """``(name, t, {input: samples})`` of a record (a one-column Record drives the model's one input)."""
-    if isinstance(rec, Record):
-        a = np.asarray(rec.accel, float)
-        if a.ndim == 2:
-            return rec.name, rec.t, {c: a[:, j] for j, c in enumerate(rec.channels)}
-        if len(model.inputs) != 1:
-            raise OptionError(f"record {rec.name!r} drives one input, model {model.name!r} has {len(model.inputs)} "
-                              f"known inputs; give (name, t, {{input: samples}}) instead")
-        return rec.name, rec.t, {model.inputs[0].name: a}
-    if isinstance(rec, tuple) and len(rec) == 3 and isinstance(rec[2], Mapping):
-        name, t, inputs = rec
-        return str(name), np.asarray(t, float), {str(k): np.asarray(v, float) for k, v in inputs.items()}
-    raise OptionError(f"a record is a Record or (name, t, {{input: samples}}), got {type(rec).__name__}")
 
 
 class _Runs:
@@ -373,17 +356,14 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
     ((('push',),), 2)
     """
     t0 = time.perf_counter()
-    grid = DEFAULT_SCALES if scales is None else tuple(sorted({float(s) for s in scales}))
-    if not grid or not all(math.isfinite(s) and s > 0 for s in grid):
-        raise OptionError(f"the scales must be positive finite numbers, got {list(scales or [])!r}")
-    if isinstance(tol, bool) or not isinstance(tol, (int, float)) or not 1e-12 <= tol < 1:
-        raise OptionError(f"tol is a relative width from 1e-12 to below 1, got {tol!r}")
+    records = [records] if isinstance(records, Record) else records
+    grid = design_arguments(model, records, scales=scales, tol=tol, sensors=sensors) or DEFAULT_SCALES
     with time_budget(max_seconds):
         targets = resolve_targets(model, target)
         chosen = model.output_names if sensors is None else (
             [s.strip() for s in sensors.split(",") if s.strip()] if isinstance(sensors, str) else list(sensors))
         sub = restrict(model, chosen)
-        runs = [_as_run(model, r) for r in ([records] if isinstance(records, Record) else records)]
+        runs = [record_run(model, r) for r in records]
         names = [r[0] for r in runs]
         if not runs or len(runs) > MAX_RECORDS or len(set(names)) < len(names):
             raise OptionError(f"give 1 to {MAX_RECORDS} records with distinct names, got {len(runs)}: "

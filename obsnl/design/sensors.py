@@ -41,6 +41,7 @@ from dataclasses import replace
 from typing import Any
 
 from obsnl._progress import Progress
+from obsnl._text import quote
 from obsnl.errors import OptionError
 from obsnl.executor import Executor
 from obsnl.model.core import Model
@@ -49,6 +50,7 @@ from obsnl.observability.analyze import assumptions
 from obsnl.observability.certificates.certify import shared_symmetries
 from obsnl.observability.joint.selection import select_branches
 from obsnl.observability.engines.inputs import resolve_unknown_input_derivatives
+from obsnl.design.arguments import model_argument
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
 from obsnl.observability.engines.decompose import output_reachable
 from obsnl.design.sensor_search import SensorSearch
@@ -114,7 +116,8 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     Raises
     ------
     OptionError
-        A model without outputs, a bad target, ``max_size`` not a whole number >= 1.
+        A model that is not a Model or a path, a model without outputs, a bad target, ``max_size`` not a
+        whole number >= 1, an executor that is not an :class:`~obsnl.executor.Executor`.
 
     Examples
     --------
@@ -129,6 +132,9 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     >>> res.analyses  # the full set, {s}, {y1, y2}; {y1} and {y2} fail on reachability alone
     3
     """
+    model_argument(model, "sensors", files=True)
+    if executor is not None and not isinstance(executor, Executor):
+        raise OptionError(f"executor is an obsnl.executor.Executor or None, got {type(executor).__name__}")
     if isinstance(model, str) or hasattr(model, "__fspath__"):
         model = read_model(model)
     candidates = tuple(model.output_names)
@@ -264,6 +270,9 @@ def rank_sufficient_sets(search: SensorSearch, model: Model, *, t: Any, inputs: 
     """
     from obsnl.design.ranking import effective_independence, rank_sensor_sets
 
+    if size is not None and (not isinstance(size, int) or not 1 <= size <= len(search.candidates)):
+        raise OptionError(f"the rank size is a number of sensors from 1 to {len(search.candidates)} (the model's "
+                          f"outputs), got {quote(size, 30)}")
     if size is None:
         if not search.minimal_sets:
             raise OptionError("no sufficient sensor set to rank: " + (search.proof or "none found"))

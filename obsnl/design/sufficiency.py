@@ -24,6 +24,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from obsnl._text import names as name_list, quote
+from obsnl.design.arguments import names_argument
 from obsnl.errors import OptionError
 from obsnl.model.core import Model
 from obsnl.observability.analyze import analyze
@@ -111,6 +113,7 @@ def resolve_targets(model: Model, target: str | Sequence[str] = "all") -> tuple[
     (('x', 'a', 'b'), ('a', 'b'), ('x', 'b'))
     """
     order = [s.name for s in model.states] + [p.name for p in model.parameters]
+    target = names_argument(target, "target")
     if isinstance(target, str) and target.strip() == "all":
         return tuple(order)
     if isinstance(target, str) and target.strip() == "parameters":
@@ -121,8 +124,8 @@ def resolve_targets(model: Model, target: str | Sequence[str] = "all") -> tuple[
         raise OptionError("the target is empty: give all, parameters, or names of states and parameters")
     bad = [n for n in names if n not in order]
     if bad:
-        raise OptionError(f"target {', '.join(map(repr, bad))} is not a state or parameter of {model.name!r}; "
-                          f"choose among {', '.join(order)}")
+        raise OptionError(f"target {name_list(map(quote, bad), 3)} is not a state or parameter of {quote(model.name)}; "
+                          f"choose among {name_list(order, 20)}")
     return tuple(n for n in order if n in names)
 
 
@@ -158,8 +161,8 @@ def restrict(model: Model, sensors: Sequence[str]) -> Model:
         raise OptionError("a sensor set needs at least one output")
     bad = [n for n in names if n not in model.outputs]
     if bad:
-        raise OptionError(f"{', '.join(map(repr, bad))} is not an output of {model.name!r}; "
-                          f"the candidate sensors are {', '.join(model.output_names)}")
+        raise OptionError(f"{name_list(map(quote, bad), 3)} is not an output of {quote(model.name)}; "
+                          f"the candidate sensors are {name_list(model.output_names, 20)}")
     keep = {n: model.outputs[n] for n in model.output_names if n in names}
     return model.replace(outputs=keep)
 

@@ -316,7 +316,8 @@ def read_record(path: str | Path) -> Record:
         return read_at2(path)
     if suffix == ".csv":
         return read_csv(path)
-    raise DataError(f"{str(path)!r}: unknown record type {suffix!r}; use a .csv (time_s,accel_m_s2) or a PEER .AT2")
+    raise DataError(f"{quote(str(path))}: unknown record type {quote(suffix, 20)}; use a .csv (time_s,accel_m_s2) or "
+                    f"a PEER .AT2")
 
 
 def rms(x: Any) -> float:

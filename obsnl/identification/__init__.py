@@ -4,7 +4,8 @@ Owns the identification workflow on top of the filter core: the experiment set-u
 (``setup``), the filter protocol and tuning (``experiments``), practical identifiability at an estimate
 (``practical``, with Monte-Carlo replicates on an executor: ``replicates``), the maximum-likelihood
 refinement after the filter (``likelihood``) and its profile-likelihood intervals (``profile``), one
-identification run as a result value (``runs``, ``results``), and the public entry points that check the
+identification run as a result value (``runs``, ``results``) with its structural check as a value
+(``structural``: ``StructuralCheck``), and the public entry points that check the
 model's structure first (``identify``: :func:`obsnl.identify`, the simulation study, the result folder).
 
 May import: ``errors``, ``executor``, ``model``, ``observability`` (the structural verdict comes first:
@@ -19,6 +20,7 @@ _LAZY: dict[str, str] = {
     "Identification": "results", "Setup": "setup", "Tuning": "setup", "make_data": "setup",
     "make_filter": "setup", "output_misfit": "setup", "run_passes": "experiments",
     "monte_carlo": "experiments", "practical_identifiability": "practical", "Practical": "practical",
+    "StructuralCheck": "structural",
 }
 
 __all__ = list(_LAZY)

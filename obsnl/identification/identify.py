@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 from obsnl._progress import Progress
-from obsnl.errors import AnalysisError, DataError, OptionError
+from obsnl.errors import DataError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
@@ -37,9 +37,7 @@ from obsnl.model.files import read_model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.contract.table_check import check_table
 from obsnl.observability.contract.branch_table import BranchTable
-from obsnl.identification.structural import (
-    _structural_note, frozen_but_jointly_identifiable, structurally_unidentifiable,
-)
+from obsnl.identification.structural import StructuralCheck, structural_check
 
 __all__ = ["identify", "study", "write_identification", "IDENTIFY_FILES"]
 
@@ -53,7 +51,7 @@ def _model(model: Model | str | Path) -> Model:
 
 def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mapping[str, float] | None,
              allow_unidentifiable: bool, seed: int, method: str = "ukf"
-             ) -> tuple[Any, dict[str, float], BranchTable | None, dict]:
+             ) -> tuple[Any, dict[str, float], BranchTable | None, StructuralCheck]:
     """Table check, structural analysis (refusal), compilation, guesses."""
     if isinstance(table, (str, Path)):
         from obsnl.observability.contract.branch_table import read_branch_table
@@ -63,24 +61,8 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
     # a table made for another model, or one that contradicts it, is refused first; its check's analysis is the
     # structural check (one analysis per call)
     result = check_table(table, model) if table is not None else analyze(model, seed=seed)
-    bad, kind = structurally_unidentifiable(result, names)
-    structural = {"verdict": kind, "unidentifiable": list(bad), "allowed": bool(bad and allow_unidentifiable),
-                  "undecided": sorted(set().union(*(b.undecided for b in result.branches)) & set(names)),
-                  "branches": len(result.branches)}
-    if bad and not allow_unidentifiable:
-        which = "the joint verdict" if kind == "joint" else "every branch"
-        raise AnalysisError(
-            f"{', '.join(bad)} of {model.name!r} {'is' if len(bad) == 1 else 'are'} structurally unidentifiable "
-            f"from its outputs ({which}); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` "
-            f"and identify NEW.toml, or pass --allow-unidentifiable")
-    frozen = frozen_but_jointly_identifiable(table, result) if method == "dukf" else ()
-    structural["frozen_by_the_dukf"] = list(frozen)
-    if frozen and not allow_unidentifiable:
-        raise AnalysisError(
-            f"{', '.join(frozen)} of {model.name!r} {'is' if len(frozen) == 1 else 'are'} identifiable only jointly: "
-            f"every branch of the table freezes {'it' if len(frozen) == 1 else 'them'}, so the DUKF would hold "
-            f"{'it' if len(frozen) == 1 else 'them'} at the guess; reparametrize with `obsnl reparametrize MODEL -o "
-            f"NEW.toml` (the seed paper's Delta1, Delta2), use --method ukf, or pass --allow-unidentifiable")
+    structural = structural_check(result, model.name, names, table=table, method=method,
+                                  allow_unidentifiable=allow_unidentifiable)
     num = to_casadi(model, switching=table.switching if table else None)
     g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
     unknown = sorted(set(guess or {}) - set(names))
@@ -133,8 +115,9 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         True (default): a progress bar on standard error over the filter passes (tuning included), the
         refinement, the profiles and the replicates; False: none; a callable: called after each of those steps.
     executor : Executor or None
-        Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`: local processes or a Dask
-        cluster; default: this process). The same numbers on any executor.
+        Where the profile likelihoods and the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`:
+        local processes or a Dask cluster; default: this process, one after the other). The same numbers on
+        any executor; on a 2-core machine ``Executor(workers=2)`` about halves the profiles' time.
     refine : bool
         Refine the filter's estimate by maximum likelihood (the default last step): Fisher std, 95 %
         profile-likelihood intervals, flags from the intervals, ``converged`` from the optimizer's
@@ -185,9 +168,9 @@ def _steps(progress: bool | Callable[[], Any] | None, model: Model, passes: int,
     return Progress(progress, total, "identify", "step")
 
 
-def _cross_check(res: Identification, structural: Mapping[str, Any]) -> Identification:
+def _cross_check(res: Identification, structural: StructuralCheck) -> Identification:
     """The structural note, and each flat profile held against the structural verdict."""
-    bad = set(structural["unidentifiable"])
+    bad = set(structural.unidentifiable)
     params = []
     for p in res.parameters:
         flat = p.interval_method is not None and p.interval_method.endswith("flat")
@@ -198,7 +181,7 @@ def _cross_check(res: Identification, structural: Mapping[str, Any]) -> Identifi
             p = dataclasses.replace(p, reason=f"{p.reason}; {said}")
         params.append(p)
     return dataclasses.replace(res, parameters=tuple(params), structural=structural,
-                               assumptions=res.assumptions + _structural_note(structural))
+                               assumptions=res.assumptions + (structural.note(),))
 
 
 def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapping[str, float] | None = None,
@@ -239,7 +222,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     progress : bool, callable or None
         A progress bar on standard error (True, the default), none (False), or a callback per step.
     executor : Executor or None
-        Where the Monte-Carlo replicates run (default: this process).
+        Where the profile likelihoods and the Monte-Carlo replicates run (default: this process).
     hold : bool
         Hold poorly informed parameters at their guess (default: off, nothing is held).
     refine : bool

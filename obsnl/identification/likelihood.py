@@ -123,7 +123,7 @@ _BUILT: dict[tuple, ca.Function] = {}
 
 
 def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | None = None,
-              sigma: np.ndarray | None = None) -> Objective:
+              sigma: np.ndarray | None = None, scale: np.ndarray | None = None) -> Objective:
     """The output-error objective of ``setup`` on ``data``.
 
     Parameters
@@ -138,6 +138,9 @@ def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | No
         RK4 substeps per sample (default: ``setup.fit_substeps``, else the filter's).
     sigma : numpy.ndarray or None
         Noise std per output (default: the setup's levels on these data).
+    scale : numpy.ndarray or None
+        The scale of ``x0`` per state (default: the RMS of each state simulated at ``theta``, at least
+        1 % of the largest); a worker rebuilding another process's objective passes that one's.
 
     Returns
     -------
@@ -148,9 +151,11 @@ def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | No
     m = setup.model
     n = int(substeps or setup.fit_substeps or setup.substeps)
     T = len(data.u)
-    sim = simulate(m, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=n, refine=setup.refine)
-    typical = np.sqrt(np.mean(sim.x ** 2, axis=0))
-    scale = np.maximum(typical, 1e-2 * max(float(typical.max()), 1e-300))
+    if scale is None:
+        sim = simulate(m, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=n, refine=setup.refine)
+        typical = np.sqrt(np.mean(sim.x ** 2, axis=0))
+        scale = np.maximum(typical, 1e-2 * max(float(typical.max()), 1e-300))
+    scale = np.asarray(scale, float)
     key = (id(m), id(setup.coordinates), float(setup.record.dt), T, n, int(setup.refine), scale.tobytes(),
            setup.x0.tobytes())
     if key not in _BUILT:

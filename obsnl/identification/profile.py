@@ -34,12 +34,13 @@ import numpy as np
 
 from obsnl._text import block, number, one_line
 from obsnl.errors import EstimatorError
+from obsnl.executor import Executor, built_once
 from obsnl.identification.likelihood import levenberg_marquardt
 from obsnl.identification.refine import Refinement
 
 __all__ = [
     "Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND",
-    "MAX_SECONDS",
+    "MAX_SECONDS", "PARALLEL_MIN",
 ]
 
 #: chi2(1) 0.95 quantile (scipy.stats.chi2.ppf(0.95, 1)).
@@ -54,6 +55,9 @@ FLAT = 0.1
 MAX_SECONDS = 900.0
 #: Profile points per side at most (each a re-optimisation of every other coordinate).
 POINTS = 8
+#: Fewer profiles than this run in this process even on an executor with several workers: starting a worker
+#: and compiling its objective costs a few seconds, about what two or three small profiles take.
+PARALLEL_MIN = 4
 
 
 @dataclass(frozen=True)
@@ -198,11 +202,15 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
 
 
 def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress: Any = None,
-             max_seconds: float | None = MAX_SECONDS) -> tuple[Profile, ...]:
+             max_seconds: float | None = MAX_SECONDS, executor: Executor | None = None) -> tuple[Profile, ...]:
     """:func:`profile` of every parameter that is not held (or of ``names``), within a time budget.
 
     A parameter whose profile was not started when ``max_seconds`` had passed gets no interval (shape
     ``not-computed``; :func:`judge` flags it with that reason): the work stays bounded on large models.
+    The profiles are independent of each other: on an ``executor`` with several workers each worker
+    rebuilds the objective once from plain data (the symbolic model, the record, the estimate and its
+    covariance: never a compiled object) and profiles one parameter per task; every profile is the one
+    this process would compute (the same start, the same iterations).
 
     Parameters
     ----------
@@ -213,7 +221,12 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
     progress : callable or None
         Called after each profile.
     max_seconds : float or None
-        Time budget of all the profiles (None: none).
+        Time budget of all the profiles (None: none); on an executor, a profile not started by then
+        (wall clock) is not computed.
+    executor : Executor or None
+        Where the profiles run (default: this process, one after the other). Fewer than
+        ``PARALLEL_MIN`` profiles, or a compiled model that was not made by
+        :func:`obsnl.estimation.codegen.to_casadi` (a worker cannot rebuild it), run in this process.
 
     Returns
     -------
@@ -229,25 +242,79 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
     .. [1] A. Raue, C. Kreutz, T. Maiwald, J. Bachmann, M. Schilling, U. Klingmueller and J. Timmer, "Structural and
        practical identifiability analysis of partially observed dynamical models by exploiting the profile
        likelihood", Bioinformatics 25(15), 1923-1929, 2009. doi:10.1093/bioinformatics/btp358
+
+    Examples
+    --------
+    >>> profiles.__name__
+    'profiles'
     """
     names = names or tuple(p for p in ref.objective.setup.model.parameters if p not in ref.held)
+    if executor is not None and executor.kind != "serial" and len(names) >= PARALLEL_MIN and \
+            ref.objective.setup.model.source is not None:
+        deadline = None if max_seconds is None else time.time() + max_seconds
+        spec = _spec(ref)
+        done = (lambda i, _: progress()) if progress else None
+        return tuple(executor.map(_profile_task, [(spec, p, deadline) for p in names], done=done))
     out = []
     t0 = time.perf_counter()
     for p in names:
-        if max_seconds is not None and time.perf_counter() - t0 > max_seconds:
-            i = ref.objective.setup.model.parameters.index(p)
-            out.append(Profile(name=p, estimate=float(ref.theta[i]), interval=(None, None), shape="not-computed",
-                               points=((float(ref.theta[i]), 0.0),)))
-            if progress:
-                progress()
-            continue
-        try:
-            out.append(profile(ref, p))
-        except EstimatorError as exc:
-            raise EstimatorError(f"the profile of {p} left the region where the model can be simulated: {exc}") from None
+        late = max_seconds is not None and time.perf_counter() - t0 > max_seconds
+        out.append(_not_computed(ref, p) if late else _profile_or_say(ref, p))
         if progress:
             progress()
     return tuple(out)
+
+
+def _not_computed(ref: Refinement, p: str) -> Profile:
+    """The place-holder of a profile the time budget left out."""
+    i = ref.objective.setup.model.parameters.index(p)
+    return Profile(name=p, estimate=float(ref.theta[i]), interval=(None, None), shape="not-computed",
+                   points=((float(ref.theta[i]), 0.0),))
+
+
+def _profile_or_say(ref: Refinement, p: str) -> Profile:
+    try:
+        return profile(ref, p)
+    except EstimatorError as exc:
+        raise EstimatorError(f"the profile of {p} left the region where the model can be simulated: {exc}") from None
+
+
+def _spec(ref: Refinement) -> dict[str, Any]:
+    """What a worker needs to rebuild ``ref`` (plain data: the model's recipe, the record, the estimate)."""
+    from obsnl.identification.replicates import recipe_of
+
+    obj = ref.objective
+    return {"recipe": recipe_of(obj.setup, "ukf", None), "u": np.asarray(obj.data.u), "y": np.asarray(obj.data.y),
+            "substeps": obj.substeps, "scale": obj.scale, "sigma": obj.sigma, "theta": ref.theta, "x0": ref.x0,
+            "std": ref.std, "cov": ref.cov, "chi2": ref.chi2, "z": ref.fit.z, "held": ref.held, "lower": ref.lower,
+            "upper": ref.upper}
+
+
+def _rebuilt(spec: dict[str, Any]) -> Refinement:
+    """The refinement of :func:`_spec`, its objective compiled in this process."""
+    from obsnl.estimation.codegen import to_casadi
+    from obsnl.identification.likelihood import Fit, objective
+    from obsnl.identification.setup import Data, Setup, coordinates
+
+    recipe = spec["recipe"]
+    num = to_casadi(recipe.model, switching=recipe.switching, constants=recipe.constants)
+    setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]), **recipe.setup)
+    obj = objective(setup, Data(seed=None, u=spec["u"], y=spec["y"]), theta=spec["theta"],
+                    substeps=spec["substeps"], sigma=spec["sigma"], scale=spec["scale"])
+    fit = Fit(z=spec["z"], chi2=spec["chi2"], iterations=0, evaluations=0, decrement=0.0, last_step=0.0,
+              at_bound=(), stalled=False, J=None, r=None)
+    return Refinement(theta=spec["theta"], x0=spec["x0"], std=spec["std"], cov=spec["cov"], sigma=spec["sigma"],
+                      chi2=spec["chi2"], held=spec["held"], lower=spec["lower"], upper=spec["upper"], fit=fit,
+                      objective=obj)
+
+
+def _profile_task(task: tuple[dict[str, Any], str, float | None]) -> Profile:
+    """One profile on a worker: ``(spec, name, deadline)``; past the deadline (wall clock), not computed."""
+    spec, name, deadline = task
+    ref = built_once(spec, lambda: _rebuilt(spec))
+    if deadline is not None and time.time() > deadline:
+        return _not_computed(ref, name)
+    return _profile_or_say(ref, name)
 
 
 #: The band within which an identified parameter's 95 % interval must lie (relative to the estimate).

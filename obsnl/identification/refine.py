@@ -14,7 +14,11 @@ from obsnl._text import block, names, number, one_line
 from obsnl.identification.setup import BOUND, Data, Setup
 from obsnl.identification.likelihood import DECREMENT, Fit, NOISE_FLOOR, Objective, STEP_LIMIT, covariance, levenberg_marquardt, objective
 
-__all__ = ["Refinement", "refine"]
+__all__ = ["Refinement", "refine", "ADVICE"]
+
+#: What to try when the refinement does not converge: the filter initialises it, so its start moves with the
+#: guesses and with the number of passes (``guess=``/``passes=`` in Python, ``--guess``/``--passes`` on the command line).
+ADVICE = "try other initial guesses or more filter passes"
 
 
 @dataclass(frozen=True, eq=False)
@@ -79,7 +83,7 @@ class Refinement:
 
 
 def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
-           substeps: int | None = None, max_iter: int = 60) -> Refinement:
+           substeps: int | None = None, max_iter: int = 60, advice: str = ADVICE) -> Refinement:
     """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
 
     Parameters
@@ -97,6 +101,9 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         crossing substep is refined as everywhere).
     max_iter : int
         Levenberg-Marquardt iterations at most, per weighting.
+    advice : str
+        What to try when the refinement does not converge (the end of the reason); a caller whose guesses
+        are fixed (the seed paper's study) names only what its user can change.
 
     Returns
     -------
@@ -119,6 +126,7 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     noise = obj.sigma
     fit = None
     iterations = 0
+    factor = 1.0  # the common factor of a re-weighting that changed every weight alike (then no refit)
     for _ in range(2):  # the given noise levels, then the ML levels of the fit (concentrated likelihood)
         fit = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter)
         iterations += fit.iterations
@@ -128,10 +136,19 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         z = fit.z
         if np.allclose(sigma, obj.sigma, rtol=1e-3):
             break
+        ratio = sigma / obj.sigma
         obj = obj.reweighted(sigma)
+        if np.allclose(ratio, ratio[0], rtol=1e-12):
+            # one output, or every channel off by the same factor: chi2 only scales by 1/factor^2 and its
+            # minimiser stays where it is, so a refit would end where it starts (it cost a Jacobian or more)
+            factor = float(ratio[0])
+            break
     r, J = obj.evaluate(z)
+    # the first-order measures in the final weights: a common factor c divides the decrement by c^2 and, the
+    # std growing by c, the last step (in std) by c
     fit = Fit(z=z, chi2=float(r @ r), iterations=fit.iterations, evaluations=fit.evaluations,
-              decrement=fit.decrement, last_step=fit.last_step, at_bound=fit.at_bound, stalled=fit.stalled, J=J, r=r)
+              decrement=fit.decrement / factor ** 2, last_step=fit.last_step / factor, at_bound=fit.at_bound,
+              stalled=fit.stalled, J=J, r=r)
     C_free, _ = covariance(J[:, free])
     C = np.zeros((len(z), len(z)))
     C[np.ix_(free, free)] = C_free
@@ -139,7 +156,7 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     std = np.array([abs(theta[i]) * math.sqrt(C[i, i]) if free[i] else 0.0 for i in range(m.np)])
     res = r.reshape(-1, m.ny) * obj.sigma
     misfit = {o: float(np.sqrt(np.mean(res[:, j] ** 2)) / noise[j]) for j, o in enumerate(m.outputs)}
-    converged, reason = _verdict(fit, m.parameters)
+    converged, reason = _verdict(fit, m.parameters, advice)
     return Refinement(theta=theta, x0=obj.x0(z), std=std, cov=C, sigma=obj.sigma, misfit=misfit, chi2=fit.chi2,
                       converged=converged, reason=reason, iterations=iterations,
                       at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
@@ -147,16 +164,16 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
                       objective=obj)
 
 
-def _verdict(fit: Fit, parameters: Sequence[str]) -> tuple[bool, str]:
+def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE) -> tuple[bool, str]:
     edge = [parameters[i] for i in fit.at_bound if i < len(parameters)]
     if fit.decrement > DECREMENT:
         what = "no step lowers the misfit any more" if fit.stalled else f"stopped after {fit.iterations} iterations"
         return False, (f"first-order condition not met: a Gauss-Newton step would still lower chi2 by "
                        f"{fit.decrement:.3g} ({what}); the objective may be rough here (a switch of the field "
-                       f"inside a step): try other --guess values or more --passes")
+                       f"inside a step): {advice}")
     if fit.last_step > STEP_LIMIT:
         return False, (f"the last step moved a parameter by {fit.last_step:.2g} of its std (more than {STEP_LIMIT:g}); "
-                       f"run again with more --passes")
+                       f"{advice}")
     note = (f"; {', '.join(edge)} rests on the edge of its valid region (a factor 100 from the guess; the first-order "
             f"conditions of the bounded problem hold there)" if edge else "")
     return True, (f"first-order condition met (Newton decrement {fit.decrement:.2g} <= {DECREMENT:g}) and the last "

@@ -17,8 +17,10 @@ import numpy as np
 
 from obsnl._text import block, names, number, one_line
 from obsnl.estimation.ukf import Trajectory
+from obsnl.identification.practical import Practical
 from obsnl.identification.profile import Profile
 from obsnl.identification.setup import Tuning
+from obsnl.identification.structural import StructuralCheck
 
 __all__ = ["Identification", "ParameterEstimate", "clean_json", "error_of"]
 
@@ -95,6 +97,12 @@ class Identification:
 
     ``fit``: NRMSE in per cent per output, ``100 RMS(simulated - measured) / RMS(measured)``, of the
     model simulated at the estimate under the measured input (held parameters at their guess).
+    ``practical``: the practical identifiability of the parameters at the filter's estimate
+    (:class:`~obsnl.identification.practical.Practical`; None where it was not computed);
+    ``structural``: what the structural analysis said
+    (:class:`~obsnl.identification.structural.StructuralCheck`; None until
+    :func:`obsnl.identification.identify.identify` joins it). ``identify.json`` carries them as
+    ``practical_identifiability`` and ``structural`` (``{}`` for None).
     ``traces``, ``t``, ``y_measured``, ``y_fit`` feed the figures and are not in the JSON.
     """
 
@@ -112,10 +120,10 @@ class Identification:
     tuning: Tuning
     tuning_scores: tuple[tuple[Tuning, float], ...]
     data: Mapping[str, Any]
-    practical: Mapping[str, Any]
+    practical: Practical | None
     assumptions: tuple[str, ...]
     repairs: int = 0
-    structural: Mapping[str, Any] = field(default_factory=dict)
+    structural: StructuralCheck | None = None
     seed: int | None = None
     traces: tuple[Trajectory, ...] = field(default=(), repr=False)
     t: np.ndarray = field(default=None, repr=False)
@@ -132,13 +140,16 @@ class Identification:
                         f"converged={self.converged}", f"flagged={names(self.flagged, 4)!r}", f"estimates='{est}'")
 
     def summary(self) -> str:
-        """A few lines of plain text: the run, each parameter's estimate, what is flagged, the fit."""
+        """A few lines of plain text: the run, the structural verdict, each parameter's estimate, what is flagged,
+        the fit."""
         fit = names([f"{o} {number(v)} %" for o, v in self.fit.items()])
         rows = [p.summary().rstrip("\n") for p in self.parameters]
+        most = 8 if self.structural is None else 7  # a dozen lines in all
         return block(f"{self.model}: {self.mode}, {self.method}, {self.passes_run} of {self.passes} passes, "
                      f"{'converged' if self.converged else 'NOT converged'}"
                      f"{f' ({self.converged_reason})' if self.converged_reason else ''}, {self.seconds:.3g} s",
-                     *rows[:8], f"... and {len(rows) - 8} more parameters" if len(rows) > 8 else "",
+                     self.structural.note() if self.structural is not None else "", *rows[:most],
+                     f"... and {len(rows) - most} more parameters" if len(rows) > most else "",
                      f"flagged (poorly informed by these data): {names(self.flagged)}" if self.flagged else "",
                      f"fit (NRMSE of the model at the estimate): {fit}")
 
@@ -165,8 +176,10 @@ class Identification:
             "output_misfit": self.output_misfit, "noise": dict(self.noise),
             "tuning": self.tuning.to_dict(),
             "tuning_scores": [{**t.to_dict(), "output_misfit": s} for t, s in self.tuning_scores],
-            "data": dict(self.data), "structural": dict(self.structural), "repairs": self.repairs,
-            "practical_identifiability": dict(self.practical), "assumptions": list(self.assumptions)})
+            "data": dict(self.data), "structural": {} if self.structural is None else self.structural.to_dict(),
+            "repairs": self.repairs,
+            "practical_identifiability": {} if self.practical is None else self.practical.to_dict(),
+            "assumptions": list(self.assumptions)})
 
 
 def error_of(estimate: float | None, true: float) -> tuple[float | None, str | None]:

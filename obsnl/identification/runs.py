@@ -131,13 +131,15 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
 
 
 def _refine(setup: Setup, data: Data, theta: np.ndarray, held: Sequence[str],
-            progress: Callable[[], Any] | None) -> tuple[Refinement | None, tuple[Profile, ...], str]:
-    """The maximum-likelihood refinement and the profiles; ``(None, (), why)`` where it could not run."""
+            progress: Callable[[], Any] | None, executor: Executor | None = None
+            ) -> tuple[Refinement | None, tuple[Profile, ...], str]:
+    """The maximum-likelihood refinement and the profiles (on ``executor``); ``(None, (), why)`` where it could
+    not run."""
     try:
         ref = refine(setup, data, theta, held=held)
         if progress:
             progress()
-        return ref, profiles(ref, progress=progress), ""
+        return ref, profiles(ref, progress=progress, executor=executor), ""
     except EstimatorError as exc:
         return None, (), f"the likelihood refinement could not run: {exc}"
 
@@ -157,12 +159,12 @@ def _held_bias(ref: Refinement, names: Sequence[str], h: int) -> str:
 def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tuning: Tuning, scores: tuple,
             trs: tuple[Trajectory, ...], held: tuple[str, ...], prac: Any, misfit: float, noise: Mapping,
             data_dict: Mapping, assumptions: Sequence[str], seed: int | None, refined: bool = True,
-            progress: Callable[[], Any] | None = None) -> Identification:
+            progress: Callable[[], Any] | None = None, executor: Executor | None = None) -> Identification:
     m = setup.model
     theta = trs[-1].theta[-1]
     var = np.diag(trs[-1].P[-1])[m.nx:]
     t0 = time.perf_counter()
-    ref, profs, failed = _refine(setup, data, theta, held, progress) if refined else (None, (), "")
+    ref, profs, failed = _refine(setup, data, theta, held, progress, executor) if refined else (None, (), "")
     refine_seconds = time.perf_counter() - t0
     by_name = {pr.name: pr for pr in profs}
     x0 = setup.x0
@@ -216,7 +218,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         converged, reason = ref.converged and not better, ref.reason
         if better:
             reason = (f"the profile of {better[0]} found a lower chi2 than the estimate: it is not the maximum of the "
-                      f"likelihood; start again from other --guess values")
+                      f"likelihood; start again from other initial guesses")
     elif refined:
         converged, reason = False, failed
     else:
@@ -227,7 +229,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         fit={o: float(100 * v) for o, v in zip(m.outputs, per)}, passes=passes, passes_run=len(trs),
         seconds=float(sum(t.seconds for t in trs)) + refine_seconds, converged=converged,
         output_misfit=misfit if math.isfinite(misfit) else None, noise=noise, tuning=tuning, tuning_scores=scores,
-        data=data_dict, practical=prac.to_dict(), assumptions=tuple(assumptions),
+        data=data_dict, practical=prac, assumptions=tuple(assumptions),
         repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
         y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs,
         converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
@@ -297,8 +299,8 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         Called after every pass (tuning passes included: ``len(grid) + passes`` calls when tuning) and
         once per Monte-Carlo replicate.
     executor : Executor or None
-        Where the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`; default: this process);
-        the same numbers on any executor.
+        Where the profile likelihoods and the Monte-Carlo replicates run (:class:`obsnl.executor.Executor`;
+        default: this process); the same numbers on any executor.
     refined : bool
         Refine the filter's estimate by maximum likelihood, with Fisher std and profile-likelihood
         intervals (:mod:`obsnl.identification.likelihood`, :mod:`obsnl.identification.profile`; default on).
@@ -352,7 +354,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
            "output misfit won" if len(grid) > 1 else "one tuning, as given")
     return _result(setup, d, mode="measured", method=method, passes=passes, tuning=tuning, scores=scores, trs=trs,
                    held=held, prac=prac, misfit=misfit, noise=levels, data_dict=data.to_dict(), seed=seed,
-                   refined=refined, progress=progress,
+                   refined=refined, progress=progress, executor=executor,
                    assumptions=_assumptions(refined, how, "the initial state is estimated with the parameters" if
                                             refined else "the structure starts at rest (initial states from the "
                                             "model file, else 0)"))

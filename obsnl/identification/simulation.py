@@ -55,7 +55,7 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     progress : callable or None
         Called after every pass (tuning passes included) and once per Monte-Carlo replicate.
     executor : Executor or None
-        Where the Monte-Carlo replicates run (default: this process).
+        Where the profile likelihoods and the Monte-Carlo replicates run (default: this process).
     hold : bool
         Hold poorly informed parameters at their guess (default off).
     refined : bool
@@ -89,7 +89,7 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     levels = {c: {"ratio": noise, "source": "given (simulated)"} for c in num.inputs + num.outputs}
     return _result(setup, data, mode="simulation", method=method, passes=passes, tuning=tuning_, scores=scores,
                    trs=trs, held=held, prac=prac, misfit=misfit, noise=levels, data_dict=record.to_dict(), seed=seed,
-                   refined=refined, progress=progress,
+                   refined=refined, progress=progress, executor=executor,
                    assumptions=_assumptions(refined, f"simulation study: the truth is the model's [values], simulated "
                                             f"with {FIT_SUBSTEPS} RK4 substeps per sample, Gaussian noise seed {seed}",
                                             "errors: per cent of the truth; absolute where the truth is 0"))

@@ -36,11 +36,11 @@ from obsnl.observability.certificates.certify import (
     certify_by_symmetry,
     undecided_beyond_visits,
 )
-from obsnl.observability.limits import out_of_memory
+from obsnl.observability.limits import limits_checked, out_of_memory
 from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import BranchResult, Verdict
 from obsnl.observability.joint.selection import select_branches
-from obsnl.observability.engines.inputs import METHODS, _check, _variable_names, resolve_unknown_input_derivatives
+from obsnl.observability.engines.inputs import METHODS, _check, _variable_names
 from obsnl.observability.engines.smooth import _branch_result, _fresh_seed
 
 __all__ = ["analyze", "assumptions", "METHODS"]
@@ -152,13 +152,16 @@ def analyze(
     """
     if isinstance(model, (str, os.PathLike)):  # a path is accepted wherever a model is, as identify does
         model = read_model(model)
-    _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
-    unknown_input_derivatives = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
+    # the options and the limits are checked, and the unknown-input assumption resolved, here once: the joint
+    # verdict and the symmetry certificates below do not check again (limits_checked)
+    unknown_input_derivatives = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives,
+                                       input_derivatives)
     try:
-        return _analyze(model, method=method, seed=seed, max_seconds=max_seconds, prob=prob,
-                        unknown_input_derivatives=unknown_input_derivatives, input_derivatives=input_derivatives,
-                        decompose=decompose, branches=branches, visited=visited, crossings=crossings, joint=joint,
-                        per_branch=per_branch)
+        with limits_checked():
+            return _analyze(model, method=method, seed=seed, max_seconds=max_seconds, prob=prob,
+                            unknown_input_derivatives=unknown_input_derivatives,
+                            input_derivatives=input_derivatives, decompose=decompose, branches=branches,
+                            visited=visited, crossings=crossings, joint=joint, per_branch=per_branch)
     except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the arrays are freed
         pass
     raise out_of_memory(model, unknown_input_derivatives)

@@ -56,6 +56,10 @@ MC_CHUNK = CHUNK
 #: 48-configuration grid per protocol; the union of the two protocols' survivors runs). The maximum-likelihood
 #: refinement starts from the tuned filter's estimate and needs only its basin, which the survivors reach.
 HALVING_KEEP = 12
+#: The quick form of the main job (``obsnl reproduce --quick``, under a minute on two cores with a cold cache of
+#: compiled filters): the first 300 samples, one reported and one tuning seed, no Monte-Carlo replicates. Its
+#: Table 2 says little (most parameters are flagged on 3 s of record): it checks that the pipeline runs.
+QUICK: dict[str, int] = {"samples": 300, "seeds": 1, "tuning_seeds": 1, "replicates": 0}
 
 
 @dataclass(frozen=True, eq=False)

@@ -15,6 +15,7 @@ import ast
 import math
 from decimal import Decimal
 
+from obsnl._text import quote, shorten  # one place that cuts what a message echoes
 from obsnl.errors import ParseError
 from obsnl.model.bounds.work import MAX_EXACT_DIGITS
 from obsnl.model.bounds.regroup import regroup_sums
@@ -34,52 +35,6 @@ MAX_DEPTH = 200
 MAX_DIGITS = 100
 #: |exponent| of a power with a constant exponent.
 MAX_EXPONENT = 100
-_SHOWN = 80  # characters of an expression quoted in a message
-
-
-def shorten(text: str, limit: int = _SHOWN) -> str:
-    """``text`` cut to ``limit`` characters (with ``...``) for an error message.
-
-    Parameters
-    ----------
-    text : str
-        The text to show.
-    limit : int
-        Largest length of the result.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> shorten("x + " * 30, 20)
-    'x + x + x + x + x...'
-    """
-    text = text.strip()
-    return text if len(text) <= limit else text[: limit - 3].rstrip() + "..."
-
-
-def quote(value: object, limit: int = _SHOWN) -> str:
-    """``repr(value)`` cut to ``limit`` characters: how a message echoes what the user wrote.
-
-    Parameters
-    ----------
-    value : object
-        What the user wrote (a name, a value of a table).
-    limit : int
-        Largest length of the result.
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> quote("z" * 100, 12)
-    "'zzzzzzzz..."
-    """
-    return shorten(repr(value), limit)
 
 
 # --------------------------------------------------------------------------- bounds on the text

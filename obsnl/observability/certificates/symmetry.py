@@ -40,14 +40,15 @@ from obsnl.algebra.modp import (
     rational_reconstruction,
 )
 from obsnl.errors import NotSupportedError
+from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.observability.engines.decompose import output_reachable
 from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
-from obsnl.observability.limits import check_analysis_limits
+from obsnl.observability.limits import check_limits_once
 from obsnl.observability.certificates.proofs import verify_generator
 from obsnl.observability.certificates.generators import Symmetries, Symmetry
 
-__all__ = ["symmetries"]
+__all__ = ["symmetries", "branch_symmetries"]
 
 _MAX_UNKNOWNS = 2500
 
@@ -241,7 +242,7 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
                                 f"([b.model for b in obsnl.model.split_branches(model)])")
     if degree not in (1, 2):
         raise NotSupportedError(f"degree must be 1 or 2, got {degree!r}")
-    check_analysis_limits(model)  # the size the dense Jacobian and series can hold, before any work
+    check_limits_once(model)  # the size the dense Jacobian and series can hold, before any work (once per call)
     J = jacobian if jacobian is not None else observability_jacobian(model, seed=seed)
     d = len(J.variables) - J.rank
     moved = list(J.unobservable)
@@ -295,3 +296,24 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
                      f"{'quadratic' if degree == 2 else 'affine'} ansatz")
     return Symmetries(model.name, tuple(kept), d, missing, tuple(v.name for v in moved), tuple(e.name for e in exps),
                       time.perf_counter() - t0, seed, tuple(notes), J)
+
+
+def branch_symmetries(model: Model, *, seed: int = 0, degree: int = 1) -> list[tuple[Branch, Symmetries]]:
+    """:func:`symmetries` of each smooth branch of a model (the ``i``-th branch with seed ``seed + i``).
+
+    Parameters
+    ----------
+    model : Model
+        A model, smooth or not.
+    seed : int
+        Seed of the split and of the first branch's random points.
+    degree : int
+        Ansatz degree, as for :func:`symmetries`.
+
+    Returns
+    -------
+    list of (Branch, Symmetries)
+        Each branch with the generators found on it.
+    """
+    return [(b, symmetries(b.model, seed=seed + i, degree=degree))
+            for i, b in enumerate(split_branches(model, seed=seed))]

@@ -4,6 +4,7 @@ unknown inputs' derivatives, the names of the variables.
 
 from __future__ import annotations
 
+import math
 
 from obsnl.errors import AnalysisError, ModelError
 from obsnl.model.core import Model
@@ -16,15 +17,17 @@ METHODS = ("auto", "orc", "sedoglavic")
 
 
 def _check(model: Model, method: str, seed: int | None, max_seconds: float | None, prob: float,
-           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> None:
+           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> int | str:
+    """Refuse bad options and a model the engines cannot take, before any work; return the unknown-input
+    assumption in force (the caller's option, else the model's key, else ``"arbitrary"``), resolved here once."""
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.read_model")
     if method not in METHODS:
         raise AnalysisError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or seed < 0):
         raise AnalysisError(f"seed must be a non-negative integer or None, got {seed!r}")
-    if max_seconds is not None and not (isinstance(max_seconds, (int, float)) and max_seconds > 0):
-        raise AnalysisError(f"max_seconds must be a positive number or None, got {max_seconds!r}")
+    if max_seconds is not None and not (isinstance(max_seconds, (int, float)) and 0 < max_seconds < math.inf):
+        raise AnalysisError(f"max_seconds must be a positive finite number or None, got {max_seconds!r}")
     if not (isinstance(prob, float | int) and 0 < prob < 1):
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
     if unknown_input_derivatives is not None:
@@ -49,7 +52,7 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
             f"no output of model {model.name!r} depends on a state; measure at least one state"
         )
     # last: the size of what the engines will hold (refused before any heavy work)
-    check_analysis_limits(model, unknown_input_derivatives)
+    return check_analysis_limits(model, unknown_input_derivatives)
 
 
 def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> int | str:

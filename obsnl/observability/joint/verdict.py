@@ -58,7 +58,7 @@ from obsnl.algebra.series import TimeUp, draw_prime
 from obsnl.errors import AnalysisError
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
-from obsnl.observability.limits import check_analysis_limits
+from obsnl.observability.limits import check_limits_once
 from obsnl.observability.joint.modular import kernel_rows
 from obsnl.observability.joint.result import JointResult
 from obsnl.observability.joint.visits import (
@@ -230,7 +230,7 @@ def joint_verdict(
     """
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}")
-    check_analysis_limits(model, unknown_input_derivatives)  # before any work (analyze checked it too)
+    check_limits_once(model, unknown_input_derivatives)  # before any work (once per call: analyze checked it)
     if not (0 < prob < 1):
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
     if not model.outputs:

@@ -95,39 +95,42 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
     if lacking or model.unknown_inputs:
         raise AnalysisError(f"--record needs every input of the model as a known signal (missing: "
                             f"{', '.join(lacking + [w.name for w in model.unknown_inputs])})")
+    xs, us = list(model.states), list(model.inputs)
+    U = [np.asarray(inputs[u.name], float) for u in us]  # checked first, even where nothing is simulated
+    if any(u.shape != t.shape for u in U) or not all(np.all(np.isfinite(u)) for u in U):
+        raise AnalysisError("the record's input must be finite and as long as its time column")
     exprs = list(model.rhs) + list(model.output_exprs)
     if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
         return Visits((), {(): float(t[-1] - t[0])}, {})
     sw = tuple(switching_of(exprs, model.switching, {}))
     subs = {s: sp.Float(vals[s.name]) for s in list(model.parameters) + list(model.known_constants)}
-    xs, us = list(model.states), list(model.inputs)
     f = sp.lambdify([xs, us], [e.xreplace(subs) for e in model.rhs], modules="numpy")
     g = sp.lambdify([xs, us], [e.xreplace(subs) for e in sw], modules="numpy")
-    U = np.vstack([np.asarray(inputs[u.name], float) for u in us]) if us else np.zeros((0, len(t)))
-    if U.shape[1] != len(t) or not np.all(np.isfinite(U)):
-        raise AnalysisError("the record's input must be finite and as long as its time column")
+    U = np.vstack(U) if us else np.zeros((0, len(t)))
 
     def rhs(x: np.ndarray, u: np.ndarray) -> np.ndarray:
         return np.asarray(f(list(x), list(u)), float)
 
     X = np.zeros((len(t), len(xs)))
     X[0] = [float(vals.get(s.name, 0.0)) for s in xs]
-    for k in range(len(t) - 1):
-        if k % 256 == 0:  # a command's --max-seconds covers the simulation (200 000 samples took 32 s)
-            check_time(f"simulating the model under the record (sample {k} of {len(t)})",
-                       "raise --max-seconds, or give a shorter record")
-        x, h = X[k].copy(), (t[k + 1] - t[k]) / substeps
-        for i in range(substeps):
-            a0, a1 = i / substeps, (i + 0.5) / substeps
-            u0, um, u1 = (U[:, k] * (1 - a) + U[:, k + 1] * a for a in (a0, a1, (i + 1) / substeps))
-            k1 = rhs(x, u0)
-            k2 = rhs(x + h / 2 * k1, um)
-            k3 = rhs(x + h / 2 * k2, um)
-            k4 = rhs(x + h * k3, u1)
-            x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        if not np.all(np.isfinite(x)):
-            raise AnalysisError(f"the simulation under the record blew up at t = {t[k + 1]:.4g}; check the [values]")
-        X[k + 1] = x
+    with np.errstate(all="ignore"):  # a blow-up is refused below in one line, not warned of on the way
+        for k in range(len(t) - 1):
+            if k % 256 == 0:  # a command's --max-seconds covers the simulation (200 000 samples took 32 s)
+                check_time(f"simulating the model under the record (sample {k} of {len(t)})",
+                           "raise --max-seconds, or give a shorter record")
+            x, h = X[k].copy(), (t[k + 1] - t[k]) / substeps
+            for i in range(substeps):
+                a0, a1 = i / substeps, (i + 0.5) / substeps
+                u0, um, u1 = (U[:, k] * (1 - a) + U[:, k + 1] * a for a in (a0, a1, (i + 1) / substeps))
+                k1 = rhs(x, u0)
+                k2 = rhs(x + h / 2 * k1, um)
+                k3 = rhs(x + h / 2 * k2, um)
+                k4 = rhs(x + h * k3, u1)
+                x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+            if not np.all(np.isfinite(x)):
+                raise AnalysisError(f"the simulation under the record blew up at t = {t[k + 1]:.4g}; check the "
+                                    "[values] and the record's amplitude")
+            X[k + 1] = x
     with np.errstate(all="ignore"):  # every sample at once (a constant switching function broadcasts)
         G = np.column_stack([np.broadcast_to(np.asarray(c, float), (len(t),)) for c in g(list(X.T), list(U))])
     scale = np.maximum(np.max(np.abs(G), axis=0), 1e-300)

@@ -1,0 +1,256 @@
+"""A model file and records as one experiment: what the ``analyze``, ``sensors`` and ``design`` commands
+run, from paths to a result.
+
+Each function reads the model file with its size checked before any expression is parsed
+(:func:`obsnl.observability.limits.check_file_limits`), refuses an analysis too large for the engines
+before any heavy work, reads each record as the model's one known input, and runs the whole job under one
+time budget (:func:`obsnl.model.bounds.budget.time_budget`) when a limit is given. A record simulated
+with the model's ``[values]`` tells which branches and switching surfaces the experiment visits: what it
+can reveal.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from obsnl._text import quote
+from obsnl.errors import OptionError
+from obsnl.model.bounds.budget import time_budget
+from obsnl.model.core import Model
+from obsnl.model.files import read_model
+from obsnl.observability.analyze import analyze
+from obsnl.observability.limits import check_analysis_limits, check_file_limits, out_of_memory
+from obsnl.observability.results import AnalysisResult
+
+if TYPE_CHECKING:  # the record readers and the simulation load when a record is given
+    from obsnl.estimation.accelerogram import Record
+    from obsnl.observability.joint.visited import Visits
+
+__all__ = ["one_input_record", "record_visits", "analyze_file", "sensors_file", "design_file"]
+
+
+def _model(model: Model | str | Path) -> Model:
+    """``model``, or the model file at that path read with its size checked first."""
+    return model if isinstance(model, Model) else read_model(model, check=check_file_limits)
+
+
+def one_input_record(model: Model, path: str | Path, *, option: str = "a record") -> Record:
+    """The record at ``path`` as the one known input of ``model``.
+
+    Parameters
+    ----------
+    model : Model
+        A model with exactly one input.
+    path : str or Path
+        A record file (.csv or PEER .AT2).
+    option : str
+        How the caller names the record in messages (``"--record"`` on the command line).
+
+    Returns
+    -------
+    Record
+        The record read.
+
+    Raises
+    ------
+    OptionError
+        When the model has no input or more than one.
+    """
+    from obsnl.estimation.records import read_record
+
+    if len(model.inputs) != 1:
+        raise OptionError(f"{option} drives one input, model {model.name!r} has {len(model.inputs)}; give a model "
+                          "with one known input")
+    return read_record(path)
+
+
+def record_visits(model: Model, record: Record) -> Visits:
+    """The sign patterns and crossings a simulation of the model's ``[values]`` under ``record`` visits.
+
+    Parameters
+    ----------
+    model : Model
+        A model with one input and numbers for its parameters in ``[values]``.
+    record : Record
+        The record driving that input.
+
+    Returns
+    -------
+    Visits
+        The visited patterns and the crossings of each switching function.
+    """
+    from obsnl.observability.joint.visited import visited_patterns
+
+    t = record.dt * np.arange(len(record.accel))
+    return visited_patterns(model, t, {model.inputs[0].name: record.accel})
+
+
+def analyze_file(model: Model | str | Path, *, record: str | Path | None = None, method: str = "auto",
+                 seed: int | None = None, max_seconds: float | None = None, branches: Sequence[str] | None = None,
+                 joint: bool = True, unknown_input_derivatives: int | str | None = None,
+                 option: str = "unknown_input_derivatives", record_option: str = "record") -> AnalysisResult:
+    """Analyse a model file, optionally only what one record visits, all within one time budget.
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file (read with its size checked first).
+    record : str, Path or None
+        A record driving the model's one input: the analysis covers the branches and crossings a
+        simulation of the model's ``[values]`` under it visits.
+    method : str
+        As for :func:`obsnl.analyze`.
+    seed : int or None
+        As for :func:`obsnl.analyze`.
+    branches : sequence of str or None
+        As for :func:`obsnl.analyze`.
+    joint : bool
+        As for :func:`obsnl.analyze`.
+    unknown_input_derivatives : int or str or None
+        As for :func:`obsnl.analyze`.
+    max_seconds : float or None
+        Time limit of the whole job: reading and factoring the model, the record's simulation, the
+        split into branches and the analysis.
+    option, record_option : str
+        How the caller names ``unknown_input_derivatives`` and ``record`` in messages.
+
+    Returns
+    -------
+    AnalysisResult
+        The analysis.
+
+    Raises
+    ------
+    AnalysisError
+        A model too large for the engines (before any work) or out of memory.
+    """
+    with time_budget(max_seconds):
+        model = _model(model)
+        k = check_analysis_limits(model, unknown_input_derivatives, option=option)  # before the simulation
+        try:
+            visits = record_visits(model, one_input_record(model, record, option=record_option)) if record else None
+            return analyze(model, method=method, seed=seed, max_seconds=max_seconds, branches=branches,
+                           visited=visits.patterns if visits else None,
+                           crossings=visits.crossings if visits else None, joint=joint,
+                           unknown_input_derivatives=unknown_input_derivatives)
+        except MemoryError:  # outside analyze itself (the record's simulation); raised below, arrays freed
+            pass
+    raise out_of_memory(model, k)
+
+
+def sensors_file(model: Model | str | Path, *, record: str | Path | None = None, rank_size: int | None = None,
+                 noise: float | None = None, record_option: str = "record", **search: Any) -> Any:
+    """The minimal sensor sets of a model file, ranked along one record's response when one is given.
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file; its outputs are the candidate sensors.
+    record : str, Path or None
+        A record driving the model's one input: the sufficient sets of ``rank_size`` sensors are
+        ranked by the Cramér-Rao bound along the response of the model's ``[values]`` to it.
+    rank_size : int or None
+        Size of the sets ranked (default: the smallest minimal set's); only with a record.
+    noise : float or None
+        Relative noise of every output for the ranking (std = ``noise`` x RMS), between 0 and 10 (None:
+        0.01); only with a record.
+    record_option : str
+        How the caller names ``record`` in messages.
+    **search : Any
+        Passed to :func:`obsnl.design.sensors.sensors` (target, max_size, seed, max_seconds, executor,
+        progress).
+
+    Returns
+    -------
+    SensorSearch
+        The search, ranked when a record was given.
+    """
+    from obsnl.design.sensors import rank_sufficient_sets, sensors
+
+    if record is None and (rank_size is not None or noise is not None):  # would be ignored: refused, not dropped
+        raise OptionError(f"the rank size and the noise level rank the sensor sets along a record: add {record_option}")
+    if noise is not None and not (isinstance(noise, (int, float)) and 0.0 < noise < 10.0):
+        raise OptionError(f"noise {quote(noise, 30)} is not a relative level between 0 and 10 (0.01 is 1 %)")
+    with time_budget(None):
+        model = _model(model)
+    rec = None
+    if record is not None:  # read before the search: a bad record is refused before any work
+        if rank_size is not None and not (isinstance(rank_size, int) and 1 <= rank_size <= len(model.output_names)):
+            raise OptionError(f"the rank size is a number of sensors from 1 to {len(model.output_names)} (the "
+                              f"model's outputs), got {quote(rank_size, 30)}")
+        rec = one_input_record(model, record, option=record_option)
+    result = sensors(model, **search)
+    if rec is None:
+        return result
+    t = rec.dt * np.arange(len(rec.accel))
+    return rank_sufficient_sets(result, model, t=t, inputs=rec.accel, size=rank_size,
+                                noise=0.01 if noise is None else noise)
+
+
+def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max_seconds: float | None = None,
+                figure: str | Path | None = None, output: str | Path | None = None, force: bool = False,
+                record_option: str = "record", **options: Any) -> Any:
+    """The experiment design of a model file under records, within one time budget.
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file; its ``[values]`` are simulated.
+    records : sequence of str or Path
+        Record files, each driving the model's one input; records whose files share a name are named by
+        their paths.
+    max_seconds : float or None
+        Time limit of the whole job (reading, simulations, verdicts).
+    figure : str, Path or None
+        A PNG file for the plot of the visited branches per scale (checked before any work, written after).
+    output : str, Path or None
+        The file the caller will write the rendering to (only checked not to be ``figure``).
+    force : bool
+        Overwrite ``figure``.
+    record_option : str
+        How the caller names ``records`` in messages.
+    **options : Any
+        Passed to :func:`obsnl.design.experiment.design` (target, sensors, scales, seed); ``scales`` may
+        be comma-separated text (``"0.1,1,10"``).
+
+    Returns
+    -------
+    ExperimentDesign
+        The design.
+    """
+    from obsnl.design.experiment import design
+    from obsnl.report.experiment import plot_visits
+    from obsnl.report.files import OutputFolder, check_target
+
+    if not records:
+        raise OptionError(f"give at least one {record_option} (.csv or .AT2)")
+    if isinstance(options.get("scales"), str):  # "0.1,1,10"; what is not a positive number design refuses, quoted
+        try:
+            options["scales"] = [float(x) for x in options["scales"].split(",") if x.strip()]
+        except ValueError:
+            pass
+    if figure is not None:  # refused before any work (an empty name too: never ignored)
+        if Path(figure).suffix.lower() != ".png":
+            raise OptionError(f"the figure is a PNG; name a .png file, not {quote(str(figure))}")
+        if output and output != "-" and Path(output).resolve() == Path(figure).resolve():
+            raise OptionError("the figure and the output name the same file; give two files")
+        check_target(figure, force=force)
+    with time_budget(max_seconds):
+        model = _model(model)
+        check_analysis_limits(model)
+        read = [one_input_record(model, path, option=record_option) for path in records]
+        stems = [r.name for r in read]
+        if len(set(stems)) < len(stems):  # same file names in different folders: name them by their paths
+            read = [dataclasses.replace(r, name=str(path)) for r, path in zip(read, records)]
+        result = design(model, read, max_seconds=max_seconds, **options)
+    if figure:
+        fig = Path(figure)
+        with OutputFolder(fig.parent, [fig.name], force=force, folder_link_ok=True) as out:
+            plot_visits(result, out.path(fig.name))
+            out.commit()
+    return result

@@ -1,0 +1,183 @@
+"""The text ``obsnl identify`` prints: one identification run, rendered from its value.
+
+The value is an :class:`obsnl.identification.results.Identification`. The report room sits below the
+identification room on the data flow and does not import it: what the renderer reads is written down here
+as protocols (:class:`IdentificationRun` and the values it holds), which the identification's values
+satisfy as they are.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from typing import Any, Protocol
+
+__all__ = ["identify_text", "IdentificationRun"]
+
+
+# the members are read-only properties: the values read are frozen dataclasses
+class _Tuning(Protocol):
+    @property
+    def s0(self) -> float: ...
+    @property
+    def q_theta(self) -> float: ...
+    @property
+    def q_x(self) -> float: ...
+    @property
+    def gate(self) -> float | None: ...  # inf or None: off
+
+
+class _Estimate(Protocol):
+    @property
+    def name(self) -> str: ...
+    @property
+    def guess(self) -> float: ...
+    @property
+    def estimate(self) -> float | None: ...
+    @property
+    def std(self) -> float | None: ...
+    @property
+    def held(self) -> bool: ...
+    @property
+    def flagged(self) -> bool: ...
+    @property
+    def reason(self) -> str | None: ...
+    @property
+    def true(self) -> float | None: ...
+    @property
+    def error(self) -> float | None: ...
+    @property
+    def error_kind(self) -> str | None: ...
+    @property
+    def interval(self) -> tuple[float | None, float | None] | None: ...
+
+
+class _Practical(Protocol):
+    @property
+    def inconclusive(self) -> str: ...
+    @property
+    def undecided(self) -> Mapping[str, str]: ...
+
+
+class IdentificationRun(Protocol):
+    """What :func:`identify_text` reads of a run (:class:`obsnl.identification.results.Identification`)."""
+
+    @property
+    def model(self) -> str: ...
+    @property
+    def mode(self) -> str: ...
+    @property
+    def method(self) -> str: ...
+    @property
+    def parameters(self) -> Sequence[_Estimate]: ...
+    @property
+    def fit(self) -> Mapping[str, float | None]: ...
+    @property
+    def passes(self) -> int: ...
+    @property
+    def passes_run(self) -> int: ...
+    @property
+    def seconds(self) -> float: ...
+    @property
+    def converged(self) -> bool: ...
+    @property
+    def converged_reason(self) -> str: ...
+    @property
+    def tuning(self) -> _Tuning: ...
+    @property
+    def tuning_scores(self) -> Sequence[tuple[_Tuning, float]]: ...
+    @property
+    def data(self) -> Mapping[str, Any]: ...
+    @property
+    def practical(self) -> _Practical | None: ...
+    @property
+    def refinement(self) -> Mapping[str, Any]: ...
+
+
+def _given(v: float | None) -> bool:
+    return v is not None and math.isfinite(v)
+
+
+def identify_text(result: IdentificationRun) -> str:
+    """The summary ``obsnl identify`` prints: the run, the chosen tuning, each parameter, the fit.
+
+    Parameters
+    ----------
+    result : Identification
+        The run (:func:`obsnl.identify`'s result, or anything with the members of :class:`IdentificationRun`).
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    TypeError
+        ``result`` is a mapping (``identify.json``'s content): the text is rendered from the value.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as Run
+    >>> k = Run(name="k", guess=3.0, estimate=2.0, std=0.01, held=False, flagged=False, reason=None, true=None,
+    ...         error=None, error_kind=None, interval=None)
+    >>> run = Run(model="m", mode="measured", method="ukf", parameters=[k], fit={"y": 1.234}, passes=1,
+    ...           passes_run=1, seconds=0.5, converged=True, converged_reason="", tuning=None, tuning_scores=(),
+    ...           data={"name": "d"}, practical=None, refinement={})
+    >>> print(identify_text(run))
+    UKF on m, measured data d, 1 pass(es), 0.50 s: converged
+      k          estimate 2          std 0.01
+      fit (NRMSE): y 1.23 %
+    >>> tuning = Run(s0=0.3, q_theta=0.0, q_x=100.0, gate=None)
+    >>> run.tuning, run.tuning_scores = tuning, [(tuning, 0.9), (tuning, 1.2)]  # chosen among two
+    >>> print(identify_text(run).splitlines()[1])
+      tuning: s0 0.3, q_theta 0, q_x 100, gate off (the smallest output misfit after one pass of 2 configurations)
+    """
+    if isinstance(result, Mapping):
+        raise TypeError("identify_text renders the Identification value (obsnl.identify's result), not the "
+                        "content of identify.json")
+    run = result
+    prac, ref = run.practical, run.refinement or {}
+    why = run.converged_reason
+    state = "converged" if run.converged else "NOT converged" + (f": {why}" if why else "")
+    lines = [f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
+             f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s: {state}"]
+    if len(run.tuning_scores) > 1:
+        t = run.tuning
+        lines.append(f"  tuning: s0 {t.s0:g}, q_theta {t.q_theta:g}, q_x {t.q_x:g}, gate "
+                     f"{format(t.gate, 'g') if _given(t.gate) else 'off'} (the smallest output misfit after "
+                     f"one pass of {len(run.tuning_scores)} configurations)")
+    if run.passes_run < run.passes:
+        lines.append(f"  stopped after pass {run.passes_run}: its estimate cannot be simulated (the filter diverged)")
+    if prac is not None and not ref:  # with the refinement the profiles judge each parameter
+        if prac.inconclusive:
+            lines.append(f"  practical identifiability not decided: {prac.inconclusive}")
+        lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}"
+                  for q, why in prac.undecided.items()]
+    lines += [_parameter(p) for p in run.parameters]
+    held = sum(p.held for p in run.parameters)
+    if held:
+        lines.append(f"  {held} parameter(s) held at their guess")
+    fit = ", ".join(f"{k} {v:.2f} %" if _given(v) else f"{k} -" for k, v in run.fit.items())
+    lines.append(f"  fit (NRMSE): {fit}")
+    if ref.get("misfit_over_noise"):
+        lines.append("  residual RMS / noise level: " + ", ".join(f"{k} {v:.2f}" for k, v in
+                                                              ref["misfit_over_noise"].items()))
+    return "\n".join(lines)
+
+
+def _parameter(p: _Estimate) -> str:
+    """One parameter's line: the truth in a simulation study, the estimate (or held), the interval, the flag."""
+    head = f"  {p.name:10s} "
+    if p.true is not None:
+        head += f"true {p.true:<11.4g} "
+    if p.held:
+        return head + f"held at its guess {p.guess:.4g} (not estimated): {p.reason}"
+    std = f"{p.std:<9.2g}" if _given(p.std) else "-"
+    head += f"estimate {p.estimate:<10.4g} std {std}" if _given(p.estimate) else f"estimate {'-':<10s} std {std}"
+    if p.interval is not None:
+        lo, hi = (f"{v:.4g}" if _given(v) else "open" for v in p.interval)
+        head += f" 95 % [{lo}, {hi}]"
+    if _given(p.error):
+        head += f" error {p.error:.2f} %" if p.error_kind == "percent" else f" error {p.error:.3g} (absolute)"
+    return head.rstrip() + (f"  poorly informed: {p.reason}" if p.flagged else "")
+
