@@ -20,18 +20,17 @@ from obsnl.errors import (
     ParseError,
     TableError,
 )
-from obsnl.model.core import Model
-from obsnl.model.files import read_model
-from obsnl.observability.analyze import analyze
-from obsnl import report  # noqa: F401  (registers the notebook renderers of results)
-from obsnl.observability.results import AnalysisResult
-from obsnl.observability.verdicts import Verdict
-
 __version__ = "0.1.0"
 
-# Numeric modules (scipy, casadi, matplotlib) load on first use, so that `import obsnl` and the
-# command line start fast: name -> module that defines it.
+# Every public name but the errors loads on first use (sympy for the model and the analysis; scipy, casadi and
+# matplotlib for the rest), so that `import obsnl` and the command line start fast: name -> module that defines it.
 _LAZY: dict[str, str] = {
+    # the model, its reader, the analysis and its verdict
+    "Model": "model.core",
+    "read_model": "model.files",
+    "analyze": "observability.analyze",
+    "AnalysisResult": "observability.results",
+    "Verdict": "observability.verdicts",
     # symmetries, identifiable combinations, reparametrizations
     "symmetries": "observability.certificates.symmetry",
     "identifiable_functions": "recombination.identifiable",
@@ -68,11 +67,6 @@ def __dir__() -> list[str]:
 
 
 __all__ = [
-    "Model",
-    "read_model",
-    "analyze",
-    "AnalysisResult",
-    "Verdict",
     *_LAZY,
     "ObsnlError",
     "ModelError",

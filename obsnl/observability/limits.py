@@ -24,13 +24,15 @@ from __future__ import annotations
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from contextvars import ContextVar
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
+from obsnl._text import shorten
 from obsnl.errors import AnalysisError, ModelError, OptionError
-from obsnl.model.bounds.textsize import shorten
-from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import (ARBITRARY, DERIVATIVES_MARGIN, check_unknown_input_derivatives,
                                         max_unknown_input_derivatives)
+
+if TYPE_CHECKING:  # only annotated: the command line reads the limits for its help without loading sympy
+    from obsnl.model.core import Model
 
 __all__ = ["MAX_UNKNOWNS", "analysis_size", "dense_bytes", "check_analysis_limits", "out_of_memory",
            "check_file_limits", "limits_checked", "check_limits_once"]

@@ -21,8 +21,18 @@ __all__ = ["AnalysisResult"]
 
 
 #: Notebook renderers (format -> function of a result), filled by :mod:`obsnl.report` when it is
-#: imported (``import obsnl`` does): results never import the report, the report registers itself.
+#: imported: results never import the report's functions, the report registers itself; the first display
+#: loads it by name (:func:`_renderer`), so neither ``import obsnl`` nor an analysis pays for it.
 DISPLAY: dict[str, Any] = {}
+
+
+def _renderer(fmt: str) -> Any:
+    """The registered renderer of ``fmt``, loading the report room (which registers them) on first use."""
+    if fmt not in DISPLAY:
+        import importlib
+
+        importlib.import_module("obsnl.report")  # a plug-in load: the report registers into DISPLAY
+    return DISPLAY.get(fmt)
 
 
 @dataclass(frozen=True)
@@ -254,12 +264,12 @@ class AnalysisResult:
 
     def _repr_markdown_(self) -> str | None:
         """Notebook display: the Markdown table, drawn by the renderer that :mod:`obsnl.report` registers."""
-        render = DISPLAY.get("md")
+        render = _renderer("md")
         return render(self) if render is not None else None
 
     def _repr_latex_(self) -> str | None:
         """Notebook display: the LaTeX table (without its environment), drawn by :mod:`obsnl.report`."""
-        render = DISPLAY.get("tex")
+        render = _renderer("tex")
         return render(self) if render is not None else None
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:

@@ -13,7 +13,7 @@ from __future__ import annotations
 from typing import Any
 
 from obsnl.errors import ModelError
-from obsnl.model.reading.parse import quote
+from obsnl._text import quote
 
 __all__ = [
     "ARBITRARY", "DERIVATIVES_MARGIN", "check_unknown_input_derivatives", "max_unknown_input_derivatives",
