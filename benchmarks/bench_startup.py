@@ -31,9 +31,7 @@ COMMANDS = {
     "import sympy": ["-c", "import sympy"],
     "import obsnl": ["-c", "import obsnl"],
     "obsnl analyze obsnl:coulomb_friction": ["-m", "obsnl", "analyze", "obsnl:coulomb_friction"],
-    # the same command with the interpreter torn down at exit (how the command ended before obsnl.cli.run)
-    "the same, interpreter torn down at exit": ["-c", "import sys; from obsnl.cli import main; "
-                                                "sys.exit(main(sys.argv[1:]))", "analyze", "obsnl:coulomb_friction"],
+    "obsnl --help": ["-m", "obsnl", "--help"],
 }
 
 
