@@ -63,7 +63,7 @@ class Executor:
     def __post_init__(self) -> None:
         if self.workers is not None and (not isinstance(self.workers, int) or not 1 <= self.workers <= MAX_WORKERS):
             raise OptionError(f"workers must be a whole number from 1 to {MAX_WORKERS} or None (one per core), got "
-                              f"{quote(self.workers, 30)}; a larger pool is a Dask cluster (--scheduler)")
+                              f"{quote(self.workers, 30)}; a larger pool is a Dask cluster (scheduler=)")
         if self.scheduler is not None and not isinstance(self.scheduler, str) and not hasattr(self.scheduler, "map"):
             raise OptionError(f"scheduler must be a Dask scheduler address like tcp://host:8786 or a "
                               f"distributed.Client, got {self.scheduler!r}")
@@ -98,7 +98,7 @@ class Executor:
         if not isinstance(self.scheduler, str):
             return self
         host, port = _host_port(self.scheduler)
-        fix = ("start one with `dask scheduler` and workers with `dask worker ADDRESS`, or leave --scheduler out "
+        fix = ("start one with `dask scheduler` and workers with `dask worker ADDRESS`, or leave scheduler= out "
                "to run on this machine")
         try:
             sock = socket.create_connection((host, port), timeout=timeout)
@@ -167,7 +167,7 @@ def _host_port(address: str) -> tuple[str, int]:
     labels = [] if m is None or m["host"].startswith("[") else m["host"].removesuffix(".").split(".")
     if m is None or not 0 < int(m["port"] or 8786) < 65536 or len(m["host"]) > 253 or \
             not all(0 < len(x) < 64 for x in labels):  # the labels a host name may have (an empty one: "a..b")
-        raise OptionError(f"--scheduler {quote(address)} is not a Dask scheduler address; give one like "
+        raise OptionError(f"scheduler={quote(address)} is not a Dask scheduler address; give one like "
                           f"tcp://HOST:8786 (port 1-65535, a host name of dot-separated labels of 1 to 63 characters)")
     return m["host"].strip("[]"), int(m["port"] or 8786)
 
@@ -234,7 +234,7 @@ class _Session:
             try:
                 from distributed import Client
             except ImportError:  # pragma: no cover
-                raise OptionError("--scheduler needs dask.distributed: pip install 'dask[distributed]'") from None
+                raise OptionError("scheduler= needs dask.distributed: pip install 'dask[distributed]'") from None
             self.own = isinstance(ex.scheduler, str)
             try:
                 self.client = Client(ex.scheduler, timeout="30s") if self.own else ex.scheduler

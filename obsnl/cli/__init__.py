@@ -12,7 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from obsnl.cli.common import (_Exit, _More, _One, _Parser, _at_least, _noise, _os_error, _passes, _replicates,
-                               _seconds, _seed)
+                               _seconds, _seed, cli_terms)
 from obsnl.executor import MAX_WORKERS
 
 __all__ = ["main", "run", "build_parser"]
@@ -158,8 +158,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except _Exit as exc:
         print(f"obsnl {args.command}: error: {exc.message}", file=sys.stderr)
         return exc.code
-    except ObsnlError as exc:
-        print(f"obsnl {args.command}: error: {exc}", file=sys.stderr)
+    except ObsnlError as exc:  # the library names options as Python keywords: this command's flags instead
+        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[args.command]
+        print(f"obsnl {args.command}: error: {cli_terms(str(exc), sub)}", file=sys.stderr)
         return 2
     except OSError as exc:  # a name too long, a missing folder, no permission, a full disk: one line
         print(f"obsnl {args.command}: error: {_os_error(exc)}", file=sys.stderr)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import errno
 import math
+import re
 import sys
 from typing import Any
 
@@ -129,3 +130,59 @@ def _write(text: str, out: str | None = None, *, force: bool = False) -> None:
         from obsnl.report.files import safe_write
 
         safe_write(out, text, force=force)
+
+
+#: A Python keyword as library messages write it: ``name=`` with an optional value (``True``, ``False``, a
+#: quoted word or any other text that follows without a space).
+_KEYWORD = re.compile(r"(?<![\w.'\"-])([a-z][a-z0-9_]*)=(?:(True|False)\b|'([^'\s]*)')?")
+
+
+def _flags(parser: argparse.ArgumentParser) -> dict[str, tuple[str, bool]]:
+    """Each option's ``dest`` to its long flag and whether it is a switch (``store_true``), read off the parser."""
+    return {a.dest: (a.option_strings[-1], a.nargs == 0) for a in parser._actions
+            if a.option_strings and a.option_strings[-1].startswith("--")}
+
+
+def cli_terms(message: str, parser: argparse.ArgumentParser) -> str:
+    """A library message in command-line terms: each Python keyword the parser has as an option becomes its flag.
+
+    Parameters
+    ----------
+    message : str
+        The message, naming options as Python keywords (``allow_unidentifiable=True``, ``max_seconds=``,
+        ``s0=0.1``, ``method='dukf'``, ``refine=False``).
+    parser : argparse.ArgumentParser
+        The subcommand's parser: its actions map each ``dest`` to its flag, so no table can drift.
+
+    Returns
+    -------
+    str
+        ``name=True`` of a switch as its flag alone, ``name=False`` as the ``--no-`` switch or "without"
+        the switch, ``name=VALUE`` as ``--flag VALUE``, ``name=`` as ``--flag``; other words unchanged.
+
+    Examples
+    --------
+    >>> p = argparse.ArgumentParser()
+    >>> _ = p.add_argument("--allow-unidentifiable", action="store_true")
+    >>> _ = p.add_argument("--max-seconds", type=float)
+    >>> cli_terms("pass allow_unidentifiable=True or raise max_seconds= (k=2 stays)", p)
+    'pass --allow-unidentifiable or raise --max-seconds (k=2 stays)'
+    """
+    flags = _flags(parser)
+
+    def flag(m: re.Match) -> str:
+        name, switch, word = m.group(1), m.group(2), m.group(3)
+        if switch == "False" and flags.get(f"no_{name}", ("", False))[1]:
+            return flags[f"no_{name}"][0]
+        if name not in flags:
+            return m.group(0)
+        option, is_switch = flags[name]
+        if switch and is_switch:
+            return option if switch == "True" else f"without {option}"
+        value = word if word is not None else (switch or "")
+        follows = message[m.end():m.end() + 1]
+        if not value and follows and not follows.isspace() and follows not in ",;:.)]`":
+            return f"{option} "  # name=3 -> --name 3
+        return f"{option} {value}" if value else option
+
+    return _KEYWORD.sub(flag, message)

@@ -191,7 +191,7 @@ class _Runs:
     def simulate(self, i: int, scale: float) -> Visits:
         if (i, scale) not in self.sims:
             name, t, inputs = self.runs[i]
-            check_time(f"simulating record {name!r} at scale {scale:g}", "raise --max-seconds, or give fewer scales")
+            check_time(f"simulating record {name!r} at scale {scale:g}", "raise max_seconds=, or give fewer scales")
             self.sims[i, scale] = visited_patterns(self.sub, t, {k: scale * v for k, v in inputs.items()})
         return self.sims[i, scale]
 
@@ -211,7 +211,7 @@ class _Runs:
         """The joint verdict over the visited set (cached by the set: seconds and crossings are only reported)."""
         key = frozenset(patterns)
         if key not in self.verdicts:
-            check_time("the joint verdict over the visited branches", "raise --max-seconds")
+            check_time("the joint verdict over the visited branches", "raise max_seconds=")
             res = check_sensors(self.model, self.sub.output_names, self.targets, seed=self.seed,
                                 max_seconds=remaining(), visited=patterns, crossings=crossings)
             self.analyses += res.how == "analysis"

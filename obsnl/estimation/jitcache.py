@@ -109,8 +109,8 @@ def _fallback(why: str) -> Path:
             folder = Path(tempfile.mkdtemp(prefix="obsnl-jit-"))  # mode 0700, a new name
         except OSError as exc:
             raise EstimatorError(f"{why}, and no temporary folder can be made ({exc.strerror or exc}); set "
-                                 f"OBSNL_CACHE_DIR to a writable folder or run without compiling (--no-jit, "
-                                 f"jit=False)") from None
+                                 f"OBSNL_CACHE_DIR to a writable folder or run without compiling "
+                                 f"(jit=False)") from None
         atexit.register(shutil.rmtree, folder, True)
         _FALLBACK.append(folder)
         sys.stderr.write(f"obsnl: warning: {why}; compiled filters go to a temporary folder for this run "
@@ -275,7 +275,7 @@ def jit_compile(fn: ca.Function) -> ca.Function:
         loaded = _load(name, lib)
         if loaded is None:
             raise EstimatorError(f"the library compiled for {name} ({lib}) does not load; remove the cache folder "
-                                 f"{folder} or run without compiling (--no-jit, jit=False)")
+                                 f"{folder} or run without compiling (jit=False)")
     _LOADED[key] = loaded
     return loaded
 

@@ -142,7 +142,7 @@ def _run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: 
         if bad and not misfits.get(k - 1, np.inf) <= DIVERGED * setup.noise_level:  # a diverged pass, no prior
             raise EstimatorError(f"pass {k} diverged (output misfit {misfits.get(k - 1, np.inf):.3g} against a noise "
                                  f"level of {setup.noise_level:.3g}) and left no usable covariance: lower the prior "
-                                 f"std s0 (--s0 0.1), gate the innovations (--gate 3) or start closer (--guess)")
+                                 f"std s0 (s0=0.1), gate the innovations (gate=3) or start closer (guess=)")
         if bad:  # the previous pass ended with a collapsed parameter covariance: no prior for this one
             raise EstimatorError(f"pass {k} ended with a non-positive or non-finite variance of {bad}: the filter's "
                                  f"covariance collapsed; lower the random walk q_theta or run fewer passes")

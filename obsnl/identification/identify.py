@@ -67,12 +67,12 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
     g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
     unknown = sorted(set(guess or {}) - set(names))
     if unknown:  # a misspelt guess is refused, as the command line refuses --guess kk=3
-        raise OptionError(f"guess for {unknown[0]!r}, which is not a parameter of {model.name!r} ({', '.join(names)}); "
+        raise OptionError(f"guess= names {unknown[0]!r}, which is not a parameter of {model.name!r} ({', '.join(names)}); "
                           f"check the spelling")
     g.update(guess or {})
     for k, v in g.items():  # the filters estimate log|p| with the guess's sign: 0, inf and NaN cannot start
         if not (math.isfinite(v) and 0 < abs(v) < 1e100):
-            raise OptionError(f"the guess of {k} is {v!r} (--guess or the model's [guess]); give a finite nonzero "
+            raise OptionError(f"the guess of {k} is {v!r} (guess= or the model's [guess]); give a finite nonzero "
                               f"number below 1e100 in magnitude (the filter estimates log|{k}| from it)")
     return num, g, table, structural
 
@@ -142,7 +142,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     >>> obsnl.identify(m, {"t": [0, 1, 2], "u": [1, 1, 1], "y": [0, 1, 2]}, guess={"a": 1, "b": 1})
     Traceback (most recent call last):
     ...
-    obsnl.errors.AnalysisError: a, b of 'drift' are structurally unidentifiable from its outputs (the joint verdict); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` and identify NEW.toml, or pass --allow-unidentifiable
+    obsnl.errors.AnalysisError: a, b of 'drift' are structurally unidentifiable from its outputs (the joint verdict); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` and identify NEW.toml, or pass allow_unidentifiable=True
     """
     model = _model(model)
     ins, outs = [s.name for s in model.inputs], list(model.outputs)
@@ -252,12 +252,12 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         record = record.head(samples)
     if len(record.accel) < MIN_SAMPLES:  # the same floor as measured data: a 5-sample study only says nonsense
         raise DataError(f"a simulation study needs at least {MIN_SAMPLES} samples of the record, got "
-                        f"{len(record.accel)}: give a longer record or a larger --samples")
+                        f"{len(record.accel)}: give a longer record or a larger samples=")
     if table is not None and len(model.inputs) != 1:  # a contradicting table is named first
         _prepare(model, table, guess, True, seed, method)
     if len(model.inputs) != 1:
-        raise OptionError(f"a simulation study drives one input with --record; {model.name!r} has "
-                          f"{[s.name for s in model.inputs]}: give measured data with --data")
+        raise OptionError(f"a simulation study drives one input with record=; {model.name!r} has "
+                          f"{[s.name for s in model.inputs]}: give measured data with data=")
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
     with _steps(progress, model, passes, replicates, tuning, refine) as bar:
         res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise,

@@ -83,7 +83,7 @@ def check_replicates(replicates: int) -> int:
     (0, 32)
     """
     if not isinstance(replicates, int) or isinstance(replicates, bool) or replicates < 0 or 0 < replicates < 3:
-        raise OptionError(f"--replicates must be 0 (off) or at least 3, got {replicates!r}")
+        raise OptionError(f"replicates= must be 0 (off) or at least 3, got {replicates!r}")
     return replicates
 
 
@@ -93,15 +93,16 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
     """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner."""
     check_replicates(replicates)
     if passes < 1:
-        raise OptionError(f"--passes must be at least 1, got {passes}")
+        raise OptionError(f"passes= must be at least 1, got {passes}")
     if method == "dukf" and table is None:
-        raise OptionError("--method dukf needs --table TABLE.json (write one with `obsnl analyze MODEL --format json-table`)")
+        raise OptionError("method='dukf' needs table= (a branch table: write one with "
+                          "`obsnl analyze MODEL --format json-table`)")
     for t in grid:  # NaN fails every comparison, so it is refused too
-        for option, value, ok, rule in (("--s0", t.s0, 1e-6 <= t.s0 <= 10.0, "a number from 1e-6 to 10 (the "
+        for option, value, ok, rule in (("s0=", t.s0, 1e-6 <= t.s0 <= 10.0, "a number from 1e-6 to 10 (the "
                                           "prior std of log-parameters: 10 already spans a factor e**10)"),
-                                         ("--q-theta", t.q_theta, 0 <= t.q_theta < np.inf, "a number >= 0"),
-                                         ("--q-x", t.q_x, 0 <= t.q_x < np.inf, "a number >= 0"),
-                                         ("--gate", t.gate, t.gate > 0, "a number > 0 (inf: off)")):
+                                         ("q_theta=", t.q_theta, 0 <= t.q_theta < np.inf, "a number >= 0"),
+                                         ("q_x=", t.q_x, 0 <= t.q_x < np.inf, "a number >= 0"),
+                                         ("gate=", t.gate, t.gate > 0, "a number > 0 (inf: off)")):
             if not ok:
                 raise OptionError(f"{option} must be {rule}, got {value!r}")
     filt = make_filter(setup, method, table=table)
@@ -222,7 +223,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
     elif refined:
         converged, reason = False, failed
     else:
-        converged, reason = False, ("not checked: --no-refine skips the maximum-likelihood refinement, whose "
+        converged, reason = False, ("not checked: the maximum-likelihood refinement was skipped (refine=False), whose "
                                     "first-order conditions define convergence")
     return Identification(
         model=m.name, mode=mode, method=method, parameters=tuple(params),
@@ -240,12 +241,12 @@ _COMMON = ("the model is right: its equations describe the structure, its known 
            "given under 'noise'",
            "parameters are estimated as log|theta| with the sign of the guess; each stays within a factor 100 of "
            "its guess",
-           f"held: only with hold (--hold): after the first pass whose output misfit is at most {HOLD_BELOW:g}x the "
+           f"held: only with hold=True: after the first pass whose output misfit is at most {HOLD_BELOW:g}x the "
            "noise level, the parameters flagged there are put back to their guess and no longer estimated")
 _FILTER_ONLY = ("std: the filter's posterior std after the last pass (optimistic: the record is reused over passes)",
-                "converged: not checked without the likelihood refinement (--no-refine)",
+                "converged: not checked without the likelihood refinement (refine=False)",
                 "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
-                "posterior against its prior, and the Monte-Carlo spread when --replicates is given)")
+                "posterior against its prior, and the Monte-Carlo spread when replicates= is given)")
 _REFINED = ("the filter's estimate starts a maximum-likelihood fit (output error: the model simulated from an "
             "estimated initial state under the measured input, the input taken as exact; Levenberg-Marquardt with "
             "exact derivatives); the noise std per output is re-estimated from the fit's residuals",
@@ -321,7 +322,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                           f"{num.name!r} has {list(num.inputs)} and {list(num.outputs)}")
     missing = [q for q in num.parameters if q not in guess]
     if missing:
-        raise OptionError(f"no initial guess for {missing}; give --guess {missing[0]}=VALUE or a [guess] table")
+        raise OptionError(f"no initial guess for {missing}; give guess= (a value for {missing[0]}) or a [guess] table")
     for j, c in enumerate(data.outputs):
         if data.y.shape[0] and np.all(data.y[:, j] == data.y[0, j]):
             raise DataError(f"output {c!r} of {data.name!r} is constant ({float(data.y[0, j])!r} throughout): there "
@@ -333,7 +334,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                           f"({', '.join(num.inputs + num.outputs)}); check the spelling")
     bad = [f"{k}={v!r}" for k, v in given.items() if not (isinstance(v, (int, float)) and 0 < v < 1)]
     if bad:
-        raise OptionError(f"--noise {bad[0]}: a noise-to-signal ratio must lie in (0, 1)")
+        raise OptionError(f"the noise= ratio {bad[0]} must lie in (0, 1) (noise to signal)")
     levels: dict[str, dict[str, Any]] = {}
     for names, arr in ((num.inputs, data.u), (num.outputs, data.y)):
         for j, c in enumerate(names):

@@ -73,12 +73,12 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     """
     missing = [q for q in num.parameters if q not in guess]
     if missing:
-        raise OptionError(f"no initial guess for {missing}; give --guess {missing[0]}=VALUE")
+        raise OptionError(f"no initial guess for {missing}; give guess= (a value for {missing[0]})")
     truth = {q: num.values.get(q) for q in num.parameters}
     if any(v is None for v in truth.values()):
         raise OptionError(f"model {num.name!r} needs [values] for every parameter (the truth of the simulation)")
     if not (math.isfinite(noise) and noise > 0):
-        raise OptionError(f"--noise must be a ratio > 0, got {noise!r}")
+        raise OptionError(f"noise= must be a ratio > 0, got {noise!r}")
     setup = Setup(model=num, record=record, truth=truth, guess=dict(guess), noise=noise, jit=jit,
                   fit_substeps=FIT_SUBSTEPS, coordinates=coordinates(num, "log", reference=guess))
     data = make_data(setup, seed)

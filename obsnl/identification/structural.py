@@ -65,7 +65,7 @@ class StructuralCheck:
         head = f"structural analysis ({self.verdict} verdict over {self.branches} branches)"
         if not self.unidentifiable:
             return f"{head}: every parameter identifiable"
-        return (f"{head} calls {', '.join(self.unidentifiable)} unidentifiable; run anyway (--allow-unidentifiable): "
+        return (f"{head} calls {', '.join(self.unidentifiable)} unidentifiable; run anyway as asked: "
                 f"their estimates rest on what the data reveal beyond that verdict, judge them by the "
                 f"practical-identifiability flags")
 
@@ -125,7 +125,7 @@ def structural_check(result: AnalysisResult, model: str, parameters: Sequence[st
         raise AnalysisError(
             f"{', '.join(bad)} of {model!r} {'is' if len(bad) == 1 else 'are'} structurally unidentifiable "
             f"from its outputs ({which}); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` "
-            f"and identify NEW.toml, or pass --allow-unidentifiable")
+            f"and identify NEW.toml, or pass allow_unidentifiable=True")
     frozen = frozen_but_jointly_identifiable(table, result) if method == "dukf" else ()
     if frozen and not allow_unidentifiable:
         one = len(frozen) == 1
@@ -133,7 +133,7 @@ def structural_check(result: AnalysisResult, model: str, parameters: Sequence[st
             f"{', '.join(frozen)} of {model!r} {'is' if one else 'are'} identifiable only jointly: "
             f"every branch of the table freezes {'it' if one else 'them'}, so the DUKF would hold "
             f"{'it' if one else 'them'} at the guess; reparametrize with `obsnl reparametrize MODEL -o "
-            f"NEW.toml` (the seed paper's Delta1, Delta2), use --method ukf, or pass --allow-unidentifiable")
+            f"NEW.toml` (the seed paper's Delta1, Delta2), use method='ukf', or pass allow_unidentifiable=True")
     undecided = set().union(*(b.undecided for b in result.branches)) & set(parameters)
     return StructuralCheck(verdict=kind, unidentifiable=bad, allowed=bool(bad and allow_unidentifiable),
                            undecided=tuple(sorted(undecided)), branches=len(result.branches),
@@ -199,7 +199,7 @@ def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str
 
     Examples
     --------
-    >>> parse_assignments(["k=2.5"], ["k", "c"], option="--guess", what="parameter")
+    >>> parse_assignments(["k=2.5"], ["k", "c"], option="guess=", what="parameter")
     {'k': 2.5}
     """
     out = {}

@@ -137,7 +137,7 @@ def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: S
     both = [v for v in eliminate if v in set(keep)]
     if both:
         raise ModelError(f"{both[0]} is asked both to be eliminated and to be kept; name it in one of "
-                         f"--eliminate and --keep")
+                         f"eliminate= and keep=")
     bad = [v for v in eliminate if v not in variables or variables.index(v) not in cand]
     if bad:
         raise ModelError(f"cannot eliminate {bad[0]}: it is not a parameter moved by the scalings")

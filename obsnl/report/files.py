@@ -73,14 +73,14 @@ def check_target(path: str | Path, *, force: bool, root: str | Path | None = Non
                 p.name in ("", ".", ".."):
             raise OutputError(f"{p} would be written outside {root}; name a file inside the folder")
     if p.is_symlink() and not force:
-        raise OutputError(f"{p} is a symlink; obsnl does not write through links (pass --force to replace the "
+        raise OutputError(f"{p} is a symlink; obsnl does not write through links (pass force=True to replace the "
                           f"link by a file)")
     if p.is_dir() and not p.is_symlink():
         raise OutputError(f"{p} is a folder; name a file")
     if p.exists() and not force:
-        raise OutputError(f"{p} exists; pass --force to overwrite it")
+        raise OutputError(f"{p} exists; pass force=True to overwrite it")
     if root is not None and Path(root).is_symlink():
-        raise OutputError(f"{root} is a symlink; obsnl never writes through links, not even with --force: name the "
+        raise OutputError(f"{root} is a symlink; obsnl never writes through links, not even with force=True: name the "
                           f"real folder ({os.path.realpath(root)}) or remove the link")
     for parent in p.parents:
         if parent.exists() and not parent.is_dir():
@@ -263,7 +263,8 @@ class OutputFolder:
         except FileExistsError:
             self._undo(done)
             raise OutputError(f"{self.folder / name} appeared while this run was writing (another run into the same "
-                              f"folder?); nothing was written: pass --force to replace it or choose another folder") \
+                              f"folder?); nothing was written: pass force=True to replace it or choose another "
+                              f"folder") \
                 from None
         except OSError as exc:
             self._undo(done)

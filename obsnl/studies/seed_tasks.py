@@ -390,7 +390,7 @@ def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) ->
     tic = time.perf_counter()
     try:
         ref = refine(setup, make_data(setup, seed), np.asarray(theta, float), max_iter=ML_MAX_ITER,
-                     advice="the seed paper's guesses are fixed here: try more filter passes (--passes)")
+                     advice="the seed paper's guesses are fixed here: try more filter passes (passes=)")
     except ObsnlError as exc:  # reported with its reason, never dropped
         return Refined(seed=seed, start=start, theta=nan, std=nan, converged=False, reason="", error=str(exc),
                        seconds=time.perf_counter() - tic)

@@ -51,7 +51,7 @@ def time_budget(seconds: float | None) -> Iterator[None]:
         return
     if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not (
             math.isfinite(seconds) and seconds > 0):
-        raise OptionError(f"--max-seconds must be a positive number of seconds, got {seconds!r}")
+        raise OptionError(f"max_seconds= must be a positive number of seconds, got {seconds!r}")
     end = time.perf_counter() + float(seconds)
     outer = _BUDGET.get()
     token = _BUDGET.set(outer if outer is not None and outer[0] <= end else (end, float(seconds)))
@@ -79,7 +79,7 @@ def past_deadline() -> bool:
     return b is not None and time.perf_counter() > b[0]
 
 
-def check_time(what: str, fix: str = "raise --max-seconds") -> None:
+def check_time(what: str, fix: str = "raise max_seconds=") -> None:
     """Refuse to go on when the budget in force is spent.
 
     Parameters
@@ -93,16 +93,16 @@ def check_time(what: str, fix: str = "raise --max-seconds") -> None:
     Raises
     ------
     AnalysisError
-        ``"<what> ran past the time limit of S s (--max-seconds); <fix>"``.
+        ``"<what> ran past the time limit of S s (max_seconds=); <fix>"``.
 
     Examples
     --------
     >>> with time_budget(1e-9):
-    ...     check_time("reading 'm.toml'", "raise --max-seconds")
+    ...     check_time("reading 'm.toml'", "raise max_seconds=")
     Traceback (most recent call last):
     ...
-    obsnl.errors.AnalysisError: reading 'm.toml' ran past the time limit of 1e-09 s (--max-seconds); raise --max-seconds
+    obsnl.errors.AnalysisError: reading 'm.toml' ran past the time limit of 1e-09 s (max_seconds=); raise max_seconds=
     """
     b = _BUDGET.get()
     if b is not None and time.perf_counter() > b[0]:
-        raise AnalysisError(f"{what} ran past the time limit of {b[1]:g} s (--max-seconds); {fix}")
+        raise AnalysisError(f"{what} ran past the time limit of {b[1]:g} s (max_seconds=); {fix}")

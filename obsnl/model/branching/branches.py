@@ -271,9 +271,9 @@ def _split_level(
     deadline = memo.get("__deadline__")
     for signs in _gray(len(sw)):
         if deadline is not None and time.perf_counter() > deadline:
-            raise AnalysisError("splitting the model into branches ran past the time limit; raise --max-seconds "
+            raise AnalysisError("splitting the model into branches ran past the time limit; raise max_seconds= "
                                 "or smooth some switching functions")
-        check_time("splitting the model into branches", "raise --max-seconds or smooth some switching functions")
+        check_time("splitting the model into branches", "raise max_seconds= or smooth some switching functions")
         if len(found) >= _MAX_BRANCHES:
             raise NotSupportedError(f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
                                     f"switching functions (e.g. tanh(v/eps) for sign(v))")

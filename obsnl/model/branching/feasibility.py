@@ -27,7 +27,7 @@ __all__ = ["feasible", "affine_coefficients", "UNDECIDED"]
 #: How the reason of an undecided pattern starts.
 UNDECIDED = "no point was found"
 
-_FIX = "raise --max-seconds, or smooth some switching functions (tanh(g/eps) for sign(g))"
+_FIX = "raise max_seconds=, or smooth some switching functions (tanh(g/eps) for sign(g))"
 
 
 def affine_coefficients(g: sp.Expr, syms: Sequence[sp.Symbol],

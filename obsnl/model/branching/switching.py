@@ -119,7 +119,7 @@ def _factor_signs(g: sp.Expr) -> tuple[int, list[sp.Expr]]:
     Inside a time budget (:func:`obsnl.model.bounds.budget.time_budget`) the budget is checked first.
     """
     check_time(f"factoring the switching function {shorten(expr_text(g), 60)!r}",
-               "raise --max-seconds, or smooth some switching functions (tanh(g/eps) for sign(g))")
+               "raise max_seconds=, or smooth some switching functions (tanh(g/eps) for sign(g))")
     if not can_factor(g):
         s, fc = _canonical(g)
         return s, [fc]

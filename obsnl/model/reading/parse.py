@@ -210,7 +210,7 @@ def parse_expression(
     if len(stripped) > MAX_LENGTH:
         raise ParseError(f"{where}: the expression is longer than {MAX_LENGTH} characters; split it with "
                          f"intermediate states")
-    check_time(f"reading the {where} ({shorten(stripped, 40)!r})", "raise --max-seconds")
+    check_time(f"reading the {where} ({shorten(stripped, 40)!r})", "raise max_seconds=")
     used = _check_names_token_level(stripped, where)
     grouped = regroup_sums(stripped)  # a long sum as a balanced tree: linear parsing, no recursion limit
     check_expression_size(stripped, where, grouped=grouped)

@@ -336,7 +336,7 @@ def read_branch_table(path: str | Path) -> BranchTable:
     try:
         if p.is_dir():
             raise TableError(f"branch table {str(p)!r} is a folder; give the .json file "
-                             f"(obsnl analyze MODEL --format json-table -o FILE.json writes one)")
+                             f"(`obsnl analyze MODEL --format json-table -o FILE.json` writes one)")
         if not p.is_file():
             raise TableError(f"branch table {str(p)!r} does not exist")
         data = parse_text(p.read_bytes().decode("utf-8"), kind="json", where=f"branch table {str(p)!r}")

@@ -27,7 +27,7 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
     if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or seed < 0):
         raise AnalysisError(f"seed must be a non-negative integer or None, got {seed!r}")
     if max_seconds is not None and not (isinstance(max_seconds, (int, float)) and 0 < max_seconds < math.inf):
-        raise AnalysisError(f"max_seconds must be a positive finite number or None, got {max_seconds!r}")
+        raise AnalysisError(f"max_seconds= must be a positive finite number or None, got {max_seconds!r}")
     if not (isinstance(prob, float | int) and 0 < prob < 1):
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
     if unknown_input_derivatives is not None:

@@ -131,7 +131,7 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
                             f"{', '.join(every)}")
     chosen = [every[lb] for lb in dict.fromkeys(labels)]
     return chosen, Visited(how="labels", exhaustive=len(chosen) == len(every) and visited.exhaustive,
-                           note=f"only the branches {', '.join(b.label for b in chosen)} (--branches)")
+                           note=f"only the branches {', '.join(b.label for b in chosen)} (the branches asked)")
 
 
 def _all_or_representatives(model: Model, seed: int, max_seconds: float | None = None) -> tuple[list[Branch], Visited]:

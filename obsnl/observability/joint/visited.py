@@ -90,10 +90,10 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
         raise AnalysisError("the record's times must increase; fix the record")
     missing = [s.name for s in list(model.parameters) + list(model.known_constants) if s.name not in vals]
     if missing:
-        raise AnalysisError(f"--record simulates the model's [values]: give a number for {', '.join(missing)}")
+        raise AnalysisError(f"record= simulates the model's [values]: give a number for {', '.join(missing)}")
     lacking = [u.name for u in model.inputs if u.name not in inputs]
     if lacking or model.unknown_inputs:
-        raise AnalysisError(f"--record needs every input of the model as a known signal (missing: "
+        raise AnalysisError(f"record= needs every input of the model as a known signal (missing: "
                             f"{', '.join(lacking + [w.name for w in model.unknown_inputs])})")
     xs, us = list(model.states), list(model.inputs)
     U = [np.asarray(inputs[u.name], float) for u in us]  # checked first, even where nothing is simulated
@@ -117,7 +117,7 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
         for k in range(len(t) - 1):
             if k % 256 == 0:  # a command's --max-seconds covers the simulation (200 000 samples took 32 s)
                 check_time(f"simulating the model under the record (sample {k} of {len(t)})",
-                           "raise --max-seconds, or give a shorter record")
+                           "raise max_seconds=, or give a shorter record")
             x, h = X[k].copy(), (t[k + 1] - t[k]) / substeps
             for i in range(substeps):
                 a0, a1 = i / substeps, (i + 0.5) / substeps
