@@ -20,6 +20,8 @@ from obsnl.errors import (
     ParseError,
     TableError,
 )
+from obsnl._exports import lazy_exports
+
 __version__ = "0.1.0"
 
 # Every public name but the errors loads on first use (sympy for the model and the analysis; scipy, casadi and
@@ -52,18 +54,7 @@ _LAZY: dict[str, str] = {
 }
 
 
-def __getattr__(name: str):
-    if name in _LAZY:
-        import importlib
-
-        value = getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
-        globals()[name] = value
-        return value
-    raise AttributeError(f"module 'obsnl' has no attribute {name!r}")
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_LAZY))
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _LAZY)
 
 
 __all__ = [
