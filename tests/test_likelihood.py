@@ -212,7 +212,7 @@ def test_identify_refines_by_default_and_says_when_it_did_not(tmp_path):
     assert doc["refinement"]["misfit_over_noise"]["y"] == pytest.approx(1.0, abs=0.3)
     assert set(doc["refinement"]["x0"]) == {"x", "v"}
     plain = obsnl.identify(MSD, cols, guess={"k": 18.0, "c": 1.2}, noise={"u": 1e-6}, refine=False).to_dict()
-    assert not plain["converged"] and "--no-refine" in plain["converged_reason"]
+    assert not plain["converged"] and "refine=False" in plain["converged_reason"]
     assert all(p["interval"] is None for p in plain["parameters"]) and plain["refinement"] == {}
 
 
