@@ -153,13 +153,14 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_usage(sys.stderr)
         print("obsnl: error: choose a command (obsnl --help lists them)", file=sys.stderr)
         return 2
+    # the library names options as Python keywords (a result's reason too): this command's flags instead
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[args.command]
     try:
         return int(args.func(args) or 0)
     except _Exit as exc:
-        print(f"obsnl {args.command}: error: {exc.message}", file=sys.stderr)
+        print(f"obsnl {args.command}: error: {cli_terms(exc.message, sub)}", file=sys.stderr)
         return exc.code
-    except ObsnlError as exc:  # the library names options as Python keywords: this command's flags instead
-        sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction)).choices[args.command]
+    except ObsnlError as exc:
         print(f"obsnl {args.command}: error: {cli_terms(str(exc), sub)}", file=sys.stderr)
         return 2
     except OSError as exc:  # a name too long, a missing folder, no permission, a full disk: one line

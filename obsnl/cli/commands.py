@@ -96,8 +96,7 @@ def identify(a: Namespace) -> None:
         a.model, data=a.data, record=a.record, guess=a.guess, noise=a.noise, samples=a.samples, out=a.out,
         force=a.force, tuning=tuning_from(a.s0, a.q_theta, a.q_x, a.gate), method=a.method, table=a.table,
         passes=a.passes, replicates=a.replicates, seed=a.seed, allow_unidentifiable=a.allow_unidentifiable,
-        jit=a.jit, hold=a.hold, refine=not a.no_refine, progress=True, executor=_executor(a),
-        names={n: f"--{n}" for n in ("guess", "noise", "samples", "record")})
+        jit=a.jit, hold=a.hold, refine=not a.no_refine, progress=True, executor=_executor(a))
     _write(identify_text(res))
     if files:
         print(f"wrote {', '.join(str(f) for f in files)}")

@@ -59,7 +59,7 @@ def tuning_from(s0: float | None = None, q_theta: float | None = None, q_x: floa
 
 
 def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
-                 option: str = "noise") -> dict[str, float] | float:
+                 option: str = "noise=") -> dict[str, float] | float:
     """Noise-to-signal RMS ratios from texts: ``RATIO`` for every channel (the last one given), ``NAME=RATIO``.
 
     Parameters
@@ -124,7 +124,8 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     force : bool
         Overwrite those files.
     names : mapping of str to str or None
-        How the caller names ``guess``, ``noise``, ``samples`` and ``record`` in messages (default: so).
+        How the caller names ``guess``, ``noise``, ``samples`` and ``record`` in messages (default: as
+        Python keywords, ``guess=``; the command line prints its flags for them).
     **options : Any
         Passed to :func:`obsnl.identification.identify.identify` or ``study`` (method, table, passes,
         replicates, seed, allow_unidentifiable, jit, hold, refine, progress, executor).
@@ -138,7 +139,7 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     from obsnl.identification.structural import parse_assignments
     from obsnl.model.files import read_model
 
-    names = {"guess": "guess", "noise": "noise", "samples": "samples", "record": "record", **(names or {})}
+    names = {n: f"{n}=" for n in ("guess", "noise", "samples", "record")} | dict(names or {})
     if samples is not None and data:  # an option that would be ignored is refused, not dropped silently
         raise OptionError(f"{names['samples']} applies to a {names['record']} study; cut the data file instead")
     if out:  # refused before any work: an output folder that cannot take the files
