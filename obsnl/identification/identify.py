@@ -67,8 +67,8 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
     g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
     unknown = sorted(set(guess or {}) - set(names))
     if unknown:  # a misspelt guess is refused, as the command line refuses --guess kk=3
-        raise OptionError(f"guess= names {unknown[0]!r}, which is not a parameter of {model.name!r} ({', '.join(names)}); "
-                          f"check the spelling")
+        raise OptionError(f"guess= names {unknown[0]!r}, which is not a parameter of {model.name!r} "
+                          f"({', '.join(names)}); check the spelling")
     g.update(guess or {})
     for k, v in g.items():  # the filters estimate log|p| with the guess's sign: 0, inf and NaN cannot start
         if not (math.isfinite(v) and 0 < abs(v) < 1e100):
