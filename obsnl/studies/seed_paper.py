@@ -213,6 +213,7 @@ def rate_from_here(progress: Any) -> None:
     >>> _ = bar.update(1)
     >>> round(bar.format_dict["rate"], 6)      # 2 runs/s, not 1 run in 20.5 s
     2.0
+    >>> bar.close()                            # closed while our clock still exists
     """
     if progress is not None and hasattr(progress, "last_print_t") and callable(getattr(progress, "_time", None)):
         progress.last_print_t, progress.last_print_n = progress._time(), progress.n

@@ -228,7 +228,9 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
                 cells = [f"abs({_T2_MD[d]})^(-1/2N) (yield displ.)", f"{true:.4g}", "-"]
                 for m in cols:
                     e = (with_ml if m == "ml" else summ[(m, passes)])["yield"][d][1]
-                    cells += ["-", f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"] + (["-"] if m == "ml" else [])
+                    e = np.asarray(e, float)
+                    spread = [f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"] if np.isfinite(e).any() else ["-", "-"]
+                    cells += ["-", *spread] + (["-"] if m == "ml" else [])  # "-": no seed ran to the end
                 if passes == 1:
                     cells += ["-", "-"]
                 lines.append("| " + " | ".join(cells) + " |")
