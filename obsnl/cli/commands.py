@@ -53,8 +53,8 @@ def analyze(a: Namespace) -> None:
     from obsnl.report.tables import render
     _target(a.output, a.force)
     result = analyze_file(a.model, record=a.record, method=a.method, seed=a.seed, max_seconds=a.max_seconds,
-                          branches=_split(a.branches) or None, joint=not a.no_joint, record_option="--record",
-                          unknown_input_derivatives=a.unknown_input_derivatives, option="--unknown-input-derivatives")
+                          branches=_split(a.branches) or None, joint=not a.no_joint,
+                          unknown_input_derivatives=a.unknown_input_derivatives)
     _write(render(result, a.format), a.output, force=a.force)
     _stuck(inconclusive_line([result]))
 
@@ -123,7 +123,7 @@ def sensors(a: Namespace) -> None:
     from obsnl.design.records import sensors_file
     from obsnl.report.sensors import render_sensors
     _target(a.output, a.force)
-    result = sensors_file(a.model, record=a.record, rank_size=a.rank_size, noise=a.noise, record_option="--record",
+    result = sensors_file(a.model, record=a.record, rank_size=a.rank_size, noise=a.noise,
                           target=a.target, max_size=a.max_size, seed=a.seed, max_seconds=a.max_seconds,
                           executor=_executor(a), progress=a.progress)
     _write(render_sensors(result, a.format), a.output, force=a.force)
@@ -138,7 +138,6 @@ def design(a: Namespace) -> None:
     from obsnl.report.experiment import render_design
     _target(a.output, a.force)
     result = design_file(a.model, a.record, target=a.target, sensors=a.sensors, scales=a.scales, seed=a.seed,
-                         max_seconds=a.max_seconds, figure=a.figure, output=a.output, force=a.force,
-                         record_option="--record")
+                         max_seconds=a.max_seconds, figure=a.figure, output=a.output, force=a.force)
     _write(render_design(result, a.format), a.output, force=a.force)
     _stuck(f"inconclusive: {result.reason}" if result.status == "inconclusive" else None)

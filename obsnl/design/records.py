@@ -39,6 +39,11 @@ def _model(model: Model | str | Path) -> Model:
     return model if isinstance(model, Model) else read_model(model, check=check_file_limits)
 
 
+#: How the file jobs name their record option in messages: as the Python keyword, which the command line prints as
+#: its flag (``--record``).
+_RECORD = "record="
+
+
 def one_input_record(model: Model, path: str | Path, *, option: str = "a record") -> Record:
     """The record at ``path`` as the one known input of ``model``.
 
@@ -92,8 +97,7 @@ def record_visits(model: Model, record: Record) -> Visits:
 
 def analyze_file(model: Model | str | Path, *, record: str | Path | None = None, method: str = "auto",
                  seed: int | None = None, max_seconds: float | None = None, branches: Sequence[str] | None = None,
-                 joint: bool = True, unknown_input_derivatives: int | str | None = None,
-                 option: str = "unknown_input_derivatives", record_option: str = "record") -> AnalysisResult:
+                 joint: bool = True, unknown_input_derivatives: int | str | None = None) -> AnalysisResult:
     """Analyse a model file, optionally only what one record visits, all within one time budget.
 
     Parameters
@@ -116,8 +120,6 @@ def analyze_file(model: Model | str | Path, *, record: str | Path | None = None,
     max_seconds : float or None
         Time limit of the whole job: reading and factoring the model, the record's simulation, the
         split into branches and the analysis.
-    option, record_option : str
-        How the caller names ``unknown_input_derivatives`` and ``record`` in messages.
 
     Returns
     -------
@@ -131,9 +133,9 @@ def analyze_file(model: Model | str | Path, *, record: str | Path | None = None,
     """
     with time_budget(max_seconds):
         model = _model(model)
-        k = check_analysis_limits(model, unknown_input_derivatives, option=option)  # before the simulation
+        k = check_analysis_limits(model, unknown_input_derivatives, option="unknown_input_derivatives=")  # before the simulation
         try:
-            visits = record_visits(model, one_input_record(model, record, option=record_option)) if record else None
+            visits = record_visits(model, one_input_record(model, record, option=_RECORD)) if record else None
             return analyze(model, method=method, seed=seed, max_seconds=max_seconds, branches=branches,
                            visited=visits.patterns if visits else None,
                            crossings=visits.crossings if visits else None, joint=joint,
@@ -144,7 +146,7 @@ def analyze_file(model: Model | str | Path, *, record: str | Path | None = None,
 
 
 def sensors_file(model: Model | str | Path, *, record: str | Path | None = None, rank_size: int | None = None,
-                 noise: float | None = None, record_option: str = "record", **search: Any) -> Any:
+                 noise: float | None = None, **search: Any) -> Any:
     """The minimal sensor sets of a model file, ranked along one record's response when one is given.
 
     Parameters
@@ -159,8 +161,6 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     noise : float or None
         Relative noise of every output for the ranking (std = ``noise`` x RMS), between 0 and 10 (None:
         0.01); only with a record.
-    record_option : str
-        How the caller names ``record`` in messages.
     **search : Any
         Passed to :func:`obsnl.design.sensors.sensors` (target, max_size, seed, max_seconds, executor,
         progress).
@@ -173,7 +173,7 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     from obsnl.design.sensors import rank_sufficient_sets, sensors
 
     if record is None and (rank_size is not None or noise is not None):  # would be ignored: refused, not dropped
-        raise OptionError(f"the rank size and the noise level rank the sensor sets along a record: add {record_option}")
+        raise OptionError(f"the rank size and the noise level rank the sensor sets along a record: add {_RECORD}")
     if noise is not None and not (isinstance(noise, (int, float)) and 0.0 < noise < 10.0):
         raise OptionError(f"noise {quote(noise, 30)} is not a relative level between 0 and 10 (0.01 is 1 %)")
     with time_budget(None):
@@ -183,7 +183,7 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
         if rank_size is not None and not (isinstance(rank_size, int) and 1 <= rank_size <= len(model.output_names)):
             raise OptionError(f"the rank size is a number of sensors from 1 to {len(model.output_names)} (the "
                               f"model's outputs), got {quote(rank_size, 30)}")
-        rec = one_input_record(model, record, option=record_option)
+        rec = one_input_record(model, record, option=_RECORD)
     result = sensors(model, **search)
     if rec is None:
         return result
@@ -194,7 +194,7 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
 
 def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max_seconds: float | None = None,
                 figure: str | Path | None = None, output: str | Path | None = None, force: bool = False,
-                record_option: str = "record", **options: Any) -> Any:
+                **options: Any) -> Any:
     """The experiment design of a model file under records, within one time budget.
 
     Parameters
@@ -212,8 +212,6 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
         The file the caller will write the rendering to (only checked not to be ``figure``).
     force : bool
         Overwrite ``figure``.
-    record_option : str
-        How the caller names ``records`` in messages.
     **options : Any
         Passed to :func:`obsnl.design.experiment.design` (target, sensors, scales, seed); ``scales`` may
         be comma-separated text (``"0.1,1,10"``).
@@ -228,7 +226,7 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
     from obsnl.report.files import OutputFolder, check_target
 
     if not records:
-        raise OptionError(f"give at least one {record_option} (.csv or .AT2)")
+        raise OptionError(f"give at least one {_RECORD} (.csv or .AT2)")
     if isinstance(options.get("scales"), str):  # "0.1,1,10"; what is not a positive number design refuses, quoted
         try:
             options["scales"] = [float(x) for x in options["scales"].split(",") if x.strip()]
@@ -243,7 +241,7 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
     with time_budget(max_seconds):
         model = _model(model)
         check_analysis_limits(model)
-        read = [one_input_record(model, path, option=record_option) for path in records]
+        read = [one_input_record(model, path, option=_RECORD) for path in records]
         stems = [r.name for r in read]
         if len(set(stems)) < len(stems):  # same file names in different folders: name them by their paths
             read = [dataclasses.replace(r, name=str(path)) for r, path in zip(read, records)]

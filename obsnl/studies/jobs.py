@@ -15,7 +15,7 @@ Every check runs before the first filter: a refusal is one message and no work.
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -103,8 +103,7 @@ def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
 
 def identify_job(model: Any, *, data: str | None = None, record: str | None = None, guess: Sequence[str] = (),
                  noise: Sequence[str] = (), tuning: Any = None, samples: int | None = None,
-                 out: str | None = None, force: bool = False, names: Mapping[str, str] | None = None,
-                 **options: Any) -> tuple[Any, list[Path]]:
+                 out: str | None = None, force: bool = False, **options: Any) -> tuple[Any, list[Path]]:
     """Identify a model from measured ``data`` or, as a simulation study, from its ``[values]`` under ``record``.
 
     Parameters
@@ -123,9 +122,6 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
         A folder for the result's files (checked before any work).
     force : bool
         Overwrite those files.
-    names : mapping of str to str or None
-        How the caller names ``guess``, ``noise``, ``samples`` and ``record`` in messages (default: as
-        Python keywords, ``guess=``; the command line prints its flags for them).
     **options : Any
         Passed to :func:`obsnl.identification.identify.identify` or ``study`` (method, table, passes,
         replicates, seed, allow_unidentifiable, jit, hold, refine, progress, executor).
@@ -139,17 +135,17 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     from obsnl.identification.structural import parse_assignments
     from obsnl.model.files import read_model
 
-    names = {n: f"{n}=" for n in ("guess", "noise", "samples", "record")} | dict(names or {})
+    # messages name the options as Python keywords (``guess=``); the command line prints its flags for them
     if samples is not None and data:  # an option that would be ignored is refused, not dropped silently
-        raise OptionError(f"{names['samples']} applies to a {names['record']} study; cut the data file instead")
+        raise OptionError("samples= applies to a record= study; cut the data file instead")
     if out:  # refused before any work: an output folder that cannot take the files
         from obsnl.report.files import check_folder
 
         check_folder(out, IDENTIFY_FILES, force=force)
     model = read_model(model) if isinstance(model, (str, Path)) else model
-    guesses = parse_assignments(guess, [s.name for s in model.parameters], option=names["guess"], what="parameter")
+    guesses = parse_assignments(guess, [s.name for s in model.parameters], option="guess=", what="parameter")
     ratios = noise_ratios(noise, [s.name for s in model.inputs] + list(model.outputs), study=not data,
-                          option=names["noise"])
+                          option="noise=")
     if data:
         res = identify(model, data, guess=guesses, noise=ratios, tuning=tuning, **options)
     else:
