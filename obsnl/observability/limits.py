@@ -115,6 +115,15 @@ def _gib(nbytes: int) -> str:
     return f"{gib:.0f} GiB" if gib >= 10 else f"{gib:.1f} GiB" if gib >= 0.1 else f"{nbytes / 2**20:.0f} MiB"
 
 
+def _given(where: str, value: object) -> str:
+    """``where`` and the value given: ``--flag 5``, ``keyword=5`` (a Python keyword), else ``where = 5``."""
+    if where.startswith("-"):
+        return f"{where} {value}"
+    if where.isidentifier() or where.endswith("="):
+        return f"{where.rstrip('=')}={value}"
+    return f"{where} = {value}"
+
+
 def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | None = None, *,
                           option: str = _OPTION) -> int | str:
     """Refuse, before any heavy work, an analysis of ``model`` larger than the engines can hold.
@@ -159,7 +168,7 @@ def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | N
     ...     check_analysis_limits(m, 999999)
     ... except OptionError as exc:
     ...     print(str(exc)[:70])
-    unknown_input_derivatives = 999999 is more than model 'ui' can use: at
+    unknown_input_derivatives=999999 is more than model 'ui' can use: at m
     """
     given = unknown_input_derivatives is not None
     value = unknown_input_derivatives if given else model.unknown_input_derivatives
@@ -173,7 +182,7 @@ def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | N
     bound = max_unknown_input_derivatives(n_x, n_p)
     if model.unknown_inputs and k != ARBITRARY and int(k) > bound:
         raise error(
-            f"{where}{' ' if where.startswith('-') else ' = '}{k} is more than model {model.name!r} can use: at most {bound} (states + parameters "
+            f"{_given(where, k)} is more than model {model.name!r} can use: at most {bound} (states + parameters "
             f"+ {DERIVATIVES_MARGIN} = {n_x} + {n_p} + {DERIVATIVES_MARGIN}): even an arbitrary unknown input enters "
             f"the rank test through its first states + parameters + augmented functions + 1 Taylor coefficients "
             f"only (obsnl.algebra.problem.arbitrary_terms), so more derivatives add nothing but cost; give "
