@@ -79,7 +79,7 @@ def test_compiled_simulations_equal_uncompiled_ones_bit_for_bit(tmp_path, monkey
 def test_frozen_sigma_points_are_copied_without_changing_a_bit():
     coords = log_map(NUM.parameters, signs={"Delta2": -1})
     L = NUM.nx + len(coords.names)
-    steps = {skip: build_step(NUM, coords, 0.01, state_scale=SCALE, method="auto", substeps=4, skip_frozen=skip)
+    steps = {skip: build_step(NUM, coords, 0.01, method="auto", substeps=4, skip_frozen=skip)
              for skip in (True, False)}
     rng = np.random.default_rng(2026)
     guess = np.log(np.abs([float(NUM.values[p]) for p in NUM.parameters]))
@@ -94,7 +94,7 @@ def test_frozen_sigma_points_are_copied_without_changing_a_bit():
         copied += len(frozen)
         u0, u1, y = rng.normal(0.0, 2.0, 1), rng.normal(0.0, 2.0, 1), rng.normal(0.0, 0.1, 1)
         args = [z, P, u0, u1, y, active, 1e-8 * np.eye(L), 1e-6 * np.eye(1), np.array([1.0, 2.0, 0.0, np.inf]),
-                np.full(L, -np.inf), np.full(L, np.inf), np.full(L, np.inf)]
+                np.full(L, -np.inf), np.full(L, np.inf), np.full(L, np.inf), SCALE]
         a, b = (steps[s](*[ca.DM(v) for v in args]) for s in (True, False))
         for x, w in zip(a, b):
             assert np.asarray(x).tobytes() == np.asarray(w).tobytes()

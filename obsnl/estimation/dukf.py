@@ -98,8 +98,8 @@ class DUKF(UKF):
     def _cross(self) -> str:
         return self.cross
 
-    def _active_and_signs(self, z: ca.MX, u: ca.MX, prev: ca.MX) -> tuple[ca.MX, ca.MX]:
-        g = self._switching_at(z, u)
+    def _active_and_signs(self, z: ca.MX, u: ca.MX, prev: ca.MX, scale: ca.MX) -> tuple[ca.MX, ca.MX]:
+        g = self._switching_at(z, u, scale)
         matched, active = 0, 0
         for b in self.table.branches:
             hit = 1

@@ -188,7 +188,7 @@ class NumericModel:
 
     def _build_step(self, dt: float, method: str, n: int, scale: Any, threshold: float, jit: bool,
                     refine: int) -> ca.Function:
-        fns = self.integrators(dt, substeps=n, scale=scale, jit=jit, refine=refine)
+        fns = self.integrators(dt, substeps=n, jit=jit, refine=refine)
         x, p = ca.SX.sym("x", self.nx), ca.SX.sym("p", self.np)
         u0, u1 = ca.SX.sym("u0", self.nu), ca.SX.sym("u1", self.nu)
         names_in, names_out = ["x", "p", "u0", "u1"], ["x_next", "implicit", "refined"]
@@ -198,20 +198,22 @@ class NumericModel:
                                [fns[method](x, p, u0, u1), ca.SX(flag), ca.SX(0.0)], names_in, names_out)
         X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         U0, U1 = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu)
-        xr, stiff, refined = fns["probe"](X, P, U0, U1, threshold)
+        d = ca.DM(np.ones(self.nx) if scale is None else np.asarray(scale, float))
+        xr, stiff, refined = fns["probe"](X, P, U0, U1, threshold, d)
         xn = ca.if_else(ca.logic_or(stiff, refined), fns["fine"](X, P, U0, U1, stiff), xr, True)
         return ca.Function(f"step_auto{n}", [X, P, U0, U1], [xn, stiff, refined], names_in, names_out)
 
-    def integrators(self, dt: float, *, substeps: int, scale: Any = None, jit: bool = False,
-                    refine: int = 8) -> dict[str, ca.Function]:
+    def integrators(self, dt: float, *, substeps: int, jit: bool = False, refine: int = 8) -> dict[str, ca.Function]:
         """The pieces of :meth:`step`: ``rk4`` and ``ros2`` ``(x, p, u0, u1) -> x_next`` with
         ``substeps``; ``rk4_fine``, RK4 with every substep in which a watched switching function
         (``jumps``) changes sign split into ``refine``; ``ros2_fine``, ROS2 with ``refine * substeps``; ``rk4_track``
         ``(x, p, u0, u1) -> (x_next, crossed)`` (RK4 that also says whether a switching function
-        changed sign between two substeps) and ``stiff(x, x_rk4, p, u0, u1, threshold) -> 0/1``.
+        changed sign between two substeps) and ``stiff(x, x_rk4, p, u0, u1, threshold, scale) -> 0/1``
+        (``scale``: the typical magnitude of each state, the start of the stiffness estimate of :meth:`step`;
+        an input, so that the code, and the key of its compiled library, do not depend on it).
 
         The rule of ``method="auto"``, shared by :meth:`step` and the filters' step: ``probe(x, p, u0,
-        u1, threshold) -> (x_rk4, stiff, refine)`` (``refine``: a watched crossing and not stiff) and,
+        u1, threshold, scale) -> (x_rk4, stiff, refine)`` (``refine``: a watched crossing and not stiff) and,
         only where one of the two flags is set, ``fine(x, p, u0, u1, stiff) -> x_next`` (ROS2 with
         ``refine * substeps`` if stiff, else RK4 with the crossing substep refined)."""
         n, nf = int(substeps), int(substeps) * int(refine)
@@ -227,19 +229,18 @@ class NumericModel:
         xt, crossed = self._integrate("rk4", x, p, u0, u1, dt, n, track=True)
         out["rk4_track"] = c(ca.Function(f"rk4_track{n}", [x, p, u0, u1], [xt, crossed], names_in,
                                          ["x_next", "crossed"]))
-        d = np.ones(self.nx) if scale is None else np.asarray(scale, float)
-
-        ratio = ca.DM(np.outer(1.0 / d, d) if scale is not None else np.ones((self.nx, self.nx)))
+        d = ca.SX.sym("scale", self.nx)  # an input, not a constant: the code is the same for every scale
+        ratio = ca.repmat(1.0 / d, 1, self.nx) * ca.repmat(d.T, self.nx, 1)  # (1/d_i) d_j, as numpy's outer
         Js = self.jac_x(xr, p, u1) * ratio
         Js = ca.if_else(ca.fabs(Js) < 1e300, ca.fabs(Js), 1e300)
         rho = dt / n * _perron_bound(Js, self.nx)
         stiff = ca.logic_or(rho > thr, ca.logic_not(ca.mmax(ca.fabs(xr)) < 1e150))
-        out["stiff"] = c(ca.Function("stiff", [x, xr, p, u0, u1, thr], [stiff]))
+        out["stiff"] = c(ca.Function("stiff", [x, xr, p, u0, u1, thr, d], [stiff]))
         x_rk4, crossed = out["rk4_track"](x, p, u0, u1)
-        is_stiff = out["stiff"](x, x_rk4, p, u0, u1, thr)
-        out["probe"] = c(ca.Function("probe", [x, p, u0, u1, thr],
+        is_stiff = out["stiff"](x, x_rk4, p, u0, u1, thr, d)
+        out["probe"] = c(ca.Function("probe", [x, p, u0, u1, thr, d],
                                      [x_rk4, is_stiff, ca.logic_and(crossed, ca.logic_not(is_stiff))],
-                                     names_in + ["threshold"], ["x_rk4", "stiff", "refine"]))
+                                     names_in + ["threshold", "scale"], ["x_rk4", "stiff", "refine"]))
         X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         U0, U1, S = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu), ca.MX.sym("stiff")
         out["fine"] = ca.Function("fine", [X, P, U0, U1, S],  # MX: only the chosen integrator runs

@@ -9,7 +9,7 @@ One step (predict with ``u_k -> u_{k+1}``, update with ``y_{k+1}``) is one casad
 covariance weight is ``>= 0``; every sigma point through the full non-smooth discrete model;
 sigma points redrawn for the update, so that on a linear model the filter is exactly the Kalman
 filter). ``run`` wraps the step in ``mapaccum``: one call for a whole record; with ``jit=True`` the
-whole step is compiled to C (about 30-50 s once, then a few times faster).
+whole step is compiled to C (30-50 s once per model and filter, whatever the record; then a few times faster).
 
 The step takes a mask of *active* coordinates; the UKF passes all ones, the DUKF
 (:mod:`obsnl.estimation.dukf`) the mask of the current branch (see there for the frozen-block rule).
@@ -234,19 +234,19 @@ class UKF:
 
     # ------------------------------------------------------------------ compiled functions
     def _key(self) -> tuple:
-        return (id(self.model), id(self.coordinates), self.dt, tuple(self.state_scale), self.method,
-                self.substeps, self.refine, self.jit, type(self).__name__) + self._extra_key()
+        return (id(self.model), id(self.coordinates), self.dt, self.method, self.substeps, self.refine, self.jit,
+                type(self).__name__) + self._extra_key()
 
     def _extra_key(self) -> tuple:
         return ()
 
-    def _active_and_signs(self, z: ca.MX, u: ca.MX, prev: ca.MX) -> tuple[ca.MX, ca.MX]:
+    def _active_and_signs(self, z: ca.MX, u: ca.MX, prev: ca.MX, scale: ca.MX) -> tuple[ca.MX, ca.MX]:
         """Active mask and switching-function signs at the mean (UKF: everything active)."""
-        return ca.MX(ca.DM.ones(self.size)), ca.sign(self._switching_at(z, u))
+        return ca.MX(ca.DM.ones(self.size)), ca.sign(self._switching_at(z, u, scale))
 
-    def _switching_at(self, z: ca.MX, u: ca.MX) -> ca.MX:
+    def _switching_at(self, z: ca.MX, u: ca.MX, scale: ca.MX) -> ca.MX:
         nx = self.model.nx
-        return self.model.g(z[:nx] * ca.DM(self.state_scale), self.coordinates.forward(z[nx:]), u)
+        return self.model.g(z[:nx] * scale, self.coordinates.forward(z[nx:]), u)
 
     def _cross(self) -> str:
         return "zero"  # nothing is ever frozen in the UKF: both rules coincide, "zero" is cheaper
@@ -254,20 +254,19 @@ class UKF:
     def _compiled(self) -> ca.Function:
         key = self._key()
         if key not in self.cache:
-            core = build_step(self.model, self.coordinates, self.dt, state_scale=self.state_scale,
-                              method=self.method, substeps=self.substeps, cross=self._cross(),
-                              refine=self.refine)
+            core = build_step(self.model, self.coordinates, self.dt, method=self.method, substeps=self.substeps,
+                              cross=self._cross(), refine=self.refine)
             L, m, nu, ny = self.size, len(self.model.switching), self.model.nu, self.model.ny
             z, P, prev = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("prev", L)
             u0, u1, y = ca.MX.sym("u0", nu), ca.MX.sym("u1", nu), ca.MX.sym("y", ny)
             Q, R, hyp = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny), ca.MX.sym("hyp", 4)
-            allowed = ca.MX.sym("allowed", L)
-            act, signs = self._active_and_signs(z, u0, prev)
+            allowed, sc = ca.MX.sym("allowed", L), ca.MX.sym("scale", self.model.nx)
+            act, signs = self._active_and_signs(z, u0, prev, sc)
             act = act * allowed
             lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
-            zn, Pn, yp, nuv, S, rep, imp, fine = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap)
+            zn, Pn, yp, nuv, S, rep, imp, fine = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap, sc)
             fn = ca.Function(
-                "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap],
+                "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap, sc],
                 [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine])
             self.cache[key] = jit_compile(fn) if self.jit else fn  # compiled once per machine, then from disk
         return self.cache[key]
@@ -293,7 +292,7 @@ class UKF:
         ys, us = check_inputs(np.vstack([np.reshape(y, (1, -1))] * 2), np.vstack([np.reshape(u0, (1, -1)),
                               np.reshape(u1, (1, -1))]), ny=self.model.ny, nu=self.model.nu)
         out = self._compiled()(est.z, est.P, est.active, us[0], us[1], ys[1], self.Q, self.R, self._hyp(),
-                               self.allowed, *self._bounds(), self.cap)
+                               self.allowed, *self._bounds(), self.cap, self.state_scale)
         z, P = np.asarray(out[0]).ravel(), np.asarray(out[1])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(P))):
             raise EstimatorError(f"the filter produced NaN/inf at step {est.k + 1}; lower P0/Q, use method='ros2' "
@@ -336,7 +335,8 @@ class UKF:
                 cols([u[1:].T for _, u in data]), cols([y[1:].T for y, _ in data]),
                 cols([f.Q for f in filters]), cols([f.R for f in filters]), cols([f._hyp()[:, None] for f in filters]),
                 cols([f.allowed[:, None] for f in filters]), cols([f._bounds()[0][:, None] for f in filters]),
-                cols([f._bounds()[1][:, None] for f in filters]), cols([f.cap[:, None] for f in filters])]
+                cols([f._bounds()[1][:, None] for f in filters]), cols([f.cap[:, None] for f in filters]),
+                cols([f.state_scale[:, None] for f in filters])]
         return call(self._runs(len(data[0][0]), len(data)), args)
 
     def run_batch(self, est0s: Sequence[Estimate], ys: Sequence[Any], us: Sequence[Any], *,
@@ -344,8 +344,8 @@ class UKF:
         """Many runs over records of one length in one compiled call (casadi ``map`` over the runs).
 
         Run ``i`` starts at ``est0s[i]`` on ``ys[i]``, ``us[i]`` with the options (Q, R, gate, fixed,
-        bounds, cap) of ``filters[i]`` (default: this filter); the filters must share this filter's
-        compiled step (same model, coordinates, dt, scale, method, substeps; only run-time options
+        bounds, cap, state_scale) of ``filters[i]`` (default: this filter); the filters must share this
+        filter's compiled step (same model, coordinates, dt, method, substeps; only run-time options
         may differ). The numbers equal those of :meth:`run` one at a time.
 
         Returns
@@ -359,7 +359,7 @@ class UKF:
             raise EstimatorError("run_batch needs one start estimate, record and filter per run (and at least one run)")
         if any(f._key() != self._key() for f in filters):
             raise EstimatorError("run_batch: every filter must share this filter's compiled step (same model, "
-                                 "coordinates, dt, scale, method and substeps)")
+                                 "coordinates, dt, method and substeps)")
         data = [check_inputs(y, u, ny=self.model.ny, nu=self.model.nu) for y, u in zip(ys, us)]
         T, n = len(data[0][0]), len(data)
         if any(len(y) != T for y, _ in data):

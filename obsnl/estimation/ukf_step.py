@@ -42,10 +42,7 @@ Interventions, in this order, each counted per step (``INTERVENTIONS``); none is
 
 from __future__ import annotations
 
-from typing import Any
-
 import casadi as ca
-import numpy as np
 
 from obsnl.errors import EstimatorError
 from obsnl.estimation.numeric import NumericModel, ParameterMap
@@ -100,9 +97,9 @@ def _lower_solve(L: ca.SX, B: ca.SX, n: int) -> ca.SX:
     return X
 
 
-def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], scale: Any,
+def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function],
                  method: str) -> tuple[ca.Function, ca.Function]:
-    """``(z, P, active, hyp) -> (X, S, pivots)`` (sigma points) and ``(zc, u0, u1) -> (zc+, stiff,
+    """``(z, P, active, hyp) -> (X, S, pivots)`` (sigma points) and ``(zc, u0, u1, scale) -> (zc+, stiff,
     crossed)`` (RK4 propagation of one sigma point, with the tests of the fallbacks: stiff for RK4,
     a switching function crossed inside the step).
 
@@ -117,42 +114,40 @@ def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Fu
     Sm = ca.sqrt(nA + lam) * ca.mtimes(A, S)
     X = ca.horzcat(z, ca.repmat(z, 1, L) + Sm, ca.repmat(z, 1, L) - Sm)
     sig = ca.Function("sigma_points", [z, P, a, hyp], [X, S, pivots])
-    zc, u0, u1 = ca.SX.sym("zc", L), ca.SX.sym("u0", nu_), ca.SX.sym("u1", nu_)
-    sc = ca.DM(np.asarray(scale, float))
+    zc, u0, u1, sc = ca.SX.sym("zc", L), ca.SX.sym("u0", nu_), ca.SX.sym("u1", nu_), ca.SX.sym("scale", nx)
     xc, th = zc[:nx] * sc, coords.forward(zc[nx:])
     if method == "auto":
-        xr, stiff, crossed = fns["probe"](xc, th, u0, u1, 2.0)
+        xr, stiff, crossed = fns["probe"](xc, th, u0, u1, 2.0, sc)
     else:
         xr, stiff, crossed = fns[method](xc, th, u0, u1), ca.SX(0), ca.SX(0)
-    prop = ca.Function("prop", [zc, u0, u1], [ca.vertcat(xr / sc, zc[nx:]), stiff, crossed])
+    prop = ca.Function("prop", [zc, u0, u1, sc], [ca.vertcat(xr / sc, zc[nx:]), stiff, crossed])
     return sig, prop
 
 
-def _point_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], scale: Any,
+def _point_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function],
                  prop: ca.Function) -> tuple[ca.Function, ca.Function]:
-    """``(zc, u0, u1) -> (zc+, stiff, crossed)``: one sigma point through ``prop`` (RK4 and the probe),
+    """``(zc, u0, u1, scale) -> (zc+, stiff, crossed)``: one sigma point through ``prop`` (RK4 and the probe),
     then ROS2 (``refine * substeps``) where RK4 was stiff, or RK4 with the crossing substep refined
     where a watched switching function changed sign; each fallback is evaluated only where needed.
     And the same with ``(skip, xp0, stiff0, crossed0)`` appended: ``skip = 1`` means the point is the
     mean point (its coordinate is frozen, so the sigma point equals the mean bit for bit), whose
     result ``(xp0, stiff0, crossed0)`` is copied instead of computed again."""
     nx, L, nu_ = model.nx, model.nx + len(coords.names), model.nu
-    sc = ca.DM(np.asarray(scale, float))
-    zM, u0M, u1M = ca.MX.sym("zc", L), ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_)
-    xr, sM, cM = prop(zM, u0M, u1M)
+    zM, u0M, u1M, sc = ca.MX.sym("zc", L), ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_), ca.MX.sym("scale", nx)
+    xr, sM, cM = prop(zM, u0M, u1M, sc)
     fine = ca.vertcat(fns["fine"](zM[:nx] * sc, coords.forward(zM[nx:]), u0M, u1M, sM) / sc, zM[nx:])
-    point = ca.Function("point", [zM, u0M, u1M], [ca.if_else(ca.logic_or(sM, cM), fine, xr, True), sM, cM])
+    point = ca.Function("point", [zM, u0M, u1M, sc], [ca.if_else(ca.logic_or(sM, cM), fine, xr, True), sM, cM])
     skip, x0M, s0M, c0M = ca.MX.sym("skip"), ca.MX.sym("xp0", L), ca.MX.sym("stiff0"), ca.MX.sym("crossed0")
     done = ca.vertcat(x0M, s0M, c0M)
-    out = ca.if_else(skip, done, ca.vertcat(*point(zM, u0M, u1M)), True)
-    return point, ca.Function("sigma_point", [zM, u0M, u1M, skip, x0M, s0M, c0M], [out[:L], out[L], out[L + 1]])
+    out = ca.if_else(skip, done, ca.vertcat(*point(zM, u0M, u1M, sc)), True)
+    return point, ca.Function("sigma_point", [zM, u0M, u1M, sc, skip, x0M, s0M, c0M], [out[:L], out[L], out[L + 1]])
 
 
-def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: str) -> ca.Function:
+def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.Function:
     """Unscented mean and covariance of the propagated sigma points, update, guard, valid region, ceiling."""
     nx, L, ny, nu_ = model.nx, model.nx + len(coords.names), model.ny, model.nu
     npts = 2 * L + 1
-    sc = ca.DM(np.asarray(scale, float))
+    sc = ca.SX.sym("scale", nx)
     z, P, a, hyp = ca.SX.sym("z", L), ca.SX.sym("P", L, L), ca.SX.sym("active", L), ca.SX.sym("hyp", 4)
     Xp, y, Q, R = ca.SX.sym("Xp", L, npts), ca.SX.sym("y", ny), ca.SX.sym("Q", L, L), ca.SX.sym("R", ny, ny)
     S_, u1 = ca.SX.sym("S", L, L), ca.SX.sym("u1", nu_)
@@ -185,8 +180,8 @@ def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: 
     S2m = gam * ca.mtimes(A, S2)
     X2 = ca.horzcat(m, ca.repmat(m, 1, L) + S2m, ca.repmat(m, 1, L) - S2m)
     zx = ca.SX.sym("zx", L)
-    hf = ca.Function("hz", [zx, u1], [model.h(zx[:nx] * sc, coords.forward(zx[nx:]), u1)])
-    Y = hf.map(npts)(X2, u1)
+    hf = ca.Function("hz", [zx, u1, sc], [model.h(zx[:nx] * sc, coords.forward(zx[nx:]), u1)])
+    Y = hf.map(npts)(X2, u1, sc)
     yhat = ca.mtimes(Y, Wm)
     dY = Y - ca.repmat(yhat, 1, npts)
     Pyy = ca.mtimes([dY, ca.diag(Wc), dY.T]) + R
@@ -226,18 +221,21 @@ def _update_block(model: NumericModel, coords: ParameterMap, scale: Any, cross: 
     n_capped = ca.sum1(ratio < 1)
     P_out = P_pick * ca.mtimes(shrink, shrink.T)
     counts = ca.vertcat(n_sigma, gated, rejected, held, n_clamped, n_capped)
-    return ca.Function("update", [z, P, a, hyp, S_, Xp, u1, y, Q, R, lo, hi, cap],
+    return ca.Function("update", [z, P, a, hyp, S_, Xp, u1, y, Q, R, lo, hi, cap, sc],
                        [clamped, P_out, yhat, nu, Pyy, n_pivot, counts])
 
 
-def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_scale: np.ndarray,
-               method: str, substeps: int, cross: str = "regression", refine: int = 8,
-               skip_frozen: bool = True) -> ca.Function:
-    """The filter step ``(z, P, u0, u1, y, active, Q, R, hyp, lo, hi, cap)
+def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, method: str, substeps: int,
+               cross: str = "regression", refine: int = 8, skip_frozen: bool = True) -> ca.Function:
+    """The filter step ``(z, P, u0, u1, y, active, Q, R, hyp, lo, hi, cap, scale)
     -> (z+, P+, y_pred, nu, S, interventions, implicit, refined)``.
 
     ``hyp = [alpha, beta, kappa, gate]``; ``active`` is 1 for estimated coordinates, 0 for frozen
     ones; ``lo, hi`` the valid region and ``cap`` the standard-deviation ceiling (filter coordinates);
+    ``scale`` the typical magnitude of each model state (the filter's states are ``x / scale``). Every
+    quantity that depends on a record (the scale is measured on one) is an input, so that the code, and
+    the key of its compiled library (:mod:`obsnl.estimation.jitcache`), depend on the model and the
+    filter's structure only: records of other lengths reuse the library;
     ``cross`` is the DUKF rule for the frozen-active covariance (``"regression"`` or ``"zero"``);
     ``interventions`` counts each kind of ``INTERVENTIONS`` (module docstring); ``implicit`` counts
     the sigma points that needed the implicit fallback of the discrete step, ``refined`` those whose
@@ -253,8 +251,6 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
         Filter coordinates of the parameters.
     dt : float
         Sample step (s).
-    state_scale : numpy.ndarray
-        Typical magnitude of each state.
     method : str
         The discrete step: ``"rk4"``, ``"ros2"`` or ``"auto"`` (probe, then the fallback).
     substeps : int
@@ -281,26 +277,25 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, state_sc
         raise EstimatorError(f"unknown cross-covariance rule {cross!r}; use 'regression' or 'zero'")
     nx, nq, ny, nu_ = model.nx, len(coords.names), model.ny, model.nu
     L = nx + nq
-    scale = np.asarray(state_scale, float)
-    fns = model.integrators(dt, substeps=substeps, scale=scale, refine=refine)
-    sig, prop = _sigma_block(model, coords, fns, scale, method)
-    point, or_copy = _point_block(model, coords, fns, scale, prop)
-    upd = _update_block(model, coords, scale, cross)
+    fns = model.integrators(dt, substeps=substeps, refine=refine)
+    sig, prop = _sigma_block(model, coords, fns, method)
+    point, or_copy = _point_block(model, coords, fns, prop)
+    upd = _update_block(model, coords, cross)
 
     z, P, a, hyp = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("active", L), ca.MX.sym("hyp", 4)
     u0, u1, y = ca.MX.sym("u0", nu_), ca.MX.sym("u1", nu_), ca.MX.sym("y", ny)
     Q, R = ca.MX.sym("Q", L, L), ca.MX.sym("R", ny, ny)
-    lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
+    lo, hi, cap, sc = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L), ca.MX.sym("scale", nx)
     X, S, n_pivot = sig(z, P, a, hyp)
-    x0, s0, c0 = point(X[:, 0], u0, u1)  # the mean point
+    x0, s0, c0 = point(X[:, 0], u0, u1, sc)  # the mean point
     # the pair of sigma points of a frozen coordinate is the mean point: copied, not propagated again
     skip = ca.repmat((1 - a).T, 1, 2) if skip_frozen else ca.MX.zeros(1, 2 * L)
-    Xr, sr, cr = or_copy.map(2 * L)(X[:, 1:], u0, u1, skip, x0, s0, c0)
+    Xr, sr, cr = or_copy.map(2 * L)(X[:, 1:], u0, u1, sc, skip, x0, s0, c0)
     Xp, stiff, crossed = ca.horzcat(x0, Xr), ca.horzcat(s0, sr), ca.horzcat(c0, cr)
     n_implicit, n_refined = ca.sum2(stiff), ca.sum2(crossed)
-    zn, Pn, yp, nu, Syy, n_pivot2, counts = upd(z, P, a, hyp, S, Xp, u1, y, Q, R, lo, hi, cap)
+    zn, Pn, yp, nu, Syy, n_pivot2, counts = upd(z, P, a, hyp, S, Xp, u1, y, Q, R, lo, hi, cap, sc)
     interventions = ca.vertcat(n_pivot + n_pivot2, counts)
-    return ca.Function("ukf_step", [z, P, u0, u1, y, a, Q, R, hyp, lo, hi, cap],
+    return ca.Function("ukf_step", [z, P, u0, u1, y, a, Q, R, hyp, lo, hi, cap, sc],
                        [zn, Pn, yp, nu, Syy, interventions, n_implicit, n_refined],
-                       ["z", "P", "u0", "u1", "y", "active", "Q", "R", "hyp", "lo", "hi", "cap"],
+                       ["z", "P", "u0", "u1", "y", "active", "Q", "R", "hyp", "lo", "hi", "cap", "scale"],
                        ["z_next", "P_next", "y_pred", "innovation", "S", "interventions", "implicit", "refined"])
