@@ -215,6 +215,10 @@ def make_data(setup: Setup, seed: int) -> Data:
 def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "regression") -> UKF:
     """A UKF (``kind="ukf"``) or DUKF (``"dukf"``) for this experiment (noise set per run).
 
+    The state scaling is measured on the record (the RMS of the states simulated at the guess); like the
+    valid region and the ceilings it is a run-time input of the compiled step, so the compiled filter
+    depends on the model and the filter only and serves records of any length.
+
     Parameters
     ----------
     setup : Setup
