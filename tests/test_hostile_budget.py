@@ -171,6 +171,24 @@ def test_4_an_undecided_branch_is_reported_never_dropped(tmp_path, capsys):
     assert code == 0 and "feasibility undecided" in out
 
 
+def test_4_symmetries_and_reparametrize_name_an_undecided_branch(tmp_path, capsys):
+    # symmetries listed branches a, c, d and left b out without a word; reparametrize built its coordinates
+    # from a, c, d and called them complete
+    from obsnl.recombination.reparametrize import reparametrize
+
+    eq = {"x": "v", "v": "-k*x + sign(x**2 + v**2 - 1) + sign(x - 2)"}
+    p = model_file(tmp_path, equations=eq)
+    code, out, err = run(capsys, "symmetries", str(p))
+    assert code == 0, err
+    assert [line.split()[1] for line in out.splitlines() if line.startswith("branch")] == ["a", "b", "c", "d"]
+    (stuck,) = [line for line in out.splitlines() if line.startswith("branch b")]
+    assert "not analysed, its feasibility is undecided" in stuck
+    code, out, err = run(capsys, "symmetries", str(p), "--format", "json")
+    assert [b.get("undecided", "")[:12] for b in json.loads(out)] == ["", "not analysed", "", ""]
+    r = reparametrize(Model.from_dict({**BASE, "equations": eq}))
+    assert not r.complete and any("branch b" in n and "feasibility is undecided" in n for n in r.notes)
+
+
 def test_4_contradictions_of_products_are_proved_not_searched():
     from obsnl.model.branching.feasibility import feasible
 
