@@ -216,6 +216,26 @@ def test_6_two_report_runs_into_one_folder_do_not_both_succeed(tmp_path, capsys,
     assert (out / "index.md").read_text() == "the other run\n"
 
 
+def test_6_two_real_report_processes_into_one_folder_do_not_both_succeed(tmp_path):
+    # the probe as run, two processes at once (the test above plants the other run's file instead):
+    # both used to succeed, the second replacing the first. Whatever the interleaving, one run wins and the
+    # other is refused in one line (at its first claimed file, or up front if the folder is already there).
+    import subprocess
+    import sys
+
+    argv = [sys.executable, "-m", "obsnl", "report", "obsnl:coulomb_friction", "--out", "r"]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(obsnl.__file__).parents[1]),
+                                                          os.environ.get("PYTHONPATH", "")])}
+    runs = [subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            for _ in range(2)]
+    results = [(p.wait(timeout=300), p.communicate()[1].strip()) for p in runs]
+    assert sorted(code for code, _ in results) == [0, 2], results
+    (err,) = [e for code, e in results if code == 2]
+    assert len(err.splitlines()) == 1 and "Traceback" not in err and "r" in err, err
+    assert sorted(q.name for q in (tmp_path / "r").iterdir()) == sorted(
+        ["coulomb_friction.md", "coulomb_friction.tex", "coulomb_friction.json", "index.md", "timings.md"])
+
+
 def test_6_an_error_while_writing_leaves_no_file_no_staging_and_no_new_folder(tmp_path):
     from obsnl.report.files import OutputFolder
 
