@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
 
-__all__ = ["WIDTH", "LINES", "SHOWN", "shorten", "quote", "names", "number", "numbers", "probability_text", "bound",
+__all__ = ["WIDTH", "LINES", "SHOWN", "shorten", "quote", "quoted", "names", "number", "numbers", "probability_text", "bound",
            "one_line", "block", "verdict_words"]
 
 #: Characters of a one-line ``repr`` at most.
@@ -96,6 +96,29 @@ def names(items: Iterable[str], most: int | None = None, *, name: Callable[[str]
     shown = items if most is None or len(items) <= most else items[:most]
     text = ", ".join(name(n) for n in shown)
     return text if len(shown) == len(items) else f"{text}, ... (+{len(items) - len(shown)} more)"
+
+
+def quoted(items: Iterable[object], most: int = 8) -> str:
+    """Values a message echoes, in brackets: each by :func:`quote`, cut after ``most`` (a list of names
+    read from a file may hold any number of names of any length).
+
+    Parameters
+    ----------
+    items : iterable
+        The values (names read from a file, mostly).
+    most : int
+        Values shown at most.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> quoted(["x", "v"]), quoted(["z" * 100, "y", "w"], 2)
+    ("['x', 'v']", "['zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz..., 'y', ... (+1 more)]")
+    """
+    return f"[{names(items, most, name=quote)}]" if list(items) else "[]"
 
 
 def number(x: float | complex | None) -> str:

@@ -37,6 +37,20 @@ def _alive(pid: int) -> bool:
         return False
 
 
+def _session(sid: int) -> list[int]:
+    """The live processes of session ``sid`` (field 6 of /proc/PID/stat)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                fields = (entry / "stat").read_text().rsplit(") ", 1)[-1].split()
+            except OSError:
+                continue
+            if int(fields[3]) == sid and fields[0] != "Z":
+                found.append(int(entry.name))
+    return found
+
+
 @pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
 def test_8_sigterm_to_the_main_process_ends_its_workers(tmp_path):
     import signal
@@ -49,7 +63,7 @@ def test_8_sigterm_to_the_main_process_ends_its_workers(tmp_path):
     pids = tmp_path / "pids"
     pids.mkdir()
     main = subprocess.Popen([sys.executable, str(tmp_path / "main.py"), str(tmp_path), str(pids)],
-                            stderr=subprocess.PIPE, text=True)
+                            stderr=subprocess.PIPE, text=True, start_new_session=True)
     workers: list[int] = []
     try:
         deadline = time.monotonic() + 60
@@ -63,8 +77,11 @@ def test_8_sigterm_to_the_main_process_ends_its_workers(tmp_path):
         while any(_alive(p) for p in workers) and time.monotonic() < deadline:
             time.sleep(0.1)
         assert not [p for p in workers if _alive(p)]  # they slept on, orphaned, for two minutes
+        while _session(main.pid) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert _session(main.pid) == []  # nor multiprocessing's resource tracker (the issue's third process)
     finally:
-        for p in workers:  # this test's own processes, whatever happened
+        for p in set(workers) | set(_session(main.pid)) - {main.pid}:  # this test's own processes, whatever happened
             if _alive(p):
                 os.kill(p, signal.SIGKILL)
         if main.poll() is None:

@@ -1,6 +1,6 @@
 """Hostile input, second round (issue 26): tables whose ``joint`` key lies, writes outside the named
-folder, overwrites that were not atomic, a trusted compiled-filter cache (orphaned workers and the
-scheduler probe: ``test_hostile_processes.py``).
+folder, overwrites that were not atomic (the compiled-filter cache: ``test_hostile_cache.py``; orphaned
+workers and the scheduler probe: ``test_hostile_processes.py``).
 
 Each test excludes the old behaviour: it failed before the fix.
 """
@@ -216,6 +216,26 @@ def test_6_two_report_runs_into_one_folder_do_not_both_succeed(tmp_path, capsys,
     assert (out / "index.md").read_text() == "the other run\n"
 
 
+def test_6_two_real_report_processes_into_one_folder_do_not_both_succeed(tmp_path):
+    # the issue's probe as run, two processes at once (the test above plants the other run's file instead):
+    # both used to succeed, the second replacing the first. Whatever the interleaving, one run wins and the
+    # other is refused in one line (at its first claimed file, or up front if the folder is already there).
+    import subprocess
+    import sys
+
+    argv = [sys.executable, "-m", "obsnl", "report", "obsnl:coulomb_friction", "--out", "r"]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(Path(obsnl.__file__).parents[1]),
+                                                          os.environ.get("PYTHONPATH", "")])}
+    runs = [subprocess.Popen(argv, cwd=tmp_path, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            for _ in range(2)]
+    results = [(p.wait(timeout=300), p.communicate()[1].strip()) for p in runs]
+    assert sorted(code for code, _ in results) == [0, 2], results
+    (err,) = [e for code, e in results if code == 2]
+    assert len(err.splitlines()) == 1 and "Traceback" not in err and "r" in err, err
+    assert sorted(q.name for q in (tmp_path / "r").iterdir()) == sorted(
+        ["coulomb_friction.md", "coulomb_friction.tex", "coulomb_friction.json", "index.md", "timings.md"])
+
+
 def test_6_an_error_while_writing_leaves_no_file_no_staging_and_no_new_folder(tmp_path):
     from obsnl.report.files import OutputFolder
 
@@ -254,136 +274,3 @@ def test_6_a_full_disk_leaves_nothing_that_blocks_the_rerun(tmp_path):
     assert p.returncode == 0, p.stderr
     assert sorted(q.name for q in (tmp_path / "r").iterdir()) == sorted(
         ["coulomb_friction.md", "coulomb_friction.tex", "coulomb_friction.json", "index.md", "timings.md"])
-
-
-# ----------------------------------------------------------------------------- 7 the compiled-filter cache
-needs_cc = pytest.mark.skipif(not any(__import__("shutil").which(c) for c in ("gcc", "cc", "clang")),
-                              reason="needs a C compiler")
-
-
-@pytest.fixture
-def cache(tmp_path, monkeypatch):
-    from obsnl.estimation import jitcache
-
-    folder = tmp_path / "cache"
-    monkeypatch.setenv("OBSNL_CACHE_DIR", str(folder))
-    monkeypatch.setattr(jitcache, "_LOADED", {})
-    monkeypatch.setattr(jitcache, "_FALLBACK", [], raising=False)
-    return folder
-
-
-def _square():
-    import casadi as ca
-
-    x = ca.SX.sym("x")
-    return ca.Function("sq26", [x], [x * x + 1.0])
-
-
-def _library(folder: Path) -> Path:
-    (lib,) = folder.glob("sq26_*.so")
-    return lib
-
-
-@needs_cc
-def test_7_a_truncated_library_is_rebuilt_not_loaded(cache):
-    import subprocess
-    import sys
-
-    from obsnl.estimation import jitcache
-
-    code = ("import casadi as ca; from obsnl.estimation.jitcache import jit_compile; x = ca.SX.sym('x'); "
-            "print(float(jit_compile(ca.Function('sq26', [x], [x * x + 1.0]))(3.0)))")
-
-    def new_process() -> subprocess.CompletedProcess:  # this process never maps the library it truncates
-        return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=dict(os.environ))
-
-    assert new_process().stdout.strip() == "10.0"
-    lib = _library(cache)
-    lib.write_bytes(lib.read_bytes()[:1000])  # a full disk or a killed copy
-    for _ in range(2):  # it crashed (SIGBUS) or gave a traceback on every run, never rebuilt
-        p = new_process()
-        assert p.returncode == 0 and p.stdout.strip() == "10.0", p.stderr[-500:]
-    assert lib.stat().st_size > 1000
-    assert (cache / f"{lib.name}.sha256").read_text().split()[0] == jitcache._sha256(lib)
-
-
-@needs_cc
-@pytest.mark.parametrize("sidecar", ["kept", "removed"])
-def test_7_a_planted_library_is_never_loaded(cache, tmp_path, sidecar):
-    import subprocess
-
-    from obsnl.estimation import jitcache
-
-    jitcache.jit_compile(_square())
-    lib = _library(cache)
-    marker = tmp_path / "constructor-ran"
-    src = tmp_path / "plant.c"
-    src.write_text('#include <stdio.h>\n__attribute__((constructor)) static void planted(void) '
-                   f'{{ FILE *f = fopen("{marker}", "w"); if (f) fclose(f); }}\n')
-    subprocess.run([jitcache._compiler(), "-shared", "-fPIC", str(src), "-o", str(tmp_path / "plant.so")], check=True)
-    os.replace(tmp_path / "plant.so", lib)  # a new file: the library this process loaded stays mapped
-    if sidecar == "removed":
-        (cache / f"{lib.name}.sha256").unlink()
-    jitcache._LOADED.clear()  # as a new process
-    assert float(jitcache.jit_compile(_square())(3.0)) == 10.0
-    assert not marker.exists()  # the planted library's constructor never ran
-
-
-@needs_cc
-def test_7_a_library_others_may_write_is_rebuilt(cache):
-    from obsnl.estimation import jitcache
-
-    jitcache.jit_compile(_square())
-    lib = _library(cache)
-    lib.chmod(0o777)
-    jitcache._LOADED.clear()  # rebuilt into a new file (os.replace): the loaded one stays mapped
-    jitcache.jit_compile(_square())
-    assert lib.stat().st_mode & 0o077 == 0
-
-
-@needs_cc
-def test_7_the_key_names_the_cpu_and_the_compiler(cache, monkeypatch):
-    from obsnl.estimation import jitcache
-
-    jitcache.jit_compile(_square())
-    monkeypatch.setattr(jitcache, "_machine", lambda: "another CPU")  # -march=native code is not portable
-    jitcache._LOADED.clear()
-    jitcache.jit_compile(_square())
-    monkeypatch.setattr(jitcache, "_compiler_identity", lambda: "another compiler")
-    jitcache._LOADED.clear()
-    jitcache.jit_compile(_square())
-    assert len(list(cache.glob("sq26_*.so"))) == 3
-
-
-@needs_cc
-def test_7_a_cache_folder_under_a_file_falls_back_with_one_line(tmp_path, monkeypatch, capfd):
-    from obsnl.estimation import jitcache
-
-    monkeypatch.setattr(jitcache, "_LOADED", {})
-    monkeypatch.setattr(jitcache, "_FALLBACK", [], raising=False)
-    (tmp_path / "afile").write_text("x")
-    monkeypatch.setenv("OBSNL_CACHE_DIR", str(tmp_path / "afile" / "jit"))
-    assert float(jitcache.jit_compile(_square())(3.0)) == 10.0  # it was a FileExistsError traceback
-    err = capfd.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "afile" in err[0] and "OBSNL_CACHE_DIR" in err[0]
-
-
-@needs_cc
-def test_7_a_read_only_cache_folder_falls_back_with_one_line(cache, monkeypatch, capfd):
-    import errno
-    import tempfile
-
-    from obsnl.estimation import jitcache
-
-    jitcache.cache_directory()
-    real = tempfile.TemporaryDirectory
-
-    def read_only(*args, dir=None, **kwargs):  # what a read-only file system answers
-        if dir is not None and Path(dir) == cache:
-            raise OSError(errno.EROFS, os.strerror(errno.EROFS), str(dir))
-        return real(*args, dir=dir, **kwargs)
-
-    monkeypatch.setattr(jitcache.tempfile, "TemporaryDirectory", read_only)
-    assert float(jitcache.jit_compile(_square())(3.0)) == 10.0
-    err = capfd.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "Read-only" in err[0]

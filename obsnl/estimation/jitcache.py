@@ -200,7 +200,10 @@ def _build(name: str, code: str, folder: Path, lib_name: str) -> Path:
         proc = subprocess.run([cc, *FLAGS, "-fPIC", "-shared", str(src), "-o", str(out)],
                               capture_output=True, text=True)
         if proc.returncode != 0:
-            raise EstimatorError(f"the C compiler failed on {name}: {proc.stderr.strip()[:300]}")
+            for number in (errno.ENOSPC, errno.EDQUOT, errno.EROFS):  # the folder, not the code: fall back
+                if os.strerror(number) in proc.stderr:
+                    raise OSError(number, os.strerror(number), str(out))
+            raise EstimatorError(f"the C compiler failed on {name}: {' '.join(proc.stderr.split())[:300]}")
         os.chmod(out, 0o700)
         side = Path(tmp) / f"{lib_name}.sha256"
         side.write_text(f"{_sha256(out)}  {lib_name}\n", encoding="ascii")

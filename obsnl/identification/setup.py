@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 
-from obsnl.errors import EstimatorError, OptionError
+from obsnl.errors import DataError, EstimatorError, OptionError
 from obsnl.estimation.codegen import NumericModel, ParameterMap, parameter_map
 from obsnl.estimation.dukf import DUKF
 from obsnl.estimation.records import add_noise
@@ -243,6 +243,14 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
     sim = simulate(m, theta=setup.theta_guess, x0=setup.x0, u=setup.record.accel, dt=setup.record.dt,
                    substeps=setup.substeps, refine=setup.refine)
     typical = np.sqrt(np.mean(sim.x ** 2, axis=0))  # typical magnitudes at the guess, floored at 1 %
+    if not typical.max() > 0:  # no scale to set the filter's noise by (it ended in 'Q contains NaN/inf')
+        u = np.asarray(setup.record.accel, float).reshape(len(setup.record.accel), -1)
+        still = [c for j, c in enumerate(m.inputs) if not np.any(u[:, j])]
+        why = ("the model has no input" if not m.inputs else f"input {still[0]!r} is 0 throughout" if
+               len(m.inputs) == 1 else "every input is 0 throughout" if len(still) == len(m.inputs) else
+               "the inputs move no state")
+        raise DataError(f"{why}: model {m.name!r} stays at rest at the guess, so there is nothing to identify "
+                        f"from; give data with excitation (or initial values that are not at rest)")
     scale = np.maximum(typical, 1e-2 * max(typical.max(), 1e-300))  # of the largest (a state idle at the guess)
     phi0 = setup.coordinates.to_phi(setup.theta_guess)  # valid region: within 100x of the guesses
     bounds = (np.r_[np.full(m.nx, -np.inf), phi0 - BOUND], np.r_[np.full(m.nx, np.inf), phi0 + BOUND])

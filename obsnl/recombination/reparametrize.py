@@ -131,9 +131,11 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     syms = model.symbols
     keep_s = [model.symbol(k) for k in keep]
     elim_s = [model.symbol(k) for k in eliminate]
-    branches = split_branches(model, seed=seed)
+    every = split_branches(model, seed=seed, undecided=True)
+    branches = [b for b in every if not b.undecided]
     per = tuple(symmetries(b.model, seed=seed + i, degree=degree) for i, b in enumerate(branches))
-    notes: list[str] = []
+    notes = [f"branch {b.label} ({b.guard_text}) not used, its feasibility is undecided (the new coordinates "
+             f"are not checked there): {b.undecided}" for b in every if b.undecided]
     kic = set(model.known_initial_conditions)
     V = [s for s in model.states if s not in kic] + list(model.parameters)
     exps = sorted({syms[e] for s in per for e in s.exponents}, key=lambda s: s.name)
@@ -240,6 +242,7 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
         idf = identifiable_functions(model, seed=seed, symmetries=per[0], invariants=[phi for _, phi, _ in new])
         functions, method, complete = idf.functions, idf.method, idf.complete
         notes.extend(idf.notes)
+    complete = complete and len(every) == len(branches)  # an undecided branch is not checked
     for b, s in zip(branches, per):
         if s.missing:
             notes.append(f"branch {b.label}: {s.missing} unobservable direction(s) without a closed form remain")

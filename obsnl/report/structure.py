@@ -85,8 +85,8 @@ def render_symmetries(found: Sequence[tuple[Any, Any]], fmt: str = "text") -> st
 
     Parameters
     ----------
-    found : sequence of (Branch, Symmetries)
-        Each branch with the generators found on it.
+    found : sequence of (Branch, Symmetries or None)
+        Each branch with the generators found on it (None: its feasibility is undecided, not analysed).
     fmt : {"text", "json"}
         Output format.
 
@@ -96,9 +96,13 @@ def render_symmetries(found: Sequence[tuple[Any, Any]], fmt: str = "text") -> st
         The rendering, without a final newline.
     """
     if fmt == "json":
-        return json.dumps([{"label": b.label, "guard": b.guard_text, **s.to_dict()} for b, s in found], indent=2)
+        return json.dumps([{"label": b.label, "guard": b.guard_text, **(s.to_dict() if s else {
+            "undecided": f"not analysed, its feasibility is undecided: {b.undecided}"})} for b, s in found], indent=2)
     lines = []
     for b, s in found:
+        if s is None:
+            lines.append(f"branch {b.label} ({b.guard_text}): not analysed, its feasibility is undecided: {b.undecided}")
+            continue
         lines.append(f"branch {b.label} ({b.guard_text}): {s.dimension} unobservable direction(s), "
                      f"{len(s.generators)} with a closed form, {s.missing} without")
         lines.extend(f"  {g.kind:<11} {g}" for g in s.generators)

@@ -11,6 +11,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
+from obsnl._text import quote, quoted
 from obsnl.errors import TableError
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -119,14 +120,14 @@ class ModelSignature:
         for key in ("states", "parameters", "inputs", "outputs"):
             mine, theirs = getattr(self, key), getattr(other, key)
             if tuple(mine) != tuple(theirs):
-                raise TableError(f"{what} was made for model {self.name!r} with {key} {list(mine)}, "
-                                 f"but this model has {list(theirs)}; {fix}")
+                raise TableError(f"{what} was made for model {quote(self.name)} with {key} {quoted(mine)}, "
+                                 f"but this model has {quoted(theirs)}; {fix}")
         if len(self.switching) != len(other.switching):
             raise TableError(f"{what} has {len(self.switching)} switching functions, the model "
                              f"{len(other.switching)}; {fix}")
         if exact_switching and tuple(self.switching) != tuple(other.switching):
-            raise TableError(f"{what}'s switching functions {list(self.switching)} differ from the compiled "
-                             f"model's {list(other.switching)}; compile with to_casadi(model, "
+            raise TableError(f"{what}'s switching functions {quoted(self.switching)} differ from the compiled "
+                             f"model's {quoted(other.switching)}; compile with to_casadi(model, "
                              f"switching=table.switching)")
         if self.fingerprint != other.fingerprint:
             raise TableError(f"{what}'s fingerprint {self.fingerprint[:12]}... does not match this model's "

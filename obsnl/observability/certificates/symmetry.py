@@ -298,8 +298,10 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
                       time.perf_counter() - t0, seed, tuple(notes), J)
 
 
-def branch_symmetries(model: Model, *, seed: int = 0, degree: int = 1) -> list[tuple[Branch, Symmetries]]:
-    """:func:`symmetries` of each smooth branch of a model (the ``i``-th branch with seed ``seed + i``).
+def branch_symmetries(model: Model, *, seed: int = 0, degree: int = 1) -> list[tuple[Branch, Symmetries | None]]:
+    """:func:`symmetries` of each smooth branch of a model (the ``i``-th branch with seed ``seed + i``); a
+    branch whose feasibility is undecided (:attr:`Branch.undecided`) is listed with ``None``, not analysed and
+    never dropped.
 
     Parameters
     ----------
@@ -312,8 +314,8 @@ def branch_symmetries(model: Model, *, seed: int = 0, degree: int = 1) -> list[t
 
     Returns
     -------
-    list of (Branch, Symmetries)
-        Each branch with the generators found on it.
+    list of (Branch, Symmetries or None)
+        Each branch with the generators found on it (None: its feasibility is undecided).
     """
-    return [(b, symmetries(b.model, seed=seed + i, degree=degree))
-            for i, b in enumerate(split_branches(model, seed=seed))]
+    return [(b, None if b.undecided else symmetries(b.model, seed=seed + i, degree=degree))
+            for i, b in enumerate(split_branches(model, seed=seed, undecided=True))]

@@ -10,6 +10,7 @@ another model is refused with a :class:`~obsnl.errors.TableError` that says what
 from __future__ import annotations
 
 import json
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
@@ -18,6 +19,7 @@ from typing import Any
 
 from obsnl.errors import TableError
 from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
+from obsnl._text import quoted
 from obsnl.model.bounds.textsize import quote, shorten
 
 __all__ = ["SCHEMA_ID", "BranchEntry", "BranchTable", "read_branch_table", "schema"]
@@ -198,7 +200,7 @@ class BranchTable:
         labels = [b.label for b in self.branches]
         if self.probability is not None and not (isinstance(self.probability, (int, float))
                                                  and 0.0 <= self.probability <= 1.0):
-            raise TableError(f"probability {self.probability!r} is not a number in [0, 1]; {TABLE_FIX}")
+            raise TableError(f"probability {quote(self.probability)} is not a number in [0, 1]; {TABLE_FIX}")
         if len(set(self.switching)) != len(self.switching) or len(self.branches) > 2 ** len(self.switching):
             raise TableError(f"{len(self.branches)} branches for {len(self.switching)} switching functions; {TABLE_FIX}")
         obs_union = set().union(*(b.observable for b in self.branches)) if self.branches else set()
@@ -208,41 +210,44 @@ class BranchTable:
             raise TableError(f"'overall' contradicts the branches (observable must be observable in some branch, "
                              f"unobservable in every branch); {TABLE_FIX}")
         if len(set(labels)) != len(labels):
-            raise TableError(f"branch labels repeat: {labels}")
+            raise TableError(f"branch labels repeat: {quoted(sorted(x for x, n in Counter(labels).items() if n > 1))}; "
+                             f"{TABLE_FIX}")
         patterns = set()
         for b in self.branches:
-            where = f"branch {b.label!r}"
+            where = f"branch {quote(b.label)}"
             if len(b.signs) != len(self.switching):
                 raise TableError(
-                    f"{where} has {len(b.signs)} signs for {len(self.switching)} switching functions"
+                    f"{where} has {len(b.signs)} signs for {len(self.switching)} switching functions; {TABLE_FIX}"
                 )
             if b.signs in patterns:
-                raise TableError(f"{where} repeats the sign pattern of another branch")
+                raise TableError(f"{where} repeats the sign pattern of another branch; {TABLE_FIX}")
             patterns.add(b.signs)
             for key in ("observable", "unobservable", "absent", "identifiable_parameters",
                         "unidentifiable_parameters"):
                 unknown = set(getattr(b, key)) - variables
                 if unknown:
-                    raise TableError(f"{where}: {key} names {sorted(unknown)}, which are not states or parameters")
+                    raise TableError(f"{where}: {key} names {quoted(sorted(unknown))}, which are not states or "
+                                     f"parameters; {TABLE_FIX}")
             if not 0 <= b.transcendence_degree <= len(variables):
                 raise TableError(f"{where}: transcendence degree {b.transcendence_degree} is not between 0 and the "
-                                 f"number of states and parameters ({len(variables)})")
+                                 f"number of states and parameters ({len(variables)}); {TABLE_FIX}")
             if b.verdict == "observable" and b.unobservable:
-                raise TableError(f"{where}: verdict 'observable' with unobservable variables {list(b.unobservable)}")
+                raise TableError(f"{where}: verdict 'observable' with unobservable variables {quoted(b.unobservable)}; "
+                                 f"{TABLE_FIX}")
             if set(b.observable) & set(b.unobservable):
-                raise TableError(f"{where}: {sorted(set(b.observable) & set(b.unobservable))} are both "
-                                 f"observable and unobservable")
+                raise TableError(f"{where}: {quoted(sorted(set(b.observable) & set(b.unobservable)))} are both "
+                                 f"observable and unobservable; {TABLE_FIX}")
             if not set(b.absent) <= set(b.unobservable):
-                raise TableError(f"{where}: absent variables must also be unobservable")
+                raise TableError(f"{where}: absent variables must also be unobservable; {TABLE_FIX}")
             if set(b.identifiable_parameters) | set(b.unidentifiable_parameters) != params or (
                 set(b.identifiable_parameters) & set(b.unidentifiable_parameters)
             ):
                 raise TableError(
                     f"{where}: identifiable_parameters and unidentifiable_parameters must split the "
-                    f"parameters {sorted(params)} exactly"
+                    f"parameters {quoted(sorted(params))} exactly; {TABLE_FIX}"
                 )
             if set(b.unidentifiable_parameters) != set(b.unobservable) & params:
-                raise TableError(f"{where}: unidentifiable_parameters disagree with unobservable")
+                raise TableError(f"{where}: unidentifiable_parameters disagree with unobservable; {TABLE_FIX}")
 
     @property
     def signature(self) -> ModelSignature:
@@ -285,7 +290,7 @@ class BranchTable:
         entries = []
         for b in result.branches:
             if not b.signs and sig.switching:
-                raise TableError(f"branch {b.label!r} carries no sign pattern; analyse the model with obsnl.analyze")
+                raise TableError(f"branch {quote(b.label)} carries no sign pattern; analyse the model with obsnl.analyze")
             entries.append(BranchEntry(
                 label=b.label, guard=b.guard, signs=tuple(b.signs),
                 observable=tuple(b.observable), unobservable=tuple(b.unobservable), absent=tuple(b.absent),

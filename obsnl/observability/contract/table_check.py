@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import sympy as sp
 
+from obsnl._text import quote, quoted
 from obsnl.errors import ObsnlError, TableError
 from obsnl.model.core import Model
 from obsnl.model.reading.parse import parse_expression
@@ -99,7 +100,8 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     for mine, theirs in zip(table.switching, fresh.switching):
         if not _same(mine, theirs, model):
             how = "the opposite orientation of" if _flipped(mine, theirs, model) else "not"
-            raise TableError(f"the table's switching function {mine!r} is {how} the model's {theirs!r}; {TABLE_FIX}")
+            raise TableError(f"the table's switching function {quote(mine)} is {how} the model's {quote(theirs)}; "
+                             f"{TABLE_FIX}")
     ours = {b.signs: b for b in table.branches}
     for b in fresh.branches:
         if b.signs not in ours:
@@ -108,7 +110,7 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     known = {b.signs for b in fresh.branches}
     for b in table.branches:
         if b.signs not in known:
-            raise TableError(f"branch {b.label!r} has signs {list(b.signs)}, which no point of the model has; "
+            raise TableError(f"branch {quote(b.label)} has signs {list(b.signs)}, which no point of the model has; "
                              f"{TABLE_FIX}")
     for b in fresh.branches:
         _compare(ours[b.signs], b, model)
@@ -128,27 +130,28 @@ def _compare_joint(table: BranchTable, fresh: BranchTable) -> None:
         raise TableError(f"the table has a 'joint' key the fresh analysis cannot confirm; {TABLE_FIX}")
     undecided = sorted(set(fresh.joint.get("inconclusive", ())) - set(table.joint.get("inconclusive", ())))
     if undecided:
-        raise TableError(f"the fresh joint verdict is inconclusive for {undecided}, so the table's 'joint' key cannot "
+        raise TableError(f"the fresh joint verdict is inconclusive for {quoted(undecided)}, so the table's 'joint' key cannot "
                          f"be confirmed; analyse the model with a longer time limit")
     for key in ("observable", "unobservable", "inconclusive"):
         mine, theirs = set(table.joint.get(key, ())), set(fresh.joint.get(key, ()))
         if mine != theirs:
             extra, missing = sorted(mine - theirs), sorted(theirs - mine)
-            what = ", ".join(x for x in (f"lacks {missing}" if missing else "", f"adds {extra}" if extra else "") if x)
-            raise TableError(f"the table's joint verdict contradicts the model's: joint.{key} is {sorted(mine)} in "
+            what = ", ".join(x for x in (f"lacks {quoted(missing)}" if missing else "", f"adds {quoted(extra)}" if extra
+                                          else "") if x)
+            raise TableError(f"the table's joint verdict contradicts the model's: joint.{key} is {quoted(sorted(mine))} in "
                              f"the table, which {what}; {TABLE_FIX}")
 
 
 def _compare(mine: BranchEntry, fresh: BranchEntry, model: Model) -> None:
-    where = f"branch {mine.label!r} (signs {list(mine.signs)})"
+    where = f"branch {quote(mine.label)} (signs {list(mine.signs)})"
     if fresh.verdict == "inconclusive":
         raise TableError(f"{where}: the fresh analysis of the model is inconclusive there, so the table cannot be "
                          f"confirmed; analyse the model with a longer time limit")
     if not _same(mine.guard, fresh.guard, model, relation=True):
-        raise TableError(f"{where}: guard {mine.guard!r} contradicts its signs (the model gives {fresh.guard!r}); "
+        raise TableError(f"{where}: guard {quote(mine.guard)} contradicts its signs (the model gives {quote(fresh.guard)}); "
                          f"{TABLE_FIX}")
     for key in ("verdict", "observable", "unobservable", "absent", "transcendence_degree"):
         a, b = getattr(mine, key), getattr(fresh, key)
         if (set(a) != set(b)) if isinstance(a, tuple) else a != b:
-            raise TableError(f"{where}: {key} is {list(a) if isinstance(a, tuple) else a!r} in the table but "
-                             f"{list(b) if isinstance(b, tuple) else b!r} for the model; {TABLE_FIX}")
+            raise TableError(f"{where}: {key} is {quoted(a) if isinstance(a, tuple) else quote(a)} in the table but "
+                             f"{quoted(b) if isinstance(b, tuple) else quote(b)} for the model; {TABLE_FIX}")
