@@ -2,13 +2,15 @@
 
 Every room of obsnl (and the top level) lists its public names in a table ``name -> module`` and takes its
 ``__getattr__`` and ``__dir__`` from :func:`lazy_exports`, so that importing one module of a room loads
-nothing else and ``import obsnl`` loads no numeric library (PEP 562).
+nothing else and ``import obsnl`` loads no numeric library (PEP 562). A sub-package (a room) is imported on
+first use too: ``import obsnl; obsnl.report.to_markdown(...)`` works as ``from obsnl import report`` does.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from importlib import import_module
+from importlib.util import find_spec
 from typing import Any
 
 __all__ = ["lazy_exports"]
@@ -38,6 +40,8 @@ def lazy_exports(package: str, namespace: dict[str, Any], table: Mapping[str, st
     >>> getattr_, dir_ = lazy_exports("obsnl", ns, {"OptionError": "errors"})
     >>> getattr_("OptionError").__name__, "OptionError" in ns, dir_()
     ('OptionError', True, ['OptionError'])
+    >>> getattr_("report").__name__  # a room, imported on first use
+    'obsnl.report'
     """
 
     def __getattr__(name: str) -> Any:
@@ -45,6 +49,8 @@ def lazy_exports(package: str, namespace: dict[str, Any], table: Mapping[str, st
             value = getattr(import_module(f"{package}.{table[name]}"), name)
             namespace[name] = value
             return value
+        if not name.startswith("_") and name.isidentifier() and find_spec(f"{package}.{name}") is not None:
+            return import_module(f"{package}.{name}")  # a sub-package or module: the import binds it
         raise AttributeError(f"module {package!r} has no attribute {name!r}")
 
     def __dir__() -> list[str]:

@@ -38,3 +38,15 @@ def test_a_result_displays_in_a_notebook_without_importing_the_report_first():
             "r = analyze(Model(name='m', states=['x'], parameters=['k'], equations={'x': '-k*x'}, "
             "outputs={'y': 'x'}), seed=0)\nprint(r._repr_markdown_().lstrip().startswith(('|', '#', '**')))")
     assert fresh(code) == "True"
+
+
+def test_a_room_is_reached_as_an_attribute_of_the_bare_import():
+    # ``import obsnl; obsnl.report.branch_table(...)`` raised AttributeError unless something had imported
+    # obsnl.report before (the test that analyses the model once failed when run alone)
+    code = ("import sys, obsnl; print('obsnl.report' in sys.modules); "
+            "print(obsnl.report.__name__, callable(obsnl.report.branch_table)); "
+            "print(hasattr(obsnl, 'no_such_room'), hasattr(obsnl, '_no_such_module'))")
+    before, reached, missing = fresh(code).splitlines()
+    assert before == "False"
+    assert reached == "obsnl.report True"
+    assert missing == "False False"
