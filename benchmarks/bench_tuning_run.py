@@ -38,7 +38,7 @@ sys.path.insert(0, sys.argv[1])
 import obsnl
 assert obsnl.__file__.startswith(sys.argv[1]), obsnl.__file__
 from obsnl.identification.experiments import Tuning, make_data, tune_one
-from obsnl.studies.seed_paper import seed_branch_table
+from obsnl.studies.seed_experiment import seed_branch_table
 from obsnl.studies.seed_tasks import Spec, context
 
 table, _ = seed_branch_table()

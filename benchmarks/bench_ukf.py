@@ -29,7 +29,7 @@ import numpy as np
 import obsnl
 from obsnl.estimation.codegen import numpy_model
 from obsnl.identification.experiments import Tuning, _noise, make_data, make_filter
-from obsnl.studies.seed_paper import seed_model_path, seed_setup
+from obsnl.studies.seed_experiment import seed_model_path, seed_setup
 
 TUNING = Tuning(0.1, 0.0, 1.0)
 

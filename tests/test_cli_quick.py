@@ -54,10 +54,11 @@ def test_quick_is_the_preset_and_writes_into_its_own_folder(tmp_path, monkeypatc
 
 def test_quick_writes_reproduce_quick_and_never_the_committed_folder(tmp_path, monkeypatch, capsys):
     import obsnl.studies.seed_paper as seed_paper
+    import obsnl.studies.seed_reproduction as seed_reproduction
 
     written = []
     monkeypatch.setattr(seed_paper, "reproduce", lambda **kw: "rep")
-    monkeypatch.setattr(seed_paper, "write_reproduction",
+    monkeypatch.setattr(seed_reproduction, "write_reproduction",
                         lambda rep, out, force: written.append((Path(out), force)) or [Path(out) / "table2.md"])
     monkeypatch.chdir(tmp_path)
     assert main(["reproduce", "--quick"]) == 0

@@ -17,7 +17,7 @@ from obsnl.estimation.dukf import DUKF
 from obsnl.estimation.ukf import UKF
 from obsnl.errors import EstimatorError, TableError
 from obsnl.identification.setup import coordinates
-from obsnl.studies.seed_paper import SEED_GUESS
+from obsnl.studies.seed_experiment import SEED_GUESS
 
 from .conftest import MODELS
 from .test_branch_table import paper_table1

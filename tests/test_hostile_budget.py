@@ -252,7 +252,7 @@ def test_10_a_model_too_large_is_refused_before_parsing(tmp_path, capsys, monkey
         raise AssertionError("an expression was parsed before the size check")
 
     monkeypatch.setattr(parse, "parse_expression", tripwire)
-    monkeypatch.setattr("obsnl.model.core.parse_expression", tripwire)
+    monkeypatch.setattr("obsnl.model.reading.fields.parse_expression", tripwire)
     t0 = time.perf_counter()
     code, _, err = run(capsys, "show", str(p))
     one_line_refusal(code, err, "20002 names and outputs (20000 states, 1 parameter, 1 output)", "more than the 5000")

@@ -127,7 +127,7 @@ def test_2_reproduce_never_writes_through_a_symlinked_default_folder(tmp_path, c
 
 def test_2_write_reproduction_refuses_a_linked_folder_even_with_force(tmp_path, small_reproduction):
     from obsnl.errors import OutputError
-    from obsnl.studies.seed_paper import write_reproduction
+    from obsnl.studies.seed_reproduction import write_reproduction
 
     victim = tmp_path / "victim"
     victim.mkdir()

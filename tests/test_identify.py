@@ -15,7 +15,9 @@ from obsnl.cli import main
 from obsnl.identification.experiments import (DIVERGED, Tuning, coordinates, make_data, make_filter, output_misfit,
                             practical_identifiability, run_passes)
 from obsnl.report.identification import table2_markdown
-from obsnl.studies.seed_paper import SEED_GUESS, reproduce, seed_setup, write_reproduction
+from obsnl.studies.seed_experiment import SEED_GUESS, seed_setup
+from obsnl.studies.seed_paper import reproduce
+from obsnl.studies.seed_reproduction import write_reproduction
 
 from .conftest import MODELS, ROOT
 from .test_branch_table import paper_table1
@@ -157,7 +159,7 @@ def test_table2_ml_column_renders_the_refinement_against_the_truth():
 def test_successive_halving_keeps_the_best_of_the_screen_and_the_full_grid_when_asked():
     # misfits of a made-up grid, configuration i on seed s: on the first seed i = 0, 1, 5 are the best three
     # (kept), i = 9 the worst (screened out); over all seeds i = 9 is the best of all and i = 5 of the kept
-    from obsnl.studies.seed_paper import successive_halving
+    from obsnl.studies.seed_tuning import successive_halving
 
     grid = [Tuning(0.1 * (i + 1), 0.0, 1.0) for i in range(10)]
     table = np.array([[1.0 + 0.01 * i for i in range(10)], [3.0 - 0.1 * i for i in range(10)],
@@ -198,7 +200,7 @@ def test_successive_halving_keeps_the_best_of_the_screen_and_the_full_grid_when_
 def test_a_diverged_reported_run_is_redone_with_the_next_tuning(monkeypatch):
     # the first reported run (UKF, seed 0) is made to look diverged (misfit 1000x the noise level):
     # it must be redone with the second configuration of the ranking, the attempt kept and shown
-    import obsnl.studies.seed_tasks as repro  # the reported runs (run as tasks of reproduce)
+    import obsnl.studies.seed_runs as repro  # the reported runs (run as tasks of reproduce)
 
     real, calls = repro.output_misfit, []
 

@@ -75,7 +75,7 @@ def user_form(e: sp.Expr, prov_exp: Mapping[sp.Symbol, tuple[sp.Expr, sp.Rationa
     prov_trig : mapping
         (``"sin"`` or ``"cos"``, monomial, coefficient) -> provisional symbol.
     atoms : mapping
-        Atom symbol -> :class:`obsnl.algebra.atoms.Atom`.
+        Atom symbol -> :class:`obsnl.algebra.atom_table.Atom`.
 
     Returns
     -------

@@ -8,71 +8,28 @@ table of derivative rules and initial values, and why the answer is exact (Ax's 
 :func:`rewrite` applies it to free expressions (the random-point evaluations of
 :mod:`obsnl.algebra.jets`), and :meth:`Rewriter.extend` to further expressions over the atoms of an
 earlier rewriting, so that, e.g., ``x**N`` in a candidate function is the square root of the atom
-``x**(2*N)`` of the model rather than an unrelated one.
+``x**(2*N)`` of the model rather than an unrelated one. What the walk makes (the atoms, the provisional
+exponentials and sine-cosine pairs, and the second pass that groups them by monomial) is kept by the
+base class :class:`obsnl.algebra.atom_table.AtomTable`.
 """
 
 from __future__ import annotations
 
-import re
-from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable
 
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
-from obsnl.algebra.arguments import _factor_fraction, _rational_gcd, _to_exact, user_form  # noqa: F401
+from obsnl.algebra.arguments import _factor_fraction, _to_exact, user_form
+from obsnl.algebra.atom_table import Atom, AtomTable
 from obsnl.model.core import NONSMOOTH_FUNCTIONS
 from obsnl.model.bounds.textsize import shorten
 from obsnl.model.bounds.work import MAX_EXPANDED_TERMS, can_expand
 
-__all__ = ["Atom", "Rewriter", "rewrite"]
-
-_KINDS = ("exp", "log", "atan", "root", "sin", "cos", "const")
+__all__ = ["Rewriter", "rewrite"]
 
 
-@dataclass(frozen=True)
-class Atom:
-    """One augmented function.
-
-    Attributes
-    ----------
-    symbol
-        The stand-in symbol used in the rational system.
-    kind
-        ``"exp"``, ``"log"``, ``"atan"``, ``"root"``, ``"sin"``, ``"cos"`` or ``"const"`` (a
-        transcendental number such as ``log(2)`` or ``pi``).
-    arg
-        The argument ``g`` (rational in the model's symbols and earlier atoms); the base for a
-        root; the number itself for a constant.
-    q
-        Degree of a root (``g**(1/q)``), else 0.
-    partner
-        For ``sin``/``cos``: the symbol of the other function of the pair.
-    time_varying
-        True when the atom depends on a state or an input.
-    """
-
-    symbol: sp.Symbol
-    kind: str
-    arg: sp.Expr
-    q: int = 0
-    partner: sp.Symbol | None = None
-    time_varying: bool = True
-
-    @property
-    def text(self) -> str:
-        if self.kind == "root":
-            return f"({self.arg})**(1/{self.q})"
-        if self.kind == "const":
-            return str(self.arg)
-        if self.kind == "log":  # a real logarithm of either sign of its argument (module docstring)
-            return f"log|{self.arg}|"
-        return f"{self.kind}({self.arg})"
-
-
-
-
-class Rewriter:
+class Rewriter(AtomTable):
     """Walks expressions, creating atoms: :meth:`rat` per expression, then :meth:`finalize` once.
 
     Parameters
@@ -92,47 +49,12 @@ class Rewriter:
 
     def __init__(self, declared: Iterable[sp.Symbol], time_symbols: Iterable[sp.Symbol] = (),
                  factor_cache: dict | None = None, unit: bool = False) -> None:
-        self.unit = unit
+        super().__init__(time_symbols, unit)
         self.factor_cache = {} if factor_cache is None else factor_cache
         self.declared = set(declared)
-        self.time_symbols = set(time_symbols)
-        self.atoms: dict[sp.Symbol, Atom] = {}
-        self.by_key: dict[tuple, sp.Symbol] = {}
-        self.counter = 0
-        # provisional exponentials / trig functions keyed by (monomial, coefficient)
-        self.prov_exp: dict[tuple[sp.Expr, sp.Rational], sp.Symbol] = {}
-        self.orientation: set[sp.Expr] = set()
-        self.prov_exp_inv: dict[sp.Symbol, tuple[sp.Expr, sp.Rational]] = {}
-        self.prov_trig: dict[tuple[str, sp.Expr, sp.Rational], sp.Symbol] = {}
         self.used_terms: list[object] = []  # sympy terms or (base, exponent); printed once, in the notes
         self.memo: dict[sp.Expr, sp.Expr] = {}
         self.log_memo: dict[sp.Expr, sp.Expr] = {}
-        # monomials whose exponential / sine-cosine pair exists: m -> (u, exp(u m)) / (u, sin, cos)
-        self.fixed_exp: dict[sp.Expr, tuple[sp.Rational, sp.Symbol]] = {}
-        self.fixed_trig: dict[sp.Expr, tuple[sp.Rational, sp.Symbol, sp.Symbol]] = {}
-        self.subs: dict[sp.Symbol, sp.Expr] = {}  # provisional symbols -> expressions over atoms
-
-    # ----------------------------------------------------------------- atoms
-    def _new(self, kind: str, arg: sp.Expr, *, q: int = 0, name: str | None = None) -> sp.Symbol:
-        key = (kind, arg, q)
-        if key in self.by_key:
-            return self.by_key[key]
-        sym = sp.Symbol(f"_{name or kind}{self.counter}", real=True)
-        self.counter += 1
-        self.by_key[key] = sym
-        self.atoms[sym] = Atom(sym, kind, arg, q=q, time_varying=self._varies(arg) if kind != "const" else False)
-        return sym
-
-    def _varies(self, e: sp.Expr) -> bool:
-        for s in e.free_symbols:
-            if s in self.time_symbols:
-                return True
-            if s in self.atoms and self.atoms[s].time_varying:
-                return True
-        return False
-
-    def const(self, value: sp.Expr) -> sp.Symbol:
-        return self._new("const", value, name="c")
 
     # ----------------------------------------------------------------- walk
     def add(self, e: sp.Expr) -> sp.Expr:
@@ -199,12 +121,10 @@ class Rewriter:
         return out * self.exp_of(rest * self.log_of(base))
 
     def root_power(self, base: sp.Expr, ex: sp.Rational) -> sp.Expr:
-        p, q = int(ex.p), int(ex.q)
-        s, t = divmod(p, q)  # base**(p/q) = base**s * (base**(1/q))**t
+        """``base**ex`` over roots of primes for a positive number, else over the atom ``base**(1/q)``."""
         if base.is_Rational and base > 0:
             return self.number_power(sp.Rational(base), ex)
-        w = self._new("root", base, q=q)
-        return base**s * w**t
+        return self._root(base, ex)
 
     def number_power(self, base: sp.Rational, ex: sp.Rational) -> sp.Expr:
         """``base**ex`` of a positive rational number, over roots of prime numbers.
@@ -328,98 +248,7 @@ class Rewriter:
             s, co = s * c2 + co * s2, co * c2 - s * s2
         return s if kind == "sin" else co
 
-    # ----------------------------------------------------------------- second pass
-    def finalize(self) -> dict[sp.Symbol, sp.Expr]:
-        """Group provisional exponentials and trig functions by monomial; the substitution map."""
-        subs = self._substitute_arguments(self._group(list(self.prov_exp), list(self.prov_trig)))
-        # time variation after substitution (arguments may now reference other atoms)
-        for _ in range(len(self.atoms) + 1):
-            for sym, a in list(self.atoms.items()):
-                if a.kind == "const":
-                    continue
-                tv = self._varies(a.arg)
-                if tv != a.time_varying:
-                    self.atoms[sym] = Atom(sym, a.kind, a.arg, q=a.q, partner=a.partner, time_varying=tv)
-        self.subs = subs
-        return subs
-
-    def _group(self, exp_keys: Sequence[tuple], trig_keys: Sequence[tuple]) -> dict[sp.Symbol, sp.Expr]:
-        """One exponential ``exp(u m)`` per monomial ``m`` (``u`` the gcd of the coefficients), one
-        sine-cosine pair likewise; a monomial that already has its atom keeps it (:meth:`extend`)."""
-        subs: dict[sp.Symbol, sp.Expr] = {}
-        groups: dict[sp.Expr, list[sp.Rational]] = {}
-        for (m, c) in exp_keys:
-            groups.setdefault(m, []).append(c)
-        for m, cs in groups.items():
-            if m not in self.fixed_exp:
-                u = _rational_gcd(cs + [sp.Integer(1)] if self.unit else cs)
-                e = self._new("exp", u * m)
-                self.fixed_exp[m] = (u, e)
-                self.prov_exp_inv[e] = (m, u)
-            u, e = self.fixed_exp[m]
-            for c in cs:  # exp(c m) = exp(u m)**(c/u): a power, or a root of the existing atom
-                r = c / u
-                subs[self.prov_exp[(m, c)]] = e ** int(r) if r.is_Integer else self.root_power(e, r)
-        tgroups: dict[sp.Expr, list[sp.Rational]] = {}
-        for (_, m, c) in trig_keys:
-            tgroups.setdefault(m, []).append(c)
-        X = sp.Dummy("X")
-        for m, cs in tgroups.items():
-            if m not in self.fixed_trig:
-                u = _rational_gcd(cs + [sp.Integer(1)] if self.unit else cs)
-                s = self._new("sin", u * m)
-                co = self._new("cos", u * m)
-                self.atoms[s] = Atom(s, "sin", u * m, partner=co, time_varying=self.atoms[s].time_varying)
-                self.atoms[co] = Atom(co, "cos", u * m, partner=s, time_varying=self.atoms[co].time_varying)
-                self.fixed_trig[m] = (u, s, co)
-            u, s, co = self.fixed_trig[m]
-            for key in trig_keys:
-                k, mm, c = key
-                if mm != m:
-                    continue
-                n = c / u
-                if not n.is_Integer:
-                    raise NotSupportedError(f"{k}({c * m}) is a fraction of the angle {u * m} of an existing "
-                                            f"sine-cosine pair; not supported")
-                expr = sp.expand_trig((sp.sin if k == "sin" else sp.cos)(int(n) * X))
-                subs[self.prov_trig[key]] = expr.xreplace({sp.sin(X): s, sp.cos(X): co})
-        return subs
-
-    def _substitute_arguments(self, subs: dict[sp.Symbol, sp.Expr]) -> dict[sp.Symbol, sp.Expr]:
-        """Atom arguments may hold provisional symbols: substitute until stable."""
-        for _ in range(len(self.atoms) + 2):
-            changed = False
-            for sym, a in list(self.atoms.items()):
-                new_arg = a.arg.xreplace(subs) if a.kind != "const" else a.arg
-                if new_arg != a.arg:
-                    changed = True
-                    self.atoms[sym] = Atom(sym, a.kind, new_arg, q=a.q, partner=a.partner,
-                                           time_varying=a.time_varying)
-            subs = {k: v.xreplace(subs) for k, v in subs.items()}
-            if not changed:
-                break
-        return subs
-
     # ----------------------------------------------------------------- more expressions, same atoms
-    def seed(self, atoms: Iterable[Atom]) -> None:
-        """Start from the atoms of an earlier rewriting: :meth:`extend` reuses them, never regroups them."""
-        top = -1
-        for a in atoms:
-            self.atoms[a.symbol] = a
-            self.by_key[(a.kind, a.arg, a.q)] = a.symbol
-            if a.kind == "log":
-                self.orientation.add(a.arg)
-            elif a.kind == "exp":
-                u, m = a.arg.as_coeff_Mul()
-                self.fixed_exp[m] = (u, a.symbol)
-                self.prov_exp_inv[a.symbol] = (m, u)
-            elif a.kind == "sin":
-                u, m = a.arg.as_coeff_Mul()
-                self.fixed_trig[m] = (u, a.symbol, a.partner)
-            digits = re.search(r"(\d+)$", a.symbol.name)
-            top = max(top, int(digits.group(1)) if digits else -1)
-        self.counter = max(self.counter, top + 1)
-
     def extend(self, exprs: Iterable[sp.Expr]) -> list[sp.Expr]:
         """Rewrite further expressions; atoms already made keep their meaning (and their values).
 
@@ -431,26 +260,6 @@ class Rewriter:
         subs = self._group(list(self.prov_exp)[n_exp:], list(self.prov_trig)[n_trig:])
         self.subs = self._substitute_arguments({**self.subs, **subs})
         return [e.xreplace(self.subs) for e in out]
-
-    def ordered_atoms(self) -> tuple[Atom, ...]:
-        done: list[Atom] = []
-        placed: set[sp.Symbol] = set()
-        pending = dict(self.atoms)
-        while pending:
-            progress = False
-            for sym, a in list(pending.items()):
-                deps = {s for s in a.arg.free_symbols if s in self.atoms} if a.kind != "const" else set()
-                deps.discard(sym)
-                if a.partner is not None:
-                    deps.discard(a.partner)
-                if deps <= placed:
-                    done.append(a)
-                    placed.add(sym)
-                    del pending[sym]
-                    progress = True
-            if not progress:  # pragma: no cover - arguments are built bottom-up
-                raise NotSupportedError("circular definition among non-rational terms")
-        return tuple(done)
 
 
 def rewrite(exprs: Iterable[sp.Expr], symbols: Iterable[sp.Symbol]) -> tuple[list[sp.Expr], tuple[Atom, ...]]:

@@ -59,7 +59,8 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
-from obsnl.algebra.atoms import Atom, Rewriter
+from obsnl.algebra.atom_table import Atom
+from obsnl.algebra.atoms import Rewriter
 from obsnl.errors import ModelError, NotSupportedError
 from obsnl.model.core import Model
 

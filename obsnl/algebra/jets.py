@@ -23,7 +23,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from obsnl.algebra.atoms import Atom, rewrite
+from obsnl.algebra.atom_table import Atom
+from obsnl.algebra.atoms import rewrite
 from obsnl.errors import NotSupportedError
 from obsnl.algebra.modp import Field
 from obsnl.algebra.slp import Op, compile_program
@@ -40,7 +41,7 @@ class AtomJet:
     Attributes
     ----------
     kind
-        The atom's kind (:class:`obsnl.algebra.atoms.Atom`).
+        The atom's kind (:class:`obsnl.algebra.atom_table.Atom`).
     arg, den
         Nodes of the argument ``g`` and, for ``atan``, of ``1 + g**2``.
     partner

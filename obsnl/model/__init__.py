@@ -3,7 +3,8 @@
 Its inner order, lowest first (a module imports only what stands below it, or its own sub-room):
 
 1. ``bounds/``: bounded work (expression sizes, exact digits, text sizes) and the time budget;
-2. ``reading/``: the text of a model: expressions, names, LaTeX names, unknown-input derivatives;
+2. ``reading/``: the text of a model: expressions, names, LaTeX names, unknown-input derivatives, and
+   every field of a model read and checked with them;
 3. ``core`` (the frozen :class:`~obsnl.model.core.Model`), then ``files`` (model files, the catalogue);
 4. ``branching/``: switching functions, feasibility of sign patterns, the smooth branches, their
    representatives and the model's signature for a branch table.

@@ -11,18 +11,14 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from types import MappingProxyType
 from typing import Any
 
 import sympy as sp
 
 from obsnl.errors import ModelError, ParseError
-from obsnl.model.reading.unknown_inputs import check_unknown_input_derivatives
-from obsnl.model.reading.latex import latex_clash, latex_problem
-from obsnl.model.reading.names import check_distinct, check_name as _check_identifier, check_text as _check_text
-from obsnl.model.reading.names import close_name as _close, name_list as _name_list
-from obsnl.model.reading.parse import make_symbol, parse_expression, quote, shorten
-from obsnl.model.bounds.textsize import check_model_size
+from obsnl.model.reading.fields import ROLE_NAMES, ROLES, read_fields
+from obsnl.model.reading.names import close_name as _close
+from obsnl.model.reading.parse import quote
 
 __all__ = ["Model", "NONSMOOTH_FUNCTIONS"]
 
@@ -41,16 +37,6 @@ METADATA_KEYS: tuple[str, ...] = (
     "answer_source", "answer_kind", "expected", "expected_global", "expected_identifiable_functions",
     "expected_unknown_inputs", "notes", "metadata", "citation", "units",
 )
-
-_ROLES = ("states", "parameters", "inputs", "unknown_inputs", "known_constants")
-_ROLE_NAMES = {
-    "states": "state", "parameters": "parameter", "inputs": "input",
-    "unknown_inputs": "unknown input", "known_constants": "known constant", "outputs": "output",
-}
-
-
-def _frozen(d: Mapping) -> Mapping:
-    return MappingProxyType(dict(d))
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -142,181 +128,10 @@ class Model:
 
     # ------------------------------------------------------------------ validation
     def __post_init__(self) -> None:
-        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731 - frozen dataclass
-        if not isinstance(self.name, str) or not self.name.strip():
-            raise ModelError("the model needs a non-empty 'name'")
-        set_("name", self.name.strip())
-        _check_text(self.name, "name")
-        for key in ("description", "source"):
-            val = getattr(self, key)
-            if val is None:
-                val = ""
-            if not isinstance(val, str):
-                raise ModelError(f"'{key}' must be text, got {type(val).__name__}")
-            val = val.replace("\r\n", "\n")  # a file written on Windows
-            _check_text(val, key, multiline=True)
-            set_(key, val)
-        for key in ("outputs", "initial_condition_values", "latex", "values", "guess", "definitions", "metadata"):
-            val = getattr(self, key)
-            if val is not None and not isinstance(val, Mapping):
-                raise ModelError(f"'{key}' must be a table {{name = value}}, got {type(val).__name__} "
-                                 f"{shorten(repr(val), 40)}")
-        if self.switching is not None and not isinstance(self.switching, (str, sp.Basic, list, tuple)):
-            raise ModelError(f"'switching' must be a list of expressions, got {type(self.switching).__name__} "
-                             f"{shorten(repr(self.switching), 40)}")
-
-        # the size first, on the raw values: reading costs about 1 ms per expression (20 000 states took 13 s)
-        check_model_size(self.name, {r: getattr(self, r) for r in _ROLES}, self.outputs, self.equations)
-        names: dict[str, tuple[str, ...]] = {role: _name_list(getattr(self, role), role) for role in _ROLES}
-        if not names["states"]:
-            raise ModelError("the model has no states; declare at least one in 'states'")
-        seen: dict[str, str] = {}
-        for role in _ROLES:
-            for n in names[role]:
-                if n in seen:
-                    if seen[n] == role:
-                        raise ModelError(f"{_ROLE_NAMES[role]} {n!r} is declared twice in '{role}'; remove the duplicate")
-                    raise ModelError(
-                        f"{n!r} is declared both as a {_ROLE_NAMES[seen[n]]} and as a {_ROLE_NAMES[role]}; "
-                        f"a name can have one role only"
-                    )
-                seen[n] = role
-        symbols = {n: make_symbol(n) for n in seen}
-        for role in _ROLES:
-            set_(role, tuple(symbols[n] for n in names[role]))
-
-        # outputs
-        outputs_in = self.outputs
-        if outputs_in is None:
-            outputs_in = {}
-        if not isinstance(outputs_in, Mapping):
-            raise ModelError("'outputs' must map output names to expressions, e.g. {y = \"x1\"}")
-        reserved: dict[str, str] = {}
-        for oname in outputs_in:
-            oname_s = oname.name if isinstance(oname, sp.Symbol) else oname
-            if not isinstance(oname_s, str):
-                raise ModelError(f"output names must be strings, got {oname!r}")
-            _check_identifier(oname_s, "outputs")
-            if oname_s in seen:
-                raise ModelError(
-                    f"output {oname_s!r} has the name of a {_ROLE_NAMES[seen[oname_s]]}; "
-                    f"give the output its own name (e.g. 'y_{oname_s}')"
-                )
-            reserved[oname_s] = (
-                f"output {oname_s!r} appears on a right-hand side; outputs may appear only on the left-hand "
-                f"side of their own definition (use the expression it stands for)"
-            )
-        outs: dict[str, sp.Expr] = {}
-        for oname, expr in outputs_in.items():
-            oname_s = oname.name if isinstance(oname, sp.Symbol) else oname
-            outs[oname_s] = parse_expression(expr, symbols, where=f"output {oname_s}", reserved=reserved)
-        set_("outputs", _frozen(outs))
-        check_distinct([*seen, *outs])  # Latin 'a' and Cyrillic 'а' would be two symbols shown as one
-
-        # equations
-        eqs_in = self.equations
-        if not isinstance(eqs_in, Mapping):
-            raise ModelError("'equations' must map each state to its right-hand side, e.g. {x = \"v\"}")
-        eqs_by_name: dict[str, Any] = {}
-        for k, v in eqs_in.items():
-            kn = k.name if isinstance(k, sp.Symbol) else k
-            if not isinstance(kn, str):
-                raise ModelError(f"equation keys must be state names, got {k!r}")
-            if kn in eqs_by_name:
-                raise ModelError(f"two equations for state {kn!r}; keep one")
-            eqs_by_name[kn] = v
-        state_names = names["states"]
-        for kn in eqs_by_name:
-            if kn not in state_names:
-                if kn in seen:
-                    raise ModelError(
-                        f"there is an equation for {kn!r}, which is a {_ROLE_NAMES[seen[kn]]}, not a state; "
-                        f"declare it in 'states' or remove the equation"
-                    )
-                raise ModelError(
-                    f"equation for undeclared state {quote(kn, 40)}{_close(kn, state_names)}; declare it in 'states' "
-                    f"or remove the equation"
-                )
-        for sn in state_names:
-            if sn not in eqs_by_name:
-                raise ModelError(f"state {sn!r} has no equation; add equations.{sn} = \"...\" (its time derivative)")
-        eqs = {
-            symbols[sn]: parse_expression(eqs_by_name[sn], symbols, where=f"equation of {sn}", reserved=reserved)
-            for sn in state_names
-        }
-        set_("equations", _frozen(eqs))
-
-        # initial conditions
-        kic = _name_list(self.known_initial_conditions, "known_initial_conditions")
-        for n in kic:
-            if n not in state_names:
-                raise ModelError(f"known initial condition {quote(n, 40)} is not a state; list states only")
-        set_("known_initial_conditions", tuple(symbols[n] for n in kic))
-        icv_in = self.initial_condition_values or {}
-        if not isinstance(icv_in, Mapping):
-            raise ModelError("'initial_condition_values' must map states to values")
-        not_states = {n: s for n, s in symbols.items() if n not in state_names}
-        icv: dict[sp.Symbol, sp.Expr] = {}
-        for k, v in icv_in.items():
-            kn = k.name if isinstance(k, sp.Symbol) else str(k)
-            if kn not in kic:
-                raise ModelError(
-                    f"initial_condition_values gives {quote(kn, 40)}, which is not in known_initial_conditions; add it "
-                    f"there"
-                )
-            icv[symbols[kn]] = parse_expression(v, not_states, where=f"initial value of {kn}")
-        set_("initial_condition_values", _frozen(icv))
-
-        # switching order
-        sw = self.switching or ()
-        if isinstance(sw, (str, sp.Basic)):
-            sw = [sw]
-        set_("switching", tuple(parse_expression(e, symbols, where="switching") for e in sw))
-
-        # latex, values, definitions, metadata
-        latex = dict(self.latex or {})
-        for k, v in latex.items():
-            if k not in seen and k not in outs:
-                raise ModelError(f"latex name given for undeclared symbol {quote(k, 40)}"
-                                 f"{_close(k, list(seen) + list(outs))}")
-            problem = latex_problem(v) if isinstance(v, str) else "must be a string"
-            if problem:
-                raise ModelError(f"latex.{k}: {problem}")
-        problem = latex_clash(latex, [*seen, *outs])
-        if problem:
-            raise ModelError(problem)
-        set_("latex", _frozen(latex))
-        for key in ("values", "guess"):
-            table = getattr(self, key) or {}
-            if not isinstance(table, Mapping):
-                raise ModelError(f"'{key}' must be a table of numbers {{name: value}}, got {type(table).__name__}")
-            numbers: dict[str, float] = {}
-            for k, v in dict(table).items():
-                if k not in seen:
-                    raise ModelError(f"{key} gives a number for undeclared symbol {quote(k, 40)}{_close(k, list(seen))}")
-                if key == "guess" and k not in {s.name for s in self.parameters}:
-                    raise ModelError(f"guess.{k}: only parameters have guesses; remove it")
-                try:
-                    fv = float(v)
-                except (TypeError, ValueError, OverflowError):
-                    raise ModelError(f"{key}.{k} must be a number, got {quote(v)}") from None
-                if fv != fv or fv in (float("inf"), float("-inf")):
-                    raise ModelError(f"{key}.{k} is not finite ({quote(v)})")
-                numbers[k] = fv
-            set_(key, _frozen(numbers))
-        defs: dict[str, str] = {}
-        for k, v in dict(self.definitions or {}).items():
-            if k not in seen:
-                raise ModelError(f"definitions gives {quote(k, 40)}, which is not declared in this model")
-            if isinstance(v, sp.Basic):
-                v = str(v)
-            if not isinstance(v, str):
-                raise ModelError(f"definitions.{k} must be an expression string")
-            defs[k] = v
-        set_("definitions", _frozen(defs))
-        set_("metadata", _frozen(dict(self.metadata or {})))
-        set_("unknown_input_derivatives", check_unknown_input_derivatives(self.unknown_input_derivatives,
-                                                                          allow_none=True))
+        """Read and check every field once (:func:`~obsnl.model.reading.fields.read_fields`)."""
+        read = read_fields({f.name: getattr(self, f.name) for f in dataclasses.fields(self)})
+        for key, value in read.items():
+            object.__setattr__(self, key, value)  # a frozen dataclass: set while it is built, never after
 
     # ------------------------------------------------------------------ constructors
     @classmethod
@@ -358,7 +173,7 @@ class Model:
             d["description"] = self.description
         if self.source:
             d["source"] = self.source
-        for role in _ROLES:
+        for role in ROLES:
             d[role] = [s.name for s in getattr(self, role)]
         d["outputs"] = {k: _expr_text(v) for k, v in self.outputs.items()}
         d["equations"] = {s.name: _expr_text(self.equations[s]) for s in self.states}
@@ -402,7 +217,7 @@ class Model:
     def symbols(self) -> dict[str, sp.Symbol]:
         """Every declared name -> its symbol."""
         out: dict[str, sp.Symbol] = {}
-        for role in _ROLES:
+        for role in ROLES:
             for s in getattr(self, role):
                 out[s.name] = s
         return out
@@ -416,9 +231,9 @@ class Model:
 
     def role(self, name: str) -> str:
         """``'state'``, ``'parameter'``, ``'input'``, ``'unknown input'`` or ``'known constant'``."""
-        for role in _ROLES:
+        for role in ROLES:
             if any(s.name == name for s in getattr(self, role)):
-                return _ROLE_NAMES[role]
+                return ROLE_NAMES[role]
         raise ModelError(f"{name!r} is not declared in model {self.name!r}")
 
     @property

@@ -1,11 +1,21 @@
-"""studies"""
+"""Studies: the seed paper's experiment, the cantilever link study, shear buildings.
+
+The seed paper's identification experiment (``obsnl reproduce``) runs along its steps: ``seed_experiment``
+(the model, the record, the set-up, the branch table), ``seed_tuning`` (successive halving of the filters'
+configurations), ``seed_runs`` (a reported run with its fallbacks, a refinement, as values), ``seed_tasks``
+(each run as a task an executor maps), ``seed_paper`` (:func:`reproduce`, the pipeline) and
+``seed_reproduction`` (its result, the Table 2 document, the files written). The observer-bank benchmark
+on a cracked cantilever link: ``link_model`` (its checked model file), ``cantilever`` (the link) and
+``link_study`` (the scenarios and the bank's scoring); ``buildings`` writes shear-building models; ``jobs``
+runs the estimation side's jobs as the command line gives them.
+"""
 
 from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use (so that importing
 #: one module of the room loads nothing else): name -> module.
 _LAZY: dict[str, str] = {
-    "reproduce": "seed_paper", "Reproduction": "seed_paper", "run_link_study": "link_study",
+    "reproduce": "seed_paper", "Reproduction": "seed_reproduction", "run_link_study": "link_study",
     "build_cantilever": "cantilever", "read_link_spec": "link_model", "BreathingCrack": "cantilever",
     "bouc_wen_building": "buildings",
 }

@@ -185,8 +185,8 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
     from obsnl.estimation.records import read_record
     from obsnl.identification.runs import check_replicates
     from obsnl.report.files import check_folder
-    from obsnl.studies import seed_paper
-    from obsnl.studies.seed_tasks import seed_record
+    from obsnl.studies import seed_paper, seed_reproduction
+    from obsnl.studies.seed_experiment import seed_record
 
     options = {k: v for k, v in options.items() if v is not None}
     if quick:
@@ -200,7 +200,7 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
     folder = Path(out) if out else (QUICK_FOLDER if quick else DEFAULT_FOLDER) / (rec.name if rec else "")
     figures = [f.name for f in sorted(folder.glob("fig[23]_*.png"))] if folder.is_dir() and not folder.is_symlink() \
         else []
-    check_folder(folder, [*seed_paper.REPRODUCTION_FILES, *figures], force=force or regenerate)
+    check_folder(folder, [*seed_reproduction.REPRODUCTION_FILES, *figures], force=force or regenerate)
     if regenerate and regenerating is not None:
         regenerating(folder)
     bar = None
@@ -215,7 +215,7 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
     finally:
         if bar is not None:
             bar.close()
-    return folder, seed_paper.write_reproduction(rep, folder, force=force or regenerate)
+    return folder, seed_reproduction.write_reproduction(rep, folder, force=force or regenerate)
 
 
 def bank_job(*, out: str | Path, model: str | Path | None = None, seeds: int = 3,

@@ -25,7 +25,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import sympy as sp
 
-from obsnl.algebra.atoms import Atom, Rewriter
+from obsnl.algebra.atom_table import Atom
+from obsnl.algebra.atoms import Rewriter
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import bound_sizes, failure_bound
 from obsnl.algebra.jets import (

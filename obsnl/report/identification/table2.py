@@ -16,7 +16,7 @@ __all__ = ["table2_summary", "table2_ml_summary", "table2_markdown", "table2_lat
 
 # Text of the Table 2 analog (seed paper 000_d24855f97fc8bdd4.txt) from the plain ``table2.json``
 # document written by ``obsnl reproduce`` (``obsnl.studies.seed_paper``), so that a committed table2.json
-# can be re-rendered without running anything. Writing files and figures stays in obsnl.studies.seed_paper.
+# can be re-rendered without running anything. Writing files and figures stays in obsnl.studies.seed_reproduction.
 
 _T2_TEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h": r"$w_h$", "c_p": r"$c'$",
            "h_p": r"$h'$", "Delta1": r"$\Delta_1$", "Delta2": r"$\Delta_2$", "N": r"$N$"}

@@ -1,0 +1,186 @@
+"""One reported run of the seed experiment and one maximum-likelihood refinement, as frozen values.
+
+:func:`reported_with_fallbacks` runs a filter on one noise seed; a run that diverged (it stopped, or its
+free-run output misfit is above ``DIVERGED`` times the output noise level: measured data only, never the
+truth) is recorded and redone with the next configuration of the tuning ranking, at most :data:`FALLBACKS`
+times. :class:`RunResult` and :class:`Refined` are the rows of Table 2 (``to_dict``: JSON, no NaN).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from typing import Any
+
+import numpy as np
+
+from obsnl.errors import ObsnlError
+from obsnl.identification.experiments import (DIVERGED, Practical, Setup, Tuning, make_data, output_misfit,
+                                              practical_identifiability, run_passes)
+from obsnl.estimation.ukf import Trajectory
+from obsnl.estimation.ukf_step import INTERVENTIONS
+
+__all__ = ["FALLBACKS", "RunResult", "Refined", "reported_with_fallbacks"]
+
+#: A reported run whose free-run output misfit exceeds ``DIVERGED`` times the stated output noise
+#: level (:data:`obsnl.identification.experiments.DIVERGED`; the noise floor of the misfit is 1x) has diverged; it is
+#: redone with the next configuration of the tuning ranking, at most ``FALLBACKS`` times. Uses the
+#: measured data only, never the truth.
+FALLBACKS = 2
+
+
+@dataclass(frozen=True, eq=False)
+class RunResult:
+    """One reported filter run: final estimate, cost, repairs, misfit, practical identifiability."""
+
+    method: str
+    passes: int
+    seed: int
+    tuning: Tuning
+    theta: tuple[float, ...]
+    seconds: float
+    repairs: int
+    implicit: int
+    misfit: float
+    practical: Practical | None
+    error: str = ""
+    interventions: Mapping[str, int] = field(default_factory=dict)
+    redone: tuple[Mapping[str, Any], ...] = ()
+    passes_run: int | None = None  # fewer than ``passes`` when an estimate could not be simulated
+
+    @property
+    def failed(self) -> bool:
+        """True when the filter stopped (NaN); the run is reported with its error, not dropped."""
+        return bool(self.error)
+
+    def errors(self, truth: np.ndarray) -> np.ndarray:
+        """Error of each parameter in % of its true value."""
+        return 100.0 * (np.asarray(self.theta) - truth) / np.abs(truth)
+
+    def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
+        err = self.errors(truth)
+        return {"method": self.method, "passes": self.passes, "seed": self.seed, "tuning": self.tuning.to_dict(),
+                "parameters": {p: {"true": float(t), "estimate": _num(e), "error_percent": _num(r)}
+                               for p, t, e, r in zip(parameters, truth, self.theta, err)},
+                "seconds": _num(self.seconds), "repairs": self.repairs, "interventions": dict(self.interventions),
+                "implicit_sigma_point_steps": self.implicit,
+                "output_misfit": _num(self.misfit), "error": self.error,
+                "passes_run": self.passes if self.passes_run is None else self.passes_run,
+                # None: not decided (the run stopped, or its estimate diverged: see practical_identifiability)
+                "practically_unidentifiable": (list(self.practical.flagged)
+                                               if self.practical and not self.practical.inconclusive else None),
+                "practical_identifiability": self.practical.to_dict() if self.practical else None,
+                "redone": [dict(a) for a in self.redone]}
+
+
+@dataclass(frozen=True, eq=False)
+class Refined:
+    """The maximum-likelihood refinement of one reported seed (:func:`obsnl.identification.refine.refine`).
+
+    ``start``: the filter run it started from (``method``, ``passes``, ``output_misfit``); ``std``: the Fisher
+    std per parameter at the estimate (``inf`` along a flat direction); ``converged`` and ``reason`` as the
+    refinement says them (first-order condition and last step); ``error``: why it could not run (then no
+    estimate).
+    """
+
+    seed: int
+    start: Mapping[str, Any]
+    theta: tuple[float, ...]
+    std: tuple[float, ...]
+    converged: bool
+    reason: str
+    seconds: float
+    iterations: int = 0
+    misfit_over_noise: Mapping[str, float] = field(default_factory=dict)
+    at_edge: tuple[str, ...] = ()
+    newton_decrement: float = float("nan")
+    last_step_in_std: float = float("nan")
+    error: str = ""
+
+    def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
+        err = 100.0 * (np.asarray(self.theta) - truth) / np.abs(truth)
+        rel = 100.0 * np.asarray(self.std) / np.abs(np.asarray(self.theta))
+        return {"seed": self.seed, "start": dict(self.start),
+                "parameters": {p: {"true": float(t), "estimate": _num(e), "error_percent": _num(r), "std": _num(s),
+                                   "std_percent": _num(q)}
+                               for p, t, e, r, s, q in zip(parameters, truth, self.theta, err, self.std, rel)},
+                "converged": self.converged, "reason": self.reason, "error": self.error,
+                "seconds": _num(self.seconds), "iterations": self.iterations,
+                "newton_decrement": _num(self.newton_decrement), "last_step_in_std": _num(self.last_step_in_std),
+                "misfit_over_noise": {k: _num(v) for k, v in self.misfit_over_noise.items()},
+                "at_edge": list(self.at_edge)}
+
+
+def _interventions(trs: Sequence[Trajectory]) -> dict[str, int]:
+    return {k: int(sum(t.counts()[k] for t in trs)) for k in INTERVENTIONS}
+
+
+def _num(v: float) -> float | None:
+    """A finite number, or None (JSON has no NaN)."""
+    return float(v) if np.isfinite(v) else None
+
+
+def _diverged(run: RunResult, setup: Setup) -> bool:
+    """The run stopped, or its estimate reproduces the measured output worse than ``DIVERGED`` x noise."""
+    return run.failed or not (run.misfit <= DIVERGED * setup.noise)
+
+
+def _reported_run(setup: Setup, f: Any, data: Any, name: str, k: int, seed: int,
+                  tuning: Tuning) -> tuple[RunResult, tuple[Trajectory, ...] | None]:
+    """One reported run (``k`` passes) with its misfit and practical identifiability; a stop is a failed run."""
+    try:
+        trs, _ = run_passes(setup, f, data, tuning, passes=k)
+    except ObsnlError as exc:  # reported as a failed run, never dropped
+        return RunResult(method=name, passes=k, seed=seed, tuning=tuning, theta=(float("nan"),) * setup.model.np,
+                         seconds=float("nan"), repairs=0, implicit=0, misfit=float("nan"), practical=None,
+                         error=str(exc)), None
+    theta = trs[-1].theta[-1]
+    misfit = output_misfit(setup, theta, data)
+    return RunResult(
+        method=name, passes=k, seed=seed, tuning=tuning, theta=tuple(float(v) for v in theta),
+        seconds=float(sum(t.seconds for t in trs)), repairs=sum(t.total_repairs for t in trs),
+        implicit=int(sum(t.implicit.sum() for t in trs)), misfit=misfit, interventions=_interventions(trs),
+        passes_run=len(trs),
+        practical=practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0,
+                                            misfit=misfit)), trs
+
+
+def reported_with_fallbacks(setup: Setup, f: Any, name: str, k: int, seed: int, ranking: Sequence[Tuning],
+                            fallbacks: int = FALLBACKS) -> tuple[RunResult, tuple[Trajectory, ...] | None]:
+    """A reported run on noise seed ``seed``; a diverged attempt is recorded and redone with the next
+    configuration of ``ranking``, at most ``fallbacks`` times (if all diverge, the last is reported).
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment.
+    f : UKF
+        The filter.
+    name : str
+        Method name recorded in the result.
+    k : int
+        Number of passes.
+    seed : int
+        Noise seed.
+    ranking : sequence of Tuning
+        Configurations, best first.
+    fallbacks : int
+        Largest number of redone attempts.
+
+    Returns
+    -------
+    tuple
+        ``(RunResult, trajectories or None)``.
+    """
+    data = make_data(setup, seed)
+    result, trs, redone = None, None, []
+    for tuning in ranking[:1 + fallbacks]:
+        if result is not None:  # the previous attempt diverged: recorded, then redone
+            redone.append({"tuning": result.tuning.to_dict(), "output_misfit": _num(result.misfit),
+                           "error": result.error})
+        result, trs = _reported_run(setup, f, data, name, k, seed, tuning)
+        if not _diverged(result, setup):
+            break
+    if redone:
+        result = replace(result, redone=tuple(redone))
+    return result, trs
