@@ -6,6 +6,7 @@ is the only module that imports both sympy and casadi."""
 from __future__ import annotations
 
 import ast
+import re
 from pathlib import Path
 
 import networkx as nx
@@ -213,3 +214,48 @@ def test_numeric_modules_never_import_sympy(module):
 def test_only_codegen_imports_both_sympy_and_casadi():
     both = sorted(m for m in MODULES if {"sympy", "casadi"} <= _third_party(m))
     assert both == ["obsnl.estimation.codegen"]
+
+
+def _charter(package: str) -> tuple[list[str], list[str]]:
+    """The rooms that a package's charter (its ``__init__`` docstring) says it may and must never import."""
+    doc = " ".join((ast.get_docstring(ast.parse(MODULES[package].read_text(encoding="utf-8"))) or "").split())
+    doc = re.sub(r"\([^()]*\)", "", doc)  # explanations in parentheses name no rule
+    may = re.search(r"May import:?(.*?)(?:Must never import|$)", doc)
+    never = re.search(r"Must never import:?(.*?)(?:[.;](?:\s|$)|$)", doc)
+    if may is None or never is None:
+        return [], []
+    names = re.compile(r"``([A-Za-z_][\w.]*)``")
+    return names.findall(may.group(1)), names.findall(never.group(1))
+
+
+#: Packages whose charter states no import rule: the top level and the command line, which sit above every room.
+UNRULED = {"obsnl", "obsnl.cli"}
+#: The ground floor (rank 0 in LAYERS): every room may use it, whatever its charter lists.
+GROUND = [r for r, rank in LAYERS.items() if rank == 0]
+
+
+def _under(target: str, rooms: list[str]) -> bool:
+    return any(target == f"obsnl.{r}" or target.startswith(f"obsnl.{r}.") for r in rooms)
+
+
+def test_every_room_states_its_charter():
+    packages = [m for m, p in MODULES.items() if p.name == "__init__.py" and m not in UNRULED]
+    missing = {p for p in packages if _charter(p) == ([], [])}
+    assert missing == set(), "rooms whose __init__ says no 'May import:' / 'Must never import:'"
+
+
+def test_imports_follow_each_rooms_charter():
+    packages = sorted((m for m, p in MODULES.items() if p.name == "__init__.py" and m not in UNRULED),
+                      key=len, reverse=True)
+    broken = []
+    for module in MODULES:
+        unit = next((p for p in packages if module == p or module.startswith(p + ".")), None)
+        if unit is None:
+            continue
+        may, never = _charter(unit)
+        for target in _imports(module):
+            if not target.startswith("obsnl.") or target == unit or target.startswith(unit + "."):
+                continue
+            if _under(target, never) or not _under(target, may + GROUND):
+                broken.append(f"{module} imports {target} ({unit} may import {may}, never {never})")
+    assert broken == []

@@ -10,8 +10,9 @@ model's structure first (``identify``: :func:`obsnl.identify`, the simulation st
 
 May import: ``errors``, ``executor``, ``model``, ``observability`` (the structural verdict comes first:
 ``analyze``, the branch-table check), ``estimation`` (the filter core: codegen, numeric steps, simulation,
-UKF/DUKF, records) and ``report`` (only to write a result folder). Must never import ``studies``, ``cli``
-or ``batch``, and nothing here imports sympy except through ``model``/``observability`` at the door.
+UKF/DUKF, records) and ``report`` (only to write a result folder).
+Must never import: ``studies``, ``design``, ``cli``, ``batch``; and nothing here imports sympy except through
+``model``/``observability`` at the door.
 """
 
 from obsnl._exports import lazy_exports

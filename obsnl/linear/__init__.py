@@ -1,4 +1,14 @@
-"""linear"""
+"""linear: observability and observers of linear structures.
+
+Owns the Kalman rank and Hautus (PBH) tests with scaling (``systems``, ``hautus``), extended disturbance / PI
+observers and their gains (``observer``, ``gains``), their zero-order-hold simulation (``simulation``) and the
+observer bank that detects and locates a fault such as a crack (``bank``). Numbers only: a linear system is
+given as matrices, and the answer is the observability room's ``Verdict``.
+
+May import: ``errors``, ``_text``, ``_exports``, ``observability.verdicts``.
+Must never import: ``model``, ``algebra``, ``recombination``, ``estimation``, ``report``, ``identification``,
+``studies``, ``design``, ``batch``, ``cli``.
+"""
 
 from obsnl._exports import lazy_exports
 

@@ -1,4 +1,14 @@
-"""recombination"""
+"""recombination: which combinations of the hidden parameters can still be identified.
+
+Owns the identifiable reparametrization of a model, branch by branch and merged (``reparametrize``, its value
+``reparametrization``), the readable invariants of translation and scaling symmetries (``invariants``), a
+section of the scalings (``scalings``), a generating set of the identifiable functions (``identifiable``) and
+the fields of functions decided modulo a prime (``fields``).
+
+May import: ``errors``, ``_text``, ``_exports``, ``model``, ``algebra``, ``observability``.
+Must never import: ``estimation``, ``linear``, ``report``, ``identification``, ``studies``, ``design``,
+``batch``, ``cli``.
+"""
 
 from obsnl._exports import lazy_exports
 

@@ -1,5 +1,15 @@
-"""Every rendering of obsnl's results: analysis tables (text, Markdown, LaTeX, JSON), the observer-bank
-table, the identification tables, report folders and the figures. Nothing here runs an analysis."""
+"""report: every rendering of obsnl's results, and the one writer of files.
+
+Owns the analysis tables in text, Markdown, LaTeX and JSON (``tables``, ``groups``, ``sentences``, ``tex``),
+the renderings of a model's structure (``structure``), of sensor sets (``sensors``) and of experiment designs
+(``experiment``), the observer-bank table (``bank``), the identification run and Table 2
+(``identification``), the figures (``figures``), the report folders (``folders``) and the output writer that
+never follows a link (``files``). Nothing here runs an analysis or a filter: renderers take result values.
+
+May import: ``errors``, ``_text``, ``model``, ``observability``, ``linear``.
+Must never import: ``algebra``, ``recombination``, ``estimation``, ``identification``, ``studies``,
+``design``, ``batch``, ``cli``.
+"""
 
 from obsnl.observability.results import DISPLAY as _DISPLAY
 from obsnl.report.bank import bank_table_markdown

@@ -8,6 +8,10 @@ configurations), ``seed_runs`` (a reported run with its fallbacks, a refinement,
 on a cracked cantilever link: ``link_model`` (its checked model file), ``cantilever`` (the link) and
 ``link_study`` (the scenarios and the bank's scoring); ``buildings`` writes shear-building models; ``jobs``
 runs the estimation side's jobs as the command line gives them.
+
+May import: ``errors``, ``_exports``, ``executor``, ``model``, ``observability``, ``recombination``,
+``estimation``, ``linear``, ``report``, ``identification``.
+Must never import: ``design``, ``batch``, ``cli``.
 """
 
 from obsnl._exports import lazy_exports
