@@ -183,7 +183,7 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
         The folder and the files written.
     """
     from obsnl.estimation.records import read_record
-    from obsnl.identification.runs import check_replicates
+    from obsnl.identification.replicates import check_passes, check_replicates
     from obsnl.report.files import check_folder
     from obsnl.studies import seed_paper
     from obsnl.studies.seed_tasks import seed_record
@@ -193,6 +193,8 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
         options = {**seed_paper.QUICK, **options}
     if "replicates" in options:
         check_replicates(options["replicates"])
+    if "passes" in options:
+        check_passes(options["passes"])
     rec = read_record(record) if record else None
     if rec is not None:  # a step that cannot be resampled to 100 Hz is refused before the bar starts
         seed_record(rec, options.get("samples"))
