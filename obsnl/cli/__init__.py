@@ -11,7 +11,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from obsnl.cli.common import _names, _number, _One, _pair, _Parser, _whole, cli_terms
+from obsnl.cli.common import _names, _number, _One, _Parser, _whole, cli_terms
 
 __all__ = ["main", "run", "build_parser"]
 
@@ -61,7 +61,7 @@ def _commands() -> dict[str, tuple[str, str | None, list[tuple]]]:
                           [MODEL, _o("-o", "--output", metavar="NEW.toml"), FORCE, SEED,
                            _o("--eliminate", type=_names, default="", metavar="P,Q", help="parameters to normalise to 1"),
                            _o("--keep", type=_names, default="", metavar="P,Q", help="parameters that must not be pivots"),
-                           _o("--name", type=_pair, action="append", default=[], metavar="OLD=NEW", help="rename a symbol")]),
+                           _o("--name", dest="names", action="append", default=[], metavar="OLD=NEW", help="rename a symbol")]),
         "identify": ("identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
                      "Analyse MODEL, then estimate its parameters from --data (CSV: time_s or t, one column per "
                      "input and output) or a study of its [values] under --record, refined by maximum likelihood.",

@@ -69,12 +69,10 @@ def symmetries(a: Namespace) -> None:
 
 
 def reparametrize(a: Namespace) -> None:
-    from obsnl.recombination.reparametrize import reparametrize
     from obsnl.report.structure import reparametrization_lines
-    r = reparametrize(_load(a.model), names=dict(a.name), **_kw(a, "keep eliminate seed"))
-    _show(r.to_toml(), a)
-    if a.output not in (None, "-"):
-        _show(reparametrization_lines(r, a.output))
+    from obsnl.studies.jobs import reparametrize_job
+    r = reparametrize_job(a.model, **_kw(a, "names output force keep eliminate seed"))
+    _show(r.to_toml() if a.output in (None, "-") else reparametrization_lines(r, a.output))
 
 
 def identify(a: Namespace) -> None:

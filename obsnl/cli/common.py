@@ -40,14 +40,6 @@ def _names(text: str) -> list[str]:
     return [x.strip() for x in text.split(",") if x.strip()]
 
 
-def _pair(text: str) -> tuple[str, str]:
-    """An argparse type: ``OLD=NEW``."""
-    if text.count("=") != 1 or not all(text.split("=")):
-        raise argparse.ArgumentTypeError(f"takes OLD=NEW, got {text[:80]!r}")
-    old, new = text.split("=")
-    return old.strip(), new.strip()
-
-
 class _One(argparse.Action):
     """``store`` (``append`` for a repeatable option), refusing the ``[]`` that Python 3.11's argparse makes of
     ``--opt=--`` past the option's type and choices."""

@@ -8,6 +8,8 @@
   without ``force``; ``quick`` is :data:`~obsnl.studies.seed_paper.QUICK`, written by default into a
   fresh folder :data:`QUICK_FOLDER` of the current directory, never into the committed one.
 - :func:`bank_job`: the observer-bank benchmark into a folder.
+- :func:`reparametrize_job`: a model file written in identifiable combinations, the renamings given as
+  ``OLD=NEW`` texts.
 
 Every check runs before the first filter: a refusal is one message and no work.
 """
@@ -19,9 +21,10 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from obsnl._text import quote
 from obsnl.errors import OptionError
 
-__all__ = ["identify_job", "reproduce_job", "bank_job", "tuning_from", "noise_ratios", "TUNING_DEFAULTS",
+__all__ = ["identify_job", "reproduce_job", "bank_job", "reparametrize_job", "tuning_from", "noise_ratios", "TUNING_DEFAULTS",
            "DEFAULT_FOLDER", "QUICK_FOLDER"]
 
 #: The tuning of a parameter not given when the others are: prior std of log-parameters, their random
@@ -248,3 +251,43 @@ def bank_job(*, out: str | Path, model: str | Path | None = None, seeds: int = 3
     scenarios = ["healthy"] + [f"crack{c}" for c in check_bank_settings(spec)["crack_elements"]]
     check_bank_output(out, scenarios, force=force)
     return write_bank_report(run_link_study(seeds=seeds, spec=spec), out, force=force)
+
+
+def reparametrize_job(model: Any, *, names: Sequence[str] = (), output: str | Path | None = None, force: bool = False,
+                      **options: Any) -> Any:
+    """A model (file) written in identifiable combinations (:func:`obsnl.recombination.reparametrize.reparametrize`).
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file (read with its size checked before any expression is parsed).
+    names : sequence of str
+        ``OLD=NEW`` renamings of the proposed symbols.
+    output : str, Path or None
+        A file for the new model (TOML), checked before any work and never written over without ``force``;
+        None or ``"-"``: not written.
+    force : bool
+        Overwrite ``output``.
+    **options : Any
+        Passed to :func:`~obsnl.recombination.reparametrize.reparametrize` (keep, eliminate, seed, degree).
+
+    Returns
+    -------
+    Reparametrization
+        The proposal (:meth:`~obsnl.recombination.reparametrize.Reparametrization.to_toml` is the new model).
+    """
+    from obsnl.model.files import read_model
+    from obsnl.observability.limits import check_file_limits
+    from obsnl.recombination.reparametrize import reparametrize
+    from obsnl.report.files import check_target, safe_write
+
+    if bad := [n for n in names if not isinstance(n, str) or n.count("=") != 1 or not all(n.split("="))]:
+        raise OptionError(f"names= takes OLD=NEW, got {quote(bad[0])}")
+    if output is not None and output != "-":  # refused before any work
+        check_target(output, force=force)
+    model = read_model(model, check=check_file_limits) if isinstance(model, (str, Path)) else model
+    r = reparametrize(model, names=dict((old.strip(), new.strip()) for old, new in (n.split("=") for n in names)),
+                      **options)
+    if output is not None and output != "-":
+        safe_write(output, r.to_toml(), force=force)
+    return r
