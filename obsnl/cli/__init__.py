@@ -12,6 +12,7 @@ import sys
 from collections.abc import Sequence
 
 from obsnl.cli.common import _names, _number, _One, _Parser, _whole, cli_terms
+from obsnl._text import os_error_line
 from obsnl.errors import ObsnlError
 from obsnl.model.reading.unknown_inputs import DERIVATIVES_MARGIN
 from obsnl.observability.limits import MAX_UNKNOWNS
@@ -148,8 +149,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except (ObsnlError, OSError) as exc:  # bad input, or the system's refusal (a name too long, a full disk)
-        from obsnl.report.files import os_error_line
-
         sub = parser._subparsers._group_actions[0].choices[args.command]  # type: ignore[union-attr]
         # the library names options as Python keywords (a result's reason too): this command's flags instead
         line = cli_terms(str(exc), sub) if isinstance(exc, ObsnlError) else os_error_line(exc)

@@ -23,10 +23,9 @@ import stat
 from collections.abc import Sequence
 from pathlib import Path
 
-from obsnl._text import quote, shorten
 from obsnl.errors import OutputError
 
-__all__ = ["check_target", "check_folder", "safe_write", "OutputFolder", "os_error_line"]
+__all__ = ["check_target", "check_folder", "safe_write", "OutputFolder"]
 
 _SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,120}$")
 
@@ -352,32 +351,3 @@ def safe_write(path: str | Path, text: str, *, force: bool, root: str | Path | N
         out.commit()
     return p
 
-
-#: What to do about the system's refusals that a user can fix (else: check the path).
-_OS_FIXES = {errno.ENAMETOOLONG: "use a file name of at most 255 bytes", errno.ENOSPC: "free some space or write "
-             "elsewhere", errno.EROFS: "write to a writable file system", errno.EACCES: "choose a path you may use",
-             errno.EPERM: "choose a path you may use", errno.EISDIR: "name a file, not a folder",
-             errno.ENOTDIR: "a part of the path is a file, not a folder"}
-
-
-def os_error_line(exc: OSError) -> str:
-    """One line for a refusal of the operating system: the path (shortened), the system's reason and the fix.
-
-    Parameters
-    ----------
-    exc : OSError
-        A name too long, a missing folder, no permission, a full disk.
-
-    Returns
-    -------
-    str
-        ``"cannot use 'PATH': REASON; FIX"``.
-
-    Examples
-    --------
-    >>> os_error_line(OSError(errno.ENOSPC, "No space left on device", "out.md"))
-    "cannot use 'out.md': No space left on device; free some space or write elsewhere"
-    """
-    where = f" {quote(str(exc.filename), 100)}" if exc.filename is not None else ""
-    why = exc.strerror or shorten(str(exc) or type(exc).__name__, 200)
-    return f"cannot use{where}: {why}; {_OS_FIXES.get(exc.errno or 0, 'check the path')}"

@@ -24,8 +24,8 @@ from typing import Any
 from obsnl._text import quote
 from obsnl.errors import OptionError
 
-__all__ = ["identify_job", "reproduce_job", "bank_job", "reparametrize_job", "tuning_from", "noise_ratios", "TUNING_DEFAULTS",
-           "DEFAULT_FOLDER", "QUICK_FOLDER"]
+__all__ = ["identify_job", "reproduce_job", "bank_job", "reparametrize_job", "tuning_from", "noise_ratios",
+           "TUNING_DEFAULTS", "DEFAULT_FOLDER", "QUICK_FOLDER"]
 
 #: The tuning of a parameter not given when the others are: prior std of log-parameters, their random
 #: walk, the factor on the state noise, the innovation gate (off).
