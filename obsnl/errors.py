@@ -74,7 +74,7 @@ class OutputError(ObsnlError, OSError):
 _KEYWORD = re.compile(r"(?<![\w.'\"-])([a-z][a-z0-9_]*)=(?:(True|False)\b|'([^'\s]*)')?")
 
 
-def in_terms(message: str, names: Mapping[str, tuple[str, bool]]) -> str:
+def in_terms(message: str, names: Mapping[str, tuple[str, bool | None]]) -> str:
     """``message`` with each option it names as a Python keyword renamed as another interface names it.
 
     Parameters
@@ -82,32 +82,34 @@ def in_terms(message: str, names: Mapping[str, tuple[str, bool]]) -> str:
     message : str
         A message, naming options as Python keywords (``allow_unidentifiable=True``, ``max_seconds=``,
         ``s0=0.1``, ``method='dukf'``, ``refine=False``).
-    names : mapping of str to (str, bool)
-        Each keyword's name in the interface (``--max-seconds``) and whether it is a switch (a flag without
-        a value, for True; ``no_NAME``, for NAME=False).
+    names : mapping of str to (str, bool or None)
+        Each keyword's name in the interface (``--max-seconds``) and, for a switch (given without a value),
+        the value it sets (``--no-refine`` sets ``refine`` to False); None for an option with a value.
 
     Returns
     -------
     str
-        ``name=True`` of a switch as its name alone, ``name=False`` as the ``no_`` switch or "without" the
-        switch, ``name=VALUE`` as ``NAME VALUE``, ``name=`` as ``NAME``; keywords not in ``names`` unchanged.
+        ``name=VALUE`` of a switch as its name when the switch sets VALUE, as the ``no_NAME`` switch that
+        sets True, else as "without" the switch; ``name=VALUE`` of another option as ``NAME VALUE``,
+        ``name=`` as ``NAME``; keywords not in ``names`` unchanged.
 
     Examples
     --------
-    >>> in_terms("pass allow_unidentifiable=True or raise max_seconds= (k=2 stays)",
-    ...          {"allow_unidentifiable": ("--allow-unidentifiable", True), "max_seconds": ("--max-seconds", False)})
-    'pass --allow-unidentifiable or raise --max-seconds (k=2 stays)'
+    >>> in_terms("pass allow_unidentifiable=True, refine=False or raise max_seconds= (k=2 stays)",
+    ...          {"allow_unidentifiable": ("--allow-unidentifiable", True), "refine": ("--no-refine", False),
+    ...           "max_seconds": ("--max-seconds", None)})
+    'pass --allow-unidentifiable, --no-refine or raise --max-seconds (k=2 stays)'
     """
 
     def rename(m: re.Match) -> str:
         name, switch, word = m.group(1), m.group(2), m.group(3)
-        if switch == "False" and names.get(f"no_{name}", ("", False))[1]:
+        if switch == "False" and names.get(f"no_{name}", ("", None))[1] is True:
             return names[f"no_{name}"][0]
         if name not in names:
             return m.group(0)
-        option, is_switch = names[name]
-        if switch and is_switch:
-            return option if switch == "True" else f"without {option}"
+        option, sets = names[name]
+        if switch and sets is not None:
+            return option if switch == str(sets) else f"without {option}"
         value = word if word is not None else (switch or "")
         follows = message[m.end():m.end() + 1]
         if not value and follows and not follows.isspace() and follows not in ",;:.)]`":

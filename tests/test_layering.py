@@ -202,7 +202,7 @@ def test_no_module_over_400_lines():
 #: Lines of the command line (obsnl/cli/*.py) at most: each command parses its options, calls one library
 #: function and prints its rendering; value checks, file workflows and renderings live in the library. Issue 25
 #: item 4 asks for fewer than 300; the option table (about 85 lines) is most of what is left. Only shrinks.
-CLI_MAX_LINES = 391
+CLI_MAX_LINES = 389
 
 
 def _cli_lines() -> int:

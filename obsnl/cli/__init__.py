@@ -48,7 +48,7 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
                  METHOD, _o("--seed", type=_whole(), help="default: drawn and reported"), SECONDS,
                  _o("--branches", type=_names, metavar="LABELS", help="only these branches (e.g. a,c)"),
                  _o("--record", metavar="FILE", help=f"only what the [values] visit under a record {RECORD}"),
-                 _o("--no-joint", action="store_true", help="skip the joint verdict"),
+                 _o("--no-joint", dest="joint", action="store_false", help="skip the joint verdict"),
                  _o("--unknown-input-derivatives", metavar="K|arbitrary", help="K non-zero derivatives; K is "
                     f"at most the model's states + parameters + {DERIVATIVES_MARGIN}"), *OUT]),
     "report": ("analyse models and write their branch tables (Markdown, LaTeX, JSON)", "Write DIR/<model>.md, "
@@ -75,7 +75,8 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
                   _o("--passes", type=_whole(1), default=3, help="passes over the record (default: 3)"),
                   _o("--allow-unidentifiable", action="store_true", help="run despite the structural verdict"),
                   _o("--hold", action="store_true", help="hold poorly informed parameters at their guess"),
-                  _o("--no-refine", action="store_true", help="skip the maximum-likelihood refinement"), SEED,
+                  _o("--no-refine", dest="refine", action="store_false", help="skip the maximum-likelihood refinement"),
+                  SEED,
                   *[_o(f, type=_number, help="default: tuned") for f in ("--s0", "--q-theta", "--q-x", "--gate")],
                   _o("--samples", type=_whole(2), help="only the first samples of a --record"),
                   _o("--jit", action="store_true", help="compile the filter to C (needs a C compiler)"),
@@ -92,7 +93,8 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
                    _o("--tuning-seeds", type=_whole(1), help="noise seeds of the tuning only (default: 5)"),
                    _o("--passes", type=_whole(1), help="passes of the refined protocol (default: 3)"),
                    _o("--samples", type=_whole(2), help="only the first samples of the record"),
-                   _o("--no-jit", action="store_true", help="do not compile the filters to C (slower runs)"),
+                   _o("--no-jit", dest="jit", action="store_const", const=False,
+                      help="do not compile the filters to C (slower runs)"),
                    _o("--replicates", type=_whole(), help="Monte-Carlo replicates per run (default: 32)"),
                    _o("--out", help="output folder (default: reports/identification)"), FORCE,
                    *EXECUTOR]),

@@ -97,5 +97,5 @@ def cli_terms(message: str, parser: argparse.ArgumentParser) -> str:
     """
     from obsnl.errors import in_terms
 
-    return in_terms(message, {a.dest: (a.option_strings[-1], a.nargs == 0) for a in parser._actions
-                              if a.option_strings and a.option_strings[-1].startswith("--")})
+    return in_terms(message, {a.dest: (a.option_strings[-1], a.const if a.nargs == 0 else None)
+                              for a in parser._actions if a.option_strings and a.option_strings[-1].startswith("--")})

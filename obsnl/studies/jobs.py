@@ -105,7 +105,8 @@ def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
 
 
 def identify_job(model: Any, *, data: str | None = None, record: str | None = None, guess: Sequence[str] = (),
-                 noise: Sequence[str] = (), tuning: Any = None, samples: int | None = None,
+                 noise: Sequence[str] = (), tuning: Any = None, s0: float | None = None, q_theta: float | None = None,
+                 q_x: float | None = None, gate: float | None = None, samples: int | None = None,
                  out: str | None = None, force: bool = False, **options: Any) -> tuple[Any, list[Path]]:
     """Identify a model from measured ``data`` or, as a simulation study, from its ``[values]`` under ``record``.
 
@@ -118,7 +119,9 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     guess, noise : sequence of str
         ``NAME=VALUE`` guesses; noise ratios as :func:`noise_ratios` reads them.
     tuning : Tuning or None
-        A fixed tuning (:func:`tuning_from`), or None to tune by the output misfit.
+        A fixed tuning, or None to tune by the output misfit.
+    s0, q_theta, q_x, gate : float or None
+        A tuning given in part instead (:func:`tuning_from`: :data:`TUNING_DEFAULTS` for the others).
     samples : int or None
         Use only the first samples of the study's record.
     out : str or None
@@ -141,6 +144,9 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     # messages name the options as Python keywords (``guess=``); the command line prints its flags for them
     if samples is not None and data:  # an option that would be ignored is refused, not dropped silently
         raise OptionError("samples= applies to a record= study; cut the data file instead")
+    if tuning is not None and (s0, q_theta, q_x, gate) != (None,) * 4:
+        raise OptionError("give tuning= or its parts (s0=, q_theta=, q_x=, gate=), not both")
+    tuning = tuning if tuning is not None else tuning_from(s0, q_theta, q_x, gate)
     if out:  # refused before any work: an output folder that cannot take the files
         from obsnl.report.files import check_folder
 
