@@ -1,17 +1,19 @@
 """Plain text shared by the one-line ``repr`` and the short ``summary()`` of every result value.
 
 Echoed values cut (:func:`quote`, :func:`shorten`: the one place every error message shortens what the user
-gave), name lists cut to a few, numbers short, a probability bound that never rounds a near-certainty up to 1,
-the joint verdict in words. Rank 0: it imports nothing of obsnl, so the result values of every room may
-use it; documents (Markdown, LaTeX, JSON, figures) are rendered in :mod:`obsnl.report`.
+gave), the one line of an operating system's refusal (:func:`os_error_line`), name lists cut to a few,
+numbers short, a probability bound that never rounds a near-certainty up to 1, the joint verdict in words.
+Rank 0: it imports nothing of obsnl, so the result values of every room may use it; documents (Markdown,
+LaTeX, JSON, figures) are rendered in :mod:`obsnl.report`.
 """
 
 from __future__ import annotations
 
+import errno
 from collections.abc import Callable, Iterable, Sequence
 
-__all__ = ["WIDTH", "LINES", "SHOWN", "shorten", "quote", "quoted", "names", "number", "numbers", "probability_text", "bound",
-           "one_line", "block", "verdict_words"]
+__all__ = ["WIDTH", "LINES", "SHOWN", "shorten", "quote", "quoted", "names", "number", "numbers", "probability_text",
+           "bound", "one_line", "block", "verdict_words", "os_error_line"]
 
 #: Characters of a one-line ``repr`` at most.
 WIDTH = 160
@@ -283,3 +285,32 @@ def verdict_words(observable: Sequence[str], unobservable: Sequence[str], undeci
         parts.append(f"undecided: {names(undecided, most, name=name)}")
     return "; ".join(parts)
 
+
+#: What to do about the system's refusals that a user can fix (else: check the path).
+_OS_FIXES = {errno.ENAMETOOLONG: "use a file name of at most 255 bytes", errno.ENOSPC: "free some space or write "
+             "elsewhere", errno.EROFS: "write to a writable file system", errno.EACCES: "choose a path you may use",
+             errno.EPERM: "choose a path you may use", errno.EISDIR: "name a file, not a folder",
+             errno.ENOTDIR: "a part of the path is a file, not a folder"}
+
+
+def os_error_line(exc: OSError) -> str:
+    """One line for a refusal of the operating system: the path (shortened), the system's reason and the fix.
+
+    Parameters
+    ----------
+    exc : OSError
+        A name too long, a missing folder, no permission, a full disk.
+
+    Returns
+    -------
+    str
+        ``"cannot use 'PATH': REASON; FIX"``.
+
+    Examples
+    --------
+    >>> os_error_line(OSError(errno.ENOSPC, "No space left on device", "out.md"))
+    "cannot use 'out.md': No space left on device; free some space or write elsewhere"
+    """
+    where = f" {quote(str(exc.filename), 100)}" if exc.filename is not None else ""
+    why = exc.strerror or shorten(str(exc) or type(exc).__name__, 200)
+    return f"cannot use{where}: {why}; {_OS_FIXES.get(exc.errno or 0, 'check the path')}"

@@ -2,10 +2,15 @@
 
 Every error raised for bad user input is an :class:`ObsnlError`; each subclass also
 derives from the matching built-in exception so that ``except ValueError`` keeps working.
-Messages name the culprit and the fix.
+Messages name the culprit and the fix, and an option by its Python keyword (``max_seconds=``,
+``allow_unidentifiable=True``): :func:`in_terms` renames those for an interface with other names (the command
+line's flags).
 """
 
 from __future__ import annotations
+
+import re
+from collections.abc import Mapping
 
 __all__ = [
     "ObsnlError",
@@ -18,6 +23,7 @@ __all__ = [
     "EstimatorError",
     "OptionError",
     "OutputError",
+    "in_terms",
 ]
 
 
@@ -61,3 +67,53 @@ class OptionError(ObsnlError, ValueError):
 class OutputError(ObsnlError, OSError):
     """Output cannot be written as asked: the file exists (pass ``--force``), a name is not a plain file
     name, a path would leave the folder the user named, a symlink would be followed."""
+
+
+#: An option as messages name it: a Python keyword ``name=`` with an optional value (``True``, ``False``, a
+#: quoted word or any other text that follows without a space).
+_KEYWORD = re.compile(r"(?<![\w.'\"-])([a-z][a-z0-9_]*)=(?:(True|False)\b|'([^'\s]*)')?")
+
+
+def in_terms(message: str, names: Mapping[str, tuple[str, bool | None]]) -> str:
+    """``message`` with each option it names as a Python keyword renamed as another interface names it.
+
+    Parameters
+    ----------
+    message : str
+        A message, naming options as Python keywords (``allow_unidentifiable=True``, ``max_seconds=``,
+        ``s0=0.1``, ``method='dukf'``, ``refine=False``).
+    names : mapping of str to (str, bool or None)
+        Each keyword's name in the interface (``--max-seconds``) and, for a switch (given without a value),
+        the value it sets (``--no-refine`` sets ``refine`` to False); None for an option with a value.
+
+    Returns
+    -------
+    str
+        ``name=VALUE`` of a switch as its name when the switch sets VALUE, as the ``no_NAME`` switch that
+        sets True, else as "without" the switch; ``name=VALUE`` of another option as ``NAME VALUE``,
+        ``name=`` as ``NAME``; keywords not in ``names`` unchanged.
+
+    Examples
+    --------
+    >>> in_terms("pass allow_unidentifiable=True, refine=False or raise max_seconds= (k=2 stays)",
+    ...          {"allow_unidentifiable": ("--allow-unidentifiable", True), "refine": ("--no-refine", False),
+    ...           "max_seconds": ("--max-seconds", None)})
+    'pass --allow-unidentifiable, --no-refine or raise --max-seconds (k=2 stays)'
+    """
+
+    def rename(m: re.Match) -> str:
+        name, switch, word = m.group(1), m.group(2), m.group(3)
+        if switch == "False" and names.get(f"no_{name}", ("", None))[1] is True:
+            return names[f"no_{name}"][0]
+        if name not in names:
+            return m.group(0)
+        option, sets = names[name]
+        if switch and sets is not None:
+            return option if switch == str(sets) else f"without {option}"
+        value = word if word is not None else (switch or "")
+        follows = message[m.end():m.end() + 1]
+        if not value and follows and not follows.isspace() and follows not in ",;:.)]`":
+            return f"{option} "  # name=3 -> --name 3
+        return f"{option} {value}" if value else option
+
+    return _KEYWORD.sub(rename, message)

@@ -61,6 +61,9 @@ class Executor:
     workers: int | None = None
 
     def __post_init__(self) -> None:
+        if isinstance(self.workers, int) and self.workers > MAX_WORKERS:  # a pool too large: why, and what instead
+            raise OptionError(f"workers={quote(self.workers, 30)} is more than {MAX_WORKERS}: each is a process of its "
+                              f"own (from 1 to {MAX_WORKERS}); a larger pool is a Dask cluster (scheduler=)")
         if self.workers is not None and (not isinstance(self.workers, int) or not 1 <= self.workers <= MAX_WORKERS):
             raise OptionError(f"workers must be a whole number from 1 to {MAX_WORKERS} or None (one per core), got "
                               f"{quote(self.workers, 30)}; a larger pool is a Dask cluster (scheduler=)")

@@ -7,7 +7,6 @@ end in a correct answer or a one-line refusal within seconds.
 
 from __future__ import annotations
 
-import argparse
 import json
 import time
 from pathlib import Path
@@ -222,21 +221,27 @@ def test_9_a_ten_thousand_digit_rational_is_refused_in_one_line(tmp_path, capsys
 
 
 @pytest.mark.parametrize("option, text, words", [
-    ("_replicates", "100000000", "more than 10000"),  # a MemoryError after 13 s
-    ("_replicates", "0", None),
-    ("_passes", "0", ">= 1"),
-    ("_passes", "101", "more than 100"),  # unbounded
-    ("_passes", "100", None),
+    ("replicates", "100000000", "more than 10000"),  # a MemoryError after 13 s
+    ("replicates", "0", None),
+    ("passes", "0", ">= 1"),
+    ("passes", "101", "more than 100"),  # unbounded
+    ("passes", "100", None),
 ])
-def test_9_replicates_and_passes_are_bounded_up_front(option, text, words):
-    from obsnl.cli import common
+def test_9_replicates_and_passes_are_bounded_up_front(tmp_path, capsys, option, text, words):
+    """The library's checks (the same refusal from Python), and the command line before any work."""
+    from obsnl.errors import OptionError
+    from obsnl.identification.replicates import check_passes, check_replicates
 
-    parse = getattr(common, option)
+    check = {"replicates": check_replicates, "passes": check_passes}[option]
     if words is None:
-        assert parse(text) == int(text)
+        assert check(int(text)) == int(text)
         return
-    with pytest.raises(argparse.ArgumentTypeError, match=words):
-        parse(text)
+    with pytest.raises(OptionError, match=words.replace(">= 1", "at least 1")):
+        check(int(text))
+    code, _, err = run(capsys, "reproduce", "--out", str(tmp_path / "never"), f"--{option}={text}")
+    assert "Traceback" not in err
+    one_line_refusal(code, err.splitlines()[-1], words, f"--{option}")  # after argparse's usage lines, if any
+    assert not (tmp_path / "never").exists()
 
 
 # ----------------------------------------------------------------------------- 10 heavy work before a refusal

@@ -20,7 +20,7 @@ import numpy as np
 
 from obsnl._text import quote
 from obsnl.errors import OptionError
-from obsnl.model.bounds.budget import time_budget
+from obsnl.model.bounds.budget import check_seconds, time_budget
 from obsnl.model.core import Model
 from obsnl.model.files import read_model
 from obsnl.observability.analyze import analyze
@@ -37,6 +37,15 @@ __all__ = ["one_input_record", "record_visits", "analyze_file", "sensors_file", 
 def _model(model: Model | str | Path) -> Model:
     """``model``, or the model file at that path read with its size checked first."""
     return model if isinstance(model, Model) else read_model(model, check=check_file_limits)
+
+
+def _check_output(output: str | Path | None, force: bool) -> None:
+    """Refuse, before any work, a file the caller is to write the rendering to that cannot be written
+    (None or ``"-"``: standard output)."""
+    if output and output != "-":
+        from obsnl.report.files import check_target
+
+        check_target(output, force=force)
 
 
 #: How the file jobs name their record option in messages: as the Python keyword, which the command line prints as
@@ -97,7 +106,8 @@ def record_visits(model: Model, record: Record) -> Visits:
 
 def analyze_file(model: Model | str | Path, *, record: str | Path | None = None, method: str = "auto",
                  seed: int | None = None, max_seconds: float | None = None, branches: Sequence[str] | None = None,
-                 joint: bool = True, unknown_input_derivatives: int | str | None = None) -> AnalysisResult:
+                 joint: bool = True, unknown_input_derivatives: int | str | None = None,
+                 output: str | Path | None = None, force: bool = False) -> AnalysisResult:
     """Analyse a model file, optionally only what one record visits, all within one time budget.
 
     Parameters
@@ -120,6 +130,11 @@ def analyze_file(model: Model | str | Path, *, record: str | Path | None = None,
     max_seconds : float or None
         Time limit of the whole job: reading and factoring the model, the record's simulation, the
         split into branches and the analysis.
+    output : str, Path or None
+        The file the caller will write the rendering to: refused before any work when it cannot be
+        written (None or ``"-"``: standard output).
+    force : bool
+        Whether ``output`` may be overwritten.
 
     Returns
     -------
@@ -131,6 +146,7 @@ def analyze_file(model: Model | str | Path, *, record: str | Path | None = None,
     AnalysisError
         A model too large for the engines (before any work) or out of memory.
     """
+    _check_output(output, force)
     with time_budget(max_seconds):
         model = _model(model)
         k = check_analysis_limits(model, unknown_input_derivatives, option="unknown_input_derivatives=")  # before the simulation
@@ -146,7 +162,8 @@ def analyze_file(model: Model | str | Path, *, record: str | Path | None = None,
 
 
 def sensors_file(model: Model | str | Path, *, record: str | Path | None = None, rank_size: int | None = None,
-                 noise: float | None = None, **search: Any) -> Any:
+                 noise: float | None = None, output: str | Path | None = None, force: bool = False,
+                 **search: Any) -> Any:
     """The minimal sensor sets of a model file, ranked along one record's response when one is given.
 
     Parameters
@@ -161,6 +178,8 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     noise : float or None
         Relative noise of every output for the ranking (std = ``noise`` x RMS), between 0 and 10 (None:
         0.01); only with a record.
+    output, force : str, Path or None, and bool
+        As for :func:`analyze_file`.
     **search : Any
         Passed to :func:`obsnl.design.sensors.sensors` (target, max_size, seed, max_seconds, executor,
         progress).
@@ -172,6 +191,8 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     """
     from obsnl.design.sensors import rank_sufficient_sets, sensors
 
+    _check_output(output, force)
+    check_seconds(search.get("max_seconds"))  # of each analysis: refused before the search starts
     if record is None and (rank_size is not None or noise is not None):  # would be ignored: refused, not dropped
         raise OptionError(f"the rank size and the noise level rank the sensor sets along a record: add {_RECORD}")
     if noise is not None and not (isinstance(noise, (int, float)) and 0.0 < noise < 10.0):
@@ -209,9 +230,10 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
     figure : str, Path or None
         A PNG file for the plot of the visited branches per scale (checked before any work, written after).
     output : str, Path or None
-        The file the caller will write the rendering to (only checked not to be ``figure``).
+        The file the caller will write the rendering to: refused before any work when it cannot be
+        written, or when it is ``figure``.
     force : bool
-        Overwrite ``figure``.
+        Overwrite ``figure`` (and ``output``).
     **options : Any
         Passed to :func:`obsnl.design.experiment.design` (target, sensors, scales, seed); ``scales`` may
         be comma-separated text (``"0.1,1,10"``).
@@ -225,6 +247,7 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
     from obsnl.report.experiment import plot_visits
     from obsnl.report.files import OutputFolder, check_target
 
+    _check_output(output, force)
     if not records:
         raise OptionError(f"give at least one {_RECORD} (.csv or .AT2)")
     if isinstance(options.get("scales"), str):  # "0.1,1,10"; what is not a positive number design refuses, quoted

@@ -26,6 +26,7 @@ from obsnl._progress import Progress
 from obsnl.errors import DataError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.experiments import Tuning
+from obsnl.identification.replicates import check_passes, check_replicates
 from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
 from obsnl.identification.simulation import simulation_study
 from obsnl.estimation.measured import MIN_SAMPLES, Measured, measured, read_measured
@@ -144,6 +145,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     ...
     obsnl.errors.AnalysisError: a, b of 'drift' are structurally unidentifiable from its outputs (the joint verdict); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` and identify NEW.toml, or pass allow_unidentifiable=True
     """
+    check_passes(passes)  # before any work
+    check_replicates(replicates)
     model = _model(model)
     ins, outs = [s.name for s in model.inputs], list(model.outputs)
     if isinstance(data, (str, Path)):
@@ -246,6 +249,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     >>> callable(study)
     True
     """
+    check_passes(passes)  # before any work
+    check_replicates(replicates)
     model = _model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"

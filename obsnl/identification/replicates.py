@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import quote
 from obsnl.errors import OptionError
 from obsnl.identification.experiments import Tuning, mc_replicates, mc_spread, mc_truth, monte_carlo
 from obsnl.identification.practical import Spread
@@ -24,7 +25,80 @@ from obsnl.identification.setup import Data, Setup, coordinates, make_filter
 from obsnl.estimation.ukf import UKF
 from obsnl.executor import Executor, built_once
 
-__all__ = ["Recipe", "recipe_of", "rebuild", "replicates_task", "spread_on"]
+__all__ = ["Recipe", "recipe_of", "rebuild", "replicates_task", "spread_on", "check_replicates", "check_passes",
+           "MAX_REPLICATES", "MAX_PASSES"]
+
+#: The most Monte-Carlo replicates and filter passes of one run (1e8 replicates: a MemoryError after 13 s).
+MAX_REPLICATES, MAX_PASSES = 10_000, 100
+
+
+def _count(value: object) -> bool:
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def check_replicates(replicates: int) -> int:
+    """The Monte-Carlo rule, in one place: 0 (off) or from 3 to :data:`MAX_REPLICATES` replicates.
+
+    Parameters
+    ----------
+    replicates : int
+        The number asked for.
+
+    Returns
+    -------
+    int
+        ``replicates``, checked.
+
+    Raises
+    ------
+    OptionError
+        Any other number (a spread of fewer than 3 replicates says nothing; each replicate is one more filter
+        run whose results are kept in memory).
+
+    Examples
+    --------
+    >>> check_replicates(0), check_replicates(32)
+    (0, 32)
+    """
+    if not _count(replicates) or replicates < 0 or 0 < replicates < 3:
+        raise OptionError(f"replicates= must be 0 (off) or at least 3, got {quote(replicates, 30)}")
+    if replicates > MAX_REPLICATES:
+        raise OptionError(f"replicates= {quote(replicates, 30)} is more than {MAX_REPLICATES}: each replicate is "
+                          "one more filter run whose results are kept in memory; a few hundred give a Monte-Carlo "
+                          "interval")
+    return replicates
+
+
+def check_passes(passes: int) -> int:
+    """The number of filter passes over a record: from 1 to :data:`MAX_PASSES`.
+
+    Parameters
+    ----------
+    passes : int
+        The number asked for.
+
+    Returns
+    -------
+    int
+        ``passes``, checked.
+
+    Raises
+    ------
+    OptionError
+        Any other number.
+
+    Examples
+    --------
+    >>> check_passes(3)
+    3
+    """
+    if not _count(passes) or passes < 1:
+        raise OptionError(f"passes= must be at least 1, got {quote(passes, 30)}")
+    if passes > MAX_PASSES:
+        raise OptionError(f"passes= {quote(passes, 30)} is more than {MAX_PASSES}: each pass is one more filter run "
+                          "over the whole record; the estimates settle within a few passes")
+    return passes
+
 
 #: Replicates per task (any split gives the same replicates; ``obsnl reproduce`` uses it too).
 CHUNK = 8

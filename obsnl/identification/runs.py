@@ -38,7 +38,7 @@ from obsnl.identification.experiments import Tuning, make_filter, run_passes
 from obsnl.identification.refine import Refinement, refine
 from obsnl.identification.practical import practical_identifiability
 from obsnl.identification.profile import Profile, judge, profiles
-from obsnl.identification.replicates import spread_on
+from obsnl.identification.replicates import check_passes, check_replicates, spread_on
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
 from obsnl.identification.setup import Data, Setup, coordinates, output_misfit
 from obsnl.observability.contract.branch_table import BranchTable
@@ -59,41 +59,12 @@ MEASURED_GRID: tuple[Tuning, ...] = (Tuning(0.3, 0.0, 1.0), Tuning(0.5, 0.0, 1.0
                                      Tuning(0.5, 0.0, 100.0))
 
 
-def check_replicates(replicates: int) -> int:
-    """The Monte-Carlo rule, in one place: 0 (off) or at least 3 replicates.
-
-    Parameters
-    ----------
-    replicates : int
-        The number asked for.
-
-    Returns
-    -------
-    int
-        ``replicates``, checked.
-
-    Raises
-    ------
-    OptionError
-        Any other number (a spread of fewer than 3 replicates says nothing).
-
-    Examples
-    --------
-    >>> check_replicates(0), check_replicates(32)
-    (0, 32)
-    """
-    if not isinstance(replicates, int) or isinstance(replicates, bool) or replicates < 0 or 0 < replicates < 3:
-        raise OptionError(f"replicates= must be 0 (off) or at least 3, got {replicates!r}")
-    return replicates
-
-
 def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, grid: Sequence[Tuning], passes: int,
          replicates: int, seed: int, progress: Callable[[], Any] | None, hold: bool = False,
          executor: Executor | None = None) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
     """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner."""
     check_replicates(replicates)
-    if passes < 1:
-        raise OptionError(f"passes= must be at least 1, got {passes}")
+    check_passes(passes)
     if method == "dukf" and table is None:
         raise OptionError("method='dukf' needs table= (a branch table: write one with "
                           "`obsnl analyze MODEL --format json-table`)")

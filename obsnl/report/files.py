@@ -350,3 +350,4 @@ def safe_write(path: str | Path, text: str, *, force: bool, root: str | Path | N
         out.write_text(p.name, text)
         out.commit()
     return p
+

@@ -14,7 +14,7 @@ from typing import Any
 
 from obsnl.report.sentences import probability_text
 
-__all__ = ["render_sensors"]
+__all__ = ["render_sensors", "undecided_line"]
 
 FORMATS = ("text", "json", "md", "tex")
 
@@ -169,3 +169,23 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
             lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
         return "\n".join(lines)
     raise ValueError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
+
+
+def undecided_line(search: Any) -> str | None:
+    """The one line that names the sensor sets a search left undecided, or None when it decided every set.
+
+    Parameters
+    ----------
+    search : SensorSearch
+        The result of :func:`obsnl.design.sensors.sensors`.
+
+    Returns
+    -------
+    str or None
+        ``"2 sensor set(s) undecided, e.g. {a, b}: REASON; raise max_seconds="``, or None.
+    """
+    if not (undecided := search.undecided_sets):
+        return None
+    first = search.answer(undecided[0])
+    return (f"{len(undecided)} sensor set(s) undecided, e.g. {{{', '.join(first.sensors)}}}: "
+            f"{first.reason or 'minimality undecided'}; raise max_seconds=")

@@ -8,6 +8,8 @@
   without ``force``; ``quick`` is :data:`~obsnl.studies.seed_paper.QUICK`, written by default into a
   fresh folder :data:`QUICK_FOLDER` of the current directory, never into the committed one.
 - :func:`bank_job`: the observer-bank benchmark into a folder.
+- :func:`reparametrize_job`: a model file written in identifiable combinations, the renamings given as
+  ``OLD=NEW`` texts.
 
 Every check runs before the first filter: a refusal is one message and no work.
 """
@@ -19,10 +21,11 @@ from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import Any
 
+from obsnl._text import quote
 from obsnl.errors import OptionError
 
-__all__ = ["identify_job", "reproduce_job", "bank_job", "tuning_from", "noise_ratios", "TUNING_DEFAULTS",
-           "DEFAULT_FOLDER", "QUICK_FOLDER"]
+__all__ = ["identify_job", "reproduce_job", "bank_job", "reparametrize_job", "tuning_from", "noise_ratios",
+           "TUNING_DEFAULTS", "DEFAULT_FOLDER", "QUICK_FOLDER"]
 
 #: The tuning of a parameter not given when the others are: prior std of log-parameters, their random
 #: walk, the factor on the state noise, the innovation gate (off).
@@ -102,7 +105,8 @@ def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
 
 
 def identify_job(model: Any, *, data: str | None = None, record: str | None = None, guess: Sequence[str] = (),
-                 noise: Sequence[str] = (), tuning: Any = None, samples: int | None = None,
+                 noise: Sequence[str] = (), tuning: Any = None, s0: float | None = None, q_theta: float | None = None,
+                 q_x: float | None = None, gate: float | None = None, samples: int | None = None,
                  out: str | None = None, force: bool = False, **options: Any) -> tuple[Any, list[Path]]:
     """Identify a model from measured ``data`` or, as a simulation study, from its ``[values]`` under ``record``.
 
@@ -115,7 +119,9 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     guess, noise : sequence of str
         ``NAME=VALUE`` guesses; noise ratios as :func:`noise_ratios` reads them.
     tuning : Tuning or None
-        A fixed tuning (:func:`tuning_from`), or None to tune by the output misfit.
+        A fixed tuning, or None to tune by the output misfit.
+    s0, q_theta, q_x, gate : float or None
+        A tuning given in part instead (:func:`tuning_from`: :data:`TUNING_DEFAULTS` for the others).
     samples : int or None
         Use only the first samples of the study's record.
     out : str or None
@@ -138,6 +144,9 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     # messages name the options as Python keywords (``guess=``); the command line prints its flags for them
     if samples is not None and data:  # an option that would be ignored is refused, not dropped silently
         raise OptionError("samples= applies to a record= study; cut the data file instead")
+    if tuning is not None and (s0, q_theta, q_x, gate) != (None,) * 4:
+        raise OptionError("give tuning= or its parts (s0=, q_theta=, q_x=, gate=), not both")
+    tuning = tuning if tuning is not None else tuning_from(s0, q_theta, q_x, gate)
     if out:  # refused before any work: an output folder that cannot take the files
         from obsnl.report.files import check_folder
 
@@ -183,7 +192,7 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
         The folder and the files written.
     """
     from obsnl.estimation.records import read_record
-    from obsnl.identification.runs import check_replicates
+    from obsnl.identification.replicates import check_passes, check_replicates
     from obsnl.report.files import check_folder
     from obsnl.studies import seed_paper, seed_reproduction
     from obsnl.studies.seed_experiment import seed_record
@@ -193,6 +202,8 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
         options = {**seed_paper.QUICK, **options}
     if "replicates" in options:
         check_replicates(options["replicates"])
+    if "passes" in options:
+        check_passes(options["passes"])
     rec = read_record(record) if record else None
     if rec is not None:  # a step that cannot be resampled to 100 Hz is refused before the bar starts
         seed_record(rec, options.get("samples"))
@@ -246,3 +257,43 @@ def bank_job(*, out: str | Path, model: str | Path | None = None, seeds: int = 3
     scenarios = ["healthy"] + [f"crack{c}" for c in check_bank_settings(spec)["crack_elements"]]
     check_bank_output(out, scenarios, force=force)
     return write_bank_report(run_link_study(seeds=seeds, spec=spec), out, force=force)
+
+
+def reparametrize_job(model: Any, *, names: Sequence[str] = (), output: str | Path | None = None, force: bool = False,
+                      **options: Any) -> Any:
+    """A model (file) written in identifiable combinations (:func:`obsnl.recombination.reparametrize.reparametrize`).
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file (read with its size checked before any expression is parsed).
+    names : sequence of str
+        ``OLD=NEW`` renamings of the proposed symbols.
+    output : str, Path or None
+        A file for the new model (TOML), checked before any work and never written over without ``force``;
+        None or ``"-"``: not written.
+    force : bool
+        Overwrite ``output``.
+    **options : Any
+        Passed to :func:`~obsnl.recombination.reparametrize.reparametrize` (keep, eliminate, seed, degree).
+
+    Returns
+    -------
+    Reparametrization
+        The proposal (:meth:`~obsnl.recombination.reparametrize.Reparametrization.to_toml` is the new model).
+    """
+    from obsnl.model.files import read_model
+    from obsnl.observability.limits import check_file_limits
+    from obsnl.recombination.reparametrize import reparametrize
+    from obsnl.report.files import check_target, safe_write
+
+    if bad := [n for n in names if not isinstance(n, str) or n.count("=") != 1 or not all(n.split("="))]:
+        raise OptionError(f"names= takes OLD=NEW, got {quote(bad[0])}")
+    if output is not None and output != "-":  # refused before any work
+        check_target(output, force=force)
+    model = read_model(model, check=check_file_limits) if isinstance(model, (str, Path)) else model
+    r = reparametrize(model, names=dict((old.strip(), new.strip()) for old, new in (n.split("=") for n in names)),
+                      **options)
+    if output is not None and output != "-":
+        safe_write(output, r.to_toml(), force=force)
+    return r

@@ -16,12 +16,42 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from contextvars import ContextVar
 
+from obsnl._text import quote
 from obsnl.errors import AnalysisError, OptionError
 
-__all__ = ["time_budget", "check_time", "remaining", "deadline", "past_deadline"]
+__all__ = ["time_budget", "check_seconds", "check_time", "remaining", "deadline", "past_deadline"]
 
 # (deadline on time.perf_counter, the seconds given): the innermost budget in force
 _BUDGET: ContextVar[tuple[float, float] | None] = ContextVar("obsnl_time_budget", default=None)
+
+
+def check_seconds(seconds: float | None) -> float | None:
+    """A time limit: None (no limit) or a positive finite number of seconds.
+
+    Parameters
+    ----------
+    seconds : float or None
+        The limit asked for.
+
+    Returns
+    -------
+    float or None
+        ``seconds``, checked.
+
+    Raises
+    ------
+    OptionError
+        Anything else (NaN, infinity, zero, a negative number, not a number).
+
+    Examples
+    --------
+    >>> check_seconds(2.5), check_seconds(None)
+    (2.5, None)
+    """
+    if seconds is not None and (isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not (
+            math.isfinite(seconds) and seconds > 0)):
+        raise OptionError(f"max_seconds= must be a positive finite number of seconds, got {quote(seconds, 30)}")
+    return seconds
 
 
 @contextmanager
@@ -49,9 +79,7 @@ def time_budget(seconds: float | None) -> Iterator[None]:
     if seconds is None:
         yield
         return
-    if isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not (
-            math.isfinite(seconds) and seconds > 0):
-        raise OptionError(f"max_seconds= must be a positive number of seconds, got {seconds!r}")
+    check_seconds(seconds)
     end = time.perf_counter() + float(seconds)
     outer = _BUDGET.get()
     token = _BUDGET.set(outer if outer is not None and outer[0] <= end else (end, float(seconds)))
