@@ -15,12 +15,15 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from obsnl.errors import TableError
 from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
 from obsnl._text import quoted
 from obsnl.model.bounds.textsize import quote, shorten
+
+if TYPE_CHECKING:  # the estimators read this module: the result class is named, not imported
+    from obsnl.observability.results import AnalysisResult
 
 __all__ = ["SCHEMA_ID", "BranchEntry", "BranchTable", "read_branch_table", "schema"]
 
@@ -272,7 +275,7 @@ class BranchTable:
         self.signature.check(other, fix=TABLE_FIX)
 
     @classmethod
-    def from_result(cls, result: Any) -> BranchTable:
+    def from_result(cls, result: AnalysisResult) -> BranchTable:
         """The branch table of an analysis result (:class:`~obsnl.observability.results.AnalysisResult`).
 
         The result must carry its model's signature and each branch's sign pattern (``obsnl.analyze``
