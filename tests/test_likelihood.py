@@ -88,6 +88,11 @@ def test_ml_estimate_equals_least_squares_on_the_exact_discretisation():
     s2 = float(np.sum((resid(ls.x) * sigma) ** 2)) / len(y)
     cov = s2 * np.linalg.inv(J.T @ J)
     assert ref.std == pytest.approx(np.sqrt(np.diag(cov))[:2], rel=1e-4)
+    # and the correlation of k and c (the initial state integrated out) is that covariance's; a diagonal change
+    # of coordinates (log|theta|) leaves a correlation as it is
+    R = ref.correlation()
+    assert R["k"]["k"] == pytest.approx(1.0) and R["c"]["k"] == R["k"]["c"]
+    assert R["k"]["c"] == pytest.approx(cov[0, 1] / math.sqrt(cov[0, 0] * cov[1, 1]), rel=1e-4, abs=1e-6)
 
 
 def test_one_output_is_reweighted_without_a_refit(monkeypatch):

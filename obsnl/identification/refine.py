@@ -70,6 +70,23 @@ class Refinement:
                      f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
                      f"RMS residual over the noise level: {names([f'{o} {number(v)}' for o, v in self.misfit.items()])}")
 
+    def correlation(self) -> dict[str, dict[str, float | None]]:
+        """The correlations of the estimated parameters (in log|theta|, at the estimate, the initial state
+        integrated out): ``None`` for a held parameter or one along a flat direction.
+
+        With the std, they give the joint (Wald) region: ``e' (D R D)^-1 e <= chi2(k, 0.95)`` for the errors
+        ``e`` of ``k`` parameters, ``D`` their std, ``R`` these correlations.
+        """
+        n = len(self.theta)
+        C = np.asarray(self.cov, float)[:n, :n]
+        d = np.sqrt(np.diag(C))
+        ok = np.isfinite(d) & (d > 0)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            R = C / np.outer(d, d)
+        ps = self._parameters()
+        return {p: {q: (round(float(R[i, j]), 6) if ok[i] and ok[j] else None) for j, q in enumerate(ps)}
+                for i, p in enumerate(ps)}
+
     def to_dict(self) -> dict[str, Any]:
         f = self.fit
         return {"method": "maximum likelihood (output error, single shooting; Levenberg-Marquardt with exact "
@@ -79,7 +96,8 @@ class Refinement:
                 "chi2": self.chi2, "samples": int(len(f.r)), "seconds": self.seconds,
                 "noise_std": {o: float(s) for o, s in zip(self.objective.setup.model.outputs, self.sigma)},
                 "misfit_over_noise": dict(self.misfit),
-                "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)}}
+                "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)},
+                "correlation": self.correlation()}
 
 
 def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
