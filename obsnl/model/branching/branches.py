@@ -30,20 +30,21 @@ import sympy as sp
 
 from obsnl.errors import AnalysisError, ModelError, NotSupportedError
 from obsnl.model.bounds.budget import check_time
-from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
+from obsnl.model.core import Model
 from obsnl.model.branching.feasibility import feasible
 from obsnl.model.bounds.work import can_expand, can_factor, same_up_to_sign
 from obsnl.model.reading.parse import shorten
 from obsnl.model.branching.switching import (
+    Switching,
     check_declared,
     expr_text,
-    innermost_nonsmooth,
-    resolve,
+    field_at,
     switching_functions,
-    switching_of,
+    switching_structure,
 )
 
-__all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of", "check_finite"]
+__all__ = ["Branch", "DroppedPattern", "split_branches", "split_by", "smooth_branch", "switching_functions",
+           "check_finite"]
 
 _MAX_SWITCHING = 12  # switching functions in all (nested ones included): 2**12 sign patterns at most
 _MAX_BRANCHES = 1024  # smooth branches in all
@@ -215,60 +216,52 @@ def split_branches(
     >>> [(b.label, b.guard_text) for b in split_branches(m)]
     [('a', 'v > 0'), ('b', 'v < 0')]
     """
-    rng = np.random.default_rng(seed)
-    exprs = list(model.rhs) + list(model.output_exprs)
-    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
+    return split_by(model, switching_structure(model), seed=seed, with_dropped=with_dropped,
+                    max_seconds=max_seconds, undecided=undecided)
+
+
+def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: bool = False,
+             max_seconds: float | None = None, undecided: bool = False
+             ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
+    """:func:`split_branches` of ``model`` whose outermost switching structure ``level``
+    (:func:`obsnl.model.branching.switching.switching_structure`) is already found."""
+    if not level.nodes:
         check_declared(model, ())
         branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
         return (branches, ()) if with_dropped else branches
     found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float], str]] = []
     dropped: list[DroppedPattern] = []
     deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
-    memo: dict = {"__deadline__": deadline, "__seen__": {}}
-    _split_level(exprs, model.switching, (), (), ({}, ""), rng, found, dropped, memo)
-    check_declared(model, tuple(memo["__seen__"]))
-    labels = _labels(len(found))
-    n_rhs = len(model.states)
+    seen: dict = {}
+    _split_level(level, model.switching, (), (), ({}, ""), np.random.default_rng(seed), found, dropped, seen,
+                 deadline)
+    check_declared(model, tuple(seen))
     branches = []
-    for label, (sw, signs, new_exprs, witness, why) in zip(labels, found):
+    for label, (sw, signs, new_exprs, witness, why) in zip(_labels(len(found)), found):
         if why and not undecided:
             dropped.append(DroppedPattern(sw, signs, why, proved=False))
             continue
-        if not why:  # an undecided branch is not analysed: a division by zero there may be in no point at all
-            check_finite(model, new_exprs, sw, signs)
-        eqs = dict(zip(model.states, new_exprs[:n_rhs]))
-        outs = dict(zip(model.output_names, new_exprs[n_rhs:]))
-        sub = derived_model(model, name=f"{model.name}[{label}]", equations=eqs, outputs=outs, switching=())
-        branches.append(Branch(label, sw, signs, sub, witness, undecided=why))
+        branches.append(smooth_branch(model, label, sw, signs, new_exprs, witness, undecided=why))
     result = tuple(branches)
     return (result, tuple(dropped)) if with_dropped else result
 
 
-def _split_level(
-    exprs: list[sp.Expr],
-    declared: Sequence[sp.Expr],
-    outer_sw: tuple[sp.Expr, ...],
-    outer_signs: tuple[int, ...],
-    witness: tuple[dict[str, float], str],
-    rng: np.random.Generator,
-    found: list,
-    dropped: list,
-    memo: dict,
-) -> None:
-    """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own."""
-    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
-        found.append((outer_sw, outer_signs, exprs, *witness))
+def _split_level(level: Switching, declared: Sequence[sp.Expr], outer_sw: tuple[sp.Expr, ...],
+                 outer_signs: tuple[int, ...], witness: tuple[dict[str, float], str], rng: np.random.Generator,
+                 found: list, dropped: list, seen: dict, deadline: float | None) -> None:
+    """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own;
+    ``seen`` collects every level's switching functions, in order."""
+    if not level.nodes:
+        found.append((outer_sw, outer_signs, list(level.exprs), *witness))
         return
-    sw = switching_of(exprs, declared, memo)
-    memo.setdefault("__seen__", {}).update(dict.fromkeys(sw))  # every level's functions, in order
+    sw = level.functions
+    seen.update(dict.fromkeys(sw))
     if len(outer_sw) + len(sw) > _MAX_SWITCHING:
         n = len(outer_sw) + len(sw)
         raise NotSupportedError(
             f"{n} switching functions{' (nested ones included)' if outer_sw else ''} ({2 ** n} sign patterns); "
             f"at most {_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
         )
-    nodes = innermost_nonsmooth(exprs)
-    deadline = memo.get("__deadline__")
     for signs in _gray(len(sw)):
         if deadline is not None and time.perf_counter() > deadline:
             raise AnalysisError("splitting the model into branches ran past the time limit; raise max_seconds= "
@@ -279,15 +272,26 @@ def _split_level(
                                     f"switching functions (e.g. tanh(v/eps) for sign(v))")
         all_sw = outer_sw + sw
         all_signs = outer_signs + signs
-        point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, memo)
+        point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, level.memo)
         if point is None and proved:
             dropped.append(DroppedPattern(all_sw, all_signs, reason))
             continue
-        repl = {node: resolve(node, sw, signs, memo) for node in nodes}
-        new_exprs = [e.xreplace(repl) for e in exprs]
+        inner = Switching.of(field_at(level, signs), declared, level.memo)
         # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
-        _split_level(new_exprs, declared, all_sw, all_signs, (point or {}, reason if point is None else ""),
-                     rng, found, dropped, memo)
+        _split_level(inner, declared, all_sw, all_signs, (point or {}, reason if point is None else ""),
+                     rng, found, dropped, seen, deadline)
+
+
+def smooth_branch(model: Model, label: str, switching: Sequence[sp.Expr], signs: Sequence[int],
+                  exprs: Sequence[sp.Expr], witness: Mapping[str, float], *, undecided: str = "") -> Branch:
+    """The branch of ``model`` where ``switching`` have ``signs``, ``exprs`` being its smooth right-hand sides, then
+    its outputs; a branch whose feasibility is decided is refused where it divides by zero (:func:`check_finite`)."""
+    if not undecided:  # an undecided branch is not analysed: a division by zero there may be in no point at all
+        check_finite(model, exprs, switching, signs)
+    n_rhs = len(model.states)
+    sub = derived_model(model, name=f"{model.name}[{label}]", equations=dict(zip(model.states, exprs[:n_rhs])),
+                        outputs=dict(zip(model.output_names, exprs[n_rhs:])), switching=())
+    return Branch(label, tuple(switching), tuple(signs), sub, witness, undecided=undecided)
 
 
 def check_finite(model: Model, exprs: Sequence[sp.Expr], switching: Sequence[sp.Expr], signs: Sequence[int]) -> None:
@@ -376,23 +380,3 @@ def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Br
             if not can_expand(fa - fb) or sp.cancel(sp.together((fa - fb).subs(*sol))) != 0:
                 return False
     return pairs > 0
-
-
-def branch_of(branches: Sequence[Branch], point: Mapping[str, float]) -> Branch | None:
-    """The branch containing ``point`` (None on a switching surface or outside every branch).
-
-    Parameters
-    ----------
-    branches : sequence of Branch
-        The model's branches.
-    point : mapping of str to float
-        Values of the symbols the switching functions use.
-
-    Returns
-    -------
-    Branch or None
-    """
-    for b in branches:
-        if b.contains(point):
-            return b
-    return None
