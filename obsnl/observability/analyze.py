@@ -23,25 +23,23 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
-from typing import Any
 
 from obsnl.model.bounds.budget import deadline as budget_deadline
 from obsnl.model.core import Model
 from obsnl.model.files import read_model
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text
-from obsnl.observability.joint.verdict import joint_verdict
+from obsnl.observability.joint.verdict import joint_verdict_of
 from obsnl.observability.certificates.certify import (
     certify_by_symmetry,
     undecided_beyond_visits,
 )
 from obsnl.observability.limits import limits_checked, out_of_memory
 from obsnl.observability.results import AnalysisResult
-from obsnl.observability.verdicts import BranchResult, Verdict
+from obsnl.observability.verdicts import BranchResult
 from obsnl.observability.joint.selection import select_branches
 from obsnl.observability.engines.inputs import METHODS, _check, _variable_names
-from obsnl.observability.engines.smooth import _branch_result, _fresh_seed
+from obsnl.observability.engines.smooth import _fresh_seed, branch_result
 
 __all__ = ["analyze", "assumptions", "METHODS"]
 
@@ -189,23 +187,18 @@ def _analyze(
     failure = 0.0
     factor_cache: dict = {}  # branches share their logarithm arguments (|sigma - eta| in the seed model)
     for b in chosen:
-        if b.undecided:  # reported as such, never silently dropped nor analysed as if it existed
-            results.append(_undecided_result(b, variables))
-            continue
-        if not per_branch:
-            continue
-        br, f = _branch_result(b.label, b.guard_text, b.model, variables, method=method, seed=seed,
-                               deadline=deadline, target=target, decompose=decompose,
-                               unknown_input_derivatives=unknown_input_derivatives,
-                               input_derivatives=input_derivatives, factor_cache=factor_cache)
-        results.append(replace(br, signs=tuple(b.signs)))
-        failure += f
+        if per_branch or b.undecided:  # an undecided one is reported as such, never silently dropped
+            br, f = branch_result(b, variables, method=method, seed=seed, deadline=deadline, target=target,
+                                  decompose=decompose, unknown_input_derivatives=unknown_input_derivatives,
+                                  input_derivatives=input_derivatives, factor_cache=factor_cache)
+            results.append(br)
+            failure += f
     verdict = None
     decided = [b for b in chosen if not b.undecided]
     if (joint or not per_branch) and decided:
         left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
-        verdict = joint_verdict(model, branches=decided, seed=seed, prob=prob, max_seconds=left,
-                                unknown_input_derivatives=unknown_input_derivatives)
+        verdict = joint_verdict_of(model, decided, seed=seed, prob=prob, max_seconds=left,
+                                   unknown_input_derivatives=unknown_input_derivatives)
         representatives = how.how == "representatives"
         if (representatives or len(decided) < len(chosen)) and verdict.unobservable:
             verdict = undecided_beyond_visits(verdict, how.note)  # a verdict about the model, not decided by the visits
@@ -229,14 +222,6 @@ def _analyze(
         visited=how,
         assumptions=assumptions(model, unknown_input_derivatives, input_derivatives),
     )
-
-
-def _undecided_result(b: Any, variables: tuple[str, ...]) -> BranchResult:
-    """The inconclusive result of a branch whose feasibility is undecided (:attr:`Branch.undecided`)."""
-    return BranchResult(label=b.label, guard=b.guard_text, observable=(), unobservable=(), absent=(), rank=0,
-                        size=len(variables), transcendence_degree=0, seconds=0.0, verdict=Verdict.INCONCLUSIVE,
-                        reason=f"not analysed, its feasibility is undecided: {b.undecided}", undecided=variables,
-                        signs=tuple(b.signs))
 
 
 def assumptions(model: Model, unknown_input_derivatives: int | str, input_derivatives: int | None) -> dict:

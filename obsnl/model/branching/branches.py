@@ -224,9 +224,9 @@ def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: boo
              max_seconds: float | None = None, undecided: bool = False
              ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
     """:func:`split_branches` of ``model`` whose outermost switching structure ``level``
-    (:func:`obsnl.model.branching.switching.switching_structure`) is already found."""
+    (:func:`obsnl.model.branching.switching.switching_structure`, which checks a flat model's declared switching
+    functions) is already found."""
     if not level.nodes:
-        check_declared(model, ())
         branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
         return (branches, ()) if with_dropped else branches
     found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float], str]] = []
@@ -235,7 +235,8 @@ def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: boo
     seen: dict = {}
     _split_level(level, model.switching, (), (), ({}, ""), np.random.default_rng(seed), found, dropped, seen,
                  deadline)
-    check_declared(model, tuple(seen))
+    if level.nested:  # the declared functions may switch at an inner level only (a flat model's are checked)
+        check_declared(model, tuple(seen))
     branches = []
     for label, (sw, signs, new_exprs, witness, why) in zip(_labels(len(found)), found):
         if why and not undecided:

@@ -33,7 +33,7 @@ from obsnl.errors import NotSupportedError
 from obsnl.model.branching.branches import Branch, _gray, smooth_branch
 from obsnl.model.branching.feasibility import feasible
 from obsnl.model.core import Model
-from obsnl.model.branching.switching import Switching, check_declared, field_at, switching_structure
+from obsnl.model.branching.switching import Switching, field_at, switching_structure
 from obsnl.model.bounds.work import can_expand
 
 __all__ = ["Representatives", "switching_groups", "groups_of", "representative_branches", "representatives_of",
@@ -178,8 +178,7 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
     """:func:`representative_branches` of ``model`` whose switching structure ``level``
     (:func:`obsnl.model.branching.switching.switching_structure`) is already found."""
     rng = np.random.default_rng(seed)
-    sw, groups = level.functions, groups_of(level)
-    check_declared(model, sw)
+    sw, groups = level.functions, groups_of(level)  # not nested: its declared functions are checked
     big = [g for g in groups if len(g) > MAX_GROUP]
     if big:
         raise NotSupportedError(f"{len(big[0])} switching functions act on the same equations; at most "

@@ -250,8 +250,7 @@ class Switching:
 
     @functools.cached_property
     def members(self) -> tuple[tuple[int, ...], ...]:
-        """Per expression, the indices of the functions it switches on (found when first asked; only where
-        the level is not ``nested``: a nested function switches inside a branch, not on its own)."""
+        """Per expression, the indices of the functions it switches on (found when first asked; not nested)."""
         if self.nested:
             raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")
         index = {_canonical(f)[1]: j for j, f in enumerate(self.functions)}
@@ -261,6 +260,9 @@ class Switching:
 
 def switching_structure(model: Model) -> Switching:
     """The switching structure of the outermost level of ``model`` (no functions for a smooth model).
+
+    Where no non-smooth function is nested, these are all the model's switching functions, and a declared one
+    that is none of them is refused here (:func:`check_declared`); a split checks a nested model's.
 
     Examples
     --------
@@ -272,7 +274,10 @@ def switching_structure(model: Model) -> Switching:
     >>> switching_structure(m.replace(equations={"x": "-a*sign(x + Abs(y))", "y": "-y"})).nested
     True
     """
-    return Switching.of(list(model.rhs) + list(model.output_exprs), model.switching)
+    level = Switching.of(list(model.rhs) + list(model.output_exprs), model.switching)
+    if not level.nested:
+        check_declared(model, level.functions)
+    return level
 
 
 def check_declared(model: Model, found: Sequence[sp.Expr]) -> None:

@@ -16,11 +16,14 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
 
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import BlockOutcome, bound_sizes
 from obsnl.algebra.series import make_problem
 from obsnl.errors import ModelError
+from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY
 from obsnl.observability.engines.decompose import decompose as _decompose
@@ -174,6 +177,18 @@ def _branch_result(
         notes=tuple(notes),
     )
     return br, failure
+
+
+def branch_result(b: Branch, variables: Sequence[str], **options: Any) -> tuple[BranchResult, float]:
+    """The result of one branch of an analysis (:func:`_branch_result` with ``options``) and its failure bound; a
+    branch whose feasibility is undecided (:attr:`~obsnl.model.Branch.undecided`) is not analysed: inconclusive."""
+    if b.undecided:
+        return BranchResult(label=b.label, guard=b.guard_text, observable=(), unobservable=(), absent=(), rank=0,
+                            size=len(variables), transcendence_degree=0, seconds=0.0, verdict=Verdict.INCONCLUSIVE,
+                            reason=f"not analysed, its feasibility is undecided: {b.undecided}",
+                            undecided=tuple(variables), signs=tuple(b.signs)), 0.0
+    br, failure = _branch_result(b.label, b.guard_text, b.model, variables, **options)
+    return replace(br, signs=tuple(b.signs)), failure
 
 
 def _fresh_seed(seed: int | None) -> int:

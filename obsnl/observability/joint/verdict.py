@@ -66,7 +66,7 @@ from obsnl.observability.joint.visits import (
     replace_visit, strip_ic, surface_visit,
 )
 
-__all__ = ["JointVisit", "joint_verdict"]
+__all__ = ["JointVisit", "joint_verdict", "joint_verdict_of"]
 
 _MAX_RUNS = 4
 _MAX_PRIMES = 4
@@ -235,9 +235,17 @@ def joint_verdict(
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
     if not model.outputs:
         raise AnalysisError(f"model {model.name!r} has no outputs; nothing is observable")
+    return joint_verdict_of(model, _select(model, branches), seed=seed, prob=prob, max_seconds=max_seconds,
+                            unknown_input_derivatives=unknown_input_derivatives)
+
+
+def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob: float, max_seconds: float | None,
+                     unknown_input_derivatives: int | str) -> JointResult:
+    """:func:`joint_verdict` over the branches ``chosen`` (:class:`~obsnl.model.Branch` values), the model and the
+    options checked already (as :func:`obsnl.analyze` checks them before it chooses the branches)."""
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
-    chosen = _select(model, branches)
+    chosen = list(chosen)
     if not chosen:
         raise AnalysisError("no branch to visit")
     cache: dict[tuple[int, bool], Prepared] = {}
