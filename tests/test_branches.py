@@ -8,7 +8,8 @@ import sympy as sp
 
 import obsnl
 from obsnl import Model
-from obsnl.model.branching.branches import field_jumps, split_branches, switching_functions
+from obsnl.model.branching.branches import split_branches, switching_functions
+from obsnl.model.branching.jumps import field_jumps
 from obsnl.model.core import NONSMOOTH_FUNCTIONS
 
 from .conftest import MODEL_FILES, MODELS

@@ -20,10 +20,10 @@ import copy
 import dataclasses
 import string
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import sympy as sp
@@ -32,7 +32,6 @@ from obsnl.errors import AnalysisError, ModelError, NotSupportedError
 from obsnl.model.bounds.budget import check_time
 from obsnl.model.core import Model
 from obsnl.model.branching.feasibility import feasible
-from obsnl.model.bounds.work import can_expand, can_factor, same_up_to_sign
 from obsnl.model.reading.parse import shorten
 from obsnl.model.branching.switching import (
     Switching,
@@ -43,8 +42,8 @@ from obsnl.model.branching.switching import (
     switching_structure,
 )
 
-__all__ = ["Branch", "DroppedPattern", "split_branches", "split_by", "smooth_branch", "switching_functions",
-           "check_finite"]
+__all__ = ["Branch", "DroppedPattern", "Side", "split_branches", "split_by", "sides_of", "smooth_branch",
+           "switching_functions", "check_finite"]
 
 _MAX_SWITCHING = 12  # switching functions in all (nested ones included): 2**12 sign patterns at most
 _MAX_BRANCHES = 1024  # smooth branches in all
@@ -229,41 +228,68 @@ def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: boo
     if not level.nodes:
         branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
         return (branches, ()) if with_dropped else branches
-    found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float], str]] = []
-    dropped: list[DroppedPattern] = []
     deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
-    seen: dict = {}
-    _split_level(level, model.switching, (), (), ({}, ""), np.random.default_rng(seed), found, dropped, seen,
-                 deadline)
+    found, dropped, seen = sides_of(level, None, np.random.default_rng(seed), deadline=deadline)
     if level.nested:  # the declared functions may switch at an inner level only (a flat model's are checked)
-        check_declared(model, tuple(seen))
+        check_declared(model, seen)
     branches = []
-    for label, (sw, signs, new_exprs, witness, why) in zip(_labels(len(found)), found):
-        if why and not undecided:
-            dropped.append(DroppedPattern(sw, signs, why, proved=False))
+    for label, side in zip(_labels(len(found)), found):
+        if side.undecided and not undecided:
+            dropped.append(DroppedPattern(side.switching, side.signs, side.undecided, proved=False))
             continue
-        branches.append(smooth_branch(model, label, sw, signs, new_exprs, witness, undecided=why))
+        branches.append(smooth_branch(model, label, side.switching, side.signs, side.exprs, side.witness,
+                                      undecided=side.undecided))
     result = tuple(branches)
     return (result, tuple(dropped)) if with_dropped else result
 
 
-def _split_level(level: Switching, declared: Sequence[sp.Expr], outer_sw: tuple[sp.Expr, ...],
-                 outer_signs: tuple[int, ...], witness: tuple[dict[str, float], str], rng: np.random.Generator,
-                 found: list, dropped: list, seen: dict, deadline: float | None) -> None:
+class Side(NamedTuple):
+    """One side of the switching surfaces that a sign pattern holds on, with its smooth field."""
+
+    switching: tuple[sp.Expr, ...]  # every level's switching functions
+    signs: tuple[int, ...]
+    exprs: list[sp.Expr]  # the smooth right-hand sides, then outputs
+    witness: dict[str, float]
+    undecided: str  # why its feasibility is not decided ("" when a witness was found)
+
+
+def sides_of(level: Switching, patterns: Iterable[tuple[int, ...]] | None, rng: np.random.Generator, *,
+             deadline: float | None = None) -> tuple[list[Side], list[DroppedPattern], tuple[sp.Expr, ...]]:
+    """The sides of ``level``'s sign ``patterns`` (None: every pattern, in Gray-code order), nested non-smooth
+    functions resolved level by level; the patterns with no point; every level's switching functions, in order.
+
+    Raises
+    ------
+    NotSupportedError
+        Every pattern of more than 12 switching functions in all, more than 1024 sides.
+    AnalysisError
+        Past ``deadline`` (or a :func:`obsnl.model.bounds.budget.time_budget`).
+    """
+    found: list[Side] = []
+    dropped: list[DroppedPattern] = []
+    seen: dict = {}
+    _split_level(level, (), (), ({}, ""), rng, found, dropped, seen, deadline, patterns)
+    return found, dropped, tuple(seen)
+
+
+def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: tuple[int, ...],
+                 witness: tuple[dict[str, float], str], rng: np.random.Generator, found: list[Side],
+                 dropped: list[DroppedPattern], seen: dict, deadline: float | None,
+                 patterns: Iterable[tuple[int, ...]] | None = None) -> None:
     """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own;
     ``seen`` collects every level's switching functions, in order."""
     if not level.nodes:
-        found.append((outer_sw, outer_signs, list(level.exprs), *witness))
+        found.append(Side(outer_sw, outer_signs, list(level.exprs), *witness))
         return
     sw = level.functions
     seen.update(dict.fromkeys(sw))
-    if len(outer_sw) + len(sw) > _MAX_SWITCHING:
+    if patterns is None and len(outer_sw) + len(sw) > _MAX_SWITCHING:
         n = len(outer_sw) + len(sw)
         raise NotSupportedError(
             f"{n} switching functions{' (nested ones included)' if outer_sw else ''} ({2 ** n} sign patterns); "
             f"at most {_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
         )
-    for signs in _gray(len(sw)):
+    for signs in _gray(len(sw)) if patterns is None else patterns:
         if deadline is not None and time.perf_counter() > deadline:
             raise AnalysisError("splitting the model into branches ran past the time limit; raise max_seconds= "
                                 "or smooth some switching functions")
@@ -272,15 +298,15 @@ def _split_level(level: Switching, declared: Sequence[sp.Expr], outer_sw: tuple[
             raise NotSupportedError(f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
                                     f"switching functions (e.g. tanh(v/eps) for sign(v))")
         all_sw = outer_sw + sw
-        all_signs = outer_signs + signs
+        all_signs = outer_signs + tuple(signs)
         point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, level.memo)
         if point is None and proved:
             dropped.append(DroppedPattern(all_sw, all_signs, reason))
             continue
-        inner = Switching.of(field_at(level, signs), declared, level.memo)
+        inner = Switching.of(field_at(level, signs), level.declared, level.memo)
         # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
-        _split_level(inner, declared, all_sw, all_signs, (point or {}, reason if point is None else ""),
-                     rng, found, dropped, seen, deadline)
+        _split_level(inner, all_sw, all_signs, (point or {}, reason if point is None else ""), rng, found, dropped,
+                     seen, deadline)
 
 
 def smooth_branch(model: Model, label: str, switching: Sequence[sp.Expr], signs: Sequence[int],
@@ -319,65 +345,3 @@ def check_finite(model: Model, exprs: Sequence[sp.Expr], switching: Sequence[sp.
             where = " and ".join(f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(switching, signs))
             raise ModelError(f"{name}, {shorten(str(before))!r}, divides by zero where {where}; rewrite it so that "
                              f"it is finite on both sides of every switching surface")
-
-
-#: Above this many switching functions :func:`field_jumps` does not split the model (all may jump).
-_MAX_JUMP_CHECK = 6
-
-
-def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
-    """For each switching function ``g``: may the vector field jump where ``g`` crosses 0?
-
-    ``False`` only when it is proved continuous there: for every two branches whose sign patterns
-    differ in ``g`` alone, the difference of their vector fields vanishes identically on ``g = 0``
-    (``g`` solved for one of its states or parameters, then cancelled). Anything not proved, a
-    nested split, a switching function that cannot be solved, or a model with more than
-    ``_MAX_JUMP_CHECK`` switching functions (the check splits the model), counts as a jump. Used by the
-    discrete steps to refine only the substeps where the field really jumps (for the seed model
-    ``r - eta'``, where the healing term switches, but not ``x2``, where every switched term
-    carries a factor ``x2``).
-    """
-    switching = list(switching)
-    if len(switching) > _MAX_JUMP_CHECK:
-        return (True,) * len(switching)
-    try:
-        branches = split_branches(model)
-    except (ModelError, NotSupportedError):
-        return (True,) * len(switching)
-    if len(branches) < 2 or any(b.switching != branches[0].switching for b in branches):
-        return (True,) * len(switching)
-    sw = list(branches[0].switching)
-    by_signs = {b.signs: b for b in branches}
-    out = []
-    for g in switching:
-        j = next((i for i, s in enumerate(sw) if same_up_to_sign(s, g)), None)
-        out.append(True if j is None else not _continuous_across(g, j, by_signs, model))
-    return tuple(out)
-
-
-def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model) -> bool:
-    """Whether the branch fields on the two sides of ``g = 0`` (``g`` the ``j``-th switching
-    function) agree identically on ``g = 0`` for every pair of neighbouring branches."""
-    sol = None
-    if not can_factor(g):  # solving it could run for minutes: not proved continuous, counted as a jump
-        return False
-    for s in [s for s in list(model.states) + list(model.parameters) if s in g.free_symbols]:
-        try:
-            roots = sp.solve(g, s)
-        except NotImplementedError:  # pragma: no cover - sympy cannot solve it
-            continue
-        if len(roots) == 1:
-            sol = (s, roots[0])
-            break
-    if sol is None:
-        return False
-    pairs = 0
-    for signs, b in by_signs.items():
-        other = by_signs.get(signs[:j] + (-1,) + signs[j + 1:]) if signs[j] > 0 else None
-        if other is None:
-            continue
-        pairs += 1
-        for fa, fb in zip(b.model.rhs, other.model.rhs):
-            if not can_expand(fa - fb) or sp.cancel(sp.together((fa - fb).subs(*sol))) != 0:
-                return False
-    return pairs > 0

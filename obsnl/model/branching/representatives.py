@@ -23,17 +23,16 @@ reported as inconclusive.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
-from obsnl.model.branching.branches import Branch, _gray, smooth_branch
+from obsnl.model.branching.branches import Branch, _gray, sides_of, smooth_branch
 from obsnl.model.branching.feasibility import feasible
 from obsnl.model.core import Model
-from obsnl.model.branching.switching import Switching, field_at, switching_structure
+from obsnl.model.branching.switching import Switching, switching_structure
 from obsnl.model.bounds.work import can_expand
 
 __all__ = ["Representatives", "switching_groups", "groups_of", "representative_branches", "representatives_of",
@@ -205,22 +204,20 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
                 pattern[j] = s
             if tuple(pattern) != tuple(base):
                 candidates.append(tuple(pattern))
+    sides, dropped, _ = sides_of(level, candidates, rng)  # a pattern found undecided is not analysed
     branches: list[Branch] = []
     fields: dict[tuple, str] = {}
-    merged, infeasible, undecided = [], [], []
-    for signs in candidates:
-        witness, _, proved = feasible(list(zip(sw, signs)), rng, level.memo)
-        if witness is None:
-            (infeasible if proved else undecided).append(signs)
-            continue
-        new = tuple(_expanded(e) for e in field_at(level, signs))
+    merged = []
+    for side in (side for side in sides if not side.undecided):
+        new = tuple(_expanded(e) for e in side.exprs)
         if new in fields:  # the same field as a kept pattern's (checked finite there)
-            merged.append((fields[new], signs))
+            merged.append((fields[new], side.signs))
             continue
         fields[new] = f"r{len(branches)}"
-        branches.append(smooth_branch(model, fields[new], sw, signs, new, witness))
+        branches.append(smooth_branch(model, fields[new], sw, side.signs, new, side.witness))
     return Representatives(branches=tuple(branches), switching=sw, groups=groups, patterns=2 ** len(sw),
-                           merged=tuple(merged), infeasible=tuple(infeasible), undecided=tuple(undecided))
+                           merged=tuple(merged), infeasible=tuple(d.signs for d in dropped),
+                           undecided=tuple(side.signs for side in sides if side.undecided))
 
 
 def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, label: str | None = None) -> Branch:
@@ -266,8 +263,9 @@ def pattern_branch(model: Model, level: Switching, signs: tuple[int, ...], *, se
         raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")
     if len(signs) != len(sw) or any(s not in (1, -1) for s in signs):
         raise NotSupportedError(f"a sign pattern needs {len(sw)} signs of +1 or -1, got {signs!r}")
-    witness, reason, _ = feasible(list(zip(sw, signs)), np.random.default_rng(seed), level.memo)
-    if witness is None:
-        raise NotSupportedError(f"the sign pattern {signs} is infeasible ({reason})")
+    sides, dropped, _ = sides_of(level, [tuple(signs)], np.random.default_rng(seed))
+    if dropped or sides[0].undecided:
+        raise NotSupportedError(f"the sign pattern {signs} is infeasible "
+                                f"({dropped[0].reason if dropped else sides[0].undecided})")
     label = label or "".join("+" if s > 0 else "-" for s in signs)
-    return smooth_branch(model, label, sw, signs, [_expanded(e) for e in field_at(level, signs)], witness)
+    return smooth_branch(model, label, sw, signs, [_expanded(e) for e in sides[0].exprs], sides[0].witness)

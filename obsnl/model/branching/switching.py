@@ -23,10 +23,8 @@ from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.reading.parse import shorten
 from obsnl.model.bounds.work import can_factor
 
-__all__ = [
-    "Switching", "switching_structure", "expr_text", "switching_functions", "switching_of", "innermost_nonsmooth",
-    "resolve", "field_at", "check_declared",
-]
+__all__ = ["Switching", "switching_structure", "expr_text", "switching_functions", "switching_of",
+           "innermost_nonsmooth", "resolve", "field_at", "check_declared"]
 
 
 def expr_text(g: sp.Expr) -> str:
@@ -220,13 +218,15 @@ class Switching:
     Attributes
     ----------
     exprs
-        The expressions scanned (a model's right-hand sides, then its outputs).
+        The expressions scanned (right-hand sides, then outputs).
     functions
         The switching functions (:func:`switching_of`: declared ones first).
     nodes
         The innermost non-smooth applications (:func:`innermost_nonsmooth`), which a sign pattern resolves.
     nested
         Whether some non-smooth function has a non-smooth argument (a split resolves it level by level).
+    declared
+        The model's declared switching functions (their order holds at every level).
     memo
         The factorizations made, shared with the split and the feasibility search that follow.
     """
@@ -235,18 +235,19 @@ class Switching:
     functions: tuple[sp.Expr, ...]
     nodes: tuple[sp.Basic, ...]
     nested: bool
+    declared: tuple[sp.Expr, ...] = ()
     memo: dict = field(default_factory=dict, compare=False, repr=False)
 
     @staticmethod
     def of(exprs: Sequence[sp.Expr], declared: Sequence[sp.Expr], memo: dict | None = None) -> Switching:
         """The switching structure of ``exprs``, ``declared`` fixing the order of the functions."""
-        memo = {} if memo is None else memo
-        exprs = tuple(exprs)
+        exprs, declared, memo = tuple(exprs), tuple(declared), {} if memo is None else memo
         if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
-            return Switching(exprs, (), (), False, memo)
+            return Switching(exprs, (), (), False, declared, memo)
         nested = any(a.has(*NONSMOOTH_FUNCTIONS) for e in exprs for node in sp.preorder_traversal(e)
                      if isinstance(node, NONSMOOTH_FUNCTIONS) for a in _arguments(node))
-        return Switching(exprs, switching_of(exprs, declared, memo), tuple(innermost_nonsmooth(exprs)), nested, memo)
+        return Switching(exprs, switching_of(exprs, declared, memo), tuple(innermost_nonsmooth(exprs)), nested,
+                         declared, memo)
 
     @functools.cached_property
     def members(self) -> tuple[tuple[int, ...], ...]:
@@ -259,10 +260,9 @@ class Switching:
 
 
 def switching_structure(model: Model) -> Switching:
-    """The switching structure of the outermost level of ``model`` (no functions for a smooth model).
-
-    Where no non-smooth function is nested, these are all the model's switching functions, and a declared one
-    that is none of them is refused here (:func:`check_declared`); a split checks a nested model's.
+    """The switching structure of the outermost level of ``model`` (no functions for a smooth model); without
+    nested non-smooth functions these are all, and a declared one that is none of them is refused here
+    (:func:`check_declared`; a split checks a nested model's).
 
     Examples
     --------

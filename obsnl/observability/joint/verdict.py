@@ -60,9 +60,9 @@ from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.observability.limits import check_limits_once
 from obsnl.observability.joint.modular import kernel_rows
-from obsnl.observability.joint.result import JointResult
+from obsnl.observability.joint.result import JointResult, JointVisit
 from obsnl.observability.joint.visits import (
-    JointVisit, NewPrime, Plan, Prepared, VisitData, _Classes, branch_visit, classify_visit, private_names,
+    NewPrime, Plan, Prepared, VisitData, _Classes, branch_visit, certified, classify_visit,
     replace_visit, strip_ic, surface_visit,
 )
 
@@ -140,8 +140,7 @@ def _run_at(model: Model, plans: list[Plan], seed: int, run_no: int, attempt: in
                 early = True
                 break
     obs = classes.update(done, ech)
-    certified = _certified(done, p, n_par, states, params, ws, known)
-    return _Run(p, done, obs, certified, failure, ech.rank, early, union)
+    return _Run(p, done, obs, certified(done, p, n_par, states, params, ws, known), failure, ech.rank, early, union)
 
 
 # --------------------------------------------------------------------------- the verdict
@@ -358,26 +357,3 @@ def _decided(runs: list[_Run], prob: float, names: list[str], final: bool = Fals
     if not final and (pending or failure > 1 - prob) and len(runs) < _MAX_RUNS:
         return None
     return out, min(1.0, failure)
-
-
-def _certified(done: list[VisitData], p: int, n_par: int, states: list[str], params: list[str],
-               ws: list[str], known: set[str]) -> set[str]:
-    """Names certified by a full-column-rank sub-stack (see the module docstring)."""
-    S = []
-    for v in done:
-        if not v.used:
-            continue
-        n_priv = v.plan.sides[0].n_priv
-        rank_priv = sum(1 for i in range(v.rows.shape[0]) if v.rows[i, :n_priv].any())
-        if rank_priv == n_priv:
-            S.append(v)
-    e = Echelon(n_par, p)
-    for v in S:
-        for r in v.pi:
-            e.add(r)
-    if e.rank < n_par:
-        return set()
-    out = set(params) | known
-    for v in S:
-        out |= {c for c in private_names(v.plan.sides[0]) if c in states or c in ws}
-    return out
