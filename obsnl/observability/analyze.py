@@ -38,7 +38,7 @@ from obsnl.observability.limits import limits_checked, out_of_memory
 from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import BranchResult
 from obsnl.observability.joint.selection import select_branches
-from obsnl.observability.engines.inputs import METHODS, _check, _variable_names
+from obsnl.observability.engines.inputs import METHODS, _check
 from obsnl.observability.engines.smooth import _fresh_seed, branch_result
 
 __all__ = ["analyze", "assumptions", "METHODS"]
@@ -150,13 +150,14 @@ def analyze(
     """
     if isinstance(model, (str, os.PathLike)):  # a path is accepted wherever a model is, as identify does
         model = read_model(model)
-    # the options and the limits are checked, and the unknown-input assumption resolved, here once: the joint
-    # verdict and the symmetry certificates below do not check again (limits_checked)
-    unknown_input_derivatives = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives,
-                                       input_derivatives)
+    # the options and the limits are checked, the unknown-input assumption resolved and the variables named here
+    # once: the joint verdict and the symmetry certificates below do not check again (limits_checked)
+    unknown_input_derivatives, variables = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives,
+                                                  input_derivatives)
+    assumed = assumptions(model, unknown_input_derivatives, input_derivatives)
     try:
         with limits_checked():
-            return _analyze(model, method=method, seed=seed, max_seconds=max_seconds, prob=prob,
+            return _analyze(model, variables, assumed, method=method, seed=seed, max_seconds=max_seconds, prob=prob,
                             unknown_input_derivatives=unknown_input_derivatives,
                             input_derivatives=input_derivatives, decompose=decompose, branches=branches,
                             visited=visited, crossings=crossings, joint=joint, per_branch=per_branch)
@@ -166,23 +167,22 @@ def analyze(
 
 
 def _analyze(
-    model: Model, *, method: str, seed: int | None, max_seconds: float | None, prob: float,
-    unknown_input_derivatives: int | str, input_derivatives: int | None, decompose: bool,
-    branches: Sequence[str] | None, visited: Mapping[tuple[int, ...], float] | None,
+    model: Model, variables: tuple[str, ...], assumed: dict, *, method: str, seed: int | None,
+    max_seconds: float | None, prob: float, unknown_input_derivatives: int | str, input_derivatives: int | None,
+    decompose: bool, branches: Sequence[str] | None, visited: Mapping[tuple[int, ...], float] | None,
     crossings: Mapping[str, int] | None, joint: bool, per_branch: bool = True,
 ) -> AnalysisResult:
-    """The body of :func:`analyze`, its arguments checked and ``unknown_input_derivatives`` resolved."""
+    """The body of :func:`analyze`, its arguments checked (:func:`~obsnl.observability.engines.inputs._check`) and
+    what it assumes settled: the branches chosen once and handed down."""
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     outer = budget_deadline()  # a command's budget (obsnl.model.bounds.budget.time_budget), started before reading
     deadline = outer if deadline is None else deadline if outer is None else min(deadline, outer)
     seed = _fresh_seed(seed)
-    variables = _variable_names(model)
     # the split is bounded too, with a floor: a tiny limit still yields branches (each then inconclusive)
     chosen, how = select_branches(model, labels=branches, patterns=visited, crossings=crossings, seed=seed,
                                   max_seconds=None if max_seconds is None else max(float(max_seconds), 2.0))
-    n_blocks_guess = max(1, len(chosen))
-    target = (1 - prob) / n_blocks_guess
+    target = (1 - prob) / max(1, len(chosen))
     results: list[BranchResult] = []
     failure = 0.0
     factor_cache: dict = {}  # branches share their logarithm arguments (|sigma - eta| in the seed model)
@@ -220,7 +220,7 @@ def _analyze(
         signature=ModelSignature.of(model, switching=switching),
         joint=verdict,
         visited=how,
-        assumptions=assumptions(model, unknown_input_derivatives, input_derivatives),
+        assumptions=assumed,
     )
 
 

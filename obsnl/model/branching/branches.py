@@ -230,8 +230,6 @@ def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: boo
         return (branches, ()) if with_dropped else branches
     deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
     found, dropped, seen = sides_of(level, None, np.random.default_rng(seed), deadline=deadline)
-    if level.nested:  # the declared functions may switch at an inner level only (a flat model's are checked)
-        check_declared(model, seen)
     branches = []
     for label, side in zip(_labels(len(found)), found):
         if side.undecided and not undecided:
@@ -239,6 +237,8 @@ def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: boo
             continue
         branches.append(smooth_branch(model, label, side.switching, side.signs, side.exprs, side.witness,
                                       undecided=side.undecided))
+    if level.nested:  # the declared functions may switch at an inner level only (a flat model's are checked)
+        check_declared(model, seen)
     result = tuple(branches)
     return (result, tuple(dropped)) if with_dropped else result
 

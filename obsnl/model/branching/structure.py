@@ -1,8 +1,8 @@
 """The branches of a model, found once: its switching functions, then every feasible branch or, past
 :data:`ENUMERATE_UP_TO` switching functions, representative branches.
 
-:func:`branching` is what an analysis computes at its entry (:func:`obsnl.observability.joint.selection.select_branches`)
-and hands down: one :class:`Branching` value holds the switching structure
+:func:`branching` is what an analysis computes at its entry
+(:func:`obsnl.observability.joint.selection.select_branches`) and hands down: one :class:`Branching` value holds the switching structure
 (:class:`~obsnl.model.branching.switching.Switching`), the branches with their smooth models and, where they
 stand for the model's branches, the representatives. A sign pattern that was not enumerated is made from the
 same structure (:meth:`Branching.pattern`), without finding the switching functions again.

@@ -31,7 +31,7 @@ from obsnl.observability.limits import out_of_memory
 from obsnl.observability.engines.orc import orc_block
 from obsnl.observability.verdicts import BranchResult, Verdict
 from obsnl.observability.engines.sedoglavic import sedoglavic_block
-from obsnl.observability.engines.inputs import _check, _unknown_names, _variable_names, resolve_unknown_input_derivatives
+from obsnl.observability.engines.inputs import _check, _unknown_names
 
 __all__ = ["analyze_smooth", "orc", "sedoglavic"]
 
@@ -242,7 +242,7 @@ def analyze_smooth(
         When an option is invalid, the model has more unknowns than
         :data:`obsnl.observability.limits.MAX_UNKNOWNS`, or the analysis runs out of memory.
     """
-    _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
+    k, variables = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
     if not model.is_smooth:
         raise ModelError(
             f"model {model.name!r} is not smooth; use obsnl.observability.analyze (which splits it into branches) or "
@@ -250,9 +250,8 @@ def analyze_smooth(
         )
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
-    k = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
     try:
-        br, _ = _branch_result("smooth", "true", model, _variable_names(model), method=method,
+        br, _ = _branch_result("smooth", "true", model, variables, method=method,
                                seed=_fresh_seed(seed), deadline=deadline, target=1 - prob, decompose=decompose,
                                unknown_input_derivatives=k, input_derivatives=input_derivatives)
         return br
