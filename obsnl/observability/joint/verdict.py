@@ -63,7 +63,7 @@ from obsnl.observability.joint.modular import kernel_rows
 from obsnl.observability.joint.result import JointResult, JointVisit
 from obsnl.observability.joint.visits import (
     NewPrime, Plan, Prepared, VisitData, _Classes, branch_visit, certified, classify_visit,
-    replace_visit, strip_ic, surface_visit,
+    replace_visit, surface_visit,
 )
 
 __all__ = ["JointVisit", "joint_verdict", "joint_verdict_of"]
@@ -254,8 +254,7 @@ def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob:
         def make() -> Prepared:
             key = (i, free and bool(model.known_initial_conditions))
             if key not in cache:
-                bm = chosen[i].model
-                cache[key] = Prepared.of(strip_ic(bm) if key[1] else bm, unknown_input_derivatives)
+                cache[key] = Prepared.of(chosen[i].model, unknown_input_derivatives, free=key[1])
             return cache[key]
         return make
 

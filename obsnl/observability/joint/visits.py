@@ -34,7 +34,7 @@ from obsnl.observability.joint.modular import _mod, _rref, kernel_rows
 from obsnl.observability.joint.result import JointVisit
 
 __all__ = ["NewPrime", "Plan", "Prepared", "VisitData", "branch_visit", "certified", "classify_visit", "private_names",
-           "replace_visit", "strip_ic", "surface_visit"]
+           "replace_visit", "surface_visit"]
 
 
 # --------------------------------------------------------------------------- prepared problems
@@ -50,7 +50,10 @@ class Prepared:
     bound: dict[str, int]
 
     @staticmethod
-    def of(model: Model, unknown_input_derivatives: int) -> Prepared:
+    def of(model: Model, unknown_input_derivatives: int | str, *, free: bool = False) -> Prepared:
+        """``model``'s problem; ``free``: its known initial conditions dropped (a surface visit's states are free)."""
+        if free and model.known_initial_conditions:
+            model = derived_model(model, known_initial_conditions=(), initial_condition_values={})
         problem = make_problem(rationalize(model), unknown_input_derivatives=unknown_input_derivatives)
         col = {c: j for j, c in enumerate(problem.columns)}
         par = [col[s.name] for s in model.parameters]
@@ -124,12 +127,6 @@ def _unused(plan: Plan, model: Model, record: JointVisit) -> VisitData:
     """A surface visit that adds no rows (invisible, or skipped for the reason in ``record``)."""
     return VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
                      record, used=False)
-
-
-def strip_ic(model: Model) -> Model:
-    if not model.known_initial_conditions:
-        return model
-    return derived_model(model, known_initial_conditions=(), initial_condition_values={})
 
 
 def branch_visit(plan: Plan, p: int, shared: dict, atoms: dict, key: str, deadline: float | None) -> VisitData:
