@@ -254,27 +254,29 @@ class Side(NamedTuple):
 
 
 def sides_of(level: Switching, patterns: Iterable[tuple[int, ...]] | None, rng: np.random.Generator, *,
-             deadline: float | None = None) -> tuple[list[Side], list[DroppedPattern], tuple[sp.Expr, ...]]:
+             deadline: float | None = None, undecided: bool = True
+             ) -> tuple[list[Side], list[DroppedPattern], tuple[sp.Expr, ...]]:
     """The sides of ``level``'s sign ``patterns`` (None: every pattern, in Gray-code order), nested non-smooth
-    functions resolved level by level; the patterns with no point; every level's switching functions, in order.
+    functions resolved level by level; the patterns with no point (with those whose feasibility is undecided,
+    ``proved=False``, unless ``undecided``: then such a side is kept, marked); every level's switching functions.
 
     Raises
     ------
     NotSupportedError
-        Every pattern of more than 12 switching functions in all, more than 1024 sides.
+        Every pattern of more than 12 switching functions in all, or more than 1024 sides of them.
     AnalysisError
         Past ``deadline`` (or a :func:`obsnl.model.bounds.budget.time_budget`).
     """
     found: list[Side] = []
     dropped: list[DroppedPattern] = []
     seen: dict = {}
-    _split_level(level, (), (), ({}, ""), rng, found, dropped, seen, deadline, patterns)
+    _split_level(level, (), (), ({}, ""), rng, found, dropped, seen, deadline, undecided, patterns)
     return found, dropped, tuple(seen)
 
 
 def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: tuple[int, ...],
                  witness: tuple[dict[str, float], str], rng: np.random.Generator, found: list[Side],
-                 dropped: list[DroppedPattern], seen: dict, deadline: float | None,
+                 dropped: list[DroppedPattern], seen: dict, deadline: float | None, undecided: bool,
                  patterns: Iterable[tuple[int, ...]] | None = None) -> None:
     """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own;
     ``seen`` collects every level's switching functions, in order."""
@@ -294,19 +296,19 @@ def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: t
             raise AnalysisError("splitting the model into branches ran past the time limit; raise max_seconds= "
                                 "or smooth some switching functions")
         check_time("splitting the model into branches", "raise max_seconds= or smooth some switching functions")
-        if len(found) >= _MAX_BRANCHES:
+        if patterns is None and len(found) >= _MAX_BRANCHES:  # an enumeration (patterns asked for are all made)
             raise NotSupportedError(f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
                                     f"switching functions (e.g. tanh(v/eps) for sign(v))")
         all_sw = outer_sw + sw
         all_signs = outer_signs + tuple(signs)
         point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, level.memo)
-        if point is None and proved:
-            dropped.append(DroppedPattern(all_sw, all_signs, reason))
+        if point is None and (proved or not undecided):
+            dropped.append(DroppedPattern(all_sw, all_signs, reason, proved))
             continue
         inner = Switching.of(field_at(level, signs), level.declared, level.memo)
         # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
         _split_level(inner, all_sw, all_signs, (point or {}, reason if point is None else ""), rng, found, dropped,
-                     seen, deadline)
+                     seen, deadline, undecided)
 
 
 def smooth_branch(model: Model, label: str, switching: Sequence[sp.Expr], signs: Sequence[int],

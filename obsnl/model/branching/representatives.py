@@ -204,11 +204,11 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
                 pattern[j] = s
             if tuple(pattern) != tuple(base):
                 candidates.append(tuple(pattern))
-    sides, dropped, _ = sides_of(level, candidates, rng)  # a pattern found undecided is not analysed
+    sides, dropped, _ = sides_of(level, candidates, rng, undecided=False)  # an undecided pattern is not analysed
     branches: list[Branch] = []
     fields: dict[tuple, str] = {}
     merged = []
-    for side in (side for side in sides if not side.undecided):
+    for side in sides:
         new = tuple(_expanded(e) for e in side.exprs)
         if new in fields:  # the same field as a kept pattern's (checked finite there)
             merged.append((fields[new], side.signs))
@@ -216,8 +216,8 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
         fields[new] = f"r{len(branches)}"
         branches.append(smooth_branch(model, fields[new], sw, side.signs, new, side.witness))
     return Representatives(branches=tuple(branches), switching=sw, groups=groups, patterns=2 ** len(sw),
-                           merged=tuple(merged), infeasible=tuple(d.signs for d in dropped),
-                           undecided=tuple(side.signs for side in sides if side.undecided))
+                           merged=tuple(merged), infeasible=tuple(d.signs for d in dropped if d.proved),
+                           undecided=tuple(d.signs for d in dropped if not d.proved))
 
 
 def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, label: str | None = None) -> Branch:
@@ -263,9 +263,8 @@ def pattern_branch(model: Model, level: Switching, signs: tuple[int, ...], *, se
         raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")
     if len(signs) != len(sw) or any(s not in (1, -1) for s in signs):
         raise NotSupportedError(f"a sign pattern needs {len(sw)} signs of +1 or -1, got {signs!r}")
-    sides, dropped, _ = sides_of(level, [tuple(signs)], np.random.default_rng(seed))
-    if dropped or sides[0].undecided:
-        raise NotSupportedError(f"the sign pattern {signs} is infeasible "
-                                f"({dropped[0].reason if dropped else sides[0].undecided})")
+    sides, dropped, _ = sides_of(level, [tuple(signs)], np.random.default_rng(seed), undecided=False)
+    if dropped:
+        raise NotSupportedError(f"the sign pattern {signs} is infeasible ({dropped[0].reason})")
     label = label or "".join("+" if s > 0 else "-" for s in signs)
     return smooth_branch(model, label, sw, signs, [_expanded(e) for e in sides[0].exprs], sides[0].witness)
