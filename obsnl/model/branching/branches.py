@@ -37,7 +37,6 @@ from obsnl.model.branching.switching import (
     Switching,
     check_declared,
     expr_text,
-    field_at,
     switching_functions,
     switching_structure,
 )
@@ -224,7 +223,25 @@ def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: boo
              ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
     """:func:`split_branches` of ``model`` whose outermost switching structure ``level``
     (:func:`obsnl.model.branching.switching.switching_structure`, which checks a flat model's declared switching
-    functions) is already found."""
+    functions) is already found.
+
+    Parameters
+    ----------
+    model : Model
+        Any model.
+    level : Switching
+        Its outermost switching structure.
+    seed : int
+        Seed of the witness search.
+    with_dropped, undecided : bool
+        As in :func:`split_branches`.
+    max_seconds : float or None
+        Time limit of the split.
+
+    Returns
+    -------
+    tuple[Branch, ...] or (tuple[Branch, ...], tuple[DroppedPattern, ...])
+    """
     if not level.nodes:
         branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
         return (branches, ()) if with_dropped else branches
@@ -259,6 +276,19 @@ def sides_of(level: Switching, patterns: Iterable[tuple[int, ...]] | None, rng: 
     """The sides of ``level``'s sign ``patterns`` (None: every pattern, in Gray-code order), nested non-smooth
     functions resolved level by level; the patterns with no point (with those whose feasibility is undecided,
     ``proved=False``, unless ``undecided``: then such a side is kept, marked); every level's switching functions.
+
+    Parameters
+    ----------
+    level : Switching
+        The outermost switching structure.
+    patterns : iterable of tuple of int or None
+        Sign patterns of ``level``'s functions (None: all of them).
+    rng : numpy.random.Generator
+        Random source of the witness search.
+    deadline : float or None
+        A ``time.perf_counter()`` time past which the split stops.
+    undecided : bool
+        Keep the sides whose feasibility is undecided (marked), or drop them.
 
     Raises
     ------
@@ -305,7 +335,7 @@ def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: t
         if point is None and (proved or not undecided):
             dropped.append(DroppedPattern(all_sw, all_signs, reason, proved))
             continue
-        inner = Switching.of(field_at(level, signs), level.declared, level.memo)
+        inner = Switching.of(level.field_at(signs), level.declared, level.memo)
         # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
         _split_level(inner, all_sw, all_signs, (point or {}, reason if point is None else ""), rng, found, dropped,
                      seen, deadline, undecided)
@@ -314,7 +344,27 @@ def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: t
 def smooth_branch(model: Model, label: str, switching: Sequence[sp.Expr], signs: Sequence[int],
                   exprs: Sequence[sp.Expr], witness: Mapping[str, float], *, undecided: str = "") -> Branch:
     """The branch of ``model`` where ``switching`` have ``signs``, ``exprs`` being its smooth right-hand sides, then
-    its outputs; a branch whose feasibility is decided is refused where it divides by zero (:func:`check_finite`)."""
+    its outputs; a branch whose feasibility is decided is refused where it divides by zero (:func:`check_finite`).
+
+    Parameters
+    ----------
+    model : Model
+        The non-smooth model.
+    label : str
+        The branch's label.
+    switching, signs : sequence
+        The switching functions and their signs in the branch.
+    exprs : sequence of sympy.Expr
+        The branch's smooth right-hand sides, then its outputs (in the model's order).
+    witness : mapping of str to float
+        A point inside the branch (empty when undecided).
+    undecided : str
+        Why its feasibility is not decided ("" when it is).
+
+    Returns
+    -------
+    Branch
+    """
     if not undecided:  # an undecided branch is not analysed: a division by zero there may be in no point at all
         check_finite(model, exprs, switching, signs)
     n_rhs = len(model.states)

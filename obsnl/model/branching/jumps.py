@@ -31,6 +31,18 @@ def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
     discrete steps to refine only the substeps where the field really jumps (for the seed model
     ``r - eta'``, where the healing term switches, but not ``x2``, where every switched term
     carries a factor ``x2``).
+
+    Parameters
+    ----------
+    model : Model
+        The non-smooth model.
+    switching : sequence of sympy.Expr
+        Switching functions (the model's own, or a branch table's), in any orientation.
+
+    Returns
+    -------
+    tuple of bool
+        One per switching function: True where the field may jump.
     """
     switching = list(switching)
     if len(switching) > _MAX_JUMP_CHECK:

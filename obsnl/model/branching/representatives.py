@@ -175,7 +175,21 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
 
 def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Representatives:
     """:func:`representative_branches` of ``model`` whose switching structure ``level``
-    (:func:`obsnl.model.branching.switching.switching_structure`) is already found."""
+    (:func:`obsnl.model.branching.switching.switching_structure`) is already found.
+
+    Parameters
+    ----------
+    model : Model
+        A non-smooth model without nested non-smooth functions.
+    level : Switching
+        Its switching structure.
+    seed : int
+        Seed of the witness search.
+
+    Returns
+    -------
+    Representatives
+    """
     rng = np.random.default_rng(seed)
     sw, groups = level.functions, groups_of(level)  # not nested: its declared functions are checked
     big = [g for g in groups if len(g) > MAX_GROUP]
@@ -257,7 +271,25 @@ def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, la
 
 def pattern_branch(model: Model, level: Switching, signs: tuple[int, ...], *, seed: int = 0,
                    label: str | None = None) -> Branch:
-    """:func:`branch_of_pattern` of ``model`` whose switching structure ``level`` is already found."""
+    """:func:`branch_of_pattern` of ``model`` whose switching structure ``level`` is already found.
+
+    Parameters
+    ----------
+    model : Model
+        A non-smooth model without nested non-smooth functions.
+    level : Switching
+        Its switching structure.
+    signs : tuple of int
+        One sign (+1 or -1) per switching function of ``level``.
+    seed : int
+        Seed of the witness search.
+    label : str or None
+        The branch's label (default: the pattern as a string of ``+`` and ``-``).
+
+    Returns
+    -------
+    Branch
+    """
     sw = level.functions
     if level.nested:
         raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")

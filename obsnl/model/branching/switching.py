@@ -24,7 +24,7 @@ from obsnl.model.reading.parse import shorten
 from obsnl.model.bounds.work import can_factor
 
 __all__ = ["Switching", "switching_structure", "expr_text", "switching_functions", "switching_of",
-           "innermost_nonsmooth", "resolve", "field_at", "check_declared"]
+           "innermost_nonsmooth", "resolve", "check_declared"]
 
 
 def expr_text(g: sp.Expr) -> str:
@@ -249,6 +249,12 @@ class Switching:
         return Switching(exprs, switching_of(exprs, declared, memo), tuple(innermost_nonsmooth(exprs)), nested,
                          declared, memo)
 
+    def field_at(self, signs: Sequence[int]) -> list[sp.Expr]:
+        """The expressions where the functions have ``signs``: every innermost non-smooth node replaced by its
+        analytic extension (:func:`resolve`)."""
+        repl = {node: resolve(node, self.functions, signs, self.memo) for node in self.nodes}
+        return [e.xreplace(repl) for e in self.exprs]
+
     @functools.cached_property
     def members(self) -> tuple[tuple[int, ...], ...]:
         """Per expression, the indices of the functions it switches on (found when first asked; not nested)."""
@@ -390,11 +396,3 @@ def resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], 
             f"{dict(zip(map(str, switching), signs))}; add a final (value, True) pair"
         )
     raise NotSupportedError(f"cannot resolve {node}")  # pragma: no cover
-
-
-def field_at(level: Switching, signs: Sequence[int]) -> list[sp.Expr]:
-    """``level``'s expressions where its switching functions have ``signs``: every innermost non-smooth node
-    replaced by its analytic extension (:func:`resolve`)."""
-    repl = {node: resolve(node, level.functions, signs, level.memo) for node in level.nodes}
-    return [e.xreplace(repl) for e in level.exprs]
-

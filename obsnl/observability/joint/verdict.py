@@ -241,7 +241,27 @@ def joint_verdict(
 def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob: float, max_seconds: float | None,
                      unknown_input_derivatives: int | str) -> JointResult:
     """:func:`joint_verdict` over the branches ``chosen`` (:class:`~obsnl.model.Branch` values), the model and the
-    options checked already (as :func:`obsnl.analyze` checks them before it chooses the branches)."""
+    options checked already (as :func:`obsnl.analyze` checks them before it chooses the branches).
+
+    Parameters
+    ----------
+    model : Model
+        The (switched) model.
+    chosen : sequence of Branch
+        The visited branches.
+    seed : int
+        Seed of every random choice.
+    prob : float
+        Wanted lower bound on the probability that the decided verdicts are right.
+    max_seconds : float or None
+        Time limit.
+    unknown_input_derivatives : int or str
+        The unknown-input assumption in force (``K`` or ``"arbitrary"``).
+
+    Returns
+    -------
+    JointResult
+    """
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     chosen = list(chosen)

@@ -338,7 +338,25 @@ class _Classes:
 
 def certified(done: list[VisitData], p: int, n_par: int, states: list[str], params: list[str],
                ws: list[str], known: set[str]) -> set[str]:
-    """Names certified by a full-column-rank sub-stack (see the module docstring)."""
+    """Names certified by a full-column-rank sub-stack (see :mod:`obsnl.observability.joint.verdict`).
+
+    Parameters
+    ----------
+    done : list of VisitData
+        The visits of one run.
+    p : int
+        The run's prime.
+    n_par : int
+        Number of parameters.
+    states, params, ws : list of str
+        The model's states, parameters and unknown inputs.
+    known : set of str
+        States with known initial conditions.
+
+    Returns
+    -------
+    set of str
+    """
     S = []
     for v in done:
         if not v.used:
