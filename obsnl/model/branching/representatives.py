@@ -276,19 +276,15 @@ def pattern_branch(model: Model, level: Switching, signs: tuple[int, ...], *, se
     Parameters
     ----------
     model : Model
-        A non-smooth model without nested non-smooth functions.
+        The model, ``level`` its switching structure.
     level : Switching
-        Its switching structure.
+        Its functions are those ``signs`` give a sign to, in order.
     signs : tuple of int
-        One sign (+1 or -1) per switching function of ``level``.
+        The pattern; ``seed`` and ``label`` as for :func:`branch_of_pattern`.
     seed : int
         Seed of the witness search.
     label : str or None
-        The branch's label (default: the pattern as a string of ``+`` and ``-``).
-
-    Returns
-    -------
-    Branch
+        The branch's label (None: ``+`` and ``-`` for the signs).
     """
     sw = level.functions
     if level.nested:
