@@ -8,7 +8,8 @@ import sympy as sp
 
 import obsnl
 from obsnl import Model
-from obsnl.model.branching.branches import field_jumps, split_branches, switching_functions
+from obsnl.model.branching.branches import split_branches, switching_functions
+from obsnl.model.branching.jumps import field_jumps
 from obsnl.model.core import NONSMOOTH_FUNCTIONS
 
 from .conftest import MODEL_FILES, MODELS
@@ -143,3 +144,18 @@ def test_field_jumps_only_where_the_vector_field_is_discontinuous():
     kink = Model(name="k", states=["x"], parameters=["a"], inputs=[], equations={"x": "-a*Abs(x)"},
                  outputs={"y": "x"})
     assert field_jumps(kink, switching_functions(kink)) == (False,)
+
+
+def test_representatives_refuse_nested_nonsmooth_functions():
+    # sign(x + Abs(y)) switches on y first, then on x + y or x - y: representatives that resolved only the
+    # inner Abs would hand on a "smooth" field that still holds sign(x + y); the enumeration resolves both levels
+    from obsnl.errors import NotSupportedError
+    from obsnl.model.branching.representatives import representative_branches, switching_groups
+
+    m = Model(name="nested", states=["x", "y"], parameters=["a"], equations={"x": "-a*sign(x + Abs(y))", "y": "-y"},
+              outputs={"o": "x"})
+    for refuse in (switching_groups, representative_branches):
+        with pytest.raises(NotSupportedError, match="nested"):
+            refuse(m)
+    branches = split_branches(m)
+    assert len(branches) == 4 and not any(e.has(sp.sign, sp.Abs) for b in branches for e in b.model.rhs)

@@ -20,7 +20,7 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
-from obsnl.model.branching.branches import field_jumps
+from obsnl.model.branching.jumps import field_jumps
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text, switching_functions
 from obsnl.errors import ModelError, NotSupportedError, TableError

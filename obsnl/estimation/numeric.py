@@ -22,7 +22,7 @@ the discretisation error (8 plain substeps: 2.5e-4 of the output RMS, a quarter 
 level, enough to bias the identified Deltas by a few percent). ``method="auto"`` therefore redoes
 the substep in which such a crossing happens with ``refine`` substeps; only the switching
 functions across which the field is not proved continuous are watched
-(:func:`obsnl.model.branching.branches.field_jumps`: ``r - eta'`` but not ``x2`` for the seed model). 4 substeps
+(:func:`obsnl.model.branching.jumps.field_jumps`: ``r - eta'`` but not ``x2`` for the seed model). 4 substeps
 with the crossing one refined 8x stay within 6e-5 of the output RMS, as fine as 32 plain substeps.
 A step that is stiff uses ROS2 with ``refine * substeps``. In the filters both fallbacks are
 evaluated only for the sigma points that need them, and counted.
@@ -65,7 +65,7 @@ class NumericModel:
         The model's nominal values.
     jumps
         For each switching function, whether the vector field may jump where it crosses 0
-        (:func:`obsnl.model.branching.branches.field_jumps`; empty: all may). Only these crossings are refined.
+        (:func:`obsnl.model.branching.jumps.field_jumps`; empty: all may). Only these crossings are refined.
     source
         ``(model, switching, constants)`` as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
         otherwise): the specification a worker compiles again (:mod:`obsnl.identification.replicates`).

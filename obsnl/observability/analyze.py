@@ -23,25 +23,23 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Mapping, Sequence
-from dataclasses import replace
-from typing import Any
 
 from obsnl.model.bounds.budget import deadline as budget_deadline
 from obsnl.model.core import Model
 from obsnl.model.files import read_model
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text
-from obsnl.observability.joint.verdict import joint_verdict
+from obsnl.observability.joint.verdict import joint_verdict_of
 from obsnl.observability.certificates.certify import (
     certify_by_symmetry,
     undecided_beyond_visits,
 )
 from obsnl.observability.limits import limits_checked, out_of_memory
 from obsnl.observability.results import AnalysisResult
-from obsnl.observability.verdicts import BranchResult, Verdict
+from obsnl.observability.verdicts import BranchResult
 from obsnl.observability.joint.selection import select_branches
-from obsnl.observability.engines.inputs import METHODS, _check, _variable_names
-from obsnl.observability.engines.smooth import _branch_result, _fresh_seed
+from obsnl.observability.engines.inputs import METHODS, _check
+from obsnl.observability.engines.smooth import _fresh_seed, branch_result
 
 __all__ = ["analyze", "assumptions", "METHODS"]
 
@@ -152,13 +150,14 @@ def analyze(
     """
     if isinstance(model, (str, os.PathLike)):  # a path is accepted wherever a model is, as identify does
         model = read_model(model)
-    # the options and the limits are checked, and the unknown-input assumption resolved, here once: the joint
-    # verdict and the symmetry certificates below do not check again (limits_checked)
-    unknown_input_derivatives = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives,
-                                       input_derivatives)
+    # the options and the limits are checked, the unknown-input assumption resolved and the variables named here
+    # once: the joint verdict and the symmetry certificates below do not check again (limits_checked)
+    unknown_input_derivatives, variables = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives,
+                                                  input_derivatives)
+    assumed = assumptions(model, unknown_input_derivatives, input_derivatives)
     try:
         with limits_checked():
-            return _analyze(model, method=method, seed=seed, max_seconds=max_seconds, prob=prob,
+            return _analyze(model, variables, assumed, method=method, seed=seed, max_seconds=max_seconds, prob=prob,
                             unknown_input_derivatives=unknown_input_derivatives,
                             input_derivatives=input_derivatives, decompose=decompose, branches=branches,
                             visited=visited, crossings=crossings, joint=joint, per_branch=per_branch)
@@ -168,44 +167,38 @@ def analyze(
 
 
 def _analyze(
-    model: Model, *, method: str, seed: int | None, max_seconds: float | None, prob: float,
-    unknown_input_derivatives: int | str, input_derivatives: int | None, decompose: bool,
-    branches: Sequence[str] | None, visited: Mapping[tuple[int, ...], float] | None,
+    model: Model, variables: tuple[str, ...], assumed: dict, *, method: str, seed: int | None,
+    max_seconds: float | None, prob: float, unknown_input_derivatives: int | str, input_derivatives: int | None,
+    decompose: bool, branches: Sequence[str] | None, visited: Mapping[tuple[int, ...], float] | None,
     crossings: Mapping[str, int] | None, joint: bool, per_branch: bool = True,
 ) -> AnalysisResult:
-    """The body of :func:`analyze`, its arguments checked and ``unknown_input_derivatives`` resolved."""
+    """The body of :func:`analyze`, its arguments checked (:func:`~obsnl.observability.engines.inputs._check`) and
+    what it assumes settled: the branches chosen once and handed down."""
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     outer = budget_deadline()  # a command's budget (obsnl.model.bounds.budget.time_budget), started before reading
     deadline = outer if deadline is None else deadline if outer is None else min(deadline, outer)
     seed = _fresh_seed(seed)
-    variables = _variable_names(model)
     # the split is bounded too, with a floor: a tiny limit still yields branches (each then inconclusive)
     chosen, how = select_branches(model, labels=branches, patterns=visited, crossings=crossings, seed=seed,
                                   max_seconds=None if max_seconds is None else max(float(max_seconds), 2.0))
-    n_blocks_guess = max(1, len(chosen))
-    target = (1 - prob) / n_blocks_guess
+    target = (1 - prob) / max(1, len(chosen))
     results: list[BranchResult] = []
     failure = 0.0
     factor_cache: dict = {}  # branches share their logarithm arguments (|sigma - eta| in the seed model)
     for b in chosen:
-        if b.undecided:  # reported as such, never silently dropped nor analysed as if it existed
-            results.append(_undecided_result(b, variables))
-            continue
-        if not per_branch:
-            continue
-        br, f = _branch_result(b.label, b.guard_text, b.model, variables, method=method, seed=seed,
-                               deadline=deadline, target=target, decompose=decompose,
-                               unknown_input_derivatives=unknown_input_derivatives,
-                               input_derivatives=input_derivatives, factor_cache=factor_cache)
-        results.append(replace(br, signs=tuple(b.signs)))
-        failure += f
+        if per_branch or b.undecided:  # an undecided one is reported as such, never silently dropped
+            br, f = branch_result(b, variables, method=method, seed=seed, deadline=deadline, target=target,
+                                  decompose=decompose, unknown_input_derivatives=unknown_input_derivatives,
+                                  input_derivatives=input_derivatives, factor_cache=factor_cache)
+            results.append(br)
+            failure += f
     verdict = None
     decided = [b for b in chosen if not b.undecided]
     if (joint or not per_branch) and decided:
         left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
-        verdict = joint_verdict(model, branches=decided, seed=seed, prob=prob, max_seconds=left,
-                                unknown_input_derivatives=unknown_input_derivatives)
+        verdict = joint_verdict_of(model, decided, seed=seed, prob=prob, max_seconds=left,
+                                   unknown_input_derivatives=unknown_input_derivatives)
         representatives = how.how == "representatives"
         if (representatives or len(decided) < len(chosen)) and verdict.unobservable:
             verdict = undecided_beyond_visits(verdict, how.note)  # a verdict about the model, not decided by the visits
@@ -227,16 +220,8 @@ def _analyze(
         signature=ModelSignature.of(model, switching=switching),
         joint=verdict,
         visited=how,
-        assumptions=assumptions(model, unknown_input_derivatives, input_derivatives),
+        assumptions=assumed,
     )
-
-
-def _undecided_result(b: Any, variables: tuple[str, ...]) -> BranchResult:
-    """The inconclusive result of a branch whose feasibility is undecided (:attr:`Branch.undecided`)."""
-    return BranchResult(label=b.label, guard=b.guard_text, observable=(), unobservable=(), absent=(), rank=0,
-                        size=len(variables), transcendence_degree=0, seconds=0.0, verdict=Verdict.INCONCLUSIVE,
-                        reason=f"not analysed, its feasibility is undecided: {b.undecided}", undecided=variables,
-                        signs=tuple(b.signs))
 
 
 def assumptions(model: Model, unknown_input_derivatives: int | str, input_derivatives: int | None) -> dict:

@@ -20,30 +20,29 @@ import copy
 import dataclasses
 import string
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import sympy as sp
 
 from obsnl.errors import AnalysisError, ModelError, NotSupportedError
 from obsnl.model.bounds.budget import check_time
-from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
+from obsnl.model.core import Model
 from obsnl.model.branching.feasibility import feasible
-from obsnl.model.bounds.work import can_expand, can_factor, same_up_to_sign
 from obsnl.model.reading.parse import shorten
 from obsnl.model.branching.switching import (
+    Switching,
     check_declared,
     expr_text,
-    innermost_nonsmooth,
-    resolve,
     switching_functions,
-    switching_of,
+    switching_structure,
 )
 
-__all__ = ["Branch", "DroppedPattern", "split_branches", "switching_functions", "branch_of", "check_finite"]
+__all__ = ["Branch", "DroppedPattern", "Side", "split_branches", "split_by", "sides_of", "smooth_branch",
+           "switching_functions", "check_finite"]
 
 _MAX_SWITCHING = 12  # switching functions in all (nested ones included): 2**12 sign patterns at most
 _MAX_BRANCHES = 1024  # smooth branches in all
@@ -215,79 +214,163 @@ def split_branches(
     >>> [(b.label, b.guard_text) for b in split_branches(m)]
     [('a', 'v > 0'), ('b', 'v < 0')]
     """
-    rng = np.random.default_rng(seed)
-    exprs = list(model.rhs) + list(model.output_exprs)
-    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
-        check_declared(model, ())
+    return split_by(model, switching_structure(model), seed=seed, with_dropped=with_dropped,
+                    max_seconds=max_seconds, undecided=undecided)
+
+
+def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: bool = False,
+             max_seconds: float | None = None, undecided: bool = False
+             ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
+    """:func:`split_branches` of ``model`` whose outermost switching structure ``level``
+    (:func:`obsnl.model.branching.switching.switching_structure`, which checks a flat model's declared switching
+    functions) is already found.
+
+    Parameters
+    ----------
+    model : Model
+        Any model.
+    level : Switching
+        Its outermost switching structure.
+    seed : int
+        Seed of the witness search.
+    with_dropped, undecided : bool
+        As in :func:`split_branches`.
+    max_seconds : float or None
+        Time limit of the split.
+
+    Returns
+    -------
+    tuple[Branch, ...] or (tuple[Branch, ...], tuple[DroppedPattern, ...])
+    """
+    if not level.nodes:
         branches = (Branch("smooth", (), (), derived_model(model, switching=()), {}),)
         return (branches, ()) if with_dropped else branches
-    found: list[tuple[tuple[sp.Expr, ...], tuple[int, ...], list[sp.Expr], dict[str, float], str]] = []
-    dropped: list[DroppedPattern] = []
     deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
-    memo: dict = {"__deadline__": deadline, "__seen__": {}}
-    _split_level(exprs, model.switching, (), (), ({}, ""), rng, found, dropped, memo)
-    check_declared(model, tuple(memo["__seen__"]))
-    labels = _labels(len(found))
-    n_rhs = len(model.states)
+    found, dropped, seen = sides_of(level, None, np.random.default_rng(seed), deadline=deadline)
     branches = []
-    for label, (sw, signs, new_exprs, witness, why) in zip(labels, found):
-        if why and not undecided:
-            dropped.append(DroppedPattern(sw, signs, why, proved=False))
+    for label, side in zip(_labels(len(found)), found):
+        if side.undecided and not undecided:
+            dropped.append(DroppedPattern(side.switching, side.signs, side.undecided, proved=False))
             continue
-        if not why:  # an undecided branch is not analysed: a division by zero there may be in no point at all
-            check_finite(model, new_exprs, sw, signs)
-        eqs = dict(zip(model.states, new_exprs[:n_rhs]))
-        outs = dict(zip(model.output_names, new_exprs[n_rhs:]))
-        sub = derived_model(model, name=f"{model.name}[{label}]", equations=eqs, outputs=outs, switching=())
-        branches.append(Branch(label, sw, signs, sub, witness, undecided=why))
+        branches.append(smooth_branch(model, label, side.switching, side.signs, side.exprs, side.witness,
+                                      undecided=side.undecided))
+    if level.nested:  # the declared functions may switch at an inner level only (a flat model's are checked)
+        check_declared(model, seen)
     result = tuple(branches)
     return (result, tuple(dropped)) if with_dropped else result
 
 
-def _split_level(
-    exprs: list[sp.Expr],
-    declared: Sequence[sp.Expr],
-    outer_sw: tuple[sp.Expr, ...],
-    outer_signs: tuple[int, ...],
-    witness: tuple[dict[str, float], str],
-    rng: np.random.Generator,
-    found: list,
-    dropped: list,
-    memo: dict,
-) -> None:
-    """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own."""
-    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
-        found.append((outer_sw, outer_signs, exprs, *witness))
+class Side(NamedTuple):
+    """One side of the switching surfaces that a sign pattern holds on, with its smooth field."""
+
+    switching: tuple[sp.Expr, ...]  # every level's switching functions
+    signs: tuple[int, ...]
+    exprs: list[sp.Expr]  # the smooth right-hand sides, then outputs
+    witness: dict[str, float]
+    undecided: str  # why its feasibility is not decided ("" when a witness was found)
+
+
+def sides_of(level: Switching, patterns: Iterable[tuple[int, ...]] | None, rng: np.random.Generator, *,
+             deadline: float | None = None, undecided: bool = True
+             ) -> tuple[list[Side], list[DroppedPattern], tuple[sp.Expr, ...]]:
+    """The sides of ``level``'s sign ``patterns`` (None: every pattern, in Gray-code order), nested non-smooth
+    functions resolved level by level; the patterns with no point (with those whose feasibility is undecided,
+    ``proved=False``, unless ``undecided``: then such a side is kept, marked); every level's switching functions.
+
+    Parameters
+    ----------
+    level : Switching
+        The outermost switching structure.
+    patterns : iterable of tuple of int or None
+        Sign patterns of ``level``'s functions (None: all of them).
+    rng : numpy.random.Generator
+        Random source of the witness search.
+    deadline : float or None
+        A ``time.perf_counter()`` time past which the split stops.
+    undecided : bool
+        Keep the sides whose feasibility is undecided (marked), or drop them.
+
+    Raises
+    ------
+    NotSupportedError
+        Every pattern of more than 12 switching functions in all, or more than 1024 sides of them.
+    AnalysisError
+        Past ``deadline`` (or a :func:`obsnl.model.bounds.budget.time_budget`).
+    """
+    found: list[Side] = []
+    dropped: list[DroppedPattern] = []
+    seen: dict = {}
+    _split_level(level, (), (), ({}, ""), rng, found, dropped, seen, deadline, undecided, patterns)
+    return found, dropped, tuple(seen)
+
+
+def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: tuple[int, ...],
+                 witness: tuple[dict[str, float], str], rng: np.random.Generator, found: list[Side],
+                 dropped: list[DroppedPattern], seen: dict, deadline: float | None, undecided: bool,
+                 patterns: Iterable[tuple[int, ...]] | None = None) -> None:
+    """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own;
+    ``seen`` collects every level's switching functions, in order."""
+    if not level.nodes:
+        found.append(Side(outer_sw, outer_signs, list(level.exprs), *witness))
         return
-    sw = switching_of(exprs, declared, memo)
-    memo.setdefault("__seen__", {}).update(dict.fromkeys(sw))  # every level's functions, in order
-    if len(outer_sw) + len(sw) > _MAX_SWITCHING:
+    sw = level.functions
+    seen.update(dict.fromkeys(sw))
+    if patterns is None and len(outer_sw) + len(sw) > _MAX_SWITCHING:
         n = len(outer_sw) + len(sw)
         raise NotSupportedError(
             f"{n} switching functions{' (nested ones included)' if outer_sw else ''} ({2 ** n} sign patterns); "
             f"at most {_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
         )
-    nodes = innermost_nonsmooth(exprs)
-    deadline = memo.get("__deadline__")
-    for signs in _gray(len(sw)):
+    for signs in _gray(len(sw)) if patterns is None else patterns:
         if deadline is not None and time.perf_counter() > deadline:
             raise AnalysisError("splitting the model into branches ran past the time limit; raise max_seconds= "
                                 "or smooth some switching functions")
         check_time("splitting the model into branches", "raise max_seconds= or smooth some switching functions")
-        if len(found) >= _MAX_BRANCHES:
+        if patterns is None and len(found) >= _MAX_BRANCHES:  # an enumeration (patterns asked for are all made)
             raise NotSupportedError(f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
                                     f"switching functions (e.g. tanh(v/eps) for sign(v))")
         all_sw = outer_sw + sw
-        all_signs = outer_signs + signs
-        point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, memo)
-        if point is None and proved:
-            dropped.append(DroppedPattern(all_sw, all_signs, reason))
+        all_signs = outer_signs + tuple(signs)
+        point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, level.memo)
+        if point is None and (proved or not undecided):
+            dropped.append(DroppedPattern(all_sw, all_signs, reason, proved))
             continue
-        repl = {node: resolve(node, sw, signs, memo) for node in nodes}
-        new_exprs = [e.xreplace(repl) for e in exprs]
+        inner = Switching.of(level.field_at(signs), level.declared, level.memo)
         # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
-        _split_level(new_exprs, declared, all_sw, all_signs, (point or {}, reason if point is None else ""),
-                     rng, found, dropped, memo)
+        _split_level(inner, all_sw, all_signs, (point or {}, reason if point is None else ""), rng, found, dropped,
+                     seen, deadline, undecided)
+
+
+def smooth_branch(model: Model, label: str, switching: Sequence[sp.Expr], signs: Sequence[int],
+                  exprs: Sequence[sp.Expr], witness: Mapping[str, float], *, undecided: str = "") -> Branch:
+    """The branch of ``model`` where ``switching`` have ``signs``, ``exprs`` being its smooth right-hand sides, then
+    its outputs; a branch whose feasibility is decided is refused where it divides by zero (:func:`check_finite`).
+
+    Parameters
+    ----------
+    model : Model
+        The non-smooth model.
+    label : str
+        The branch's label.
+    switching, signs : sequence
+        The switching functions and their signs in the branch.
+    exprs : sequence of sympy.Expr
+        The branch's smooth right-hand sides, then its outputs (in the model's order).
+    witness : mapping of str to float
+        A point inside the branch (empty when undecided).
+    undecided : str
+        Why its feasibility is not decided ("" when it is).
+
+    Returns
+    -------
+    Branch
+    """
+    if not undecided:  # an undecided branch is not analysed: a division by zero there may be in no point at all
+        check_finite(model, exprs, switching, signs)
+    n_rhs = len(model.states)
+    sub = derived_model(model, name=f"{model.name}[{label}]", equations=dict(zip(model.states, exprs[:n_rhs])),
+                        outputs=dict(zip(model.output_names, exprs[n_rhs:])), switching=())
+    return Branch(label, tuple(switching), tuple(signs), sub, witness, undecided=undecided)
 
 
 def check_finite(model: Model, exprs: Sequence[sp.Expr], switching: Sequence[sp.Expr], signs: Sequence[int]) -> None:
@@ -314,85 +397,3 @@ def check_finite(model: Model, exprs: Sequence[sp.Expr], switching: Sequence[sp.
             where = " and ".join(f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(switching, signs))
             raise ModelError(f"{name}, {shorten(str(before))!r}, divides by zero where {where}; rewrite it so that "
                              f"it is finite on both sides of every switching surface")
-
-
-#: Above this many switching functions :func:`field_jumps` does not split the model (all may jump).
-_MAX_JUMP_CHECK = 6
-
-
-def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
-    """For each switching function ``g``: may the vector field jump where ``g`` crosses 0?
-
-    ``False`` only when it is proved continuous there: for every two branches whose sign patterns
-    differ in ``g`` alone, the difference of their vector fields vanishes identically on ``g = 0``
-    (``g`` solved for one of its states or parameters, then cancelled). Anything not proved, a
-    nested split, a switching function that cannot be solved, or a model with more than
-    ``_MAX_JUMP_CHECK`` switching functions (the check splits the model), counts as a jump. Used by the
-    discrete steps to refine only the substeps where the field really jumps (for the seed model
-    ``r - eta'``, where the healing term switches, but not ``x2``, where every switched term
-    carries a factor ``x2``).
-    """
-    switching = list(switching)
-    if len(switching) > _MAX_JUMP_CHECK:
-        return (True,) * len(switching)
-    try:
-        branches = split_branches(model)
-    except (ModelError, NotSupportedError):
-        return (True,) * len(switching)
-    if len(branches) < 2 or any(b.switching != branches[0].switching for b in branches):
-        return (True,) * len(switching)
-    sw = list(branches[0].switching)
-    by_signs = {b.signs: b for b in branches}
-    out = []
-    for g in switching:
-        j = next((i for i, s in enumerate(sw) if same_up_to_sign(s, g)), None)
-        out.append(True if j is None else not _continuous_across(g, j, by_signs, model))
-    return tuple(out)
-
-
-def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model) -> bool:
-    """Whether the branch fields on the two sides of ``g = 0`` (``g`` the ``j``-th switching
-    function) agree identically on ``g = 0`` for every pair of neighbouring branches."""
-    sol = None
-    if not can_factor(g):  # solving it could run for minutes: not proved continuous, counted as a jump
-        return False
-    for s in [s for s in list(model.states) + list(model.parameters) if s in g.free_symbols]:
-        try:
-            roots = sp.solve(g, s)
-        except NotImplementedError:  # pragma: no cover - sympy cannot solve it
-            continue
-        if len(roots) == 1:
-            sol = (s, roots[0])
-            break
-    if sol is None:
-        return False
-    pairs = 0
-    for signs, b in by_signs.items():
-        other = by_signs.get(signs[:j] + (-1,) + signs[j + 1:]) if signs[j] > 0 else None
-        if other is None:
-            continue
-        pairs += 1
-        for fa, fb in zip(b.model.rhs, other.model.rhs):
-            if not can_expand(fa - fb) or sp.cancel(sp.together((fa - fb).subs(*sol))) != 0:
-                return False
-    return pairs > 0
-
-
-def branch_of(branches: Sequence[Branch], point: Mapping[str, float]) -> Branch | None:
-    """The branch containing ``point`` (None on a switching surface or outside every branch).
-
-    Parameters
-    ----------
-    branches : sequence of Branch
-        The model's branches.
-    point : mapping of str to float
-        Values of the symbols the switching functions use.
-
-    Returns
-    -------
-    Branch or None
-    """
-    for b in branches:
-        if b.contains(point):
-            return b
-    return None

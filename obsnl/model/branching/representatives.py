@@ -23,20 +23,20 @@ reported as inconclusive.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
-from obsnl.model.branching.branches import Branch, _gray, check_finite, derived_model
+from obsnl.model.branching.branches import Branch, _gray, sides_of, smooth_branch
 from obsnl.model.branching.feasibility import feasible
-from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.branching.switching import check_declared, innermost_nonsmooth, resolve, switching_of
-from obsnl.model.bounds.work import can_expand, same_up_to_sign
+from obsnl.model.core import Model
+from obsnl.model.branching.switching import Switching, switching_structure
+from obsnl.model.bounds.work import can_expand
 
-__all__ = ["Representatives", "switching_groups", "representative_branches", "branch_of_pattern", "MAX_GROUP"]
+__all__ = ["Representatives", "switching_groups", "groups_of", "representative_branches", "representatives_of",
+           "branch_of_pattern", "pattern_branch", "MAX_GROUP"]
 
 #: At most this many switching functions in one group (2**12 local patterns).
 MAX_GROUP = 12
@@ -90,13 +90,6 @@ def _expanded(e: sp.Expr) -> sp.Expr:
     return sp.expand(e) if can_expand(e) else e
 
 
-def _index_of(g: sp.Expr, sw: Sequence[sp.Expr]) -> int:
-    for j, s in enumerate(sw):
-        if same_up_to_sign(g, s):
-            return j
-    raise NotSupportedError(f"switching function {g} of an equation is not among the model's {list(sw)}")
-
-
 def switching_groups(model: Model) -> tuple[tuple[sp.Expr, ...], tuple[tuple[int, ...], ...]]:
     """The model's switching functions and their independent groups (module docstring).
 
@@ -124,10 +117,14 @@ def switching_groups(model: Model) -> tuple[tuple[sp.Expr, ...], tuple[tuple[int
     >>> [str(g) for g in sw], groups
     (['x', 'y - 1', 'y'], ((0,), (1, 2)))
     """
-    memo: dict = {}
-    exprs = list(model.rhs) + list(model.output_exprs)
-    sw = tuple(switching_of(exprs, model.switching, memo))
-    parent = list(range(len(sw)))
+    level = switching_structure(model)
+    return level.functions, groups_of(level)
+
+
+def groups_of(level: Switching) -> tuple[tuple[int, ...], ...]:
+    """The independent groups of ``level``'s switching functions: two are in one group when some expression
+    switches on both (:attr:`~obsnl.model.branching.switching.Switching.members`); in order of first appearance."""
+    parent = list(range(len(level.functions)))
 
     def find(i: int) -> int:
         while parent[i] != i:
@@ -135,19 +132,13 @@ def switching_groups(model: Model) -> tuple[tuple[sp.Expr, ...], tuple[tuple[int
             i = parent[i]
         return i
 
-    for e in exprs:
-        if not e.has(*NONSMOOTH_FUNCTIONS):
-            continue
-        nodes = innermost_nonsmooth([e])
-        if any(a.has(*NONSMOOTH_FUNCTIONS) for n in nodes for a in n.args):
-            raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")
-        idx = sorted({_index_of(g, sw) for g in switching_of([e], model.switching, memo)})
+    for idx in level.members:
         for j in idx[1:]:
             parent[find(j)] = find(idx[0])
     groups: dict[int, list[int]] = {}
-    for j in range(len(sw)):
+    for j in range(len(parent)):
         groups.setdefault(find(j), []).append(j)
-    return sw, tuple(tuple(g) for g in sorted(groups.values(), key=lambda g: g[0]))
+    return tuple(tuple(g) for g in sorted(groups.values(), key=lambda g: g[0]))
 
 
 def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
@@ -179,10 +170,28 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
     >>> [(b.label, b.signs) for b in reps.branches], reps.patterns
     ([('r0', (1, 1)), ('r1', (-1, 1)), ('r2', (1, -1))], 4)
     """
+    return representatives_of(model, switching_structure(model), seed=seed)
+
+
+def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Representatives:
+    """:func:`representative_branches` of ``model`` whose switching structure ``level``
+    (:func:`obsnl.model.branching.switching.switching_structure`) is already found.
+
+    Parameters
+    ----------
+    model : Model
+        A non-smooth model without nested non-smooth functions.
+    level : Switching
+        Its switching structure.
+    seed : int
+        Seed of the witness search.
+
+    Returns
+    -------
+    Representatives
+    """
     rng = np.random.default_rng(seed)
-    memo: dict = {}
-    sw, groups = switching_groups(model)
-    check_declared(model, sw)
+    sw, groups = level.functions, groups_of(level)  # not nested: its declared functions are checked
     big = [g for g in groups if len(g) > MAX_GROUP]
     if big:
         raise NotSupportedError(f"{len(big[0])} switching functions act on the same equations; at most "
@@ -193,7 +202,7 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
         for local in _gray(len(g)):
             trial = dict(zip(g, local))
             conds = [(sw[j], base[j]) for j in fixed] + [(sw[j], trial[j]) for j in g]
-            witness = feasible(conds, rng, memo)[0]
+            witness = feasible(conds, rng, level.memo)[0]
             if witness is not None:
                 for j in g:
                     base[j] = trial[j]
@@ -209,31 +218,20 @@ def representative_branches(model: Model, *, seed: int = 0) -> Representatives:
                 pattern[j] = s
             if tuple(pattern) != tuple(base):
                 candidates.append(tuple(pattern))
-    exprs = list(model.rhs) + list(model.output_exprs)
-    nodes = innermost_nonsmooth(exprs)
-    n_rhs = len(model.states)
+    sides, dropped, _ = sides_of(level, candidates, rng, undecided=False)  # an undecided pattern is not analysed
     branches: list[Branch] = []
     fields: dict[tuple, str] = {}
-    merged, infeasible, undecided = [], [], []
-    for signs in candidates:
-        witness, _, proved = feasible(list(zip(sw, signs)), rng, memo)
-        if witness is None:
-            (infeasible if proved else undecided).append(signs)
+    merged = []
+    for side in sides:
+        new = tuple(_expanded(e) for e in side.exprs)
+        if new in fields:  # the same field as a kept pattern's (checked finite there)
+            merged.append((fields[new], side.signs))
             continue
-        repl = {node: resolve(node, sw, signs, memo) for node in nodes}
-        new = [_expanded(e.xreplace(repl)) for e in exprs]
-        check_finite(model, new, sw, signs)
-        key = tuple(new)
-        if key in fields:
-            merged.append((fields[key], signs))
-            continue
-        label = f"r{len(branches)}"
-        fields[key] = label
-        sub = derived_model(model, name=f"{model.name}[{label}]", equations=dict(zip(model.states, new[:n_rhs])),
-                            outputs=dict(zip(model.output_names, new[n_rhs:])), switching=())
-        branches.append(Branch(label, sw, signs, sub, witness))
+        fields[new] = f"r{len(branches)}"
+        branches.append(smooth_branch(model, fields[new], sw, side.signs, new, side.witness))
     return Representatives(branches=tuple(branches), switching=sw, groups=groups, patterns=2 ** len(sw),
-                           merged=tuple(merged), infeasible=tuple(infeasible), undecided=tuple(undecided))
+                           merged=tuple(merged), infeasible=tuple(d.signs for d in dropped if d.proved),
+                           undecided=tuple(d.signs for d in dropped if not d.proved))
 
 
 def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, label: str | None = None) -> Branch:
@@ -268,19 +266,33 @@ def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, la
     >>> b.label, dict(b.model.equations)
     ('-', {x: s})
     """
-    sw, _ = switching_groups(model)
+    return pattern_branch(model, switching_structure(model), signs, seed=seed, label=label)
+
+
+def pattern_branch(model: Model, level: Switching, signs: tuple[int, ...], *, seed: int = 0,
+                   label: str | None = None) -> Branch:
+    """:func:`branch_of_pattern` of ``model`` whose switching structure ``level`` is already found.
+
+    Parameters
+    ----------
+    model : Model
+        The model, ``level`` its switching structure.
+    level : Switching
+        Its functions are those ``signs`` give a sign to, in order.
+    signs : tuple of int
+        The pattern; ``seed`` and ``label`` as for :func:`branch_of_pattern`.
+    seed : int
+        Seed of the witness search.
+    label : str or None
+        The branch's label (None: ``+`` and ``-`` for the signs).
+    """
+    sw = level.functions
+    if level.nested:
+        raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")
     if len(signs) != len(sw) or any(s not in (1, -1) for s in signs):
         raise NotSupportedError(f"a sign pattern needs {len(sw)} signs of +1 or -1, got {signs!r}")
-    memo: dict = {}
-    witness, reason, _ = feasible(list(zip(sw, signs)), np.random.default_rng(seed), memo)
-    if witness is None:
-        raise NotSupportedError(f"the sign pattern {signs} is infeasible ({reason})")
-    exprs = list(model.rhs) + list(model.output_exprs)
-    repl = {node: resolve(node, sw, signs, memo) for node in innermost_nonsmooth(exprs)}
-    new = [_expanded(e.xreplace(repl)) for e in exprs]
-    check_finite(model, new, sw, signs)
-    n_rhs = len(model.states)
+    sides, dropped, _ = sides_of(level, [tuple(signs)], np.random.default_rng(seed), undecided=False)
+    if dropped:
+        raise NotSupportedError(f"the sign pattern {signs} is infeasible ({dropped[0].reason})")
     label = label or "".join("+" if s > 0 else "-" for s in signs)
-    sub = derived_model(model, name=f"{model.name}[{label}]", equations=dict(zip(model.states, new[:n_rhs])),
-                        outputs=dict(zip(model.output_names, new[n_rhs:])), switching=())
-    return Branch(label, sw, tuple(signs), sub, witness)
+    return smooth_branch(model, label, sw, signs, [_expanded(e) for e in sides[0].exprs], sides[0].witness)

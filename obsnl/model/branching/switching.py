@@ -13,6 +13,7 @@ from __future__ import annotations
 import functools
 import itertools
 from collections.abc import Sequence
+from dataclasses import dataclass, field
 
 import sympy as sp
 
@@ -22,9 +23,8 @@ from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.reading.parse import shorten
 from obsnl.model.bounds.work import can_factor
 
-__all__ = [
-    "expr_text", "switching_functions", "switching_of", "innermost_nonsmooth", "resolve", "check_declared",
-]
+__all__ = ["Switching", "switching_structure", "expr_text", "switching_functions", "switching_of",
+           "innermost_nonsmooth", "resolve", "check_declared"]
 
 
 def expr_text(g: sp.Expr) -> str:
@@ -211,6 +211,81 @@ def switching_of(exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr],
     return tuple(order)
 
 
+@dataclass(frozen=True)
+class Switching:
+    """The switching functions of one nesting level, found once and handed to whatever splits there.
+
+    Attributes
+    ----------
+    exprs
+        The expressions scanned (right-hand sides, then outputs).
+    functions
+        The switching functions (:func:`switching_of`: declared ones first).
+    nodes
+        The innermost non-smooth applications (:func:`innermost_nonsmooth`), which a sign pattern resolves.
+    nested
+        Whether some non-smooth function has a non-smooth argument (a split resolves it level by level).
+    declared
+        The model's declared switching functions (their order holds at every level).
+    memo
+        The factorizations made, shared with the split and the feasibility search that follow.
+    """
+
+    exprs: tuple[sp.Expr, ...]
+    functions: tuple[sp.Expr, ...]
+    nodes: tuple[sp.Basic, ...]
+    nested: bool
+    declared: tuple[sp.Expr, ...] = ()
+    memo: dict = field(default_factory=dict, compare=False, repr=False)
+
+    @staticmethod
+    def of(exprs: Sequence[sp.Expr], declared: Sequence[sp.Expr], memo: dict | None = None) -> Switching:
+        """The switching structure of ``exprs``, ``declared`` fixing the order of the functions."""
+        exprs, declared, memo = tuple(exprs), tuple(declared), {} if memo is None else memo
+        if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
+            return Switching(exprs, (), (), False, declared, memo)
+        nested = any(a.has(*NONSMOOTH_FUNCTIONS) for e in exprs for node in sp.preorder_traversal(e)
+                     if isinstance(node, NONSMOOTH_FUNCTIONS) for a in _arguments(node))
+        return Switching(exprs, switching_of(exprs, declared, memo), tuple(innermost_nonsmooth(exprs)), nested,
+                         declared, memo)
+
+    def field_at(self, signs: Sequence[int]) -> list[sp.Expr]:
+        """The expressions where the functions have ``signs``: every innermost non-smooth node replaced by its
+        analytic extension (:func:`resolve`)."""
+        repl = {node: resolve(node, self.functions, signs, self.memo) for node in self.nodes}
+        return [e.xreplace(repl) for e in self.exprs]
+
+    @functools.cached_property
+    def members(self) -> tuple[tuple[int, ...], ...]:
+        """Per expression, the indices of the functions it switches on (found when first asked; not nested)."""
+        if self.nested:
+            raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")
+        index = {_canonical(f)[1]: j for j, f in enumerate(self.functions)}
+        return tuple(tuple(sorted({index[_canonical(f)[1]] for f in switching_of([e], (), self.memo)}))
+                     for e in self.exprs)
+
+
+def switching_structure(model: Model) -> Switching:
+    """The switching structure of the outermost level of ``model`` (no functions for a smooth model); without
+    nested non-smooth functions these are all, and a declared one that is none of them is refused here
+    (:func:`check_declared`; a split checks a nested model's).
+
+    Examples
+    --------
+    >>> m = Model(name="two", states=["x", "y"], parameters=["a"], equations={"x": "-a*sign(x)", "y": "Abs(y - 1)"},
+    ...           outputs={"o": "x + y"})
+    >>> s = switching_structure(m)
+    >>> [expr_text(g) for g in s.functions], s.members, s.nested
+    (['x', 'y - 1'], ((0,), (1,), ()), False)
+    >>> switching_structure(m.replace(equations={"x": "-a*sign(x + Abs(y))", "y": "-y"})).nested
+    True
+    """
+    level = Switching.of(list(model.rhs) + list(model.output_exprs), model.switching)
+    if not level.nested:
+        check_declared(model, level.functions)
+    return level
+
+
 def check_declared(model: Model, found: Sequence[sp.Expr]) -> None:
     """Refuse a declared switching function (``model.switching``) that is none of those ``found`` in the model
     (at any nesting level): it would be dropped from the branch order without a word.
@@ -321,6 +396,3 @@ def resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], 
             f"{dict(zip(map(str, switching), signs))}; add a final (value, True) pair"
         )
     raise NotSupportedError(f"cannot resolve {node}")  # pragma: no cover
-
-
-# --------------------------------------------------------------------------- feasibility

@@ -5,23 +5,33 @@ unknown inputs' derivatives, the names of the variables.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 from obsnl.errors import AnalysisError, ModelError
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
 from obsnl.observability.limits import check_analysis_limits
-__all__ = ["METHODS", "resolve_unknown_input_derivatives"]
+__all__ = ["METHODS", "Checked", "resolve_unknown_input_derivatives"]
 
 #: The engines that ``method=`` names (``auto`` picks one per branch).
 METHODS = ("auto", "orc", "sedoglavic")
 
 
+class Checked(NamedTuple):
+    """What the checks settle for an analysis: the unknown-input assumption in force (the caller's option, else
+    the model's key, else ``"arbitrary"``) and the reported variables (every state, then every parameter)."""
+
+    unknown_input_derivatives: int | str
+    variables: tuple[str, ...]
+
+
 def _check(model: Model, method: str, seed: int | None, max_seconds: float | None, prob: float,
-           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> int | str:
-    """Refuse bad options and a model the engines cannot take, before any work; return the unknown-input
-    assumption in force (the caller's option, else the model's key, else ``"arbitrary"``), resolved here once."""
+           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> Checked:
+    """Refuse bad options and a model the engines cannot take, before any work; return what they settle,
+    resolved here once."""
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.read_model")
+    variables = _variable_names(model)
     if method not in METHODS:
         raise AnalysisError(f"unknown method {method!r}; choose one of {', '.join(METHODS)}")
     if seed is not None and (not isinstance(seed, int) or isinstance(seed, bool) or seed < 0):
@@ -52,7 +62,7 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
             f"no output of model {model.name!r} depends on a state; measure at least one state"
         )
     # last: the size of what the engines will hold (refused before any heavy work)
-    return check_analysis_limits(model, unknown_input_derivatives)
+    return Checked(check_analysis_limits(model, unknown_input_derivatives), variables)
 
 
 def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> int | str:

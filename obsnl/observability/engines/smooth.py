@@ -16,11 +16,14 @@ from __future__ import annotations
 import random
 import time
 from collections.abc import Sequence
+from dataclasses import replace
+from typing import Any
 
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import BlockOutcome, bound_sizes
 from obsnl.algebra.series import make_problem
 from obsnl.errors import ModelError
+from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY
 from obsnl.observability.engines.decompose import decompose as _decompose
@@ -28,7 +31,7 @@ from obsnl.observability.limits import out_of_memory
 from obsnl.observability.engines.orc import orc_block
 from obsnl.observability.verdicts import BranchResult, Verdict
 from obsnl.observability.engines.sedoglavic import sedoglavic_block
-from obsnl.observability.engines.inputs import _check, _unknown_names, _variable_names, resolve_unknown_input_derivatives
+from obsnl.observability.engines.inputs import _check, _unknown_names
 
 __all__ = ["analyze_smooth", "orc", "sedoglavic"]
 
@@ -176,6 +179,18 @@ def _branch_result(
     return br, failure
 
 
+def branch_result(b: Branch, variables: Sequence[str], **options: Any) -> tuple[BranchResult, float]:
+    """The result of one branch of an analysis (:func:`_branch_result` with ``options``) and its failure bound; a
+    branch whose feasibility is undecided (:attr:`~obsnl.model.Branch.undecided`) is not analysed: inconclusive."""
+    if b.undecided:
+        return BranchResult(label=b.label, guard=b.guard_text, observable=(), unobservable=(), absent=(), rank=0,
+                            size=len(variables), transcendence_degree=0, seconds=0.0, verdict=Verdict.INCONCLUSIVE,
+                            reason=f"not analysed, its feasibility is undecided: {b.undecided}",
+                            undecided=tuple(variables), signs=tuple(b.signs)), 0.0
+    br, failure = _branch_result(b.label, b.guard_text, b.model, variables, **options)
+    return replace(br, signs=tuple(b.signs)), failure
+
+
 def _fresh_seed(seed: int | None) -> int:
     return seed if seed is not None else random.SystemRandom().randrange(2**31)
 
@@ -227,7 +242,7 @@ def analyze_smooth(
         When an option is invalid, the model has more unknowns than
         :data:`obsnl.observability.limits.MAX_UNKNOWNS`, or the analysis runs out of memory.
     """
-    _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
+    k, variables = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
     if not model.is_smooth:
         raise ModelError(
             f"model {model.name!r} is not smooth; use obsnl.observability.analyze (which splits it into branches) or "
@@ -235,9 +250,8 @@ def analyze_smooth(
         )
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
-    k = resolve_unknown_input_derivatives(model, unknown_input_derivatives)
     try:
-        br, _ = _branch_result("smooth", "true", model, _variable_names(model), method=method,
+        br, _ = _branch_result("smooth", "true", model, variables, method=method,
                                seed=_fresh_seed(seed), deadline=deadline, target=1 - prob, decompose=decompose,
                                unknown_input_derivatives=k, input_derivatives=input_derivatives)
         return br

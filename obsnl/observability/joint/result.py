@@ -9,9 +9,49 @@ from typing import Any
 
 
 from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
-from obsnl.observability.joint.visits import JointVisit
 
-__all__ = ["JointResult"]
+__all__ = ["JointResult", "JointVisit"]
+
+
+@dataclass(frozen=True)
+class JointVisit:
+    """One visit of the joint stack.
+
+    Attributes
+    ----------
+    kind
+        ``"branch"`` or ``"surface"``.
+    labels
+        The branch label (branch visit) or the labels of the two sides (surface visit).
+    switching
+        The switching function crossed (surface visits; ``""`` for branch visits).
+    visible
+        Whether the output shows the crossing (surface visits; always True for branch visits).
+        None when the surface could not be placed.
+    parameter_rank
+        Rank of the parameter information the visit carries on its own (its rows with its private
+        unknowns eliminated).
+    rank_gain
+        By how much it raised the joint parameter rank when it was added (in visit order).
+    solved_for
+        The state solved from ``switching = 0`` to place the point on the surface.
+    reason
+        Why a surface was skipped (no state in which the switching function is affine, ...).
+    """
+
+    kind: str
+    labels: tuple[str, ...]
+    switching: str = ""
+    visible: bool | None = True
+    parameter_rank: int = 0
+    rank_gain: int = 0
+    solved_for: str = ""
+    reason: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"kind": self.kind, "labels": list(self.labels), "switching": self.switching,
+                "visible": self.visible, "parameter_rank": self.parameter_rank, "rank_gain": self.rank_gain,
+                "solved_for": self.solved_for, "reason": self.reason}
 
 
 @dataclass(frozen=True)

@@ -12,10 +12,9 @@ from dataclasses import dataclass, field, replace
 from typing import Any
 
 from obsnl.errors import AnalysisError, NotSupportedError
-from obsnl.model.branching.branches import _MAX_SWITCHING, Branch, split_branches
-from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
-from obsnl.model.branching.representatives import representative_branches
-from obsnl.model.branching.switching import switching_of
+from obsnl.model.branching.branches import Branch
+from obsnl.model.branching.structure import branching
+from obsnl.model.core import Model
 
 __all__ = ["Visited", "select_branches"]
 
@@ -50,20 +49,6 @@ class Visited:
     def to_dict(self) -> dict[str, Any]:
         return {"how": self.how, "note": self.note, "exhaustive": self.exhaustive,
                 "durations": dict(self.durations), "crossings": dict(self.crossings)}
-
-
-#: Above this many switching functions (2**8 = 256 sign patterns) the branches are not enumerated:
-#: representative branches stand for them (:mod:`obsnl.model.branching.representatives`). An enumeration of
-#: 2**8 patterns of a 4-storey building takes about 17 s here, 2**10 several minutes.
-ENUMERATE_UP_TO = 8
-
-
-def _too_many(model: Model) -> bool:
-    """True when the first level has more switching functions than an enumeration handles."""
-    exprs = list(model.rhs) + list(model.output_exprs)
-    if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
-        return False
-    return len(switching_of(exprs, model.switching, {})) > min(ENUMERATE_UP_TO, _MAX_SWITCHING)
 
 
 def select_branches(model: Model, *, labels: Sequence[str] | None = None,
@@ -106,22 +91,35 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
     >>> [b.label for b in bs], how.how, how.exhaustive
     (['b'], 'labels', False)
     """
+    found = branching(model, seed=seed, max_seconds=max_seconds)  # once: every later choice is made from it
     if patterns is not None:
-        every = _all_or_representatives(model, seed, max_seconds)[0]
         # a pattern the record visits holds somewhere: one whose feasibility was undecided is decided now
-        by_signs = {tuple(b.signs): replace(b, undecided="") for b in every}
+        by_signs = {tuple(b.signs): replace(b, undecided="") for b in found.branches}
         chosen, durations = [], {}
         for signs, seconds in patterns.items():
             b = by_signs.get(tuple(signs))
-            if b is None:
-                b = _branch_for(model, signs, seed)
+            if b is None:  # a branch that was not enumerated
+                try:
+                    b = found.pattern(signs)
+                except NotSupportedError as exc:
+                    raise AnalysisError(f"visited sign pattern {tuple(signs)}: {exc}") from None
             chosen.append(b)
             durations[b.label] = round(float(seconds), 6)
         return chosen, Visited(
             how="record", exhaustive=False, durations=durations, crossings=dict(crossings or {}),
             note=(f"the {len(chosen)} branches a simulation under the record visits (time in each and the "
                   f"crossings are listed); the verdicts are what this experiment reveals"))
-    branches, visited = _all_or_representatives(model, seed, max_seconds)
+    branches = list(found.branches)
+    open_ = [b.label for b in branches if b.undecided]
+    if found.representatives is not None:
+        visited = Visited(how="representatives", exhaustive=False, note=found.representatives.describe())
+    elif open_:  # reported, never dropped: each is an inconclusive branch of the answer
+        visited = Visited(how="all", exhaustive=False, note=(
+            f"every feasible branch ({len(branches) - len(open_)}) and {len(open_)} whose feasibility is undecided "
+            f"({', '.join(open_)}: no point was found in them and none was proved impossible; not analysed)"))
+    else:
+        visited = Visited(how="all", exhaustive=True,
+                          note=f"every feasible branch ({len(branches)})" if len(branches) > 1 else "smooth model")
     if labels is None:
         return branches, visited
     every = {b.label: b for b in branches}
@@ -132,31 +130,3 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
     chosen = [every[lb] for lb in dict.fromkeys(labels)]
     return chosen, Visited(how="labels", exhaustive=len(chosen) == len(every) and visited.exhaustive,
                            note=f"only the branches {', '.join(b.label for b in chosen)} (the branches asked)")
-
-
-def _all_or_representatives(model: Model, seed: int, max_seconds: float | None = None) -> tuple[list[Branch], Visited]:
-    if _too_many(model):
-        try:
-            reps = representative_branches(model, seed=seed)
-        except NotSupportedError:  # nested non-smooth functions: the enumeration decides (or refuses)
-            reps = None
-        if reps is not None:
-            return list(reps.branches), Visited(how="representatives", exhaustive=False, note=reps.describe())
-    branches = list(split_branches(model, seed=seed, max_seconds=max_seconds, undecided=True))
-    open_ = [b.label for b in branches if b.undecided]
-    if open_:  # reported, never dropped: each is an inconclusive branch of the answer
-        return branches, Visited(how="all", exhaustive=False, note=(
-            f"every feasible branch ({len(branches) - len(open_)}) and {len(open_)} whose feasibility is undecided "
-            f"({', '.join(open_)}: no point was found in them and none was proved impossible; not analysed)"))
-    return branches, Visited(how="all", exhaustive=True,
-                             note=f"every feasible branch ({len(branches)})" if len(branches) > 1 else "smooth model")
-
-
-def _branch_for(model: Model, signs: Sequence[int], seed: int) -> Branch:
-    """The branch of a sign pattern of a model whose branches were not all enumerated."""
-    from obsnl.model.branching.representatives import branch_of_pattern
-
-    try:
-        return branch_of_pattern(model, tuple(int(s) for s in signs), seed=seed)
-    except NotSupportedError as exc:
-        raise AnalysisError(f"visited sign pattern {tuple(signs)}: {exc}") from None

@@ -60,13 +60,13 @@ from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.observability.limits import check_limits_once
 from obsnl.observability.joint.modular import kernel_rows
-from obsnl.observability.joint.result import JointResult
+from obsnl.observability.joint.result import JointResult, JointVisit
 from obsnl.observability.joint.visits import (
-    JointVisit, NewPrime, Plan, Prepared, VisitData, _Classes, branch_visit, classify_visit, private_names,
-    replace_visit, strip_ic, surface_visit,
+    NewPrime, Plan, Prepared, VisitData, _Classes, branch_visit, certified, classify_visit,
+    replace_visit, surface_visit,
 )
 
-__all__ = ["JointVisit", "joint_verdict"]
+__all__ = ["JointVisit", "joint_verdict", "joint_verdict_of"]
 
 _MAX_RUNS = 4
 _MAX_PRIMES = 4
@@ -140,8 +140,7 @@ def _run_at(model: Model, plans: list[Plan], seed: int, run_no: int, attempt: in
                 early = True
                 break
     obs = classes.update(done, ech)
-    certified = _certified(done, p, n_par, states, params, ws, known)
-    return _Run(p, done, obs, certified, failure, ech.rank, early, union)
+    return _Run(p, done, obs, certified(done, p, n_par, states, params, ws, known), failure, ech.rank, early, union)
 
 
 # --------------------------------------------------------------------------- the verdict
@@ -235,9 +234,37 @@ def joint_verdict(
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
     if not model.outputs:
         raise AnalysisError(f"model {model.name!r} has no outputs; nothing is observable")
+    return joint_verdict_of(model, _select(model, branches), seed=seed, prob=prob, max_seconds=max_seconds,
+                            unknown_input_derivatives=unknown_input_derivatives)
+
+
+def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob: float, max_seconds: float | None,
+                     unknown_input_derivatives: int | str) -> JointResult:
+    """:func:`joint_verdict` over the branches ``chosen`` (:class:`~obsnl.model.Branch` values), the model and the
+    options checked already (as :func:`obsnl.analyze` checks them before it chooses the branches).
+
+    Parameters
+    ----------
+    model : Model
+        The (switched) model.
+    chosen : sequence of Branch
+        The visited branches.
+    seed : int
+        Seed of every random choice.
+    prob : float
+        Wanted lower bound on the probability that the decided verdicts are right.
+    max_seconds : float or None
+        Time limit.
+    unknown_input_derivatives : int or str
+        The unknown-input assumption in force (``K`` or ``"arbitrary"``).
+
+    Returns
+    -------
+    JointResult
+    """
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
-    chosen = _select(model, branches)
+    chosen = list(chosen)
     if not chosen:
         raise AnalysisError("no branch to visit")
     cache: dict[tuple[int, bool], Prepared] = {}
@@ -247,8 +274,7 @@ def joint_verdict(
         def make() -> Prepared:
             key = (i, free and bool(model.known_initial_conditions))
             if key not in cache:
-                bm = chosen[i].model
-                cache[key] = Prepared.of(strip_ic(bm) if key[1] else bm, unknown_input_derivatives)
+                cache[key] = Prepared.of(chosen[i].model, unknown_input_derivatives, free=key[1])
             return cache[key]
         return make
 
@@ -350,26 +376,3 @@ def _decided(runs: list[_Run], prob: float, names: list[str], final: bool = Fals
     if not final and (pending or failure > 1 - prob) and len(runs) < _MAX_RUNS:
         return None
     return out, min(1.0, failure)
-
-
-def _certified(done: list[VisitData], p: int, n_par: int, states: list[str], params: list[str],
-               ws: list[str], known: set[str]) -> set[str]:
-    """Names certified by a full-column-rank sub-stack (see the module docstring)."""
-    S = []
-    for v in done:
-        if not v.used:
-            continue
-        n_priv = v.plan.sides[0].n_priv
-        rank_priv = sum(1 for i in range(v.rows.shape[0]) if v.rows[i, :n_priv].any())
-        if rank_priv == n_priv:
-            S.append(v)
-    e = Echelon(n_par, p)
-    for v in S:
-        for r in v.pi:
-            e.add(r)
-    if e.rank < n_par:
-        return set()
-    out = set(params) | known
-    for v in S:
-        out |= {c for c in private_names(v.plan.sides[0]) if c in states or c in ws}
-    return out

@@ -31,50 +31,10 @@ from obsnl.model.bounds.work import degree_in
 from obsnl.model.core import Model
 from obsnl.observability.engines.sedoglavic import RankTracker, stall_safe
 from obsnl.observability.joint.modular import _mod, _rref, kernel_rows
+from obsnl.observability.joint.result import JointVisit
 
-__all__ = ["JointVisit", "NewPrime", "Plan", "Prepared", "VisitData", "branch_visit", "classify_visit", "private_names", "replace_visit", "strip_ic", "surface_visit"]
-
-
-# --------------------------------------------------------------------------- the visit record
-@dataclass(frozen=True)
-class JointVisit:
-    """One visit of the joint stack.
-
-    Attributes
-    ----------
-    kind
-        ``"branch"`` or ``"surface"``.
-    labels
-        The branch label (branch visit) or the labels of the two sides (surface visit).
-    switching
-        The switching function crossed (surface visits; ``""`` for branch visits).
-    visible
-        Whether the output shows the crossing (surface visits; always True for branch visits).
-        None when the surface could not be placed.
-    parameter_rank
-        Rank of the parameter information the visit carries on its own (its rows with its private
-        unknowns eliminated).
-    rank_gain
-        By how much it raised the joint parameter rank when it was added (in visit order).
-    solved_for
-        The state solved from ``switching = 0`` to place the point on the surface.
-    reason
-        Why a surface was skipped (no state in which the switching function is affine, ...).
-    """
-
-    kind: str
-    labels: tuple[str, ...]
-    switching: str = ""
-    visible: bool | None = True
-    parameter_rank: int = 0
-    rank_gain: int = 0
-    solved_for: str = ""
-    reason: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "labels": list(self.labels), "switching": self.switching,
-                "visible": self.visible, "parameter_rank": self.parameter_rank, "rank_gain": self.rank_gain,
-                "solved_for": self.solved_for, "reason": self.reason}
+__all__ = ["NewPrime", "Plan", "Prepared", "VisitData", "branch_visit", "certified", "classify_visit", "private_names",
+           "replace_visit", "surface_visit"]
 
 
 # --------------------------------------------------------------------------- prepared problems
@@ -90,7 +50,10 @@ class Prepared:
     bound: dict[str, int]
 
     @staticmethod
-    def of(model: Model, unknown_input_derivatives: int) -> Prepared:
+    def of(model: Model, unknown_input_derivatives: int | str, *, free: bool = False) -> Prepared:
+        """``model``'s problem; ``free``: its known initial conditions dropped (a surface visit's states are free)."""
+        if free and model.known_initial_conditions:
+            model = derived_model(model, known_initial_conditions=(), initial_condition_values={})
         problem = make_problem(rationalize(model), unknown_input_derivatives=unknown_input_derivatives)
         col = {c: j for j, c in enumerate(problem.columns)}
         par = [col[s.name] for s in model.parameters]
@@ -164,12 +127,6 @@ def _unused(plan: Plan, model: Model, record: JointVisit) -> VisitData:
     """A surface visit that adds no rows (invisible, or skipped for the reason in ``record``)."""
     return VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
                      record, used=False)
-
-
-def strip_ic(model: Model) -> Model:
-    if not model.known_initial_conditions:
-        return model
-    return derived_model(model, known_initial_conditions=(), initial_condition_values={})
 
 
 def branch_visit(plan: Plan, p: int, shared: dict, atoms: dict, key: str, deadline: float | None) -> VisitData:
@@ -377,3 +334,44 @@ class _Classes:
         out = {c: not u for c, u in zip(self.params, unobs_par)}
         out.update(self.seen)
         return out
+
+
+def certified(done: list[VisitData], p: int, n_par: int, states: list[str], params: list[str],
+               ws: list[str], known: set[str]) -> set[str]:
+    """Names certified by a full-column-rank sub-stack (see :mod:`obsnl.observability.joint.verdict`).
+
+    Parameters
+    ----------
+    done : list of VisitData
+        The visits of one run.
+    p : int
+        The run's prime.
+    n_par : int
+        Number of parameters.
+    states, params, ws : list of str
+        The model's states, parameters and unknown inputs.
+    known : set of str
+        States with known initial conditions.
+
+    Returns
+    -------
+    set of str
+    """
+    S = []
+    for v in done:
+        if not v.used:
+            continue
+        n_priv = v.plan.sides[0].n_priv
+        rank_priv = sum(1 for i in range(v.rows.shape[0]) if v.rows[i, :n_priv].any())
+        if rank_priv == n_priv:
+            S.append(v)
+    e = Echelon(n_par, p)
+    for v in S:
+        for r in v.pi:
+            e.add(r)
+    if e.rank < n_par:
+        return set()
+    out = set(params) | known
+    for v in S:
+        out |= {c for c in private_names(v.plan.sides[0]) if c in states or c in ws}
+    return out
