@@ -178,8 +178,10 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     noise : float or None
         Relative noise of every output for the ranking (std = ``noise`` x RMS), between 0 and 10 (None:
         0.01); only with a record.
-    output, force : str, Path or None, and bool
-        As for :func:`analyze_file`.
+    output : str, Path or None
+        The file the rendering will be written to, checked before any work (as for :func:`analyze_file`).
+    force : bool
+        Replace that file.
     **search : Any
         Passed to :func:`obsnl.design.sensors.sensors` (target, max_size, seed, max_seconds, executor,
         progress).
