@@ -117,10 +117,11 @@ def quoted(items: Iterable[object], most: int = 8) -> str:
 
     Examples
     --------
-    >>> quoted(["x", "v"]), quoted(["z" * 100, "y", "w"], 2)
-    ("['x', 'v']", "['zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz..., 'y', ... (+1 more)]")
+    >>> quoted(["x", "v"]), quoted(["z" * 100, "y", "w"], 2), quoted(n for n in "ab"), quoted(())
+    ("['x', 'v']", "['zzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzzz..., 'y', ... (+1 more)]", "['a', 'b']", '[]')
     """
-    return f"[{names(items, most, name=quote)}]" if list(items) else "[]"
+    items = list(items)  # once: a generator is read a single time
+    return f"[{names(items, most, name=quote)}]" if items else "[]"
 
 
 def number(x: float | complex | None) -> str:
