@@ -30,10 +30,10 @@ import bench_likelihood as B  # noqa: E402  (the cases and their scipy data)
 
 def wald(res, truth: dict[str, float]) -> tuple[float, int, dict[str, float]]:
     """``W``, the number of parameters in it, and each parameter's error in reported std."""
-    names = [p.name for p in res.parameters if p.std and np.isfinite(p.std) and p.std > 0]
-    corr = res.refinement["correlation"]
-    e = np.array([next(p.estimate for p in res.parameters if p.name == n) - truth[n] for n in names])
-    d = np.array([next(p.std for p in res.parameters if p.name == n) for n in names])
+    est = [p for p in res.parameters if p.std and np.isfinite(p.std) and p.std > 0]  # held or flat: left out
+    names, corr = [p.name for p in est], res.refinement["correlation"]
+    e = np.array([p.estimate - truth[p.name] for p in est])
+    d = np.array([p.std for p in est])
     R = np.array([[corr[a][b] for b in names] for a in names], float)
     W = float(e @ np.linalg.solve(R * np.outer(d, d), e))
     return W, len(names), dict(zip(names, e / d))
