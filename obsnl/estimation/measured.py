@@ -37,7 +37,7 @@ from obsnl.model.bounds.textsize import quote
 
 __all__ = [
     "Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS",
-    "MIN_SAMPLES",
+    "MIN_SAMPLES", "UPPER_BOUND",
 ]
 
 #: Accepted names of the time column (seconds).
@@ -47,6 +47,8 @@ NOISE_FLOOR = 1e-3
 #: Fewest samples identified from: the noise levels come from differences of order up to 4, and a filter
 #: needs many samples per unknown (3 samples ran to an "estimate" with numpy warnings).
 MIN_SAMPLES = 20
+#: How :func:`estimate_noise`'s note ends when the estimate is only an upper bound (the channel is not oversampled).
+UPPER_BOUND = "this is an upper bound"
 _TOO_SHORT = (f"identification needs at least {MIN_SAMPLES} samples (noise levels are estimated from 4th "
               f"differences, and a filter needs many samples per unknown); give a longer record")
 
@@ -266,5 +268,5 @@ def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float,
     spread = max(est) / max(s, 1e-300)
     note = f"from the differences of orders {list(orders)} (noise std {s:.3g})"
     if spread > 1.5:
-        note += f"; they disagree by a factor {spread:.2g}: the channel is not oversampled, this is an upper bound"
+        note += f"; they disagree by a factor {spread:.2g}: the channel is not oversampled, {UPPER_BOUND}"
     return s / scale, note

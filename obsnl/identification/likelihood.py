@@ -114,6 +114,45 @@ class Objective:
         r, J = call(self.function, [np.asarray(z, float), u.T, y.T, 1.0 / self.sigma])
         return np.asarray(r).ravel(), (np.asarray(J) if jacobian else None)
 
+    def input_effect(self, z: np.ndarray, J: np.ndarray) -> np.ndarray:
+        """``A = G' J``, ``(T * nu, nz)``: ``G = dr/du`` the exact sensitivity of the whitened residuals to every
+        input sample (``vec(u)`` sample by sample: input ``j`` of sample ``k`` at ``k * nu + j``), through the
+        whole record in reverse mode, one sweep per column of ``J``."""
+        key = self._key() + ("input",)
+        if key not in _BUILT:
+            zs, U, Y, W, R = _graph(self.setup, len(self.data.u), self.substeps, self.scale)
+            V = ca.MX.sym("v", R.shape[0], zs.shape[0])
+            _BUILT[key] = ca.Function("input_effect", [zs, U, Y, W, V], [ca.jtimes(R, ca.vec(U), V, True)])
+            _trim()
+        y = np.asarray(self.data.y, float).reshape(len(self.data.u), -1)
+        u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
+        return np.asarray(_BUILT[key](np.asarray(z, float), u.T, y.T, 1.0 / self.sigma, np.asarray(J, float)))
+
+    def input_covariance(self, z: np.ndarray, J: np.ndarray, C: np.ndarray, sigma_u: np.ndarray) -> np.ndarray:
+        """The covariance of the estimate ``z`` added by white noise of std ``sigma_u`` on the measured inputs.
+
+        The fit simulates the model under the measured input ``u + e``; to first order its minimiser moves by
+        ``dz = -C J' G e`` (:meth:`input_effect`: ``A = G' J``), ``C`` the inverse Fisher information
+        (``covariance(J)``). So ``cov(dz) = C A' S A C``, ``S`` the input noise variance per sample: zero when
+        ``sigma_u`` is zero; added to ``C`` it is the estimate's covariance under noise on both the outputs and
+        the inputs (the errors-in-variables sandwich of an output-error fit). A flat coordinate (``inf`` in
+        ``C``) is left out: its row and column are 0 here and stay ``inf`` in ``C``.
+        """
+        sigma_u = np.asarray(sigma_u, float)
+        ok = np.isfinite(np.diag(C))
+        if not np.any(sigma_u > 0) or not ok.any():
+            return np.zeros_like(C)
+        A = self.input_effect(z, J)
+        CA = np.zeros((len(C), A.shape[0]))
+        CA[ok] = C[np.ix_(ok, ok)] @ A[:, ok].T
+        S = np.tile(sigma_u ** 2, len(self.data.u))
+        out = np.zeros_like(C)
+        out[np.ix_(ok, ok)] = ((CA * S) @ CA.T)[np.ix_(ok, ok)]
+        return out
+
+    def _key(self) -> tuple:
+        return _key(self.setup, len(self.data.u), self.substeps, self.scale)
+
     def reweighted(self, sigma: np.ndarray) -> Objective:
         """The same objective with other noise levels (the function takes them as an argument)."""
         return Objective(self.setup, self.data, self.substeps, self.scale, np.asarray(sigma, float), self.function)
@@ -156,25 +195,38 @@ def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | No
         typical = np.sqrt(np.mean(sim.x ** 2, axis=0))
         scale = np.maximum(typical, 1e-2 * max(float(typical.max()), 1e-300))
     scale = np.asarray(scale, float)
-    key = (id(m), id(setup.coordinates), float(setup.record.dt), T, n, int(setup.refine), scale.tobytes(),
-           setup.x0.tobytes())
+    key = _key(setup, T, n, scale)
     if key not in _BUILT:
-        step = m.step(setup.record.dt, substeps=n, refine=setup.refine)
-        phi, s = ca.MX.sym("phi", m.np), ca.MX.sym("s", m.nx)
-        U, Y, W = ca.MX.sym("u", m.nu, T), ca.MX.sym("y", m.ny, T), ca.MX.sym("w", m.ny)
-        th = setup.coordinates.forward(phi)
-        x0 = ca.DM(setup.x0) + ca.DM(scale) * s
-        X = ca.horzcat(x0, step.mapaccum(T - 1)(x0, th, U[:, :-1], U[:, 1:])[0])
-        Yhat = m.h.map(T)(X, ca.repmat(th, 1, T), U)
-        R = ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
-        z = ca.vertcat(phi, s)
+        z, U, Y, W, R = _graph(setup, T, n, scale)
         _BUILT[key] = ca.Function("output_error", [z, U, Y, W], [R, ca.jacobian(R, z)], ["z", "u", "y", "w"],
                                   ["r", "J"])
-        if len(_BUILT) > 16:
-            _BUILT.pop(next(iter(_BUILT)))
+        _trim()
     if sigma is None:
         sigma = setup.noise_std(data)[1]
     return Objective(setup, data, n, scale, np.maximum(np.asarray(sigma, float), 1e-300), _BUILT[key])
+
+
+def _key(setup: Setup, T: int, n: int, scale: np.ndarray) -> tuple:
+    return (id(setup.model), id(setup.coordinates), float(setup.record.dt), T, n, int(setup.refine),
+            np.asarray(scale, float).tobytes(), setup.x0.tobytes())
+
+
+def _graph(setup: Setup, T: int, n: int, scale: np.ndarray) -> tuple[ca.MX, ca.MX, ca.MX, ca.MX, ca.MX]:
+    """``(z, u, y, w, r)``: the whitened residuals ``r`` of ``T`` samples as a casadi graph of its arguments."""
+    m = setup.model
+    step = m.step(setup.record.dt, substeps=n, refine=setup.refine)
+    phi, s = ca.MX.sym("phi", m.np), ca.MX.sym("s", m.nx)
+    U, Y, W = ca.MX.sym("u", m.nu, T), ca.MX.sym("y", m.ny, T), ca.MX.sym("w", m.ny)
+    th = setup.coordinates.forward(phi)
+    x0 = ca.DM(setup.x0) + ca.DM(np.asarray(scale, float)) * s
+    X = ca.horzcat(x0, step.mapaccum(T - 1)(x0, th, U[:, :-1], U[:, 1:])[0])
+    Yhat = m.h.map(T)(X, ca.repmat(th, 1, T), U)
+    return ca.vertcat(phi, s), U, Y, W, ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
+
+
+def _trim() -> None:
+    while len(_BUILT) > 16:
+        _BUILT.pop(next(iter(_BUILT)))
 
 
 def covariance(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -16,6 +16,12 @@ threshold, until ``|Delta - THRESHOLD| <= TOLERANCE``; below the threshold, tria
 Each profile point re-optimises the other coordinates with Levenberg-Marquardt from the linear
 prediction ``z_hat + C[:, i] / C[i, i] * (phi_i - phi_hat_i)``.
 
+Noise on the measured inputs (given or estimated with the outputs' noise): the output-error profile has the
+curvature of the output noise alone, while the estimate also moves with the input's noise (its covariance
+``Refinement.total_cov``); the interval then ends where ``Delta`` reaches ``THRESHOLD`` times the square of
+``Refinement.widening`` (the ratio of the two std), which to second order is the interval of the estimate's
+whole variance, the profile's own asymmetry kept. With exact inputs the widening is 1.
+
 Shapes: ``closed`` (both ends found); ``open-low``/``open-high``: ``Delta`` stays below the threshold up to
 ``SEARCH`` (a factor 10 of the estimate) on that side: the data do not bound the parameter there
 (practical non-identifiability); ``flat``: open on both sides with ``Delta`` never above ``FLAT``
@@ -70,7 +76,8 @@ class Profile:
     ``not-optimal`` (a profile point fitted better than the estimate: no interval is claimed), or
     ``not-computed`` (the time budget of :func:`profiles` ran out first);
     ``better``: a profile point whose chi2 fell below the optimum (the estimate was not the global
-    optimum along this parameter), else ``None``.
+    optimum along this parameter), else ``None``; ``threshold``: the rise of ``Delta`` at which the interval
+    ends (``THRESHOLD``, widened by the measured inputs' noise: module docstring).
     """
 
     name: str
@@ -80,6 +87,7 @@ class Profile:
     points: tuple[tuple[float, float], ...] = field(repr=False)
     evaluations: int = 0
     better: float | None = None
+    threshold: float = THRESHOLD
 
     def __repr__(self) -> str:
         lo, hi = ("open" if v is None else number(v) for v in self.interval)
@@ -96,7 +104,8 @@ class Profile:
 
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "estimate": self.estimate, "interval": list(self.interval), "shape": self.shape,
-                "points": [list(p) for p in self.points], "evaluations": self.evaluations, "better": self.better}
+                "points": [list(p) for p in self.points], "evaluations": self.evaluations, "better": self.better,
+                "threshold": self.threshold}
 
 
 def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray, stop: float) -> tuple[float, np.ndarray, int]:
@@ -140,6 +149,7 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
     i = m.parameters.index(name)
     z_hat, C = ref.fit.z, ref.cov
     chi2_min = ref.chi2
+    level = THRESHOLD * ref.widening(i) ** 2  # noise on the measured inputs widens the interval (module docstring)
     sd = math.sqrt(C[i, i]) if math.isfinite(C[i, i]) and C[i, i] > 0 else math.inf
     slope = np.where(np.isfinite(C[:, i]), C[:, i], 0.0) / C[i, i] if math.isfinite(sd) else np.zeros(len(z_hat))
     slope[i] = 1.0
@@ -151,7 +161,7 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
     for side in (-1.0, 1.0):
         limit = min(search, (z_hat[i] - lo_edge) if side < 0 else (hi_edge - z_hat[i]))
         inner, outer = (0.0, 0.0), None  # (distance, sqrt(Delta)) below / above the threshold
-        d = min(math.sqrt(THRESHOLD) * sd, limit) if math.isfinite(sd) else min(0.05, limit)
+        d = min(math.sqrt(level) * sd, limit) if math.isfinite(sd) else min(0.05, limit)
         end = None
         start = z_hat.copy()
         for _ in range(POINTS):
@@ -166,21 +176,21 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
             delta = max(delta, 0.0)
             peak = max(peak, delta)
             points.append((side * d, delta))
-            if abs(delta - THRESHOLD) <= tolerance:
+            if abs(delta - level) <= tolerance:
                 end = side * d
                 break
-            if delta < THRESHOLD:
+            if delta < level:
                 inner, start = (d, math.sqrt(delta)), z
                 if d >= limit - 1e-12:
                     break  # open on this side
                 if outer is None:
-                    grow = math.sqrt(THRESHOLD / delta) if delta > 1e-12 else 3.0
+                    grow = math.sqrt(level / delta) if delta > 1e-12 else 3.0
                     d = min(d * min(max(grow, 1.1), 3.0), limit)
                     continue
             else:
                 outer = (d, math.sqrt(delta))
             (a, fa), (b, fb) = inner, outer
-            d = a + (math.sqrt(THRESHOLD) - fa) * (b - a) / (fb - fa)
+            d = a + (math.sqrt(level) - fa) * (b - a) / (fb - fa)
             d = min(max(d, a + 1e-3 * (b - a)), b - 1e-3 * (b - a))
         else:
             if outer is not None:  # the bracket is tight enough: take its interpolated end
@@ -198,7 +208,7 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
              else "open")
     pts = tuple(sorted((to_theta(z_hat[i] + d), float(v)) for d, v in points))
     return Profile(name=name, estimate=float(ref.theta[i]), interval=(lo, hi), shape=shape, points=pts,
-                   evaluations=evals, better=better)
+                   evaluations=evals, better=better, threshold=level)
 
 
 def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress: Any = None,
@@ -287,7 +297,7 @@ def _spec(ref: Refinement) -> dict[str, Any]:
     return {"recipe": recipe_of(obj.setup, "ukf", None), "u": np.asarray(obj.data.u), "y": np.asarray(obj.data.y),
             "substeps": obj.substeps, "scale": obj.scale, "sigma": obj.sigma, "theta": ref.theta, "x0": ref.x0,
             "std": ref.std, "cov": ref.cov, "chi2": ref.chi2, "z": ref.fit.z, "held": ref.held, "lower": ref.lower,
-            "upper": ref.upper}
+            "upper": ref.upper, "input_cov": ref.input_cov}
 
 
 def _rebuilt(spec: dict[str, Any]) -> Refinement:
@@ -305,7 +315,7 @@ def _rebuilt(spec: dict[str, Any]) -> Refinement:
               at_bound=(), stalled=False, J=None, r=None)
     return Refinement(theta=spec["theta"], x0=spec["x0"], std=spec["std"], cov=spec["cov"], sigma=spec["sigma"],
                       chi2=spec["chi2"], held=spec["held"], lower=spec["lower"], upper=spec["upper"], fit=fit,
-                      objective=obj)
+                      objective=obj, input_cov=spec["input_cov"])
 
 
 def _profile_task(task: tuple[dict[str, Any], str, float | None]) -> Profile:

@@ -26,7 +26,10 @@ class Refinement:
     """The maximum-likelihood estimate and what it rests on.
 
     ``theta``, ``x0``: the estimate; ``std``: per parameter, from the Fisher information at the estimate
-    (``inf`` along a flat direction); ``cov``: the covariance of ``z = (phi, s)``; ``sigma``: the noise std per
+    (``inf`` along a flat direction) with the measured inputs' noise propagated (``input_cov``); ``cov``: the
+    inverse Fisher information of ``z = (phi, s)`` (the output noise alone: the curvature the profiles follow);
+    ``input_cov``: what noise on the measured inputs adds to it (zero for inputs given as exact,
+    :meth:`~obsnl.identification.likelihood.Objective.input_covariance`); ``sigma``: the noise std per
     output estimated from the residuals (the weights of ``cov``); ``misfit``: per output, the RMS residual
     over the noise level given or estimated before the fit (1: at the noise floor); ``converged`` with
     ``reason``; ``objective`` and ``fit`` feed the profiles (:mod:`obsnl.identification.profile`).
@@ -49,6 +52,19 @@ class Refinement:
     upper: np.ndarray = field(default=None, repr=False)
     fit: Fit = field(default=None, repr=False)
     objective: Objective = field(default=None, repr=False)
+    input_cov: np.ndarray = field(default=None, repr=False)
+
+    def total_cov(self) -> np.ndarray:
+        """The covariance of ``z`` under the noise of the outputs and of the measured inputs."""
+        return self.cov if self.input_cov is None else self.cov + self.input_cov
+
+    def widening(self, i: int) -> float:
+        """How much the measured inputs' noise widens coordinate ``i``'s std (1: exact inputs, or a flat
+        coordinate). A profile-likelihood interval ends where its rise reaches ``THRESHOLD * widening**2``: the
+        output-error profile's curvature is ``1 / cov[i, i]``, the estimate's variance ``total_cov()[i, i]``."""
+        c = float(self.cov[i, i])
+        extra = 0.0 if self.input_cov is None else float(self.input_cov[i, i])
+        return math.sqrt(1.0 + extra / c) if math.isfinite(c) and c > 0 else 1.0
 
     def _parameters(self) -> list[str]:
         """The parameter names (from the objective; ``p0, p1, ...`` without one)."""
@@ -78,7 +94,7 @@ class Refinement:
         ``e`` of ``k`` parameters, ``D`` their std, ``R`` these correlations.
         """
         n = len(self.theta)
-        C = np.asarray(self.cov, float)[:n, :n]
+        C = np.asarray(self.total_cov(), float)[:n, :n]
         d = np.sqrt(np.diag(C))
         ok = np.isfinite(d) & (d > 0)
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -97,11 +113,13 @@ class Refinement:
                 "noise_std": {o: float(s) for o, s in zip(self.objective.setup.model.outputs, self.sigma)},
                 "misfit_over_noise": dict(self.misfit),
                 "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)},
-                "correlation": self.correlation()}
+                "correlation": self.correlation(),
+                "input_noise_widening": {p: round(self.widening(i), 6) for i, p in enumerate(self._parameters())}}
 
 
 def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
-           substeps: int | None = None, max_iter: int = 60, advice: str = ADVICE) -> Refinement:
+           substeps: int | None = None, max_iter: int = 60, advice: str = ADVICE,
+           input_noise: Sequence[float] | None = None) -> Refinement:
     """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
 
     Parameters
@@ -122,6 +140,9 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     advice : str
         What to try when the refinement does not converge (the end of the reason); a caller whose guesses
         are fixed (the seed paper's study) names only what its user can change.
+    input_noise : sequence of float or None
+        The noise std of each measured input, propagated into the std (:attr:`Refinement.input_cov`); default:
+        the setup's levels on these data; 0 takes an input as exact.
 
     Returns
     -------
@@ -170,8 +191,10 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     C_free, _ = covariance(J[:, free])
     C = np.zeros((len(z), len(z)))
     C[np.ix_(free, free)] = C_free
+    su = setup.noise_std(data)[0] if input_noise is None else np.asarray(input_noise, float)
+    Cu = obj.input_covariance(z, J, C, su)  # the measured inputs' noise, propagated
     theta = obj.theta(z)
-    std = np.array([abs(theta[i]) * math.sqrt(C[i, i]) if free[i] else 0.0 for i in range(m.np)])
+    std = np.array([abs(theta[i]) * math.sqrt(C[i, i] + Cu[i, i]) if free[i] else 0.0 for i in range(m.np)])
     res = r.reshape(-1, m.ny) * obj.sigma
     misfit = {o: float(np.sqrt(np.mean(res[:, j] ** 2)) / noise[j]) for j, o in enumerate(m.outputs)}
     converged, reason = _verdict(fit, m.parameters, advice)
@@ -179,7 +202,7 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
                       converged=converged, reason=reason, iterations=iterations,
                       at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
                       seconds=time.perf_counter() - t0, held=tuple(held), lower=lower, upper=upper, fit=fit,
-                      objective=obj)
+                      objective=obj, input_cov=Cu)
 
 
 def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE) -> tuple[bool, str]:

@@ -30,14 +30,14 @@ import numpy as np
 
 from obsnl.errors import DataError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
-from obsnl.estimation.measured import NOISE_FLOOR, Measured, estimate_noise
+from obsnl.estimation.measured import NOISE_FLOOR, UPPER_BOUND, Measured, estimate_noise
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import Trajectory
 from obsnl.executor import Executor
 from obsnl.identification.experiments import Tuning, make_filter, run_passes
 from obsnl.identification.refine import Refinement, refine
 from obsnl.identification.practical import practical_identifiability
-from obsnl.identification.profile import Profile, judge, profiles
+from obsnl.identification.profile import THRESHOLD, Profile, judge, profiles
 from obsnl.identification.replicates import check_passes, check_replicates, spread_on
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
 from obsnl.identification.setup import Data, Setup, coordinates, output_misfit
@@ -103,12 +103,12 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
 
 
 def _refine(setup: Setup, data: Data, theta: np.ndarray, held: Sequence[str],
-            progress: Callable[[], Any] | None, executor: Executor | None = None
-            ) -> tuple[Refinement | None, tuple[Profile, ...], str]:
+            progress: Callable[[], Any] | None, executor: Executor | None = None,
+            input_noise: np.ndarray | None = None) -> tuple[Refinement | None, tuple[Profile, ...], str]:
     """The maximum-likelihood refinement and the profiles (on ``executor``); ``(None, (), why)`` where it could
-    not run."""
+    not run. ``input_noise``: the inputs' noise std propagated into the std (default: the setup's levels)."""
     try:
-        ref = refine(setup, data, theta, held=held)
+        ref = refine(setup, data, theta, held=held, input_noise=input_noise)
         if progress:
             progress()
         return ref, profiles(ref, progress=progress, executor=executor), ""
@@ -131,12 +131,14 @@ def _held_bias(ref: Refinement, names: Sequence[str], h: int) -> str:
 def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tuning: Tuning, scores: tuple,
             trs: tuple[Trajectory, ...], held: tuple[str, ...], prac: Any, misfit: float, noise: Mapping,
             data_dict: Mapping, assumptions: Sequence[str], seed: int | None, refined: bool = True,
-            progress: Callable[[], Any] | None = None, executor: Executor | None = None) -> Identification:
+            progress: Callable[[], Any] | None = None, executor: Executor | None = None,
+            input_noise: np.ndarray | None = None) -> Identification:
     m = setup.model
     theta = trs[-1].theta[-1]
     var = np.diag(trs[-1].P[-1])[m.nx:]
     t0 = time.perf_counter()
-    ref, profs, failed = _refine(setup, data, theta, held, progress, executor) if refined else (None, (), "")
+    ref, profs, failed = _refine(setup, data, theta, held, progress, executor, input_noise) if refined else (
+        None, (), "")
     refine_seconds = time.perf_counter() - t0
     by_name = {pr.name: pr for pr in profs}
     x0 = setup.x0
@@ -175,7 +177,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
                                         true=tru, error=err, error_kind=kind,
                                         interval=None if prof is None else prof.interval,
                                         interval_method=None if prof is None else
-                                        f"profile likelihood, 95 % (chi2(1) threshold 3.84), {prof.shape}"))
+                                        f"profile likelihood, 95 % (chi2(1) threshold 3.84{_widened(prof)}), {prof.shape}"))
     try:
         y_fit = simulate(m, theta=theta, x0=x0, u=data.u, dt=setup.record.dt,
                          substeps=setup.fit_substeps or setup.substeps, refine=setup.refine).y
@@ -207,6 +209,12 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
 
 
+def _widened(prof: Profile) -> str:
+    """How the measured inputs' noise raised a profile's threshold ('' when it did not, to 4 digits)."""
+    w = math.sqrt(prof.threshold / THRESHOLD)
+    return f" x {w:.4g}^2 for the noise of the measured inputs" if round(w, 4) > 1 else ""
+
+
 _COMMON = ("the model is right: its equations describe the structure, its known constants are right",
            "measurement noise is white, Gaussian and independent between channels; its level per channel is "
            "given under 'noise'",
@@ -219,11 +227,14 @@ _FILTER_ONLY = ("std: the filter's posterior std after the last pass (optimistic
                 "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
                 "posterior against its prior, and the Monte-Carlo spread when replicates= is given)")
 _REFINED = ("the filter's estimate starts a maximum-likelihood fit (output error: the model simulated from an "
-            "estimated initial state under the measured input, the input taken as exact; Levenberg-Marquardt with "
-            "exact derivatives); the noise std per output is re-estimated from the fit's residuals",
-            "std: from the Fisher information (Gauss-Newton Hessian) at the maximum-likelihood estimate",
-            "interval: 95 % profile-likelihood interval (Raue et al. 2009, chi2(1) threshold 3.84), each other "
-            "parameter and the initial state re-optimised at every profile point",
+            "estimated initial state under the measured input; Levenberg-Marquardt with exact derivatives); the "
+            "noise std per output is re-estimated from the fit's residuals",
+            "std: from the Fisher information (Gauss-Newton Hessian) at the maximum-likelihood estimate, plus the "
+            "noise of the measured inputs (its level under 'noise') propagated to first order through the exact "
+            "sensitivity of the fit to every input sample",
+            "interval: 95 % profile-likelihood interval (Raue et al. 2009, chi2(1) threshold 3.84, raised by the "
+            "square of the inputs' widening of the std), each other parameter and the initial state re-optimised "
+            "at every profile point",
             "converged: the first-order condition holds (Newton decrement <= 0.01) and the last step moved no "
             "parameter by more than 0.1 of its std",
             "flagged: its 95 % interval is wider than +-5 % of the estimate, or open, or the profile is flat",
@@ -313,8 +324,13 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                 levels[c] = {"ratio": float(given[c]), "source": "given"}
             else:
                 r, note = estimate_noise(arr[:, j])
-                levels[c] = {"ratio": max(r, NOISE_FLOOR), "estimate": r,
+                levels[c] = {"ratio": max(r, NOISE_FLOOR), "estimate": r, "upper_bound": UPPER_BOUND in note,
                              "source": f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else "")}
+    # the refinement's std counts an input's noise at its given level or its estimate (not the filter's floor); a
+    # level that is only an upper bound (the channel is not oversampled) would swamp the std with signal: not counted
+    bound = [c for c in num.inputs if levels[c].get("upper_bound")]
+    input_noise = np.array([0.0 if c in bound else levels[c].get("estimate", levels[c]["ratio"])
+                            for c in num.inputs]) * np.sqrt(np.mean(np.asarray(data.u, float) ** 2, axis=0))
     setup = Setup(model=num, record=data.record(), truth=None, guess=dict(guess), jit=jit, y_true=data.y,
                   channel_noise={c: v["ratio"] for c, v in levels.items()}, fit_substeps=FIT_SUBSTEPS,
                   coordinates=coordinates(num, "log", reference=guess))
@@ -326,7 +342,11 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
            "output misfit won" if len(grid) > 1 else "one tuning, as given")
     return _result(setup, d, mode="measured", method=method, passes=passes, tuning=tuning, scores=scores, trs=trs,
                    held=held, prac=prac, misfit=misfit, noise=levels, data_dict=data.to_dict(), seed=seed,
-                   refined=refined, progress=progress, executor=executor,
+                   refined=refined, progress=progress, executor=executor, input_noise=input_noise,
                    assumptions=_assumptions(refined, how, "the initial state is estimated with the parameters" if
                                             refined else "the structure starts at rest (initial states from the "
-                                            "model file, else 0)"))
+                                            "model file, else 0)", *([
+                                                f"input {', '.join(bound)}: taken as exact by the std and intervals "
+                                                "(its noise level estimated from the data is only an upper bound: "
+                                                "the channel is not oversampled); give its noise level to count it"]
+                                                if bound and refined else [])))

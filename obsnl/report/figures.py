@@ -263,7 +263,8 @@ def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float
         :class:`~obsnl.identification.profile.Profile` values (``name``, ``estimate``, ``interval``, ``shape``,
         ``points``).
     threshold : float
-        The chi2 threshold of the 95 % interval.
+        The chi2 threshold of the 95 % interval (a profile's own ``threshold``, where it has one, wins: noise
+        on the measured inputs raises it).
     truth : mapping of str to float or None
         True values (a simulation study).
 
@@ -287,7 +288,7 @@ def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float
         signed = np.interp(grid, pts[:, 0], side * np.sqrt(np.maximum(pts[:, 1], 0.0)))
         ax.plot(grid, signed ** 2, lw=1, color="C0")
         ax.plot(pts[:, 0], pts[:, 1], "o", ms=3, color="C0")
-        ax.axhline(threshold, color="C3", lw=0.8, ls="--")
+        ax.axhline(getattr(pr, "threshold", threshold), color="C3", lw=0.8, ls="--")
         ax.axvline(pr.estimate, color="0.3", lw=0.8)
         for end in pr.interval:
             if end is not None:
