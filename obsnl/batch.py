@@ -16,9 +16,11 @@ from obsnl.observability.analyze import analyze
 from obsnl.observability.limits import check_analysis_limits, check_file_limits
 from obsnl.observability.results import AnalysisResult
 from obsnl.report.files import check_target
-from obsnl.report.folders import report_files, write_tables
+from obsnl.report.folders import report_files, tables_written_line, write_tables
+from obsnl.report.printed import Printed
+from obsnl.report.structure import inconclusive_line
 
-__all__ = ["report_models", "report_paths"]
+__all__ = ["report_models", "report_paths", "report_printed"]
 
 
 def _analyze_task(task: tuple[dict, str, int, float | None]) -> AnalysisResult:
@@ -86,15 +88,38 @@ def report_paths(paths: Sequence[str | Path], out: str | Path, *, max_seconds: f
     max_seconds : float or None
         Time limit of the whole job (each model on a worker gets the same limit).
     **options : object
-        Passed to :func:`report_models` (method, seed, force, executor).
+        Passed to :func:`report_models` (method, seed, force, executor: its scheduler probed before any work).
 
     Returns
     -------
     tuple of AnalysisResult
         One per model, in order.
     """
+    if isinstance(ex := options.get("executor"), Executor):  # a scheduler that does not answer: refused at once
+        ex.probe()
     with time_budget(max_seconds):
         models = [read_model(p, check=check_file_limits) for p in paths]
         for m in models:
             check_analysis_limits(m)
         return report_models(models, out, max_seconds=max_seconds, **options)  # type: ignore[arg-type]
+
+
+def report_printed(models: Sequence[str | Path], out: str | Path, **options: object) -> Printed:
+    """What ``obsnl report`` prints: :func:`report_paths`, the tables written, and the line that names the
+    first inconclusive branch (with its model's name).
+
+    Parameters
+    ----------
+    models : sequence of str or Path
+        Model files (or ``obsnl:NAME``).
+    out : str or Path
+        The report folder.
+    **options : object
+        As for :func:`report_paths`.
+
+    Returns
+    -------
+    Printed
+    """
+    results = report_paths(models, out, **options)
+    return Printed(tables_written_line(len(results), out), inconclusive_line(results, named=True))

@@ -3,7 +3,9 @@
 (1) A bound is the library's: Python and ``obsnl`` refuse the same value with the same message, the command
 line's only in its flags (``cli_terms``); (2) the file jobs refuse an output file that cannot be written
 before any work (a tripwire on the work); (3) the renamings of ``reparametrize_job`` are ``OLD=NEW``; (4) the
-undecided sensor sets make one line. Every check is exact, so no error probability to state.
+undecided sensor sets make one line; (5) identify's refusal of workers nothing would use, and the probe of a
+scheduler, are the jobs' own; (6) a command prints (or writes to ``-o``) what its library job returns. Every
+check is exact, so no error probability to state.
 """
 
 from __future__ import annotations
@@ -90,3 +92,87 @@ def test_the_undecided_sensor_sets_make_one_line():
     assert undecided_line(search) == ("2 sensor set(s) undecided, e.g. {a, b}: minimality undecided; raise "
                                       "max_seconds=")
     assert undecided_line(SimpleNamespace(undecided_sets=())) is None
+
+
+def test_identify_job_refuses_an_executor_nothing_would_use(tmp_path, capsys, monkeypatch):
+    """Without the refinement and without replicates nothing of identify runs in parallel: workers or a scheduler
+    named there are refused, not dropped, from Python and from ``obsnl identify`` alike (before the model is read)."""
+    import obsnl.model.files as files
+    from obsnl.studies.jobs import identify_job
+
+    def tripwire(*a, **k):  # noqa: ANN002, ANN003
+        raise AssertionError("the model was read before the options were checked")
+
+    monkeypatch.setattr(files, "read_model", tripwire)
+    with pytest.raises(OptionError) as info:
+        identify_job(MODELS / "bouc_wen.toml", record="r.csv", refine=False, replicates=0,
+                     executor=Executor(workers=2))
+    assert "workers= or scheduler=" in str(info.value) and "refine=False" in str(info.value)
+    assert main(["identify", str(MODELS / "bouc_wen.toml"), "--record", "r.csv", "--no-refine", "--workers", "2"]) == 2
+    err = capsys.readouterr().err
+    assert err == f"obsnl identify: error: {cli_terms(str(info.value), _sub('identify'))}\n"
+    assert err.startswith("obsnl identify: error: --workers or --scheduler applies") and "--no-refine" in err
+    # an executor that names neither (the default) or a run that uses it passes the check: the model is read next
+    for options in ({"refine": False, "executor": Executor()}, {"refine": False, "replicates": 3,
+                                                                  "executor": Executor(workers=2)}):
+        with pytest.raises(AssertionError, match="the model was read"):
+            identify_job(MODELS / "bouc_wen.toml", record="r.csv", **options)
+
+
+@pytest.mark.parametrize("job", ["identify_job", "reproduce_job", "report_paths", "sensors_file"])
+def test_the_jobs_refuse_a_dead_scheduler_before_any_work(tmp_path, monkeypatch, job):
+    """A scheduler address where nothing listens (port 1 of the loopback: refused at once) is refused by the job
+    itself, from Python too, before a model or a record is read."""
+    import obsnl.batch as batch
+    import obsnl.design.records as records
+    import obsnl.model.files as files
+    from obsnl.studies import jobs
+
+    def tripwire(*a, **k):  # noqa: ANN002, ANN003
+        raise AssertionError("work started before the scheduler was probed")
+
+    for module in (batch, records, files):
+        monkeypatch.setattr(module, "read_model", tripwire)
+    dead = Executor(scheduler="tcp://127.0.0.1:1")
+    call = {"identify_job": lambda: jobs.identify_job(MODELS / "bouc_wen.toml", record="r.csv", executor=dead),
+            "reproduce_job": lambda: jobs.reproduce_job(out=tmp_path / "o", record="r.csv", executor=dead),
+            "report_paths": lambda: batch.report_paths([MODELS / "bouc_wen.toml"], tmp_path / "o", executor=dead),
+            "sensors_file": lambda: records.sensors_file(MODELS / "bouc_wen.toml", executor=dead)}[job]
+    with pytest.raises(OptionError, match="cannot reach the Dask scheduler"):
+        call()
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_printed_rendering_goes_to_standard_output_or_to_its_file(tmp_path):
+    from obsnl.report.printed import Printed, printed
+
+    assert printed("table", None, undecided="branch (b) is inconclusive: t") == Printed("table",
+                                                                                       "branch (b) is inconclusive: t")
+    out = tmp_path / "t.md"
+    assert printed("table", str(out)) == Printed(None, None)
+    assert out.read_text(encoding="utf-8") == "table\n"  # one final newline, as on standard output
+    with pytest.raises(OutputError, match="exists; pass force=True"):
+        printed("other", str(out))
+    assert printed("other\n", str(out), force=True).text is None and out.read_text(encoding="utf-8") == "other\n"
+
+
+def test_the_jobs_the_command_line_runs_print_what_it_prints(tmp_path, capsys):
+    """A command's text is its job's text: ``obsnl branches`` prints what ``branches_printed`` returns, ``obsnl
+    analyze -o`` writes what ``analyze_printed`` returns (the analysis seeded, its timings set aside)."""
+    import json
+
+    from obsnl.design.jobs import analyze_printed, branches_printed
+
+    assert main(["branches", str(MODELS / "coulomb_friction.toml"), "--equations"]) == 0
+    assert capsys.readouterr().out == branches_printed(MODELS / "coulomb_friction.toml", equations=True).text + "\n"
+    out = tmp_path / "a.json"
+    assert main(["analyze", str(MODELS / "coulomb_friction.toml"), "--seed", "3", "--format", "json", "-o",
+                 str(out)]) == 0
+    printed = analyze_printed(MODELS / "coulomb_friction.toml", seed=3, fmt="json")
+
+    def untimed(doc):  # the document without its wall-clock fields
+        if isinstance(doc, dict):
+            return {k: untimed(v) for k, v in doc.items() if "seconds" not in k}
+        return [untimed(v) for v in doc] if isinstance(doc, list) else doc
+
+    assert untimed(json.loads(out.read_text())) == untimed(json.loads(printed.text)) and printed.undecided is None

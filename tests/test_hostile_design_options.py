@@ -423,12 +423,12 @@ def test_d1_any_os_error_of_a_command_is_one_line_with_the_path_and_the_reason(f
     """The one place (main) that turns the operating system's refusals into a line: here a full disk."""
     import errno
 
-    import obsnl.cli.commands
+    import obsnl.design.jobs
 
-    def full(args):
+    def full(model, **options):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(files["dir"] / f"{TEN_KB}.txt"))
 
-    monkeypatch.setattr(obsnl.cli.commands, "sensors", full)
+    monkeypatch.setattr(obsnl.design.jobs, "sensors_printed", full)  # the job the command runs
     code, out, err = _cli(files, capsys, "sensors", str(files["model"]))
     _check_cli_refusal(code, out, err)
     assert os.strerror(errno.ENOSPC) in err and "free some space" in err and len(err) < 400, err

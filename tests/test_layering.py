@@ -193,10 +193,10 @@ def test_no_module_over_400_lines():
     assert long == {}
 
 
-#: Lines of the command line (obsnl/cli/*.py) at most: each command parses its options, calls one library
-#: function and prints its rendering; value checks, file workflows and renderings live in the library. Issue 25
-#: item 4 asks for fewer than 300; the option table (about 85 lines) is most of what is left. Only shrinks.
-CLI_MAX_LINES = 389
+#: Lines of the command line (obsnl/cli/*.py) at most: each command parses its options, calls its library job
+#: and prints what the job returns; value checks, file workflows and renderings live in the library. Issue 25
+#: item 4 asked for fewer than 300: met (the option table is most of what is left). Only shrinks.
+CLI_MAX_LINES = 296
 
 
 def _cli_lines() -> int:

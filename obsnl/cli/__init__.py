@@ -1,5 +1,5 @@
-"""The ``obsnl`` command line: each subcommand parses its options, calls one library function and prints
-its rendering (:mod:`obsnl.cli.commands`). The parser is the table :data:`COMMANDS`.
+"""The ``obsnl`` command line: each subcommand parses its options, calls its library job and prints what the job
+returns (:func:`obsnl.cli.commands.run`). The parser is the table :data:`COMMANDS`.
 
 Exit codes: 0 success, 2 bad input (one line on stderr, no traceback), 1 an internal error. Nothing
 numeric is imported before a command runs: ``obsnl --help`` loads argparse and the package only.
@@ -11,6 +11,7 @@ import argparse
 import sys
 from collections.abc import Sequence
 
+from obsnl.cli.commands import run as run_job
 from obsnl.cli.common import _names, _number, _One, _Parser, _whole, cli_terms
 from obsnl._text import os_error_line
 from obsnl.errors import ObsnlError
@@ -25,7 +26,7 @@ def _o(*flags: str, **kw: object) -> tuple:
 
 
 MODEL, SECONDS = _o("model", help="model file (.toml or .json) or obsnl:NAME"), _o("--max-seconds", type=_number)
-FMT, FMT4 = (_o("--format", choices=c, default="text") for c in (("text", "json"), ("text", "json", "md", "tex")))
+FMT, FMT4 = (_o("--format", dest="fmt", choices=("text", "json", *c), default="text") for c in ((), ("md", "tex")))
 FORCE = _o("--force", action="store_true", help="overwrite existing files")
 SEED = _o("--seed", type=_whole(), default=0)
 OUT = [_o("-o", "--output", metavar="FILE", help="write here instead of stdout"), FORCE]
@@ -33,59 +34,58 @@ METHOD = _o("--method", choices=("auto", "orc", "sedoglavic"), default="auto", h
 SCHEDULER = _o("--scheduler", metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
 EXECUTOR = [_o("--workers", type=_whole(1), help="local processes (default: one per core)"), SCHEDULER]
 ONE_WORKER = [_o("--workers", type=_whole(1), default=1, help="local processes (default: 1)"), SCHEDULER]
-RECORD = "(.csv or .AT2) driving the model's one input"
+RECORD, DESIGN, STUDIES = "(.csv or .AT2) driving the model's one input", "obsnl.design.jobs", "obsnl.studies.jobs"
 BIG = f"A model with more than {MAX_UNKNOWNS} unknowns (states + parameters + unknown inputs) is refused first."
 
-#: Each subcommand: its one-line help, its description and its options, in the order --help lists them.
-COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
-    "show": ("print a model's equations", None, [MODEL, FMT]),
-    "branches": ("list the smooth branches of a non-smooth model", None,
+#: Each subcommand: the module of its library job (``<module>.<command>_printed``, which takes the options as keywords
+#: and returns what the command prints), its one-line help, its description and its options, in the order --help
+#: lists them.
+COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
+    "show": (DESIGN, "print a model's equations", None, [MODEL, FMT]),
+    "branches": (DESIGN, "list the smooth branches of a non-smooth model", None,
                  [MODEL, FMT, _o("--equations", action="store_true", help="print each branch's equations")]),
-    "analyze": ("observability/identifiability of every branch of a model", "Test each smooth branch (ORC or "
-                "Sedoglavic's randomized test), then the branches jointly. Exit code 2 when a branch is "
+    "analyze": (DESIGN, "observability/identifiability of every branch of a model", "Test each smooth branch (ORC "
+                "or Sedoglavic's randomized test), then the branches jointly. Exit code 2 when a branch is "
                 "inconclusive: the result is printed, the reason goes to stderr. " + BIG,
-                [MODEL, _o("--format", choices=("text", "json", "md", "tex", "json-table"), default="text"),
+                [MODEL, _o("--format", dest="fmt", choices=("text", "json", "md", "tex", "json-table"), default="text"),
                  METHOD, _o("--seed", type=_whole(), help="default: drawn and reported"), SECONDS,
                  _o("--branches", type=_names, metavar="LABELS", help="only these branches (e.g. a,c)"),
                  _o("--record", metavar="FILE", help=f"only what the [values] visit under a record {RECORD}"),
                  _o("--no-joint", dest="joint", action="store_false", help="skip the joint verdict"),
                  _o("--unknown-input-derivatives", metavar="K|arbitrary", help="K non-zero derivatives; K is "
                     f"at most the model's states + parameters + {DERIVATIVES_MARGIN}"), *OUT]),
-    "report": ("analyse models and write their branch tables (Markdown, LaTeX, JSON)", "Write DIR/<model>.md, "
-               ".tex, .json, index.md and timings.md. " + BIG,
+    "report": ("obsnl.batch", "analyse models and write their branch tables (Markdown, LaTeX, JSON)",
+               "Write DIR/<model>.md, .tex, .json, index.md and timings.md. " + BIG,
                [_o("models", nargs="+", metavar="MODEL"), _o("--out", required=True, metavar="DIR"), METHOD,
                 SEED, SECONDS, FORCE, *ONE_WORKER]),
-    "symmetries": ("generators of the unobservable directions of each branch", None,
+    "symmetries": (DESIGN, "generators of the unobservable directions of each branch", None,
                    [MODEL, FMT, _o("--degree", type=int, choices=(1, 2), default=1), SEED]),
-    "reparametrize": ("propose identifiable combinations and write the model in them", None,
+    "reparametrize": (STUDIES, "propose identifiable combinations and write the model in them", None,
                       [MODEL, _o("-o", "--output", metavar="NEW.toml"), FORCE, SEED,
                        _o("--eliminate", type=_names, default="", metavar="P,Q", help="parameters to normalise to 1"),
                        _o("--keep", type=_names, default="", metavar="P,Q", help="parameters that must not be pivots"),
                        _o("--name", dest="names", action="append", default=[], metavar="OLD=NEW",
                           help="rename a symbol")]),
-    "identify": ("identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
+    "identify": (STUDIES, "identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
                  "Analyse MODEL, then estimate its parameters from --data (CSV: time_s or t, one column per "
                  "input and output) or a study of its [values] under --record, refined by maximum likelihood.",
                  [MODEL, _o("--data", one_of=1, help="measured inputs and outputs (.csv)"),
                   _o("--record", one_of=1, help=f"simulation study: a record {RECORD}"),
-                  _o("--table", help="branch table (for dukf)"), _o("--method", choices=("ukf", "dukf"),
-                                                                    default="ukf"),
+                  _o("--table", help="branch table (for dukf)"), _o("--method", choices=("ukf", "dukf"), default="ukf"),
                   _o("--guess", action="append", default=[], metavar="P=V"), _o("--noise", action="append",
                      default=[], metavar="NAME=RATIO", help="noise/signal RMS of a channel, or RATIO for all"),
                   _o("--passes", type=_whole(1), default=3, help="passes over the record (default: 3)"),
                   _o("--allow-unidentifiable", action="store_true", help="run despite the structural verdict"),
                   _o("--hold", action="store_true", help="hold poorly informed parameters at their guess"),
                   _o("--no-refine", dest="refine", action="store_false", help="skip the maximum-likelihood refinement"),
-                  SEED,
-                  *[_o(f, type=_number, help="default: tuned") for f in ("--s0", "--q-theta", "--q-x", "--gate")],
+                  SEED, *[_o(f, type=_number, help="default: tuned") for f in ("--s0", "--q-theta", "--q-x", "--gate")],
                   _o("--samples", type=_whole(2), help="only the first samples of a --record"),
                   _o("--jit", action="store_true", help="compile the filter to C (needs a C compiler)"),
                   _o("--replicates", type=_whole(), default=0, help="Monte-Carlo replicates (0: off, else >= 3)"),
                   *EXECUTOR, _o("--out", metavar="DIR", help="write identify.json and the figures here"), FORCE]),
-    "reproduce": ("reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
-                  "The default folder reports/identification (/RECORD) holds the committed results and is "
-                  "REGENERATED; --quick writes reproduce-quick/ here; another --out is never overwritten "
-                  "without --force.",
+    "reproduce": (STUDIES, "reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
+                  "The default folder reports/identification (/RECORD) holds the committed results and is REGENERATED; "
+                  "--quick writes reproduce-quick/ here; another --out is never overwritten without --force.",
                   [_o("--quick", action="store_true",
                       help="300 samples, 1 seed, 1 tuning seed, no Monte-Carlo (options win)"),
                    _o("--record", help="another ground motion (.csv or .AT2)"),
@@ -96,18 +96,17 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
                    _o("--no-jit", dest="jit", action="store_const", const=False,
                       help="do not compile the filters to C (slower runs)"),
                    _o("--replicates", type=_whole(), help="Monte-Carlo replicates per run (default: 32)"),
-                   _o("--out", help="output folder (default: reports/identification)"), FORCE,
-                   *EXECUTOR]),
-    "bank": ("run the observer-bank crack benchmark on the cantilever link", None,
+                   _o("--out", help="output folder (default: reports/identification)"), FORCE, *EXECUTOR]),
+    "bank": (STUDIES, "run the observer-bank crack benchmark on the cantilever link", None,
              [_o("--seeds", type=_whole(1), default=3), _o("--out", default="reports/bank"),
               _o("--model", help="link model file (default: obsnl:cantilever_link)"), FORCE]),
-    "sensors": ("which sensors make every target identifiable (minimal sets of the model's outputs)", None,
+    "sensors": (DESIGN, "which sensors make every target identifiable (minimal sets of the model's outputs)", None,
                 [MODEL, _o("--target", default="all"), _o("--max-size", type=_whole(1)), FMT4, *OUT, SEED,
                  _o("--max-seconds", type=_number, help="of each analysis"), _o("--progress", action="store_true"),
                  _o("--record", metavar="FILE", help=f"rank by the Cramer-Rao bound under a record {RECORD}"),
                  _o("--rank-size", type=_whole(1), help="with --record"),
                  _o("--noise", type=_number, help="with --record (default 0.01)"), *ONE_WORKER]),
-    "design": ("the smallest record scale and the records that make a model identifiable", None,
+    "design": (DESIGN, "the smallest record scale and the records that make a model identifiable", None,
                [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}"),
                 _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
                 _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", metavar="S1,S2,..."), SEED]),
@@ -117,13 +116,12 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
 def build_parser() -> argparse.ArgumentParser:
     """The full argument parser, built from :data:`COMMANDS` (exposed for tests and documentation)."""
     from obsnl import __version__
-    from obsnl.cli import commands
 
     parser = _Parser(prog="obsnl", description="Observability and identifiability of nonlinear, "
                      "non-smooth mechanical models.")
     parser.add_argument("--version", action="version", version=f"obsnl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, (short, description, options) in COMMANDS.items():
+    for name, (job, short, description, options) in COMMANDS.items():
         p = sub.add_parser(name, help=short, description=description)
         group = None
         for flags, kw in options:
@@ -133,7 +131,7 @@ def build_parser() -> argparse.ArgumentParser:
             if "nargs" not in kw and kw.get("action") in (None, "append"):  # one value each: refused as '--'
                 one["action"] = _One
             (group if kw.get("one_of") else p).add_argument(*flags, **one)
-        p.set_defaults(func=getattr(commands, name))
+        p.set_defaults(job=f"{job}:{name}_printed")
     return parser
 
 
@@ -144,12 +142,13 @@ def main(argv: Sequence[str] | None = None) -> int:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # argparse: --help (0) or usage error (2)
         return int(exc.code or 0)
-    if not getattr(args, "func", None):  # no command: the usage and one error line on stderr, as argparse does
+    if args.command is None:  # no command: the usage and one error line on stderr, as argparse does
         parser.print_usage(sys.stderr)
         print("obsnl: error: choose a command (obsnl --help lists them)", file=sys.stderr)
         return 2
     try:
-        return int(args.func(args) or 0)
+        run_job(args)
+        return 0
     except (ObsnlError, OSError) as exc:  # bad input, or the system's refusal (a name too long, a full disk)
         sub = parser._subparsers._group_actions[0].choices[args.command]  # type: ignore[union-attr]
         # the library names options as Python keywords (a result's reason too): this command's flags instead

@@ -1,5 +1,5 @@
 """What the commands share: the option types and the action that refuses ``--opt=--``, a parser whose usage
-errors stay short, writing output, and the library's messages in this command's flags.
+errors stay short, and the library's messages in this command's flags.
 
 The bounds of a value (passes, replicates, workers, time limits, noise levels) are the library's checks,
 the same refusal from Python and from here; the types only read the text.
@@ -8,7 +8,6 @@ the same refusal from Python and from here; the types only read the text.
 from __future__ import annotations
 
 import argparse
-import sys
 from typing import Any
 
 __all__: list[str] = []
@@ -60,18 +59,6 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> Any:  # argparse exits here (code 2)
         super().error(f"{message[:200]} ... {message[-80:]}" if len(message) > 300 else message)
-
-
-def _write(text: str, out: str | None = None, *, force: bool = False) -> None:
-    """Print ``text`` (out None or ``-``) or write it to the file ``out`` through
-    :func:`obsnl.report.files.safe_write`: never over a file without ``force``, never through a symlink."""
-    text = text if text.endswith("\n") else text + "\n"
-    if out is None or out == "-":
-        sys.stdout.write(text.encode("utf-8", "backslashreplace").decode("utf-8"))
-    else:
-        from obsnl.report.files import safe_write
-
-        safe_write(out, text, force=force)
 
 
 def cli_terms(message: str, parser: argparse.ArgumentParser) -> str:

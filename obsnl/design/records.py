@@ -183,8 +183,8 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     force : bool
         Replace that file.
     **search : Any
-        Passed to :func:`obsnl.design.sensors.sensors` (target, max_size, seed, max_seconds, executor,
-        progress).
+        Passed to :func:`obsnl.design.sensors.sensors` (target, max_size, seed, max_seconds, executor: its
+        scheduler probed before any work, progress).
 
     Returns
     -------
@@ -193,6 +193,8 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     """
     from obsnl.design.sensors import rank_sufficient_sets, sensors
 
+    if search.get("executor") is not None:  # a Dask scheduler that does not answer is refused before any work
+        search["executor"].probe()
     _check_output(output, force)
     check_seconds(search.get("max_seconds"))  # of each analysis: refused before the search starts
     if record is None and (rank_size is not None or noise is not None):  # would be ignored: refused, not dropped

@@ -18,7 +18,8 @@ import numpy as np
 from obsnl.errors import OutputError
 from obsnl.report.files import OutputFolder, check_folder
 
-__all__ = ["bank_table_markdown", "bank_file_names", "check_bank_output", "write_bank_report", "BANK_FILES"]
+__all__ = ["bank_table_markdown", "bank_file_names", "check_bank_output", "write_bank_report", "bank_written_line",
+           "BANK_FILES"]
 
 #: The files of every bank report, besides one force plot per scenario.
 BANK_FILES = ("bank.json", "bank.md")
@@ -204,3 +205,14 @@ def write_bank_report(study: Any, out: str | Path, *, force: bool = False) -> li
         plot_bank_forces(study, folder.staging)
         folder.commit()
     return targets
+
+
+def bank_written_line(files: Sequence[Path]) -> str:
+    """The line that says what :func:`write_bank_report` wrote: the two tables, then the number of force plots.
+
+    Examples
+    --------
+    >>> bank_written_line([Path("b/bank.json"), Path("b/bank.md"), Path("b/forces_healthy.png")])
+    'wrote b/bank.json, b/bank.md and 1 force plots'
+    """
+    return f"wrote {', '.join(str(f) for f in files[:2])} and {len(files) - 2} force plots"

@@ -17,7 +17,8 @@ from obsnl.errors import OptionError
 from obsnl.report.figures import _plt, _save
 from obsnl.report.tex import tex_escape
 
-__all__ = ["design_text", "design_markdown", "design_latex", "render_design", "plot_visits", "DESIGN_FORMATS"]
+__all__ = ["design_text", "design_markdown", "design_latex", "render_design", "plot_visits", "undecided_line",
+           "DESIGN_FORMATS"]
 
 #: The formats of :func:`render_design`.
 DESIGN_FORMATS = ("text", "json", "md", "tex")
@@ -128,6 +129,20 @@ def render_design(design: Any, fmt: str) -> str:
     if out is None:
         raise OptionError(f"unknown format {fmt!r}; formats are {', '.join(DESIGN_FORMATS)}")
     return out(design)
+
+
+def undecided_line(design: Any) -> str | None:
+    """The one line that says a design is inconclusive, and why; None when it is decided.
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as Design
+    >>> undecided_line(Design(status="inconclusive", reason="the time limit ran out at scale 10"))
+    'inconclusive: the time limit ran out at scale 10'
+    >>> undecided_line(Design(status="found", reason="scale 2 suffices, 1 does not")) is None
+    True
+    """
+    return f"inconclusive: {design.reason}" if design.status == "inconclusive" else None
 
 
 def plot_visits(design: Any, path: str | Path) -> Path:

@@ -13,7 +13,7 @@ from obsnl.observability.results import AnalysisResult
 from obsnl.report.tables import joint_text, to_json, to_latex, to_markdown, union_text
 from obsnl.report.files import OutputFolder, _SAFE_NAME, check_folder
 
-__all__ = ["report_files", "write_tables", "timing_table"]
+__all__ = ["report_files", "write_tables", "timing_table", "tables_written_line"]
 
 
 def timing_table(entries: Sequence[tuple[str, str, int, float]]) -> str:
@@ -119,3 +119,14 @@ def write_tables(results: Sequence[AnalysisResult], out: str | Path, *, force: b
         for t, text in zip(targets, texts):
             folder.write_text(t.name, text)
         return folder.commit()
+
+
+def tables_written_line(count: int, out: str | Path) -> str:
+    """The line that says what :func:`write_tables` wrote for ``count`` models into the folder ``out``.
+
+    Examples
+    --------
+    >>> tables_written_line(2, "tables")
+    'wrote 2 table(s) with index.md and timings.md to tables'
+    """
+    return f"wrote {count} table(s) with index.md and timings.md to {out}"

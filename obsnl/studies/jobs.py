@@ -11,7 +11,9 @@
 - :func:`reparametrize_job`: a model file written in identifiable combinations, the renamings given as
   ``OLD=NEW`` texts.
 
-Every check runs before the first filter: a refusal is one message and no work.
+Every check runs before the first filter (a Dask scheduler that does not answer too): a refusal is one
+message and no work. Each job's ``*_printed`` form returns what ``obsnl`` prints of it, a
+:class:`~obsnl.report.printed.Printed`.
 """
 
 from __future__ import annotations
@@ -23,9 +25,11 @@ from typing import Any
 
 from obsnl._text import quote
 from obsnl.errors import OptionError
+from obsnl.report.printed import Printed, written_line
 
-__all__ = ["identify_job", "reproduce_job", "bank_job", "reparametrize_job", "tuning_from", "noise_ratios",
-           "TUNING_DEFAULTS", "DEFAULT_FOLDER", "QUICK_FOLDER"]
+__all__ = ["identify_job", "reproduce_job", "bank_job", "reparametrize_job", "identify_printed", "reproduce_printed",
+           "bank_printed", "reparametrize_printed", "tuning_from", "noise_ratios", "TUNING_DEFAULTS",
+           "DEFAULT_FOLDER", "QUICK_FOLDER"]
 
 #: The tuning of a parameter not given when the others are: prior std of log-parameters, their random
 #: walk, the factor on the state noise, the innovation gate (off).
@@ -130,7 +134,9 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
         Overwrite those files.
     **options : Any
         Passed to :func:`obsnl.identification.identify.identify` or ``study`` (method, table, passes,
-        replicates, seed, allow_unidentifiable, jit, hold, refine, progress, executor).
+        replicates, seed, allow_unidentifiable, jit, hold, refine, progress, executor). An executor that
+        names its workers or a scheduler is refused when nothing runs in parallel (``refine=False`` and no
+        replicates); its scheduler is probed before any work (:meth:`obsnl.executor.Executor.probe`).
 
     Returns
     -------
@@ -144,6 +150,12 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     # messages name the options as Python keywords (``guess=``); the command line prints its flags for them
     if samples is not None and data:  # an option that would be ignored is refused, not dropped silently
         raise OptionError("samples= applies to a record= study; cut the data file instead")
+    if (ex := options.get("executor")) is not None and (ex.workers is not None or ex.scheduler is not None) \
+            and not options.get("replicates") and not options.get("refine", True):
+        raise OptionError("workers= or scheduler= applies to the profile likelihoods and the Monte-Carlo replicates: "
+                          "drop refine=False or add replicates=N (nothing else of identify runs in parallel)")
+    if ex is not None:
+        ex.probe()
     if tuning is not None and (s0, q_theta, q_x, gate) != (None,) * 4:
         raise OptionError("give tuning= or its parts (s0=, q_theta=, q_x=, gate=), not both")
     tuning = tuning if tuning is not None else tuning_from(s0, q_theta, q_x, gate)
@@ -198,6 +210,8 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
     from obsnl.studies.seed_experiment import seed_record
 
     options = {k: v for k, v in options.items() if v is not None}
+    if "executor" in options:  # a Dask scheduler that does not answer is refused before any work
+        options["executor"].probe()
     if quick:
         options = {**seed_paper.QUICK, **options}
     if "replicates" in options:
@@ -297,3 +311,70 @@ def reparametrize_job(model: Any, *, names: Sequence[str] = (), output: str | Pa
     if output is not None and output != "-":
         safe_write(output, r.to_toml(), force=force)
     return r
+
+
+def identify_printed(model: Any, **options: Any) -> Printed:
+    """What ``obsnl identify`` prints: the run of :func:`identify_job`, then the files it wrote.
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file.
+    **options : Any
+        As for :func:`identify_job`.
+
+    Returns
+    -------
+    Printed
+        :func:`obsnl.report.identification.identify_text` of the run, then a line naming the files (with ``out``).
+    """
+    from obsnl.report.identification import identify_text
+
+    res, files = identify_job(model, **options)
+    return Printed(identify_text(res) + (f"\n{written_line(files)}" if files else ""))
+
+
+def reproduce_printed(**options: Any) -> Printed:
+    """What ``obsnl reproduce`` prints: the folder :func:`reproduce_job` wrote and its files (``options`` as for it).
+
+    Returns
+    -------
+    Printed
+    """
+    folder, files = reproduce_job(**options)
+    return Printed(written_line(files, folder))
+
+
+def bank_printed(**options: Any) -> Printed:
+    """What ``obsnl bank`` prints: the files :func:`bank_job` wrote (``options`` as for it).
+
+    Returns
+    -------
+    Printed
+    """
+    from obsnl.report.bank import bank_written_line
+
+    return Printed(bank_written_line(bank_job(**options)))
+
+
+def reparametrize_printed(model: Any, **options: Any) -> Printed:
+    """What ``obsnl reparametrize`` prints: the new model (TOML) when it is not written to a file, else what
+    the file written holds.
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file.
+    **options : Any
+        As for :func:`reparametrize_job` (``output`` None or ``"-"``: the new model is printed).
+
+    Returns
+    -------
+    Printed
+        :meth:`~obsnl.recombination.reparametrize.Reparametrization.to_toml`, or
+        :func:`obsnl.report.structure.reparametrization_lines` of the file written.
+    """
+    from obsnl.report.structure import reparametrization_lines
+
+    r, output = reparametrize_job(model, **options), options.get("output")
+    return Printed(r.to_toml() if output in (None, "-") else reparametrization_lines(r, output))

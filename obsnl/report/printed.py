@@ -1,0 +1,82 @@
+"""What a job prints: its rendering (or the file it went to instead), the one line that names an undecided
+answer, and the line that says which files it wrote.
+
+The jobs the command line runs (:mod:`obsnl.design.jobs`, :mod:`obsnl.studies.jobs`, :func:`obsnl.batch.report_job`)
+return a :class:`Printed`; ``obsnl`` prints its text and, when there is one, says its undecided line on
+standard error with exit code 2: an undecided answer is never passed over.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import NamedTuple
+
+__all__ = ["Printed", "printed", "written_line"]
+
+
+class Printed(NamedTuple):
+    """What a job prints: its text (None when it went to a file instead) and the one line that names an
+    undecided answer (None when every answer was decided)."""
+
+    text: str | None
+    undecided: str | None = None
+
+
+def printed(text: str, output: str | Path | None = None, *, force: bool = False,
+            undecided: str | None = None) -> Printed:
+    """A rendering for standard output, or written to the file ``output`` with a final newline.
+
+    Parameters
+    ----------
+    text : str
+        The rendering.
+    output : str, Path or None
+        A file, written through :func:`obsnl.report.files.safe_write`; None or ``"-"``: standard output
+        (the text is returned).
+    force : bool
+        Overwrite ``output``.
+    undecided : str or None
+        The line that names an undecided answer.
+
+    Returns
+    -------
+    Printed
+
+    Examples
+    --------
+    >>> printed("2 branches", "-", undecided="branch (b) is inconclusive: timeout")
+    Printed(text='2 branches', undecided='branch (b) is inconclusive: timeout')
+    """
+    if output is None or output == "-":
+        return Printed(text, undecided)
+    from obsnl.report.files import safe_write
+
+    safe_write(output, text if text.endswith("\n") else text + "\n", force=force)
+    return Printed(None, undecided)
+
+
+def written_line(files: Sequence[Path], folder: str | Path | None = None) -> str:
+    """The line that says which files a job wrote: their paths, or their number and names in ``folder``.
+
+    Parameters
+    ----------
+    files : sequence of Path
+        The files written.
+    folder : str, Path or None
+        The folder they were written to (None: each path in full).
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> written_line([Path("out/a.json"), Path("out/b.png")], "out")
+    'wrote 2 files to out: a.json, b.png'
+    >>> written_line([Path("a.json")])
+    'wrote a.json'
+    """
+    if folder is None:
+        return f"wrote {', '.join(str(f) for f in files)}"
+    return f"wrote {len(files)} files to {folder}: " + ", ".join(f.name for f in files)
