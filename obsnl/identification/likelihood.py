@@ -33,7 +33,9 @@ Noise levels: the fit starts with the given or estimated noise per channel, then
 the maximum-likelihood noise ``sigma_c^2 = RSS_c / N`` of the fit (the concentrated likelihood of
 unknown channel variances), floored at :data:`NOISE_FLOOR` of the channel's RMS (below it the residual is
 the integrator's error, not noise), and refits. The Fisher information ``J'J`` at the optimum, with those
-weights, gives the standard deviations.
+weights, gives the standard deviations of the output noise; noise on the measured inputs adds
+``C A' S A C`` (:meth:`Objective.input_covariance`: the fit runs on the measured input, so its minimiser
+moves with that input's noise; first order, the errors-in-variables sandwich of an output-error fit).
 
 Convergence (:attr:`Refinement.converged`) is claimed only when the first-order condition holds
 (Newton decrement ``g' H^+ g`` below ``DECREMENT``: the remaining Gauss-Newton step moves no parameter by
