@@ -7,7 +7,7 @@ from __future__ import annotations
 import json
 import math
 import re
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -127,6 +127,21 @@ def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
         raise ParseError(f"{where} is not valid {kind.upper()}: {exc}") from None
 
 
+def _catalogue_places() -> Iterator[Path]:
+    """Where the packaged models may be, in order: a source checkout's ``models/``, then the environment's data
+    folders (looked up only when the checkout has none)."""
+    root = Path(__file__).resolve().parents[2]
+    project = root / "pyproject.toml"
+    if project.is_file() and 'name = "obsnl"' in project.read_text(encoding="utf-8", errors="replace"):
+        yield root / "models"  # a source checkout: the folder users open and copy
+    import sys
+    import sysconfig
+
+    for base in (sysconfig.get_path("data"), sys.prefix, sysconfig.get_config_var("userbase") or ""):
+        if base:
+            yield Path(base) / "share" / "obsnl" / "models"
+
+
 def catalogue_folder() -> Path:
     """The folder of the models packaged with obsnl: one copy, the repository's top-level ``models/``.
 
@@ -148,20 +163,11 @@ def catalogue_folder() -> Path:
     >>> (catalogue_folder() / "bouc_wen.toml").is_file()
     True
     """
-    import sys
-    import sysconfig
-
-    root = Path(__file__).resolve().parents[2]
-    project = root / "pyproject.toml"
     places = []
-    if project.is_file() and 'name = "obsnl"' in project.read_text(encoding="utf-8", errors="replace"):
-        places.append(root / "models")  # a source checkout: the folder users open and copy
-    for base in (sysconfig.get_path("data"), sys.prefix, sysconfig.get_config_var("userbase") or ""):
-        if base:
-            places.append(Path(base) / "share" / "obsnl" / "models")
-    for folder in places:
+    for folder in _catalogue_places():
         if folder.is_dir() and any(folder.glob("*.toml")):
             return folder
+        places.append(folder)
     raise ParseError("the models packaged with obsnl are missing (looked in "
                      + ", ".join(str(p) for p in places) + "); reinstall obsnl")
 

@@ -11,19 +11,31 @@ Must never import: ``algebra``, ``recombination``, ``estimation``, ``identificat
 ``design``, ``batch``, ``cli``.
 """
 
+from obsnl._exports import lazy_exports
 from obsnl.observability.results import DISPLAY as _DISPLAY
-from obsnl.report.bank import bank_table_markdown
-from obsnl.report.folders import report_files, timing_table, write_tables
-from obsnl.report.groups import BranchGroup, branch_groups
-from obsnl.report.identification import table2_latex, table2_markdown, table2_summary
 from obsnl.report.tables import *  # noqa: F403
 from obsnl.report.tables import __all__ as _TABLES
 from obsnl.report.tables import to_latex as _to_latex
 from obsnl.report.tables import to_markdown as _to_markdown
-from obsnl.report.tex import tex_escape
 
-__all__ = [*_TABLES, "BranchGroup", "branch_groups", "tex_escape", "bank_table_markdown", "report_files",
-           "timing_table", "write_tables", "table2_latex", "table2_markdown", "table2_summary"]
+# The tables load with the room (a result's display needs them); the rest on first use, so that rendering one
+# analysis loads neither the report folders' writer nor the bank's and Table 2's renderers: name -> module.
+_LAZY: dict[str, str] = {
+    "BranchGroup": "groups",
+    "branch_groups": "groups",
+    "tex_escape": "tex",
+    "bank_table_markdown": "bank",
+    "report_files": "folders",
+    "timing_table": "folders",
+    "write_tables": "folders",
+    "table2_latex": "identification",
+    "table2_markdown": "identification",
+    "table2_summary": "identification",
+}
+
+__getattr__, __dir__ = lazy_exports(__name__, globals(), _LAZY)
+
+__all__ = [*_TABLES, *_LAZY]
 
 _DISPLAY.setdefault("md", _to_markdown)
 _DISPLAY.setdefault("tex", lambda result: _to_latex(result, environment=False))

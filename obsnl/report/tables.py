@@ -13,13 +13,13 @@ import json
 import re
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import sympy as sp
 
 from obsnl.errors import OptionError
 from obsnl.model.core import Model
 from obsnl.model.branching.signature import ModelSignature
-from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import Verdict
 from obsnl.report.sentences import (
@@ -33,6 +33,9 @@ from obsnl.report.sentences import (
 )
 from obsnl.report.tex import _latex_expr, _latex_factor, _latex_name, tex_escape
 from obsnl.report.groups import BranchGroup, branch_groups
+
+if TYPE_CHECKING:  # the estimators' contract loads when a branch table is asked for, not with every rendering
+    from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = [
     "ROWS",
@@ -120,6 +123,8 @@ def branch_table(result: AnalysisResult, model: Model | None = None) -> BranchTa
     -------
     BranchTable
     """
+    from obsnl.observability.contract.branch_table import BranchTable
+
     if model is not None:
         result = complete(result, model)
     return BranchTable.from_result(result)

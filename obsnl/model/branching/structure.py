@@ -12,12 +12,15 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from obsnl.errors import NotSupportedError
 from obsnl.model.branching.branches import _MAX_SWITCHING, Branch, split_by
-from obsnl.model.branching.representatives import Representatives, pattern_branch, representatives_of
 from obsnl.model.branching.switching import Switching, switching_structure
 from obsnl.model.core import Model
+
+if TYPE_CHECKING:  # the representatives load past ENUMERATE_UP_TO switching functions or for a pattern
+    from obsnl.model.branching.representatives import Representatives
 
 __all__ = ["Branching", "branching", "ENUMERATE_UP_TO"]
 
@@ -55,6 +58,8 @@ class Branching:
     def pattern(self, signs: Sequence[int]) -> Branch:
         """The branch of one sign pattern of the outermost switching functions
         (:func:`obsnl.model.branching.representatives.branch_of_pattern`)."""
+        from obsnl.model.branching.representatives import pattern_branch
+
         return pattern_branch(self.model, self.switching, tuple(int(s) for s in signs), seed=self.seed)
 
 
@@ -89,6 +94,8 @@ def branching(model: Model, *, seed: int = 0, max_seconds: float | None = None,
     """
     level = switching_structure(model)
     if len(level.functions) > min(enumerate_up_to, _MAX_SWITCHING):
+        from obsnl.model.branching.representatives import representatives_of
+
         try:
             reps = representatives_of(model, level, seed=seed)
         except NotSupportedError:  # nested non-smooth functions: the enumeration decides (or refuses)

@@ -9,7 +9,6 @@ exact engines never see a float.
 
 from __future__ import annotations
 
-import difflib
 import keyword
 import tokenize
 import unicodedata
@@ -105,6 +104,8 @@ def make_symbol(name: str) -> sp.Symbol:
 
 
 def _suggest(name: str, candidates: Iterable[str]) -> str:
+    import difflib  # only a misspelt name needs it
+
     close = difflib.get_close_matches(name, list(candidates), n=2, cutoff=0.6)
     if close:
         return " (did you mean " + " or ".join(repr(c) for c in close) + "?)"

@@ -21,14 +21,13 @@ from typing import Any
 
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import BlockOutcome, bound_sizes
-from obsnl.algebra.series import make_problem
+from obsnl.algebra.series import Problem, make_problem
 from obsnl.errors import ModelError
 from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY
 from obsnl.observability.engines.decompose import decompose as _decompose
 from obsnl.observability.limits import out_of_memory
-from obsnl.observability.engines.orc import orc_block
 from obsnl.observability.verdicts import BranchResult, Verdict
 from obsnl.observability.engines.sedoglavic import sedoglavic_block
 from obsnl.observability.engines.inputs import _check, _unknown_names
@@ -37,6 +36,13 @@ __all__ = ["analyze_smooth", "orc", "sedoglavic"]
 
 _AUTO_ORC_SIZE = 6
 _AUTO_ORC_SECONDS = 1.0
+
+
+def _orc(problem: Problem, **kwargs: Any) -> BlockOutcome:
+    """The ORC's outcome on a block; its module (Lie derivatives) loads with the first block the ORC decides."""
+    from obsnl.observability.engines.orc import orc_block
+
+    return orc_block(problem, **kwargs)
 
 
 def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | None, target: float,
@@ -57,10 +63,10 @@ def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | No
             return out, problem
         budget = time.perf_counter() + _AUTO_ORC_SECONDS
         dl = budget if deadline is None else min(budget, deadline)
-        second = orc_block(problem, seed=seed_key, deadline=dl, bound_args=bargs, target=target)
+        second = _orc(problem, seed=seed_key, deadline=dl, bound_args=bargs, target=target)
         return (out if second.inconclusive else second), problem
     if method == "orc":
-        return orc_block(problem, seed=seed_key, deadline=deadline, bound_args=bargs, target=target), problem
+        return _orc(problem, seed=seed_key, deadline=deadline, bound_args=bargs, target=target), problem
     return sedoglavic_block(problem, seed=seed_key, deadline=deadline, bound_args=bargs, target=target), problem
 
 
