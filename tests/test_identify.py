@@ -121,7 +121,7 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
     k = ml["parameters"]["k_m"]
     assert abs(k["error_percent"]) <= max(4 * k["std_percent"], 1.0), k
     md = (tmp_path / "table2.md").read_text()
-    assert "| ML mean est. | ML mean % | ML worst % | ML Fisher std % |" in md
+    assert "| ML mean est. | ML mean % | ML worst % | ML std % |" in md
     assert f"| 0 | {'UKF' if ml['start']['method'] == 'ukf' else 'DUKF'}, 2 pass(es) (" in md
     assert (("| yes |" if ml["converged"] else "| NO |") in md) and r"\multicolumn{3}{c}{ML}" in (
         tmp_path / "table2.tex").read_text()
@@ -148,7 +148,7 @@ def test_table2_ml_column_renders_the_refinement_against_the_truth():
     row = next(ln for ln in md.splitlines() if ln.startswith("| h' |") and "ML" not in ln and ln.count("|") > 16)
     head = next(ln for ln in md.splitlines() if "ML mean est." in ln)
     cells = dict(zip([c.strip() for c in head.split("|")], [c.strip() for c in row.split("|")]))
-    assert cells["ML mean %"] == "0.00 †" and cells["ML Fisher std %"] == "10"
+    assert cells["ML mean %"] == "0.00 †" and cells["ML std %"] == "10"
     c_row = next(ln for ln in md.splitlines() if ln.startswith("| c' |") and ln.count("|") > 16)
     assert dict(zip([c.strip() for c in head.split("|")], [c.strip() for c in c_row.split("|")]))["ML Fisher std %"] == "flat"
     assert "| 0 | UKF, 3 pass(es) (0.001) | 12 | 20.0 | y 1.000 | NO | first-order condition not met: rough |" in md

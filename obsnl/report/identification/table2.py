@@ -23,9 +23,9 @@ _T2_TEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h":
 _T2_MD = {"k_m": "k_m", "c_dm": "c_dm", "c_eta_p": "c'_eta", "w_h": "w_h", "c_p": "c'", "h_p": "h'",
           "Delta1": "Δ1", "Delta2": "Δ2", "N": "N"}
 _T2_METHODS = {"ukf": "UKF", "dukf": "DUKF", "dukf-zero": "DUKF, P_AU = 0"}
-#: The ML column's flag: a Fisher std (the Cramér-Rao bound at the maximum-likelihood estimate) above 5/3 % of
-#: the estimate, i.e. the 5 % band cannot be reached at 3 sigma: the linearised rule of the filters' flags
-#: (obsnl.identification.practical.CRB_LIMIT), applied to the refinement's own Fisher information.
+#: The ML column's flag: a std (the Cramér-Rao bound at the maximum-likelihood estimate, the measured input's noise
+#: counted) above 5/3 % of the estimate, i.e. the 5 % band cannot be reached at 3 sigma: the linearised rule of the
+#: filters' flags (obsnl.identification.practical.CRB_LIMIT), applied to the refinement's own Fisher information.
 _ML_PIN = 100 * 0.05 / 3
 
 
@@ -67,7 +67,7 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
 
 
 def table2_ml_summary(doc: Mapping[str, Any]) -> dict[str, Any] | None:
-    """The maximum-likelihood column (``doc["refinements"]``): mean and worst |error|, mean Fisher std, flags,
+    """The maximum-likelihood column (``doc["refinements"]``): mean and worst |error|, mean std, flags,
     the convergence verdict per seed; None when the document has no refinement."""
     refs = doc.get("refinements") or []
     if not refs:
@@ -83,7 +83,7 @@ def table2_ml_summary(doc: Mapping[str, Any]) -> dict[str, Any] | None:
     with np.errstate(divide="ignore", invalid="ignore"):
         z = err / std
     ok = [(p, e, s) for row_e, row_s, row_f in zip(err, std, flags) for p, e, s, f in zip(params, row_e, row_s, row_f)
-          if not f]  # unflagged: within 4 Fisher std, or 1 % (issue 27's calibration rule)
+          if not f]  # unflagged: within 4 std, or 1 % (issue 27's calibration rule)
     nan = np.full(len(params), np.nan)
     return {
         "parameters": params, "seeds": [r["seed"] for r in ran], "runs": refs,
@@ -206,7 +206,7 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
             [m for m in methods if m == "dukf-zero"]
         lines += [f"## {_passes_title(passes)}", ""]
         head = "| parameter | true | guess | " + " | ".join(
-            "ML mean est. | ML mean % | ML worst % | ML Fisher std %" if m == "ml" else
+            "ML mean est. | ML mean % | ML worst % | ML std %" if m == "ml" else
             f"{_T2_METHODS[m]} mean est. | {_T2_METHODS[m]} mean % | {_T2_METHODS[m]} worst %" for m in cols)
         head += " | paper UKF % | paper DUKF % |" if passes == 1 else " |"
         lines += [head, "|" + "---|" * (head.count("|") - 1)]
@@ -266,7 +266,7 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
         lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {flags or 'none'}{undecided}{spread}")
     if ml:
         flags = ", ".join(f"{_T2_MD.get(p, p)} {c}/{len(ml['seeds'])}" for p, c in ml["flag_counts"].items() if c)
-        lines.append(f"- ML (Fisher std above {_ML_PIN:.3g} %): {flags or 'none'}")
+        lines.append(f"- ML (std above {_ML_PIN:.3g} %): {flags or 'none'}")
     stopped = [r for r in doc["runs"] if r.get("error")]
     if stopped:
         lines += ["", "## Runs that stopped (reported, not dropped)", ""]
@@ -302,10 +302,11 @@ def _ml_markdown(doc: Mapping[str, Any], ml: Mapping[str, Any]) -> list[str]:
     goal = _goal(bad, len(ml["parameters"]) - len(worst), len(ml["parameters"]))
     if ml["failed"]:
         goal = f"not met ({len(ml['failed'])} refinement(s) could not run)"
-    lines = [f"ML column: {doc.get('refinement_protocol') or 'maximum likelihood'}. † in the ML column: its Fisher std "
-             f"is above {_ML_PIN:.3g} % of the estimate on at least half of the seeds (the 5 % band cannot be "
+    lines = [f"ML column: {doc.get('refinement_protocol') or 'maximum likelihood'}. † in the ML column: its std "
+             "(the Fisher information's, the measured input's noise propagated) is above "
+             f"{_ML_PIN:.3g} % of the estimate on at least half of the seeds (the 5 % band cannot be "
              f"reached at 3 sigma; 'flat': no information at all). Converged on {len(ml['converged'])} of {n} "
-             f"seed(s); 5 % goal (worst seed, unflagged): {goal}; unflagged estimates within 4 Fisher std (or 1 %) "
+             f"seed(s); 5 % goal (worst seed, unflagged): {goal}; unflagged estimates within 4 std (or 1 %) "
              f"of the truth: {within} of {of}.", "",
              "| seed | started from (its output misfit) | iterations | s | residual RMS / noise | converged | reason |",
              "|---|---|---|---|---|---|---|"]
@@ -325,7 +326,7 @@ def _ml_markdown(doc: Mapping[str, Any], ml: Mapping[str, Any]) -> list[str]:
 
 def table2_latex(doc: Mapping[str, Any]) -> str:
     """The Table 2 analog as a booktabs LaTeX table (one pass and refined, UKF and DUKF, worst seed; then the
-    maximum-likelihood refinement: mean and worst error, mean Fisher std)."""
+    maximum-likelihood refinement: mean and worst error, mean std)."""
     summ = table2_summary(doc)
     ml = table2_ml_summary(doc)
     exp = doc["experiment"]
@@ -361,8 +362,9 @@ def table2_latex(doc: Mapping[str, Any]) -> str:
         st = {r["start"]["passes"] for r in ml["runs"]}
         ml_text = (rf"; ML: maximum likelihood (output error) started on each seed from the better "
                    rf"{'/'.join(map(str, sorted(st)))}-pass filter estimate (smaller output misfit), std from the "
-                   rf"Fisher information, converged on {len(ml['converged'])} of {len(ml['runs'])} seeds, "
-                   rf"$^\dagger$ there: Fisher std above 5/3\,\%")
+                   rf"Fisher information with the input's noise propagated, converged on {len(ml['converged'])} of "
+                   rf"{len(ml['runs'])} seeds, "
+                   rf"$^\dagger$ there: std above 5/3\,\%")
     return "\n".join([
         r"\begin{table}[ht]", r"\centering",
         rf"\caption{{Table 2 analog ({tex_escape(exp['record']['name'])}, {100 * exp['noise_ratio']:g}\,\% noise, "
