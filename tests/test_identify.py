@@ -150,9 +150,9 @@ def test_table2_ml_column_renders_the_refinement_against_the_truth():
     cells = dict(zip([c.strip() for c in head.split("|")], [c.strip() for c in row.split("|")]))
     assert cells["ML mean %"] == "0.00 †" and cells["ML std %"] == "10"
     c_row = next(ln for ln in md.splitlines() if ln.startswith("| c' |") and ln.count("|") > 16)
-    assert dict(zip([c.strip() for c in head.split("|")], [c.strip() for c in c_row.split("|")]))["ML Fisher std %"] == "flat"
+    assert dict(zip([c.strip() for c in head.split("|")], [c.strip() for c in c_row.split("|")]))["ML std %"] == "flat"
     assert "| 0 | UKF, 3 pass(es) (0.001) | 12 | 20.0 | y 1.000 | NO | first-order condition not met: rough |" in md
-    assert "Converged on 0 of 1 seed(s)" in md and "- ML (Fisher std above 1.67 %): c' 1/1, h' 1/1" in md
+    assert "Converged on 0 of 1 seed(s)" in md and "- ML (std above 1.67 %): c' 1/1, h' 1/1" in md
     assert "& 0.00$^\\dagger$ & 0.00$^\\dagger$ & 10 \\\\" in table2_latex(doc)
 
 
