@@ -58,8 +58,10 @@ def branches_printed(model: Any, *, fmt: str = "text", equations: bool = False) 
 
     Parameters
     ----------
-    model, fmt :
-        As for :func:`show_printed`.
+    model : Model, str or Path
+        The model, its file or ``obsnl:NAME``.
+    fmt : {"text", "json"}
+        The format.
     equations : bool
         Also each branch's smooth equations (text only).
 
@@ -146,8 +148,10 @@ def sensors_printed(model: Any, *, fmt: str = "text", output: str | Path | None 
         The model or its file.
     fmt : {"text", "json", "md", "tex"}
         The format.
-    output, force :
-        As for :func:`analyze_printed`.
+    output : str, Path or None
+        A file that takes the rendering instead of standard output (checked before any work).
+    force : bool
+        Overwrite ``output``.
     **options : Any
         Passed to :func:`~obsnl.design.records.sensors_file`.
 
@@ -175,8 +179,10 @@ def design_printed(model: Any, record: Sequence[str | Path] = (), *, fmt: str = 
         The record files (the option ``record=`` given once per record, as ``--record`` is).
     fmt : {"text", "json", "md", "tex"}
         The format.
-    output, force :
-        As for :func:`analyze_printed` (``force`` also overwrites the figure).
+    output : str, Path or None
+        A file that takes the rendering instead of standard output (checked before any work).
+    force : bool
+        Overwrite ``output`` and the figure.
     **options : Any
         Passed to :func:`~obsnl.design.records.design_file` (figure, max_seconds, target, sensors,
         scales, seed).

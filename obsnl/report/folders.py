@@ -124,6 +124,17 @@ def write_tables(results: Sequence[AnalysisResult], out: str | Path, *, force: b
 def tables_written_line(count: int, out: str | Path) -> str:
     """The line that says what :func:`write_tables` wrote for ``count`` models into the folder ``out``.
 
+    Parameters
+    ----------
+    count : int
+        The models whose tables were written.
+    out : str or Path
+        The folder.
+
+    Returns
+    -------
+    str
+
     Examples
     --------
     >>> tables_written_line(2, "tables")
