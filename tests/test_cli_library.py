@@ -63,8 +63,7 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, m
     def tripwire(*a, **k):  # noqa: ANN002, ANN003
         raise AssertionError("the model was read before the output was checked")
 
-    monkeypatch.setattr(records, "read_model", tripwire)
-    monkeypatch.setattr(files, "read_model", tripwire)
+    monkeypatch.setattr(files, "read_model", tripwire)  # every job reads a model file through it (as_model)
     out = tmp_path / "taken.md"
     out.write_text("keep me", encoding="utf-8")
     call = {"analyze_file": lambda: records.analyze_file(MODELS / "bouc_wen.toml", output=str(out)),
@@ -131,7 +130,7 @@ def test_the_jobs_refuse_a_dead_scheduler_before_any_work(tmp_path, monkeypatch,
     def tripwire(*a, **k):  # noqa: ANN002, ANN003
         raise AssertionError("work started before the scheduler was probed")
 
-    for module in (batch, records, files):
+    for module in (batch, files):
         monkeypatch.setattr(module, "read_model", tripwire)
     dead = Executor(scheduler="tcp://127.0.0.1:1")
     call = {"identify_job": lambda: jobs.identify_job(MODELS / "bouc_wen.toml", record="r.csv", executor=dead),

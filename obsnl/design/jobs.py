@@ -21,11 +21,10 @@ __all__ = ["show_printed", "branches_printed", "symmetries_printed", "analyze_pr
 
 def _read(model: Any, limits: bool = True) -> Any:
     """``model``, or the model file at that path (its size checked first with ``limits``)."""
-    from obsnl.model.core import Model
-    from obsnl.model.files import read_model
+    from obsnl.model.files import as_model
     from obsnl.observability.limits import check_file_limits
 
-    return model if isinstance(model, Model) else read_model(model, check=check_file_limits if limits else None)
+    return as_model(model, check=check_file_limits if limits else None)
 
 
 def show_printed(model: Any, *, fmt: str = "text") -> Printed:

@@ -22,7 +22,7 @@ from obsnl._text import quote
 from obsnl.errors import OptionError
 from obsnl.model.bounds.budget import check_seconds, time_budget
 from obsnl.model.core import Model
-from obsnl.model.files import read_model
+from obsnl.model.files import as_model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.limits import check_analysis_limits, check_file_limits, out_of_memory
 from obsnl.observability.results import AnalysisResult
@@ -36,7 +36,7 @@ __all__ = ["one_input_record", "record_visits", "analyze_file", "sensors_file", 
 
 def _model(model: Model | str | Path) -> Model:
     """``model``, or the model file at that path read with its size checked first."""
-    return model if isinstance(model, Model) else read_model(model, check=check_file_limits)
+    return as_model(model, check=check_file_limits)
 
 
 def _check_output(output: str | Path | None, force: bool) -> None:

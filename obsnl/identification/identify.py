@@ -34,7 +34,7 @@ from obsnl.estimation.records import read_record
 from obsnl.estimation.accelerogram import Record
 from obsnl.executor import Executor
 from obsnl.model.core import Model
-from obsnl.model.files import read_model
+from obsnl.model.files import as_model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.contract.table_check import check_table
 from obsnl.observability.contract.branch_table import BranchTable
@@ -44,10 +44,6 @@ __all__ = ["identify", "study", "write_identification", "IDENTIFY_FILES"]
 
 #: What :func:`write_identification` writes into its folder.
 IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png", "profiles.png")
-
-
-def _model(model: Model | str | Path) -> Model:
-    return model if isinstance(model, Model) else read_model(model)
 
 
 def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mapping[str, float] | None,
@@ -147,7 +143,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     """
     check_passes(passes)  # before any work
     check_replicates(replicates)
-    model = _model(model)
+    model = as_model(model)
     ins, outs = [s.name for s in model.inputs], list(model.outputs)
     if isinstance(data, (str, Path)):
         data = read_measured(data, inputs=ins, outputs=outs)
@@ -251,7 +247,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     """
     check_passes(passes)  # before any work
     check_replicates(replicates)
-    model = _model(model)
+    model = as_model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"
         record = record.head(samples)

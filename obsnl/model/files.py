@@ -14,7 +14,7 @@ from typing import Any
 from obsnl.errors import ParseError
 from obsnl.model.core import Model
 
-__all__ = ["read_model_file", "parse_text", "read_model", "catalogue_path", "catalogue_folder", "model_to_toml", "PACKAGED"]
+__all__ = ["read_model_file", "parse_text", "read_model", "as_model", "catalogue_path", "catalogue_folder", "model_to_toml", "PACKAGED"]
 
 #: Prefix of a packaged model's name where a file name is expected (``obsnl:bouc_wen``).
 PACKAGED = "obsnl:"
@@ -244,6 +244,30 @@ def read_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None 
         return Model.from_dict(data)
     except ParseError as exc:
         raise ParseError(f"{Path(path).name}: {exc}") from None
+
+
+def as_model(model: Model | str | Path, check: Callable[[dict[str, Any]], None] | None = None) -> Model:
+    """``model`` itself, or the model read from that file or ``obsnl:NAME`` (:func:`read_model`, ``check`` run on
+    the file's contents first): what every function that takes "a model or its file" reads it with.
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        A model, its file, or ``obsnl:NAME``.
+    check : callable or None
+        Run on the file's contents before they are parsed (a size limit); not run on a model.
+
+    Returns
+    -------
+    Model
+
+    Examples
+    --------
+    >>> m = as_model("obsnl:coulomb_friction")
+    >>> as_model(m) is m
+    True
+    """
+    return model if isinstance(model, Model) else read_model(model, check=check)
 
 
 # ----------------------------------------------------------------------------- writing
