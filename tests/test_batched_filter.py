@@ -75,7 +75,7 @@ def test_buffered_call_equals_casadi_call():
     """The buffer evaluation (numpy in, numpy out) returns casadi's own numbers, bit for bit, row-major."""
     import casadi as ca
 
-    from obsnl.estimation.evaluate import call
+    from obsnl.estimation.simulate import call
 
     x, P = ca.SX.sym("x", 3), ca.SX.sym("P", 3, 3)
     f = ca.Function("f", [x, P], [ca.mtimes(P, x) ** 2, ca.exp(P) * x[0], ca.tril(P)])  # a sparse output too

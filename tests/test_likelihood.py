@@ -195,6 +195,22 @@ def test_levenberg_marquardt_stops_only_at_a_first_order_point():
     assert edge.z[0] == 0.5 and edge.at_bound == (0,) and edge.decrement <= DECREMENT
 
 
+def test_the_newton_decrement_is_the_gauss_newton_gain_also_along_a_flat_direction():
+    # a linear least-squares problem whose first two columns are parallel (a flat direction): the decrement
+    # LM reports at its start must be the chi2 decrease of a full Gauss-Newton step, |P r|^2 with P the
+    # projection on J's column space (numpy's lstsq gives the step). It was once taken from the covariance
+    # with the flat coordinates' variances marked inf (and zeroed): an indefinite form, 2.17 instead of 2.21
+    # here, and -4.6e11 at a friction fit's degenerate end, which then "met" the first-order condition
+    rng = np.random.default_rng(5)
+    J = rng.standard_normal((40, 4))
+    J[:, 1] = 2.0 * J[:, 0]
+    r0 = rng.standard_normal(40)
+    step = np.linalg.lstsq(J, -r0, rcond=None)[0]
+    gain = float(np.sum((J @ step) ** 2))
+    fit = levenberg_marquardt(lambda z: (r0 + J @ z, J), np.zeros(4), np.full(4, -1e3), np.full(4, 1e3), max_iter=1)
+    assert gain > 1.0 and fit.decrement == pytest.approx(gain, rel=1e-9)
+
+
 def test_covariance_marks_only_the_flat_coordinates():
     J = np.array([[1.0, 1.0, 0.0], [2.0, 2.0, 0.0], [0.0, 0.0, 2.0], [0.0, 0.0, 1.0]])
     C, flat = covariance(J)

@@ -38,6 +38,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import ModelError
+from obsnl.estimation.crossing import heun3, located_substep
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.model.branching.signature import ModelSignature
 
@@ -134,7 +135,7 @@ class NumericModel:
         return np.array([float(self.values[n]) for n in names])
 
     def step(self, dt: float, *, method: str = "auto", substeps: int = 8, scale: Any = None,
-             threshold: float = 2.0, jit: bool = False, refine: int = 8) -> ca.Function:
+             threshold: float = 2.0, jit: bool = False, refine: int = 8, locate: bool = False) -> ca.Function:
         """The discrete step ``(x, p, u0, u1) -> (x_next, implicit, refined)`` over ``dt`` (input linear
         in time).
 
@@ -164,6 +165,10 @@ class NumericModel:
             Stiffness bound for RK4 (its real stability interval is ``[-2.785, 0]``).
         jit : bool
             Compile the inner functions to C.
+        locate : bool
+            In the refined substeps, split the one where the field jumps at the located crossing
+            (:func:`obsnl.estimation.crossing.located_substep`: the value to the substep's order and the
+            derivative with the crossing time's motion; the maximum-likelihood fit uses it).
 
         References
         ----------
@@ -181,14 +186,14 @@ class NumericModel:
             raise ModelError(f"refine must be at least 1, got {refine!r}")
         n = int(substeps)
         key = (float(dt), method, n, None if scale is None else np.asarray(scale, float).tobytes(), float(threshold),
-               bool(jit), int(refine))
+               bool(jit), int(refine), bool(locate))
         if key not in self._steps:  # building the integrators takes about 50 ms; a step is reused many times
-            self._steps[key] = self._build_step(dt, method, n, scale, threshold, jit, int(refine))
+            self._steps[key] = self._build_step(dt, method, n, scale, threshold, jit, int(refine), bool(locate))
         return self._steps[key]
 
     def _build_step(self, dt: float, method: str, n: int, scale: Any, threshold: float, jit: bool,
-                    refine: int) -> ca.Function:
-        fns = self.integrators(dt, substeps=n, jit=jit, refine=refine)
+                    refine: int, locate: bool = False) -> ca.Function:
+        fns = self.integrators(dt, substeps=n, jit=jit, refine=refine, locate=locate)
         x, p = ca.SX.sym("x", self.nx), ca.SX.sym("p", self.np)
         u0, u1 = ca.SX.sym("u0", self.nu), ca.SX.sym("u1", self.nu)
         names_in, names_out = ["x", "p", "u0", "u1"], ["x_next", "implicit", "refined"]
@@ -203,10 +208,12 @@ class NumericModel:
         xn = ca.if_else(ca.logic_or(stiff, refined), fns["fine"](X, P, U0, U1, stiff), xr, True)
         return ca.Function(f"step_auto{n}", [X, P, U0, U1], [xn, stiff, refined], names_in, names_out)
 
-    def integrators(self, dt: float, *, substeps: int, jit: bool = False, refine: int = 8) -> dict[str, ca.Function]:
+    def integrators(self, dt: float, *, substeps: int, jit: bool = False, refine: int = 8,
+                    locate: bool = False) -> dict[str, ca.Function]:
         """The pieces of :meth:`step`: ``rk4`` and ``ros2`` ``(x, p, u0, u1) -> x_next`` with
         ``substeps``; ``rk4_fine``, RK4 with every substep in which a watched switching function
-        (``jumps``) changes sign split into ``refine``; ``ros2_fine``, ROS2 with ``refine * substeps``; ``rk4_track``
+        (``jumps``) changes sign split into ``refine`` (with ``locate``, the crossing one of those split at the
+        crossing); ``ros2_fine``, ROS2 with ``refine * substeps``; ``rk4_track``
         ``(x, p, u0, u1) -> (x_next, crossed)`` (RK4 that also says whether a switching function
         changed sign between two substeps) and ``stiff(x, x_rk4, p, u0, u1, threshold, scale) -> 0/1``
         (``scale``: the typical magnitude of each state, the start of the stiffness estimate of :meth:`step`;
@@ -224,7 +231,7 @@ class NumericModel:
         names_in = ["x", "p", "u0", "u1"]
         out = {m: c(ca.Function(f"{m}{n}", [x, p, u0, u1], [self._integrate(m, x, p, u0, u1, dt, n)[0]], names_in,
                                 ["x_next"])) for m in ("rk4", "ros2")}
-        out["rk4_fine"] = self._refined(dt, n, int(refine), opts)
+        out["rk4_fine"] = self._refined(dt, n, int(refine), opts, locate)
         out["ros2_fine"] = self._looped("ros2", dt, nf, opts)
         xt, crossed = self._integrate("rk4", x, p, u0, u1, dt, n, track=True)
         out["rk4_track"] = c(ca.Function(f"rk4_track{n}", [x, p, u0, u1], [xt, crossed], names_in,
@@ -248,13 +255,15 @@ class NumericModel:
                                   names_in + ["stiff"], ["x_next"])
         return out
 
-    def _refined(self, dt: float, n: int, refine: int, opts: Mapping[str, Any]) -> ca.Function:
+    def _refined(self, dt: float, n: int, refine: int, opts: Mapping[str, Any], locate: bool = False) -> ca.Function:
         """``(x, p, u0, u1) -> x_next``: ``n`` RK4 substeps, each redone with ``refine`` substeps where a
         watched switching function changed sign over it (the crossing substep carries the error)."""
         x, p = ca.SX.sym("x", self.nx), ca.SX.sym("p", self.np)
         ua, ub = ca.SX.sym("ua", self.nu), ca.SX.sym("ub", self.nu)
-        one = ca.Function("substep", [x, p, ua, ub], list(self._integrate("rk4", x, p, ua, ub, dt / n, 1, track=True)))
-        fine = self._looped("rk4", dt / n, refine, {})
+        one = ca.Function("substep", [x, p, ua, ub],
+                          list(self._integrate("rk4", x, p, ua, ub, dt / n, 1, track=True, wide=locate)))
+        fine = (self._over_substeps(located_substep(self, dt / n / refine), refine, f"located{refine}", {}) if locate
+                else self._looped("rk4", dt / n, refine, {}))
         xm, pm = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         uam, ubm = ca.MX.sym("ua", self.nu), ca.MX.sym("ub", self.nu)
         xb, crossed = one(xm, pm, uam, ubm)
@@ -283,9 +292,11 @@ class NumericModel:
         return jit_compile(f) if opts.get("jit") else f
 
     def _integrate(self, method: str, x: ca.SX, p: ca.SX, u0: ca.SX, u1: ca.SX, dt: float, n: int,
-                   track: bool = False) -> tuple[ca.SX, ca.SX]:
+                   track: bool = False, wide: bool = False) -> tuple[ca.SX, ca.SX]:
         """``(x_next, crossed)``: ``n`` substeps of ``method``; with ``track``, ``crossed`` is 1 where a
-        switching function changed sign (strictly) between two substep ends (else always 0)."""
+        switching function changed sign (strictly) between two substep ends (else always 0); with ``wide``
+        also where it changed sign at the old branch's extrapolated end of a substep (Heun's third-order
+        method, :func:`obsnl.estimation.crossing.heun3`)."""
         h = dt / n
         du = (u1 - u0) / dt
         xi = x
@@ -297,6 +308,7 @@ class NumericModel:
         for i in range(n):
             ua = u0 + du * (i * h)
             ub = u0 + du * ((i + 1) * h)
+            x_start = xi
             if method == "rk4":
                 um = 0.5 * (ua + ub)
                 k1 = self.f(xi, p, ua)
@@ -319,6 +331,9 @@ class NumericModel:
             if track:
                 g_i = g_sel(xi, ub)
                 crossed = ca.logic_or(crossed, ca.mmin(g_prev * g_i) < 0)
+                if wide:  # also a crossing late in the substep, which the RK4 end may not show
+                    g_old = g_sel(heun3(self.f, x_start, p, ua, ub, h, h), ub)
+                    crossed = ca.logic_or(crossed, ca.mmin(g_prev * g_old) < 0)
                 g_prev = g_i
         return xi, crossed
 

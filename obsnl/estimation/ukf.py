@@ -33,7 +33,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import EstimatorError
-from obsnl.estimation.evaluate import call
+from obsnl.estimation.simulate import call
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.estimation.numeric import NumericModel, ParameterMap
 from obsnl.estimation.trajectory import Estimate, Trajectory

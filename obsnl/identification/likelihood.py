@@ -24,10 +24,15 @@ Solver: Levenberg-Marquardt with Marquardt's diagonal scaling on the Gauss-Newto
 each step accepted only if it lowers ``chi2`` (so a step across a branch switch that the linear model
 did not foresee is rejected and the damping raised). Non-smoothness: inside a branch the discrete map is
 smooth; where the vector field is continuous across a switching surface (Bouc-Wen's ``sign(v z)``) the
-map stays once differentiable and Gauss-Newton converges as usual; where the field jumps (the healing
-switch of the seed model), the crossing time moves with the parameters and its contribution to the
-derivative is not in ``J`` (the refined substep is differentiated along its branch): there the
-Gauss-Newton direction is an approximation and the acceptance test keeps the iteration monotone.
+map stays once differentiable and Gauss-Newton converges as usual; where the field jumps (Coulomb
+friction, the healing switch of the seed model), the crossing time moves with the parameters. The fit's
+step therefore splits the substep that holds such a crossing at the located crossing
+(:func:`obsnl.estimation.crossing.located_substep`, :data:`LOCATE`): the map is continuous there and ``J``
+carries the crossing time's motion (the saltation term). Without it, ``J`` was the derivative along the
+branches the RK4 stages happened to sample, and on a friction oscillator half of the fits ended with a
+gradient inconsistent with the objective ("not converged"). What remains is a sliding mode (the field
+pushing back on both sides: a mass that sticks), where the crossing is not isolated and the objective
+stays rough at the step's scale; the acceptance test keeps the iteration monotone there.
 
 Noise levels: the fit starts with the given or estimated noise per channel, then re-weights once with
 the maximum-likelihood noise ``sigma_c^2 = RSS_c / N`` of the fit (the concentrated likelihood of
@@ -53,7 +58,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import EstimatorError
-from obsnl.estimation.evaluate import call
+from obsnl.estimation.simulate import call
 from obsnl.identification.setup import Data, Setup
 
 __all__ = [
@@ -77,6 +82,8 @@ ROUGH = 0.1
 #: integrator (RK4 substeps against the true flow), not noise, and a noise level below it would give intervals
 #: narrower than the model's own numerical precision (on noise-free data they missed the truth).
 NOISE_FLOOR = 1e-5
+#: The fit's step splits a substep at the located crossing of a jump of the field (the filters' step does not).
+LOCATE = True
 #: Relative eigenvalue below which a direction of ``J'J`` counts as uninformed (a flat likelihood).
 NULL_TOL = 1e-10
 
@@ -209,14 +216,14 @@ def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | No
 
 
 def _key(setup: Setup, T: int, n: int, scale: np.ndarray) -> tuple:
-    return (id(setup.model), id(setup.coordinates), float(setup.record.dt), T, n, int(setup.refine),
+    return (id(setup.model), id(setup.coordinates), float(setup.record.dt), T, n, int(setup.refine), bool(LOCATE),
             np.asarray(scale, float).tobytes(), setup.x0.tobytes())
 
 
 def _graph(setup: Setup, T: int, n: int, scale: np.ndarray) -> tuple[ca.MX, ca.MX, ca.MX, ca.MX, ca.MX]:
     """``(z, u, y, w, r)``: the whitened residuals ``r`` of ``T`` samples as a casadi graph of its arguments."""
     m = setup.model
-    step = m.step(setup.record.dt, substeps=n, refine=setup.refine)
+    step = m.step(setup.record.dt, substeps=n, refine=setup.refine, locate=LOCATE)
     phi, s = ca.MX.sym("phi", m.np), ca.MX.sym("s", m.nx)
     U, Y, W = ca.MX.sym("u", m.nu, T), ca.MX.sym("y", m.ny, T), ca.MX.sym("w", m.ny)
     th = setup.coordinates.forward(phi)
@@ -231,13 +238,15 @@ def _trim() -> None:
         _BUILT.pop(next(iter(_BUILT)))
 
 
-def covariance(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def covariance(J: np.ndarray, *, mark_flat: bool = True) -> tuple[np.ndarray, np.ndarray]:
     """The inverse Fisher information ``(J'J)^+`` and a mask of the coordinates along a flat direction.
 
     The eigen-analysis is made on the correlation form ``D^-1/2 J'J D^-1/2`` (``D`` its diagonal), so
     that coordinates of very different scales are judged alike: a coordinate whose column of ``J`` is 0,
     or that has a weight above 1e-3 in an eigenvector whose eigenvalue is below ``NULL_TOL``, lies along
-    a flat direction of the likelihood; its variance is set to ``inf``. The rest is the pseudo-inverse.
+    a flat direction of the likelihood; its variance is set to ``inf`` (``mark_flat``; otherwise the whole
+    matrix is the pseudo-inverse, positive semi-definite: the metric of the Newton decrement). The rest is
+    the pseudo-inverse.
 
     Examples
     --------
@@ -254,6 +263,8 @@ def covariance(J: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     Cs = (V[:, keep] / w[keep]) @ V[:, keep].T
     C = Cs / np.outer(dl, dl)
     flat = ~live | (np.any(np.abs(V[:, ~keep]) > 1e-3, axis=1) if (~keep).any() else np.zeros(len(w), bool))
+    if not mark_flat:
+        return C, flat
     C[~live, :] = 0.0
     C[:, ~live] = 0.0
     C[np.diag_indices_from(C)] = np.where(flat, np.inf, np.diag(C))
@@ -342,8 +353,7 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
         g, H = gz[move], Jf.T @ Jf
         C, _ = covariance(Jf)
         std = np.sqrt(np.diag(C))
-        Cg = np.where(np.isfinite(C), C, 0.0) @ g  # the pseudo-inverse on the informed directions
-        decrement = float(g @ Cg)
+        decrement = float(g @ covariance(Jf, mark_flat=False)[0] @ g)  # on the informed directions, >= 0
         if decrement <= stop and last <= STEP_LIMIT:
             it -= 1
             break
