@@ -32,7 +32,23 @@ __all__ = ["located_substep", "heun3"]
 def heun3(f: Any, x: Any, p: Any, ua: Any, ub: Any, s: Any, h: float) -> Any:
     """Heun's third-order step of length ``s`` from ``x`` (input linear from ``ua`` to ``ub`` over ``h``):
     its stages lie at ``0, s/3, 2s/3``, none at the end, so up to a crossing it samples the old branch only, and
-    past one it extrapolates the old branch (which is how a crossing late in a substep is seen)."""
+    past one it extrapolates the old branch (which is how a crossing late in a substep is seen).
+
+    Parameters
+    ----------
+    f : casadi.Function
+        The vector field ``(x, p, u) -> x'``.
+    x, p, ua, ub : casadi.SX
+        The start, the parameters, the input at the start and at the end of the substep.
+    s : float or casadi.SX
+        The length of the step (at most ``h``).
+    h : float
+        The substep's length, over which the input is linear.
+
+    Returns
+    -------
+    casadi.SX
+    """
     def u_at(t: Any) -> Any:
         return ua + (ub - ua) * (t / h)
     k1 = f(x, p, ua)

@@ -248,6 +248,13 @@ def covariance(J: np.ndarray, *, mark_flat: bool = True) -> tuple[np.ndarray, np
     matrix is the pseudo-inverse, positive semi-definite: the metric of the Newton decrement). The rest is
     the pseudo-inverse.
 
+    Parameters
+    ----------
+    J : numpy.ndarray
+        The Jacobian of the whitened residuals, ``(N, n)``.
+    mark_flat : bool
+        Set the variance of a coordinate along a flat direction to ``inf`` (default).
+
     Examples
     --------
     >>> C, flat = covariance(np.array([[1.0, 1.0, 0.0], [2.0, 2.0, 0.0], [0.0, 0.0, 2.0]]))
