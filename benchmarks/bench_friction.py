@@ -38,6 +38,23 @@ import obsnl  # noqa: E402
 from obsnl.identification import likelihood  # noqa: E402
 
 GUESS = {"m": 1.3, "c": 0.14, "k": 28.0, "F_c": 0.65}
+
+#: The reading of the committed run, written by hand after it (regenerating appends it unchanged: check it against
+#: the table when the code has changed).
+FINDINGS = """## Reading (by hand, of the committed run and two side checks)
+
+- The located crossing is what lets the fit finish: 19 of 20 runs converge against 14 of 20 (the one left, seed
+  9, stalls at a decrement of 0.0105, just above 0.01); and a run takes a third of the time (the fit and the
+  profiles need fewer evaluations when the Jacobian is the objective's own).
+- Each parameter's 95 % profile interval covers the truth 18-20 times of 20 either way.
+- The joint (Wald) statistic is above its chi2(4) mean in both variants (5.8 and 6.7 against 4). It is carried
+  by the best-determined direction, log k - log m (the natural frequency; the correlation of m and k is 0.998,
+  so that direction's std is about 1e-5 relative): seed 3 has m and k both 2.8-3.0 std high with the ratio
+  nearly right. Side checks with `refine` on the same record (20 seeds): with the input exact the mean W is 5.3
+  (so not the input-noise term), and on noise-free data the estimates are within 1e-8 of the truth (no bias of
+  the located step). Open: whether the objective's remaining roughness (the choice of a plain or a located
+  substep near a crossing) moves the optimum along that very narrow direction; the marginal std are calibrated
+  (RMS error / std 1.0-1.16 here and over 40 seeds of tests/test_crossing.py's shorter record)."""
 INPUT_NOISE = 0.001
 
 
@@ -101,6 +118,7 @@ def main(argv: list[str] | None = None) -> int:
     for v, label in ((True, "located"), (False, "refined only")):
         bad = [r for r in out[v] if not r["converged"]]
         lines += [f"- {label}, seed {r['seed']}: {r['reason']}" for r in bad] or [f"- {label}: none"]
+    lines += ["", FINDINGS]
     Path(a.out).write_text("\n".join(lines) + "\n", encoding="utf-8")
     print("\n".join(lines))
     return 0
