@@ -107,6 +107,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="only the fit (obsnl.identification.refine from 3 %% off, the input exact) on seeds 1..K: the "
                          "Wald statistic's mean, the joint region, RMS error / std (printed, nothing written)")
     a = ap.parse_args(argv)
+    if a.seeds < 1 or a.refine_only < 0:
+        ap.error("--seeds must be at least 1 and --refine-only at least 0")
     if a.refine_only:
         return refine_only(a.refine_only)
     load = os.getloadavg()[0]
@@ -145,10 +147,13 @@ def main(argv: list[str] | None = None) -> int:
     Wm = {v: float(np.mean([r["W"] for r in out[v]])) for v in out}
     rows = [("converged", lambda v: f"{sum(r['converged'] for r in out[v])} of {n}")]
     for p in names:
-        rows.append((f"{p}: 95 % interval covers the truth", lambda v, p=p: f"{sum(r['covered'][p] for r in out[v])} of {n}"))
+        rows.append((f"{p}: 95 % interval covers the truth",
+                     lambda v, p=p: f"{sum(r['covered'][p] for r in out[v])} of {n}"))
     for p in names:
-        rows.append((f"{p}: RMS error / reported std", lambda v, p=p: f"{np.sqrt(np.mean([r['z'][p] ** 2 for r in out[v]])):.2f}"))
-    rows.append(("Wald statistic, mean (chi2(4): 4)", lambda v: f"{Wm[v]:.2f} (P {stats.chi2.sf(Wm[v] * n, 4 * n):.2f})"))
+        rows.append((f"{p}: RMS error / reported std",
+                     lambda v, p=p: f"{np.sqrt(np.mean([r['z'][p] ** 2 for r in out[v]])):.2f}"))
+    rows.append(("Wald statistic, mean (chi2(4): 4)",
+                 lambda v: f"{Wm[v]:.2f} (P {stats.chi2.sf(Wm[v] * n, 4 * n):.2f})"))
     rows.append(("wall time per run, median", lambda v: f"{med[v]:.1f} s"))
     lines += [f"| {label} | {f(True)} | {f(False)} |" for label, f in rows]
     lines += ["", f"Time ratio located / refined only: {med[True] / med[False]:.2f} (medians, alternating order, "

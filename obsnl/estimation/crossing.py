@@ -132,7 +132,8 @@ def located_substep(model: Any, h: float, *, iterations: int = 4) -> ca.Function
         gs = model.g(xx, p, u_at(s))
         return sum(pick[j] * gs[watch[j]] for j in range(len(watch)))
 
-    t_prev, g_prev = ca.SX(0.0), gamma(x, 0.0)
+    g_start = sum(pick[j] * ga[j] for j in range(len(watch)))
+    t_prev, g_prev = ca.SX(0.0), g_start
     t_cur = ca.if_else(crossed, first, 0.5) * h
     g_cur = gamma(old(t_cur), t_cur)
     for _ in range(int(iterations)):
@@ -149,7 +150,7 @@ def located_substep(model: Any, h: float, *, iterations: int = 4) -> ca.Function
     dg = ca.Function("dg", [xx, pp, uu], [ca.jacobian(model.g(xx, pp, uu), xx)])(xs, p, u_at(t_cur))
     grad = sum(pick[j] * dg[watch[j], :].T for j in range(len(watch)))
     g_end = sum(pick[j] * gb[j] for j in range(len(watch)))
-    eta = 1e-9 * (ca.fabs(gamma(x, 0.0)) + ca.fabs(g_end)) + ca.fabs(g_cur) + 1e-300
+    eta = 1e-9 * (ca.fabs(g_start) + ca.fabs(g_end)) + ca.fabs(g_cur) + 1e-300
     across = xs + eta * ca.sign(g_end) * grad / (ca.sumsqr(grad) + 1e-300)
     xl = rk4(xs, t_cur, h - t_cur, first=f(across, p, u_at(t_cur)))
     return ca.Function("located", [x, p, ua, ub], [ca.if_else(crossed, xl, xb)], ["x", "p", "ua", "ub"], ["x_next"])

@@ -358,9 +358,9 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
         move = free & ~blocked
         Jf = J[:, move]
         g, H = gz[move], Jf.T @ Jf
-        C, _ = covariance(Jf)
-        std = np.sqrt(np.diag(C))
-        decrement = float(g @ covariance(Jf, mark_flat=False)[0] @ g)  # on the informed directions, >= 0
+        P, flat = covariance(Jf, mark_flat=False)  # the pseudo-inverse, positive semi-definite
+        std = np.where(flat, np.inf, np.sqrt(np.clip(np.diag(P), 0.0, None)))
+        decrement = float(g @ P @ g)  # on the informed directions, >= 0
         if decrement <= stop and last <= STEP_LIMIT:
             it -= 1
             break

@@ -75,7 +75,8 @@ ML_PROTOCOL = ("maximum likelihood of the measured output given the measured inp
                "true value used); every parameter free (none held), the initial state estimated; Levenberg-Marquardt "
                f"with exact derivatives, at most {ML_MAX_ITER} iterations per weighting; std from the Fisher "
                "information at the estimate with the input's 0.1 % noise propagated (no profile likelihood: too "
-               "slow for the main job); converged only when the first-order condition holds and the last step moved no parameter by more than 0.1 std")
+               "slow for the main job); converged only when the first-order condition holds and the last step "
+               "moved no parameter by more than 0.1 std")
 
 
 #: The text files a reproduction writes (the figures ``fig2_*.png``, ``fig3_*.png`` come on top).
