@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import pytest
@@ -9,6 +10,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
 PEER_CASES = Path(__file__).resolve().parent / "data" / "peer_cases"
+#: A C compiler is on PATH: long identification tests compile the filter and the likelihood fit (``jit``; the same
+#: numbers to rounding, several times faster).
+HAVE_CC = any(shutil.which(c) for c in ("cc", "gcc", "clang"))
 
 def _is_ode_model(path: Path) -> bool:
     import tomllib

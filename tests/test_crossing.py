@@ -20,6 +20,9 @@ from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.profile import profiles
 from obsnl.identification.refine import refine
 from obsnl.identification.setup import Data, Setup
+from obsnl.estimation.simulate import call, residuals
+
+from .conftest import HAVE_CC
 
 TRUTH = {"m": 1.0, "c": 0.2, "k": 40.0, "F_c": 0.5}
 DT = 0.01
@@ -108,7 +111,7 @@ def test_friction_fits_converge_and_their_intervals_cover_the_truth_over_40_seed
     for seed in range(40):
         y = x + sigma * np.random.default_rng(seed).standard_normal(len(t))
         setup = Setup(model=num, record=Record("d", u, DT, channels=("u",)), truth=None, guess=guess,
-                      y_true=y.reshape(-1, 1), channel_noise={"y": 0.01, "u": 1e-6})
+                      y_true=y.reshape(-1, 1), channel_noise={"y": 0.01, "u": 1e-6}, jit=HAVE_CC)
         ref = refine(setup, Data(seed=None, u=u.reshape(-1, 1), y=y.reshape(-1, 1)), setup.theta_guess)
         converged += ref.converged
         for pr in profiles(ref):
@@ -116,3 +119,30 @@ def test_friction_fits_converge_and_their_intervals_cover_the_truth_over_40_seed
             covered[pr.name] += bool(lo is not None and lo <= TRUTH[pr.name] <= hi)
     assert converged == 40, converged
     assert min(covered.values()) >= 35, covered
+
+
+@pytest.mark.skipif(not HAVE_CC, reason="needs a C compiler")
+def test_compiled_sensitivities_are_the_graphs_derivative_and_one_library_serves_every_record(tmp_path, monkeypatch):
+    # jit: the residuals' Jacobian as forward sensitivities of one compiled step, looped over the record; it must
+    # equal casadi's forward mode through the uncompiled graph (the same discrete map, the located crossings
+    # included: the multisine makes the mass reverse about 20 times in 3 s) to rounding, and a record of another
+    # length, initial state or scale must load the same two libraries (nothing in the code depends on them)
+    from obsnl.estimation import jitcache
+
+    monkeypatch.setenv("OBSNL_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(jitcache, "_LOADED", {})  # nothing loaded by an earlier test: every library is built here
+    t, u, x = friction_record(300)
+    num = to_casadi(obsnl.read_model("obsnl:coulomb_friction"))
+    setup = Setup(model=num, record=Record("d", u, DT, channels=("u",)), truth=None, guess=TRUTH,
+                  y_true=x.reshape(-1, 1), channel_noise={"y": 0.01, "u": 1e-6})
+    fwd = setup.coordinates.forward
+    z = np.r_[setup.coordinates.to_phi([1.02, 0.21, 39.0, 0.49]), 0.3, -0.2]
+    w, x0, scale = np.array([30.0]), np.array([0.0, 1e-3]), np.array([0.05, 0.4])
+    for T in (300, 200):
+        args = [z, u[:T].reshape(1, -1), x[:T].reshape(1, -1), w, x0 * T / 300, scale * T / 300]
+        graph = call(residuals(num, fwd, DT, T, substeps=8, refine=8, locate=True), args)
+        compiled = call(residuals(num, fwd, DT, T, substeps=8, refine=8, locate=True, jit=True), args)
+        assert np.abs(graph[0]).max() > 1.0 and np.abs(graph[1]).max() > 1.0  # the point is off the data
+        assert compiled[0] == pytest.approx(graph[0], rel=1e-12, abs=1e-12 * np.abs(graph[0]).max())
+        assert compiled[1] == pytest.approx(graph[1], rel=1e-10, abs=1e-12 * np.abs(graph[1]).max())
+    assert len(list((tmp_path / "cache").glob("*.so"))) == 2

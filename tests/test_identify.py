@@ -19,10 +19,11 @@ from obsnl.studies.seed_experiment import SEED_GUESS, seed_setup
 from obsnl.studies.seed_paper import reproduce
 from obsnl.studies.seed_reproduction import write_reproduction
 
-from .conftest import MODELS, ROOT
+from .conftest import HAVE_CC, MODELS, ROOT
 from .test_branch_table import paper_table1
 
 CSV = MODELS.parent / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
+JIT = ["--jit"] if HAVE_CC else []
 TUNING = Tuning(0.2, 1e-9, 1.0)
 
 
@@ -228,7 +229,7 @@ def test_a_study_without_a_tuning_is_tuned_like_measured_data():
     from obsnl.identification.runs import MEASURED_GRID
     from obsnl.identification.identify import study
 
-    res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=600)
+    res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=600, jit=HAVE_CC)
     assert [t for t, _ in res.tuning_scores] == list(MEASURED_GRID)
     best = min(res.tuning_scores, key=lambda ts: ts[1] if np.isfinite(ts[1]) else np.inf)
     assert res.tuning == best[0]
@@ -240,7 +241,7 @@ def test_identify_command(tmp_path, capsys):
     table.write_text(BranchTable.from_dict(paper_table1()).to_json())
     model = str(MODELS / "damage_healing_reparam.toml")
     args = ["identify", model, "--record", str(CSV), "--method", "dukf", "--table", str(table),
-            "--samples", "500", "--passes", "1", "--out", str(tmp_path)]
+            "--samples", "500", "--passes", "1", "--out", str(tmp_path)] + JIT
     assert main(args) == 0
     doc = json.loads((tmp_path / "identify.json").read_text())
     assert doc["method"] == "dukf" and "c_p" in [p["name"] for p in doc["parameters"]]
@@ -248,7 +249,7 @@ def test_identify_command(tmp_path, capsys):
     assert "--force" in capsys.readouterr().err
     mc_out = tmp_path / "mc"  # the Monte-Carlo check from the command line: 3 replicates, all accounted for
     assert main(["identify", model, "--record", str(CSV), "--samples", "500", "--passes", "1", "--replicates", "3",
-                 "--out", str(mc_out)]) == 0
+                 "--out", str(mc_out)] + JIT) == 0
     prac = json.loads((mc_out / "identify.json").read_text())["practical_identifiability"]
     assert prac["monte_carlo"]["replicates"] + prac["monte_carlo"]["diverged"] == 3
     assert main(["identify", model, "--record", str(CSV), "--replicates", "2"]) == 2

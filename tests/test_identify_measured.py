@@ -14,7 +14,7 @@ import obsnl
 from obsnl.cli import main
 from obsnl.identification.runs import clean_json, error_of
 
-from .conftest import MODELS, ROOT
+from .conftest import HAVE_CC, MODELS, ROOT
 from .radau_data import SDOF_TRUE, noisy, sdof_force, write_csv
 
 SDOF = ROOT / "tests" / "data" / "bouc_wen_force.toml"
@@ -149,7 +149,7 @@ d = 1e-4
     from obsnl.report.identification import identify_text
     from obsnl.identification.identify import study
 
-    res = study(toml, RECORD, samples=600, passes=2, noise=1e-3)
+    res = study(toml, RECORD, samples=600, passes=2, noise=1e-3, jit=HAVE_CC)  # compiled: the same to rounding
     doc = res.to_dict()
     text = json.dumps(doc, allow_nan=False)
     assert "Infinity" not in text and "NaN" not in text

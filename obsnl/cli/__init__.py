@@ -80,7 +80,7 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                   _o("--no-refine", dest="refine", action="store_false", help="skip the maximum-likelihood refinement"),
                   SEED, *[_o(f, type=_number, help="default: tuned") for f in ("--s0", "--q-theta", "--q-x", "--gate")],
                   _o("--samples", type=_whole(2), help="only the first samples of a --record"),
-                  _o("--jit", action="store_true", help="compile the filter to C (needs a C compiler)"),
+                  _o("--jit", action="store_true", help="compile the filter and the likelihood fit to C (needs a C compiler)"),
                   _o("--replicates", type=_whole(), default=0, help="Monte-Carlo replicates (0: off, else >= 3)"),
                   *EXECUTOR, _o("--out", metavar="DIR", help="write identify.json and the figures here"), FORCE]),
     "reproduce": (STUDIES, "reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",

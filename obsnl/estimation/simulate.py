@@ -29,7 +29,7 @@ from obsnl.errors import DataError, EstimatorError
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.estimation.numeric import NumericModel
 
-__all__ = ["Simulation", "simulate", "simulate_many", "call"]
+__all__ = ["Simulation", "simulate", "simulate_many", "call", "residual_graph", "residuals"]
 
 
 def _dense_input(fn: ca.Function, i: int, value: Any) -> np.ndarray:
@@ -265,3 +265,63 @@ def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any
         Y = call(h, [X.T, np.repeat(th[:, None], T, axis=1), u.T])[0].T
         out.append(Simulation(t=np.arange(T) * dt, x=X, y=Y, states=model.states, outputs=model.outputs))
     return out
+
+
+def residual_graph(model: NumericModel, forward: ca.Function, dt: float, T: int, *, substeps: int, refine: int,
+                   locate: bool = False) -> tuple[ca.MX, ...]:
+    """``(z, u, y, w, x0, scale, r)``: the whitened output residuals ``r`` of ``T`` samples as a casadi graph.
+
+    ``z = (phi, s)``: the coordinates ``phi`` of the parameters (``theta = forward(phi)``) and the scaled
+    initial state (``x0 + scale * s``); ``u`` ``(nu, T)``, ``y`` ``(ny, T)``, ``w`` the weight of each output
+    (``1 / sigma``); ``r = vec((y_hat - y) * w)``, sample-major. The step is :meth:`NumericModel.step` with
+    ``substeps``, ``refine`` and ``locate``.
+    """
+    step = model.step(dt, substeps=substeps, refine=refine, locate=locate)
+    phi, s = ca.MX.sym("phi", model.np), ca.MX.sym("s", model.nx)
+    U, Y, W = ca.MX.sym("u", model.nu, T), ca.MX.sym("y", model.ny, T), ca.MX.sym("w", model.ny)
+    X0, SC = ca.MX.sym("x0", model.nx), ca.MX.sym("scale", model.nx)
+    th = forward(phi)
+    x0 = X0 + SC * s
+    X = ca.horzcat(x0, step.mapaccum(T - 1)(x0, th, U[:, :-1], U[:, 1:])[0])
+    Yhat = model.h.map(T)(X, ca.repmat(th, 1, T), U)
+    return ca.vertcat(phi, s), U, Y, W, X0, SC, ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
+
+
+def residuals(model: NumericModel, forward: ca.Function, dt: float, T: int, *, substeps: int, refine: int,
+              locate: bool = False, jit: bool = False) -> ca.Function:
+    """``(z, u, y, w, x0, scale) -> (r, J)``: the residuals of :func:`residual_graph` and their exact Jacobian
+    ``J = dr/dz`` ``(T * ny, nz)``.
+
+    Without ``jit``, casadi's forward mode through the whole record's graph. With ``jit``, the same derivative
+    as forward sensitivities: one step ``(x, S) -> (x_next, d x_next/dx S + d x_next/dz)`` and one output
+    ``(x, S) -> (r, dr/dz)``, each compiled to C once per model, step and number of substeps
+    (:func:`obsnl.estimation.jitcache.jit_compile`; the record's length, its initial state and its scale
+    are inputs, not part of the code), looped over the record: about ten times faster on the seed model, and
+    equal to the graph's derivative to rounding (``tests/test_likelihood.py``).
+    """
+    nz = model.np + model.nx
+    if not jit:
+        z, U, Y, W, X0, SC, R = residual_graph(model, forward, dt, T, substeps=substeps, refine=refine, locate=locate)
+        return ca.Function("output_error", [z, U, Y, W, X0, SC], [R, ca.jacobian(R, z)],
+                           ["z", "u", "y", "w", "x0", "scale"], ["r", "J"])
+    step = model.step(dt, substeps=substeps, refine=refine, locate=locate)
+    x, S, phi = ca.MX.sym("x", model.nx), ca.MX.sym("S", model.nx, nz), ca.MX.sym("phi", model.np)
+    u0, u1 = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
+    y, w = ca.MX.sym("y", model.ny), ca.MX.sym("w", model.ny)
+    th = forward(phi)
+    E = ca.horzcat(ca.MX.eye(model.np), ca.MX.zeros(model.np, model.nx))  # d phi / d z
+    xn = step(x, th, u0, u1)[0]
+    sens = ca.jtimes(xn, x, S) + ca.jtimes(xn, phi, E)
+    advance = jit_compile(ca.Function("sensitivity_step", [x, S, phi, u0, u1], [xn, sens]))
+    yh = model.h(x, th, u0)
+    dr = (ca.jtimes(yh, x, S) + ca.jtimes(yh, phi, E)) * ca.repmat(w, 1, nz)
+    out = jit_compile(ca.Function("sensitivity_output", [x, S, phi, u0, y, w],
+                                  [(yh - y) * w, dr.T]))
+    z, U, Y, W = ca.MX.sym("z", nz), ca.MX.sym("u", model.nu, T), ca.MX.sym("y", model.ny, T), ca.MX.sym("w", model.ny)
+    X0, SC = ca.MX.sym("x0", model.nx), ca.MX.sym("scale", model.nx)
+    ph, x0 = z[:model.np], X0 + SC * z[model.np:]
+    S0 = ca.horzcat(ca.MX.zeros(model.nx, model.np), ca.diag(SC))
+    X, Ss = advance.mapaccum("sensitivity_loop", T - 1, 2)(x0, S0, ph, U[:, :-1], U[:, 1:])
+    R, JT = out.map(T)(ca.horzcat(x0, X), ca.horzcat(S0, Ss), ca.repmat(ph, 1, T), U, Y, ca.repmat(W, 1, T))
+    return ca.Function("output_error", [z, U, Y, W, X0, SC], [ca.vec(R), JT.T], ["z", "u", "y", "w", "x0", "scale"],
+                       ["r", "J"])

@@ -104,7 +104,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     allow_unidentifiable : bool
         Run although the structural analysis calls a parameter unidentifiable.
     jit : bool
-        Compile the filter to C.
+        Compile the filter and the likelihood fit to C (cached on disk: the first run of a model compiles).
     hold : bool
         Hold poorly informed parameters at their guess once the filter reaches the noise floor
         (:func:`obsnl.identification.runs.identify_measured`; default off).
@@ -217,7 +217,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     allow_unidentifiable : bool
         Go on with structurally unidentifiable parameters.
     jit : bool
-        Compile the filter step.
+        Compile the filter and the likelihood fit to C (cached on disk: the first run of a model compiles).
     progress : bool, callable or None
         A progress bar on standard error (True, the default), none (False), or a callback per step.
     executor : Executor or None

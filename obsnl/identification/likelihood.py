@@ -13,8 +13,9 @@ Formulation (output error, single shooting). With Gaussian white output noise of
 simulated from ``x0`` under the measured input by the same discrete step as everywhere in obsnl
 (:meth:`obsnl.estimation.numeric.NumericModel.step`: RK4 substeps, a substep in which a switching function
 across which the field jumps changes sign redone finer, ROS2 where stiff). The derivatives of the
-residuals are exact derivatives of that discrete map (casadi's forward mode through the whole record),
-not finite differences. Why output error and not the filter's innovations: the filter's process noise is
+residuals are exact derivatives of that discrete map (casadi's forward mode through the whole record;
+with ``setup.jit``, forward sensitivities compiled to C, :func:`obsnl.estimation.simulate.residuals`), not
+finite differences. Why output error and not the filter's innovations: the filter's process noise is
 a tuning device, not a property of the structure, and the output-error likelihood is the one that the
 profile-likelihood intervals (:mod:`obsnl.identification.profile`) and the Fisher information need; single
 shooting suffices because the refinement starts at the filter's estimate (near the optimum) and the
@@ -58,7 +59,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import EstimatorError
-from obsnl.estimation.simulate import call
+from obsnl.estimation.simulate import call, residual_graph, residuals
 from obsnl.identification.setup import Data, Setup
 
 __all__ = [
@@ -120,7 +121,7 @@ class Objective:
         """Residuals (and their Jacobian) at ``z``; non-finite entries where the simulation overflowed."""
         y = np.asarray(self.data.y, float).reshape(len(self.data.u), -1)
         u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
-        r, J = call(self.function, [np.asarray(z, float), u.T, y.T, 1.0 / self.sigma])
+        r, J = call(self.function, [np.asarray(z, float), u.T, y.T, 1.0 / self.sigma, self.setup.x0, self.scale])
         return np.asarray(r).ravel(), (np.asarray(J) if jacobian else None)
 
     def input_effect(self, z: np.ndarray, J: np.ndarray) -> np.ndarray:
@@ -129,13 +130,17 @@ class Objective:
         whole record in reverse mode, one sweep per column of ``J``."""
         key = self._key() + ("input",)
         if key not in _BUILT:
-            zs, U, Y, W, R = _graph(self.setup, len(self.data.u), self.substeps, self.scale)
+            m = self.setup.model
+            zs, U, Y, W, X0, SC, R = residual_graph(m, self.setup.coordinates.forward, self.setup.record.dt,
+                                                    len(self.data.u), substeps=self.substeps,
+                                                    refine=self.setup.refine, locate=LOCATE)
             V = ca.MX.sym("v", R.shape[0], zs.shape[0])
-            _BUILT[key] = ca.Function("input_effect", [zs, U, Y, W, V], [ca.jtimes(R, ca.vec(U), V, True)])
+            _BUILT[key] = ca.Function("input_effect", [zs, U, Y, W, X0, SC, V], [ca.jtimes(R, ca.vec(U), V, True)])
             _trim()
         y = np.asarray(self.data.y, float).reshape(len(self.data.u), -1)
         u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
-        return np.asarray(_BUILT[key](np.asarray(z, float), u.T, y.T, 1.0 / self.sigma, np.asarray(J, float)))
+        return np.asarray(_BUILT[key](np.asarray(z, float), u.T, y.T, 1.0 / self.sigma, self.setup.x0, self.scale,
+                                      np.asarray(J, float)))
 
     def input_covariance(self, z: np.ndarray, J: np.ndarray, C: np.ndarray, sigma_u: np.ndarray) -> np.ndarray:
         """The covariance of the estimate ``z`` added by white noise of std ``sigma_u`` on the measured inputs.
@@ -160,7 +165,7 @@ class Objective:
         return out
 
     def _key(self) -> tuple:
-        return _key(self.setup, len(self.data.u), self.substeps, self.scale)
+        return _key(self.setup, len(self.data.u), self.substeps)
 
     def reweighted(self, sigma: np.ndarray) -> Objective:
         """The same objective with other noise levels (the function takes them as an argument)."""
@@ -204,33 +209,19 @@ def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | No
         typical = np.sqrt(np.mean(sim.x ** 2, axis=0))
         scale = np.maximum(typical, 1e-2 * max(float(typical.max()), 1e-300))
     scale = np.asarray(scale, float)
-    key = _key(setup, T, n, scale)
+    key = _key(setup, T, n)
     if key not in _BUILT:
-        z, U, Y, W, R = _graph(setup, T, n, scale)
-        _BUILT[key] = ca.Function("output_error", [z, U, Y, W], [R, ca.jacobian(R, z)], ["z", "u", "y", "w"],
-                                  ["r", "J"])
+        _BUILT[key] = residuals(m, setup.coordinates.forward, setup.record.dt, T, substeps=n, refine=setup.refine,
+                                locate=LOCATE, jit=setup.jit)
         _trim()
     if sigma is None:
         sigma = setup.noise_std(data)[1]
     return Objective(setup, data, n, scale, np.maximum(np.asarray(sigma, float), 1e-300), _BUILT[key])
 
 
-def _key(setup: Setup, T: int, n: int, scale: np.ndarray) -> tuple:
+def _key(setup: Setup, T: int, n: int) -> tuple:
     return (id(setup.model), id(setup.coordinates), float(setup.record.dt), T, n, int(setup.refine), bool(LOCATE),
-            np.asarray(scale, float).tobytes(), setup.x0.tobytes())
-
-
-def _graph(setup: Setup, T: int, n: int, scale: np.ndarray) -> tuple[ca.MX, ca.MX, ca.MX, ca.MX, ca.MX]:
-    """``(z, u, y, w, r)``: the whitened residuals ``r`` of ``T`` samples as a casadi graph of its arguments."""
-    m = setup.model
-    step = m.step(setup.record.dt, substeps=n, refine=setup.refine, locate=LOCATE)
-    phi, s = ca.MX.sym("phi", m.np), ca.MX.sym("s", m.nx)
-    U, Y, W = ca.MX.sym("u", m.nu, T), ca.MX.sym("y", m.ny, T), ca.MX.sym("w", m.ny)
-    th = setup.coordinates.forward(phi)
-    x0 = ca.DM(setup.x0) + ca.DM(np.asarray(scale, float)) * s
-    X = ca.horzcat(x0, step.mapaccum(T - 1)(x0, th, U[:, :-1], U[:, 1:])[0])
-    Yhat = m.h.map(T)(X, ca.repmat(th, 1, T), U)
-    return ca.vertcat(phi, s), U, Y, W, ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
+            bool(setup.jit))
 
 
 def _trim() -> None:

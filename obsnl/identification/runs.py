@@ -274,7 +274,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         Passes over the record; Monte-Carlo replicates of the practical-identifiability check (0: off)
         and their noise seed.
     jit : bool
-        Compile the filter to C.
+        Compile the filter and the likelihood fit to C.
     hold : bool
         Hold the parameters flagged once the filter reached the noise floor at their guess (default:
         off; every parameter is estimated in every pass and the flags are judged at the end).

@@ -51,7 +51,7 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     replicates : int
         Monte-Carlo replicates of the practical-identifiability check (0: off, else at least 3).
     jit : bool
-        Compile the filter to C.
+        Compile the filter and the likelihood fit to C.
     progress : callable or None
         Called after every pass (tuning passes included) and once per Monte-Carlo replicate.
     executor : Executor or None
