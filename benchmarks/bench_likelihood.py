@@ -328,6 +328,8 @@ def noisy(case: Case, seed: int = NOISE_SEED, scale: float = 1.0) -> dict[str, n
 
 #: Local processes for the profiles (``--workers``; 1: this process, one profile after the other).
 WORKERS = 1
+#: ``--jit``: the filter and the fit compiled to C (``obsnl.identify(..., jit=True)``; the same numbers to rounding).
+JIT = False
 
 
 def timed_identify(case: Case, data: dict, refine: bool):
@@ -336,7 +338,7 @@ def timed_identify(case: Case, data: dict, refine: bool):
     stamps = []
     tic = time.perf_counter()
     noise = dict(case.noise) | {s.name: INPUT_NOISE for s in case.model.inputs}
-    res = obsnl.identify(case.model, data, guess=case.guess, noise=noise, refine=refine,
+    res = obsnl.identify(case.model, data, guess=case.guess, noise=noise, refine=refine, jit=JIT,
                          progress=lambda: stamps.append(time.perf_counter() - tic),
                          executor=Executor(workers=WORKERS) if WORKERS > 1 else None)
     return res, time.perf_counter() - tic, stamps
@@ -516,7 +518,8 @@ def run_case(case: Case, out: Path, seeds: int = 0, command: str = CMD) -> tuple
         "intervals": (n_cov >= 0.8 * len(ml.parameters),
                       f"95 % intervals contain the truth for >= 80 % of the parameters: {n_cov} of "
                       f"{len(ml.parameters)} ({100 * n_cov / len(ml.parameters):.0f} %)"),
-        "time": (t_ml <= LIMIT_S, f"run under 5 minutes: {t_ml:.0f} s (the default `obsnl.identify` call)"),
+        "time": (t_ml <= LIMIT_S, f"run under 5 minutes: {t_ml:.0f} s (the default `obsnl.identify` call"
+                 + (", jit=True" if JIT else "") + ")"),
     }
     summary = f"**{case.name}**: " + "; ".join(f"{txt}: **{'met' if ok else 'NOT met'}**" for ok, txt in goals.values())
     lines = [f"# {case.title}", "",
@@ -524,7 +527,8 @@ def run_case(case: Case, out: Path, seeds: int = 0, command: str = CMD) -> tuple
              f"cores, {platform.machine()}, load average {load:.2f} at the start). Model identified: `model.toml`; "
              + ", ".join(f"`{f}`" for f in IDENTIFY_FILES) + ": the refined run (`write_identification`).", ""]
     lines += [*(f"{n}\n" for n in case.notes)]
-    lines += [f"Identification: `obsnl.identify(model, data, guess=..., noise={{outputs as made, input 0.001}})`, "
+    jit = ", jit=True" if JIT else ""
+    lines += [f"Identification: `obsnl.identify(model, data, guess=..., noise={{outputs as made, input 0.001}}{jit})`, "
               f"once with `refine=False` (the UKF passes alone) and once with the defaults (the passes, then maximum "
               f"likelihood and profile-likelihood intervals). {len(case.t)} samples, dt {case.t[1] - case.t[0]:.6g} s. "
               f"Filter tuning chosen by the tool: {ml.tuning.to_dict()} (UKF-alone run: {ukf.tuning.to_dict()}).", "",
@@ -666,12 +670,13 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=None, help="record length (default: each case's own)")
     ap.add_argument("--seeds", type=int, default=None, help="repeat the refined run on the noise-free data and on "
                     "this many other noise seeds (default: DEFAULT_SEEDS of the case; 0: not repeated)")
+    ap.add_argument("--jit", action="store_true", help="compile the filter and the fit to C (identify(..., jit=True))")
     ap.add_argument("--gather", action="store_true", help="only rebuild likelihood.md from the case folders")
     ap.add_argument("--workers", type=int, default=1, help="local processes for the profiles (default 1: in this "
                     "process; `obsnl.identify(..., executor=Executor(workers=N))`)")
     args = ap.parse_args(argv)
-    global WORKERS
-    WORKERS = max(1, args.workers)
+    global WORKERS, JIT
+    WORKERS, JIT = max(1, args.workers), args.jit
     out = Path(args.out)
     if args.gather:
         gather(out)
@@ -683,7 +688,7 @@ def main(argv=None) -> int:
         seeds = DEFAULT_SEEDS[name] if args.seeds is None else args.seeds
         case = CASES[name](args.samples)
         command = (f"{CMD} --case {name}" + (f" --samples {args.samples}" if args.samples else "")
-                   + (f" --workers {WORKERS}" if WORKERS > 1 else "")
+                   + (f" --workers {WORKERS}" if WORKERS > 1 else "") + (" --jit" if JIT else "")
                    + (f" --seeds {seeds}" if seeds != DEFAULT_SEEDS[name] else ""))
         summary, goals = run_case(case, out, seeds, command)
         ok &= all(g for g, _ in goals.values())

@@ -273,8 +273,27 @@ def residual_graph(model: NumericModel, forward: ca.Function, dt: float, T: int,
 
     ``z = (phi, s)``: the coordinates ``phi`` of the parameters (``theta = forward(phi)``) and the scaled
     initial state (``x0 + scale * s``); ``u`` ``(nu, T)``, ``y`` ``(ny, T)``, ``w`` the weight of each output
-    (``1 / sigma``); ``r = vec((y_hat - y) * w)``, sample-major. The step is :meth:`NumericModel.step` with
-    ``substeps``, ``refine`` and ``locate``.
+    (``1 / sigma``); ``r = vec((y_hat - y) * w)``, sample-major.
+
+    Parameters
+    ----------
+    model : NumericModel
+        Compiled model.
+    forward : casadi.Function
+        ``phi -> theta``, the coordinates of the parameters (:class:`obsnl.estimation.numeric.ParameterMap`).
+    dt : float
+        Sampling interval.
+    T : int
+        Samples of the record.
+    substeps, refine : int
+        RK4 substeps per sample and the factor of a crossing substep (:meth:`NumericModel.step`).
+    locate : bool
+        Split a substep in which the field jumps at the located crossing (:meth:`NumericModel.step`).
+
+    Returns
+    -------
+    tuple of casadi.MX
+        The symbols ``z, u, y, w, x0, scale`` and the expression ``r``.
     """
     step = model.step(dt, substeps=substeps, refine=refine, locate=locate)
     phi, s = ca.MX.sym("phi", model.np), ca.MX.sym("s", model.nx)
@@ -297,7 +316,41 @@ def residuals(model: NumericModel, forward: ca.Function, dt: float, T: int, *, s
     ``(x, S) -> (r, dr/dz)``, each compiled to C once per model, step and number of substeps
     (:func:`obsnl.estimation.jitcache.jit_compile`; the record's length, its initial state and its scale
     are inputs, not part of the code), looped over the record: about ten times faster on the seed model, and
-    equal to the graph's derivative to rounding (``tests/test_likelihood.py``).
+    equal to the graph's derivative to rounding (``tests/test_crossing.py``).
+
+    Parameters
+    ----------
+    model : NumericModel
+        Compiled model.
+    forward : casadi.Function
+        ``phi -> theta`` (as :func:`residual_graph`).
+    dt : float
+        Sampling interval.
+    T : int
+        Samples of the record.
+    substeps, refine : int
+        The step's substeps and refinement (as :func:`residual_graph`).
+    locate : bool
+        Locate the crossings of a jump (as :func:`residual_graph`).
+    jit : bool
+        Forward sensitivities compiled to C (cached on disk: :mod:`obsnl.estimation.jitcache`).
+
+    Returns
+    -------
+    casadi.Function
+        ``output_error``: inputs ``z, u, y, w, x0, scale``, outputs ``r`` ``(T * ny,)`` and ``J`` ``(T * ny, nz)``.
+
+    Examples
+    --------
+    >>> import obsnl
+    >>> from obsnl.estimation.codegen import to_casadi
+    >>> num = to_casadi(obsnl.Model(name="decay", states=["x"], parameters=["k"], inputs=["u"],
+    ...                             equations={"x": "u - k*x"}, outputs={"y": "x"}))
+    >>> phi = ca.SX.sym("phi")
+    >>> f = residuals(num, ca.Function("forward", [phi], [ca.exp(phi)]), 0.1, 3, substeps=20, refine=1)
+    >>> r, J = call(f, [[0.0, 0.0], [[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]], [1.0], [1.0], [1.0]])
+    >>> np.round(r.ravel(), 6).tolist(), round(float(J[2, 0]), 6)  # x = exp(-k t), k = exp(0); dx/dphi = -k t exp(-k t)
+    ([1.0, 0.904837, 0.818731], -0.163746)
     """
     nz = model.np + model.nx
     if not jit:
