@@ -28,12 +28,11 @@ __all__ = ["Spec", "context", "compile_task", "tuning_task", "reported_task", "r
 
 #: Levenberg-Marquardt iterations at most per weighting of the maximum-likelihood refinement of a reported
 #: seed (:func:`obsnl.identification.refine.refine` fits with the stated noise level, then again with the
-#: noise level of its residuals). Bounds its time: on this model's rough objective (the healing switch) the
-#: iteration reaches its lowest chi2 within about 10 iterations and then takes steps that gain less than 0.5 in
-#: chi2 (measured on the five reported seeds: the errors after 12 and after 40 iterations agree to 0.01
-#: percentage points on every parameter, the verdicts are the same, and the five refinements take 135 instead
-#: of 182 CPU-seconds); a refinement cut there says so in its reason and is not called converged.
-ML_MAX_ITER = 12
+#: noise level of its residuals). Bounds its time. With the located crossing of the healing switch and the compiled
+#: sensitivities (about 0.2 s an iteration), every reported seed of LOS270 and LOS000 meets the first-order condition
+#: within 9-25 iterations (measured; with a cap of 12, 4 of 5 converged on LOS270 and 1 of 5 on LOS000); a refinement cut
+#: at the cap says so in its reason and is not called converged.
+ML_MAX_ITER = 40
 
 
 @dataclass(frozen=True, eq=False)
