@@ -13,6 +13,8 @@ PEER_CASES = Path(__file__).resolve().parent / "data" / "peer_cases"
 #: A C compiler is on PATH: long identification tests compile the filter and the likelihood fit (``jit``; the same
 #: numbers to rounding, several times faster).
 HAVE_CC = any(shutil.which(c) for c in ("cc", "gcc", "clang"))
+#: Skips a test that compiles C code where no compiler is on PATH.
+needs_cc = pytest.mark.skipif(not HAVE_CC, reason="needs a C compiler")
 
 def _is_ode_model(path: Path) -> bool:
     import tomllib

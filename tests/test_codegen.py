@@ -3,7 +3,6 @@ their order and stay finite where the model is stiff; parameter coordinates roun
 
 from __future__ import annotations
 
-import shutil
 import tempfile
 
 import casadi as ca
@@ -15,7 +14,7 @@ import obsnl
 from obsnl.estimation.codegen import log_map, numpy_model, parameter_map, to_casadi
 from obsnl.errors import ModelError, NotSupportedError, TableError
 
-from .conftest import MODEL_FILES, MODELS
+from .conftest import MODEL_FILES, MODELS, needs_cc
 
 
 @pytest.mark.parametrize("path", MODEL_FILES, ids=lambda p: p.stem)
@@ -162,7 +161,7 @@ def test_parameter_map_round_trip_and_dependencies():
     np.testing.assert_allclose(lm.to_theta(lm.to_phi([3.0, -5.0])), [3.0, -5.0])
 
 
-@pytest.mark.skipif(not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="needs a C compiler")
+@needs_cc
 def test_jit_scratch_files_stay_out_of_the_working_directory(tmp_path, monkeypatch):
     # casadi's shell compiler writes its C source to the working directory unless told otherwise;
     # a user's folder must not collect jit_tmp*.c files (a killed run would leave them behind)

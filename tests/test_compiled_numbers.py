@@ -19,8 +19,6 @@ LSODA (an integrator independent of obsnl's), plus Gaussian noise with fixed see
 
 from __future__ import annotations
 
-import shutil
-
 import casadi as ca
 import numpy as np
 import pytest
@@ -29,13 +27,14 @@ from obsnl.estimation.codegen import log_map
 from obsnl.estimation.ukf import UKF
 from obsnl.estimation.ukf_step import build_step
 
+from .conftest import needs_cc
 from .test_batched_filter import _data, _runs
 from .test_dukf import NUM, SCALE, _dukf
 
 FIELDS = ("z", "P", "active", "innovations", "interventions", "implicit", "refined")
 
 
-@pytest.mark.skipif(not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="needs a C compiler")
+@needs_cc
 @pytest.mark.parametrize("kind", ["ukf", "dukf"])
 def test_compiled_filter_runs_equal_uncompiled_runs_bit_for_bit(kind, tmp_path, monkeypatch):
     monkeypatch.setenv("OBSNL_CACHE_DIR", str(tmp_path / "cache"))
@@ -53,7 +52,7 @@ def test_compiled_filter_runs_equal_uncompiled_runs_bit_for_bit(kind, tmp_path, 
     assert plain.refined.sum() > 0  # the records cross a watched switching surface inside a step
 
 
-@pytest.mark.skipif(not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="needs a C compiler")
+@needs_cc
 def test_compiled_simulations_equal_uncompiled_ones_bit_for_bit(tmp_path, monkeypatch):
     """The simulations behind the misfits and the sensitivities: several parameter vectors at once,
     one of them far off (stiff: the implicit fallback runs)."""

@@ -22,7 +22,7 @@ from obsnl.identification.refine import refine
 from obsnl.identification.setup import Data, Setup
 from obsnl.estimation.simulate import call, residuals
 
-from .conftest import HAVE_CC
+from .conftest import HAVE_CC, needs_cc
 
 TRUTH = {"m": 1.0, "c": 0.2, "k": 40.0, "F_c": 0.5}
 DT = 0.01
@@ -121,7 +121,7 @@ def test_friction_fits_converge_and_their_intervals_cover_the_truth_over_40_seed
     assert min(covered.values()) >= 35, covered
 
 
-@pytest.mark.skipif(not HAVE_CC, reason="needs a C compiler")
+@needs_cc
 def test_compiled_sensitivities_are_the_graphs_derivative_and_one_library_serves_every_record(tmp_path, monkeypatch):
     # jit: the residuals' Jacobian as forward sensitivities of one compiled step, looped over the record; it must
     # equal casadi's forward mode through the uncompiled graph (the same discrete map, the located crossings

@@ -13,10 +13,10 @@ from pathlib import Path
 
 import pytest
 
+from .conftest import needs_cc
+
 
 # ----------------------------------------------------------------------------- 7 the compiled-filter cache
-needs_cc = pytest.mark.skipif(not any(__import__("shutil").which(c) for c in ("gcc", "cc", "clang")),
-                              reason="needs a C compiler")
 
 
 @pytest.fixture

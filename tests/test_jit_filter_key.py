@@ -12,7 +12,6 @@ bit (the flags of the cache keep every rounding of casadi's own evaluation; ``te
 
 from __future__ import annotations
 
-import shutil
 
 import numpy as np
 import pytest
@@ -23,9 +22,9 @@ from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.codegen import to_casadi
 from obsnl.identification.setup import Setup, make_data, make_filter
 
-from .conftest import MODELS
+from .conftest import MODELS, needs_cc
 
-pytestmark = pytest.mark.skipif(not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="needs a C compiler")
+pytestmark = needs_cc
 
 DT = 0.01
 FIELDS = ("z", "P", "active", "innovations", "interventions", "implicit", "refined")

@@ -4,7 +4,6 @@ twice, and a cache folder that another user could tamper with is refused."""
 from __future__ import annotations
 
 import os
-import shutil
 
 import casadi as ca
 import numpy as np
@@ -14,7 +13,9 @@ from obsnl.errors import OutputError
 from obsnl.estimation import jitcache
 from obsnl.estimation.jitcache import jit_options
 
-pytestmark = pytest.mark.skipif(not any(shutil.which(c) for c in ("cc", "gcc", "clang")), reason="needs a C compiler")
+from .conftest import needs_cc
+
+pytestmark = needs_cc
 
 
 def _fn(name: str = "rk") -> ca.Function:

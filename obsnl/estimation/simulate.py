@@ -296,14 +296,20 @@ def residual_graph(model: NumericModel, forward: ca.Function, dt: float, T: int,
         The symbols ``z, u, y, w, x0, scale`` and the expression ``r``.
     """
     step = model.step(dt, substeps=substeps, refine=refine, locate=locate)
-    phi, s = ca.MX.sym("phi", model.np), ca.MX.sym("s", model.nx)
-    U, Y, W = ca.MX.sym("u", model.nu, T), ca.MX.sym("y", model.ny, T), ca.MX.sym("w", model.ny)
-    X0, SC = ca.MX.sym("x0", model.nx), ca.MX.sym("scale", model.nx)
+    z, phi, x0, U, Y, W, X0, SC = _record_symbols(model, T)
     th = forward(phi)
-    x0 = X0 + SC * s
     X = ca.horzcat(x0, step.mapaccum(T - 1)(x0, th, U[:, :-1], U[:, 1:])[0])
     Yhat = model.h.map(T)(X, ca.repmat(th, 1, T), U)
-    return ca.vertcat(phi, s), U, Y, W, X0, SC, ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
+    return z, U, Y, W, X0, SC, ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
+
+
+def _record_symbols(model: NumericModel, T: int) -> tuple[ca.MX, ...]:
+    """``(z, phi, x0, u, y, w, x0_ref, scale)``: the arguments of the residuals of ``T`` samples, ``z = (phi, s)``
+    with the initial state ``x0 = x0_ref + scale * s``."""
+    z = ca.MX.sym("z", model.np + model.nx)
+    U, Y, W = ca.MX.sym("u", model.nu, T), ca.MX.sym("y", model.ny, T), ca.MX.sym("w", model.ny)
+    X0, SC = ca.MX.sym("x0", model.nx), ca.MX.sym("scale", model.nx)
+    return z, z[:model.np], X0 + SC * z[model.np:], U, Y, W, X0, SC
 
 
 def residuals(model: NumericModel, forward: ca.Function, dt: float, T: int, *, substeps: int, refine: int,
@@ -349,7 +355,8 @@ def residuals(model: NumericModel, forward: ca.Function, dt: float, T: int, *, s
     >>> phi = ca.SX.sym("phi")
     >>> f = residuals(num, ca.Function("forward", [phi], [ca.exp(phi)]), 0.1, 3, substeps=20, refine=1)
     >>> r, J = call(f, [[0.0, 0.0], [[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]], [1.0], [1.0], [1.0]])
-    >>> np.round(r.ravel(), 6).tolist(), round(float(J[2, 0]), 6)  # x = exp(-k t), k = exp(0); dx/dphi = -k t exp(-k t)
+    >>> # x = exp(-k t) with k = exp(phi) = 1, so dx/dphi = -k t exp(-k t)
+    >>> np.round(r.ravel(), 6).tolist(), round(float(J[2, 0]), 6)
     ([1.0, 0.904837, 0.818731], -0.163746)
     """
     nz = model.np + model.nx
@@ -370,9 +377,7 @@ def residuals(model: NumericModel, forward: ca.Function, dt: float, T: int, *, s
     dr = (ca.jtimes(yh, x, S) + ca.jtimes(yh, phi, E)) * ca.repmat(w, 1, nz)
     out = jit_compile(ca.Function("sensitivity_output", [x, S, phi, u0, y, w],
                                   [(yh - y) * w, dr.T]))
-    z, U, Y, W = ca.MX.sym("z", nz), ca.MX.sym("u", model.nu, T), ca.MX.sym("y", model.ny, T), ca.MX.sym("w", model.ny)
-    X0, SC = ca.MX.sym("x0", model.nx), ca.MX.sym("scale", model.nx)
-    ph, x0 = z[:model.np], X0 + SC * z[model.np:]
+    z, ph, x0, U, Y, W, X0, SC = _record_symbols(model, T)
     S0 = ca.horzcat(ca.MX.zeros(model.nx, model.np), ca.diag(SC))
     X, Ss = advance.mapaccum("sensitivity_loop", T - 1, 2)(x0, S0, ph, U[:, :-1], U[:, 1:])
     R, JT = out.map(T)(ca.horzcat(x0, X), ca.horzcat(S0, Ss), ca.repmat(ph, 1, T), U, Y, ca.repmat(W, 1, T))
