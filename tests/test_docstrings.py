@@ -133,6 +133,7 @@ FROM_PAPERS = {
     "estimation/ukf.py:UKF": "10.1109/JPROC.2003.823141",  # Julier & Uhlmann 2004
     "estimation/dukf.py:DUKF": "10.3389/fbuil.2017.00056",  # Chatzis & Chatzi 2017
     "estimation/numeric.py:step": "10.1137/S1064827597326651",  # Verwer et al. 1999 (ROS2)
+    "estimation/crossing.py:located_substep": "10.1007/978-94-015-7793-9",  # Filippov 1988
     "identification/profile.py:profile": "10.1093/bioinformatics/btp358",  # Raue et al. 2009
     "identification/profile.py:profiles": "10.1093/bioinformatics/btp358",
     "identification/likelihood.py:levenberg_marquardt": "10.1137/0111030",  # Marquardt 1963

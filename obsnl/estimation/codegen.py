@@ -20,7 +20,7 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
-from obsnl.model.branching.jumps import field_jumps
+from obsnl.model.branching.jumps import field_jumps, field_slides
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text, switching_functions
 from obsnl.errors import ModelError, NotSupportedError, TableError
@@ -200,6 +200,7 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
                             (gs if switching is None else switching))),
         values=MappingProxyType(values),
         jumps=field_jumps(model, gs) if gs else (),
+        slides=field_slides(model, gs) if gs else (),
         source=(model, None if switching is None else tuple(switching),
                 None if constants is None else dict(constants)),
         f=ca.Function("f", args, [fx], names, ["xdot"]),
@@ -207,6 +208,7 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
         g=ca.Function("g", args, [gx], names, ["g"]),
         jac_x=ca.Function("jac_x", args, [ca.jacobian(fx, xs)], names, ["J"]),
         jac_u=ca.Function("jac_u", args, [ca.jacobian(fx, us)], names, ["Ju"]),
+        jac_g=ca.Function("jac_g", args, [ca.jacobian(gx, xs)], names, ["Jg"]),
     )
 
 

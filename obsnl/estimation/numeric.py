@@ -15,17 +15,16 @@ displacement and an eigenvalue of order ``-2N x2 / r_y``: explicit RK4 overflows
 its matrix at the explicit predictor (so a stiffness onset inside the substep is seen) and replaces
 non-finite entries (``|0|**(2N-1)`` with ``N < 1/2``) by 0, which the W-method allows.
 
-Switching inside a step. Where a switching function changes sign between two substeps, the vector
-field may jump (the healing term of the seed model jumps when ``r - eta'`` crosses 0 while moving)
-and RK4 drops to order 1 across the jump: on the seed experiment these crossings make almost all of
-the discretisation error (8 plain substeps: 2.5e-4 of the output RMS, a quarter of the 0.1 % noise
-level, enough to bias the identified Deltas by a few percent). ``method="auto"`` therefore redoes
-the substep in which such a crossing happens with ``refine`` substeps; only the switching
-functions across which the field is not proved continuous are watched
-(:func:`obsnl.model.branching.jumps.field_jumps`: ``r - eta'`` but not ``x2`` for the seed model). 4 substeps
+Switching inside a step. Where a switching function changes sign between two substeps, the vector field
+may jump (the seed model's healing term, when ``r - eta'`` crosses 0 while moving) and RK4 drops to order 1
+across the jump: on the seed experiment these crossings make almost all of the discretisation error (8 plain
+substeps: 2.5e-4 of the output RMS, a quarter of the 0.1 % noise level, enough to bias the identified Deltas
+by a few percent). ``method="auto"`` therefore redoes the substep in which such a crossing happens with
+``refine`` substeps, watching only the switching functions across which the field is not proved continuous
+(:func:`obsnl.model.branching.jumps.field_jumps`: ``r - eta'``, not ``x2``, for the seed model). 4 substeps
 with the crossing one refined 8x stay within 6e-5 of the output RMS, as fine as 32 plain substeps.
-A step that is stiff uses ROS2 with ``refine * substeps``. In the filters both fallbacks are
-evaluated only for the sigma points that need them, and counted.
+A step that is stiff uses ROS2 with ``refine * substeps``; in the filters both fallbacks run only for
+the sigma points that need them, and are counted.
 """
 
 from __future__ import annotations
@@ -38,7 +37,7 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import ModelError
-from obsnl.estimation.crossing import heun3, located_substep
+from obsnl.estimation.crossing import heun3, located_substep, surface_start
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.model.branching.signature import ModelSignature
 
@@ -56,8 +55,8 @@ class NumericModel:
     f, h, g
         Vector field ``x' = f(x, p, u)``, outputs ``y = h(x, p, u)`` and switching functions
         ``g(x, p, u)`` (in the order and orientation of ``switching``).
-    jac_x, jac_u
-        ``df/dx`` and ``df/du`` (derivatives of ``sign`` are 0), for implicit steps.
+    jac_x, jac_u, jac_g
+        ``df/dx``, ``df/du`` (derivatives of ``sign`` are 0), for implicit steps; ``dg/dx``, for crossings.
     signature
         The model's identity (:class:`~obsnl.model.branching.signature.ModelSignature`: name, fingerprint,
         names in order, switching functions as text); the branch table must carry the same.
@@ -67,6 +66,9 @@ class NumericModel:
     jumps
         For each switching function, whether the vector field may jump where it crosses 0
         (:func:`obsnl.model.branching.jumps.field_jumps`; empty: all may). Only these crossings are refined.
+    slides
+        For each switching function, whether a trajectory may slide along it, which the located substep then
+        follows (:func:`obsnl.model.branching.jumps.field_slides`; empty: every jump may).
     source
         ``(model, switching, constants)`` as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
         otherwise): the specification a worker compiles again (:mod:`obsnl.identification.replicates`).
@@ -79,7 +81,9 @@ class NumericModel:
     g: ca.Function = field(repr=False)
     jac_x: ca.Function = field(repr=False)
     jac_u: ca.Function = field(repr=False)
+    jac_g: ca.Function = field(repr=False)
     jumps: tuple[bool, ...] = ()
+    slides: tuple[bool, ...] = ()
     source: Any = field(default=None, repr=False, compare=False)
     _steps: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # built steps, by options
 
@@ -166,9 +170,9 @@ class NumericModel:
         jit : bool
             Compile the inner functions to C.
         locate : bool
-            In the refined substeps, split the one where the field jumps at the located crossing
-            (:func:`obsnl.estimation.crossing.located_substep`: the value to the substep's order and the
-            derivative with the crossing time's motion; the maximum-likelihood fit uses it).
+            Split a refined substep at the located crossing, follow a sliding mode, and also refine where a
+            crossing is late in a substep or its start lies on a surface it may slide along
+            (:func:`obsnl.estimation.crossing.located_substep`; the maximum-likelihood fit uses it).
 
         References
         ----------
@@ -212,10 +216,10 @@ class NumericModel:
                     locate: bool = False) -> dict[str, ca.Function]:
         """The pieces of :meth:`step`: ``rk4`` and ``ros2`` ``(x, p, u0, u1) -> x_next`` with
         ``substeps``; ``rk4_fine``, RK4 with every substep in which a watched switching function
-        (``jumps``) changes sign split into ``refine`` (with ``locate``, the crossing one of those split at the
-        crossing); ``ros2_fine``, ROS2 with ``refine * substeps``; ``rk4_track``
-        ``(x, p, u0, u1) -> (x_next, crossed)`` (RK4 that also says whether a switching function
-        changed sign between two substeps) and ``stiff(x, x_rk4, p, u0, u1, threshold, scale) -> 0/1``
+        (``jumps``) changes sign split into ``refine`` (with ``locate``, located); ``ros2_fine``, ROS2 with
+        ``refine * substeps``; ``rk4_track`` ``(x, p, u0, u1) -> (x_next, crossed)`` (RK4 that also says
+        whether a switching function changed sign between two substeps; with ``locate``, as ``step`` says) and
+        ``stiff(x, x_rk4, p, u0, u1, threshold, scale) -> 0/1``
         (``scale``: the typical magnitude of each state, the start of the stiffness estimate of :meth:`step`;
         an input, so that the code, and the key of its compiled library, do not depend on it).
 
@@ -233,7 +237,7 @@ class NumericModel:
                                 ["x_next"])) for m in ("rk4", "ros2")}
         out["rk4_fine"] = self._refined(dt, n, int(refine), opts, locate)
         out["ros2_fine"] = self._looped("ros2", dt, nf, opts)
-        xt, crossed = self._integrate("rk4", x, p, u0, u1, dt, n, track=True)
+        xt, crossed = self._integrate("rk4", x, p, u0, u1, dt, n, track=True, wide=locate)
         out["rk4_track"] = c(ca.Function(f"rk4_track{n}", [x, p, u0, u1], [xt, crossed], names_in,
                                          ["x_next", "crossed"]))
         d = ca.SX.sym("scale", self.nx)  # an input, not a constant: the code is the same for every scale
@@ -296,7 +300,7 @@ class NumericModel:
         """``(x_next, crossed)``: ``n`` substeps of ``method``; with ``track``, ``crossed`` is 1 where a
         switching function changed sign (strictly) between two substep ends (else always 0); with ``wide``
         also where it changed sign at the old branch's extrapolated end of a substep (Heun's third-order
-        method, :func:`obsnl.estimation.crossing.heun3`)."""
+        method, :func:`obsnl.estimation.crossing.heun3`) or where its start lies on a surface it may slide along."""
         h = dt / n
         du = (u1 - u0) / dt
         xi = x
@@ -334,6 +338,9 @@ class NumericModel:
                 if wide:  # also a crossing late in the substep, which the RK4 end may not show
                     g_old = g_sel(heun3(self.f, x_start, p, ua, ub, h, h), ub)
                     crossed = ca.logic_or(crossed, ca.mmin(g_prev * g_old) < 0)
+                    on, tangent = surface_start(self, x_start, p, ua, h)  # where it may slide: on it, or heading in
+                    crossed = ca.logic_or(crossed, ca.mmax(ca.vertcat(0, *[ca.logic_or(on[i], tangent[i] < 2) for i in
+                                                                           watch if not self.slides or self.slides[i]])))
                 g_prev = g_i
         return xi, crossed
 

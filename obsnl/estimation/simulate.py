@@ -140,12 +140,12 @@ def _built(key: tuple, model: NumericModel, build: Callable[[], ca.Function]) ->
 
 
 def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, refine: int,
-            jit: bool, n: int = 1) -> ca.Function:
+            jit: bool, n: int = 1, locate: bool = False) -> ca.Function:
     """``(x0, theta, u0s, u1s) -> X`` over ``T - 1`` steps for ``n`` parameter vectors side by side; with
     ``jit`` one compiled step (cached per model) looped over the record."""
 
     def build() -> ca.Function:
-        step = model.step(dt, method=method, substeps=substeps, refine=refine)
+        step = model.step(dt, method=method, substeps=substeps, refine=refine, locate=locate)
         X, P = ca.MX.sym("x", model.nx), ca.MX.sym("p", model.np)
         U0, U1 = ca.MX.sym("u0", model.nu, T - 1), ca.MX.sym("u1", model.nu, T - 1)
         if jit:  # one step in C; the fallbacks stay conditional (evaluated only where needed)
@@ -155,7 +155,8 @@ def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, 
         one = ca.Function("simulation", [X, P, U0, U1], [step.mapaccum(T - 1)(X, P, U0, U1)[0]])
         return one if n == 1 else one.map(n, "serial")
 
-    return _built(("run", float(dt), int(T), method, int(substeps), int(refine), bool(jit), int(n)), model, build)
+    return _built(("run", float(dt), int(T), method, int(substeps), int(refine), bool(jit), int(n), bool(locate)),
+                  model, build)
 
 
 def _outputs(model: NumericModel, T: int) -> ca.Function:
@@ -174,7 +175,7 @@ def _checked_input(model: NumericModel, u: Any) -> np.ndarray:
 
 
 def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, method: str = "auto",
-             substeps: int = 100, refine: int = 8, jit: bool = False) -> Simulation:
+             substeps: int = 100, refine: int = 8, jit: bool = False, locate: bool = False) -> Simulation:
     """Simulate ``model`` from ``x0`` with parameters ``theta`` under the input samples ``u``.
 
     Parameters
@@ -194,6 +195,9 @@ def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, met
     jit : bool
         Compile the step to C once per model, step and record length (a few seconds), for
         repeated simulations (tuning, sensitivities); the same numbers as without.
+    locate : bool
+        Locate the crossings where the field jumps and follow sliding modes (a mass that sticks):
+        :meth:`obsnl.estimation.numeric.NumericModel.step`.
 
     Raises
     ------
@@ -203,14 +207,15 @@ def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, met
         The simulation left the finite numbers (the parameters make the model unstable).
     """
     got = simulate_many(model, thetas=[theta], x0=x0, u=u, dt=dt, method=method, substeps=substeps, refine=refine,
-                        jit=jit)[0]
+                        jit=jit, locate=locate)[0]
     if isinstance(got, EstimatorError):
         raise got
     return got
 
 
 def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any, dt: float, method: str = "auto",
-                  substeps: int = 100, refine: int = 8, jit: bool = False) -> list[Simulation | EstimatorError]:
+                  substeps: int = 100, refine: int = 8, jit: bool = False,
+                  locate: bool = False) -> list[Simulation | EstimatorError]:
     """:func:`simulate` for several parameter vectors in one compiled call (the same numbers as one at a time).
 
     Parameters
@@ -233,6 +238,8 @@ def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any
         Finer substeps of a crossing substep.
     jit : bool
         Compile the step to C.
+    locate : bool
+        As in :func:`simulate`.
 
     Returns
     -------
@@ -251,7 +258,7 @@ def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any
     if not thetas or any(th.shape != (model.np,) for th in thetas) or x0.shape != (model.nx,):
         raise DataError(f"theta needs {model.np} values and x0 {model.nx}")
     n, T = len(thetas), len(u)
-    run = _runner(model, dt, T, method, substeps, refine, jit, n)
+    run = _runner(model, dt, T, method, substeps, refine, jit, n, locate)
     Xs = call(run, [np.repeat(x0[:, None], n, axis=1), np.column_stack(thetas), np.tile(u[:-1].T, n),
                     np.tile(u[1:].T, n)])[0]
     out: list[Simulation | EstimatorError] = []

@@ -31,9 +31,11 @@ step therefore splits the substep that holds such a crossing at the located cros
 (:func:`obsnl.estimation.crossing.located_substep`, :data:`LOCATE`): the map is continuous there and ``J``
 carries the crossing time's motion (the saltation term). Without it, ``J`` was the derivative along the
 branches the RK4 stages happened to sample, and on a friction oscillator half of the fits ended with a
-gradient inconsistent with the objective ("not converged"). What remains is a sliding mode (the field
-pushing back on both sides: a mass that sticks), where the crossing is not isolated and the objective
-stays rough at the step's scale; the acceptance test keeps the iteration monotone there.
+gradient inconsistent with the objective ("not converged"). A sliding mode (the field pushing back on
+both sides: a mass that sticks) is followed as Filippov's solution on the surface until the mass breaks
+away (:mod:`obsnl.estimation.crossing`); its entry is a located crossing and its exit a kink of a continuous
+field, so the map stays continuous there too. Where the number of stick phases changes with the parameters
+(a grazing reversal) the objective keeps a kink; the acceptance test keeps the iteration monotone there.
 
 Noise levels: the fit starts with the given or estimated noise per channel, then re-weights once with
 the maximum-likelihood noise ``sigma_c^2 = RSS_c / N`` of the fit (the concentrated likelihood of

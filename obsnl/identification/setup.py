@@ -70,8 +70,9 @@ class Setup:
     ``noise`` is the noise-to-signal RMS ratio of every channel; ``channel_noise`` overrides it per
     named input or output. ``fit_substeps``: the integrator (RK4 substeps per sample, with the same
     refinement) of the free-run output misfit, the convergence check and the fit; default: the
-    filter's own (``substeps``). When set, a simulated truth is made with the same integrator, so that
-    the check compares like with like and a converged run is never called diverged.
+    filter's own (``substeps``). When set, a simulated truth is made with the fit's step at these substeps
+    (crossings located, sliding modes followed), so that the check compares like with like and a converged
+    run is never called diverged.
     """
 
     model: NumericModel
@@ -105,7 +106,9 @@ class Setup:
         x0 = np.array([float(m.values.get(s, 0.0)) for s in m.states])
         object.__setattr__(self, "x0", x0)
         if self.y_true is None:
-            fine = {} if self.fit_substeps is None else {"substeps": self.fit_substeps, "refine": self.refine}
+            # the fit's own step (located crossings, sliding modes) at the fit's substeps: the most exact flow
+            fine = {} if self.fit_substeps is None else {"substeps": self.fit_substeps, "refine": self.refine,
+                                                         "locate": True}
             sim = simulate(m, theta=self.theta_true, x0=x0, u=self.record.accel, dt=self.record.dt, **fine)
             object.__setattr__(self, "y_true", sim.y)
 

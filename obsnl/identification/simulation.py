@@ -91,5 +91,6 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
                    trs=trs, held=held, prac=prac, misfit=misfit, noise=levels, data_dict=record.to_dict(), seed=seed,
                    refined=refined, progress=progress, executor=executor,
                    assumptions=_assumptions(refined, f"simulation study: the truth is the model's [values], simulated "
-                                            f"with {FIT_SUBSTEPS} RK4 substeps per sample, Gaussian noise seed {seed}",
+                                            f"with {FIT_SUBSTEPS} RK4 substeps per sample (crossings of a jump located, sliding "
+                                            f"modes followed), Gaussian noise seed {seed}",
                                             "errors: per cent of the truth; absolute where the truth is 0"))

@@ -1,6 +1,8 @@
 """Where the vector field of a non-smooth model jumps: for each switching function, whether the smooth fields
 on its two sides may differ on the surface (the discrete steps of :mod:`obsnl.estimation.numeric` refine only
-the crossings where it does).
+the crossings where it does), and whether the jump may have a component across the surface, the only kind
+that can hold a trajectory on it (a sliding mode in Filippov's sense: a mass that sticks under dry friction),
+which the located substep of :mod:`obsnl.estimation.crossing` then resolves.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from obsnl.model.bounds.work import can_expand, can_factor, same_up_to_sign
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 
-__all__ = ["field_jumps"]
+__all__ = ["field_jumps", "field_slides"]
 
 #: Above this many switching functions :func:`field_jumps` does not split the model (all may jump).
 _MAX_JUMP_CHECK = 6
@@ -44,6 +46,64 @@ def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
     tuple of bool
         One per switching function: True where the field may jump.
     """
+    return _across(model, switching, _jump)
+
+
+def field_slides(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
+    """For each switching function ``g``: may a trajectory slide along ``g = 0``?
+
+    A sliding mode needs the fields of the two sides to push towards the surface from both sides, so
+    their jump must have a component along ``grad g`` (the states' gradient). ``False`` only when it is
+    proved that ``grad g . (f_a - f_b)`` vanishes identically on ``g = 0`` for every two branches that
+    differ in ``g`` alone (the jump, if any, is tangential: every crossing is transversal or grazing);
+    anything not proved counts as may slide, as in :func:`field_jumps`.
+
+    Parameters
+    ----------
+    model : Model
+        The non-smooth model.
+    switching : sequence of sympy.Expr
+        Switching functions (the model's own, or a branch table's), in any orientation.
+
+    Returns
+    -------
+    tuple of bool
+        One per switching function: True where a sliding mode may form.
+
+    Examples
+    --------
+    Coulomb friction may hold the mass at ``v = 0`` (the jump ``-2 F_c`` is along ``v``); a switch of
+    the field's first row alone (``x' = |v|``-like) jumps along the surface only:
+
+    >>> from obsnl.model.core import Model
+    >>> from obsnl.model.branching.switching import switching_functions
+    >>> m = Model(name="dry", states=["x", "v"], parameters=["k", "F"], inputs=["u"],
+    ...           equations={"x": "v", "v": "u - k*x - F*sign(v)"}, outputs={"y": "x"})
+    >>> field_slides(m, switching_functions(m))
+    (True,)
+    >>> m2 = Model(name="tangent", states=["x", "v"], parameters=["k", "F"], inputs=["u"],
+    ...            equations={"x": "v + F*sign(v)", "v": "u - k*x"}, outputs={"y": "x"})
+    >>> g = switching_functions(m2)
+    >>> field_jumps(m2, g), field_slides(m2, g)
+    ((True,), (False,))
+    """
+    return _across(model, switching, _normal_jump)
+
+
+def _jump(g: sp.Expr, fa: Sequence[sp.Expr], fb: Sequence[sp.Expr], states: Sequence[sp.Symbol]) -> list[sp.Expr]:
+    """The differences to prove zero on ``g = 0`` for a continuous field: every component's."""
+    return [a - b for a, b in zip(fa, fb)]
+
+
+def _normal_jump(g: sp.Expr, fa: Sequence[sp.Expr], fb: Sequence[sp.Expr],
+                 states: Sequence[sp.Symbol]) -> list[sp.Expr]:
+    """The difference to prove zero on ``g = 0`` for a jump along the surface only: ``grad g . (fa - fb)``."""
+    return [sum((sp.diff(g, s) * (a - b) for s, a, b in zip(states, fa, fb)), sp.Integer(0))]
+
+
+def _across(model: Model, switching: Sequence[sp.Expr], differences) -> tuple[bool, ...]:
+    """For each switching function: not proved that ``differences`` vanish on its surface for every pair of
+    neighbouring branches (True also when the model cannot be split or has too many switching functions)."""
     switching = list(switching)
     if len(switching) > _MAX_JUMP_CHECK:
         return (True,) * len(switching)
@@ -58,13 +118,14 @@ def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
     out = []
     for g in switching:
         j = next((i for i, s in enumerate(sw) if same_up_to_sign(s, g)), None)
-        out.append(True if j is None else not _continuous_across(g, j, by_signs, model))
+        out.append(True if j is None else not _vanish_across(g, j, by_signs, model, differences))
     return tuple(out)
 
 
-def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model) -> bool:
-    """Whether the branch fields on the two sides of ``g = 0`` (``g`` the ``j``-th switching
-    function) agree identically on ``g = 0`` for every pair of neighbouring branches."""
+def _vanish_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model,
+                   differences) -> bool:
+    """Whether ``differences(g, fa, fb, states)`` of the branch fields on the two sides of ``g = 0`` (``g`` the
+    ``j``-th switching function) vanish identically on ``g = 0`` for every pair of neighbouring branches."""
     sol = None
     if not can_factor(g):  # solving it could run for minutes: not proved continuous, counted as a jump
         return False
@@ -84,7 +145,7 @@ def _continuous_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Br
         if other is None:
             continue
         pairs += 1
-        for fa, fb in zip(b.model.rhs, other.model.rhs):
-            if not can_expand(fa - fb) or sp.cancel(sp.together((fa - fb).subs(*sol))) != 0:
+        for d in differences(g, b.model.rhs, other.model.rhs, list(model.states)):
+            if not can_expand(d) or sp.cancel(sp.together(d.subs(*sol))) != 0:
                 return False
     return pairs > 0
