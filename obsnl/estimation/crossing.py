@@ -291,6 +291,7 @@ def located_substep(model: Any, h: float, *, iterations: int = 4) -> ca.Function
         f_in = f_old(xs, p, u_at(t_cur))
         rate = ca.dot(grad, f_in)
         t_in = ca.if_else(ca.fabs(rate) > 1e-300, -chosen(xs, u_at(t_cur)) / ca.if_else(rate == 0, 1.0, rate), 0.0)
+        t_in = ca.fmin(ca.fmax(t_in, -1e-6 * h), 1e-6 * h)  # a grazing entry (g' near 0) is not stretched
         x_in = xs + (f_in - f_s) * t_in
         slid = _rk4_with(lambda xq, s: filippov(xq, s)[0], x_in, t_cur, h - t_cur, filippov(x_in, t_cur)[0])
         xl = ca.if_else(sticks, slid, xl)
