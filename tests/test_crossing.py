@@ -17,6 +17,7 @@ from scipy.integrate import solve_ivp
 import obsnl
 from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.codegen import to_casadi
+from obsnl.estimation.crossing import located_substep
 from obsnl.identification.profile import profiles
 from obsnl.identification.refine import refine
 from obsnl.identification.setup import Data, Setup
@@ -89,6 +90,26 @@ def test_the_located_step_is_scipys_event_solution_with_its_derivative():
             # the crossing time's motion (here nearly half of it)
             j = names.index("F_c")
             assert abs(d_obsnl[1, j] - d_scipy[1, j]) > 0.3 * abs(d_scipy[1, j])
+
+
+def test_a_crossing_late_in_the_substep_continues_on_the_new_side_where_the_plain_end_has_not_crossed():
+    # x'' = u - a sign(x') with u = 0.7, a = 0.5: accelerations 1.2 before (v < 0) and 0.2 after the reversal. From
+    # v0 = -1.2 t*, v reaches 0 at t*; the rest r = h - t* of the substep runs on the new side: v = 0.2 r,
+    # x = v0 t* + 0.6 t*^2 + 0.1 r^2. A plain RK4 end lies at v0 + h (5 * 1.2 + 0.2) / 6, still on the old side for
+    # t* > 31/36 h: the extrapolation shows the crossing, and the step past it must start on the new side, not on the
+    # side of the plain end (which sampled the old field there and missed by r (1.2 - 0.2) / 6 before the fix)
+    dry = to_casadi(obsnl.Model(name="dry", states=["x", "v"], parameters=["a"], inputs=["u"],
+                                equations={"x": "v", "v": "u - a*sign(v)"}, outputs={"y": "x"}))
+    h = 0.01
+    located = located_substep(dry, h)
+    plain = dry.step(h, method="rk4", substeps=1)
+    for f in (0.5, 0.8, 0.9, 0.97, 0.99):
+        ts = f * h
+        v0, r = -1.2 * ts, h - ts
+        exact = [v0 * ts + 0.6 * ts * ts + 0.1 * r * r, 0.2 * r]
+        v_plain = float(plain([0.0, v0], 0.5, 0.7, 0.7)[0][1])
+        assert (v_plain < 0) == (f > 31 / 36)  # the plain end has not crossed, as derived above
+        assert np.array(located([0.0, v0], 0.5, 0.7, 0.7)).ravel() == pytest.approx(exact, rel=1e-10, abs=1e-13)
 
 
 def multisine(T: int, rms: float) -> tuple[np.ndarray, np.ndarray]:

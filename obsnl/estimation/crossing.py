@@ -264,11 +264,17 @@ def located_substep(model: Any, h: float, *, iterations: int = 4) -> ca.Function
     crossed = ca.logic_and(crossed, ca.logic_or(ca.logic_not(tangent_only),
                                                 ca.fabs(g_cur) <= 1e-3 * ca.fabs(g_start)))  # a root, not a guess
     # the first stage after the crossing: the state pushed across along grad g by a hair (1e-9 of the change
-    # of g over the substep, plus what the iteration left), so that it samples the new branch
+    # of g over the substep, plus what the iteration left), so that it samples the new branch. The new side is
+    # the one opposite the start; the plain RK4 end may still lie on the old side (a crossing late in the
+    # substep, seen by the extrapolation or the tangent), and where it lies within rounding of the surface its
+    # sign must not decide the step. Only from a start on the surface, where the start's side is rounding, is
+    # the new side the one the plain end moved to.
     grad = normal(xs, u_at(t_cur))
     g_end = sum(pick[j] * gb[j] for j in range(len(watch)))
+    start_on = sum(pick[j] * on[watch[j]] for j in may_slide) if may_slide else ca.SX(0.0)
+    towards = ca.if_else(ca.logic_or(start_on > 0, g_start == 0), ca.sign(g_end), -ca.sign(g_start))
     eta = 1e-9 * (ca.fabs(g_start) + ca.fabs(g_end)) + ca.fabs(g_cur) + 1e-300
-    across = xs + eta * ca.sign(g_end) * grad / (ca.sumsqr(grad) + 1e-300)
+    across = xs + eta * towards * grad / (ca.sumsqr(grad) + 1e-300)
     xl = rk4(xs, t_cur, h - t_cur, first=f(across, p, u_at(t_cur)))
     if may_slide:
         # Filippov: where both sides push towards the surface, the trajectory stays on it, with the convex
