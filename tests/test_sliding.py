@@ -97,8 +97,8 @@ def test_stick_slip_fits_converge_and_their_intervals_cover_the_truth_over_20_se
     why), and each parameter's 95 % profile interval contains the truth at least 17 times. For calibrated
     intervals each count is Binomial(20, 0.95), P(<= 16) = 0.016, so a calibrated method fails the coverage part
     with probability below 0.065 for a random choice of seeds (the seeds are fixed: the test is deterministic).
-    Measured over seeds 0-59 (``benchmarks/bench_stick_slip.py``): 57 of 60 converge (the other three stop with a
-    Newton decrement of 0.014-0.1 where no step lowers chi2), and the intervals cover m, c, k, F_c 58, 54, 59, 54
+    Measured over seeds 0-59 (``benchmarks/bench_stick_slip.py``): 60 of 60 converge (57 before the step after a
+    located crossing started on the side opposite the start), and the intervals cover m, c, k, F_c 58, 54, 59, 54
     times (c and F_c at 90 %, RMS error / std 1.11 and 1.13). Before the sliding rule, the fit of such a record
     ended "not converged" with every profile at its evaluation cap."""
     t, u, X = stick_record(600)
