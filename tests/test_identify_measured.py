@@ -161,13 +161,14 @@ d = 1e-4
     assert doc["fit"]["y"] < 1.0  # noise 0.1 %: the fit is near it
     # d = 0 cannot be reached in log|d|: the estimate rests on the edge of the valid region and is flagged
     assert d["flagged"] and "edge of the valid region" in d["reason"]
-    # the promise of the refinement: a run called converged has every unflagged estimate within 4 reported std
-    # (or 1 %) of the truth; otherwise it says why it is not converged
-    if doc["converged"]:
-        assert all(abs(p["estimate"] - p["true"]) <= max(4 * p["std"], 0.01 * abs(p["true"]))
-                   for p in doc["parameters"] if not p["flagged"])
-    else:
-        assert doc["converged_reason"] and "NOT converged: " + doc["converged_reason"] in identify_text(res)
+    # with d on its edge the first-order conditions of the bounded problem hold, so the run converges (it did not
+    # while the step after a located crossing could start on the old side: decrement 0.06, the map jumping), and
+    # the promise of the refinement holds: every unflagged estimate within 4 reported std (or 1 %) of the truth
+    assert doc["converged"], doc["converged_reason"]
+    assert "d rests on the edge of its valid region" in doc["converged_reason"]
+    assert identify_text(res).splitlines()[0].endswith(": converged")
+    assert all(abs(p["estimate"] - p["true"]) <= max(4 * p["std"], 0.01 * abs(p["true"]))
+               for p in doc["parameters"] if not p["flagged"])
     assert clean_json([float("inf"), float("nan"), 1.0]) == [None, None, 1.0]
 
 
