@@ -125,3 +125,26 @@ def test_from_rest_the_mass_stays_unless_the_force_beats_friction(u0):
         ref = solve_ivp(lambda tt, z: [z[1], u0 - 0.2 * z[1] - 40.0 * z[0] - 0.5 * s], (0, h), [0.0, 0.0],
                         rtol=1e-12, atol=1e-16).y[:, -1]
         assert end == pytest.approx(ref, rel=1e-9, abs=1e-16)
+
+
+def test_the_filter_alone_follows_the_sticking_mass_too():
+    """The UKF alone (``refine=False``) on the stick-slip record, 1 % noise, guesses 30-40 % off, seeds 0-7: a friction
+    model's filter steps locate the reversal and follow the sliding mode as the fit does (``Setup.locate``, on where
+    the field may slide). Every estimate lies within 4 posterior std of the truth (a right std misses by that with
+    probability 6e-5 per parameter, 2e-3 over the 32), and c, the parameter the chatter biased, is within 2.5 % on
+    average. Measured: mean c error -1.0 % (worst |error / std| 2.8, F_c); with the plain refined step
+    (``locate=False``) the same runs gave c -3 to -9 % (mean -5.8 %) at up to 5.9 std (F_c)."""
+    t, u, X = stick_record(600)
+    x = X[:, 0]
+    sigma = 0.01 * float(np.sqrt(np.mean(x ** 2)))
+    guess = {"m": 1.3, "c": 0.14, "k": 28.0, "F_c": 0.65}
+    c_errors = []
+    for seed in range(8):
+        y = x + sigma * np.random.default_rng(seed).standard_normal(len(t))
+        res = obsnl.identify("obsnl:coulomb_friction", {"time_s": t, "u": u, "y": y}, guess=guess,
+                             noise={"y": 0.01, "u": 1e-6}, progress=False, refine=False)
+        assert any("follows a sliding mode" in a for a in res.assumptions)
+        for p in res.parameters:
+            assert abs(p.estimate - TRUTH[p.name]) <= 4 * p.std, (seed, p.name, p.estimate, p.std)
+        c_errors.append(next(p.estimate for p in res.parameters if p.name == "c") / TRUTH["c"] - 1)
+    assert abs(np.mean(c_errors)) < 0.025, c_errors

@@ -95,6 +95,8 @@ class UKF:
         (default 4); a sigma point whose step is stiff for RK4 is redone with ROS2 and ``refine * substeps``, one
         whose step crosses a switching function across which the field can jump with that substep split into
         ``refine`` (default 8).
+    locate : bool
+        That substep split at the located crossing instead, sliding modes followed (default off).
     jit : bool
         Compile the step to C (needs a C compiler; off by default).
     fixed : tuple of str
@@ -118,7 +120,6 @@ class UKF:
 
     Examples
     --------
-    >>> import numpy as np
     >>> from obsnl import Model
     >>> from obsnl.estimation import UKF, to_casadi
     >>> m = Model(name="osc", states=["x", "v"], parameters=["k"], inputs=["u"],
@@ -142,6 +143,7 @@ class UKF:
     method: str = "auto"
     substeps: int = 4
     refine: int = 8
+    locate: bool = False
     jit: bool = False
     fixed: tuple[str, ...] = ()
     bounds: Any = None
@@ -183,10 +185,9 @@ class UKF:
                 raise EstimatorError(f"{k} must be a whole number >= 1, got {v!r}")
         if not self.gate > 0:
             raise EstimatorError(f"gate must be > 0 (inf: off), got {self.gate!r}")
-        cap = np.broadcast_to(np.asarray(self.cap, float), (self.size,)).copy()
-        if np.any(np.isnan(cap)) or np.any(cap <= 0):
+        set_("cap", np.broadcast_to(np.asarray(self.cap, float), (self.size,)).copy())
+        if np.any(np.isnan(self.cap)) or np.any(self.cap <= 0):
             raise EstimatorError("cap must be > 0 (inf: off) for every filter coordinate")
-        set_("cap", cap)
         if not (self.alpha > 0 and self.size + self.kappa > 0):
             raise EstimatorError(f"need alpha > 0 and L + kappa > 0 (alpha={self.alpha}, kappa={self.kappa})")
 
@@ -209,8 +210,7 @@ class UKF:
 
     def split(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Model states and parameters of filter means ``z`` (``(L,)`` or ``(T, L)``)."""
-        z = np.atleast_2d(z)
-        nx = self.model.nx
+        z, nx = np.atleast_2d(z), self.model.nx
         key = ("forward", id(self.coordinates), len(z))
         if key not in self.cache:  # keeps the coordinates alive with it: their id stays unique
             self.cache[key] = (self.coordinates, self.coordinates.forward.map(len(z)))
@@ -234,8 +234,8 @@ class UKF:
 
     # ------------------------------------------------------------------ compiled functions
     def _key(self) -> tuple:
-        return (id(self.model), id(self.coordinates), self.dt, self.method, self.substeps, self.refine, self.jit,
-                type(self).__name__) + self._extra_key()
+        return (id(self.model), id(self.coordinates), self.dt, self.method, self.substeps, self.refine, self.locate,
+                self.jit, type(self).__name__) + self._extra_key()
 
     def _extra_key(self) -> tuple:
         return ()
@@ -255,7 +255,7 @@ class UKF:
         key = self._key()
         if key not in self.cache:
             core = build_step(self.model, self.coordinates, self.dt, method=self.method, substeps=self.substeps,
-                              cross=self._cross(), refine=self.refine)
+                              cross=self._cross(), refine=self.refine, locate=self.locate)
             L, m, nu, ny = self.size, len(self.model.switching), self.model.nu, self.model.ny
             z, P, prev = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("prev", L)
             u0, u1, y = ca.MX.sym("u0", nu), ca.MX.sym("u1", nu), ca.MX.sym("y", ny)

@@ -226,7 +226,7 @@ def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.F
 
 
 def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, method: str, substeps: int,
-               cross: str = "regression", refine: int = 8, skip_frozen: bool = True) -> ca.Function:
+               cross: str = "regression", refine: int = 8, skip_frozen: bool = True, locate: bool = False) -> ca.Function:
     """The filter step ``(z, P, u0, u1, y, active, Q, R, hyp, lo, hi, cap, scale)
     -> (z+, P+, y_pred, nu, S, interventions, implicit, refined)``.
 
@@ -259,6 +259,8 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, method: 
         The DUKF cross-covariance rule.
     refine : int
         Finer substeps of a crossing substep.
+    locate : bool
+        Split it at the located crossing and follow a sliding mode (:meth:`NumericModel.step`'s ``locate``).
     skip_frozen : bool
         The two sigma points of a frozen coordinate are the mean point (bit for bit: their column
         of the Cholesky factor is zeroed by the mask); True copies the mean point's propagation to
@@ -277,7 +279,7 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, method: 
         raise EstimatorError(f"unknown cross-covariance rule {cross!r}; use 'regression' or 'zero'")
     nx, nq, ny, nu_ = model.nx, len(coords.names), model.ny, model.nu
     L = nx + nq
-    fns = model.integrators(dt, substeps=substeps, refine=refine)
+    fns = model.integrators(dt, substeps=substeps, refine=refine, locate=locate)
     sig, prop = _sigma_block(model, coords, fns, method)
     point, or_copy = _point_block(model, coords, fns, prop)
     upd = _update_block(model, coords, cross)

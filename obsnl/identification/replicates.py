@@ -104,7 +104,7 @@ def check_passes(passes: int) -> int:
 CHUNK = 8
 
 _SETUP_FIELDS = ("record", "truth", "guess", "noise", "substeps", "refine", "jit", "y_true", "channel_noise",
-                 "fit_substeps")
+                 "fit_substeps", "locate")
 
 
 @dataclass(frozen=True, eq=False)

@@ -72,7 +72,9 @@ class Setup:
     refinement) of the free-run output misfit, the convergence check and the fit; default: the
     filter's own (``substeps``). When set, a simulated truth is made with the fit's step at these substeps
     (crossings located, sliding modes followed), so that the check compares like with like and a converged
-    run is never called diverged.
+    run is never called diverged. ``locate``: the filters' step splits a crossing substep at the located crossing
+    and follows sliding modes, as the fit's does; default (None): where the model's field may slide along a
+    surface across which it jumps (dry friction: without it the stages chatter across ``v = 0`` while a mass sticks).
     """
 
     model: NumericModel
@@ -88,9 +90,13 @@ class Setup:
     x0: np.ndarray = field(default=None, repr=False)
     channel_noise: Mapping[str, float] | None = None
     fit_substeps: int | None = None
+    locate: bool | None = None
 
     def __post_init__(self) -> None:
         m = self.model
+        if self.locate is None:
+            object.__setattr__(self, "locate", any((not m.jumps or m.jumps[i]) and (not m.slides or m.slides[i])
+                                                   for i in range(len(m.switching))))
         for what, vals in (("truth", self.truth), ("guess", self.guess)):
             if vals is None and what == "truth" and self.y_true is not None:
                 continue
@@ -142,7 +148,7 @@ class Setup:
                 "truth": None if self.truth is None else dict(self.truth),
                 "guess": dict(self.guess), "noise_ratio": self.noise, "channel_noise": dict(self.channel_noise or {}),
                 "coordinates": self.coordinates.to_dict(),
-                "substeps": self.substeps, "refine": self.refine, "fit_substeps": self.fit_substeps,
+                "substeps": self.substeps, "refine": self.refine, "locate": self.locate, "fit_substeps": self.fit_substeps,
                 "integrator": "RK4; a substep in which a switching function across which the field can jump "
                               "changes sign redone with refine finer ones; ROS2 (refine x the substeps) where stiff"}
 
@@ -259,7 +265,7 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
     bounds = (np.r_[np.full(m.nx, -np.inf), phi0 - BOUND], np.r_[np.full(m.nx, np.inf), phi0 + BOUND])
     cap = np.r_[np.full(m.nx, STATE_CAP), np.full(len(phi0), BOUND)]  # ceilings: sanity, not tuning
     opts = dict(dt=setup.record.dt, coordinates=setup.coordinates, state_scale=scale, R=1.0,
-                substeps=setup.substeps, refine=setup.refine, jit=setup.jit, bounds=bounds, cap=cap)
+                substeps=setup.substeps, refine=setup.refine, locate=setup.locate, jit=setup.jit, bounds=bounds, cap=cap)
     if kind == "ukf":
         return UKF(m, **opts)
     if kind == "dukf":
