@@ -127,24 +127,37 @@ def test_from_rest_the_mass_stays_unless_the_force_beats_friction(u0):
         assert end == pytest.approx(ref, rel=1e-9, abs=1e-16)
 
 
-def test_the_filter_alone_follows_the_sticking_mass_too():
-    """The UKF alone (``refine=False``) on the stick-slip record, 1 % noise, guesses 30-40 % off, seeds 0-7: a friction
-    model's filter steps locate the reversal and follow the sliding mode as the fit does (``Setup.locate``, on where
-    the field may slide). Every estimate lies within 4 posterior std of the truth (a right std misses by that with
-    probability 6e-5 per parameter, 2e-3 over the 32), and c, the parameter the chatter biased, is within 2.5 % on
-    average. Measured: mean c error -1.0 % (worst |error / std| 2.8, F_c); with the plain refined step
-    (``locate=False``) the same runs gave c -3 to -9 % (mean -5.8 %) at up to 5.9 std (F_c)."""
+def test_the_filter_with_the_located_step_follows_the_sticking_mass():
+    """The UKF alone (three passes, s0 0.3, guesses 30-40 % off) on the stick-slip record, 1 % noise, seeds 0-7.
+    With ``Setup(locate=True)`` its step locates the reversal and follows the sliding mode as the fit's does: every
+    estimate lies within 4 posterior std of the truth (a right std misses by that with probability 6e-5 per parameter,
+    2e-3 over the 32) and c is within 2.5 % on average (measured: -0.95 %, worst |error / std| 2.8). With the refined
+    step (the default) the stages chatter across v = 0 while the mass sticks: c is biased by -3 to -9 % (measured
+    mean -6.1 %, worst |error / std| 5.9), which the test requires to stay visible (below -4 %)."""
+    from obsnl.estimation.accelerogram import Record
+    from obsnl.identification import Setup, Tuning, make_filter, run_passes
+    from obsnl.identification.setup import Data
+
     t, u, X = stick_record(600)
     x = X[:, 0]
     sigma = 0.01 * float(np.sqrt(np.mean(x ** 2)))
+    num = to_casadi(obsnl.read_model("obsnl:coulomb_friction"))
+    truth = np.array([TRUTH[n] for n in num.parameters])
     guess = {"m": 1.3, "c": 0.14, "k": 28.0, "F_c": 0.65}
-    c_errors = []
-    for seed in range(8):
-        y = x + sigma * np.random.default_rng(seed).standard_normal(len(t))
-        res = obsnl.identify("obsnl:coulomb_friction", {"time_s": t, "u": u, "y": y}, guess=guess,
-                             noise={"y": 0.01, "u": 1e-6}, progress=False, refine=False)
-        assert any("follows a sliding mode" in a for a in res.assumptions)
-        for p in res.parameters:
-            assert abs(p.estimate - TRUTH[p.name]) <= 4 * p.std, (seed, p.name, p.estimate, p.std)
-        c_errors.append(next(p.estimate for p in res.parameters if p.name == "c") / TRUTH["c"] - 1)
-    assert abs(np.mean(c_errors)) < 0.025, c_errors
+    c_mean = {}
+    for locate in (True, False):
+        c_errors = []
+        for seed in range(8):
+            y = x + sigma * np.random.default_rng(seed).standard_normal(len(t))
+            setup = Setup(model=num, record=Record("d", u, DT, channels=("u",)), truth=None, guess=guess,
+                          y_true=y.reshape(-1, 1), channel_noise={"y": 0.01, "u": 1e-6}, locate=locate)
+            trs, _ = run_passes(setup, make_filter(setup, "ukf"), Data(seed=None, u=u.reshape(-1, 1),
+                                                                       y=y.reshape(-1, 1)),
+                                Tuning(s0=0.3, q_theta=0.0, q_x=1.0), passes=3)
+            theta, P = trs[-1].theta[-1], trs[-1].P[-1]
+            z = (np.log(theta) - np.log(truth)) / np.sqrt(np.diag(P)[num.nx:])  # the filter's log coordinates
+            if locate:
+                assert np.all(np.abs(z) <= 4), (seed, z)
+            c_errors.append(theta[1] / truth[1] - 1)
+        c_mean[locate] = float(np.mean(c_errors))
+    assert abs(c_mean[True]) < 0.025 and c_mean[False] < -0.04, c_mean

@@ -73,8 +73,8 @@ class Setup:
     filter's own (``substeps``). When set, a simulated truth is made with the fit's step at these substeps
     (crossings located, sliding modes followed), so that the check compares like with like and a converged
     run is never called diverged. ``locate``: the filters' step splits a crossing substep at the located crossing
-    and follows sliding modes, as the fit's does; default (None): where the model's field may slide along a
-    surface across which it jumps (dry friction: without it the stages chatter across ``v = 0`` while a mass sticks).
+    and follows sliding modes, as the fit's does (off by default; on a mass that sticks, the stages of the refined
+    step chatter across ``v = 0`` and bias the filter's estimate).
     """
 
     model: NumericModel
@@ -90,13 +90,10 @@ class Setup:
     x0: np.ndarray = field(default=None, repr=False)
     channel_noise: Mapping[str, float] | None = None
     fit_substeps: int | None = None
-    locate: bool | None = None
+    locate: bool = False
 
     def __post_init__(self) -> None:
         m = self.model
-        if self.locate is None:
-            object.__setattr__(self, "locate", any((not m.jumps or m.jumps[i]) and (not m.slides or m.slides[i])
-                                                   for i in range(len(m.switching))))
         for what, vals in (("truth", self.truth), ("guess", self.guess)):
             if vals is None and what == "truth" and self.y_true is not None:
                 continue

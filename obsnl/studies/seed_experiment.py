@@ -128,8 +128,7 @@ def seed_setup(*, record: Record | None = None, samples: int | None = None, jit:
     record = seed_record(record, samples)
     num = to_casadi(model)
     truth = {p: float(model.values[p]) for p in num.parameters}
-    # the filters as the paper runs them: the crossing substep refined, not located (Table 2's UKF and DUKF columns)
-    return Setup(model=num, record=record, truth=truth, guess=dict(SEED_GUESS), jit=jit, locate=False,
+    return Setup(model=num, record=record, truth=truth, guess=dict(SEED_GUESS), jit=jit,
                  coordinates=coordinates(num, kind, reference=SEED_GUESS))
 
 
