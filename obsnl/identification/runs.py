@@ -203,7 +203,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         fit={o: float(100 * v) for o, v in zip(m.outputs, per)}, passes=passes, passes_run=len(trs),
         seconds=float(sum(t.seconds for t in trs)) + refine_seconds, converged=converged,
         output_misfit=misfit if math.isfinite(misfit) else None, noise=noise, tuning=tuning, tuning_scores=scores,
-        data=data_dict, practical=prac, assumptions=tuple(assumptions) + ((LOCATED,) if setup.locate else ()),
+        data=data_dict, practical=prac, assumptions=tuple(assumptions),
         repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
         y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs,
         converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
@@ -222,8 +222,6 @@ _COMMON = ("the model is right: its equations describe the structure, its known 
            "its guess",
            f"held: only with hold=True: after the first pass whose output misfit is at most {HOLD_BELOW:g}x the "
            "noise level, the parameters flagged there are put back to their guess and no longer estimated")
-LOCATED = ("the filters' step, like the fit's, splits a substep at the located crossing of a surface across which "
-           "the field jumps and follows a sliding mode along it (a mass that sticks: Filippov's solution)")
 _FILTER_ONLY = ("std: the filter's posterior std after the last pass (optimistic: the record is reused over passes)",
                 "converged: not checked without the likelihood refinement (refine=False)",
                 "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
