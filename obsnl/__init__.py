@@ -10,6 +10,7 @@ Everything else is imported from its room, e.g. ``from obsnl.estimation import U
 
 from obsnl.errors import (
     AnalysisError,
+    CompileError,
     DataError,
     EstimatorError,
     ModelError,
@@ -67,6 +68,7 @@ __all__ = [
     "DataError",
     "TableError",
     "EstimatorError",
+    "CompileError",
     "OptionError",
     "OutputError",
 ]

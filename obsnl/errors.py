@@ -21,6 +21,7 @@ __all__ = [
     "DataError",
     "TableError",
     "EstimatorError",
+    "CompileError",
     "OptionError",
     "OutputError",
     "in_terms",
@@ -58,6 +59,11 @@ class TableError(ObsnlError, ValueError):
 
 class EstimatorError(ObsnlError, RuntimeError):
     """A filter cannot continue: a covariance stopped being positive definite, a NaN appeared."""
+
+
+class CompileError(EstimatorError):
+    """Code could not be compiled to C and loaded: no C compiler, a compiler error, a cache folder that cannot
+    be written, a library that does not load. A run that did not ask for compilation goes on uncompiled."""
 
 
 class OptionError(ObsnlError, ValueError):

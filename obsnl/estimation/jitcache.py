@@ -44,9 +44,9 @@ from typing import Any
 
 import casadi as ca
 
-from obsnl.errors import EstimatorError, OutputError
+from obsnl.errors import CompileError, OutputError
 
-__all__ = ["jit_compile", "cache_directory", "FLAGS", "jit_options", "jit_directory"]
+__all__ = ["jit_compile", "compiler_available", "cache_directory", "FLAGS", "jit_options", "jit_directory"]
 
 #: Compiler flags (as :func:`jit_options`).
 FLAGS = ("-O3", "-march=native", "-ffp-contract=off")
@@ -108,7 +108,7 @@ def _fallback(why: str) -> Path:
         try:
             folder = Path(tempfile.mkdtemp(prefix="obsnl-jit-"))  # mode 0700, a new name
         except OSError as exc:
-            raise EstimatorError(f"{why}, and no temporary folder can be made ({exc.strerror or exc}); set "
+            raise CompileError(f"{why}, and no temporary folder can be made ({exc.strerror or exc}); set "
                                  f"OBSNL_CACHE_DIR to a writable folder or run without compiling "
                                  f"(jit=False)") from None
         atexit.register(shutil.rmtree, folder, True)
@@ -121,11 +121,26 @@ def _fallback(why: str) -> Path:
 _COMPILERS = ("gcc", "cc", "clang")
 
 
+def compiler_available() -> bool:
+    """Whether a C compiler (gcc, cc or clang) is on PATH, so that code can be compiled (looked up at each call).
+
+    Returns
+    -------
+    bool
+
+    Examples
+    --------
+    >>> isinstance(compiler_available(), bool)
+    True
+    """
+    return any(shutil.which(cc) for cc in _COMPILERS)
+
+
 def _compiler() -> str:
     for cc in _COMPILERS:
         if shutil.which(cc):
             return cc
-    raise EstimatorError("jit=True needs a C compiler (gcc, cc or clang) on PATH; install one or pass jit=False")
+    raise CompileError("jit=True needs a C compiler (gcc, cc or clang) on PATH; install one or pass jit=False")
 
 
 @functools.lru_cache(maxsize=None)
@@ -203,7 +218,7 @@ def _build(name: str, code: str, folder: Path, lib_name: str) -> Path:
             for number in (errno.ENOSPC, errno.EDQUOT, errno.EROFS):  # the folder, not the code: fall back
                 if os.strerror(number) in proc.stderr:
                     raise OSError(number, os.strerror(number), str(out))
-            raise EstimatorError(f"the C compiler failed on {name}: {' '.join(proc.stderr.split())[:300]}")
+            raise CompileError(f"the C compiler failed on {name}: {' '.join(proc.stderr.split())[:300]}")
         os.chmod(out, 0o700)
         side = Path(tmp) / f"{lib_name}.sha256"
         side.write_text(f"{_sha256(out)}  {lib_name}\n", encoding="ascii")
@@ -240,7 +255,7 @@ def jit_compile(fn: ca.Function) -> ca.Function:
 
     Raises
     ------
-    EstimatorError
+    CompileError
         No C compiler, the compiler failed, or a freshly built library does not load.
     OutputError
         The cache folder is unsafe (:func:`cache_directory`).
@@ -270,14 +285,14 @@ def jit_compile(fn: ca.Function) -> ca.Function:
             lib = _build(name, code, folder, lib_name)
         except OSError as exc:  # a cache folder that cannot be written (read-only file system)
             if folder in _FALLBACK:
-                raise EstimatorError(f"cannot compile {name} into {folder} ({exc.strerror or exc}); set "
+                raise CompileError(f"cannot compile {name} into {folder} ({exc.strerror or exc}); set "
                                      f"OBSNL_CACHE_DIR to a writable folder or run without compiling") from None
             folder = _fallback(f"the compiled-filter cache {folder} cannot be written "
                                f"({exc.strerror or errno.errorcode.get(exc.errno or 0, exc)})")
             lib = _build(name, code, folder, lib_name)
         loaded = _load(name, lib)
         if loaded is None:
-            raise EstimatorError(f"the library compiled for {name} ({lib}) does not load; remove the cache folder "
+            raise CompileError(f"the library compiled for {name} ({lib}) does not load; remove the cache folder "
                                  f"{folder} or run without compiling (jit=False)")
     _LOADED[key] = loaded
     return loaded
