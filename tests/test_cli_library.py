@@ -51,6 +51,9 @@ def test_the_switches_read_the_value_they_set():
     p = _sub("identify")
     assert cli_terms("pass refine=False or refine=True; jit=True", p) == (
         "pass --no-refine or without --no-refine; --jit")
+    # a pair of switches of one option (--jit, --no-jit): each value is named by the switch that sets it
+    for command in ("identify", "reproduce"):
+        assert cli_terms("jit=False or jit=True", _sub(command)) == "--no-jit or --jit"
     assert in_terms("joint=False", {"joint": ("--no-joint", False)}) == "--no-joint"
 
 

@@ -104,8 +104,8 @@ def test_identification_keeps_practical_and_structural_as_values_and_its_json_ke
     assert isinstance(run.structural, StructuralCheck) and run.structural.undecided == ("m",)
     doc = json.loads(json.dumps(run.to_dict(), allow_nan=False))  # no NaN reaches the JSON
     # identify.json's keys, as before the values (tests and reports read them)
-    assert list(doc) == ["schema", "model", "mode", "method", "passes", "passes_run", "seconds", "seed", "held",
-                         "flagged", "parameters", "fit", "converged", "converged_reason", "refinement", "profiles",
+    assert list(doc) == ["schema", "model", "mode", "method", "passes", "passes_run", "seconds", "seed", "compiled",
+                         "held", "flagged", "parameters", "fit", "converged", "converged_reason", "refinement", "profiles",
                          "output_misfit", "noise", "tuning", "tuning_scores", "data", "structural", "repairs",
                          "practical_identifiability", "assumptions"]
     assert doc["practical_identifiability"] == json.loads(json.dumps(run.practical.to_dict(), allow_nan=False))

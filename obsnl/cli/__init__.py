@@ -80,7 +80,8 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                   _o("--no-refine", dest="refine", action="store_false", help="skip the maximum-likelihood refinement"),
                   SEED, *[_o(f, type=_number, help="default: tuned") for f in ("--s0", "--q-theta", "--q-x", "--gate")],
                   _o("--samples", type=_whole(2), help="only the first samples of a --record"),
-                  _o("--jit", action="store_true", help="compile the filter and the likelihood fit to C (needs a C compiler)"),
+                  _o("--jit", action=argparse.BooleanOptionalAction, help="compile the filter and the likelihood fit "
+                     "to C, or not (default: where a C compiler is on PATH)"),
                   _o("--replicates", type=_whole(), default=0, help="Monte-Carlo replicates (0: off, else >= 3)"),
                   *EXECUTOR, _o("--out", metavar="DIR", help="write identify.json and the figures here"), FORCE]),
     "reproduce": (STUDIES, "reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
@@ -93,8 +94,7 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                    _o("--tuning-seeds", type=_whole(1), help="noise seeds of the tuning only (default: 5)"),
                    _o("--passes", type=_whole(1), help="passes of the refined protocol (default: 3)"),
                    _o("--samples", type=_whole(2), help="only the first samples of the record"),
-                   _o("--no-jit", dest="jit", action="store_const", const=False,
-                      help="do not compile the filters to C (slower runs)"),
+                   _o("--jit", action=argparse.BooleanOptionalAction, help="compile the filters to C (default)"),
                    _o("--replicates", type=_whole(), help="Monte-Carlo replicates per run (default: 32)"),
                    _o("--out", help="output folder (default: reports/identification)"), FORCE, *EXECUTOR]),
     "bank": (STUDIES, "run the observer-bank crack benchmark on the cantilever link", None,
@@ -163,7 +163,3 @@ def main(argv: Sequence[str] | None = None) -> int:
 def run() -> None:
     """The ``obsnl`` program: :func:`main`, then a normal exit with its code."""
     sys.exit(main())
-
-
-if __name__ == "__main__":  # pragma: no cover
-    run()

@@ -84,5 +84,8 @@ def cli_terms(message: str, parser: argparse.ArgumentParser) -> str:
     """
     from obsnl.errors import in_terms
 
-    return in_terms(message, {a.dest: (a.option_strings[-1], a.const if a.nargs == 0 else None)
-                              for a in parser._actions if a.option_strings and a.option_strings[-1].startswith("--")})
+    names = {a.dest: (a.option_strings[-1], a.const if a.nargs == 0 else None)
+             for a in parser._actions if a.option_strings and a.option_strings[-1].startswith("--")}
+    for a in (a for a in parser._actions if isinstance(a, argparse.BooleanOptionalAction)):  # --jit, --no-jit
+        names |= {a.dest: (a.option_strings[0], True), f"no_{a.dest}": (a.option_strings[1], True)}
+    return in_terms(message, names)

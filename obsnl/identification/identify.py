@@ -18,13 +18,15 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import sys
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 from obsnl._progress import Progress
-from obsnl.errors import DataError, OptionError
+from obsnl.errors import CompileError, DataError, OptionError, OutputError
 from obsnl.estimation.codegen import to_casadi
+from obsnl.estimation.jitcache import compiler_available
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.replicates import check_passes, check_replicates
 from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
@@ -77,7 +79,7 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
 def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str | Path, *,
              guess: Mapping[str, float] | None = None, noise: Mapping[str, float] | None = None, method: str = "ukf",
              table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
-             tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool = False,
+             tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool | None = None,
              hold: bool = False, progress: bool | Callable[[], Any] | None = True,
              executor: Executor | None = None, refine: bool = True) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
@@ -103,8 +105,10 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         One filter configuration; default: tuned over ``MEASURED_GRID`` by the output misfit.
     allow_unidentifiable : bool
         Run although the structural analysis calls a parameter unidentifiable.
-    jit : bool
-        Compile the filter and the likelihood fit to C (cached on disk: the first run of a model compiles).
+    jit : bool or None
+        Compile the filter and the likelihood fit to C (cached on disk: the first run of a model compiles; the
+        same numbers to rounding). None (default): compiled when a C compiler is on PATH, else, or when compiling
+        fails, not (with a warning on standard error); ``result.compiled`` says which.
     hold : bool
         Hold poorly informed parameters at their guess once the filter reaches the noise floor
         (:func:`obsnl.identification.runs.identify_measured`; default off).
@@ -150,12 +154,28 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     elif not isinstance(data, Measured):
         data = measured(data, inputs=ins, outputs=outs)
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
-    with _steps(progress, model, passes, replicates, tuning, refine) as bar:
-        res = identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
-                                grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
-                                replicates=replicates, seed=seed, jit=jit, hold=hold, progress=bar,
-                                executor=executor, refined=refine)
-    return _cross_check(res, structural)
+
+    def run(compiled: bool) -> Identification:
+        with _steps(progress, model, passes, replicates, tuning, refine) as bar:
+            return identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
+                                     grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
+                                     replicates=replicates, seed=seed, jit=compiled, hold=hold, progress=bar,
+                                     executor=executor, refined=refine)
+
+    return _cross_check(_compiled_or_not(jit, run), structural)
+
+
+def _compiled_or_not(jit: bool | None, run: Callable[[bool], Identification]) -> Identification:
+    """``run(jit)`` as asked; for ``jit=None``, compiled where a C compiler is on PATH, and uncompiled (with a
+    warning on standard error) where compiling fails or the library cache is unsafe: the same numbers either
+    way, only the time differs."""
+    if jit is None and compiler_available():
+        try:
+            return dataclasses.replace(run(True), compiled=True)
+        except (CompileError, OutputError) as exc:  # OutputError: only the cache folder is written during a run
+            sys.stderr.write(f"obsnl: warning: {exc}; running uncompiled instead (the same numbers, slower)\n")
+        return dataclasses.replace(run(False), compiled=False)
+    return dataclasses.replace(run(bool(jit)), compiled=bool(jit))
 
 
 def _steps(progress: bool | Callable[[], Any] | None, model: Model, passes: int, replicates: int,
@@ -186,7 +206,7 @@ def _cross_check(res: Identification, structural: StructuralCheck) -> Identifica
 def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapping[str, float] | None = None,
           noise: float = 1e-3, method: str = "ukf", table: BranchTable | str | Path | None = None, passes: int = 3,
           replicates: int = 0, seed: int = 0, tuning: Tuning | None = None, samples: int | None = None,
-          allow_unidentifiable: bool = False, jit: bool = False, hold: bool = False,
+          allow_unidentifiable: bool = False, jit: bool | None = None, hold: bool = False,
           progress: bool | Callable[[], Any] | None = True, executor: Executor | None = None,
           refine: bool = True) -> Identification:
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
@@ -216,8 +236,9 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         Use only the first samples of the record.
     allow_unidentifiable : bool
         Go on with structurally unidentifiable parameters.
-    jit : bool
-        Compile the filter and the likelihood fit to C (cached on disk: the first run of a model compiles).
+    jit : bool or None
+        Compile the filter and the likelihood fit to C (None, the default: where a C compiler is on PATH; see
+        :func:`identify`).
     progress : bool, callable or None
         A progress bar on standard error (True, the default), none (False), or a callback per step.
     executor : Executor or None
@@ -260,11 +281,14 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         raise OptionError(f"a simulation study drives one input with record=; {model.name!r} has "
                           f"{[s.name for s in model.inputs]}: give measured data with data=")
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
-    with _steps(progress, model, passes, replicates, tuning, refine) as bar:
-        res = simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise,
-                               tuning=tuning, passes=passes, replicates=replicates, jit=jit, progress=bar,
-                               executor=executor, hold=hold, refined=refine)
-    return _cross_check(res, structural)
+
+    def run(compiled: bool) -> Identification:
+        with _steps(progress, model, passes, replicates, tuning, refine) as bar:
+            return simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise,
+                                    tuning=tuning, passes=passes, replicates=replicates, jit=compiled, progress=bar,
+                                    executor=executor, hold=hold, refined=refine)
+
+    return _cross_check(_compiled_or_not(jit, run), structural)
 
 
 def write_identification(result: Identification, out: str | Path, *, force: bool = False) -> list[Path]:

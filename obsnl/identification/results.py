@@ -104,6 +104,8 @@ class Identification:
     :func:`obsnl.identification.identify.identify` joins it). ``identify.json`` carries them as
     ``practical_identifiability`` and ``structural`` (``{}`` for None).
     ``traces``, ``t``, ``y_measured``, ``y_fit`` feed the figures and are not in the JSON.
+    ``compiled``: whether the filter and the fit ran compiled to C (the same numbers to rounding; None where not
+    recorded).
     """
 
     model: str
@@ -133,6 +135,7 @@ class Identification:
     converged_reason: str = ""
     refinement: Mapping[str, Any] = field(default_factory=dict)
     profiles: tuple[Profile, ...] = field(default=(), repr=False)
+    compiled: bool | None = None
 
     def __repr__(self) -> str:
         est = names([f"{p.name}={'held' if p.held else number(p.estimate)}" for p in self.parameters], 6)
@@ -169,7 +172,7 @@ class Identification:
         return clean_json({
             "schema": "obsnl.identify/1", "model": self.model, "mode": self.mode, "method": self.method,
             "passes": self.passes, "passes_run": self.passes_run, "seconds": self.seconds, "seed": self.seed,
-            "held": len(self.held), "flagged": list(self.flagged),
+            "compiled": self.compiled, "held": len(self.held), "flagged": list(self.flagged),
             "parameters": [p.to_dict() for p in self.parameters], "fit": dict(self.fit),
             "converged": self.converged, "converged_reason": self.converged_reason,
             "refinement": dict(self.refinement), "profiles": [p.to_dict() for p in self.profiles],

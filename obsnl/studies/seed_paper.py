@@ -15,12 +15,14 @@ values except to score the reported runs.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
+from obsnl.estimation.jitcache import compiler_available
 from obsnl.estimation.records import Record
 from obsnl.identification.experiments import DEFAULT_GRID, Tuning, mc_spread
 from obsnl.identification.replicates import CHUNK
@@ -77,7 +79,7 @@ def rate_from_here(progress: Any) -> None:
         progress.last_print_t, progress.last_print_n = progress._time(), progress.n
 
 def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int = 5, passes: int = 3,
-              grid: Sequence[Tuning] = DEFAULT_GRID, jit: bool = True, samples: int | None = None,
+              grid: Sequence[Tuning] = DEFAULT_GRID, jit: bool | None = None, samples: int | None = None,
               replicates: int = REPLICATES, progress: Any = None, executor: Executor | None = None,
               keep: int | None = HALVING_KEEP, refine: bool = True) -> Reproduction:
     """Table 2 of the seed paper with obsnl's UKF and DUKF and the maximum-likelihood refinement (module
@@ -97,8 +99,10 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
         Passes of the refined protocol (the paper's protocol is one pass).
     grid : sequence of Tuning
         Tuning configurations.
-    jit : bool
-        Compile the filters to C (cached on disk: :mod:`obsnl.estimation.jitcache`).
+    jit : bool or None
+        Compile the filters to C (cached on disk: :mod:`obsnl.estimation.jitcache`; the same numbers). None
+        (default): where a C compiler is on PATH; without one the run is uncompiled, several times slower, and a
+        warning on standard error says so.
     samples : int or None
         Use only the first samples of the record (quick runs).
     replicates : int
@@ -116,6 +120,11 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
         Refine each reported seed by maximum likelihood (the third column of Table 2).
     """
     check_replicates(replicates)
+    if jit is None:
+        jit = compiler_available()
+        if not jit:
+            sys.stderr.write("obsnl: warning: no C compiler (gcc, cc or clang) on PATH: the filters and fits run "
+                             "uncompiled, several times slower (the same numbers)\n")
     executor = executor or Executor(workers=1)
     t_seeds = tuple(range(TUNING_SEEDS, TUNING_SEEDS + tuning_seeds))
     protocols = sorted({1, passes})

@@ -139,8 +139,9 @@ def identify_text(result: IdentificationRun) -> str:
     prac, ref = run.practical, run.refinement or {}
     why = run.converged_reason
     state = "converged" if run.converged else "NOT converged" + (f": {why}" if why else "")
+    how = {True: " (compiled)", False: " (not compiled)"}.get(getattr(run, "compiled", None), "")
     lines = [f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
-             f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s: {state}"]
+             f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s{how}: {state}"]
     if len(run.tuning_scores) > 1:
         t = run.tuning
         lines.append(f"  tuning: s0 {t.s0:g}, q_theta {t.q_theta:g}, q_x {t.q_x:g}, gate "
