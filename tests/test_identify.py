@@ -236,6 +236,23 @@ def test_a_study_without_a_tuning_is_tuned_like_measured_data():
     assert res.to_dict()["tuning"] == best[0].to_dict()
 
 
+def test_a_collapsed_filter_covariance_gives_no_std_never_a_zero_one():
+    # the filter alone (no refinement) from the seed paper's guesses, two passes, noise seed 7: the passes
+    # diverge and the filter's repairs drive the parameter variances to 0. A std of 0 would claim certainty of
+    # an estimate 2-7900 % off; the result gives none, says why, and the verdict is "not decided".
+    from obsnl.identification.identify import study
+
+    res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=800, seed=7, guess=dict(SEED_GUESS), noise=1e-3,
+                tuning=Tuning(0.2, 0.0, 1.0), passes=2, refine=False, progress=False)
+    assert not res.converged and res.practical.inconclusive
+    assert all(p.std is None or p.std > 0 for p in res.parameters)
+    gone = [p for p in res.parameters if p.std is None]
+    assert gone and all("no std: the filter's posterior variance" in p.reason for p in gone)
+    from obsnl.report.identification.run import identify_text
+
+    assert "no std" in identify_text(res)
+
+
 def test_identify_command(tmp_path, capsys):
     table = tmp_path / "t.json"
     table.write_text(BranchTable.from_dict(paper_table1()).to_json())

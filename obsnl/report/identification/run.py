@@ -173,12 +173,12 @@ def _parameter(p: _Estimate) -> str:
         head += f"true {p.true:<11.4g} "
     if p.held:
         return head + f"held at its guess {p.guess:.4g} (not estimated): {p.reason}"
-    std = f"{p.std:<9.2g}" if _given(p.std) else "-"
+    std = f"{p.std:<9.2g}" if _given(p.std) else f"{'-':<9s}"
     head += f"estimate {p.estimate:<10.4g} std {std}" if _given(p.estimate) else f"estimate {'-':<10s} std {std}"
     if p.interval is not None:
         lo, hi = (f"{v:.4g}" if _given(v) else "open" for v in p.interval)
         head += f" 95 % [{lo}, {hi}]"
     if _given(p.error):
         head += f" error {p.error:.2f} %" if p.error_kind == "percent" else f" error {p.error:.3g} (absolute)"
-    return head.rstrip() + (f"  poorly informed: {p.reason}" if p.flagged else "")
+    return head.rstrip() + (f"  poorly informed: {p.reason}" if p.flagged else f"  {p.reason}" if p.reason else "")
 
