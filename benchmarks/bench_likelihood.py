@@ -607,8 +607,8 @@ intervals cover the truth (95 %).
 **The joint region holds the truth where the one-run goal fails.** `benchmarks/bench_joint_region.py` (written to
 `joint_region.md`) checks the reported uncertainty as a whole on frame2_full: the Wald statistic of the truth under
 the reported std and correlations (`identify.json`, `refinement.correlation`) follows chi2(10) when they are right.
-Over noise seeds 0-8 its mean is 11.2 (chi2(10): 10; the sum 100.5 against chi2(90), P = 0.21), and the truth lies
-inside the joint 95 % region on all 9 seeds, seeds 0 and 5 included (W 17.6 and 15.2 against 18.3): there the
+Over noise seeds 0-8 its mean is 10.7 (chi2(10): 10; the sum 96.7 against chi2(90), P = 0.30), and the truth lies
+inside the joint 95 % region on all 9 seeds, seeds 0 and 5 included (W 17.3 and 15.0 against 18.3): there the
 estimate is off along the k1/kh1 direction that the reported correlations describe, and the one-parameter intervals,
 each right on its own, miss together. The one-run goal of 8 in 10 marginal intervals is a random event even for
 calibrated intervals (2 of 21 runs here); the joint region is the claim a run can keep every time at its level.
