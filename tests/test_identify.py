@@ -241,6 +241,7 @@ def test_a_collapsed_filter_covariance_gives_no_std_never_a_zero_one():
     # diverge and the filter's repairs drive the parameter variances to 0. A std of 0 would claim certainty of
     # an estimate 2-7900 % off; the result gives none, says why, and the verdict is "not decided".
     from obsnl.identification.identify import study
+    from obsnl.report.identification.run import identify_text
 
     res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=800, seed=7, guess=dict(SEED_GUESS), noise=1e-3,
                 tuning=Tuning(0.2, 0.0, 1.0), passes=2, refine=False, progress=False)
@@ -248,8 +249,6 @@ def test_a_collapsed_filter_covariance_gives_no_std_never_a_zero_one():
     assert all(p.std is None or p.std > 0 for p in res.parameters)
     gone = [p for p in res.parameters if p.std is None]
     assert gone and all("no std: the filter's posterior variance" in p.reason for p in gone)
-    from obsnl.report.identification.run import identify_text
-
     assert "no std" in identify_text(res)
 
 

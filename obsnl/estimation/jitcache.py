@@ -109,8 +109,8 @@ def _fallback(why: str) -> Path:
             folder = Path(tempfile.mkdtemp(prefix="obsnl-jit-"))  # mode 0700, a new name
         except OSError as exc:
             raise CompileError(f"{why}, and no temporary folder can be made ({exc.strerror or exc}); set "
-                                 f"OBSNL_CACHE_DIR to a writable folder or run without compiling "
-                                 f"(jit=False)") from None
+                               f"OBSNL_CACHE_DIR to a writable folder or run without compiling "
+                               f"(jit=False)") from None
         atexit.register(shutil.rmtree, folder, True)
         _FALLBACK.append(folder)
         sys.stderr.write(f"obsnl: warning: {why}; compiled filters go to a temporary folder for this run "
@@ -133,21 +133,26 @@ def compiler_available() -> bool:
     >>> isinstance(compiler_available(), bool)
     True
     """
-    return any(shutil.which(cc) for cc in _COMPILERS)
+    return _on_path() is not None
+
+
+def _on_path() -> str | None:
+    """The path of the first of gcc, cc, clang on PATH, or None."""
+    return next((p for p in map(shutil.which, _COMPILERS) if p), None)
 
 
 def _compiler() -> str:
-    for cc in _COMPILERS:
-        if shutil.which(cc):
-            return cc
-    raise CompileError("jit=True needs a C compiler (gcc, cc or clang) on PATH; install one or pass jit=False")
+    path = _on_path()
+    if path is None:
+        raise CompileError("jit=True needs a C compiler (gcc, cc or clang) on PATH; install one or pass jit=False")
+    return path
 
 
 @functools.lru_cache(maxsize=None)
 def _compiler_identity() -> str:
     """The compiler :func:`_compiler` picks: its resolved path and the first line of its ``--version``
     (computed once per process; ``"none"`` without a compiler, when only cached libraries can load)."""
-    path = next((p for p in map(shutil.which, _COMPILERS) if p), None)
+    path = _on_path()
     if path is None:
         return "none"
     try:
@@ -286,14 +291,14 @@ def jit_compile(fn: ca.Function) -> ca.Function:
         except OSError as exc:  # a cache folder that cannot be written (read-only file system)
             if folder in _FALLBACK:
                 raise CompileError(f"cannot compile {name} into {folder} ({exc.strerror or exc}); set "
-                                     f"OBSNL_CACHE_DIR to a writable folder or run without compiling") from None
+                                   f"OBSNL_CACHE_DIR to a writable folder or run without compiling") from None
             folder = _fallback(f"the compiled-filter cache {folder} cannot be written "
                                f"({exc.strerror or errno.errorcode.get(exc.errno or 0, exc)})")
             lib = _build(name, code, folder, lib_name)
         loaded = _load(name, lib)
         if loaded is None:
             raise CompileError(f"the library compiled for {name} ({lib}) does not load; remove the cache folder "
-                                 f"{folder} or run without compiling (jit=False)")
+                               f"{folder} or run without compiling (jit=False)")
     _LOADED[key] = loaded
     return loaded
 

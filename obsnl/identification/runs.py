@@ -169,7 +169,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
             std = None if is_held or not 0 < v < math.inf else float(abs(theta[i]) * math.sqrt(v))
             if not is_held and len(var) == m.np and std is None:  # a zero std would claim certainty
                 why.append(f"no std: the filter's posterior variance of log|{p}| is {v:.3g} (its covariance "
-                           f"collapsed{f' after {sum(tr.total_repairs for tr in trs)} repairs' if trs else ''})")
+                           f"collapsed after {sum(tr.total_repairs for tr in trs)} repairs)")
             flagged = is_held or p in prac.flagged
         est = None if is_held else float(theta[i])
         err = kind = tru = None
