@@ -83,9 +83,10 @@ def test_ml_estimate_equals_least_squares_on_the_exact_discretisation():
     ls = least_squares(resid, [18.0, 1.2, 0.0, 0.0], xtol=1e-15, ftol=1e-15, gtol=1e-15, method="lm")
     assert ref.theta == pytest.approx(ls.x[:2], rel=1e-6)
     assert ref.x0 == pytest.approx(ls.x[2:], rel=1e-6, abs=1e-9)
-    # the Fisher std equals least_squares' Gauss-Newton covariance with the ML noise variance RSS/N
+    # the Fisher std equals least_squares' Gauss-Newton covariance with the noise variance RSS / (N - 4), the
+    # residual sum over its degrees of freedom (four fitted coordinates: k, c and the initial state)
     J = ls.jac * sigma
-    s2 = float(np.sum((resid(ls.x) * sigma) ** 2)) / len(y)
+    s2 = float(np.sum((resid(ls.x) * sigma) ** 2)) / (len(y) - 4)
     cov = s2 * np.linalg.inv(J.T @ J)
     assert ref.std == pytest.approx(np.sqrt(np.diag(cov))[:2], rel=1e-4)
     # and the correlation of k and c (the initial state integrated out) is that covariance's; a diagonal change
@@ -122,7 +123,8 @@ def test_one_output_is_reweighted_without_a_refit(monkeypatch):
 def test_profile_interval_of_a_model_linear_in_its_parameters_is_the_analytic_interval():
     # x' = a u1 + b u2, y = x: y_k = x0 + a U1_k + b U2_k with U the exact integrals of the piecewise-linear
     # inputs (trapezoids); RK4 integrates this exactly. The likelihood is quadratic in (a, b, x0), so the
-    # profile interval of a is a_hat -+ sqrt(chi2(1, 0.95) * sigma_hat^2 [(X'X)^-1]_aa), sigma_hat^2 = RSS/N.
+    # profile interval of a is a_hat -+ sqrt(chi2(1, 0.95) * sigma_hat^2 [(X'X)^-1]_aa), sigma_hat^2 = RSS/(N - 3)
+    # (three fitted coordinates: a, b, x0).
     m = obsnl.Model(name="lin", states=["x"], parameters=["a", "b"], inputs=["u1", "u2"],
                     equations={"x": "a*u1 + b*u2"}, outputs={"y": "x"})
     T, dt = 200, 0.05
@@ -134,7 +136,7 @@ def test_profile_interval_of_a_model_linear_in_its_parameters_is_the_analytic_in
     ref = refine(setup, data, setup.theta_guess, substeps=1)
     X = np.c_[U, np.ones(T)]
     beta, rss = np.linalg.lstsq(X, y, rcond=None)[:2]
-    cov = rss[0] / T * np.linalg.inv(X.T @ X)
+    cov = rss[0] / (T - 3) * np.linalg.inv(X.T @ X)
     assert THRESHOLD == pytest.approx(3.841458820694124, abs=1e-12)  # scipy.stats.chi2.ppf(0.95, 1)
     for i, name in enumerate(("a", "b")):
         pr = profile(ref, name, tolerance=1e-7)
@@ -142,6 +144,36 @@ def test_profile_interval_of_a_model_linear_in_its_parameters_is_the_analytic_in
         assert pr.shape == "closed"
         assert pr.interval == pytest.approx((beta[i] - half, beta[i] + half), rel=1e-6)
         assert judge(pr) is None  # both within +-5 %
+
+
+def test_the_noise_estimate_is_unbiased_per_output_on_a_short_record():
+    """Two outputs of a model linear in its coordinates, 25 samples each, two fitted coordinates per output
+    (x1' = a u1, y1 = x1; x2' = b u2, y2 = x2; a, b and the initial state): ``RSS_c / (N - h_c)`` is unbiased
+    (Seber & Wild 1989, 2.1) with ``h_c = 2`` here, so over 300 noise seeds the mean of ``sigma_c^2 / s_c^2``
+    (``s_c`` the true std) lies within 3 standard errors of 1 (SE = sqrt(2 / 23 / 300) = 0.017 for Gaussian
+    noise: a right estimate fails with probability 0.0027 per output; the seeds are fixed, so the test is
+    deterministic). The maximum-likelihood ``RSS_c / N`` (mean 23 / 25 = 0.92, 4.7 SE low) must fail the same check:
+    the test can tell them apart."""
+    from obsnl.identification.refine import residual_dof
+
+    m = obsnl.Model(name="two", states=["x1", "x2"], parameters=["a", "b"], inputs=["u1", "u2"],
+                    equations={"x1": "a*u1", "x2": "b*u2"}, outputs={"y1": "x1", "y2": "x2"})
+    T, dt, s_true = 25, 0.1, np.array([0.02, 0.05])
+    t = np.arange(T) * dt
+    u = np.c_[np.sin(1.3 * t), np.cos(0.7 * t) + 0.3]
+    U = np.vstack([np.zeros(2), np.cumsum(0.5 * (u[1:] + u[:-1]) * dt, axis=0)])  # exact: RK4 on a linear input
+    clean = np.c_[0.1 + 2.0 * U[:, 0], -0.2 + 0.5 * U[:, 1]]
+    ratios, dofs = [], []
+    for seed in range(300):
+        y = clean + s_true * np.random.default_rng(seed).standard_normal((T, 2))
+        setup, data = setup_of(m, u, y, dt, {"a": 1.5, "b": 0.8}, 0.03)
+        ref = refine(setup, data, setup.theta_guess, substeps=1)
+        ratios.append((ref.sigma / s_true) ** 2)
+        dofs.append(residual_dof(ref.fit.J, 2))
+    assert np.array(dofs) == pytest.approx(np.full((300, 2), T - 2.0), abs=1e-9)
+    mean, se = np.mean(ratios, axis=0), math.sqrt(2 / (T - 2) / 300)
+    assert np.all(np.abs(mean - 1) < 3 * se), mean
+    assert np.all(np.abs(mean * (T - 2) / T - 1) > 3 * se)  # RSS_c / N: biased low, caught
 
 
 def test_95_percent_intervals_cover_the_truth_over_20_noise_seeds():

@@ -38,8 +38,10 @@ field, so the map stays continuous there too. Where the number of stick phases c
 (a grazing reversal) the objective keeps a kink; the acceptance test keeps the iteration monotone there.
 
 Noise levels: the fit starts with the given or estimated noise per channel, then re-weights once with
-the maximum-likelihood noise ``sigma_c^2 = RSS_c / N`` of the fit (the concentrated likelihood of
-unknown channel variances), floored at :data:`NOISE_FLOOR` of the channel's RMS (below it the residual is
+the noise of the fit's residuals, ``sigma_c^2 = RSS_c / (N - h_c)`` (the concentrated likelihood of unknown
+channel variances, over the residual degrees of freedom: ``h_c`` is the fitted coordinates' share of channel
+``c``, :func:`obsnl.identification.refine.residual_dof`; the maximum-likelihood ``RSS_c / N`` is low by them
+and made every std too small by ``sqrt(N / (N - h_c))``), floored at :data:`NOISE_FLOOR` of the channel's RMS (below it the residual is
 the integrator's error, not noise), and refits. The Fisher information ``J'J`` at the optimum, with those
 weights, gives the standard deviations of the output noise; noise on the measured inputs adds
 ``C A' S A C`` (:meth:`Objective.input_covariance`: the fit runs on the measured input, so its minimiser

@@ -14,7 +14,7 @@ from obsnl._text import block, names, number, one_line
 from obsnl.identification.setup import BOUND, Data, Setup
 from obsnl.identification.likelihood import DECREMENT, Fit, NOISE_FLOOR, Objective, STEP_LIMIT, covariance, levenberg_marquardt, objective
 
-__all__ = ["Refinement", "refine", "ADVICE"]
+__all__ = ["Refinement", "refine", "residual_dof", "ADVICE"]
 
 #: What to try when the refinement does not converge: the filter initialises it, so its start moves with the
 #: guesses and with the number of passes (``guess=``/``passes=`` in Python, ``--guess``/``--passes`` on the command line).
@@ -30,7 +30,8 @@ class Refinement:
     inverse Fisher information of ``z = (phi, s)`` (the output noise alone: the curvature the profiles follow);
     ``input_cov``: what noise on the measured inputs adds to it (zero for inputs given as exact,
     :meth:`~obsnl.identification.likelihood.Objective.input_covariance`); ``sigma``: the noise std per
-    output estimated from the residuals (the weights of ``cov``); ``misfit``: per output, the RMS residual
+    output estimated from the residuals over their degrees of freedom (:func:`residual_dof`; the weights of
+    ``cov``); ``misfit``: per output, the RMS residual
     over the noise level given or estimated before the fit (1: at the noise floor); ``converged`` with
     ``reason``; ``objective`` and ``fit`` feed the profiles (:mod:`obsnl.identification.profile`).
     """
@@ -171,7 +172,8 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         iterations += fit.iterations
         res = fit.r.reshape(-1, m.ny) * obj.sigma
         floor = NOISE_FLOOR * np.sqrt(np.mean(np.asarray(data.y, float) ** 2, axis=0))
-        sigma = np.maximum(np.sqrt(np.mean(res ** 2, axis=0)), np.maximum(floor, 1e-300))
+        dof = residual_dof(fit.J[:, free], m.ny)
+        sigma = np.maximum(np.sqrt(np.sum(res ** 2, axis=0) / dof), np.maximum(floor, 1e-300))
         z = fit.z
         if np.allclose(sigma, obj.sigma, rtol=1e-3):
             break
@@ -203,6 +205,40 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
                       at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
                       seconds=time.perf_counter() - t0, held=tuple(held), lower=lower, upper=upper, fit=fit,
                       objective=obj, input_cov=Cu)
+
+
+def residual_dof(J: np.ndarray, ny: int) -> np.ndarray:
+    """Each output's residual degrees of freedom at a least-squares fit: ``N_c - h_c``.
+
+    ``h_c`` is the trace of the hat matrix ``J (J'J)^+ J'`` over output ``c``'s rows (the rows of the whitened
+    residuals are sample by sample, ``ny`` outputs each): the share of the fitted coordinates that output's
+    samples carry; the ``h_c`` sum to the rank of ``J``. ``RSS_c / (N_c - h_c)`` estimates that output's noise
+    variance without the bias of the maximum-likelihood ``RSS_c / N_c``, which is low by the fitted coordinates
+    (exactly so for a model linear in them: Seber & Wild, Nonlinear Regression, 1989, section 2.1).
+
+    Parameters
+    ----------
+    J : numpy.ndarray
+        The Jacobian of the whitened residuals at the fit, ``(N * ny, n)``, its columns the fitted coordinates.
+    ny : int
+        The number of outputs.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``N_c - h_c`` per output (at least 1).
+
+    Examples
+    --------
+    >>> J = np.c_[np.ones(8), np.arange(8.0)]        # one output, a straight line fitted to 8 samples
+    >>> residual_dof(J, 1).round(12).tolist()
+    [6.0]
+    >>> residual_dof(np.c_[np.tile([1.0, 0.0], 4)], 2).round(12).tolist()   # the one parameter seen by output 0
+    [3.0, 4.0]
+    """
+    h = np.sum((J @ covariance(J, mark_flat=False)[0]) * J, axis=1) if J.size else np.zeros(len(J))
+    n = len(J) // ny
+    return np.maximum(n - h.reshape(n, ny).sum(axis=0), 1.0)
 
 
 def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE) -> tuple[bool, str]:
