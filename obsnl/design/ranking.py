@@ -47,7 +47,7 @@ from obsnl.errors import DataError, OptionError
 from obsnl.estimation.codegen import NumericModel, log_map, to_casadi
 from obsnl.estimation.accelerogram import Record, check_times
 from obsnl.identification.likelihood import covariance, objective
-from obsnl.identification.setup import Data, Setup
+from obsnl.identification.setup import MIN_NOISE, Data, Setup
 from obsnl.model.core import Model
 
 __all__ = ["RankedSet", "Ranking", "rank_sensor_sets", "mode_shapes", "effective_independence"]
@@ -162,8 +162,9 @@ def _levels(num: NumericModel, noise: float | Mapping[str, float]) -> np.ndarray
     if bad:
         raise OptionError(f"noise given for {bad}, which are not outputs of {num.name!r} ({', '.join(num.outputs)})")
     levels = np.array([float(given.get(o, 0.01)) for o in num.outputs])
-    if not np.all(np.isfinite(levels) & (levels > 0)):
-        raise OptionError(f"noise levels must be positive numbers, got {given}")
+    if not np.all(np.isfinite(levels) & (levels >= MIN_NOISE)):
+        raise OptionError(f"noise levels must be finite numbers of at least {MIN_NOISE:g} (noise to signal RMS; "
+                          f"below it double precision cannot resolve the noise), got {given}")
     return levels
 
 

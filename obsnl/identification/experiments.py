@@ -8,27 +8,24 @@ and DUKF).
 
 Protocol, the same for the UKF and the DUKF:
 
-* Log-parameters are kept within a factor 100 of the guesses (``BOUND``; a mean that leaves this
-  region is put back on its edge and counted as a repair).
-* ``R`` = (noise ratio x RMS of the measured output)², the process noise of the states from the
-  input noise (``sigma_u`` = ratio x RMS of the measured input, mapped through the discrete step),
-  scaled by ``q_x``; parameter coordinates ``log|theta|`` with prior std ``s0`` and random walk ``q_theta``.
+* Log-parameters are kept within a factor 100 of the guesses (``BOUND``; a mean leaving it is put back on its
+  edge and counted as a repair).
+* ``R`` = (noise ratio x RMS of the measured output)², the states' process noise from the input noise (``sigma_u``
+  = ratio x RMS of the measured input, mapped through the discrete step) scaled by ``q_x``; parameter
+  coordinates ``log|theta|`` with prior std ``s0`` and random walk ``q_theta``.
 * ``passes`` runs over the record; pass ``k+1`` starts at rest from the estimate of pass ``k`` with the
   parameter covariance ``inflate x diag(P_final)`` (the record is reused: later passes refine the
-  estimate, their covariance is optimistic). After the first pass the parameters found practically
-  unidentifiable (:func:`practical_identifiability`) are put back to their guess and held fixed.
-  A first pass that diverged (free-run output misfit above ``DIVERGED`` x the noise level) flags
-  nothing: its sensitivities are those of a wrong model, and holding parameters at their guess
-  would lock the later passes out of a recovery; they go on with every parameter free. An estimate
-  that cannot be simulated at all ends the run (no later pass can start from it).
+  estimate, their covariance is optimistic). With ``fix_flagged`` (the seed paper's protocol; ``obsnl.identify``
+  only with ``hold=True``) the parameters found practically unidentifiable after the first pass
+  (:func:`practical_identifiability`) are put back to their guess and held fixed. A first pass that diverged (free-run output misfit above ``DIVERGED`` x the noise level) flags nothing: its sensitivities
+  are those of a wrong model. An estimate that cannot be simulated at all ends the run.
 * Robust step (:mod:`obsnl.estimation.ukf_step`): every update that is not finite or clearly indefinite is
   rejected (the prediction is kept), standard deviations are capped at ``STATE_CAP`` typical magnitudes
   (states) and ``BOUND`` (log-parameters), and the innovation gate ``gate`` (a tuning choice, off or 3)
   scales the gain down beyond that Mahalanobis distance; every intervention is counted per kind.
-* Tuning: every configuration of the grid (``DEFAULT_GRID``: ``s0``, ``q_theta``, ``q_x``, ``gate``) is
-  run on noise seeds that are not reported (five by default); the one with the smallest mean free-run
-  output misfit (simulation with the estimate under the measured input, against the measured output)
-  wins; a run that fails counts as infinite misfit. No true value is used.
+* Tuning: every configuration of the grid (``DEFAULT_GRID``: ``s0``, ``q_theta``, ``q_x``, ``gate``) runs on noise
+  seeds that are not reported (five by default); the smallest mean free-run output misfit (the estimate simulated
+  under the measured input, against the measured output) wins, a failed run counting as infinite. No truth used.
 * Practical identifiability (:func:`practical_identifiability`, :func:`monte_carlo`): a parameter is
   flagged when these data cannot pin it within the 5 % band at 3 sigma: by the linearised Cramér-Rao
   bound, by the filter's posterior against its prior, or by the Monte-Carlo spread of the whole
@@ -51,7 +48,7 @@ from obsnl.identification.setup import (BOUND, DEFAULT_GRID, DIVERGED, STATE_CAP
                                     make_data, make_filter, output_misfit)
 
 __all__ = ["Tuning", "DEFAULT_GRID", "Setup", "Data", "Practical", "coordinates", "make_data", "make_filter",
-           "run_passes", "output_misfit", "practical_identifiability", "tune", "DIVERGED", "BOUND", "STATE_CAP",
+           "run_passes", "output_misfit", "practical_identifiability", "DIVERGED", "BOUND", "STATE_CAP",
            "Spread", "monte_carlo", "mc_truth", "mc_replicates", "mc_spread", "tune_one"]
 
 
@@ -67,7 +64,10 @@ def _noise(setup: Setup, filt: UKF, data: Data, tuning: Tuning) -> tuple[np.ndar
         e[j] = 1.0
         for a, b in ((e, u0), (u0, e)):
             g = (np.asarray(step(x0, th, a, b)[0]).ravel() - base) / filt.state_scale
-            Qx += su[j] ** 2 * np.outer(g, g)
+            with np.errstate(over="ignore", invalid="ignore"):  # overflow: refused below
+                Qx += su[j] ** 2 * np.outer(g, g)
+    if not np.all(np.isfinite(Qx)):  # a guess many orders off: the step overflows (it ended in 'Q contains NaN/inf')
+        raise EstimatorError(f"the step of {m.name!r} overflows at the guess: give guesses nearer the structure's values")
     Q = np.zeros((filt.size, filt.size))
     Q[:m.nx, :m.nx] = tuning.q_x * Qx
     Q[m.nx:, m.nx:] = tuning.q_theta * np.eye(filt.size - m.nx)
@@ -171,7 +171,8 @@ def _run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: 
 
 def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *, passes: int,
                 replicates: int = 32, seed: int = 0, confidence: float = 0.99,
-                progress: Callable[[], None] | None = None) -> Spread:
+                progress: Callable[[], None] | None = None, fix_flagged: bool = True,
+                hold_below: float | None = None) -> Spread:
     """Spread of the whole identification protocol at the estimate ``theta`` (no true value used).
 
     The linearised Cramér-Rao bound of :func:`practical_identifiability` can be far too optimistic where the
@@ -179,7 +180,8 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
     ``reports/identification/notes.md``). This measures the estimator itself, as in the Monte-Carlo analysis of
     Miao, Xia, Perelson and Wu (SIAM Review 53(1), 2011, doi:10.1137/090757009): each replicate takes the
     measured input as the true one, simulates the output at ``theta``, adds fresh input and output noise at the
-    experiment's levels and runs :func:`run_passes` with the same filter, tuning and ``passes``.
+    experiment's levels and runs :func:`run_passes` with the same filter, tuning, ``passes``, ``fix_flagged`` and
+    ``hold_below`` (the reported run's: a replicate holds a parameter only where the reported run would).
 
     Parameters
     ----------
@@ -211,7 +213,8 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
         raise OptionError(f"confidence must lie in (0, 1), got {confidence}")
     y_hat = mc_truth(setup, theta, data)
     outcomes = [] if y_hat is None else mc_replicates(setup, filt, data, y_hat, tuning, passes=passes, seed=seed,
-                                                      indices=range(replicates), progress=progress)
+                                                      indices=range(replicates), progress=progress,
+                                                      fix_flagged=fix_flagged, hold_below=hold_below)
     return mc_spread(setup, outcomes, replicates=replicates, seed=seed, confidence=confidence,
                      simulated=y_hat is not None)
 
@@ -240,7 +243,8 @@ def mc_truth(setup: Setup, theta: np.ndarray, data: Data) -> np.ndarray | None:
 
 
 def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning: Tuning, *, passes: int, seed: int,
-                  indices: Sequence[int], progress: Callable[[], None] | None = None) -> list[tuple]:
+                  indices: Sequence[int], progress: Callable[[], None] | None = None, fix_flagged: bool = True,
+                  hold_below: float | None = None) -> list[tuple]:
     """Replicates ``indices`` of :func:`monte_carlo` (replicate ``b`` draws its noise from ``[seed, b]``, so
     any split of the indices over workers gives the same outcomes): ``(log|estimate| or None, held)``.
 
@@ -264,6 +268,10 @@ def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning
         The replicates to run.
     progress : callable or None
         Called after each replicate.
+    fix_flagged : bool
+        As in :func:`run_passes` (the reported run's setting).
+    hold_below : float or None
+        As in :func:`run_passes` (the reported run's setting).
 
     Returns
     -------
@@ -277,7 +285,8 @@ def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning
         rep = Data(seed=seed, u=data.u + su * rng.standard_normal(data.u.shape),
                    y=y_hat + sy * rng.standard_normal(y_hat.shape))
         try:
-            trs, fixed = run_passes(setup, filt, rep, tuning, passes=passes)
+            trs, fixed = run_passes(setup, filt, rep, tuning, passes=passes, fix_flagged=fix_flagged,
+                                    hold_below=hold_below)
             est = trs[-1].theta[-1]
             ok = len(trs) == passes and output_misfit(setup, est, rep) <= DIVERGED * setup.noise_level
         except ObsnlError:
@@ -334,42 +343,6 @@ def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed:
     return Spread(parameters=m.parameters, std=tuple(map(float, std)), lower=tuple(map(float, lower)),
                   upper=tuple(map(float, upper)), replicates=n, diverged=diverged, confidence=confidence, seed=seed,
                   held=tuple(p for p in m.parameters if p in held))
-
-
-def tune(setup: Setup, filt: UKF, seeds: Sequence[int], *, grid: Sequence[Tuning] = DEFAULT_GRID,
-         passes: int = 3, progress: Callable[[], None] | None = None) -> dict[int, dict[Tuning, float]]:
-    """Mean output misfit of every configuration on ``seeds``, after 1 pass and after ``passes``.
-
-    Parameters
-    ----------
-    setup : Setup
-        The experiment.
-    filt : UKF
-        The filter.
-    seeds : sequence of int
-        Noise seeds of the tuning records.
-    grid : sequence of Tuning
-        Configurations to try.
-    passes : int
-        Number of passes.
-    progress : callable or None
-        Called after each configuration and record.
-
-    Returns
-    -------
-    dict
-        ``{1 or passes: {tuning: mean misfit}}``.
-    """
-    scores: dict[int, dict[Tuning, list[float]]] = {1: {}, passes: {}}
-    datas = [make_data(setup, s) for s in seeds]
-    for t in grid:
-        for d in datas:
-            got = tune_one(setup, filt, d, t, passes=passes)
-            for k, v in got.items():
-                scores[k].setdefault(t, []).append(v)
-            if progress:
-                progress()
-    return {k: {t: float(np.mean(v)) for t, v in s.items()} for k, s in scores.items()}
 
 
 def tune_one(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int) -> dict[int, float]:

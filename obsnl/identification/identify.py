@@ -20,8 +20,11 @@ import json
 import math
 import sys
 from collections.abc import Callable, Mapping
+from numbers import Real
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from obsnl._progress import Progress
 from obsnl.errors import CompileError, DataError, OptionError, OutputError
@@ -74,6 +77,21 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
             raise OptionError(f"the guess of {k} is {v!r} (guess= or the model's [guess]); give a finite nonzero "
                               f"number below 1e100 in magnitude (the filter estimates log|{k}| from it)")
     return num, g, table, structural
+
+
+def _check_kinds(guess: Any, noise: Any, **flags: Any) -> None:
+    """Refuse an argument of the wrong kind that Python would read silently (``refine="no"`` is true, a guess of
+    ``None`` fails deep inside): each with one line naming it and the kind it takes."""
+    for name, v in flags.items():
+        if not isinstance(v, (bool, np.bool_)):
+            raise OptionError(f"{name}= takes True or False, got {v!r}")
+    if guess is not None and not isinstance(guess, Mapping):
+        raise OptionError(f"guess= takes {{parameter: value}}, e.g. guess={{'k': 30.0}}; got {guess!r}")
+    bad = next((k for k, v in (guess or {}).items() if isinstance(v, (bool, np.bool_)) or not isinstance(v, Real)), None)
+    if bad is not None:
+        raise OptionError(f"guess= gives {bad} = {guess[bad]!r}; give a number")
+    if noise is not None and not isinstance(noise, Mapping):
+        raise OptionError(f"noise= takes {{channel: ratio}}, e.g. noise={{'disp': 0.01}}; got {noise!r}")
 
 
 def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str | Path, *,
@@ -147,6 +165,10 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     """
     check_passes(passes)  # before any work
     check_replicates(replicates)
+    _check_kinds(guess, noise, refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
+    if not isinstance(data, (Measured, Mapping, str, Path)):
+        raise DataError(f"data= takes a CSV file, a mapping of columns {{name: samples}} or a Measured; got "
+                        f"{type(data).__name__}")
     model = as_model(model)
     ins, outs = [s.name for s in model.inputs], list(model.outputs)
     if isinstance(data, (str, Path)):
@@ -268,6 +290,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     """
     check_passes(passes)  # before any work
     check_replicates(replicates)
+    _check_kinds(guess, None, refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
     model = as_model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"

@@ -179,27 +179,28 @@ def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
 
 
 def replicates_task(task: tuple[Recipe, tuple[float, ...], np.ndarray, np.ndarray, np.ndarray, Tuning, int, int,
-                                tuple[int, ...]]) -> list[tuple]:
+                                tuple[int, ...], bool, float | None]) -> list[tuple]:
     """Replicates ``indices`` of one Monte-Carlo check: ``(log|estimate| or None, held)`` per replicate.
 
     Parameters
     ----------
     task : tuple
-        ``(recipe, theta, u, y, y_hat, tuning, passes, seed, indices)``.
+        ``(recipe, theta, u, y, y_hat, tuning, passes, seed, indices, fix_flagged, hold_below)``.
 
     Returns
     -------
     list of tuple
     """
-    recipe, theta, u, y, y_hat, tuning, passes, seed, indices = task
+    recipe, theta, u, y, y_hat, tuning, passes, seed, indices, fix_flagged, hold_below = task
     setup, filt = rebuild(recipe)
     return mc_replicates(setup, filt, Data(seed=None, u=u, y=y), y_hat, tuning, passes=passes, seed=seed,
-                         indices=indices)
+                         indices=indices, fix_flagged=fix_flagged, hold_below=hold_below)
 
 
 def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *,
               method: str, table: Any, passes: int, replicates: int, seed: int,
-              progress: Callable[[], Any] | None = None) -> Spread:
+              progress: Callable[[], Any] | None = None, fix_flagged: bool = True,
+              hold_below: float | None = None) -> Spread:
     """:func:`obsnl.identification.experiments.monte_carlo` with the replicates on ``executor`` (None or one
     worker: this process); the same spread whatever the executor.
 
@@ -229,6 +230,10 @@ def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndar
         Root seed of the replicates.
     progress : callable or None
         Called once per replicate done.
+    fix_flagged : bool
+        The reported run's holding (:func:`~obsnl.identification.experiments.run_passes`), repeated by each replicate.
+    hold_below : float or None
+        Likewise.
 
     Returns
     -------
@@ -236,7 +241,7 @@ def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndar
     """
     if executor is None or executor.kind == "serial":
         return monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates, seed=seed,
-                           progress=progress)
+                           progress=progress, fix_flagged=fix_flagged, hold_below=hold_below)
     if replicates < 3:
         raise OptionError(f"monte_carlo needs at least 3 replicates, got {replicates}")
     recipe = recipe_of(setup, method, table)
@@ -246,8 +251,8 @@ def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndar
             progress()
         return mc_spread(setup, [], replicates=replicates, seed=seed, simulated=False)
     th = tuple(float(v) for v in theta)
-    tasks = [(recipe, th, data.u, data.y, y_hat, tuning, passes, seed, tuple(range(lo, min(replicates, lo + CHUNK))))
-             for lo in range(0, replicates, CHUNK)]
+    tasks = [(recipe, th, data.u, data.y, y_hat, tuning, passes, seed, tuple(range(lo, min(replicates, lo + CHUNK))),
+              fix_flagged, hold_below) for lo in range(0, replicates, CHUNK)]
     done = (lambda i, chunk: [progress() for _ in chunk]) if progress else None
     outcomes = [o for chunk in executor.map(replicates_task, tasks, done=done) for o in chunk]
     return mc_spread(setup, outcomes, replicates=replicates, seed=seed)

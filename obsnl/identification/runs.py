@@ -40,7 +40,7 @@ from obsnl.identification.practical import practical_identifiability
 from obsnl.identification.profile import THRESHOLD, Profile, judge, profiles
 from obsnl.identification.replicates import check_passes, check_replicates, spread_on
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
-from obsnl.identification.setup import Data, Setup, coordinates, output_misfit
+from obsnl.identification.setup import MIN_NOISE, Data, Setup, coordinates, output_misfit
 from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = [
@@ -95,7 +95,8 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
     if replicates and not prac.inconclusive:
         prac = prac.with_spread(spread_on(executor, setup, filt, theta, data, tuning, method=method, table=table,
-                                          passes=passes, replicates=replicates, seed=seed, progress=progress))
+                                          passes=passes, replicates=replicates, seed=seed, progress=progress,
+                                          fix_flagged=hold, hold_below=HOLD_BELOW))
     elif replicates and progress:  # not run (the estimate diverged): the count still ends at its total
         for _ in range(replicates):
             progress()
@@ -308,7 +309,8 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                           f"{num.name!r} has {list(num.inputs)} and {list(num.outputs)}")
     missing = [q for q in num.parameters if q not in guess]
     if missing:
-        raise OptionError(f"no initial guess for {missing}; give guess= (a value for {missing[0]}) or a [guess] table")
+        raise OptionError(f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
+                          f"[guess] table in the model file")
     for j, c in enumerate(data.outputs):
         if data.y.shape[0] and np.all(data.y[:, j] == data.y[0, j]):
             raise DataError(f"output {c!r} of {data.name!r} is constant ({float(data.y[0, j])!r} throughout): there "
@@ -318,9 +320,12 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     if unknown:  # a misspelt channel is refused, never ignored
         raise OptionError(f"noise given for {unknown[0]!r}, which is not an input or output of {num.name!r} "
                           f"({', '.join(num.inputs + num.outputs)}); check the spelling")
-    bad = [f"{k}={v!r}" for k, v in given.items() if not (isinstance(v, (int, float)) and 0 < v < 1)]
+    bad = [f"{k}={v!r}" for k, v in given.items()
+           if isinstance(v, bool) or not (isinstance(v, (int, float)) and MIN_NOISE <= v < 1)]
     if bad:
-        raise OptionError(f"the noise= ratio {bad[0]} must lie in (0, 1) (noise to signal)")
+        raise OptionError(f"the noise= ratio {bad[0]} must lie in [{MIN_NOISE:g}, 1) (noise to signal RMS; below "
+                          f"{MIN_NOISE:g} double precision cannot resolve it: for noise-free data give the "
+                          f"integrator's accuracy, e.g. 1e-6)")
     levels: dict[str, dict[str, Any]] = {}
     for names, arr in ((num.inputs, data.u), (num.outputs, data.y)):
         for j, c in enumerate(names):

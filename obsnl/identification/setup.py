@@ -6,6 +6,7 @@ judges a run without any true value. The protocol that uses them is in
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
@@ -38,6 +39,9 @@ DIVERGED = 10.0
 
 #: Covariance ceiling (standard deviation) of the scaled states: 100 typical magnitudes at the guess.
 STATE_CAP = 100.0
+#: The smallest noise-to-signal RMS ratio a channel may be given: below it double precision cannot resolve the noise
+#: (its weight ``1 / sigma^2`` overflows the filter and the fit); for noise-free data give the integrator's accuracy.
+MIN_NOISE = 1e-12
 
 
 @dataclass(frozen=True)
@@ -246,15 +250,27 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
         For an unknown ``kind``.
     """
     m = setup.model
-    sim = simulate(m, theta=setup.theta_guess, x0=setup.x0, u=setup.record.accel, dt=setup.record.dt,
-                   substeps=setup.substeps, refine=setup.refine)
-    typical = np.sqrt(np.mean(sim.x ** 2, axis=0))  # typical magnitudes at the guess, floored at 1 %
+    try:
+        sim = simulate(m, theta=setup.theta_guess, x0=setup.x0, u=setup.record.accel, dt=setup.record.dt,
+                       substeps=setup.substeps, refine=setup.refine)
+    except EstimatorError as exc:  # the filter would start from a model that cannot follow the record
+        raise DataError(f"{exc} when simulated at the guess under the measured input: give guesses nearer the "
+                        f"structure's values, or check the input's units") from None
+    with np.errstate(over="ignore", invalid="ignore"):
+        typical = np.sqrt(np.mean(sim.x ** 2, axis=0))  # typical magnitudes at the guess, floored at 1 %
+    if not np.all(np.isfinite(typical)):  # no scale either (it ended in 'Q contains NaN/inf')
+        g = setup.theta_guess
+        far = int(np.argmax([abs(math.log(abs(v))) for v in g]))
+        raise DataError(f"model {m.name!r} diverges when simulated at the guess under the measured input (state "
+                        f"{m.states[int(np.flatnonzero(~np.isfinite(typical))[0])]!r} overflows): give guesses nearer "
+                        f"the structure's values (the most extreme: {m.parameters[far]} = {g[far]:.3g}), or check "
+                        f"the input's units")
     if not typical.max() > 0:  # no scale to set the filter's noise by (it ended in 'Q contains NaN/inf')
         u = np.asarray(setup.record.accel, float).reshape(len(setup.record.accel), -1)
         still = [c for j, c in enumerate(m.inputs) if not np.any(u[:, j])]
-        why = ("the model has no input" if not m.inputs else f"input {still[0]!r} is 0 throughout" if
-               len(m.inputs) == 1 else "every input is 0 throughout" if len(still) == len(m.inputs) else
-               "the inputs move no state")
+        why = ("the model has no input" if not m.inputs else "every input is 0 throughout" if len(still) ==
+               len(m.inputs) and len(still) > 1 else f"input {still[0]!r} is 0 throughout" if len(still) ==
+               len(m.inputs) else f"the inputs move no state (largest |input| {float(np.max(np.abs(u))):.3g})")
         raise DataError(f"{why}: model {m.name!r} stays at rest at the guess, so there is nothing to identify "
                         f"from; give data with excitation (or initial values that are not at rest)")
     scale = np.maximum(typical, 1e-2 * max(typical.max(), 1e-300))  # of the largest (a state idle at the guess)

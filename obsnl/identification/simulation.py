@@ -73,7 +73,8 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     """
     missing = [q for q in num.parameters if q not in guess]
     if missing:
-        raise OptionError(f"no initial guess for {missing}; give guess= (a value for {missing[0]})")
+        raise OptionError(f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
+                          f"[guess] table in the model file")
     truth = {q: num.values.get(q) for q in num.parameters}
     if any(v is None for v in truth.values()):
         raise OptionError(f"model {num.name!r} needs [values] for every parameter (the truth of the simulation)")

@@ -195,7 +195,7 @@ def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str
     Raises
     ------
     OptionError
-        An unknown name, no ``=``, or a value that is not a number.
+        An unknown name, no ``=``, a value that is not a number, or a name given twice.
 
     Examples
     --------
@@ -208,6 +208,8 @@ def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str
         name = name.strip()
         if not eq or name not in names:
             raise OptionError(f"{option} {item!r}: {name!r} is not a {what} ({', '.join(names)}); write NAME=VALUE")
+        if name in out:  # two values for one name: neither silently wins
+            raise OptionError(f"{option} gives {name} twice ({name}={out[name]:g} and {item!r}); give it once")
         try:
             out[name] = float(value)
         except ValueError:

@@ -67,7 +67,7 @@ def tuning_from(s0: float | None = None, q_theta: float | None = None, q_x: floa
 
 def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
                  option: str = "noise=") -> dict[str, float] | float:
-    """Noise-to-signal RMS ratios from texts: ``RATIO`` for every channel (the last one given), ``NAME=RATIO``.
+    """Noise-to-signal RMS ratios from texts: ``RATIO`` for every channel (at most once), ``NAME=RATIO`` (over it).
 
     Parameters
     ----------
@@ -89,12 +89,15 @@ def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
     Raises
     ------
     OptionError
-        A ratio that is not a number, an unknown channel, or a named channel in a study.
+        A ratio that is not a number, an unknown channel, a channel or the plain ratio given twice, or a named
+        channel in a study.
     """
     from obsnl.identification.structural import parse_assignments
 
     plain = [v for v in items if "=" not in v]
     named = [v for v in items if "=" in v]
+    if len(plain) > 1:  # two levels for every channel: neither silently wins
+        raise OptionError(f"{option} gives one RATIO for every channel twice ({', '.join(map(repr, plain))}); give it once")
     try:
         every = float(plain[-1]) if plain else None
     except ValueError:

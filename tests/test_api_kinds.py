@@ -1,0 +1,79 @@
+"""Arguments of the wrong kind, levels beyond double precision and degenerate information: each refused or
+reported with one line that names it, never a raw Python error deep inside nor a silently wrong number.
+
+Data come from closed forms (a mass-spring-damper's steady response), never from obsnl's simulator; the
+expected answers are derived here. Every check is exact (no randomness beyond fixed noise seeds)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import obsnl
+from obsnl.cli import main
+from obsnl.errors import DataError, OptionError
+
+MSD = obsnl.Model(name="msd", states=["x", "v"], parameters=["k", "c"], inputs=["u"],
+                  equations={"x": "v", "v": "u - k*x - c*v"}, outputs={"y": "x"}, guess={"k": 20.0, "c": 1.0})
+T = np.arange(300) * 0.02
+
+
+def _columns(scale_u: float = 1.0) -> dict[str, np.ndarray]:
+    # steady response of x'' + c x' + k x = sin(w t) with k = 25, c = 0.8: amplitude 1 / |k - w^2 + i c w|
+    w, k, c = 3.1, 25.0, 0.8
+    h = 1.0 / complex(k - w * w, c * w)
+    y = abs(h) * np.sin(w * T + np.angle(h))
+    return {"t": T, "u": scale_u * np.sin(w * T), "y": y + 1e-3 * np.random.default_rng(0).standard_normal(T.size)}
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    (dict(noise=0.01), "noise= takes {channel: ratio}"),
+    (dict(noise=[0.01]), "noise= takes {channel: ratio}"),
+    (dict(guess=1.0), "guess= takes {parameter: value}"),
+    (dict(guess={"c": "abc"}), "guess= gives c = 'abc'; give a number"),
+    (dict(guess={"c": None}), "guess= gives c = None; give a number"),
+    (dict(guess={"c": True}), "guess= gives c = True; give a number"),
+    (dict(refine="no"), "refine= takes True or False, got 'no'"),
+    (dict(hold=1), "hold= takes True or False, got 1"),
+    (dict(noise={"y": 1e-160}), "must lie in [1e-12, 1)"),
+    (dict(noise={"y": True}), "the noise= ratio y=True"),
+])
+def test_identify_refuses_arguments_of_the_wrong_kind(kwargs, words):
+    with pytest.raises(OptionError) as info:
+        obsnl.identify(MSD, _columns(), progress=False, **kwargs)
+    assert words in str(info.value) and "\n" not in str(info.value)
+
+
+def test_identify_refuses_data_that_are_not_data():
+    with pytest.raises(DataError, match="data= takes a CSV file, a mapping of columns"):
+        obsnl.identify(MSD, None)
+
+
+def test_an_input_too_small_to_move_the_model_is_named_not_an_index_error():
+    # 1e-170 N moves the states to ~1e-172: their squares underflow to 0, so the filter has no scale to work with
+    with pytest.raises(DataError, match=r"the inputs move no state \(largest \|input\| 1e-170\)"):
+        obsnl.identify(MSD, _columns(scale_u=1e-170), progress=False)
+
+
+def test_a_guess_that_makes_the_model_diverge_is_named():
+    # k = -1e6: the 'spring' pushes the mass away at exp(1000 t), and the simulation at the guess overflows within
+    # a few samples; c = 1e20: one step of the damper overflows (it ended in "Q contains NaN/inf", naming nothing)
+    with pytest.raises(DataError, match="left the finite numbers at sample .* when simulated at the guess"):
+        obsnl.identify(MSD, _columns(), guess={"k": -1e6}, progress=False)
+    with pytest.raises(obsnl.errors.EstimatorError, match="the step of 'msd' overflows at the guess: give guesses"):
+        obsnl.identify(MSD, _columns(), guess={"c": 1e20}, progress=False)
+
+
+def test_the_command_line_refuses_a_channel_given_twice(tmp_path, capsys):
+    csv = tmp_path / "d.csv"
+    cols = _columns()
+    csv.write_text("t,u,y\n" + "\n".join(f"{a!r},{b!r},{c!r}" for a, b, c in zip(*cols.values())), encoding="utf-8")
+    model = tmp_path / "msd.toml"
+    model.write_text('name = "msd"\nstates = ["x", "v"]\nparameters = ["k", "c"]\ninputs = ["u"]\n'
+                     '[equations]\nx = "v"\nv = "u - k*x - c*v"\n[outputs]\ny = "x"\n[guess]\nk = 20.0\nc = 1.0\n',
+                     encoding="utf-8")
+    for extra in (["--noise", "y=0.01", "--noise", "y=0.02"], ["--noise", "0.01", "--noise", "0.02"],
+                  ["--guess", "k=20", "--guess", "k=30"]):
+        assert main(["identify", str(model), "--data", str(csv), "--no-refine", *extra]) == 2
+        err = capsys.readouterr().err.strip()
+        assert "twice" in err and "give it once" in err and len(err.splitlines()) == 1, err
