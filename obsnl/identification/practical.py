@@ -16,9 +16,10 @@ from obsnl.errors import EstimatorError
 from obsnl.estimation.records import rms
 from obsnl.estimation.simulate import simulate, simulate_many
 from obsnl.estimation.ukf import Trajectory
+from obsnl.identification.likelihood import covariance
 from obsnl.identification.setup import DIVERGED, Data, Setup, output_misfit
 
-__all__ = ["Practical", "Spread", "fisher", "input_noise_crb", "practical_identifiability", "CRB_LIMIT",
+__all__ = ["Practical", "Spread", "crb", "fisher", "input_noise_crb", "practical_identifiability", "CRB_LIMIT",
            "POSTERIOR_LIMIT"]
 
 #: Threshold on the Cramér-Rao standard deviation of log(theta): a parameter whose 3-sigma bound is
@@ -160,6 +161,27 @@ class Spread:
                 "inconclusive": self.inconclusive or None}
 
 
+def crb(F: np.ndarray) -> np.ndarray:
+    """Cramér-Rao standard deviations from a Fisher matrix ``F``: ``sqrt(diag(F^+))`` with the inverse taken on
+    the correlation form of ``F`` (:func:`~obsnl.identification.likelihood.covariance`), ``inf`` along a flat
+    direction.
+
+    A plain pseudo-inverse with a relative cut (``pinv(F, rcond)``) drops a coordinate whose information is
+    small beside the others' as if it were none of it, and returned a bound near 0 for the least informed
+    parameter: the opposite of the truth. Here the bound of a coordinate is never below ``1 / sqrt(F_ii)``.
+
+    Examples
+    --------
+    >>> crb(np.diag([1e16, 4.0])).tolist()           # the weakly informed coordinate keeps its bound 1/2
+    [1e-08, 0.5]
+    >>> crb(np.array([[1.0, 1.0], [1.0, 1.0]])).tolist()   # only the sum is seen
+    [inf, inf]
+    """
+    w, V = np.linalg.eigh((np.asarray(F, float) + np.asarray(F, float).T) / 2)
+    C, _ = covariance(np.sqrt(np.clip(w, 0, None))[:, None] * V.T)  # a square root J of F: J'J = F
+    return np.sqrt(np.clip(np.diag(C), 0, None))
+
+
 def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: Any, *, step: float = 1e-2) -> np.ndarray:
     """Output sensitivities ``(T*ny, np)`` to ``log|theta|``, divided by the noise std ``sigma`` (a
     number, or one per output).
@@ -240,7 +262,7 @@ def input_noise_crb(setup: Setup, theta: np.ndarray | None = None, *, u: np.ndar
     for name, cov in (("crb_output_only", sy ** 2 * np.eye(len(S))), ("crb_with_input_noise",
                                                                        sy ** 2 * np.eye(len(S)) + su ** 2 * Ju @ Ju.T)):
         F = S.T @ np.linalg.solve(cov, S)
-        out[name] = dict(zip(m.parameters, np.sqrt(np.clip(np.diag(np.linalg.pinv(F, rcond=1e-12)), 0, None))))
+        out[name] = dict(zip(m.parameters, crb(F).tolist()))
     out["input_noise_output_rms_over_sigma_y"] = float(su * np.sqrt(np.trace(Ju @ Ju.T) / len(S)) / sy)
     return out
 
@@ -283,22 +305,23 @@ def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, fi
         nan = (float("nan"),) * m.np
         return Practical(parameters=m.parameters, crb=nan, sensitivity=nan, posterior=nan, flagged=(), reasons={},
                          inconclusive=why_not)
-    F = S.T @ S
-    crb = np.sqrt(np.clip(np.diag(np.linalg.pinv(F, rcond=1e-12)), 0, None))
+    bound = crb(S.T @ S)
     sens = np.sqrt(np.mean(S ** 2, axis=0))
     nx = m.nx
     post = np.sqrt(np.clip(np.diag(first.P[-1])[nx:], 0, None)) / prior_std
     # posterior ratios are per filter coordinate; with log coordinates they are per parameter
     post = post if len(post) == m.np else np.full(m.np, np.nan)
     reasons = {}
-    for p, c, r in zip(m.parameters, crb, post):
+    for p, c, r in zip(m.parameters, bound, post):
         why = []
         if c > CRB_LIMIT:
-            why.append(f"Cramér-Rao std of the relative error {100 * c:.2g} % > {100 * CRB_LIMIT:.2g} %")
+            why.append(f"Cramér-Rao std of the relative error {100 * c:.3g} % > {100 * CRB_LIMIT:.3g} %" if
+                       np.isfinite(c) else "no information in the output sensitivities (a flat direction of the "
+                       "Fisher matrix: the Cramér-Rao bound is infinite)")
         if r > POSTERIOR_LIMIT:
             why.append(f"the filter kept {100 * r:.0f} % of its prior std")
         if why:
             reasons[p] = "; ".join(why)
-    return Practical(parameters=m.parameters, crb=tuple(float(c) for c in crb),
+    return Practical(parameters=m.parameters, crb=tuple(float(c) for c in bound),
                      sensitivity=tuple(float(s) for s in sens), posterior=tuple(float(r) for r in post),
                      flagged=tuple(p for p in m.parameters if p in reasons), reasons=reasons)

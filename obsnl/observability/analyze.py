@@ -210,7 +210,9 @@ def _analyze(
         model=model.name,
         method=method,
         seed=seed,
-        probability=max(0.0, 1.0 - failure) if per_branch or verdict is None else verdict.probability,
+        # every verdict printed: the branches' and the joint one's (a union bound: each may fail on its own)
+        probability=(max(0.0, 1.0 - failure - (0.0 if verdict is None else 1.0 - verdict.probability)) if per_branch
+                     else 1.0 - failure if verdict is None else verdict.probability),
         seconds=round(time.perf_counter() - t0, 6),
         branches=tuple(results),
         variables=variables,

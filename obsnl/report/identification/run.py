@@ -166,17 +166,35 @@ def identify_text(result: IdentificationRun) -> str:
     return "\n".join(lines)
 
 
+def _digits(interval: tuple[float | None, float | None] | None, true: float | None) -> int:
+    """Significant digits (4 at least) that keep the printed interval faithful: its ends apart and, with a true
+    value, on the same side of it as the unrounded ends (``[1321, 1330]`` would hide that 1329.986 misses 1330).
+
+    >>> _digits((1321.12, 1329.986), 1330.0), _digits((0.9, 1.1), 1.0)
+    (6, 4)
+    """
+    ends = [v for v in (interval or ()) if _given(v)]
+    for d in range(4, 17):
+        r = [float(f"{v:.{d}g}") for v in ends]
+        t = None if true is None else float(f"{true:.{d}g}")
+        apart = len(r) < 2 or r[0] < r[1]
+        if apart and (t is None or all((a < t) == (v < true) and (a > t) == (v > true) for a, v in zip(r, ends))):
+            return d
+    return 17
+
+
 def _parameter(p: _Estimate) -> str:
     """One parameter's line: the truth in a simulation study, the estimate (or held), the interval, the flag."""
     head = f"  {p.name:10s} "
+    d = _digits(p.interval, p.true)
     if p.true is not None:
-        head += f"true {p.true:<11.4g} "
+        head += f"true {p.true:<11.{d}g} "
     if p.held:
         return head + f"held at its guess {p.guess:.4g} (not estimated): {p.reason}"
     std = f"{p.std:<9.2g}" if _given(p.std) else f"{'-':<9s}"
     head += f"estimate {p.estimate:<10.4g} std {std}" if _given(p.estimate) else f"estimate {'-':<10s} std {std}"
     if p.interval is not None:
-        lo, hi = (f"{v:.4g}" if _given(v) else "open" for v in p.interval)
+        lo, hi = (f"{v:.{d}g}" if _given(v) else "open" for v in p.interval)
         head += f" 95 % [{lo}, {hi}]"
     if _given(p.error):
         head += f" error {p.error:.2f} %" if p.error_kind == "percent" else f" error {p.error:.3g} (absolute)"
