@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import os
+import stat
 from pathlib import Path
 
 import pytest
@@ -274,3 +275,102 @@ def test_6_a_full_disk_leaves_nothing_that_blocks_the_rerun(tmp_path):
     assert p.returncode == 0, p.stderr
     assert sorted(q.name for q in (tmp_path / "r").iterdir()) == sorted(
         ["coulomb_friction.md", "coulomb_friction.tex", "coulomb_friction.json", "index.md", "timings.md"])
+
+
+# ----------------------------------------------------------------------------- 7 only regular files are written
+#: Each command that writes one file the user names, as argv up to (and with) that file's option.
+ONE_FILE = {"reparametrize": ("reparametrize", "obsnl:coulomb_friction", "-o"),
+            "analyze": ("analyze", "obsnl:coulomb_friction", "--format", "md", "-o"),
+            "sensors": ("sensors", "obsnl:coulomb_friction", "-o"),
+            "design": ("design", "obsnl:coulomb_friction", "--record", str(REC), "--scales", "1", "--figure")}
+
+
+def _fifo(path: Path) -> Path:
+    os.mkfifo(path)  # only ever inside pytest's tmp_path
+    return path
+
+
+@pytest.mark.parametrize("force", [(), ("--force",)], ids=["", "force"])
+@pytest.mark.parametrize("command", ONE_FILE)
+def test_7_a_fifo_is_never_replaced_by_a_file_not_even_with_force(tmp_path, capsys, command, force):
+    fifo = _fifo(tmp_path / ("P.png" if command == "design" else "P"))
+    code, err = run(capsys, *ONE_FILE[command], str(fifo), *force)  # --force used to turn it into a regular file
+    one_line_refusal(code, err, str(fifo), "is a FIFO, not a regular file", "choose another path")
+    assert len(err.splitlines()) == 1 and "pass --force" not in err  # no invitation to force it
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert [p.name for p in tmp_path.iterdir()] == [fifo.name]  # no temporary, no staging folder left
+
+
+@pytest.mark.parametrize("force", [(), ("--force",)], ids=["", "force"])
+def test_7_a_fifo_in_an_out_folder_is_refused_before_any_file_is_written(tmp_path, capsys, force):
+    out = tmp_path / "out"
+    out.mkdir()
+    fifo = _fifo(out / "index.md")
+    code, err = run(capsys, "report", "obsnl:coulomb_friction", "--out", str(out), *force)
+    one_line_refusal(code, err, "index.md", "is a FIFO", "choose another path")
+    assert stat.S_ISFIFO(os.lstat(fifo).st_mode) and [p.name for p in out.iterdir()] == ["index.md"]
+
+
+def test_7_a_socket_is_refused_with_force_and_named_as_such(tmp_path, capsys, monkeypatch):
+    import socket
+
+    monkeypatch.chdir(tmp_path)  # a short relative name: a socket's path is limited to about 100 bytes
+    with socket.socket(socket.AF_UNIX) as sock:
+        sock.bind("S")
+        code, err = run(capsys, "reparametrize", "obsnl:coulomb_friction", "-o", "S", "--force")
+        one_line_refusal(code, err, "S is a socket, not a regular file")
+        assert stat.S_ISSOCK(os.lstat("S").st_mode)
+
+
+def test_7_a_fifo_that_appears_while_the_run_writes_is_refused_before_any_file_is_moved(tmp_path):
+    from obsnl.errors import OutputError
+    from obsnl.report.files import OutputFolder
+
+    out = tmp_path / "out"
+    with pytest.raises(OutputError, match=r"b\.md is a FIFO"):
+        with OutputFolder(out, ["a.md", "b.md"], force=True) as folder:
+            folder.write_text("a.md", "A")
+            folder.write_text("b.md", "B")
+            _fifo(out / "b.md")  # another process, after the check
+            folder.commit()
+    assert [p.name for p in out.iterdir()] == ["b.md"] and stat.S_ISFIFO(os.lstat(out / "b.md").st_mode)
+
+
+def test_7_the_figure_writer_refuses_a_fifo_and_a_name_that_names_a_folder(tmp_path):
+    import numpy as np
+
+    from obsnl.errors import OutputError
+    from obsnl.report.figures import figure2
+
+    t = np.linspace(0.0, 1.0, 5)
+    draw = dict(t=t, accel=t, y_measured=t, estimates={"ukf": t})
+    fifo = _fifo(tmp_path / "f.png")
+    with pytest.raises(OutputError, match="is a FIFO"):
+        figure2(fifo, **draw)
+    with pytest.raises(OutputError, match="ends with '/'"):
+        figure2(f"{tmp_path / 'g.png'}/", **draw)
+    assert [p.name for p in tmp_path.iterdir()] == ["f.png"] and stat.S_ISFIFO(os.lstat(fifo).st_mode)
+    assert figure2(tmp_path / "link.png", **draw).is_file()  # a plain file is still written
+
+
+@pytest.mark.parametrize("command", ONE_FILE)
+@pytest.mark.parametrize("ending", ["/", "/."])
+def test_7_a_file_name_that_ends_with_a_slash_is_refused_not_written_without_it(tmp_path, capsys, command, ending):
+    name = str(tmp_path / ("new.png" if command == "design" else "new.toml")) + ending
+    code, err = run(capsys, *ONE_FILE[command], name, "--force")  # it used to write new.toml
+    one_line_refusal(code, err, f"ends with {ending!r}", "names a folder, but a file is due",
+                     "drop the slash" if ending == "/" else "name a file")
+    assert len(err.splitlines()) == 1
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_7_safe_write_refuses_a_trailing_slash_and_still_replaces_a_symlink_with_force(tmp_path):
+    from obsnl.errors import OutputError
+    from obsnl.report.files import safe_write
+
+    with pytest.raises(OutputError, match="drop the slash"):
+        safe_write(f"{tmp_path / 'x.md'}/", "x", force=True)
+    assert list(tmp_path.iterdir()) == []
+    (tmp_path / "link").symlink_to(tmp_path / "target")  # a link keeps its treatment: replaced, never followed
+    safe_write(tmp_path / "link", "x\n", force=True)
+    assert not (tmp_path / "link").is_symlink() and not (tmp_path / "target").exists()

@@ -15,6 +15,7 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import OutputError
+from obsnl.report.files import check_target
 
 __all__ = ["figure2", "figure3", "plot_fit", "plot_traces", "plot_bank_forces", "FIGURE_PREFIX"]
 
@@ -37,12 +38,13 @@ def _plt():
 def _save(plt, fig, path: str | Path, *, dpi: int = 130, tight: bool = True) -> Path:
     """Save ``fig`` as PNG at ``path`` through a temporary file in the same folder, renamed onto ``path``:
     a symbolic link there is replaced by the file, never written through (the caller has decided, with
-    :func:`obsnl.report.files.check_target`, that ``path`` may be replaced)."""
-    if tight:
-        fig.tight_layout()
-    out = Path(path)
+    :func:`obsnl.report.files.check_target`, that ``path`` may be replaced). What no caller may replace is
+    refused before anything is created: a FIFO, a device or a socket, a name that names a folder (``x.png/``)."""
     tmp = None
     try:
+        out = check_target(path, force=True)
+        if tight:
+            fig.tight_layout()
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = out.parent / f".{out.name}.{os.getpid()}.tmp"  # a new file (O_EXCL), the user's umask applies
         fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_NOFOLLOW", 0), 0o666)
@@ -50,8 +52,10 @@ def _save(plt, fig, path: str | Path, *, dpi: int = 130, tight: bool = True) -> 
             fig.savefig(fh, dpi=dpi, format="png")
         os.replace(tmp, out)
         tmp = None
+    except OutputError:
+        raise
     except OSError as exc:
-        raise OutputError(f"cannot write {out}: {exc.strerror or exc}") from None
+        raise OutputError(f"cannot write {path}: {exc.strerror or exc}") from None
     finally:
         plt.close(fig)
         if tmp is not None and os.path.exists(tmp):
@@ -279,6 +283,10 @@ def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float
     fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 2.6 * rows + 0.4), squeeze=False)
     for ax in axes.ravel()[len(profiles):]:
         ax.axis("off")
+    if not profiles:  # a run without the refinement (refine=False, or it could not run) has none: said, not blank
+        axes[0, 0].text(0.5, 0.5, "no profile likelihood in this run:\nthe maximum-likelihood refinement\ndid not run "
+                        "(see identify.json)",
+                        ha="center", va="center", fontsize=9, transform=axes[0, 0].transAxes)
     for ax, pr in zip(axes.ravel(), profiles):
         pts = np.array(pr.points, float).reshape(-1, 2)
         # between computed points, sqrt(Delta) is interpolated linearly on each side of the estimate (exact for a

@@ -9,7 +9,9 @@ Every command that writes goes through one writer, :class:`OutputFolder` (:func:
 file): files are created exclusively in a private staging folder and moved onto their names only when
 all are written; without ``--force`` a name is claimed atomically (a hard link, which fails when the
 name exists), with ``--force`` a file is renamed over the old one, so a symlink or a hard-linked file
-is replaced, never written through or truncated; the named folder itself is never a symlink.
+is replaced, never written through or truncated; the named folder itself is never a symlink. Only
+regular files are written: a FIFO, a device or a socket at a file's name is refused even with ``--force``,
+and so is a file name that names a folder (``new.toml/``).
 """
 
 from __future__ import annotations
@@ -33,10 +35,13 @@ _SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,120}$")
 def check_target(path: str | Path, *, force: bool, root: str | Path | None = None) -> Path:
     """Check that ``path`` may be written: refuse what would surprise the user.
 
-    Refused: an existing file or a symlink (even a dangling one) without ``force``; a folder; a parent
-    that is a file; a ``root`` folder that is a symlink (even with ``force``: obsnl never writes through a
-    link, and a link to a folder is the user's way of pointing elsewhere, not a file to replace); a path
-    that leaves ``root`` (when given). Nothing is created.
+    Refused: an existing file or a symlink (even a dangling one) without ``force``; a folder; a FIFO, a
+    device or a socket (even with ``force``: obsnl writes only regular files, and replacing one would break
+    what reads it); a name given as text that names a folder (it ends with a path separator, ``.`` or
+    ``..``, which :class:`~pathlib.Path` would drop); a parent that is a file; a ``root`` folder that is a
+    symlink (even with ``force``: obsnl never writes through a link, and a link to a folder is the user's
+    way of pointing elsewhere, not a file to replace); a path that leaves ``root`` (when given). Nothing
+    is created.
 
     Parameters
     ----------
@@ -65,7 +70,14 @@ def check_target(path: str | Path, *, force: bool, root: str | Path | None = Non
     Traceback (most recent call last):
     ...
     obsnl.errors.OutputError: out/../x.md would be written outside out; name a file inside the folder
+    >>> check_target("new.toml/", force=True)
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.OutputError: new.toml/ ends with '/': that names a folder, but a file is due; drop the slash
     """
+    if isinstance(path, str) and (end := _FOLDER_END.search(path)) and end.group():
+        fix = "drop the slash" if end.group() in _SEPS else f"name a file, not {end.group()!r}"
+        raise OutputError(f"{path} ends with {end.group()!r}: that names a folder, but a file is due; {fix}")
     p = Path(path)
     if root is not None:
         base = os.path.realpath(root)
@@ -77,6 +89,7 @@ def check_target(path: str | Path, *, force: bool, root: str | Path | None = Non
                           f"link by a file)")
     if p.is_dir() and not p.is_symlink():
         raise OutputError(f"{p} is a folder; name a file")
+    _refuse_special(p)
     if p.exists() and not force:
         raise OutputError(f"{p} exists; pass force=True to overwrite it")
     if root is not None and Path(root).is_symlink():
@@ -86,6 +99,28 @@ def check_target(path: str | Path, *, force: bool, root: str | Path | None = Non
         if parent.exists() and not parent.is_dir():
             raise OutputError(f"{parent} is a file, not a folder; choose another output path")
     return p
+
+
+#: The path separators of this system, and the end of a name that names a folder (``x/``, ``x/.``, ``..``).
+_SEPS = os.sep + (os.altsep or "")
+_FOLDER_END = re.compile(rf"(?:^|[{re.escape(_SEPS)}])\.{{0,2}}\Z")
+#: What a name may be other than a regular file, a symlink or a folder.
+_SPECIAL = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+            (stat.S_ISSOCK, "a socket"))
+
+
+def _refuse_special(path: Path, name: str | None = None, dir_fd: int | None = None) -> None:
+    """Refuse ``path`` (looked at as ``name`` in the open folder ``dir_fd`` when given) if it is there and is
+    neither a regular file, a symlink nor a folder: a FIFO, a device or a socket is never replaced."""
+    try:
+        mode = os.lstat(path if name is None else name, dir_fd=dir_fd).st_mode
+    except OSError:  # missing (or unreadable: the checks that follow, or the write, say so)
+        return
+    if stat.S_ISREG(mode) or stat.S_ISLNK(mode) or stat.S_ISDIR(mode):
+        return
+    kind = next((what for test, what in _SPECIAL if test(mode)), "a special file")
+    raise OutputError(f"{path} is {kind}, not a regular file: obsnl writes only regular files (force=True does not "
+                      f"replace it); choose another path")
 
 
 def check_folder(out: str | Path, names: Sequence[str], *, force: bool) -> Path:
@@ -252,6 +287,8 @@ class OutputFolder:
         missing = [n for n in self.names if not self._staged(n)]
         if missing:
             raise OutputError(f"{self.folder / missing[0]} was not written; nothing was written")
+        for name in self.names:  # a FIFO or a device that appeared meanwhile: refused before any file is moved
+            _refuse_special(self.folder / name, name, self._fd)
         done: list[str] = []
         try:
             for name in self.names:
