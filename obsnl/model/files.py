@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from obsnl.errors import ParseError
+from obsnl.model.bounds.textsize import MAX_DIGITS
 from obsnl.model.core import Model
 
 __all__ = ["read_model_file", "parse_text", "read_model", "as_model", "catalogue_path", "catalogue_folder", "model_to_toml", "PACKAGED"]
@@ -63,12 +64,42 @@ def _unique_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return out
 
 
+class _LongNumber(ParseError):
+    """A number literal over :data:`~obsnl.model.bounds.textsize.MAX_DIGITS` digits (its message is final)."""
+
+
+_DIGIT_RUN = re.compile(r"\d[\d_]*")
+
+
+def _long_number(where: str, what: str) -> _LongNumber:
+    return _LongNumber(f"a number with more than {MAX_DIGITS} digits in {where}: {what}; write it with an exponent "
+                       f"(e.g. 1.5e20) or scale the model (numbers in expressions have the same bound)")
+
+
+def _line_of(text: str, literal: str | None = None) -> str:
+    """'line N' of ``literal`` in ``text``, or of the first run of more than MAX_DIGITS digits."""
+    at = text.find(literal) if literal else -1
+    if at < 0:
+        at = next((m.start() for m in _DIGIT_RUN.finditer(text)
+                   if sum(c.isdigit() for c in m.group()) > MAX_DIGITS), -1)
+    return f"line {text.count(chr(10), 0, at) + 1}" if at >= 0 else "a number literal"
+
+
+def _check_numbers(data: Any, where: str, path: str = "") -> None:
+    """Refuse an integer over MAX_DIGITS digits anywhere in parsed data (TOML reads integers itself)."""
+    if isinstance(data, int) and not isinstance(data, bool) and abs(data) >= 10 ** MAX_DIGITS:
+        raise _long_number(where, path or "the top level")
+    items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
+    for k, v in items:
+        _check_numbers(v, where, f"{path}.{k}" if path and isinstance(k, str) else f"{path}[{k}]" if path else str(k))
+
+
 def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
     """Parse TOML or JSON text with the limits obsnl puts on files other people write.
 
     Refused: nesting deeper than :data:`MAX_NESTING` (checked on the text before the recursive parsers
-    run), a key twice in one JSON object (JSON parsers silently keep the last), integers over 4300
-    digits, ``NaN``/``Infinity`` in JSON.
+    run), a key twice in one JSON object (JSON parsers silently keep the last), number literals over
+    :data:`~obsnl.model.bounds.textsize.MAX_DIGITS` (100) digits, as in expressions, ``NaN``/``Infinity`` in JSON.
 
     Parameters
     ----------
@@ -90,6 +121,10 @@ def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
     Traceback (most recent call last):
     ...
     obsnl.errors.ParseError: the file is not valid JSON: the key 'a' appears twice in one object; keep one
+    >>> parse_text("a = " + "9" * 200, kind="toml")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.ParseError: a number with more than 100 digits in the file: a; write it with an exponent (e.g. 1.5e20) or scale the model (numbers in expressions have the same bound)
     """
     depth = deepest = 0
     for c in text:  # brackets inside strings count too: an over-estimate is harmless here
@@ -101,29 +136,42 @@ def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
     if deepest > MAX_NESTING:
         raise ParseError(f"{where} nests arrays/tables {deepest} deep (at most {MAX_NESTING}); "
                          f"a model file needs 3")
+
+    def number(literal: str, read: Callable[[str], Any]) -> Any:
+        if sum(c.isdigit() for c in literal.lower().partition("e")[0]) > MAX_DIGITS:
+            raise _long_number(where, _line_of(text, literal))
+        return read(literal)
+
     try:
         if kind == "toml":
             import tomllib
 
             try:
-                return tomllib.loads(text)
+                data = tomllib.loads(text, parse_float=lambda s: number(s, float))
             except tomllib.TOMLDecodeError as exc:
                 raise ParseError(f"{where} is not valid TOML: {exc}") from None
+            _check_numbers(data, where)
+            return data
 
         def constant(name: str) -> Any:
             raise ParseError(f"{name} is not a number obsnl accepts; write a finite number")
 
         try:
-            return json.loads(text, object_pairs_hook=_unique_keys, parse_constant=constant)
+            return json.loads(text, object_pairs_hook=_unique_keys, parse_constant=constant,
+                              parse_int=lambda s: number(s, int), parse_float=lambda s: number(s, float))
         except json.JSONDecodeError as exc:
             raise ParseError(f"{where} is not valid JSON: {exc}") from None
+    except _LongNumber as exc:  # final as it is, raised as the plain ParseError
+        raise ParseError(str(exc)) from None
     except ParseError as exc:
         if str(exc).startswith(where):
             raise
         raise ParseError(f"{where} is not valid {kind.upper()}: {exc}") from None
     except RecursionError:
         raise ParseError(f"{where} is nested too deeply") from None
-    except ValueError as exc:  # e.g. an integer over 4300 digits
+    except ValueError as exc:
+        if "integer string conversion" in str(exc):  # TOML's own int() of a literal over 4300 digits
+            raise ParseError(str(_long_number(where, _line_of(text)))) from None
         raise ParseError(f"{where} is not valid {kind.upper()}: {exc}") from None
 
 

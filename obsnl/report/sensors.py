@@ -99,9 +99,33 @@ def _ranking_rows(search: Any) -> list[dict[str, Any]]:
 
 
 def _num(x: Any) -> str:
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "inf"
+    """A bound or a log-determinant in 3 digits; an infinity with its sign (a singular information matrix has
+    ``log det FIM`` -inf, an uninformed parameter a relative std +inf), ``n/a`` for a missing value."""
+    if x is None or (isinstance(x, float) and math.isnan(x)):
+        return "n/a"
+    if isinstance(x, float) and math.isinf(x):
+        return "inf" if x > 0 else "-inf"
     return f"{x:.3g}"
+
+
+#: What a null of the JSON ranking means (JSON has no infinities): stated in ``ranking_setup``.
+NULLS = ("worst_relative_std or relative_std null: an infinite bound (the record does not inform that parameter); "
+         "log_det_fim null: an infinite log-determinant, its sign in log_det_fim_infinite "
+         "('-inf': a singular Fisher information)")
+
+
+def _json(search: Any) -> str:
+    """The search as JSON: infinities stay null (valid JSON), each ranked row says which infinity its
+    ``log_det_fim`` is (``log_det_fim_infinite``: ``"-inf"``, ``"inf"`` or None) and ``ranking_setup.nulls``
+    what a null means."""
+    doc = search.to_dict()
+    ranking = getattr(search, "ranking", None)
+    if ranking is not None and "ranking" in doc:
+        for row, r in zip(doc["ranking"], ranking.rows):
+            x = r.log_det_fim
+            row["log_det_fim_infinite"] = ("inf" if x > 0 else "-inf") if math.isinf(x) else None
+        doc.setdefault("ranking_setup", {})["nulls"] = NULLS
+    return json.dumps(doc, indent=2)
 
 
 def render_sensors(search: Any, fmt: str = "text") -> str:
@@ -119,7 +143,7 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
     str
     """
     if fmt == "json":
-        return json.dumps(search.to_dict(), indent=2)
+        return _json(search)
     rows, ranked = _rows(search), _ranking_rows(search)
     efi = getattr(search, "effective_independence", ())
     if fmt == "text":

@@ -97,7 +97,7 @@ class ModelSignature:
 
     def check(self, other: ModelSignature, *, exact_switching: bool = False, fix: str = TABLE_FIX,
               what: str = "the branch table") -> None:
-        """Refuse ``other`` unless it describes the same model as this signature.
+        """Refuse ``other`` unless it describes the same model as this signature, name included.
 
         Parameters
         ----------
@@ -115,7 +115,9 @@ class ModelSignature:
         Raises
         ------
         TableError
-            Naming the first difference and the fix.
+            Naming the first difference and the fix: the names and order of each role, the switching functions,
+            the model's name (when both signatures carry one: a table made for a model called otherwise is
+            refused, although the fingerprint leaves the name out), the fingerprint.
         """
         for key in ("states", "parameters", "inputs", "outputs"):
             mine, theirs = getattr(self, key), getattr(other, key)
@@ -129,6 +131,8 @@ class ModelSignature:
             raise TableError(f"{what}'s switching functions {quoted(self.switching)} differ from the compiled "
                              f"model's {quoted(other.switching)}; compile with to_casadi(model, "
                              f"switching=table.switching)")
+        if self.name and other.name and self.name != other.name:  # an empty name: not known, not compared
+            raise TableError(f"{what} is for model {quote(self.name)}, not {quote(other.name)}; {fix}")
         if self.fingerprint != other.fingerprint:
             raise TableError(f"{what}'s fingerprint {self.fingerprint[:12]}... does not match this model's "
                              f"{other.fingerprint[:12]}... (the equations differ); {fix}")

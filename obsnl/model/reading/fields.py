@@ -18,7 +18,7 @@ from typing import Any
 import sympy as sp
 
 from obsnl.errors import ModelError
-from obsnl.model.bounds.textsize import check_model_size
+from obsnl.model.bounds.textsize import MAX_DIGITS, check_model_size
 from obsnl.model.reading.latex import latex_clash, latex_problem
 from obsnl.model.reading.names import check_distinct, check_name, check_text, close_name, name_list
 from obsnl.model.reading.parse import make_symbol, parse_expression, quote, shorten
@@ -255,6 +255,12 @@ def _read_tables(raw: Mapping[str, Any], seen: Mapping[str, str], outs: Mapping[
                 raise ModelError(f"{key} gives a number for undeclared symbol {quote(k, 40)}{close_name(k, list(seen))}")
             if key == "guess" and k not in parameters:
                 raise ModelError(f"guess.{k}: only parameters have guesses; remove it")
+            if isinstance(v, bool) or getattr(getattr(v, "dtype", None), "kind", "") == "b":  # float(True) is 1.0
+                raise ModelError(f"{key}.{k} is a boolean ({str(v).lower()}), not a number; write a number "
+                                 f"(e.g. {k} = 1.0)")
+            if isinstance(v, int) and abs(v) >= 10 ** MAX_DIGITS:  # as a literal in an expression (and unprintable)
+                raise ModelError(f"{key}.{k} is a number with more than {MAX_DIGITS} digits; write it with an "
+                                 f"exponent (e.g. 1.5e20) or scale the model")
             try:
                 fv = float(v)
             except (TypeError, ValueError, OverflowError):

@@ -6,7 +6,9 @@ later with a NameError. Every declared name must therefore already be in NFKC fo
 a letter or ``_`` followed by letters, digits and ``_`` (Unicode letters allowed, as in the branch-table
 schema), must not be a Python keyword or start with ``__``, nor be one of the class names the expression
 reader calls (:data:`~obsnl.model.reading.parse.PARSER_NAMES`: ``Integer``, ``Float``, ``Rational``, ``Symbol``,
-``Function``).
+``Function``). A symbol (a state, parameter, input or constant, not an output) must not be named like a function
+of the expression language either (:data:`~obsnl.model.reading.parse.FUNCTION_NAMES`: ``exp``, ``sin``, ``Max``,
+``Eq``, ...): it would shadow the function, and ``exp(x)`` would call the symbol.
 
 Non-ASCII letters stay allowed (``μ``, ``Δ1``), but two names of one model that look alike are refused:
 each name is reduced to a *skeleton* (compatibility decomposition, then the Cyrillic and Greek letters
@@ -30,7 +32,7 @@ from typing import Any
 import sympy as sp
 
 from obsnl.errors import ModelError
-from obsnl.model.reading.parse import PARSER_NAMES, nfkc_problem, quote, shorten
+from obsnl.model.reading.parse import FUNCTION_NAMES, PARSER_NAMES, nfkc_problem, quote, shorten
 
 __all__ = ["check_name", "check_text", "check_distinct", "skeleton", "name_list", "close_name", "LOOK_ALIKE"]
 
@@ -41,6 +43,12 @@ LOOK_ALIKE: dict[str, str] = dict(zip(
 ))
 
 _NAME = re.compile(r"[^\W\d]\w*")
+
+#: The keys that declare symbols of the expressions, each in words (an output's name is never a symbol).
+_SYMBOL_ROLES: dict[str, str] = {
+    "states": "state", "parameters": "parameter", "inputs": "input", "unknown_inputs": "unknown input",
+    "known_constants": "known constant", "known_initial_conditions": "state",
+}
 
 
 def check_text(value: str, key: str, *, multiline: bool = False) -> None:
@@ -130,6 +138,9 @@ def check_name(name: str, key: str) -> None:
     if name in PARSER_NAMES:
         raise ModelError(f"'{key}': {name!r} is the name of a class the expression reader uses; rename it "
                          f"(e.g. {name + '_'!r})")
+    if name in FUNCTION_NAMES and key in _SYMBOL_ROLES:  # the symbol would shadow the function: exp(x) fails
+        raise ModelError(f"name {name!r} is a function of the model language ({name}(...)); rename the "
+                         f"{_SYMBOL_ROLES[key]} (e.g. {name + '_'!r})")
 
 
 def skeleton(name: str) -> str:

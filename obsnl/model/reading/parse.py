@@ -32,8 +32,8 @@ from obsnl.model.bounds.textsize import (
 from obsnl.model.bounds.regroup import regroup_sums
 from obsnl.model.bounds.work import MAX_EXACT_DIGITS, exact_digits
 
-__all__ = ["ALLOWED_FUNCTIONS", "PARSER_NAMES", "make_symbol", "parse_expression", "check_expression_size",
-           "nfkc_problem", "shorten", "quote"]  # the last three are defined in obsnl.model.bounds.textsize
+__all__ = ["ALLOWED_FUNCTIONS", "FUNCTION_NAMES", "PARSER_NAMES", "make_symbol", "parse_expression",
+           "check_expression_size", "nfkc_problem", "shorten", "quote"]  # the last three are defined in obsnl.model.bounds.textsize
 
 #: Functions a model expression may use, by the name written in the file.
 ALLOWED_FUNCTIONS: dict[str, Any] = {
@@ -62,6 +62,11 @@ _CONSTANTS: dict[str, Any] = {"pi": sp.pi}
 
 #: Logical helpers for Piecewise conditions.
 _LOGIC: dict[str, Any] = {"And": sp.And, "Or": sp.Or, "Not": sp.Not, "Eq": sp.Eq, "Ne": sp.Ne, "True": sp.true, "False": sp.false}
+
+#: Every name an expression can call (``exp(x)``, ``Eq(v, 0)`` in a Piecewise condition): a declared symbol of
+#: that name would shadow the function, and ``exp(...)`` would then call a symbol.
+FUNCTION_NAMES: frozenset[str] = frozenset(ALLOWED_FUNCTIONS) | frozenset(
+    k for k, v in _LOGIC.items() if isinstance(v, type))
 
 # The names parse_expr's generated code needs; nothing else from sympy is visible.
 _PARSER_GLOBALS: dict[str, Any] = {

@@ -36,6 +36,10 @@ def schema() -> dict[str, Any]:
     return json.loads(text)
 
 
+#: The analysis methods a table can come from (:data:`obsnl.observability.analyze.METHODS`; the estimators read this
+#: module without the analysis, so the names are repeated here): ``check_table`` re-runs the table's method.
+TABLE_METHODS: tuple[str, ...] = ("auto", "orc", "sedoglavic")
+
 #: Most branches of a table: an analysis splits into at most 1024 (:func:`obsnl.model.split_branches`); 4096 =
 #: 2**12 sign patterns, the most switching functions of one group of representative branches.
 MAX_TABLE_BRANCHES = 4096
@@ -117,6 +121,9 @@ class BranchTable:
                 f"write one with `obsnl analyze MODEL --format json-table -o TABLE.json`"
             )
         _check_sizes(data)  # before the schema: validating 60 000 branches took 11.5 s
+        if "method" in data and data["method"] not in TABLE_METHODS:  # else check_table would run "auto"
+            raise TableError(f"the branch table's method {quote(data['method'])} is not an analysis method of obsnl; "
+                             f"known: {', '.join(TABLE_METHODS)}; {TABLE_FIX}")
         try:
             jsonschema.validate(dict(data), schema())
         except jsonschema.ValidationError as exc:
