@@ -107,7 +107,7 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                  _o("--rank-size", type=_whole(1), help="with --record"),
                  _o("--noise", type=_number, help="with --record (default 0.01)"), *ONE_WORKER]),
     "design": (DESIGN, "the smallest record scale and the records that make a model identifiable", None,
-               [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}"),
+               [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}; one at least, repeat for more"),
                 _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
                 _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", metavar="S1,S2,..."), SEED]),
 }

@@ -5,7 +5,8 @@ for which the targets are jointly identifiable (``sensors``, on the sufficiency 
 ``sufficiency``); the practical ranking of sufficient sets by the Cramer-Rao bound along a simulated
 response, compared with effective independence on the linear part's modes (``ranking``); and the
 experiment: the branches a record visits as its scale grows, the smallest scale that makes every target
-identifiable and which of several records suffice (``experiment``). The workflows on a model file and
+identifiable and which of several records suffice (``experiment``; its searches, the targets no scale makes
+identifiable and the scales whose simulation blew up, in ``experiment_search``). The workflows on a model file and
 its records that the command line runs (``records``: one time budget, the visits of a record, the design
 figure), the analysis side's jobs as the command line runs them, each returning what it prints (``jobs``),
 and the checks of the public entries' arguments (``arguments``) live here too.
@@ -23,7 +24,7 @@ from obsnl._exports import lazy_exports
 #: one module of the room loads nothing else): name -> module.
 _LAZY: dict[str, str] = {
     "design": "experiment", "ExperimentDesign": "experiment", "SensorSearch": "sensor_search",
-    "rank_sensor_sets": "ranking", "effective_independence": "ranking",
+    "rank_sensor_sets": "ranking", "effective_independence": "ranking", "BlowUp": "experiment_search",
 }
 
 __all__ = list(_LAZY)

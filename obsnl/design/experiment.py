@@ -14,6 +14,12 @@ reaches every branch a smaller one does). When it does not, the bisection still 
 insufficient ``lo`` and a sufficient ``hi`` (both simulated), reported with the bracket (not always the smallest
 sufficient scale); :attr:`ExperimentDesign.notes` says where the visited set shrank and which larger grid scales fail.
 
+**Structural first; blow-ups** (:mod:`obsnl.design.experiment_search`). Targets that the sensors leave unidentifiable
+even when every branch is visited are named up front (:attr:`ExperimentDesign.structural`) and the scale is searched
+for the others; all of them unidentifiable is an error. A scale whose fixed-step simulation blows up (a non-finite
+state) gives no verdict: it is listed in :attr:`ExperimentDesign.blowups`, the larger grid scales are not tried and
+the answer comes from the scales that ran (inconclusive above them when none of those suffices).
+
 **Several records** are experiments sharing the parameters, each with its own states: their verdict is the joint
 verdict over the union of their visited patterns (obsnl's joint verdict gives every visit its own states already). It
 also pairs switching surfaces between visited branches, which may come from different records: a crossing it credits
@@ -24,17 +30,19 @@ verdict) and is not listed.
 
 from __future__ import annotations
 
-import itertools
-import math
 import time
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Union
 
+import numpy as np
+
 from obsnl.design.arguments import design_arguments, record_run
+from obsnl.design.experiment_search import NOT_NOISE, BlowUp, ScaleBlewUp, blow_up, minimal_records, no_scale_ran
+from obsnl.design.experiment_search import scale_notes as _notes, search_scales as _search, structural_targets
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
-from obsnl.errors import NotSupportedError, OptionError
+from obsnl.errors import AnalysisError, NotSupportedError, OptionError
 from obsnl.estimation.accelerogram import Record
 from obsnl.model.branching.branches import split_branches
 from obsnl.model.bounds.budget import check_time, remaining, time_budget
@@ -42,7 +50,7 @@ from obsnl.model.core import Model
 from obsnl.observability.analyze import assumptions as analysis_assumptions
 from obsnl.observability.joint.visited import Visits, visited_patterns
 
-__all__ = ["VisitedBranch", "ScaleVisit", "ExperimentDesign", "design", "DEFAULT_SCALES", "MAX_RECORDS"]
+__all__ = ["VisitedBranch", "ScaleVisit", "ExperimentDesign", "BlowUp", "design", "DEFAULT_SCALES", "MAX_RECORDS"]
 
 #: The default scales: powers of 2 from 2**-10 (about 1e-3) to 2**10 (about 1e3), 21 of them, 1 among them.
 DEFAULT_SCALES = tuple(2.0 ** k for k in range(-10, 11))
@@ -61,7 +69,11 @@ _ASSUMED = {
     "scale": "the visited set grows with the scale; if not, the bisection ends on a sufficient boundary (the bracket)",
     "records": "experiments sharing the parameters, each with its own states; the joint verdict pairs switching "
                "surfaces between visited branches, which may come from different records",
-    "sufficient_records": "at scale 1; a superset of a sufficient subset is sufficient and not listed"}
+    "sufficient_records": "at scale 1; a superset of a sufficient subset is sufficient and not listed",
+    "structural": "targets not jointly identifiable when every branch is visited are so at every scale: named, "
+                  "not searched",
+    "blow-ups": "a scale whose fixed-step simulation blows up gives no verdict; the larger grid scales are not tried",
+    "min_scale": NOT_NOISE}
 
 
 def _pattern(signs: Sequence[int]) -> str:
@@ -146,6 +158,14 @@ class ExperimentDesign:
     seed, assumptions, notes, seconds
         Seed of the analyses, what every verdict assumes, observations (a visited set that does not grow
         with the scale), wall time.
+    structural, structural_reason
+        Targets not jointly identifiable with the sensors even when every branch is visited (no scale makes them
+        identifiable: the scale is searched for the others, :attr:`searched`), and why (the symmetries).
+    blowups, skipped
+        The scales whose simulation blew up (:class:`~obsnl.design.experiment_search.BlowUp`: scale, record, time,
+        reason; they gave no verdict), and the grid scales above the first of them, not tried.
+    unjudged_records
+        Records left out of :attr:`sufficient_records` because their simulation at scale 1 blew up.
     """
 
     model: str
@@ -166,6 +186,16 @@ class ExperimentDesign:
     assumptions: Mapping[str, Any] = field(default_factory=dict, repr=False)
     notes: tuple[str, ...] = ()
     seconds: float = 0.0
+    structural: tuple[str, ...] = ()
+    structural_reason: str = ""
+    blowups: tuple[BlowUp, ...] = ()
+    skipped: tuple[float, ...] = ()
+    unjudged_records: tuple[str, ...] = ()
+
+    @property
+    def searched(self) -> tuple[str, ...]:
+        """The targets whose smallest scale is searched: :attr:`targets` less the :attr:`structural` ones."""
+        return tuple(n for n in self.targets if n not in self.structural)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``min_scale``, ``bracket``, ``visited`` (per scale), ``sufficient_records`` and the rest."""
@@ -175,7 +205,10 @@ class ExperimentDesign:
                 "visited": [v.to_dict() for v in self.visits], "analyses": self.analyses, "seed": self.seed,
                 "sufficient_records": [list(s) for s in self.sufficient_records], "notes": list(self.notes),
                 "undecided_records": [list(s) for s in self.undecided_records], "seconds": round(self.seconds, 3),
-                "assumptions": dict(self.assumptions)}
+                "assumptions": dict(self.assumptions), "structural": list(self.structural),
+                "structural_reason": self.structural_reason, "searched": list(self.searched),
+                "blowups": [b.to_dict() for b in self.blowups], "skipped": list(self.skipped),
+                "unjudged_records": list(self.unjudged_records)}
 
 
 class _Runs:
@@ -186,13 +219,32 @@ class _Runs:
         self.sims: dict[tuple[int, float], Visits] = {}
         self.verdicts: dict[frozenset, Sufficiency] = {}
         self.analyses = 0
+        self.blowups: dict[tuple[int, float], BlowUp] = {}  # (record, scale): no verdict there
         self._labels: dict[tuple[int, ...], str] | None = None
 
     def simulate(self, i: int, scale: float) -> Visits:
+        """Record ``i``'s visits at ``scale``; :class:`ScaleBlewUp` where its simulation blows up."""
+        if (i, scale) in self.blowups:
+            raise ScaleBlewUp(self.blowups[i, scale])
         if (i, scale) not in self.sims:
             name, t, inputs = self.runs[i]
             check_time(f"simulating record {name!r} at scale {scale:g}", "raise max_seconds=, or give fewer scales")
-            self.sims[i, scale] = visited_patterns(self.sub, t, {k: scale * v for k, v in inputs.items()})
+            with np.errstate(over="ignore"):
+                scaled = {k: scale * v for k, v in inputs.items()}
+            blow = None
+            if all(np.all(np.isfinite(v)) for v in inputs.values()) and \
+                    not all(np.all(np.isfinite(v)) for v in scaled.values()):
+                blow = BlowUp(scale, name, None, f"the record scaled by {scale:g} overflows")
+            else:
+                try:
+                    self.sims[i, scale] = visited_patterns(self.sub, t, scaled)
+                except AnalysisError as err:
+                    blow = blow_up(err, scale, name, t)
+                    if blow is None:  # not the scale's fault (a missing number, the time limit): raised as it is
+                        raise
+            if blow is not None:
+                self.blowups[i, scale] = blow
+                raise ScaleBlewUp(blow)
         return self.sims[i, scale]
 
     def union(self, idx: Sequence[int], scale: float) -> tuple[dict, dict, dict]:
@@ -238,64 +290,6 @@ class _Runs:
                           by if len(self.runs) > 1 else {})
 
 
-def _search(runs: _Runs, grid: Sequence[ScaleVisit], tol: float) -> tuple[Any, ...]:
-    """``(min_scale, bracket, status, reason, bisection points)`` from the grid's verdicts."""
-    first = next((i for i, v in enumerate(grid) if v.sufficient), None)
-    proven = ([v.scale for v in grid[:first] if v.sufficient is False] or [None])[-1]  # largest insufficient
-    top = grid[-1]
-    if first is None and top.sufficient is False:
-        left = f" ({', '.join(top.undecided)} undecided)" if top.undecided else ""
-        return None, (top.scale, None), "none_suffices", (
-            f"at the largest scale {top.scale:g}, {', '.join(top.missing)} stay unidentifiable{left}"), []
-    if first is None:
-        return None, (proven, None), "inconclusive", (
-            f"no scale is proven sufficient; at the largest scale {top.scale:g}: {top.reason}"), []
-    lo, hi = (grid[first - 1].scale if first else None), grid[first].scale
-    if first == 0:
-        return None, (None, hi), "smallest_suffices", (
-            f"the smallest scale {hi:g} already suffices: min_scale is at most {hi:g} (give smaller scales)"), []
-    if grid[first - 1].sufficient is None:
-        return None, (proven, hi), "inconclusive", (
-            f"the verdict at scale {lo:g} is inconclusive ({grid[first - 1].reason}); scale {hi:g} suffices"), []
-    points: list[ScaleVisit] = []
-    while (hi - lo) / hi > tol:
-        points.append(v := runs.at(math.sqrt(lo * hi), bisection=True))
-        if v.sufficient is None:
-            why = f"the verdict at scale {v.scale:.6g} is inconclusive ({v.reason})"
-            return None, (lo, hi), "inconclusive", f"{why}; the boundary lies in [{lo:.6g}, {hi:.6g}]", points
-        lo, hi = (lo, v.scale) if v.sufficient else (v.scale, hi)
-    return hi, (lo, hi), "found", f"scale {hi:.6g} suffices, {lo:.6g} does not", points
-
-
-def _notes(grid: Sequence[ScaleVisit], hi: float | None) -> tuple[str, ...]:
-    """Where the visited set does not grow with the scale (the assumption of the bisection)."""
-    shrink = [(a, b, {x.signs for x in a.branches} - {x.signs for x in b.branches}) for a, b in zip(grid, grid[1:])]
-    notes = [f"scale {a.scale:g} visits {', '.join(_pattern(s) for s in lost)}, which scale {b.scale:g} does not: "
-             f"the visited set does not grow with the scale there" for a, b, lost in shrink if lost][:1]
-    worse = [v.scale for v in grid if hi is not None and v.scale > hi and v.sufficient is False]
-    if worse:
-        notes.append(f"scale(s) {', '.join(f'{s:g}' for s in worse)} above the sufficient boundary are insufficient: "
-                     f"the bracket is a sufficient boundary, not necessarily the only one")
-    return tuple(notes)
-
-
-def _minimal_records(runs: _Runs) -> tuple[tuple[tuple[str, ...], ...], tuple[tuple[str, ...], ...]]:
-    """Minimal sufficient subsets of the records at scale 1, smallest first, and the undecided subsets."""
-    n = len(runs.runs)
-    names = [r[0] for r in runs.runs]
-    if runs.verdict(*runs.union(range(n), 1.0)[:2]).sufficient is False:  # no subset of an insufficient union
-        return (), ()
-    out: dict[bool | None, list[tuple[str, ...]]] = {True: [], None: []}
-    for size in range(1, n + 1):
-        for combo in itertools.combinations(range(n), size):
-            if any(set(f) <= {names[i] for i in combo} for f in out[True]):  # a superset of a sufficient one
-                continue
-            ok = runs.verdict(*runs.union(combo, 1.0)[:2]).sufficient
-            if ok is not False:
-                out[ok].append(tuple(names[i] for i in combo))
-    return tuple(out[True]), tuple(out[None])
-
-
 def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequence[str] = "all",
            sensors: str | Sequence[str] | None = None, scales: Sequence[float] | None = None, tol: float = 1e-3,
            seed: int = 0, max_seconds: float | None = None) -> ExperimentDesign:
@@ -330,12 +324,15 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
     OptionError
         Bad records, scales, tolerance, target or sensors.
     AnalysisError
-        A missing number in ``[values]``, a missing input, a failed simulation, or the time limit.
+        A missing number in ``[values]``, a missing input, the time limit; every target structurally unidentifiable
+        (with these sensors, even when every branch is visited); a simulation that blows up at the smallest scale.
 
     Notes
     -----
     The bisection assumes that the visited set grows with the scale; when it does not, it still ends on a boundary
-    between an insufficient and a sufficient scale, reported with the bracket (and in ``notes``).
+    between an insufficient and a sufficient scale, reported with the bracket (and in ``notes``). Targets that are
+    unidentifiable even when every branch is visited are named in ``structural`` and not searched; a scale whose
+    simulation blows up is named in ``blowups`` and the larger grid scales in ``skipped`` (not tried).
 
     Examples
     --------
@@ -368,13 +365,25 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
         if not runs or len(runs) > MAX_RECORDS or len(set(names)) < len(names):
             raise OptionError(f"give 1 to {MAX_RECORDS} records with distinct names, got {len(runs)}: "
                               f"{', '.join(map(repr, names[:MAX_RECORDS + 1]))}")
-        state = _Runs(model, sub, runs, targets, seed)
-        on_grid = [state.at(s) for s in grid]
-        min_scale, bracket, status, reason, points = _search(state, on_grid, tol)
-        suff, undecided = _minimal_records(state)
+        structural, why, reachable = structural_targets(model, sub, targets, seed=seed, max_seconds=remaining())
+        state = _Runs(model, sub, runs, tuple(n for n in targets if n not in structural), seed)
+        on_grid: list[ScaleVisit] = []
+        cut = None
+        for s in grid:  # increasing; a scale that blows up stops the grid (a larger one is no better behaved)
+            try:
+                on_grid.append(state.at(s))
+            except ScaleBlewUp as exc:
+                cut = exc.blow
+                break
+        if cut is not None and not on_grid:
+            raise no_scale_ran(cut)
+        min_scale, bracket, status, reason, points = _search(state, on_grid, tol, cut, reachable)
+        suff, undecided, left_out = minimal_records(state)
     how = {**analysis_assumptions(sub, "arbitrary", None), **_ASSUMED}
     return ExperimentDesign(
         model.name, targets, tuple(sub.output_names), tuple(names), state.sims[0, grid[0]].switching,
         tuple(sorted(on_grid + points, key=lambda v: v.scale)), min_scale, bracket, status, reason, float(tol),
         suff, undecided, state.analyses, seed, how, _notes(on_grid, bracket[1] if status == "found" else None),
-        time.perf_counter() - t0)
+        time.perf_counter() - t0, structural=structural, structural_reason=why,
+        blowups=tuple(sorted(state.blowups.values(), key=lambda b: (b.scale, b.record))),
+        skipped=tuple(s for s in grid if cut is not None and s > cut.scale), unjudged_records=left_out)

@@ -70,18 +70,35 @@ def _pending(candidates: Sequence[str], size: int, anc: dict[str, set[str]], tar
     return sum(want <= set().union(*(anc[c] for c in s)) for s in itertools.combinations(candidates, size))
 
 
+def shared_symmetry_text(model: Model, seed: int) -> str:
+    """``symmetries of every branch that no output breaks: ...`` (empty when the symmetry search finds none).
+
+    Parameters
+    ----------
+    model : Model
+        The model with the outputs measured.
+    seed : int
+        Seed of the branch selection and of the symmetry search.
+
+    Returns
+    -------
+    str
+        The generators shared by every analysed branch; an explanation, never the proof (the joint verdict is).
+    """
+    try:
+        chosen, _ = select_branches(model, seed=seed)
+        gens = shared_symmetries(model, [b for b in chosen if not b.undecided], seed=seed)
+    except Exception:  # noqa: BLE001  the symmetry is an explanation; the proof is the analysis
+        gens = ()
+    return "symmetries of every branch that no output breaks: " + "; ".join(str(g) for g in gens) if gens else ""
+
+
 def _symmetry_proof(model: Model, missing: Sequence[str], seed: int) -> str:
     """The targets no sensor reveals, and the shared symmetries that move them (when found)."""
     text = f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not jointly identifiable even with " \
            f"every candidate sensor"
-    try:
-        chosen, _ = select_branches(model, seed=seed)
-        gens = shared_symmetries(model, [b for b in chosen if not b.undecided], seed=seed)
-    except Exception:  # noqa: BLE001  the symmetry is an explanation; the proof is the analysis above
-        gens = ()
-    if gens:
-        text += "; symmetries of every branch that no output breaks: " + "; ".join(str(g) for g in gens)
-    return text
+    gens = shared_symmetry_text(model, seed)
+    return f"{text}; {gens}" if gens else text
 
 
 def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size: int | None = None,

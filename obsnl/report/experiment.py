@@ -3,7 +3,9 @@ JSON and the figure of the visited branches against the scale.
 
 The design room ranks above this one, so nothing here imports it: every function reads the result by its
 attributes (``visits``, ``min_scale``, ``bracket``, ``status``, ``sufficient_records`` ...) and its
-``to_dict``. A table row is one simulated scale (grid scales, and bisection points marked ``*``).
+``to_dict``. A table row is one simulated scale (grid scales, and bisection points marked ``*``), or a scale whose
+simulation blew up (no verdict). Targets that no scale makes identifiable (``structural``) come first in the
+summary, then ``min_scale``, then the blow-ups and the grid scales not tried above them (``blowups``, ``skipped``).
 """
 
 from __future__ import annotations
@@ -32,14 +34,36 @@ def _branch(b: Any) -> str:
     return f"{name} {b.seconds:.4g}"
 
 
+def _when(b: Any) -> str:
+    """``at t = 7.12`` of a blow-up (its time), or why it has none."""
+    return f"at t = {b.time:.4g}" if b.time is not None else "(the scaled record overflows)"
+
+
 def _rows(design: Any) -> list[tuple[str, ...]]:
-    """One row of strings per simulated scale."""
+    """One row of strings per simulated scale, and one per scale that blew up (no verdict), by scale."""
     rows = []
     for v in design.visits:
         lost = ", ".join(v.missing) + (f" (undecided: {', '.join(v.undecided)})" if v.undecided else "")
-        rows.append((f"{v.scale:.6g}" + ("*" if v.bisection else ""), "; ".join(_branch(b) for b in v.branches),
-                     str(sum(v.crossings.values())), _VERDICT[v.sufficient], lost or "-"))
-    return rows
+        rows.append((v.scale, (f"{v.scale:.6g}" + ("*" if v.bisection else ""),
+                               "; ".join(_branch(b) for b in v.branches), str(sum(v.crossings.values())),
+                               _VERDICT[v.sufficient], lost or "-")))
+    for b in getattr(design, "blowups", ()):
+        rows.append((b.scale, (f"{b.scale:.6g}", f"blew up {_when(b)} (record {b.record})", "-", "no verdict", "-")))
+    return [r for _, r in sorted(rows, key=lambda r: r[0])]
+
+
+def _blowups(design: Any) -> list[tuple[str, str]]:
+    """``("blew up", text)`` per scale whose simulation blew up, the grid scales not tried said with the first."""
+    lines = []
+    skipped = getattr(design, "skipped", ())
+    for i, b in enumerate(getattr(design, "blowups", ())):
+        text = (f"scale {b.scale:g}: the simulation of record {b.record} blew up {_when(b)} (a non-finite state: the "
+                f"fixed-step simulation diverged or left the model's domain); no verdict at that scale")
+        if i == 0 and skipped:
+            text += (f"; larger scales not tried ({', '.join(f'{x:g}' for x in skipped)}): a larger excitation of the "
+                     f"same record is no better behaved with the fixed step")
+        lines.append(("blew up", text))
+    return lines
 
 
 def _sets(sets: Sequence[Sequence[str]]) -> str:
@@ -47,8 +71,13 @@ def _sets(sets: Sequence[Sequence[str]]) -> str:
 
 
 def _summary(design: Any) -> list[tuple[str, str]]:
-    """``(heading, text)`` lines: the smallest scale, the records, the cost, the notes."""
+    """``(heading, text)`` lines: the targets no scale makes identifiable, the smallest scale, the blow-ups, the
+    records, the cost, the notes."""
     lo, hi = design.bracket
+    first = []
+    if getattr(design, "structural", ()):
+        first.append(("structural", f"{design.structural_reason}; min_scale is searched for "
+                                    f"{', '.join(design.searched)} only"))
     if design.status == "found":
         scale = (f"{design.min_scale:.6g} (bracket [{lo:.6g}, {hi:.6g}]: the upper end suffices, the lower does "
                  f"not; relative width at most {design.tol:g})")
@@ -58,11 +87,18 @@ def _summary(design: Any) -> list[tuple[str, str]]:
         scale = f"none of the scales tried: {design.reason}"
     else:
         scale = f"undecided: {design.reason}"
-    records = _sets(design.sufficient_records) or "none: the records together do not suffice at scale 1"
+    left_out = getattr(design, "unjudged_records", ())
+    records = _sets(design.sufficient_records) or (
+        "none among the records that ran at scale 1" if left_out else
+        "none: the records together do not suffice at scale 1")
     if design.undecided_records:
         records += f"; undecided: {_sets(design.undecided_records)}"
-    lines = [("min_scale", scale), ("sufficient records (scale 1)", records),
-             ("analyses", f"{design.analyses} joint verdicts for {len(design.visits)} scales (one per visited set)")]
+    if left_out:
+        records += f"; not judged: {', '.join(left_out)} (the simulation blew up at scale 1 or below)"
+    lines = [*first, ("min_scale", scale), *_blowups(design), ("sufficient records (scale 1)", records),
+             ("analyses", f"{design.analyses} joint verdicts for {len(design.visits)} scales (one per visited set)"
+              + (", and one over every branch (the targets no scale makes identifiable)"
+                 if hasattr(design, "structural") else ""))]
     return lines + [("note", n) for n in design.notes]
 
 
@@ -176,7 +212,9 @@ def plot_visits(design: Any, path: str | Path) -> Path:
     if design.min_scale is not None:
         ax.axvline(design.min_scale, color="k", lw=1, label=f"min_scale {design.min_scale:.4g}")
     elif design.status == "smallest_suffices":
-        ax.axvline(hi, color="k", lw=1, ls="--", label=f"min_scale at most {hi:.4g}")
+        ax.axvline(hi, color="k", lw=1, ls="--", label=f"min_scale at most {hi:.4g} (structural)")
+    for i, b in enumerate(getattr(design, "blowups", ())):
+        ax.axvline(b.scale, color="C3", lw=1, ls=":", label="blew up (no verdict)" if i == 0 else None)
     ax.set_xscale("log")
     ax.set_yticks(range(len(rows)), list(names.values()))
     ax.set_ylim(-0.7, len(rows) - 0.3)
