@@ -1,4 +1,4 @@
-"""The observer bank (obsnl.linear.bank): decision logic, and the scoring of observer_bank.md section 2.6.
+"""The observer bank (obsnl.linear.bank): decision logic, and the scoring of docs/observer_bank.md section 2.6.
 
 The scoring runs the section 2.5 scenarios once (module fixture) with three evaluation noise
 seeds; thresholds come from healthy runs with three *other* seeds.
@@ -104,7 +104,7 @@ def test_crack_5_is_never_located_elsewhere_than_observer_4(study):
 
 
 def test_true_crack_forces_match_the_notes(study):
-    # observer_bank.md 2.5 "truth" column (RMS of the crack force on the moment dipole)
+    # docs/observer_bank.md 2.5 "truth" column (RMS of the crack force on the moment dipole)
     truth = {"crack1": 1.40, "crack2": 0.477, "crack3": 0.306, "crack4": 0.165, "crack5": 0.064}
     for name, value in truth.items():
         assert runs_of(study, name)[0].truth_rms == pytest.approx(value, rel=0.1)

@@ -1,4 +1,4 @@
-"""The benchmark link (obsnl.studies.cantilever) against analytic beam theory and the facts of observer_bank.md 2.1-2.3."""
+"""The benchmark link (obsnl.studies.cantilever) against analytic beam theory and the facts of docs/observer_bank.md 2.1-2.3."""
 
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ def test_conditioning_facts_of_the_notes(beam):
 
 def test_breathing_crack_opens_about_half_the_time_and_softens(beam):
     sim = beam.simulate(dt=5e-4, duration=4.0, crack=BreathingCrack(2, 0.3, onset=1.0))
-    assert 0.45 <= sim.open_fraction <= 0.56  # observer_bank.md 2.3: 0.50-0.52
+    assert 0.45 <= sim.open_fraction <= 0.56  # docs/observer_bank.md 2.3: 0.50-0.52
     assert np.all(sim.n_true[sim.t < 1.0] == 0.0)
     healthy = beam.simulate(dt=5e-4, duration=4.0)
     assert np.allclose(sim.x[sim.t < 1.0], healthy.x[healthy.t < 1.0])

@@ -2,7 +2,7 @@
 
 Expected answers come from constructions with a known answer (Kalman decomposition with k
 unobservable states, chains of integrators), from analytic solutions, from the facts stated
-in observer_bank.md (sections 1.4, 2.6.6, 3.3) and from python-control as a peer.
+in docs/observer_bank.md (sections 1.4, 2.6.6, 3.3) and from python-control as a peer.
 """
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ def test_hautus_and_kalman_rank_agree_on_the_extended_beam(beam, sensors, channe
 
 
 def test_unscaled_pbh_margins_are_meaningless(beam):
-    # observer_bank.md 3.3 item 2: relative margin ~1e-14 without scaling although (A, C) is observable
+    # docs/observer_bank.md 3.3 item 2: relative margin ~1e-14 without scaling although (A, C) is observable
     raw = hautus(beam.system("S1"), scaling="none")
     scaled = hautus(beam.system("S1"))
     assert raw.margin < 1e-12 and not raw.observable
@@ -80,7 +80,7 @@ def test_unscaled_pbh_margins_are_meaningless(beam):
 
 
 def test_scaled_hautus_decides_where_numpy_default_rank_does_not(beam):
-    # observer_bank.md 3.3 item 1: S1 with an s = 2 observer at element 6
+    # docs/observer_bank.md 3.3 item 1: S1 with an s = 2 observer at element 6
     N = beam.crack_distribution(6, ("moment", "shear"))
     sysm = beam.system("S1")
     block = np.block([[sysm.A, N], [sysm.C, np.zeros((7, 2))]])  # the Hautus matrix at lambda = 0 (V = 0)

@@ -16,7 +16,7 @@ The frozen-active covariance (``cross``). Putting the frozen rows and columns of
 back after an update of the active block gives an indefinite matrix. Two rules keep it positive
 semidefinite *by construction*:
 
-``"regression"`` (default, variant (i) of the design notes)
+``"regression"`` (default)
     The frozen block ``U`` is regressed on the prior active block ``A``, ``U = B A + e`` with
     ``B = P_UA P_AA^-1`` and ``e`` independent of everything the step does. Then the predicted
     cross-covariance is ``P_AU- = T P_AU`` with ``T = C_{A-A} P_AA^-1`` (statistical linearisation

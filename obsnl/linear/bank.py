@@ -3,7 +3,7 @@
 Each elementary observer models the unknown fault force at one candidate location (its own
 distribution matrix, the seed paper's ``Ls(i)``) with a fictitious model (by default an
 integrator, the PI observer). All observers see the same inputs and measurements. The bank
-decides (seed paper ``001_d0508a78c5399696.txt`` section III; research notes observer_bank.md
+decides (seed paper ``001_d0508a78c5399696.txt`` section III; docs/observer_bank.md
 section 2.4):
 
 - **detection**: some observer's sliding-window RMS force exceeds its threshold ``tau_j``,

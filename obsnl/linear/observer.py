@@ -8,7 +8,7 @@ disturbance observer, the PI observer of Soeffker et al.; the seed paper
 ``001_d0508a78c5399696.txt`` eqs. (14)-(27)).
 
 Whether this works is decided by the Hautus test of the extended pair, split as in the
-research notes observer_bank.md section 1.4: the plant test at ``lam`` in spec(A) \\ spec(V);
+docs/observer_bank.md section 1.4: the plant test at ``lam`` in spec(A) \\ spec(V);
 at ``lam`` in spec(V) the rank of ``G(lam) = C (lam I - A)^-1 N_R H`` restricted to the
 eigenvectors of V (which needs at least as many measurements as force channels, p >= s);
 the full block matrix where the spectra meet.
@@ -216,7 +216,7 @@ class ExtendedObservability:
 def extended_observability(system: Any, N_R: Any, model: FictitiousModel, *, rtol: float = DEFAULT_RTOL,
                            weak_rtol: float = DEFAULT_WEAK_RTOL, weak_cond: float = 1e2,
                            scaling: str = "balance", output_scale: Any = None) -> ExtendedObservability:
-    """Hautus test of the extended pair ``(A_e, C_e)``, split by eigenvalue (observer_bank.md section 1.4).
+    """Hautus test of the extended pair ``(A_e, C_e)``, split by eigenvalue (docs/observer_bank.md section 1.4).
 
     Parameters
     ----------

@@ -4,7 +4,7 @@ The link is the flexible arm of the seed paper ``001_d0508a78c5399696.txt`` (N =
 sub-links, an observer bank at sub-links 2, 4 and 6). Its numbers are read from the packaged
 ``models/cantilever_link.toml`` (``obsnl:cantilever_link``; :mod:`obsnl.studies.link_model`
 reads and checks it), which copies them from the research notes
-``observer_bank.md`` (sections 2.1-2.5): 6 Hermite-cubic beam elements, node 0 clamped,
+``docs/observer_bank.md`` (sections 2.1-2.5): 6 Hermite-cubic beam elements, node 0 clamped,
 DOFs ``[w_k, theta_k]`` at nodes 1..6 (12 DOF, 24 states ``x = [q; dq/dt]``), consistent
 mass and stiffness matrices, Rayleigh damping.
 

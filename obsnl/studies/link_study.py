@@ -1,4 +1,4 @@
-"""The observer-bank benchmark on the 6-element cantilever link (research notes observer_bank.md §2;
+"""The observer-bank benchmark on the 6-element cantilever link (docs/observer_bank.md §2;
 seed ``001_d0508a78c5399696.txt``): healthy and cracked scenarios, calibration seeds, the bank's
 decisions and the honest scoring, as one frozen :class:`LinkStudy` value."""
 
@@ -53,7 +53,7 @@ class ScenarioRun:
 
 @dataclass(frozen=True)
 class GateCheck:
-    """Extended-system test of one sensor set / channel set / observer element (observer_bank.md 2.6.6)."""
+    """Extended-system test of one sensor set / channel set / observer element (docs/observer_bank.md 2.6.6)."""
 
     sensors: str
     channels: tuple[str, ...]
@@ -89,7 +89,7 @@ class LinkStudy:
 
 def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequence[int] | None = None,
                    spec: LinkSpec | None = None, gates: bool = True) -> LinkStudy:
-    """Run the scenarios of observer_bank.md section 2.5 on the cantilever link.
+    """Run the scenarios of docs/observer_bank.md section 2.5 on the cantilever link.
 
     A healthy link and a breathing crack in each element listed in the model file's
     ``[bank] crack_elements``, each with every evaluation noise seed; thresholds come from
