@@ -77,3 +77,17 @@ def test_the_command_line_refuses_a_channel_given_twice(tmp_path, capsys):
         assert main(["identify", str(model), "--data", str(csv), "--no-refine", *extra]) == 2
         err = capsys.readouterr().err.strip()
         assert "twice" in err and "give it once" in err and len(err.splitlines()) == 1, err
+
+
+@pytest.mark.parametrize("column, words", [
+    (np.sin(T) + 1j, "holds complex numbers"),                       # read as floats: the imaginary part dropped
+    (np.arange(T.size).astype("datetime64[ms]"), "holds dates"),        # read as floats: milliseconds as seconds
+    (np.sin(T) > 0, "holds booleans"),
+    (np.ma.masked_array(np.sin(T), mask=T > 5.0), "holds masked samples"),  # the mask would be ignored
+    ([10 ** 400] * T.size, "is not numeric (or beyond the float range)"),   # OverflowError before
+])
+def test_data_columns_of_the_wrong_kind_are_refused(column, words):
+    cols = _columns() | {"u": column}
+    with pytest.raises(DataError) as info:
+        obsnl.identify(MSD, cols, progress=False)
+    assert words in str(info.value) and "\n" not in str(info.value)

@@ -1,19 +1,26 @@
 """The record value: an evenly sampled acceleration history in m/s², the check of its time steps, and the
-check of a record given to a filter as arrays.
+check of a record given to a filter as arrays; the checks the file readers (:mod:`obsnl.estimation.records`)
+make of a record (its time and acceleration columns' units, its motion) and of absolute time; noise.
 """
 
 from __future__ import annotations
 
+import re
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from decimal import Decimal
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
-from obsnl._text import block, names, number, one_line
+from obsnl._text import block, names, number, one_line, quote
 from obsnl.errors import DataError
 
-__all__ = ["Record", "check_times", "check_inputs", "G"]
+__all__ = [
+    "Record", "check_times", "check_inputs", "G", "ABSOLUTE_TIME", "time_since", "times_from_text", "check_seconds",
+    "acceleration_unit", "check_motion", "rms", "add_noise",
+]
 
 
 #: Standard gravity (m/s² per g), used to convert AT2 files.
@@ -194,3 +201,154 @@ def check_inputs(ys: Any, us: Any, *, ny: int, nu: int) -> tuple[np.ndarray, np.
             raise DataError(f"{name} contain NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
                             f"clean or interpolate the record first")
     return ys, us
+
+
+#: Times from this size on (s) look absolute (Unix epoch time is 1.7e9 s): a file's are subtracted exactly.
+ABSOLUTE_TIME = 1e4
+
+
+def time_since(first: str) -> Callable[[str], float]:
+    """A time cell minus the first time ``first``, exactly on the decimal text (:func:`times_from_text`)."""
+    zero = Decimal(first)
+    return lambda cell: float(Decimal(cell) - zero)
+
+
+def times_from_text(cells: Iterable[str]) -> tuple[np.ndarray, float]:
+    """The times of a file's time column, counted from the first, and the first time. From a first time
+    of :data:`ABSOLUTE_TIME` on (absolute, epoch time) the subtraction is exact, on the decimal text: as floats
+    near 1.7e9 the times carry rounding errors of 1e-7 s, enough to make an even 1 kHz step look irregular.
+
+    Parameters
+    ----------
+    cells : iterable of str
+        The time column's cells (each one a number).
+
+    Returns
+    -------
+    tuple
+        ``(times - first time, first time)``; an infinite time (``1e400``) stays infinite.
+
+    Examples
+    --------
+    >>> t, start = times_from_text(["1700000000.001", "1700000000.002"])
+    >>> t.tolist(), start
+    ([0.0, 0.001], 1700000000.001)
+    """
+    cells = list(cells)
+    t = np.array([float(c) for c in cells], float)
+    if not len(t) or not np.isfinite(t[0]) or abs(t[0]) < ABSOLUTE_TIME:
+        return t, 0.0
+    since, out = time_since(cells[0]), []
+    for c, v in zip(cells, t):
+        try:
+            out.append(since(c) if np.isfinite(v) else v)
+        except ArithmeticError:  # a form float reads and Decimal does not: the float difference
+            out.append(v - t[0])
+    return np.array(out, float), float(t[0])
+
+
+def check_seconds(name: str, where: str) -> None:
+    """Refuse a time column whose name gives another unit than seconds (``time_ms``, ``t_min``, ...).
+
+    Parameters
+    ----------
+    name : str
+        The time column's name.
+    where : str
+        The file, for the message.
+
+    Raises
+    ------
+    DataError
+        A unit other than seconds after ``_``, ``[``, ``(`` or a space.
+
+    Examples
+    --------
+    >>> check_seconds("time_s", "d.csv"), check_seconds("t", "d.csv")
+    (None, None)
+    >>> check_seconds("time_ms", "d.csv")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.DataError: d.csv: the time column 'time_ms' is not in seconds; give the time in seconds as 'time_s'
+    """
+    unit = re.split(r"[_\[(\s]+", name.strip().lower().rstrip(")]"), maxsplit=1)[1:]
+    if unit and unit[0] not in ("s", "sec", "secs", "second", "seconds"):
+        raise DataError(f"{where}: the time column {quote(name)} is not in seconds; give the time in seconds as "
+                        f"'time_s'")
+
+
+#: A unit in the words of a column's name: g and its parts, gal, a length per second (squared: "cm s 2", "cms 2").
+_UNIT = re.compile(r"\b(?:(?P<g>g|gs|mg|ug|µg|gal|gals|mgal)|(?P<l>m|cm|mm|um|µm|km|in|ft)"
+                   r"(?:(?: per)? (?:s|sec)(?P<two> 2| s| sec)?|p?s(?P<fused> 2)))\b")
+
+
+def acceleration_unit(name: str) -> str | None:
+    """The unit in an acceleration column's name, after its first word, when it is not m/s² (None: m/s², or
+    no unit): ``g``, ``mg``, ``gal``, a length per second squared (``cm_s2``, ``[in/s^2]``, ``ft/s/s``,
+    ``cms2``) or per second (a velocity).
+
+    Examples
+    --------
+    >>> [acceleration_unit(n) for n in ("accel_m_s2", "accel", "acc_ns", "accel_g", "a [cm/s^2]", "vel_m_s")]
+    [None, None, None, 'g', 'cm/s^2', 'm/s']
+    """
+    words = " ".join(re.findall(r"[a-zµ]+|\d+", name.lower().replace("²", "2").replace("⁻", ""))[1:])  # after
+    found = [(m["g"] or f"{m['l']}/s" + ("^2" if m["two"] or m["fused"] else "")) for m in _UNIT.finditer(words)]
+    return next((u for u in found if u != "m/s^2"), None)
+
+
+def check_motion(rec: Record) -> Record:
+    """Refuse a record without motion (every sample 0: no excitation, a zero noise level), with values
+    beyond 1e100 in magnitude (the filters square them) or a step outside 1e-6..1 s (a ground motion is
+    sampled at 1-1000 Hz and more; a step of 20 is a time column in milliseconds)."""
+    if not np.any(rec.accel):
+        raise DataError(f"record {rec.name!r}: every sample is 0 (no ground motion); give a record with excitation")
+    peak = float(np.max(np.abs(rec.accel)))
+    if peak > 1e100:
+        raise DataError(f"record {rec.name!r} reaches {peak:.3g}; rescale it (the record is read in m/s^2)")
+    if not 1e-6 <= rec.dt <= 1.0:
+        raise DataError(f"record {rec.name!r} is sampled every {rec.dt:.3g} s; a ground motion is sampled every "
+                        f"1e-6 to 1 s: check that the time is in seconds")
+    return rec
+
+
+def rms(x: Any) -> float:
+    """Root mean square of ``x`` (all entries)."""
+    x = np.asarray(x, float)
+    return float(np.sqrt(np.mean(x ** 2)))
+
+
+def add_noise(signal: Any, *, ratio: float, seed: int | np.random.Generator | None = None) -> np.ndarray:
+    """``signal`` plus Gaussian white noise with RMS ``ratio * rms(signal)`` per column.
+
+    Parameters
+    ----------
+    signal : array_like
+        Samples along the first axis, one column per channel.
+    ratio : float
+        Noise-to-signal RMS ratio, non-negative.
+    seed : int, numpy.random.Generator or None
+        Seed or generator of the noise.
+
+    Returns
+    -------
+    numpy.ndarray
+
+    Raises
+    ------
+    DataError
+        When ``ratio`` is negative or not finite.
+
+    Examples
+    --------
+    >>> x = np.sin(np.linspace(0, 10, 1000))
+    >>> noisy = add_noise(x, ratio=0.01, seed=0)
+    >>> round(rms(noisy - x) / rms(x), 3)
+    0.01
+    """
+    if not (np.isfinite(ratio) and ratio >= 0):
+        raise DataError(f"noise ratio must be >= 0, got {ratio!r}")
+    x = np.asarray(signal, float)
+    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
+    scale = np.sqrt(np.mean(x ** 2, axis=0)) * ratio
+    return x + scale * rng.standard_normal(x.shape)

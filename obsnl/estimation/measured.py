@@ -31,8 +31,8 @@ import numpy as np
 
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError
-from obsnl.estimation.records import check_seconds, read_table, times_from_text
-from obsnl.estimation.accelerogram import Record, check_times
+from obsnl.estimation.records import read_table
+from obsnl.estimation.accelerogram import Record, check_seconds, check_times
 from obsnl.model.bounds.textsize import quote
 
 __all__ = [
@@ -125,17 +125,17 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
     ((3, 1), (3, 1), 0.1)
     """
     where = f"data {source or name!r}"
-    tname = _time_column(columns, (*inputs, *outputs), where)
-    missing = [c for c in (*inputs, *outputs) if c not in columns]
-    if missing:
-        raise DataError(f"{where}: no column for {', '.join(repr(c) for c in missing)}; add one per model input "
-                        f"and output, named as in the model ({', '.join((*inputs, *outputs))})")
+    tname = _time_column(columns, inputs, outputs, where)
     arrays = {}
     for c in (tname, *inputs, *outputs):
+        kind = {"c": "complex numbers", "M": "dates", "m": "time spans", "b": "booleans"}.get(np.asarray(columns[c]).dtype.kind)
+        if kind or np.ma.is_masked(columns[c]):  # read as floats they would lose a part, or a mask, silently
+            raise DataError(f"{where}: column {quote(c)} holds {kind or 'masked samples'}; give real numbers (time in "
+                            f"seconds), every sample present")
         try:
             a = np.asarray(columns[c], float)
-        except (TypeError, ValueError):
-            raise DataError(f"{where}: column {quote(c)} is not numeric") from None
+        except (TypeError, ValueError, OverflowError):
+            raise DataError(f"{where}: column {quote(c)} is not numeric (or beyond the float range)") from None
         if a.ndim != 1:
             raise DataError(f"{where}: column {c!r} must be one series, got shape {a.shape}")
         bad = np.flatnonzero(~np.isfinite(a))
@@ -184,29 +184,23 @@ def read_measured(path: str | Path, *, inputs: Sequence[str], outputs: Sequence[
     [0.0, 0.1, 0.3]
     """
     p = Path(path)
-    where = f"data {str(p)!r}"
-    _, header, body = read_table(p, "data")
-    for h in header:  # a time column in other units (time_ms) is not read as seconds
-        if h.lower().startswith("time") and h not in TIME_COLUMNS and h not in (*inputs, *outputs):
-            check_seconds(h, where)
-    idx = {c: header.index(c) for c in (*TIME_COLUMNS, *inputs, *outputs) if c in header}
-    cols: dict[str, Any] = {c: [] for c in idx}
-    texts: dict[str, list[str]] = {c: [] for c in TIME_COLUMNS if c in idx}
-    for n, cells in body:
-        for c, i in idx.items():
-            try:
-                cols[c].append(float(cells[i]))
-            except ValueError:
-                raise DataError(f"{where} line {n}: column {quote(c)} is not a number: {quote(cells[i].strip())}") from None
-        for c in texts:
-            texts[c].append(cells[idx[c]])
-    for c, text in texts.items():  # absolute (epoch) time: subtracted exactly, on the text
-        cols[c] = times_from_text(text)[0]
-    return measured(cols, inputs=inputs, outputs=outputs, name=p.stem, source=p.name)
+    channels, where = (*inputs, *outputs), f"data {str(p)!r}"
+
+    def choose(header: list[str]) -> tuple[dict[str, int], list[str]]:
+        for h in header:  # a time column in other units (time_ms) is not read as seconds
+            if h.lower().startswith("time") and h not in TIME_COLUMNS and h not in channels:
+                check_seconds(h, where)
+        idx = {c: header.index(c) for c in (*TIME_COLUMNS, *channels) if c in header}
+        _time_column(idx, inputs, outputs, f"data {p.name!r}")  # as measured() will, before the rows are read
+        return idx, [c for c in TIME_COLUMNS if c in idx and c not in channels]  # absolute time: exact
+
+    return measured(read_table(p, "data", choose).values, inputs=inputs, outputs=outputs, name=p.stem, source=p.name)
 
 
-def _time_column(columns: Mapping[str, Any], channels: Sequence[str], where: str) -> str:
-    """The name of the time column of ``columns``, refused when there is none, two, or only a model channel's."""
+def _time_column(columns: Mapping[str, Any], inputs: Sequence[str], outputs: Sequence[str], where: str) -> str:
+    """The name of the time column of ``columns``, refused when there is none, two, or only a model channel's,
+    or when a model input or output has no column."""
+    channels = (*inputs, *outputs)
     found = [c for c in TIME_COLUMNS if c in columns and c not in channels]
     if len(found) > 1:
         raise DataError(f"{where}: two time columns {found}; keep one, 'time_s'")
@@ -216,6 +210,10 @@ def _time_column(columns: Mapping[str, Any], channels: Sequence[str], where: str
                         f"time column; add the time in seconds as a column 'time_s'")
     if not found:
         raise DataError(f"{where}: no time column; name it 'time_s' (seconds) or 't'")
+    missing = [c for c in channels if c not in columns]
+    if missing:
+        raise DataError(f"{where}: no column for {', '.join(repr(c) for c in missing)}; add one per model input "
+                        f"and output, named as in the model ({', '.join(channels)})")
     return found[0]
 
 

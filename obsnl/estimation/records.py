@@ -1,33 +1,59 @@
 """Records: ground-motion CSV and PEER AT2 readers with validation, resampling, measurement noise.
 
 A :class:`~obsnl.estimation.accelerogram.Record` is an evenly sampled acceleration history in m/s²; the
-readers here refuse NaN/inf, non-increasing or irregular time steps and truncated files with a
-:class:`~obsnl.errors.DataError` that names the line and the fix.
+readers here refuse NaN/inf, non-increasing or irregular time steps, truncated files and an acceleration
+column named in other units (``accel_g``, ``a_cm_s2``) with a :class:`~obsnl.errors.DataError` that
+names the line and the fix.
 
 CSV files (records, and measured data in :mod:`obsnl.estimation.measured`) may start with a byte-order
 mark and separate their columns by commas, semicolons or tabs (:func:`read_table`). Time is counted from
 the first sample: absolute (epoch) time near 1.7e9 s is accepted, its first time subtracted exactly
 (:func:`times_from_text`). A message quotes at most 80 characters of the user's text.
+
+The files are untrusted, and read in bounded time and memory: only a regular file is opened (a FIFO or a
+device is refused before, :func:`_open_text`), of at most :data:`MAX_FILE_BYTES`, line by line (lines of
+at most :data:`MAX_LINE` characters), each number kept as 8 bytes of one array (at most
+:data:`MAX_VALUES` of them). A number is plain decimal text, ASCII digits (``nan`` and ``inf`` are read,
+then refused as such): Python's ``float`` also reads ``1_0`` as 10 and other digits than 0-9, refused here.
 """
 
 from __future__ import annotations
 
+import codecs
+import os
 import re
-from collections.abc import Iterator
-from decimal import Decimal, InvalidOperation
+import stat
+from array import array
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
+from itertools import chain, repeat
 from pathlib import Path
-from typing import Any
+from typing import IO, NamedTuple
 
 import numpy as np
 
+from obsnl._text import os_error_line, shorten
 from obsnl.errors import DataError
 from obsnl.model.bounds.textsize import quote
-from obsnl.estimation.accelerogram import G, Record, check_times
+from obsnl.estimation.accelerogram import (ABSOLUTE_TIME, G, Record, acceleration_unit, add_noise, check_motion,
+                                           check_seconds, check_times, rms, time_since, times_from_text)
 
 __all__ = [
-    "check_seconds", "read_text", "read_record", "read_csv", "read_at2", "add_noise", "rms",
-    "MAX_FILE_BYTES", "read_table", "times_from_text",
+    "check_seconds", "read_record", "read_csv", "read_at2", "add_noise", "rms", "Table",
+    "MAX_FILE_BYTES", "MAX_LINE", "MAX_VALUES", "read_table", "times_from_text", "acceleration_unit",
 ]
+
+#: Largest record or data file read (bytes): a long measured record of ten channels and a million
+#: samples is about 150 MB as CSV.
+MAX_FILE_BYTES = 1 << 30
+#: Longest line (characters, its end included): a row of 10 000 channels fits.
+MAX_LINE = 1 << 20
+#: Most numbers kept from one file (8 bytes each: 400 MB): an hour at 1 kHz of time and ten channels is 40
+#: million; a file is read row by row into one array, so memory stays within a few times the file's size.
+MAX_VALUES = 50_000_000
+#: Longest 4th line of an AT2 file (``NPTS=  1999, DT=   .0100 SEC``: under 100 characters).
+_AT2_LINE = 1000
 
 
 def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
@@ -39,274 +65,328 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
         The file; values in m/s², time in s; columns separated by commas, semicolons or tabs.
     column : str or int or None
         Name or index of the acceleration column (default: the one whose name starts with ``acc``, or
-        the only column besides time; anything else is refused, never guessed).
+        the only column besides time; anything else is refused, never guessed). A name ending in another
+        unit than m/s² (:func:`acceleration_unit`) is refused.
     """
     p = Path(path)
-    sep, header, body = read_table(p, "record")
-    times = [i for i, h in enumerate(header) if h.lower().startswith("time") or h.lower() == "t"]
-    if not times:
-        raise DataError(f"{str(p)!r}: no time column in header {quote(header)} (name it 'time_s')")
-    if len(times) > 1:
-        raise DataError(f"{str(p)!r}: {len(times)} time columns {[header[i] for i in times]}; keep one, 'time_s'")
-    tcol = times[0]
-    check_seconds(header[tcol], str(p))
-    if column is None:  # by name: a column called acc..., else the only column besides time
-        others = [i for i in range(len(header)) if i != tcol]
-        named = [i for i in others if header[i].lower().startswith("acc")]
-        pick = named if named else others
-        if len(pick) != 1:
-            raise DataError(f"{str(p)!r}: cannot tell the acceleration column among "
-                            f"{quote([header[i] for i in pick])}; name it 'accel_m_s2' (or keep only time and "
-                            f"acceleration)")
-        acol: int | None = pick[0]
-    elif isinstance(column, int):
-        acol = column
-    else:
-        acol = header.index(column) if column in header else None
-    if acol is None or not 0 <= acol < len(header):
-        raise DataError(f"{str(p)!r}: no acceleration column {quote(column)} in header {quote(header)}")
-    tcells: list[str] = []
-    accel: list[float] = []
-    numbers: list[int] = []
-    for n, cells in body:
-        try:
-            float(cells[tcol])
-            accel.append(float(cells[acol]))
-        except ValueError:
-            raise DataError(f"{str(p)!r} line {n}: not a number: {quote(sep.join(cells).strip())}") from None
-        tcells.append(cells[tcol])
-        numbers.append(n)
-    t, start = times_from_text(tcells)
-    arr = np.column_stack([t, np.array(accel, float)]).reshape(-1, 2)
-    bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
-    if bad.size:
-        raise DataError(f"{str(p)!r} line {numbers[bad[0]]}: NaN/inf value ({bad.size} bad rows); clean the record "
-                        f"first")
-    dt = check_times(arr[:, 0], str(p))
+
+    def choose(header: list[str]) -> tuple[dict[str, int], tuple[str, ...]]:
+        times = [i for i, h in enumerate(header) if h.lower().startswith("time") or h.lower() == "t"]
+        if not times:
+            raise DataError(f"{str(p)!r}: no time column in header {quote(header)} (name it 'time_s')")
+        if len(times) > 1:
+            raise DataError(f"{str(p)!r}: {len(times)} time columns {quote([header[i] for i in times])}; keep "
+                            f"one, 'time_s'")
+        tcol = times[0]
+        check_seconds(header[tcol], str(p))
+        if column is None:  # by name: a column called acc..., else the only column besides time
+            others = [i for i in range(len(header)) if i != tcol]
+            named = [i for i in others if header[i].lower().startswith("acc")]
+            pick = named if named else others
+            if len(pick) != 1:
+                raise DataError(f"{str(p)!r}: cannot tell the acceleration column among "
+                                f"{quote([header[i] for i in pick])}; name it 'accel_m_s2' (or keep only time "
+                                f"and acceleration)")
+            acol: int | None = pick[0]
+        else:
+            acol = column if isinstance(column, int) else header.index(column) if column in header else None
+        if acol is None or not 0 <= acol < len(header) or acol == tcol:
+            raise DataError(f"{str(p)!r}: no acceleration column {quote(column)} in header {quote(header)}")
+        unit = acceleration_unit(header[acol])
+        if unit:  # read as m/s^2 it would be wrong by a factor (9.81 for g), silently
+            raise DataError(f"{str(p)!r}: the acceleration column {quote(header[acol])} is in {unit}, not m/s^2; "
+                            f"convert it to m/s^2 and name it 'accel_m_s2'")
+        return {"t": tcol, "a": acol}, ("t",)
+
+    table = read_table(p, "record", choose)
+    if table.bad_rows:
+        raise DataError(f"{str(p)!r} line {table.bad_line}: NaN/inf value ({table.bad_rows} bad rows); clean the "
+                        f"record first")
+    dt = check_times(table.values["t"], str(p))
+    start = table.starts["t"]
     notes = (f"the time column starts at {start:.10g} s (absolute time?): counted from the first sample",) \
-        if abs(start) >= _ABSOLUTE else ()
-    return _moving(Record(p.stem, arr[:, 1], dt, source=p.name, notes=notes))
+        if start else ()
+    accel = np.ascontiguousarray(table.values["a"])  # not a view keeping the time column alive
+    return check_motion(Record(p.stem, accel, dt, source=p.name, notes=notes))
 
 
 #: Separators of a CSV's columns.
 SEPARATORS = (",", ";", "\t")
 
 
-def read_table(p: Path, what: str) -> tuple[str, list[str], Iterator[tuple[int, list[str]]]]:
-    """The cells of a CSV file with a header line (shared by the record and data readers).
+class Table(NamedTuple):
+    """The columns read by :func:`read_table`."""
+
+    #: The chosen columns' values by the names ``choose`` gave (a time column counted from its first time).
+    values: dict[str, np.ndarray]
+    #: The first time of each time column, 0 when it is not absolute (under 1e4 s).
+    starts: dict[str, float]
+    #: The first line with NaN or inf in a chosen column (0: none), and how many rows have one.
+    bad_line: int
+    bad_rows: int
+
+
+def read_table(p: Path, what: str,
+               choose: Callable[[list[str]], tuple[Mapping[str, int], Iterable[str]]]) -> Table:
+    """The numbers of some columns of a CSV file with a header line (shared by the record and data readers).
 
     The header is the first line that is not blank; its separator is the one of :data:`SEPARATORS` it uses
-    most. Refused: a header of one column (every file has a time column and a channel), a line with
-    another number of cells, and a number with a decimal comma (``0,01`` in a file separated by semicolons).
+    most. Refused: a header of one column (every file has a time column and a channel) or with a name twice,
+    a line with another number of cells, a number with a decimal comma (``0,01`` in a file separated by
+    semicolons), a chosen cell that is not a plain decimal number or beyond the range of floats (``1e400``),
+    more than :data:`MAX_VALUES` numbers. NaN and inf are read (counted in ``bad_rows``).
 
     Parameters
     ----------
     p : Path
-        The file (read by :func:`read_text`).
+        The file (opened by :func:`_open_text`).
     what : str
         What it is, for the messages (``"record"``, ``"data"``).
-
-    Returns
-    -------
-    tuple
-        ``(separator, column names, rows)``: the names stripped (refused when one repeats), the rows an
-        iterator of ``(line number, cells)`` over the lines that are not blank, each checked as it comes.
+    choose : callable
+        ``choose(header)`` (the stripped names) returns ``({name: column index}, time column names)``, or
+        refuses the header: the columns read into the :class:`Table` returned.
     """
-    lines = [(n, line) for n, line in enumerate(read_text(p, what).splitlines(), start=1) if line.strip()]
     where = f"{what} {str(p)!r}"
-    if not lines:
-        raise DataError(f"{where} is empty; give a header line, then samples")
-    head = lines[0][1]
-    counts = {c: head.count(c) for c in SEPARATORS}
-    sep = max(counts, key=lambda c: counts[c])
-    if not counts[sep]:
-        raise DataError(f"{where}: the header {quote(head.strip())} has a single column; separate the columns "
-                        f"(time, then one per channel) with commas")
-    header = [h.strip() for h in head.split(sep)]
-    twice = next((h for h in header if header.count(h) > 1), None)
-    if twice is not None:  # it would be read from one of its columns, silently
-        raise DataError(f"{where}: column {quote(twice)} appears {header.count(twice)} times in the header; rename "
-                        f"or remove the copies")
-    return sep, header, _cells(lines[1:], sep, len(header), where)
+    with _open_text(p, what) as f:
+        lines = _lines(f, where)
+        head = next((line for _, line in lines if line.strip()), "")
+        if not head:
+            raise DataError(f"{where} is empty; give a header line, then samples")
+        counts = {c: head.count(c) for c in SEPARATORS}
+        sep = max(counts, key=lambda c: counts[c])
+        if not counts[sep]:
+            raise DataError(f"{where}: the header {quote(head.strip())} has a single column; separate the "
+                            f"columns (time, then one per channel) with commas")
+        header = [h.strip() for h in head.split(sep)]
+        twice, many = Counter(header).most_common(1)[0]
+        if many > 1:  # it would be read from one of its columns, silently
+            raise DataError(f"{where}: column {quote(twice)} appears {many} times in the header; rename or remove "
+                            f"the copies")
+        chosen, times = choose(header)
+        rows = _Rows(where, sep, header, list(chosen.values()), [c in times for c in chosen])
+        return rows.read(f, lines, list(chosen))
 
 
-def _cells(lines: list[tuple[int, str]], sep: str, width: int, where: str) -> Iterator[tuple[int, list[str]]]:
-    """The cells of each numbered line, checked (:func:`read_table`); a generator: a million rows are not held."""
-    for n, line in lines:
-        cells = line.split(sep)
-        if len(cells) != width:
-            raise DataError(f"{where} line {n}: {len(cells)} fields, the header has {width}")
-        comma = next((c for c in cells if _DECIMAL_COMMA.fullmatch(c)), None) if sep != "," else None
-        if comma is not None:
-            raise DataError(f"{where} line {n}: {quote(comma.strip())} has a decimal comma; write numbers with a "
-                            f"decimal point (0.01)")
-        yield n, cells
-
-
+#: A plain decimal number: ASCII digits, sign, point, exponent (or a spelling of NaN or inf, refused by the
+#: readers as such), around it spaces; what numpy's reader takes, not ``1_0`` nor other digits than 0-9.
+_NUMBER = re.compile(r"\s*[-+]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][-+]?[0-9]+)?|(?ai:nan|inf|infinity))\s*")
+_NON_FINITE = re.compile(r"\s*[-+]?(?ai:nan|inf|infinity)\s*")
 _DECIMAL_COMMA = re.compile(r"\s*[-+]?\d*,\d+(?:[eE][-+]?\d+)?\s*")
+#: Characters of the lines read at once (:meth:`_Rows.read`).
+_CHUNK = 1 << 20
 
 
-#: Times from this size on (s) look absolute (Unix epoch time is 1.7e9 s): a file's are subtracted exactly.
-_ABSOLUTE = 1e4
+class _Rows:
+    """The numbers of the chosen columns of a table's data lines (:func:`read_table`), into one array, row
+    after row. The lines are read some thousand at once: a plain chunk (no decimal comma, as many cells in
+    every line as in the header, numbers numpy reads: as :data:`_NUMBER`) is parsed by numpy; any other chunk
+    line by line, cell by cell (:meth:`row`), which names the line and the column of a refusal."""
+
+    def __init__(self, where: str, sep: str, header: list[str], idx: list[int], timed: list[bool]):
+        self.where, self.sep, self.header, self.idx, self.timed = where, sep, header, idx, timed
+        self.conv: list[Callable[[str], float]] = [float] * len(idx)
+        self.starts = [0.0] * len(idx)
+        self.bad = [0, 0]  # first line with NaN/inf, rows with one
+
+    def read(self, f: IO[str], lines: Iterator[tuple[int, str]], names: list[str]) -> Table:
+        flat, n, first = array("d"), 0, None
+        for n, line in lines:  # the first data row: does a time column start at an absolute time?
+            if (first := self.row(n, line)) is not None:
+                cells = line.split(self.sep)
+                for j, i in enumerate(self.idx):
+                    if self.timed[j] and np.isfinite(first[j]) and abs(first[j]) >= ABSOLUTE_TIME:
+                        self.conv[j], self.starts[j], first[j] = time_since(cells[i]), first[j], 0.0
+                flat.extend(first)
+                break
+        while chunk := f.readlines(_CHUNK):
+            if max(map(len, chunk)) > MAX_LINE:
+                n += 1 + [len(line) > MAX_LINE for line in chunk].index(True)
+                raise DataError(f"{self.where} line {n} is over {MAX_LINE:,} characters; a line of samples is "
+                                f"short: give a CSV of one sample a line")
+            block = self.block(chunk, n)
+            if block is None:
+                flat.extend(v for k, line in enumerate(chunk, n + 1) if (row := self.row(k, line)) for v in row)
+            else:
+                flat.frombytes(block.tobytes())
+            n += len(chunk)
+            if len(flat) > MAX_VALUES:
+                raise DataError(f"{self.where} line {n}: over {MAX_VALUES:,} numbers to read; obsnl reads at most "
+                                f"that many (cut the file, decimate it, or drop unused columns)")
+        a = np.frombuffer(flat, float).reshape(-1, len(self.idx)) if flat else np.zeros((0, len(self.idx)))
+        return Table({c: a[:, j] for j, c in enumerate(names)}, dict(zip(names, self.starts)), *self.bad)
+
+    def block(self, chunk: list[str], n: int) -> np.ndarray | None:
+        """The numbers of a plain chunk of lines ``n + 1, ...`` (the class docstring), None for any other."""
+        text, sep = "".join(chunk), self.sep
+        if (sep != "," and "," in text) or \
+                set(map(str.count, chunk, repeat(sep))) != {len(self.header) - 1}:
+            return None
+        try:  # numpy reads a number as float does, 3 times faster, but refuses 1_0 and digits not 0-9
+            block = np.loadtxt(chunk, delimiter=sep, comments=None, usecols=self.idx, ndmin=2, dtype=float)
+            for j, i in enumerate(self.idx):
+                if self.conv[j] is not float:  # absolute time: exactly, on the text
+                    block[:, j] = [self.conv[j](line.split(sep, i + 1)[i].strip()) for line in chunk]
+        except (ValueError, ArithmeticError):  # ArithmeticError: Decimal's Overflow (1e400)
+            return None
+        for k in np.flatnonzero(~np.isfinite(block).all(axis=1)):  # NaN, inf (counted) or 1e400 (refused)
+            self.row(n + 1 + int(k), chunk[k])
+        return block
+
+    def row(self, n: int, line: str) -> list[float] | None:
+        """The numbers of line ``n`` checked cell by cell (None for a blank line), or a one-line refusal."""
+        if not line.strip():
+            return None
+        where, width = f"{self.where} line {n}", len(self.header)
+        if line.count(self.sep) + 1 != width:
+            raise DataError(f"{where}: {line.count(self.sep) + 1} fields, the header has {width}")
+        cells = line.split(self.sep)
+        comma = next((c for c in cells if _DECIMAL_COMMA.fullmatch(c)), None) if self.sep != "," else None
+        if comma is not None:
+            raise DataError(f"{where}: {quote(comma.strip())} has a decimal comma; write numbers with a decimal "
+                            f"point (0.01)")
+        vals: list[float] = []
+        for f, i in zip(self.conv, self.idx):
+            cell, name = cells[i], quote(self.header[i])
+            try:
+                v = f(cell.strip()) if _NUMBER.fullmatch(cell) else None
+            except ArithmeticError:  # the exact difference of an infinite time overflows
+                v = float(cell.strip())
+            except ValueError:
+                v = None
+            if v is None:
+                raise DataError(f"{where}: column {name} is not a number: {quote(cell.strip())} (write plain "
+                                f"decimal numbers: digits 0-9, a sign, a point, an exponent)")
+            if not np.isfinite(v):
+                if not _NON_FINITE.fullmatch(cell):
+                    raise DataError(f"{where}: column {name}: {quote(cell.strip())} is beyond the range of "
+                                    f"floating-point numbers (1.8e308); correct it, or rescale the column")
+                self.bad = [self.bad[0] or n, self.bad[1] + bool(np.all(np.isfinite(vals)))]
+            vals.append(v)
+        return vals
 
 
-def times_from_text(cells: list[str]) -> tuple[np.ndarray, float]:
-    """The times of a file's time column, counted from the first, and the first time. From a first time
-    of :data:`_ABSOLUTE` on (absolute, epoch time) the subtraction is exact, on the decimal text: as floats
-    near 1.7e9 the times carry rounding errors of 1e-7 s, enough to make an even 1 kHz step look irregular.
+_KINDS = ((stat.S_ISFIFO, "FIFO"), (stat.S_ISCHR, "character device"), (stat.S_ISBLK, "block device"),
+          (stat.S_ISSOCK, "socket"))
 
-    Parameters
-    ----------
-    cells : list of str
-        The time column's cells (each one a number).
 
-    Returns
-    -------
-    tuple
-        ``(times - first time, first time)``.
+@contextmanager
+def _open_text(p: Path, what: str) -> Iterator[IO[str]]:
+    """A context manager: the file ``p`` opened as UTF-8 text (without a byte-order mark; any line ending),
+    shared by the record and data readers (``what``, ``"record"`` or ``"data"``, names it in the messages).
 
-    Examples
-    --------
-    >>> t, start = times_from_text(["1700000000.001", "1700000000.002"])
-    >>> t.tolist(), start
-    ([0.0, 0.001], 1700000000.001)
+    Refused with one line (:class:`~obsnl.errors.DataError`): a missing file, a folder, a FIFO or a device
+    (only a regular file is opened: a FIFO would block the open, a device never end), a file over
+    :data:`MAX_FILE_BYTES`, unreadable, or text that is not UTF-8 (its first byte named, where it is read).
     """
-    t = np.array([float(c) for c in cells], float)
-    if not len(t) or not np.isfinite(t[0]) or abs(t[0]) < _ABSOLUTE:
-        return t, 0.0
-    start = float(t[0])
+    where = f"{what} {str(p)!r}"
     try:
-        first = Decimal(cells[0].strip())
-        return np.array([float(Decimal(c.strip()) - first) for c in cells], float), start
-    except (InvalidOperation, ValueError):  # a form float reads and Decimal does not: float difference
-        return t - t[0], start
+        st, fd = os.stat(p), None
+        if stat.S_ISREG(st.st_mode):  # opened without waiting (a FIFO put in its place), then checked again
+            fd = os.open(p, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+            st = os.fstat(fd)
+        if not (stat.S_ISREG(st.st_mode) and st.st_size <= MAX_FILE_BYTES) and fd is not None:
+            os.close(fd)
+            fd = None
+    except FileNotFoundError:
+        raise DataError(f"{where} does not exist") from None
+    except (OSError, ValueError) as exc:  # a name too long, no permission; ValueError: a NUL in the name
+        raise DataError(os_error_line(exc) if isinstance(exc, OSError) else f"{where}: {exc}") from None
+    if stat.S_ISDIR(st.st_mode):
+        raise DataError(f"{where} is a folder; give a file")
+    if not stat.S_ISREG(st.st_mode):
+        kind = next((name for test, name in _KINDS if test(st.st_mode)), "special file")
+        raise DataError(f"{where} is a {kind}, not a regular file: give a file")
+    if fd is None:
+        raise DataError(f"{where} has {st.st_size / 2**20:.0f} MiB; obsnl reads at most {MAX_FILE_BYTES >> 20} "
+                        f"MiB (cut the record, or decimate it)")
+    with open(fd, encoding="utf-8-sig", newline=None) as f:
+        try:
+            yield f
+        except UnicodeDecodeError:
+            raise DataError(f"{where} is not UTF-8 text (byte {_not_utf8(f.buffer)}); save it as UTF-8") from None
 
 
-#: Largest record or data file read (bytes): a long measured record of ten channels and a million
-#: samples is about 150 MB as CSV.
-MAX_FILE_BYTES = 1 << 30
+def _lines(f: IO[str], where: str) -> Iterator[tuple[int, str]]:
+    """The numbered lines of the text file ``f``, refused with one line when one is over :data:`MAX_LINE`
+    characters."""
+    n = 0
+    while line := f.readline(MAX_LINE + 1):
+        n += 1
+        if len(line) > MAX_LINE:
+            raise DataError(f"{where} line {n} is over {MAX_LINE:,} characters; a line of samples is short: give "
+                            f"a CSV of one sample a line")
+        yield n, line
 
 
-def read_text(p: Path, what: str) -> str:
-    """The UTF-8 text of the file ``p`` (without a byte-order mark), refused with one line otherwise (shared by
-    the record and data readers).
-
-    Parameters
-    ----------
-    p : Path
-        The file.
-    what : str
-        What it is, for the messages (``"record"``, ``"data"``).
-
-    Returns
-    -------
-    str
-
-    Raises
-    ------
-    DataError
-        A folder, a missing file, a file over :data:`MAX_FILE_BYTES`, not UTF-8, or unreadable.
-    """
-    if p.is_dir():
-        raise DataError(f"{what} {str(p)!r} is a folder; give a file")
-    if not p.is_file():
-        raise DataError(f"{what} {str(p)!r} does not exist")
-    try:
-        size = p.stat().st_size
-        if size > MAX_FILE_BYTES:
-            raise DataError(f"{what} {str(p)!r} has {size / 2**20:.0f} MiB; obsnl reads at most "
-                            f"{MAX_FILE_BYTES >> 20} MiB (cut the record, or decimate it)")
-        return p.read_bytes().decode("utf-8").removeprefix("\ufeff")  # a byte-order mark (Excel writes one)
-    except UnicodeDecodeError as exc:
-        raise DataError(f"{what} {str(p)!r} is not UTF-8 text (byte {exc.start}); save it as a UTF-8 CSV") from None
-    except OSError as exc:
-        raise DataError(f"cannot read {str(p)!r}: {exc.strerror or exc}") from None
+def _not_utf8(raw: IO[bytes]) -> int:
+    """The offset of the first byte of ``raw`` (read again from the start) that is not UTF-8."""
+    raw.seek(0)
+    decoder, offset = codecs.getincrementaldecoder("utf-8")(), 0
+    while True:
+        chunk, pending = raw.read(1 << 20), len(decoder.getstate()[0])
+        try:
+            decoder.decode(chunk, final=not chunk)
+        except UnicodeDecodeError as exc:
+            return offset - pending + exc.start
+        if not chunk:
+            return offset
+        offset += len(chunk)
 
 
-def check_seconds(name: str, where: str) -> None:
-    """Refuse a time column whose name gives another unit than seconds (``time_ms``, ``t_min``, ...).
-
-    Parameters
-    ----------
-    name : str
-        The time column's name.
-    where : str
-        The file, for the message.
-
-    Raises
-    ------
-    DataError
-        A unit other than seconds after ``_``, ``[``, ``(`` or a space.
-
-    Examples
-    --------
-    >>> check_seconds("time_s", "d.csv"), check_seconds("t", "d.csv")
-    (None, None)
-    >>> check_seconds("time_ms", "d.csv")
-    Traceback (most recent call last):
-    ...
-    obsnl.errors.DataError: d.csv: the time column 'time_ms' is not in seconds; give the time in seconds as 'time_s'
-    """
-    unit = re.split(r"[_\[(\s]+", name.strip().lower().rstrip(")]"), maxsplit=1)[1:]
-    if unit and unit[0] not in ("s", "sec", "secs", "second", "seconds"):
-        raise DataError(f"{where}: the time column {quote(name)} is not in seconds; give the time in seconds as "
-                        f"'time_s'")
-
-
-def _moving(rec: Record) -> Record:
-    """Refuse a record without motion (every sample 0: no excitation, a zero noise level), with values
-    beyond 1e100 in magnitude (the filters square them) or a step outside 1e-6..1 s (a ground motion is
-    sampled at 1-1000 Hz and more; a step of 20 is a time column in milliseconds)."""
-    if not np.any(rec.accel):
-        raise DataError(f"record {rec.name!r}: every sample is 0 (no ground motion); give a record with excitation")
-    peak = float(np.max(np.abs(rec.accel)))
-    if peak > 1e100:
-        raise DataError(f"record {rec.name!r} reaches {peak:.3g}; rescale it (the record is read in m/s^2)")
-    if not 1e-6 <= rec.dt <= 1.0:
-        raise DataError(f"record {rec.name!r} is sampled every {rec.dt:.3g} s; a ground motion is sampled every "
-                        f"1e-6 to 1 s: check that the time is in seconds")
-    return rec
-
-
-_AT2_HEAD = re.compile(r"NPTS\s*=\s*(\d+)\s*,?\s*DT\s*=\s*([0-9.eE+-]+)", re.IGNORECASE)
+#: The 4th line of an AT2 file; no two adjacent quantifiers can share characters (linear time on any line).
+_AT2_HEAD = re.compile(r"NPTS\s*=\s*(\d{1,12})\s*(?:,\s*)?DT\s*=\s*([0-9.eE+-]+)", re.IGNORECASE)
 
 
 def read_at2(path: str | Path) -> Record:
     """Read a PEER NGA ``.AT2`` file (4 header lines, ``NPTS=..., DT=...``, values in g) into m/s²."""
     p = Path(path)
-    lines = read_text(p, "record").splitlines()
-    if len(lines) < 5:
-        raise DataError(f"{str(p)!r}: too short for a PEER AT2 file (4 header lines, then values)")
-    mt = _AT2_HEAD.search(lines[3])
-    if not mt:
-        raise DataError(f"{str(p)!r} line 4: expected 'NPTS= n, DT= dt', got {quote(lines[3].strip())}")
-    try:
-        npts, dt = int(mt.group(1)), float(mt.group(2))
-    except ValueError:
-        raise DataError(f"{str(p)!r} line 4: DT={mt.group(2)!r} is not a number") from None
-    if not (np.isfinite(dt) and dt > 0):
-        raise DataError(f"{str(p)!r} line 4: DT={mt.group(2)!r} must be a positive time step in seconds")
-    if "UNITS OF G" not in lines[2].upper():
-        raise DataError(f"{str(p)!r} line 3: expected acceleration in units of g, got {quote(lines[2].strip())}")
-    values: list[float] = []
-    for n, line in enumerate(lines[4:], start=5):
-        for tok in line.split():
+    where = repr(str(p))
+    with _open_text(p, "record") as f:
+        lines = _lines(f, f"record {where}")
+        head, values, total, padding, row = [next(lines, (0, ""))[1] for _ in range(5)], array("d"), 0, True, 1
+        if not head[4]:
+            raise DataError(f"{where}: too short for a PEER AT2 file (4 header lines, then values)")
+        if len(head[3]) > _AT2_LINE:
+            raise DataError(f"{where} line 4 has {len(head[3]):,} characters; a PEER AT2 file's is "
+                            f"'NPTS= n, DT= dt' (is this an AT2 file?)")
+        mt = _AT2_HEAD.search(head[3])
+        if not mt:
+            raise DataError(f"{where} line 4: expected 'NPTS= n, DT= dt', got {quote(head[3].strip())}")
+        try:
+            npts, dt = int(mt.group(1)), float(mt.group(2))
+        except ValueError:
+            raise DataError(f"{where} line 4: DT={quote(mt.group(2))} is not a number") from None
+        if not (np.isfinite(dt) and dt > 0):
+            raise DataError(f"{where} line 4: DT={quote(mt.group(2))} must be a positive time step in seconds")
+        if npts > MAX_VALUES:
+            raise DataError(f"{where} line 4: NPTS={npts} is over the {MAX_VALUES:,} samples obsnl reads; cut the "
+                            f"record, or decimate it")
+        if "UNITS OF G" not in head[2].upper():
+            raise DataError(f"{where} line 3: expected acceleration in units of g, got {quote(head[2].strip())}")
+        for n, line in chain([(5, head[4])], lines):
+            tokens = line.split()
             try:
-                values.append(float(tok))
+                vals = [float(tok) for tok in tokens]
+                if "_" in line or not line.isascii():
+                    raise ValueError
             except ValueError:
-                raise DataError(f"{str(p)!r} line {n}: not a number: {quote(tok)}") from None
-    if len(values) < npts:
-        raise DataError(f"{str(p)!r}: header says NPTS={npts} but the file holds {len(values)} values (truncated?)")
-    row = max((len(line.split()) for line in lines[4:]), default=1)
-    extra = values[npts:]
-    if extra and not (len(extra) < row and not any(extra)):  # zeros filling the last row are padding
-        raise DataError(f"{str(p)!r}: header says NPTS={npts} but the file holds {len(values)} values; correct NPTS "
+                tok = next((tok for tok in tokens if not _NUMBER.fullmatch(tok)), None)
+                if tok is not None:
+                    raise DataError(f"{where} line {n}: not a number: {quote(tok)}") from None
+                vals = [float(tok) for tok in tokens]
+            values.extend(vals[:max(npts - total, 0)])
+            padding = padding and not any(vals[max(npts - total, 0):])
+            total, row = total + len(vals), max(row, len(vals))
+    if total < npts:
+        raise DataError(f"{where}: header says NPTS={npts} but the file holds {total} values (truncated?)")
+    if total > npts and not (total - npts < row and padding):  # zeros filling the last row are padding
+        raise DataError(f"{where}: header says NPTS={npts} but the file holds {total} values; correct NPTS "
                         f"(obsnl does not cut a record to its header's count)")
-    a = np.array(values[:npts]) * G
+    a = np.frombuffer(values, float) * G
     bad = np.flatnonzero(~np.isfinite(a))
     if bad.size:
-        raise DataError(f"{str(p)!r}: NaN/inf at sample {bad[0]}")
-    return _moving(Record(p.stem, a, dt, source=f"{p.name}: {lines[1].strip()}"))
+        raise DataError(f"{where}: NaN/inf at sample {bad[0]}")
+    return check_motion(Record(p.stem, a, dt, source=f"{p.name}: {shorten(head[1], 200)}"))
 
 
 def read_record(path: str | Path) -> Record:
@@ -318,45 +398,3 @@ def read_record(path: str | Path) -> Record:
         return read_csv(path)
     raise DataError(f"{quote(str(path))}: unknown record type {quote(suffix, 20)}; use a .csv (time_s,accel_m_s2) or "
                     f"a PEER .AT2")
-
-
-def rms(x: Any) -> float:
-    """Root mean square of ``x`` (all entries)."""
-    x = np.asarray(x, float)
-    return float(np.sqrt(np.mean(x ** 2)))
-
-
-def add_noise(signal: Any, *, ratio: float, seed: int | np.random.Generator | None = None) -> np.ndarray:
-    """``signal`` plus Gaussian white noise with RMS ``ratio * rms(signal)`` per column.
-
-    Parameters
-    ----------
-    signal : array_like
-        Samples along the first axis, one column per channel.
-    ratio : float
-        Noise-to-signal RMS ratio, non-negative.
-    seed : int, numpy.random.Generator or None
-        Seed or generator of the noise.
-
-    Returns
-    -------
-    numpy.ndarray
-
-    Raises
-    ------
-    DataError
-        When ``ratio`` is negative or not finite.
-
-    Examples
-    --------
-    >>> x = np.sin(np.linspace(0, 10, 1000))
-    >>> noisy = add_noise(x, ratio=0.01, seed=0)
-    >>> round(rms(noisy - x) / rms(x), 3)
-    0.01
-    """
-    if not (np.isfinite(ratio) and ratio >= 0):
-        raise DataError(f"noise ratio must be >= 0, got {ratio!r}")
-    x = np.asarray(signal, float)
-    rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    scale = np.sqrt(np.mean(x ** 2, axis=0)) * ratio
-    return x + scale * rng.standard_normal(x.shape)
