@@ -143,6 +143,9 @@ class Model:
         if not isinstance(data, Mapping):
             raise ParseError("a model must be a table/object of keys")
         unknown = [k for k in data if k not in MODEL_KEYS and k not in METADATA_KEYS]
+        if {"structure", "crack", "bank"} <= set(data):  # the packaged cantilever_link.toml and its copies
+            raise ParseError("this is an observer-bank study file (a cracked cantilever link), not a model: run it "
+                             "with the bank study (obsnl bank, its model option), or give a model file")
         if unknown:
             k = unknown[0]
             raise ParseError(f"unknown key {quote(k, 40)}{_close(k, MODEL_KEYS)}; model keys are {', '.join(MODEL_KEYS)}")
