@@ -239,7 +239,7 @@ class _Runs:
                 try:
                     self.sims[i, scale] = visited_patterns(self.sub, t, scaled)
                 except AnalysisError as err:
-                    blow = blow_up(err, scale, name, t)
+                    blow = blow_up(err, scale, name)
                     if blow is None:  # not the scale's fault (a missing number, the time limit): raised as it is
                         raise
             if blow is not None:

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import re
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -27,6 +26,7 @@ from typing import Any
 from obsnl.design.sufficiency import check_sensors
 from obsnl.errors import AnalysisError
 from obsnl.model.core import Model
+from obsnl.observability.joint.visited import BlewUp
 
 __all__ = ["BlowUp", "ScaleBlewUp", "blow_up", "no_scale_ran", "structural_targets", "search_scales", "scale_notes",
            "minimal_records", "NOT_NOISE"]
@@ -37,7 +37,6 @@ NOT_NOISE = ("a structural statement (which branches the record visits), not abo
              "by the Cramer-Rao bound: rank_sensor_sets)")
 #: Why the grid stops at a blow-up.
 _STOPS = "a larger excitation of the same record is no better behaved with the simulation's fixed step"
-_AT = re.compile(r"blew up at t = ([-+0-9.eEinfa]+)")
 
 
 @dataclass(frozen=True)
@@ -77,7 +76,7 @@ class ScaleBlewUp(Exception):
         self.blow = blow
 
 
-def blow_up(err: AnalysisError, scale: float, record: str, times: Sequence[float] = ()) -> BlowUp | None:
+def blow_up(err: AnalysisError, scale: float, record: str) -> BlowUp | None:
     """The :class:`BlowUp` that the simulation's error ``err`` reports, or None for another error.
 
     Parameters
@@ -88,9 +87,6 @@ def blow_up(err: AnalysisError, scale: float, record: str, times: Sequence[float
         The factor on the record.
     record : str
         The record's name.
-    times : sequence of float
-        The record's sample times: the message gives the time to 4 digits, the one sample time that reads so is
-        the exact one (kept as read when several do).
 
     Returns
     -------
@@ -99,21 +95,12 @@ def blow_up(err: AnalysisError, scale: float, record: str, times: Sequence[float
 
     Examples
     --------
-    >>> blow_up(AnalysisError("the simulation under the record blew up at t = 7.12; check it"), 256.0, "r").time
+    >>> blow_up(BlewUp(7.12), 256.0, "r").time
     7.12
     >>> blow_up(AnalysisError("record= simulates the model's [values]: give a number for k"), 1.0, "r") is None
     True
     """
-    text = str(err)
-    if "blew up" not in text:
-        return None
-    found = _AT.search(text)
-    try:
-        time = float(found.group(1)) if found else None
-    except ValueError:
-        time = None
-    same = [float(t) for t in times if found and f"{t:.4g}" == found.group(1)]
-    return BlowUp(float(scale), record, same[0] if len(same) == 1 else time, text)
+    return BlowUp(float(scale), record, err.time, str(err)) if isinstance(err, BlewUp) else None
 
 
 def no_scale_ran(blow: BlowUp) -> AnalysisError:

@@ -23,7 +23,16 @@ from obsnl.model.bounds.budget import check_time
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.branching.switching import expr_text, switching_of
 
-__all__ = ["Visits", "visited_patterns"]
+__all__ = ["Visits", "visited_patterns", "BlewUp"]
+
+
+class BlewUp(AnalysisError):
+    """The simulation under a record left the finite numbers: ``time`` is the exact sample time it did so."""
+
+    def __init__(self, time: float) -> None:
+        super().__init__(f"the simulation under the record blew up at t = {time:.4g}; check the [values] and the "
+                         "record's amplitude")
+        self.time = float(time)
 
 
 @dataclass(frozen=True)
@@ -128,8 +137,7 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
                 k4 = rhs(x + h * k3, u1)
                 x = x + h / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
             if not np.all(np.isfinite(x)):
-                raise AnalysisError(f"the simulation under the record blew up at t = {t[k + 1]:.4g}; check the "
-                                    "[values] and the record's amplitude")
+                raise BlewUp(t[k + 1])
             X[k + 1] = x
     with np.errstate(all="ignore"):  # every sample at once (a constant switching function broadcasts)
         G = np.column_stack([np.broadcast_to(np.asarray(c, float), (len(t),)) for c in g(list(X.T), list(U))])
