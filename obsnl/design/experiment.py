@@ -38,6 +38,7 @@ from typing import Any, Union
 
 import numpy as np
 
+from obsnl._text import block, one_line
 from obsnl.design.arguments import design_arguments, record_run
 from obsnl.design.experiment_search import NOT_NOISE, BlowUp, ScaleBlewUp, blow_up, minimal_records, no_scale_ran
 from obsnl.design.experiment_search import scale_notes as _notes, search_scales as _search, structural_targets
@@ -209,6 +210,16 @@ class ExperimentDesign:
                 "structural_reason": self.structural_reason, "searched": list(self.searched),
                 "blowups": [b.to_dict() for b in self.blowups], "skipped": list(self.skipped),
                 "unjudged_records": list(self.unjudged_records)}
+
+    def __repr__(self) -> str:
+        return one_line("ExperimentDesign", f"model={self.model!r}, status={self.status!r}, min_scale={self.min_scale!r}")
+
+    def summary(self) -> str:
+        """A few lines: the status, ``min_scale`` and why, the records that suffice (``to_dict`` gives everything)."""
+        scale, recs = "unknown" if self.min_scale is None else f"{self.min_scale:.6g}", "; ".join(
+            "{" + ", ".join(r) + "}" for r in self.sufficient_records) or "none"
+        return block(f"{self.model}: {self.status}, min_scale {scale}", self.reason,
+                     f"sufficient records (scale 1): {recs}", f"{self.analyses} joint verdicts, {len(self.visits)} scales")
 
 
 class _Runs:
