@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 from obsnl.design.experiment import ExperimentDesign, ScaleVisit, VisitedBranch
+from tests.test_result_text import _check  # the rule every result value follows
 
 SCALES = [2.0 ** k for k in range(-10, 11)]  # the default grid: 21 scales
 RECORDS = tuple(f"record_{i}" for i in range(12))
@@ -30,18 +31,6 @@ DESIGN = ExperimentDesign(
     visits=tuple(_visit(s) for s in SCALES), min_scale=1.0, bracket=(0.5, 1.0), status="found",
     reason="scale 1 suffices, 0.5 does not", tol=0.001, sufficient_records=tuple((r,) for r in RECORDS),
     analyses=2, seed=0)
-
-
-def _check(value: object, headline: str, first: str) -> None:
-    r = repr(value)
-    assert "\n" not in r and len(r) <= 160, r
-    assert r.startswith(f"{type(value).__name__}("), r
-    assert headline in r, r
-    s = value.summary()
-    lines = s.splitlines()
-    assert s.endswith("\n") and 1 <= len(lines) <= 12, s
-    assert all(len(line) <= 160 for line in lines), s
-    assert first in lines[0], s
 
 
 def test_design_has_a_one_line_repr_and_a_short_summary() -> None:

@@ -166,9 +166,16 @@ def record_run(model: Model, rec: Any) -> tuple[str, np.ndarray, dict[str, np.nd
     OptionError
         Not a record, a one-column Record for a model of several inputs, or times or samples not numbers.
     """
+    def known(name: Any, inputs: Any) -> None:  # a misspelt input would be ignored, the model's one reported missing
+        other = [k for k in inputs if k not in {u.name for u in model.inputs}]
+        if other:
+            raise OptionError(f"record {quote(name)}: {quote(other[0])} is not an input of {quote(model.name)}; its "
+                              f"inputs are {', '.join(u.name for u in model.inputs) or 'none'}")
+
     if isinstance(rec, Record):
         a = np.asarray(rec.accel, float)
         if a.ndim == 2:
+            known(rec.name, rec.channels)
             return rec.name, rec.t, {c: a[:, j] for j, c in enumerate(rec.channels)}
         if len(model.inputs) != 1:
             raise OptionError(f"record {rec.name!r} drives one input, model {model.name!r} has {len(model.inputs)} "
@@ -176,6 +183,9 @@ def record_run(model: Model, rec: Any) -> tuple[str, np.ndarray, dict[str, np.nd
         return rec.name, rec.t, {model.inputs[0].name: a}
     if isinstance(rec, tuple) and len(rec) == 3 and isinstance(rec[2], Mapping):
         name, t, inputs = rec
+        known(name, inputs)
+        if any(np.iscomplexobj(a) for a in (t, *inputs.values())):  # float() would drop the imaginary part
+            raise OptionError(f"record {quote(name)}: its times and inputs must be real numbers, not complex")
         try:
             return str(name), np.asarray(t, float), {str(k): np.asarray(v, float) for k, v in inputs.items()}
         except (TypeError, ValueError):  # text, or nested lists of unequal lengths

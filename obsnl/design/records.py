@@ -42,6 +42,8 @@ def _model(model: Model | str | Path) -> Model:
 def _check_output(output: str | Path | None, force: bool) -> None:
     """Refuse, before any work, a file the caller is to write the rendering to that cannot be written
     (None or ``"-"``: standard output)."""
+    if output is not None and not str(output).strip():  # else the work runs, then "." is refused as a folder
+        raise OptionError("the output file name is empty; name a file, or - for standard output")
     if output and output != "-":
         from obsnl.report.files import check_target
 

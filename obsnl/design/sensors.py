@@ -51,11 +51,15 @@ from obsnl.observability.certificates.certify import shared_symmetries
 from obsnl.observability.joint.selection import select_branches
 from obsnl.observability.engines.inputs import resolve_unknown_input_derivatives
 from obsnl.design.arguments import model_argument
-from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
+from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict, unreached
 from obsnl.observability.engines.decompose import output_reachable
 from obsnl.design.sensor_search import SensorSearch
 
 __all__ = ["sensors", "rank_sufficient_sets"]
+
+#: Most sets of one size the search enumerates (sets with a sensor that suffices alone are counted, not listed): past
+#: it the level is refused with the max_size= that stays within it (a hang on 24 outputs enumerated 2**24 sets).
+MAX_LEVEL_SETS = 100_000
 
 
 def _check_task(task: tuple) -> Sufficiency:
@@ -134,7 +138,9 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     ------
     OptionError
         A model that is not a Model or a path, a model without outputs, a bad target, ``max_size`` not a
-        whole number >= 1, an executor that is not an :class:`~obsnl.executor.Executor`.
+        whole number >= 1, an executor that is not an :class:`~obsnl.executor.Executor`, a ``progress`` that is
+        neither a bool nor a callable; a size with more than :data:`MAX_LEVEL_SETS` sets to examine (the
+        message names the ``max_size`` that fits).
 
     Examples
     --------
@@ -164,6 +170,8 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     if not isinstance(max_size, int) or isinstance(max_size, bool) or max_size < 1:
         raise OptionError(f"max_size must be a whole number >= 1, got {max_size!r}")
     max_size = min(max_size, m)
+    if not (isinstance(progress, bool) or callable(progress)):
+        raise OptionError(f"progress is True, False or a callable, got {quote(progress, 30)}")
     executor = executor or Executor(workers=1)
     bar = Progress(progress, sum(math.comb(m, k) for k in range(1, max_size + 1)), "sensor sets", "set", counted=True)
     t0 = time.perf_counter()
@@ -190,12 +198,25 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
         return found
 
     anc = {c: output_reachable(restrict(model, [c])) for c in candidates}  # reach of a set: the union
+    want = set(targets)
+    free = list(range(m))  # the candidates that do not suffice alone: a set with one of the others is covered
     for k in range(1, max_size + 1):
-        level = [tuple(candidates[i] for i in idx) for idx in itertools.combinations(range(m), k)]
+        if k == 2:
+            free = [i for i in free if (candidates[i],) not in minimal]
+        n = math.comb(len(free), k)
+        if n > MAX_LEVEL_SETS:
+            bar.close()
+            raise OptionError(f"{n:,} sets of {k} sensors to examine among the {len(free)} candidates that do not "
+                              f"suffice alone, more than {MAX_LEVEL_SETS:,}; give max_size= of at most {max(k - 1, 1)}, "
+                              f"or fewer candidate outputs")
+        if math.comb(m, k) > n:
+            bar(math.comb(m, k) - n)  # each contains a sensor that suffices alone: sufficient, not minimal
+        level = [tuple(candidates[i] for i in idx) for idx in itertools.combinations(free, k)]
         todo, covered = [], set()
+        bases = [frozenset(x) for x in minimal]
         for s in level:
             key = frozenset(s)
-            base = next((x for x in minimal if key >= set(x)), None)
+            base = next((x for x in bases if key >= x), None)
             if base is not None:  # contains a minimal set: sufficient, not minimal
                 covered.add(key)
                 bar()
@@ -207,6 +228,11 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
             if bigger is not None:
                 known[key] = Sufficiency(s, False, missing=known[bigger].missing, how="implied", probability=None,
                                          reason="a subset of {" + ", ".join(known[bigger].sensors) + "}, insufficient")
+                bar()
+                continue
+            reach = set().union(*(anc[c] for c in s))
+            if not want <= reach:  # as check_sensors decides it, without building the restricted model
+                known[key] = unreached(s, [n for n in targets if n not in reach])
                 bar()
                 continue
             todo.append(s)
@@ -231,7 +257,8 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
                                               "sensor fewer was not decided")
         if k == m and full.sufficient is None and not minimal:
             break
-        if not essential_done and not minimal and k < max_size and _pending(candidates, k + 1, anc, targets) > 2 * m:
+        if not essential_done and not minimal and k < max_size and math.comb(m, k + 1) <= MAX_LEVEL_SETS and \
+                _pending(candidates, k + 1, anc, targets) > 2 * m:  # (a larger next size is refused before any work)
             # no set of k sensors suffices and the next size is large: find the essential sensors (those
             # without which even every other sensor is not enough); every set lacking one is then implied
             # insufficient as a subset of that set, so only supersets of the essential sensors are analysed

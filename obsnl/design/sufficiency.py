@@ -31,7 +31,7 @@ from obsnl.model.core import Model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.engines.decompose import output_reachable
 
-__all__ = ["Sufficiency", "resolve_targets", "restrict", "check_sensors"]
+__all__ = ["Sufficiency", "resolve_targets", "restrict", "unreached", "check_sensors"]
 
 
 @dataclass(frozen=True)
@@ -117,6 +117,9 @@ def resolve_targets(model: Model, target: str | Sequence[str] = "all") -> tuple[
     if isinstance(target, str) and target.strip() == "all":
         return tuple(order)
     if isinstance(target, str) and target.strip() == "parameters":
+        if not model.parameters:  # nothing to make identifiable: every sensor set would trivially suffice
+            raise OptionError(f"target 'parameters' names nothing: {quote(model.name)} has no parameters; give all "
+                              f"or names of its states")
         return tuple(p.name for p in model.parameters)
     names = [n.strip() for n in (target.split(",") if isinstance(target, str) else target)]
     names = [n for n in names if n]
@@ -167,6 +170,27 @@ def restrict(model: Model, sensors: Sequence[str]) -> Model:
     return model.replace(outputs=keep)
 
 
+def unreached(names: Sequence[str], lost: Sequence[str], seconds: float = 0.0) -> Sufficiency:
+    """The answer for the outputs ``names`` that the targets ``lost`` have no path to: insufficient, exactly.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The outputs of the set, in the model's order.
+    lost : sequence of str
+        The targets with no path to any of them in the dependency graph.
+    seconds : float
+        Wall time of the test.
+
+    Returns
+    -------
+    Sufficiency
+    """
+    return Sufficiency(tuple(names), False, missing=tuple(lost), how="reachability", probability=1.0,
+                       reason=f"{', '.join(lost)} {'has' if len(lost) == 1 else 'have'} no path to "
+                              f"{', '.join(names)} in the dependency graph", seconds=seconds)
+
+
 def check_sensors(model: Model, sensors: Sequence[str], targets: Sequence[str], *, seed: int = 0,
                   prob: float = 0.99, max_seconds: float | None = None,
                   visited: Mapping[tuple[int, ...], float] | None = None,
@@ -214,10 +238,7 @@ def check_sensors(model: Model, sensors: Sequence[str], targets: Sequence[str], 
     reach = output_reachable(sub)
     lost = tuple(n for n in targets if n not in reach)
     if lost:
-        return Sufficiency(names, False, missing=lost, how="reachability", probability=1.0,
-                           reason=f"{', '.join(lost)} {'has' if len(lost) == 1 else 'have'} no path to "
-                                  f"{', '.join(names)} in the dependency graph",
-                           seconds=time.perf_counter() - t0)
+        return unreached(names, lost, time.perf_counter() - t0)
     res = analyze(sub, seed=seed, prob=prob, max_seconds=max_seconds, visited=visited, crossings=crossings,
                   per_branch=False)
     joint = res.joint

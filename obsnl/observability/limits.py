@@ -151,7 +151,8 @@ def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | N
     Raises
     ------
     OptionError
-        The caller's ``unknown_input_derivatives`` is not ``"arbitrary"``, nor an integer from 0 to the bound.
+        The caller's ``unknown_input_derivatives`` is not ``"arbitrary"``, nor an integer from 0 to the bound, or
+        is given for a model without unknown inputs (it would be ignored).
     ModelError
         The same for the model's ``unknown_input_derivatives`` key.
     AnalysisError
@@ -178,6 +179,9 @@ def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | N
         k = ARBITRARY if value is None else check_unknown_input_derivatives(value)
     except ModelError as exc:
         raise error(f"{where}: {exc}") from None
+    if given and not model.unknown_inputs:  # it describes the unknown inputs: without any it would be ignored
+        raise OptionError(f"{where} describes the unknown inputs, and model {model.name!r} has none; drop it "
+                          f"(or declare the model's unknown_inputs)")
     n_x, n_p = len(model.states), len(model.parameters)
     bound = max_unknown_input_derivatives(n_x, n_p)
     if model.unknown_inputs and k != ARBITRARY and int(k) > bound:

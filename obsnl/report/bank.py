@@ -159,9 +159,8 @@ def check_bank_output(out: str | Path, scenarios: Sequence[str], *, force: bool)
     OutputError
         One line naming the path and the fix.
     """
-    folder = Path(out)
     names = bank_file_names(scenarios)
-    check_folder(folder, names, force=force)  # also refuses an out that is a file
+    folder = check_folder(out, names, force=force)  # also refuses an out that is a file, or empty
     return [folder / name for name in names]
 
 

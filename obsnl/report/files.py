@@ -147,13 +147,15 @@ def check_folder(out: str | Path, names: Sequence[str], *, force: bool) -> Path:
     Raises
     ------
     OutputError
-        One line naming the path and the fix.
+        One line naming the path and the fix (an empty ``out`` too).
 
     Examples
     --------
     >>> check_folder("new-folder", ["a.json"], force=False).name
     'new-folder'
     """
+    if not str(out).strip():  # Path("") is the current folder: never where an empty name meant to write
+        raise OutputError("out= is empty; name a folder (. for the current one)")
     folder = Path(out)
     for name in names:
         check_target(folder / name, force=force, root=folder)

@@ -162,7 +162,7 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     if tuning is not None and (s0, q_theta, q_x, gate) != (None,) * 4:
         raise OptionError("give tuning= or its parts (s0=, q_theta=, q_x=, gate=), not both")
     tuning = tuning if tuning is not None else tuning_from(s0, q_theta, q_x, gate)
-    if out:  # refused before any work: an output folder that cannot take the files
+    if out is not None:  # refused before any work: an output folder that cannot take the files (or empty)
         from obsnl.report.files import check_folder
 
         check_folder(out, IDENTIFY_FILES, force=force)
@@ -225,7 +225,9 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
     if rec is not None:  # a step that cannot be resampled to 100 Hz is refused before the bar starts
         seed_record(rec, options.get("samples"))
     regenerate = out is None and not quick  # the committed results are regenerated on purpose
-    folder = Path(out) if out else (QUICK_FOLDER if quick else DEFAULT_FOLDER) / (rec.name if rec else "")
+    if out is not None:  # an empty name is refused, never read as the current folder
+        check_folder(out, [], force=force)
+    folder = Path(out) if out is not None else (QUICK_FOLDER if quick else DEFAULT_FOLDER) / (rec.name if rec else "")
     figures = [f.name for f in sorted(folder.glob("fig[23]_*.png"))] if folder.is_dir() and not folder.is_symlink() \
         else []
     check_folder(folder, [*seed_reproduction.REPRODUCTION_FILES, *figures], force=force or regenerate)

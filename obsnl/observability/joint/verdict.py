@@ -229,7 +229,8 @@ def joint_verdict(
     """
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}")
-    check_limits_once(model, unknown_input_derivatives)  # before any work (once per call: analyze checked it)
+    # before any work (once per call: analyze checked it); the default 1 means nothing without unknown inputs
+    check_limits_once(model, unknown_input_derivatives if model.unknown_inputs else None)
     if not (0 < prob < 1):
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
     if not model.outputs:

@@ -1,0 +1,191 @@
+"""Hostile input, design commands, second round: ``obsnl sensors``, ``obsnl design``, ``obsnl report``, ``obsnl bank``
+and :func:`obsnl.sensors` / :func:`obsnl.design.experiment.design`.
+
+Each test pins one defect the round found (before the fix: a hang, work done then a confusing refusal, files written
+into the current folder, or a meaningless request answered); each ends in a one-line refusal now (exit 2 with the
+message on stderr, or an :class:`~obsnl.errors.ObsnlError` from Python). What ``tests/test_hostile_design_options.py``
+covers (bad values of every option, wrong types) is not repeated.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+import pytest
+
+import obsnl
+from obsnl import Model, ObsnlError
+from obsnl.cli import main
+from obsnl.design.experiment import design
+from obsnl.errors import OptionError
+from obsnl.estimation.accelerogram import Record
+from tests.test_hostile_design_options import TINY_MODEL as TINY  # one state, one parameter, one input
+
+T = np.arange(200) * 0.01
+U = np.sin(5 * T)
+GAP = Model(name="gap", states=["x", "v"], parameters=["c", "k", "kc", "g"], inputs=["u"],
+            equations={"x": "v", "v": "u - c*v - k*x - kc*Max(x - g, 0)"}, outputs={"y": "x"},
+            values={"c": 0.5, "k": 4.0, "kc": 40.0, "g": 0.1})
+
+
+def _many(n: int) -> Model:
+    """One state, ``n`` outputs, each revealing everything alone."""
+    return Model(name="many", states=["x"], parameters=["k"], inputs=["u"], equations={"x": "-k*x + u"},
+                 outputs={f"y{i}": f"{i + 1}*x" for i in range(n)})
+
+
+def _pairs(n: int) -> Model:
+    """Two decoupled states, ``n`` outputs of each: every minimal set is a pair, no sensor suffices alone."""
+    return Model(name="pairs", states=["x", "z"], parameters=["a", "b"], equations={"x": "-a*x", "z": "-b*z"},
+                 outputs={**{f"a{i}": f"{i + 1}*x" for i in range(n)}, **{f"b{i}": f"{i + 1}*z" for i in range(n)}})
+
+
+@pytest.fixture()
+def files(tmp_path):
+    model = tmp_path / "tiny.toml"
+    model.write_text(TINY, encoding="utf-8")
+    record = tmp_path / "rec.csv"
+    record.write_text("time_s,u\n" + "".join(f"{i * 0.01:.2f},{math.sin(i * 0.05):.6f}\n" for i in range(200)),
+                      encoding="utf-8")
+    return {"dir": tmp_path, "model": str(model), "record": str(record)}
+
+
+def _run(capsys, *argv: str) -> tuple[int, str, str]:
+    capsys.readouterr()
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _refused(code: int, err: str, *words: str) -> None:
+    assert code == 2, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    for w in words:
+        assert w in err, err
+
+
+# ----------------------------------------------------------------------------- the search stays bounded
+def test_many_outputs_that_each_suffice_alone_end_at_once():
+    """24 outputs, each sufficient alone: the search enumerated all 2**24 sets (a hang) though each contains one."""
+    t0 = time.perf_counter()
+    res = obsnl.sensors(_many(24))
+    assert time.perf_counter() - t0 < 10
+    assert len(res.minimal_sets) == 24 and res.analyses == 25  # the full set and each sensor alone
+
+
+def test_the_progress_still_counts_every_set():
+    seen: list[int] = []
+    obsnl.sensors(_many(6), progress=seen.append)
+    assert sum(seen) == 2 ** 6 - 1
+
+
+def test_a_search_size_with_too_many_sets_is_refused_with_the_max_size_that_fits():
+    """60 outputs, pairs needed: sets of 4 sensors are 487 635 (2**60 in all); refused, naming --max-size."""
+    with pytest.raises(OptionError, match="max_size= of at most 3") as info:
+        obsnl.sensors(_pairs(30), target=["a", "b"], max_size=4)
+    assert "487,635 sets of 4 sensors" in str(info.value) and "\n" not in str(info.value)
+
+
+def test_a_search_size_with_too_many_sets_from_the_command_line(capsys, tmp_path):
+    import json
+
+    p, m = tmp_path / "pairs.json", _pairs(30)
+    p.write_text(json.dumps({"name": m.name, "states": ["x", "z"], "parameters": ["a", "b"],
+                             "equations": {"x": "-a*x", "z": "-b*z"},
+                             "outputs": {n: str(m.outputs[n]) for n in m.output_names}}), encoding="utf-8")
+    code, out, err = _run(capsys, "sensors", str(p), "--target", "a,b", "--max-size", "4")
+    _refused(code, err, "--max-size of at most 3")
+    assert not out
+
+
+# ----------------------------------------------------------------------------- meaningless requests
+@pytest.mark.parametrize("function", ["sensors", "design"])
+def test_target_parameters_of_a_model_without_parameters_is_refused(function):
+    """It resolved to no target at all: every sensor set 'sufficed', every scale too (exit 0)."""
+    m = Model(name="nop", states=["x"], parameters=[], inputs=["u"], equations={"x": "-x + u"}, outputs={"y": "x"})
+    with pytest.raises(OptionError, match="has no parameters"):
+        if function == "sensors":
+            obsnl.sensors(m, target="parameters")
+        else:
+            design(m, [("r", T, {"u": U})], scales=[1.0], target="parameters")
+
+
+def test_a_progress_that_is_neither_a_flag_nor_a_callable_is_refused():
+    with pytest.raises(OptionError, match="progress is True, False or a callable"):
+        obsnl.sensors(GAP, progress="yes")
+
+
+@pytest.mark.parametrize("record", [("r", T, {"u": U, "w": U}), ("r", T, {"U": U, "u": U}),
+                                    Record("r", np.c_[U, U], 0.01, channels=("u", "w"))],
+                         ids=["tuple", "misspelt", "channels"])
+def test_a_record_input_the_model_does_not_have_is_refused_not_ignored(record):
+    with pytest.raises(OptionError, match="is not an input of 'gap'"):
+        design(GAP, [record], scales=[1.0])
+
+
+@pytest.mark.parametrize("samples", [U + 1j, U + 0j], ids=["complex", "zero-imaginary"])
+def test_a_complex_record_is_refused_not_cast(samples):
+    """numpy cast it to float with a ComplexWarning and the imaginary part was dropped."""
+    with pytest.raises(OptionError, match="real numbers, not complex"):
+        design(GAP, [("r", T, {"u": samples})], scales=[1.0])
+
+
+# ----------------------------------------------------------------------------- empty output names
+@pytest.mark.parametrize("argv", [["sensors", "-o", ""], ["analyze", "-o", " "], ["design", "--record", "REC", "-o", ""]])
+def test_an_empty_output_file_is_refused_before_any_work(files, capsys, monkeypatch, argv):
+    """The whole job ran, then '. is a folder; name a file'."""
+    import obsnl.design.records as records
+
+    def no_work(*a, **k):
+        raise AssertionError("the job ran")
+
+    for name in ("analyze", "design"):
+        monkeypatch.setattr(records, name, no_work, raising=False)
+    monkeypatch.setattr("obsnl.design.sensors.sensors", no_work)
+    monkeypatch.setattr("obsnl.design.experiment.design", no_work)
+    argv = [a.replace("REC", files["record"]) for a in argv]
+    code, out, err = _run(capsys, argv[0], files["model"], *argv[1:])
+    _refused(code, err, "output file name is empty")
+    assert not out
+
+
+@pytest.mark.parametrize("command", ["report", "bank", "identify", "reproduce"])
+def test_an_empty_out_folder_is_refused_not_the_current_folder(files, capsys, monkeypatch, command):
+    """``--out ""`` wrote the tables (report) or the benchmark (bank) into the current folder; identify wrote
+    nothing without saying so, reproduce wrote into its default folder."""
+    work = files["dir"] / "cwd"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    argv = {"report": ["report", files["model"]], "bank": ["bank"], "reproduce": ["reproduce", "--quick"],
+            "identify": ["identify", files["model"], "--record", files["record"]]}[command]
+    code, out, err = _run(capsys, *argv, "--out", "")
+    _refused(code, err, "--out is empty", "name a folder")
+    assert list(work.iterdir()) == []
+
+
+def test_an_empty_out_folder_is_refused_by_the_library(files):
+    """The check is the library's (the jobs behind the commands, and every writer of a folder), not the CLI's."""
+    from obsnl.errors import OutputError
+    from obsnl.report.files import check_folder
+    from obsnl.studies.jobs import identify_job
+
+    for out in ("", "  "):
+        with pytest.raises(OutputError, match="out= is empty"):
+            check_folder(out, ["a.json"], force=True)
+    with pytest.raises(OutputError, match="out= is empty"):
+        identify_job(files["model"], record=files["record"], out="")
+
+
+# ----------------------------------------------------------------------------- an option that would be ignored
+def test_unknown_input_derivatives_without_unknown_inputs_is_refused(files, capsys):
+    """``--unknown-input-derivatives 2`` on a model without unknown inputs was accepted and ignored."""
+    code, out, err = _run(capsys, "analyze", files["model"], "--unknown-input-derivatives", "2")
+    _refused(code, err, "--unknown-input-derivatives", "has none")
+    assert not out
+    with pytest.raises(OptionError, match="has none"):
+        obsnl.analyze(GAP, unknown_input_derivatives=0)
+    ui = Model(name="ui", states=["x"], parameters=["a"], unknown_inputs=["w"], equations={"x": "-a*x + w"},
+               outputs={"y": "x"})
+    assert obsnl.analyze(ui, seed=1, unknown_input_derivatives=0).assumptions["unknown_input_derivatives"] == 0
