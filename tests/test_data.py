@@ -119,6 +119,9 @@ def test_at2_validation(tmp_path):
         read_at2(p)
     with pytest.raises(DataError, match="unknown record type"):
         read_record(tmp_path / "x.txt")
+    (tmp_path / "runs").mkdir()  # a folder was "unknown record type ''"
+    with pytest.raises(DataError, match="a folder, not a record file"):
+        read_record(tmp_path / "runs")
 
 
 def test_record_validation_and_resampling():

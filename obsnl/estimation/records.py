@@ -396,5 +396,5 @@ def read_record(path: str | Path) -> Record:
         return read_at2(path)
     if suffix == ".csv":
         return read_csv(path)
-    raise DataError(f"{quote(str(path))}: unknown record type {quote(suffix, 20)}; use a .csv (time_s,accel_m_s2) or "
-                    f"a PEER .AT2")
+    kind = "a folder, not a record file" if Path(path).is_dir() else f"unknown record type {quote(suffix, 20)}"
+    raise DataError(f"{quote(str(path))}: {kind}; use a .csv (time_s,accel_m_s2) or a PEER .AT2")
