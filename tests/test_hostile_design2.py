@@ -189,3 +189,10 @@ def test_unknown_input_derivatives_without_unknown_inputs_is_refused(files, caps
     ui = Model(name="ui", states=["x"], parameters=["a"], unknown_inputs=["w"], equations={"x": "-a*x + w"},
                outputs={"y": "x"})
     assert obsnl.analyze(ui, seed=1, unknown_input_derivatives=0).assumptions["unknown_input_derivatives"] == 0
+
+
+def test_a_scale_with_an_underscore_is_refused_not_read_as_another_number(files, capsys):
+    """``--scales 1_0`` was read as 10 (Python's float syntax); a record cell ``1_0`` is refused, so is this."""
+    code, out, err = _run(capsys, "design", files["model"], "--record", files["record"], "--scales", "0.5,1_0")
+    _refused(code, err, "'1_0'")
+    assert not out

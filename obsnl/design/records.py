@@ -257,8 +257,8 @@ def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max
     if not records:
         raise OptionError(f"give at least one {_RECORD} (.csv or .AT2)")
     if isinstance(options.get("scales"), str):  # "0.1,1,10"; what is not a positive number design refuses, quoted
-        try:
-            options["scales"] = [float(x) for x in options["scales"].split(",") if x.strip()]
+        try:  # "1_0" is refused as written (Python's float would read it as 10, a record cell refuses it)
+            options["scales"] = [float(x) if "_" not in x else x for x in options["scales"].split(",") if x.strip()]
         except ValueError:
             pass
     if figure is not None:  # refused before any work (an empty name too: never ignored)
