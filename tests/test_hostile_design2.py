@@ -196,3 +196,14 @@ def test_a_scale_with_an_underscore_is_refused_not_read_as_another_number(files,
     code, out, err = _run(capsys, "design", files["model"], "--record", files["record"], "--scales", "0.5,1_0")
     _refused(code, err, "'1_0'")
     assert not out
+
+
+@pytest.mark.parametrize("argv", [["analyze", "MODEL", "--max-seconds", "1_0"],
+                                  ["identify", "MODEL", "--record", "REC", "--guess", "k=1_0"],
+                                  ["identify", "MODEL", "--record", "REC", "--noise", "y=0_01"]])
+def test_a_number_option_with_an_underscore_is_refused(files, capsys, argv):
+    """Every number option read ``1_0`` as 10 (Python's float); now each is refused as not a number."""
+    argv = [files["model"] if a == "MODEL" else files["record"] if a == "REC" else a for a in argv]
+    code, out, err = _run(capsys, *argv)
+    assert code == 2 and "not a number" in err and "Traceback" not in err, err
+    assert not out

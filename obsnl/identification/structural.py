@@ -210,8 +210,8 @@ def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str
             raise OptionError(f"{option} {item!r}: {name!r} is not a {what} ({', '.join(names)}); write NAME=VALUE")
         if name in out:  # two values for one name: neither silently wins
             raise OptionError(f"{option} gives {name} twice ({name}={out[name]:g} and {item!r}); give it once")
-        try:
-            out[name] = float(value)
+        try:  # digits only: Python's float reads "1_0" as 10 (float("_") fails, so it is refused as not a number)
+            out[name] = float(value if "_" not in value else "_")
         except ValueError:
             raise OptionError(f"{option} {item!r}: {value!r} is not a number") from None
     return out
