@@ -183,6 +183,10 @@ def test_cli_reparametrize(tmp_path, capsys):
     assert main(["reparametrize", str(MODELS / "bouc_wen.toml"), "-o", str(out), "--force"]) == 0
     assert main(["reparametrize", str(MODELS / "bouc_wen.toml"), "--name", "oops"]) == 2
     capsys.readouterr()
+    # renaming a symbol the reparametrization does not propose names the command's option (it said "names")
+    assert main(["reparametrize", str(MODELS / "bouc_wen.toml"), "--name", "k2=kz"]) == 2
+    err = capsys.readouterr().err
+    assert "--name renames 'k2', which is not a proposed symbol" in err and len(err.strip().splitlines()) == 1
     assert main(["symmetries", str(MODELS / "bouc_wen.toml"), "--format", "json"]) == 0
     data = json.loads(capsys.readouterr().out)
     assert [b["label"] for b in data] == ["a", "b", "c", "d"] and all(b["complete"] for b in data)

@@ -208,7 +208,7 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
         internal = coordinates(coords, rest, tinv, forms, V, flips)
         unknown = set(names) - {nm for nm, _, _ in internal}
         if unknown:
-            raise ModelError(f"names renames {sorted(unknown)[0]!r}, which is not a proposed symbol; proposed: "
+            raise ModelError(f"names= renames {sorted(unknown)[0]!r}, which is not a proposed symbol; proposed: "
                              f"{', '.join(nm for nm, _, _ in internal)}")
         new = [(names.get(nm, nm), phi, lin) for nm, phi, lin in internal]
         section = section_map(new, rest, tpiv, sec, V, kic)
