@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import json
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -43,6 +43,7 @@ class Spec:
     samples: int | None
     jit: bool
     table_json: str
+    fit_jit: bool = True  # the maximum-likelihood fit compiled too (with jit; it pays on long work only)
 
 
 def context(spec: Spec) -> dict[str, Any]:
@@ -106,6 +107,8 @@ def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) ->
 
     spec, seed, theta, start = task
     setup = context(spec)["setup"]
+    if setup.jit and not spec.fit_jit:  # the same numbers to rounding, without the fit's compilation
+        setup = replace(setup, jit=False)
     nan = (float("nan"),) * setup.model.np
     tic = time.perf_counter()
     try:
