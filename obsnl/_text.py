@@ -2,7 +2,8 @@
 
 Echoed values cut (:func:`quote`, :func:`shorten`: the one place every error message shortens what the user
 gave), the one line of an operating system's refusal (:func:`os_error_line`), name lists cut to a few,
-numbers short, a probability bound that never rounds a near-certainty up to 1, the joint verdict in words.
+numbers short, a probability bound that never rounds a near-certainty up to 1, the joint verdict in words, and
+the one reading of a number a user typed (:func:`plain_float`).
 Rank 0: it imports nothing of obsnl, so the result values of every room may use it; documents (Markdown,
 LaTeX, JSON, figures) are rendered in :mod:`obsnl.report`.
 """
@@ -13,7 +14,7 @@ import errno
 from collections.abc import Callable, Iterable, Sequence
 
 __all__ = ["WIDTH", "LINES", "SHOWN", "shorten", "quote", "quoted", "names", "number", "numbers", "probability_text",
-           "bound", "one_line", "block", "verdict_words", "os_error_line"]
+           "plain_float", "bound", "one_line", "block", "verdict_words", "os_error_line"]
 
 #: Characters of a one-line ``repr`` at most.
 WIDTH = 160
@@ -139,6 +140,31 @@ def number(x: float | complex | None) -> str:
         z = complex(x)
         return f"{z.real:.4g}{z.imag:+.4g}j" if z.imag else f"{z.real:.4g}"
     return f"{float(x):.4g}"
+
+
+def plain_float(text: str) -> float:
+    """``float(text)`` for a number typed in plain digits (an option, ``NAME=VALUE``).
+
+    Python's ``float`` also reads digit separators, ``1_0`` as 10, where a record cell refuses them: refused here
+    too, so one spelling reads alike everywhere.
+
+    Raises
+    ------
+    ValueError
+        Not a number, or one written with ``_``.
+
+    Examples
+    --------
+    >>> plain_float(" 2.5e-3 "), plain_float("10")
+    (0.0025, 10.0)
+    >>> plain_float("1_0")
+    Traceback (most recent call last):
+    ...
+    ValueError: '1_0' is written with '_'
+    """
+    if "_" in text:
+        raise ValueError(f"{text!r} is written with '_'")
+    return float(text)
 
 
 def numbers(values: Iterable[float], most: int = 6) -> str:

@@ -28,8 +28,9 @@ def _whole(low: int = 0) -> Any:
 
 def _number(text: str) -> float:
     """An argparse type: a number (its range is the library's check), echoed short when it is not one."""
-    try:  # digits only: Python's float reads "1_0" as 10 (float("_") fails, so it is refused as not a number)
-        return float(text if "_" not in text else "_")
+    from obsnl._text import plain_float  # "1_0" is not 10
+    try:
+        return plain_float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text[:30]!r} is not a number") from None
 

@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from obsnl._text import block, names as name_list, one_line
+from obsnl._text import block, names as name_list, one_line, plain_float
 from obsnl.errors import AnalysisError, OptionError
 from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.observability.results import AnalysisResult
@@ -210,8 +210,8 @@ def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str
             raise OptionError(f"{option} {item!r}: {name!r} is not a {what} ({', '.join(names)}); write NAME=VALUE")
         if name in out:  # two values for one name: neither silently wins
             raise OptionError(f"{option} gives {name} twice ({name}={out[name]:g} and {item!r}); give it once")
-        try:  # digits only: Python's float reads "1_0" as 10 (float("_") fails, so it is refused as not a number)
-            out[name] = float(value if "_" not in value else "_")
+        try:
+            out[name] = plain_float(value)
         except ValueError:
             raise OptionError(f"{option} {item!r}: {value!r} is not a number") from None
     return out
