@@ -200,7 +200,8 @@ def test_a_scale_with_an_underscore_is_refused_not_read_as_another_number(files,
 
 @pytest.mark.parametrize("argv", [["analyze", "MODEL", "--max-seconds", "1_0"],
                                   ["identify", "MODEL", "--record", "REC", "--guess", "k=1_0"],
-                                  ["identify", "MODEL", "--record", "REC", "--noise", "y=0_01"]])
+                                  ["identify", "MODEL", "--record", "REC", "--noise", "y=0_01"],
+                                  ["identify", "MODEL", "--record", "REC", "--noise", "0_01"]])
 def test_a_number_option_with_an_underscore_is_refused(files, capsys, argv):
     """Every number option read ``1_0`` as 10 (Python's float); now each is refused as not a number."""
     argv = [files["model"] if a == "MODEL" else files["record"] if a == "REC" else a for a in argv]

@@ -92,6 +92,7 @@ def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
         A ratio that is not a number, an unknown channel, a channel or the plain ratio given twice, or a named
         channel in a study.
     """
+    from obsnl._text import plain_float
     from obsnl.identification.structural import parse_assignments
 
     plain = [v for v in items if "=" not in v]
@@ -99,9 +100,10 @@ def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
     if len(plain) > 1:  # two levels for every channel: neither silently wins
         raise OptionError(f"{option} gives one RATIO for every channel twice ({', '.join(map(repr, plain))}); give it once")
     try:
-        every = float(plain[-1]) if plain else None
+        every = plain_float(plain[0]) if plain else None
     except ValueError:
-        raise OptionError(f"{option} {plain[-1]!r}: give NAME=RATIO or one RATIO for every channel") from None
+        raise OptionError(f"{option} {plain[0]!r} is not a number: give NAME=RATIO or one RATIO for every "
+                          f"channel") from None
     ratios = {c: every for c in channels} if every is not None else {}
     ratios.update(parse_assignments(named, channels, option=option, what="model input or output"))
     if study:
