@@ -208,3 +208,17 @@ def test_a_number_option_with_an_underscore_is_refused(files, capsys, argv):
     code, out, err = _run(capsys, *argv)
     assert code == 2 and "not a number" in err and "Traceback" not in err, err
     assert not out
+
+
+def test_a_quoted_value_with_an_underscore_in_a_model_file_is_refused(tmp_path):
+    """``k = "1_0"`` under [values] was read as 10 (a quoted plain number still reads)."""
+    from obsnl.errors import ModelError
+
+    p = tmp_path / "m.toml"
+    for value, expect in (('"1_0"', None), ('"10"', 10.0)):
+        p.write_text(TINY.replace("k = 1.0", f"k = {value}"), encoding="utf-8")
+        if expect is None:
+            with pytest.raises(ModelError, match="values.k must be a number, got '1_0'"):
+                obsnl.read_model(p)
+        else:
+            assert obsnl.read_model(p).values["k"] == expect

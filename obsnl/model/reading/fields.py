@@ -17,6 +17,7 @@ from typing import Any
 
 import sympy as sp
 
+from obsnl._text import plain_float
 from obsnl.errors import ModelError
 from obsnl.model.bounds.textsize import MAX_DIGITS, check_model_size
 from obsnl.model.reading.latex import latex_clash, latex_problem
@@ -262,7 +263,7 @@ def _read_tables(raw: Mapping[str, Any], seen: Mapping[str, str], outs: Mapping[
                 raise ModelError(f"{key}.{k} is a number with more than {MAX_DIGITS} digits; write it with an "
                                  f"exponent (e.g. 1.5e20) or scale the model")
             try:
-                fv = float(v)
+                fv = plain_float(v) if isinstance(v, str) else float(v)  # a quoted "1_0" is not 10
             except (TypeError, ValueError, OverflowError):
                 raise ModelError(f"{key}.{k} must be a number, got {quote(v)}") from None
             if fv != fv or fv in (float("inf"), float("-inf")):
