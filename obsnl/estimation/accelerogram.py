@@ -18,7 +18,8 @@ from obsnl._text import block, names, number, one_line, quote
 from obsnl.errors import DataError
 
 __all__ = [
-    "Record", "check_times", "check_inputs", "G", "ABSOLUTE_TIME", "time_since", "times_from_text", "check_seconds",
+    "Record", "check_times", "check_increasing", "check_inputs", "G", "ABSOLUTE_TIME", "time_since", "times_from_text",
+    "check_seconds",
     "acceleration_unit", "check_motion", "rms", "add_noise",
 ]
 
@@ -111,6 +112,48 @@ class Record:
                 **({"channels": list(self.channels)} if self.channels else {})}
 
 
+def check_increasing(t: np.ndarray, where: str) -> float:
+    """The rounding error of one time value of ``t``, after refusing fewer than 2 samples, a time that does not
+    increase, and times so large (absolute time) that floating-point numbers cannot resolve the mean step (the
+    checks :func:`check_times` makes before it judges the step; measured data judge it otherwise).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample times (s).
+    where : str
+        Name of the record, used in the messages.
+
+    Returns
+    -------
+    float
+        ``4 eps max|t|`` (s).
+
+    Raises
+    ------
+    DataError
+        Fewer than 2 samples, time not increasing, times too large to resolve the step.
+
+    Examples
+    --------
+    >>> check_increasing(np.array([0.0, 0.1, 0.2]), "demo") < 1e-15
+    True
+    """
+    if len(t) < 2:
+        raise DataError(f"{where}: need at least 2 samples")
+    d = np.diff(t)
+    rounding = 4 * np.finfo(float).eps * float(max(abs(t[0]), abs(t[-1])))  # of one time value
+    mean = float(t[-1] - t[0]) / (len(t) - 1)
+    if mean > 0 and rounding > 1e-3 * mean:
+        raise DataError(f"{where}: the time column starts at {float(t[0]):.10g} s, absolute (epoch) time by the look "
+                        f"of it, too large to resolve its step of {mean:.3g} s; subtract the first time from every "
+                        f"time (obsnl counts time from the first sample)")
+    if np.any(d <= 0):
+        i = int(np.flatnonzero(d <= 0)[0])
+        raise DataError(f"{where}: time does not increase at sample {i + 1} (t={float(t[i + 1])!r} after {float(t[i])!r})")
+    return float(rounding)
+
+
 def check_times(t: np.ndarray, where: str) -> float:
     """The even step of the sample times ``t``; a :class:`~obsnl.errors.DataError` naming the sample where
     time does not increase or the step is irregular (``where`` names the record in the message).
@@ -142,18 +185,8 @@ def check_times(t: np.ndarray, where: str) -> float:
     >>> check_times(np.array([0.0, 0.1, 0.2]), "demo")
     0.1
     """
-    if len(t) < 2:
-        raise DataError(f"{where}: need at least 2 samples")
+    rounding = check_increasing(t, where)
     d = np.diff(t)
-    rounding = 4 * np.finfo(float).eps * float(max(abs(t[0]), abs(t[-1])))  # of one time value
-    mean = float(t[-1] - t[0]) / (len(t) - 1)
-    if mean > 0 and rounding > 1e-3 * mean:
-        raise DataError(f"{where}: the time column starts at {float(t[0]):.10g} s, absolute (epoch) time by the look "
-                        f"of it, too large to resolve its step of {mean:.3g} s; subtract the first time from every "
-                        f"time (obsnl counts time from the first sample)")
-    if np.any(d <= 0):
-        i = int(np.flatnonzero(d <= 0)[0])
-        raise DataError(f"{where}: time does not increase at sample {i + 1} (t={float(t[i + 1])!r} after {float(t[i])!r})")
     dt = float(np.median(d))
     off = np.flatnonzero(np.abs(d - dt) > max(_DT_RTOL * dt, 1e-9 + 1e-6 * dt) + 2 * rounding)
     if off.size:

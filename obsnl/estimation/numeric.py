@@ -30,7 +30,7 @@ the sigma points that need them, and are counted.
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import casadi as ca
@@ -72,6 +72,14 @@ class NumericModel:
     source
         ``(model, switching, constants)`` as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
         otherwise): the specification a worker compiles again (:mod:`obsnl.identification.replicates`).
+    points
+        0: the input of a step is the pair of samples ``(u0, u1)``, linear in between (the classic form). ``m > 0``:
+        the model is driven by input *blocks* (:meth:`driven`): the input of sample ``k`` is the row
+        ``[u(t_k), u(t_k + dt/m), ..., u(t_k + (m-1) dt/m), u(t_{k+1}^-)]`` of ``nu_inputs * (m + 1)`` values
+        (:mod:`obsnl.estimation.intersample` makes it from a record), linear between those points; ``f``, ``h``,
+        ``g`` and their Jacobians then take a block and read ``u(t_k)``, its first ``nu_inputs`` entries.
+    base
+        The classic model a driven one was made from (None for a classic model).
     """
 
     signature: ModelSignature
@@ -85,6 +93,8 @@ class NumericModel:
     jumps: tuple[bool, ...] = ()
     slides: tuple[bool, ...] = ()
     source: Any = field(default=None, repr=False, compare=False)
+    points: int = 0
+    base: NumericModel | None = field(default=None, repr=False, compare=False)
     _steps: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # built steps, by options
 
     @property
@@ -125,7 +135,49 @@ class NumericModel:
 
     @property
     def nu(self) -> int:
-        return len(self.inputs)
+        """The width of the input a compiled function takes: one value per input, or a block per input
+        (``len(inputs) * (points + 1)``) for a driven model."""
+        return len(self.inputs) * (self.points + 1)
+
+    def driven(self, points: int) -> NumericModel:
+        """This model driven by input blocks of ``points + 1`` values per input and sample (see ``points``).
+
+        A step over one sample is ``points`` steps of the classic model over ``dt / points``, each with the input
+        linear between two points of the block; the substeps of a step are shared among them (at least one each).
+        ``points = 1`` with a block ``[u_k, u_k]`` is a zero-order hold; ``[u_k, u_{k+1}]`` the classic linear
+        input.
+
+        Examples
+        --------
+        >>> import obsnl
+        >>> from obsnl.estimation.codegen import to_casadi
+        >>> num = to_casadi(obsnl.Model(name="i", states=["x"], parameters=["a"], inputs=["u"],
+        ...                             equations={"x": "a*u"}, outputs={"y": "x"}))
+        >>> held, lin = num.driven(1), num.driven(4)
+        >>> held.nu, lin.nu
+        (2, 5)
+        >>> float(held.step(0.5, substeps=2)(0.0, 1.0, [1.0, 1.0], [3.0, 3.0])[0])  # u held at 1 over the step
+        0.5
+        >>> float(lin.step(0.5, substeps=4)(0.0, 1.0, [0, 1, 4, 9, 16], [16] * 5)[0])  # linear through 0, 1, 4, 9, 16
+        2.75
+        """
+        if self.points:
+            raise ModelError(f"model {self.name!r} is already driven by input blocks")
+        if int(points) < 1:
+            raise ModelError(f"points must be at least 1, got {points!r}")
+        nu0, nx = len(self.inputs), self.nx
+        x, p, U = ca.SX.sym("x", nx), ca.SX.sym("p", self.np), ca.SX.sym("u", nu0 * (int(points) + 1))
+        u = U[:nu0]
+
+        def at_sample(fn: ca.Function, pad: int = 0) -> ca.Function:
+            out = fn(x, p, u)
+            if pad:
+                out = ca.horzcat(out, ca.SX.zeros(out.shape[0], pad))
+            return ca.Function(fn.name(), [x, p, U], [out], [fn.name_in(i) for i in range(3)], [fn.name_out(0)])
+
+        return replace(self, f=at_sample(self.f), h=at_sample(self.h), g=at_sample(self.g),
+                       jac_x=at_sample(self.jac_x), jac_u=at_sample(self.jac_u, nu0 * int(points)),
+                       jac_g=at_sample(self.jac_g), points=int(points), base=self)
 
     @property
     def ny(self) -> int:
@@ -226,7 +278,12 @@ class NumericModel:
         The rule of ``method="auto"``, shared by :meth:`step` and the filters' step: ``probe(x, p, u0,
         u1, threshold, scale) -> (x_rk4, stiff, refine)`` (``refine``: a watched crossing and not stiff) and,
         only where one of the two flags is set, ``fine(x, p, u0, u1, stiff) -> x_next`` (ROS2 with
-        ``refine * substeps`` if stiff, else RK4 with the crossing substep refined)."""
+        ``refine * substeps`` if stiff, else RK4 with the crossing substep refined).
+
+        A driven model (``points > 0``) chains the classic model's pieces over the points of the block
+        (:meth:`driven`)."""
+        if self.points:
+            return self._chained(dt, substeps=substeps, jit=jit, refine=refine, locate=locate)
         n, nf = int(substeps), int(substeps) * int(refine)
         opts = {"jit": True} if jit else {}  # marker: compiled through the disk cache (jitcache)
         c = jit_compile if jit else (lambda f: f)  # noqa: E731
@@ -257,6 +314,40 @@ class NumericModel:
         out["fine"] = ca.Function("fine", [X, P, U0, U1, S],  # MX: only the chosen integrator runs
                                   [ca.if_else(S, out["ros2_fine"](X, P, U0, U1), out["rk4_fine"](X, P, U0, U1), True)],
                                   names_in + ["stiff"], ["x_next"])
+        return out
+
+    def _chained(self, dt: float, *, substeps: int, jit: bool, refine: int, locate: bool) -> dict[str, ca.Function]:
+        """The pieces of :meth:`integrators` of a driven model: the classic model's pieces over ``dt / points`` (with
+        ``ceil(substeps / points)`` substeps each), applied from point to point of the block. Flags are joined: a
+        step is stiff, or crossed, where one of its pieces is."""
+        assert self.base is not None
+        m, nu0 = self.points, len(self.inputs)
+        parts = self.base.integrators(dt / m, substeps=max(1, -(-int(substeps) // m)), jit=jit, refine=refine,
+                                      locate=locate)
+        out = {}
+        for name, fn in parts.items():
+            sym = ca.SX if fn.is_a("SXFunction") else ca.MX
+            first = 2 if name == "stiff" else 1  # stiff(x, x_rk4, p, u0, u1, ...): the input after two states
+            head = [sym.sym(fn.name_in(i), fn.size_in(i)) for i in range(first + 1)]
+            U0, U1 = sym.sym("u0", self.nu), sym.sym("u1", self.nu)
+            tail = [sym.sym(fn.name_in(i), fn.size_in(i)) for i in range(first + 3, fn.n_in())]
+            pts = [U0[j * nu0:(j + 1) * nu0] for j in range(m + 1)]
+            if name == "stiff":  # judged on the last piece, at the step's end point
+                outs = fn(*head, pts[m - 1], pts[m], *tail)
+                outs = [outs] if fn.n_out() == 1 else list(outs)
+            else:
+                x, flags = head[0], None
+                for j in range(m):
+                    res = fn(x, *head[1:], pts[j], pts[j + 1], *tail)
+                    res = [res] if fn.n_out() == 1 else list(res)
+                    x = res[0]
+                    flags = res[1:] if flags is None else [ca.logic_or(a, b) for a, b in zip(flags, res[1:])]
+                if name == "probe":  # refine only where no piece was stiff (a stiff one takes ROS2 throughout)
+                    flags = [flags[0], ca.logic_and(flags[1], ca.logic_not(flags[0]))]
+                outs = [x, *(flags or [])]
+            out[name] = ca.Function(name, [*head, U0, U1, *tail], outs,
+                                    [fn.name_in(i) for i in range(fn.n_in())],
+                                    [fn.name_out(i) for i in range(fn.n_out())])
         return out
 
     def _refined(self, dt: float, n: int, refine: int, opts: Mapping[str, Any], locate: bool = False) -> ca.Function:

@@ -134,7 +134,8 @@ def read_table(p: Path, what: str,
     most. Refused: a header of one column (every file has a time column and a channel) or with a name twice,
     a line with another number of cells, a number with a decimal comma (``0,01`` in a file separated by
     semicolons), a chosen cell that is not a plain decimal number or beyond the range of floats (``1e400``),
-    more than :data:`MAX_VALUES` numbers. NaN and inf are read (counted in ``bad_rows``).
+    more than :data:`MAX_VALUES` numbers. NaN and inf are read (counted in ``bad_rows``). An empty cell is refused,
+    except in the columns ``choose`` names as a third value: there it is read as NaN (a missing sample, not counted).
 
     Parameters
     ----------
@@ -143,8 +144,9 @@ def read_table(p: Path, what: str,
     what : str
         What it is, for the messages (``"record"``, ``"data"``).
     choose : callable
-        ``choose(header)`` (the stripped names) returns ``({name: column index}, time column names)``, or
-        refuses the header: the columns read into the :class:`Table` returned.
+        ``choose(header)`` (the stripped names) returns ``({name: column index}, time column names)``, optionally
+        with a third value, the names whose empty cells are missing samples, or refuses the header: the columns
+        read into the :class:`Table` returned.
     """
     where = f"{what} {str(p)!r}"
     with _open_text(p, what) as f:
@@ -162,8 +164,9 @@ def read_table(p: Path, what: str,
         if many > 1:  # it would be read from one of its columns, silently
             raise DataError(f"{where}: column {quote(twice)} appears {many} times in the header; rename or remove "
                             f"the copies")
-        chosen, times = choose(header)
-        rows = _Rows(where, sep, header, list(chosen.values()), [c in times for c in chosen])
+        chosen, times, *gaps = choose(header)  # gaps: the columns where an empty cell is a missing sample (NaN)
+        rows = _Rows(where, sep, header, list(chosen.values()), [c in times for c in chosen],
+                     [c in (gaps[0] if gaps else ()) for c in chosen])
         return rows.read(f, lines, list(chosen))
 
 
@@ -182,8 +185,10 @@ class _Rows:
     every line as in the header, numbers numpy reads: as :data:`_NUMBER`) is parsed by numpy; any other chunk
     line by line, cell by cell (:meth:`row`), which names the line and the column of a refusal."""
 
-    def __init__(self, where: str, sep: str, header: list[str], idx: list[int], timed: list[bool]):
+    def __init__(self, where: str, sep: str, header: list[str], idx: list[int], timed: list[bool],
+                 gaps: list[bool] | None = None):
         self.where, self.sep, self.header, self.idx, self.timed = where, sep, header, idx, timed
+        self.gaps = gaps or [False] * len(idx)
         self.conv: list[Callable[[str], float]] = [float] * len(idx)
         self.starts = [0.0] * len(idx)
         self.bad = [0, 0]  # first line with NaN/inf, rows with one
@@ -245,8 +250,14 @@ class _Rows:
             raise DataError(f"{where}: {quote(comma.strip())} has a decimal comma; write numbers with a decimal "
                             f"point (0.01)")
         vals: list[float] = []
-        for f, i in zip(self.conv, self.idx):
+        for f, i, gap in zip(self.conv, self.idx, self.gaps):
             cell, name = cells[i], quote(self.header[i])
+            if not cell.strip():
+                if not gap:
+                    raise DataError(f"{where}: column {name} is empty; give a number in every cell of it" +
+                                    (" (only the outputs may have empty cells)" if any(self.gaps) else ""))
+                vals.append(float("nan"))  # a missing sample
+                continue
             try:
                 v = f(cell.strip()) if _NUMBER.fullmatch(cell) else None
             except ArithmeticError:  # the exact difference of an infinite time overflows

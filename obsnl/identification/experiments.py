@@ -59,9 +59,9 @@ def _noise(setup: Setup, filt: UKF, data: Data, tuning: Tuning) -> tuple[np.ndar
     x0, th, u0 = setup.x0, setup.theta_guess, np.zeros(m.nu)
     base = np.asarray(step(x0, th, u0, u0)[0]).ravel()
     Qx = np.zeros((m.nx, m.nx))
-    for j in range(m.nu):  # each sample's noise enters the steps before and after it
+    for j in range(len(m.inputs)):  # each sample's noise enters the steps before and after it
         e = np.zeros(m.nu)
-        e[j] = 1.0
+        e[j::len(m.inputs)] = 1.0  # a driven model: the sample's whole block (held), which the step reads alone
         for a, b in ((e, u0), (u0, e)):
             g = (np.asarray(step(x0, th, a, b)[0]).ravel() - base) / filt.state_scale
             with np.errstate(over="ignore", invalid="ignore"):  # overflow: refused below
@@ -283,7 +283,7 @@ def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning
     for b in indices:
         rng = np.random.default_rng([seed, b])
         rep = Data(seed=seed, u=data.u + su * rng.standard_normal(data.u.shape),
-                   y=y_hat + sy * rng.standard_normal(y_hat.shape))
+                   y=np.where(np.isnan(data.y), np.nan, y_hat + sy * rng.standard_normal(y_hat.shape)))  # its gaps
         try:
             trs, fixed = run_passes(setup, filt, rep, tuning, passes=passes, fix_flagged=fix_flagged,
                                     hold_below=hold_below)

@@ -19,7 +19,7 @@ import dataclasses
 import json
 import math
 import sys
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from numbers import Real
 from pathlib import Path
 from typing import Any
@@ -29,6 +29,7 @@ import numpy as np
 from obsnl._progress import Progress
 from obsnl.errors import CompileError, DataError, OptionError, OutputError
 from obsnl.estimation.codegen import to_casadi
+from obsnl.estimation.intersample import intersample_kinds
 from obsnl.estimation.jitcache import compiler_available
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.replicates import check_passes, check_replicates
@@ -99,7 +100,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
              table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
              tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool | None = None,
              hold: bool = False, progress: bool | Callable[[], Any] | None = True,
-             executor: Executor | None = None, refine: bool = True) -> Identification:
+             executor: Executor | None = None, refine: bool = True,
+             intersample: str | Mapping[str, str] | Sequence[str] | None = None) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
     Parameters
@@ -141,6 +143,10 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         Refine the filter's estimate by maximum likelihood (the default last step): Fisher std, 95 %
         profile-likelihood intervals, flags from the intervals, ``converged`` from the optimizer's
         first-order conditions (:mod:`obsnl.identification.likelihood`). ``False``: the filter alone.
+    intersample : str or mapping or sequence of str or None
+        How the inputs behave between samples (:func:`obsnl.estimation.intersample.intersample_kinds`: a kind for
+        every input, ``{input: kind}`` or ``"NAME=KIND"`` strings; kinds ``zoh``, ``linear``, ``bandlimited``).
+        Default: the model's ``[intersample]`` table, else linear; what is given here overrides it per input.
 
     Returns
     -------
@@ -175,6 +181,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         data = read_measured(data, inputs=ins, outputs=outs)
     elif not isinstance(data, Measured):
         data = measured(data, inputs=ins, outputs=outs)
+    kinds = intersample_kinds(intersample, ins, table=model.intersample)
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
 
     def run(compiled: bool) -> Identification:
@@ -182,7 +189,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
             return identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
                                      grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
                                      replicates=replicates, seed=seed, jit=compiled, hold=hold, progress=bar,
-                                     executor=executor, refined=refine)
+                                     executor=executor, refined=refine, intersample=kinds)
 
     return _cross_check(_compiled_or_not(jit, run), structural)
 

@@ -302,12 +302,12 @@ def _spec(ref: Refinement) -> dict[str, Any]:
 
 def _rebuilt(spec: dict[str, Any]) -> Refinement:
     """The refinement of :func:`_spec`, its objective compiled in this process."""
-    from obsnl.estimation.codegen import to_casadi
     from obsnl.identification.likelihood import Fit, objective
+    from obsnl.identification.replicates import compiled
     from obsnl.identification.setup import Data, Setup, coordinates
 
     recipe = spec["recipe"]
-    num = to_casadi(recipe.model, switching=recipe.switching, constants=recipe.constants)
+    num = compiled(recipe)
     setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]), **recipe.setup)
     obj = objective(setup, Data(seed=None, u=spec["u"], y=spec["y"]), theta=spec["theta"],
                     substeps=spec["substeps"], sigma=spec["sigma"], scale=spec["scale"])

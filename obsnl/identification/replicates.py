@@ -19,6 +19,7 @@ import numpy as np
 
 from obsnl._text import quote
 from obsnl.errors import OptionError
+from obsnl.estimation.numeric import NumericModel
 from obsnl.identification.experiments import Tuning, mc_replicates, mc_spread, mc_truth, monte_carlo
 from obsnl.identification.practical import Spread
 from obsnl.identification.setup import Data, Setup, coordinates, make_filter
@@ -117,6 +118,7 @@ class Recipe:
     setup: Mapping[str, Any]
     method: str
     table_json: str | None
+    points: int = 0
 
 
 def recipe_of(setup: Setup, method: str, table: Any) -> Recipe:
@@ -148,7 +150,15 @@ def recipe_of(setup: Setup, method: str, table: Any) -> Recipe:
     model, switching, constants = source
     return Recipe(model=model, switching=switching, constants=constants,
                   setup={k: getattr(setup, k) for k in _SETUP_FIELDS}, method=method,
-                  table_json=None if table is None else table.to_json())
+                  table_json=None if table is None else table.to_json(), points=setup.model.points)
+
+
+def compiled(recipe: Recipe) -> NumericModel:
+    """The recipe's compiled model, driven by input blocks as the original was (``recipe.points``)."""
+    from obsnl.estimation.codegen import to_casadi
+
+    num = to_casadi(recipe.model, switching=recipe.switching, constants=recipe.constants)
+    return num.driven(recipe.points) if recipe.points else num
 
 
 def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
@@ -166,10 +176,9 @@ def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
     """
 
     def build() -> tuple[Setup, UKF]:
-        from obsnl.estimation.codegen import to_casadi
         from obsnl.observability.contract.branch_table import BranchTable
 
-        num = to_casadi(recipe.model, switching=recipe.switching, constants=recipe.constants)
+        num = compiled(recipe)
         setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]),
                       **recipe.setup)
         table = None if recipe.table_json is None else BranchTable.from_dict(json.loads(recipe.table_json))

@@ -21,7 +21,9 @@ diverged by a discretisation mismatch.
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any
@@ -30,6 +32,7 @@ import numpy as np
 
 from obsnl.errors import DataError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
+from obsnl.estimation.intersample import between_samples, drive, intersample_kinds
 from obsnl.estimation.measured import NOISE_FLOOR, UPPER_BOUND, Measured, estimate_noise
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import Trajectory
@@ -255,7 +258,8 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                       table: BranchTable | None = None, noise: Mapping[str, float] | None = None,
                       grid: Sequence[Tuning] = MEASURED_GRID, passes: int = 3, replicates: int = 0, seed: int = 0,
                       jit: bool = False, hold: bool = False, progress: Callable[[], Any] | None = None,
-                      executor: Executor | None = None, refined: bool = True) -> Identification:
+                      executor: Executor | None = None, refined: bool = True,
+                      intersample: Mapping[str, str] | None = None) -> Identification:
     """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
 
     Parameters
@@ -292,6 +296,10 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     refined : bool
         Refine the filter's estimate by maximum likelihood, with Fisher std and profile-likelihood
         intervals (:mod:`obsnl.identification.likelihood`, :mod:`obsnl.identification.profile`; default on).
+
+    intersample : mapping of str to str or None
+        How each input behaves between samples: ``zoh``, ``linear`` (default) or ``bandlimited``
+        (:mod:`obsnl.estimation.intersample`); the filter and the fit both use it.
 
     Returns
     -------
@@ -340,17 +348,26 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     bound = [c for c in num.inputs if levels[c].get("upper_bound")]
     input_noise = np.array([0.0 if c in bound else levels[c].get("estimate", levels[c]["ratio"])
                             for c in num.inputs]) * np.sqrt(np.mean(np.asarray(data.u, float) ** 2, axis=0))
-    setup = Setup(model=num, record=data.record(), truth=None, guess=dict(guess), jit=jit, y_true=data.y,
+    kinds = intersample_kinds(intersample, num.inputs)
+    between = between_samples(data.u, num.inputs, kinds) if num.inputs else ()
+    stepped, U = drive(num, data.u, kinds)
+    record = data.record() if stepped is num else dataclasses.replace(data.record(), accel=U)
+    setup = Setup(model=stepped, record=record, truth=None, guess=dict(guess), jit=jit, y_true=data.y,
                   channel_noise={c: v["ratio"] for c, v in levels.items()}, fit_substeps=FIT_SUBSTEPS,
                   coordinates=coordinates(num, "log", reference=guess))
-    d = Data(seed=None, u=data.u, y=data.y)
+    d = Data(seed=None, u=U, y=data.y)
+    said = [_between_said(b) for b in between]
+    for b in between:
+        if b.matters:
+            sys.stderr.write(f"obsnl: warning: {_between_said(b)}\n")
     tuning, scores, trs, held, prac, misfit = _run(setup, d, method=method, table=table, grid=grid, passes=passes,
                                                    replicates=replicates, seed=seed, progress=progress, hold=hold,
                                                    executor=executor)
     how = ("tuned without any true value: each configuration of the grid ran one pass, the smallest free-run "
            "output misfit won" if len(grid) > 1 else "one tuning, as given")
     return _result(setup, d, mode="measured", method=method, passes=passes, tuning=tuning, scores=scores, trs=trs,
-                   held=held, prac=prac, misfit=misfit, noise=levels, data_dict=data.to_dict(), seed=seed,
+                   held=held, prac=prac, misfit=misfit, noise=levels, seed=seed,
+                   data_dict=data.to_dict() | {"intersample": [b.to_dict() for b in between]},
                    refined=refined, progress=progress, executor=executor, input_noise=input_noise,
                    assumptions=_assumptions(refined, how, "the initial state is estimated with the parameters" if
                                             refined else "the structure starts at rest (initial states from the "
@@ -358,4 +375,21 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                                                 f"input {', '.join(bound)}: taken as exact by the std and intervals "
                                                 "(its noise level estimated from the data is only an upper bound: "
                                                 "the channel is not oversampled); give its noise level to count it"]
-                                                if bound and refined else [])))
+                                                if bound and refined else []), *said))
+
+
+def _between_said(b: Any) -> str:
+    """What a run assumed of an input between samples (:class:`obsnl.estimation.intersample.InputBetween`), and
+    whether the choice matters for this record."""
+    how = {"held": "held (zero-order hold)", "linear": "linear between samples",
+           "fft": "band-limited, interpolated by FFT (the record read as periodic)",
+           "sinc": "band-limited, interpolated by a windowed sinc (the record not periodic: its ends reflected)"}
+    text = f"input {b.input} {how[b.route]}"
+    if b.kind == "bandlimited":
+        return text + (f"; {100 * b.discrepancy:.2g} % of its power lies above 0.45 of the sampling rate: it may "
+                       "not be band-limited (aliased)" if b.matters else "")
+    if not b.matters:
+        return text
+    return text + (f"; if it was band-limited, this kind is off by {100 * b.discrepancy:.2g} % RMS between samples "
+                   f"(judged from its Welch spectrum): the choice matters (intersample {b.input}=bandlimited if it "
+                   f"was band-limited, zoh if it was held by a DAC)")

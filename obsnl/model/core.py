@@ -30,7 +30,7 @@ MODEL_KEYS: tuple[str, ...] = (
     "name", "description", "source", "states", "parameters", "inputs", "unknown_inputs",
     "known_constants", "outputs", "equations", "known_initial_conditions",
     "initial_condition_values", "switching", "latex", "values", "guess", "definitions",
-    "unknown_input_derivatives",
+    "unknown_input_derivatives", "intersample",
 )
 #: Keys kept as metadata without interpretation (the published answers of a peer case, notes).
 METADATA_KEYS: tuple[str, ...] = (
@@ -93,6 +93,10 @@ class Model:
         What the unknown inputs are assumed to be: ``"arbitrary"`` (any analytic function of time) or
         ``K``, a polynomial in t with K non-zero derivatives (STRIKE-GOLDD's ``nnzDerW``; 0 = a
         constant). None (not stated): the analyses assume ``"arbitrary"``.
+    intersample : mapping of str to str
+        How each input behaves between its samples, ``{input: kind}`` with kind ``zoh``, ``linear`` or
+        ``bandlimited`` (:mod:`obsnl.estimation.intersample`; the ``[intersample]`` table of a model file); an
+        input not named is linear. ``--intersample`` (``intersample=``) overrides it.
 
     Examples
     --------
@@ -125,6 +129,7 @@ class Model:
     definitions: Mapping[str, str] = field(default_factory=dict)
     metadata: Mapping[str, Any] = field(default_factory=dict)
     unknown_input_derivatives: int | str | None = None
+    intersample: Mapping[str, str] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ validation
     def __post_init__(self) -> None:
@@ -196,6 +201,8 @@ class Model:
             d["definitions"] = dict(self.definitions)
         if self.unknown_input_derivatives is not None:
             d["unknown_input_derivatives"] = self.unknown_input_derivatives
+        if self.intersample:
+            d["intersample"] = dict(self.intersample)
         return d
 
     def replace(self, **changes: Any) -> Model:

@@ -321,7 +321,8 @@ def as_model(model: Model | str | Path, check: Callable[[dict[str, Any]], None] 
 # ----------------------------------------------------------------------------- writing
 
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
-_TABLES = ("outputs", "equations", "initial_condition_values", "definitions", "latex", "values", "guess")
+_TABLES = ("outputs", "equations", "initial_condition_values", "definitions", "latex", "values", "guess",
+           "intersample")
 
 
 def _key(k: str) -> str:

@@ -155,6 +155,11 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     # messages name the options as Python keywords (``guess=``); the command line prints its flags for them
     if samples is not None and data:  # an option that would be ignored is refused, not dropped silently
         raise OptionError("samples= applies to a record= study; cut the data file instead")
+    if options.get("intersample") is not None and not data:
+        raise OptionError("intersample= applies to measured data= (a record= study simulates its input linearly "
+                          "between samples); drop it or identify from data=")
+    if "intersample" in options and options["intersample"] is None:
+        options.pop("intersample")
     if (ex := options.get("executor")) is not None and (ex.workers is not None or ex.scheduler is not None) \
             and not options.get("replicates") and not options.get("refine", True):
         raise OptionError("workers= or scheduler= applies to the profile likelihoods and the Monte-Carlo replicates: "

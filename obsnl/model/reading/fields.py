@@ -11,7 +11,7 @@ culprit and the fix.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from types import MappingProxyType
 from typing import Any
 
@@ -34,7 +34,9 @@ ROLE_NAMES: dict[str, str] = {
     "states": "state", "parameters": "parameter", "inputs": "input",
     "unknown_inputs": "unknown input", "known_constants": "known constant", "outputs": "output",
 }
-_TABLES = ("outputs", "initial_condition_values", "latex", "values", "guess", "definitions", "metadata")
+_TABLES = ("outputs", "initial_condition_values", "latex", "values", "guess", "definitions", "metadata", "intersample")
+#: How an input may behave between samples (:mod:`obsnl.estimation.intersample`).
+INTERSAMPLE_KINDS = ("zoh", "linear", "bandlimited")
 
 
 def _frozen(d: Mapping) -> Mapping:
@@ -70,7 +72,8 @@ def read_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
     ...        "inputs": (), "unknown_inputs": (), "known_constants": (), "outputs": {"y": "x"},
     ...        "equations": {"x": "v", "v": "-k*x"}, "known_initial_conditions": (),
     ...        "initial_condition_values": {}, "switching": (), "latex": {}, "values": {"k": 2},
-    ...        "guess": {}, "definitions": {}, "metadata": {}, "unknown_input_derivatives": None}
+    ...        "guess": {}, "definitions": {}, "metadata": {}, "unknown_input_derivatives": None,
+    ...        "intersample": {}}
     >>> fields = read_fields(raw)
     >>> fields["name"], fields["states"], dict(fields["equations"]), dict(fields["values"])
     ('msd', (x, v), {x: v, v: -k*x}, {'k': 2.0})
@@ -109,7 +112,24 @@ def read_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
     out.update(_read_tables(raw, seen, outs, names["parameters"]))
     out["unknown_input_derivatives"] = check_unknown_input_derivatives(raw["unknown_input_derivatives"],
                                                                        allow_none=True)
+    out["intersample"] = _read_intersample(raw.get("intersample"), names["inputs"])
     return out
+
+
+def _read_intersample(table: Any, inputs: Sequence[str]) -> Mapping[str, str]:
+    """The ``[intersample]`` table: ``{input: kind}``, every key an input, every kind one of
+    :data:`INTERSAMPLE_KINDS`."""
+    if not table:
+        return _frozen({})
+    if not isinstance(table, Mapping):
+        raise ModelError(f"'intersample' must be a table {{input: kind}}, got {type(table).__name__}")
+    for k, v in table.items():
+        if k not in inputs:
+            raise ModelError(f"intersample.{k}: {quote(k, 40)} is not an input of this model"
+                             f"{close_name(str(k), list(inputs))}; name an input")
+        if v not in INTERSAMPLE_KINDS:
+            raise ModelError(f"intersample.{k} is {quote(v)}; use one of {', '.join(INTERSAMPLE_KINDS)}")
+    return _frozen(dict(table))
 
 
 def _read_text(raw: Mapping[str, Any]) -> dict[str, str]:
