@@ -106,9 +106,11 @@ def test_bad_input_is_refused():
     est0 = f.initial(x0=[0.0, 0.0], theta0=[6.0, 1.0], P0=[1e-8, 1e-8, 0.25, 0.25])
     ys, us = np.zeros((10, 1)), np.zeros((10, 1))
     bad = ys.copy()
-    bad[4] = np.nan
+    bad[4] = np.inf  # NaN in an output is a missing sample (tests/test_records_real.py); inf is refused
     with pytest.raises(DataError, match="NaN/inf at sample 4"):
         f.run(est0, bad, us)
+    with pytest.raises(DataError, match="inputs contain NaN/inf at sample 4"):
+        f.run(est0, ys, np.where(np.arange(10)[:, None] == 4, np.nan, us))
     with pytest.raises(DataError, match="shape"):
         f.run(est0, np.zeros((10, 2)), us)
     with pytest.raises(DataError, match="10 samples but inputs 9"):

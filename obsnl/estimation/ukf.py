@@ -8,8 +8,9 @@ One step (predict with ``u_k -> u_{k+1}``, update with ``y_{k+1}``) is one casad
 :mod:`obsnl.estimation.ukf_step` (scaled sigma points, ``alpha=1, beta=2, kappa=0`` by default so that every
 covariance weight is ``>= 0``; every sigma point through the full non-smooth discrete model;
 sigma points redrawn for the update, so that on a linear model the filter is exactly the Kalman
-filter). ``run`` wraps the step in ``mapaccum``: one call for a whole record; with ``jit=True`` the
-whole step is compiled to C (30-50 s once per model and filter, whatever the record; then a few times faster).
+filter; an output sample that is NaN is missing, and the update uses the outputs present). ``run`` wraps
+the step in ``mapaccum``: one call for a whole record; with ``jit=True`` the whole step is compiled to C
+(30-50 s once per model and filter, whatever the record; then a few times faster).
 
 The step takes a mask of *active* coordinates; the UKF passes all ones, the DUKF
 (:mod:`obsnl.estimation.dukf`) the mask of the current branch (see there for the frozen-block rule).
@@ -44,6 +45,15 @@ __all__ = ["UKF", "Estimate", "Trajectory"]
 
 
 # --------------------------------------------------------------------------- the filter
+def _record(ys: Any, us: Any, *, ny: int, nu: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(ys, us)`` checked as :func:`~obsnl.estimation.accelerogram.check_inputs` does, except that an output may
+    be NaN: a missing sample, which the step skips (its update uses the outputs present)."""
+    ys = np.asarray(ys, float)
+    gaps = np.isnan(ys)
+    ys, us = check_inputs(np.where(gaps, 0.0, ys), us, ny=ny, nu=nu)
+    return np.where(gaps.reshape(ys.shape), np.nan, ys), us
+
+
 def _identity_map(names: Sequence[str]) -> ParameterMap:
     p = ca.SX.sym("p", len(names))
     f = ca.Function("identity", [p], [p])
@@ -288,9 +298,10 @@ class UKF:
 
     # ------------------------------------------------------------------ filtering
     def step(self, est: Estimate, *, y: Any, u0: Any, u1: Any) -> Estimate:
-        """One step: predict from ``u0`` to ``u1`` over ``dt``, update with the measurement ``y``."""
-        ys, us = check_inputs(np.vstack([np.reshape(y, (1, -1))] * 2), np.vstack([np.reshape(u0, (1, -1)),
-                              np.reshape(u1, (1, -1))]), ny=self.model.ny, nu=self.model.nu)
+        """One step: predict from ``u0`` to ``u1`` over ``dt``, update with the measurement ``y`` (NaN: an output
+        not measured at this sample; the update uses the others, none: the prediction)."""
+        ys, us = _record(np.vstack([np.reshape(y, (1, -1))] * 2), np.vstack([np.reshape(u0, (1, -1)),
+                         np.reshape(u1, (1, -1))]), ny=self.model.ny, nu=self.model.nu)
         out = self._compiled()(est.z, est.P, est.active, us[0], us[1], ys[1], self.Q, self.R, self._hyp(),
                                self.allowed, *self._bounds(), self.cap, self.state_scale)
         z, P = np.asarray(out[0]).ravel(), np.asarray(out[1])
@@ -301,14 +312,15 @@ class UKF:
         return Estimate(k=est.k + 1, z=z, P=P, x=x[0], theta=th[0], active=np.asarray(out[2]).ravel())
 
     def run(self, est0: Estimate, ys: Any, us: Any, *, t: Any = None) -> Trajectory:
-        """Filter a whole record (``ys[0]`` is the sample of ``est0``; it is not used).
+        """Filter a whole record (``ys[0]`` is the sample of ``est0``; it is not used). NaN in ``ys``: a missing
+        output sample (the step updates with the outputs present; its innovation is NaN).
 
         Returns
         -------
         Trajectory
             Estimates at every sample; raises :class:`~obsnl.errors.EstimatorError` at the first NaN.
         """
-        ys, us = check_inputs(ys, us, ny=self.model.ny, nu=self.model.nu)
+        ys, us = _record(ys, us, ny=self.model.ny, nu=self.model.nu)
         tic = time.perf_counter()
         out = self._evaluate([est0], [(ys, us)], [self])
         return self._trajectory(est0, out, len(ys), t, time.perf_counter() - tic)
@@ -360,7 +372,7 @@ class UKF:
         if any(f._key() != self._key() for f in filters):
             raise EstimatorError("run_batch: every filter must share this filter's compiled step (same model, "
                                  "coordinates, dt, method and substeps)")
-        data = [check_inputs(y, u, ny=self.model.ny, nu=self.model.nu) for y, u in zip(ys, us)]
+        data = [_record(y, u, ny=self.model.ny, nu=self.model.nu) for y, u in zip(ys, us)]
         T, n = len(data[0][0]), len(data)
         if any(len(y) != T for y, _ in data):
             raise EstimatorError("run_batch needs records of one length")

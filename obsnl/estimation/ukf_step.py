@@ -11,6 +11,12 @@ that ``Q`` reaches ``P_yy``; on a linear model the filter is then exactly the Ka
 with the Joseph-like covariance ``P+ = P- - K P_zy^T - P_zy K^T + K P_yy K^T`` (PSD for *any* gain),
 symmetrisation.
 
+Missing output samples: a channel whose ``y`` is NaN is not measured at that sample; the update uses the
+channels present (a missing channel's row and column of ``P_yy`` decoupled, its column of ``P_zy`` and its
+innovation set to 0, so its gain column is 0 and the others are the gain of the present channels alone); with
+none present the step keeps the prediction. The NaN is only selected away, never computed with; the reported
+innovation is NaN there.
+
 Interventions, in this order, each counted per step (``INTERVENTIONS``); none is silent:
 
 ``pivot``
@@ -191,18 +197,27 @@ def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.F
         Pzy_full = Pzy + ca.mtimes([U, gam * G2.T, ca.diag(w), (Y[:, 1:L + 1] - Y[:, L + 1:]).T])
     else:
         Pzy_full = Pzy
-    nu = y - yhat
+    # a missing output sample (y NaN) is no measurement: the update uses the channels present. Their innovation,
+    # covariance and cross-covariance are kept, a missing channel's decoupled (P_yy's row and column replaced by
+    # the identity's, P_zy's column and the innovation by 0): its gain column is then 0 and the rest is the gain of
+    # the present channels alone. The NaN is only ever selected away (if_else), never multiplied by 0.
+    nu_raw = y - yhat   # the innovation reported: NaN where the sample is missing
+    present = ca.fabs(y) < _FINITE
+    nu = ca.if_else(present, nu_raw, 0.0)
+    Pyy_u = ca.if_else(ca.mtimes(present, present.T), Pyy, ca.SX.eye(ny))
+    Pzy_u = ca.if_else(ca.repmat(present.T, L, 1), Pzy, 0.0)
+    Pzy_full = ca.if_else(ca.repmat(present.T, L, 1), Pzy_full, 0.0)
     if ny > 1:
-        K = ca.mtimes(A, ca.solve(Pyy, Pzy.T).T)
-        d = ca.sqrt(ca.dot(nu, ca.solve(Pyy, nu)))
+        K = ca.mtimes(A, ca.solve(Pyy_u, Pzy_u.T).T)
+        d = ca.sqrt(ca.dot(nu, ca.solve(Pyy_u, nu)))
     else:
-        K = ca.mtimes(A, Pzy / Pyy)
-        d = ca.fabs(nu) / ca.sqrt(Pyy)
+        K = ca.mtimes(A, Pzy_u / Pyy_u)
+        d = ca.fabs(nu) / ca.sqrt(Pyy_u)
     weight = ca.if_else(d > gate, gate / d, 1.0)   # Huber: the step of a gate-sigma innovation at most
     gated = d > gate
     K = weight * K
     zn = m + ca.mtimes(K, nu)
-    Pn = Pp - ca.mtimes(K, Pzy_full.T) - ca.mtimes(Pzy_full, K.T) + ca.mtimes([K, Pyy, K.T])
+    Pn = Pp - ca.mtimes(K, Pzy_full.T) - ca.mtimes(Pzy_full, K.T) + ca.mtimes([K, Pyy_u, K.T])
 
     # guard: a non-finite or indefinite update keeps the prediction; a non-finite prediction the previous estimate
     _, n_indef = _chol(ca.mtimes([A, Pn, A]) + U, L, floor=_INDEFINITE)
@@ -222,7 +237,7 @@ def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.F
     P_out = P_pick * ca.mtimes(shrink, shrink.T)
     counts = ca.vertcat(n_sigma, gated, rejected, held, n_clamped, n_capped)
     return ca.Function("update", [z, P, a, hyp, S_, Xp, u1, y, Q, R, lo, hi, cap, sc],
-                       [clamped, P_out, yhat, nu, Pyy, n_pivot, counts])
+                       [clamped, P_out, yhat, nu_raw, Pyy, n_pivot, counts])
 
 
 def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, method: str, substeps: int,
