@@ -144,6 +144,17 @@ def is_periodic(u: np.ndarray, *, order: int = 32) -> bool:
     the largest error across the wrap is within 4 times the RMS error inside (plus rounding). A record holding an
     integer number of periods, or starting and ending at rest, passes; a sine cut mid-period does not.
 
+    Parameters
+    ----------
+    u : numpy.ndarray
+        One input's samples.
+    order : int
+        Past samples of the predictor (at most an eighth of the record).
+
+    Returns
+    -------
+    bool
+
     Examples
     --------
     >>> t = np.arange(100)
@@ -211,6 +222,20 @@ def blocks(u: np.ndarray, kinds: Sequence[str], *, periodic: bool | None = None)
 
     Row ``k`` is ``[u(t_k), u(t_k + dt/m), ..., u(t_{k+1}^-)]``, each entry a vector over the inputs (the layout of
     :meth:`obsnl.estimation.numeric.NumericModel.driven`); the last row holds the last sample throughout.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        The input samples, ``(T, nu)`` or ``(T,)``.
+    kinds : sequence of str
+        The kind of each input column.
+    periodic : bool or None
+        For band-limited inputs: the record is periodic (None: :func:`is_periodic` decides, per input).
+
+    Returns
+    -------
+    tuple
+        ``(blocks (T, nu * (m + 1)), m)``, or ``(u, 0)`` when every input is linear.
 
     Examples
     --------
@@ -331,6 +356,21 @@ def between_samples(u: np.ndarray, inputs: Sequence[str], kinds: Mapping[str, st
     ``sqrt(sum S(f) e(f) / sum S(f))``, ``e(f)`` the mean squared error of that kind on a unit sinusoid (0 for a
     band-limited one). Above :data:`MATTERS` (1 %) the input holds enough energy near the Nyquist frequency that the
     kind changes the fit, so the run says which kind it used and that the choice matters.
+
+    Parameters
+    ----------
+    u : numpy.ndarray
+        The input samples, ``(T, nu)`` or ``(T,)``.
+    inputs : sequence of str
+        The input names, in column order.
+    kinds : mapping of str to str
+        The kind of each input (linear where not named).
+    periodic : bool or None
+        Whether the record is periodic (None: :func:`is_periodic` decides).
+
+    Returns
+    -------
+    tuple of InputBetween
 
     Examples
     --------

@@ -37,9 +37,13 @@ away (:mod:`obsnl.estimation.crossing`); its entry is a located crossing and its
 field, so the map stays continuous there too. Where the number of stick phases changes with the parameters
 (a grazing reversal) the objective keeps a kink; the acceptance test keeps the iteration monotone there.
 
+Missing output samples (NaN in the data: an output sampled more slowly than the inputs, or with gaps) are not
+measured: their residuals and rows of ``J`` are 0 (weight zero), and they count in no ``N`` below. The model is
+still simulated through them, under the complete input.
+
 Noise levels: the fit starts with the given or estimated noise per channel, then re-weights once with
-the noise of the fit's residuals, ``sigma_c^2 = RSS_c / (N - h_c)`` (the concentrated likelihood of unknown
-channel variances, over the residual degrees of freedom: ``h_c`` is the fitted coordinates' share of channel
+the noise of the fit's residuals, ``sigma_c^2 = RSS_c / (N_c - h_c)`` (``N_c`` its samples measured; the
+concentrated likelihood of unknown channel variances, over the residual degrees of freedom: ``h_c`` is the fitted coordinates' share of channel
 ``c``, :func:`obsnl.identification.refine.residual_dof`; the maximum-likelihood ``RSS_c / N`` is low by them
 and made every std too small by ``sqrt(N / (N - h_c))``), floored at :data:`NOISE_FLOOR` of the channel's RMS (below it the residual is
 the integrator's error, not noise), and refits. The Fisher information ``J'J`` at the optimum, with those
@@ -121,12 +125,34 @@ class Objective:
         """The initial state at ``z``."""
         return self.setup.x0 + self.scale * np.asarray(z)[self.n_parameters:]
 
-    def evaluate(self, z: np.ndarray, *, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-        """Residuals (and their Jacobian) at ``z``; non-finite entries where the simulation overflowed."""
+    @property
+    def present(self) -> np.ndarray:
+        """``(T, ny)``: True where the output sample was measured, False at a gap (NaN in the data)."""
+        return ~np.isnan(np.asarray(self.data.y, float).reshape(len(self.data.u), -1))
+
+    @property
+    def measured(self) -> np.ndarray:
+        """The number of samples measured per output: the ``N`` of its noise estimate and degrees of freedom."""
+        return np.sum(self.present, axis=0)
+
+    def _outputs(self) -> np.ndarray:
+        """The measured outputs ``(T, ny)`` with a missing sample's NaN replaced by 0 (its residual gets no weight)."""
         y = np.asarray(self.data.y, float).reshape(len(self.data.u), -1)
+        return np.where(np.isnan(y), 0.0, y)
+
+    def evaluate(self, z: np.ndarray, *, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """Residuals (and their Jacobian) at ``z``; non-finite entries where the simulation overflowed. The residual
+        of a missing output sample and its row of the Jacobian are 0 (weight zero: no NaN reaches the fit)."""
         u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
-        r, J = call(self.function, [np.asarray(z, float), u.T, y.T, 1.0 / self.sigma, self.setup.x0, self.scale])
-        return np.asarray(r).ravel(), (np.asarray(J) if jacobian else None)
+        r, J = call(self.function, [np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma, self.setup.x0,
+                                    self.scale])
+        r, J = np.asarray(r).ravel(), (np.asarray(J) if jacobian else None)
+        missing = ~self.present.ravel()  # sample-major, as r
+        if missing.any():
+            r[missing] = 0.0
+            if J is not None:
+                J[missing] = 0.0
+        return r, J
 
     def input_effect(self, z: np.ndarray, J: np.ndarray) -> np.ndarray:
         """``A = G' J``, ``(T * nu, nz)``: ``G = dr/du`` the exact sensitivity of the whitened residuals to every
@@ -141,10 +167,9 @@ class Objective:
             V = ca.MX.sym("v", R.shape[0], zs.shape[0])
             _BUILT[key] = ca.Function("input_effect", [zs, U, Y, W, X0, SC, V], [ca.jtimes(R, ca.vec(U), V, True)])
             _trim()
-        y = np.asarray(self.data.y, float).reshape(len(self.data.u), -1)
-        u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
-        return np.asarray(_BUILT[key](np.asarray(z, float), u.T, y.T, 1.0 / self.sigma, self.setup.x0, self.scale,
-                                      np.asarray(J, float)))
+        u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)  # J's rows of missing samples are 0
+        return np.asarray(_BUILT[key](np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma, self.setup.x0,
+                                      self.scale, np.asarray(J, float)))
 
     def input_covariance(self, z: np.ndarray, J: np.ndarray, C: np.ndarray, sigma_u: np.ndarray) -> np.ndarray:
         """The covariance of the estimate ``z`` added by white noise of std ``sigma_u`` on the measured inputs.

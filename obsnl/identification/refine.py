@@ -110,7 +110,7 @@ class Refinement:
                           f"derivatives through the {self.objective.substeps}-substep integrator)",
                 "converged": self.converged, "reason": self.reason, "iterations": self.iterations,
                 "evaluations": f.evaluations, "newton_decrement": f.decrement, "last_step_in_std": f.last_step,
-                "chi2": self.chi2, "samples": int(len(f.r)), "seconds": self.seconds,
+                "chi2": self.chi2, "samples": int(np.sum(self.objective.measured)), "seconds": self.seconds,
                 "noise_std": {o: float(s) for o, s in zip(self.objective.setup.model.outputs, self.sigma)},
                 "misfit_over_noise": dict(self.misfit),
                 "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)},
@@ -171,8 +171,9 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         fit = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter)
         iterations += fit.iterations
         res = fit.r.reshape(-1, m.ny) * obj.sigma
-        floor = NOISE_FLOOR * np.sqrt(np.mean(np.asarray(data.y, float) ** 2, axis=0))
-        dof = residual_dof(fit.J[:, free], m.ny)
+        floor = NOISE_FLOOR * np.sqrt(np.nanmean(np.asarray(data.y, float) ** 2, axis=0))
+        # a missing output sample (a zero row of J, a zero residual) counts in no N: N_c is the samples measured
+        dof = np.maximum(residual_dof(fit.J[:, free], m.ny) - (len(data.u) - obj.measured), 1.0)
         sigma = np.maximum(np.sqrt(np.sum(res ** 2, axis=0) / dof), np.maximum(floor, 1e-300))
         z = fit.z
         if np.allclose(sigma, obj.sigma, rtol=1e-3):
@@ -198,7 +199,8 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     theta = obj.theta(z)
     std = np.array([abs(theta[i]) * math.sqrt(C[i, i] + Cu[i, i]) if free[i] else 0.0 for i in range(m.np)])
     res = r.reshape(-1, m.ny) * obj.sigma
-    misfit = {o: float(np.sqrt(np.mean(res[:, j] ** 2)) / noise[j]) for j, o in enumerate(m.outputs)}
+    misfit = {o: float(np.sqrt(np.sum(res[:, j] ** 2) / obj.measured[j]) / noise[j])  # over the samples measured
+              for j, o in enumerate(m.outputs)}
     converged, reason = _verdict(fit, m.parameters, advice)
     return Refinement(theta=theta, x0=obj.x0(z), std=std, cov=C, sigma=obj.sigma, misfit=misfit, chi2=fit.chi2,
                       converged=converged, reason=reason, iterations=iterations,

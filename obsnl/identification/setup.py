@@ -141,7 +141,8 @@ class Setup:
 
     def noise_std(self, data: Data) -> tuple[np.ndarray, np.ndarray]:
         """Absolute noise standard deviations ``(sigma_u (nu,), sigma_y (ny,))`` on these data."""
-        col = lambda a: np.sqrt(np.mean(np.asarray(a, float).reshape(len(a), -1) ** 2, axis=0))  # noqa: E731
+        # RMS over the samples measured (an output's missing samples are NaN)
+        col = lambda a: np.sqrt(np.nanmean(np.asarray(a, float).reshape(len(a), -1) ** 2, axis=0))  # noqa: E731
         return self.ratios(self.model.inputs) * col(data.u), self.ratios(self.model.outputs) * col(data.y)
 
     def to_dict(self) -> dict[str, Any]:
@@ -290,9 +291,9 @@ def output_misfit(setup: Setup, theta: np.ndarray, data: Data, *, per_output: bo
     """Free-run output misfit: the model simulated at ``theta`` under the measured input (integrator:
     ``setup.fit_substeps``, default the filter's), against the measured output.
 
-    Per output ``j``: ``RMS(sim_j - y_j) / RMS(y_j)``; returned as the RMS over the outputs (one output:
-    that ratio), or the per-output array with ``per_output=True``; ``inf`` where the model cannot be
-    simulated at ``theta``.
+    Per output ``j``: ``RMS(sim_j - y_j) / RMS(y_j)`` over the samples measured (NaN: missing); returned as the
+    RMS over the outputs (one output: that ratio), or the per-output array with ``per_output=True``; ``inf``
+    where the model cannot be simulated at ``theta``.
 
     Parameters
     ----------
@@ -316,5 +317,6 @@ def output_misfit(setup: Setup, theta: np.ndarray, data: Data, *, per_output: bo
         out = np.full(setup.model.ny, np.inf)
     else:
         y = np.asarray(data.y, float).reshape(len(sim.y), -1)
-        out = np.sqrt(np.mean((sim.y - y) ** 2, axis=0)) / np.maximum(np.sqrt(np.mean(y ** 2, axis=0)), 1e-300)
+        rms = lambda a: np.sqrt(np.nanmean(a ** 2, axis=0))  # noqa: E731 - over the samples measured
+        out = rms(sim.y - y) / np.maximum(rms(y), 1e-300)
     return out if per_output else float(np.sqrt(np.mean(out ** 2)))
