@@ -299,6 +299,7 @@ def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, fi
     if not why_not:
         try:
             S = fisher(setup, theta, data.u, setup.noise_std(data)[1])
+            S[np.isnan(np.asarray(data.y, float)).ravel()] = 0.0  # a missing output sample informs nothing
         except EstimatorError:
             why_not = "a perturbed estimate cannot be simulated (no sensitivities)"
     if why_not:

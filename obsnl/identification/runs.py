@@ -190,7 +190,8 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         y_fit = simulate(m, theta=theta, x0=x0, u=data.u, dt=setup.record.dt,
                          substeps=setup.fit_substeps or setup.substeps, refine=setup.refine).y
         y = np.asarray(data.y, float).reshape(len(y_fit), -1)
-        per = np.sqrt(np.mean((y_fit - y) ** 2, axis=0)) / np.maximum(np.sqrt(np.mean(y ** 2, axis=0)), 1e-300)
+        rms = lambda a: np.sqrt(np.nanmean(a ** 2, axis=0))  # noqa: E731 - over the samples measured
+        per = rms(y_fit - y) / np.maximum(rms(y), 1e-300)
     except EstimatorError:
         y_fit = np.full(np.shape(setup.y_true), np.nan)
         per = np.full(m.ny, np.inf)
@@ -320,8 +321,9 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         raise OptionError(f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
                           f"[guess] table in the model file")
     for j, c in enumerate(data.outputs):
-        if data.y.shape[0] and np.all(data.y[:, j] == data.y[0, j]):
-            raise DataError(f"output {c!r} of {data.name!r} is constant ({float(data.y[0, j])!r} throughout): there "
+        seen = data.y[data.present[:, j], j]  # the samples measured
+        if seen.size and np.all(seen == seen[0]):
+            raise DataError(f"output {c!r} of {data.name!r} is constant ({float(seen[0])!r} throughout): there "
                             f"is no response to identify from; check the column")
     given = dict(noise or {})
     unknown = sorted(set(given) - set(num.inputs) - set(num.outputs))
@@ -375,7 +377,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                                                 f"input {', '.join(bound)}: taken as exact by the std and intervals "
                                                 "(its noise level estimated from the data is only an upper bound: "
                                                 "the channel is not oversampled); give its noise level to count it"]
-                                                if bound and refined else []), *said))
+                                                if bound and refined else []), *said, *data.notes()))
 
 
 def _between_said(b: Any) -> str:

@@ -142,6 +142,9 @@ def identify_text(result: IdentificationRun) -> str:
     how = {True: " (compiled)", False: " (not compiled)"}.get(getattr(run, "compiled", None), "")
     lines = [f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
              f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s{how}: {state}"]
+    said = _data_said(run.data)
+    if said:
+        lines.append(f"  data: {said}")
     if len(run.tuning_scores) > 1:
         t = run.tuning
         lines.append(f"  tuning: s0 {t.s0:g}, q_theta {t.q_theta:g}, q_x {t.q_x:g}, gate "
@@ -164,6 +167,23 @@ def identify_text(result: IdentificationRun) -> str:
         lines.append("  residual RMS / noise level: " + ", ".join(f"{k} {v:.2f}" for k, v in
                                                               ref["misfit_over_noise"].items()))
     return "\n".join(lines)
+
+
+def _data_said(data: Mapping[str, Any]) -> str:
+    """How the record was read, where it was not as given: a jittered clock read as regular, missing output
+    samples, columns the model does not use ('' for none).
+
+    Examples
+    --------
+    >>> _data_said({"samples": 300, "clock_deviation": 3e-5, "missing": {"y": 150}, "ignored": ["note"]})
+    'clock read as regular (within 3e-05 of a step); missing output samples: y 150 of 300; columns ignored: note'
+    """
+    missing = [f"{k} {v} of {data.get('samples')}" for k, v in (data.get("missing") or {}).items() if v]
+    return "; ".join(x for x in (
+        f"clock read as regular (within {data['clock_deviation']:.2g} of a step)"
+        if (data.get("clock_deviation") or 0) > 1e-9 else "",
+        f"missing output samples: {', '.join(missing)}" if missing else "",
+        f"columns ignored: {', '.join(data['ignored'])}" if data.get("ignored") else "") if x)
 
 
 def _digits(interval: tuple[float | None, float | None] | None, true: float | None) -> int:
