@@ -2,8 +2,9 @@
 and the estimators that use that analysis.
 
 The top level holds what a first hour needs: a model and its reader, the analysis and its verdict,
-identification from measured data, sensors, symmetries and reparametrizations, the linear tests a
-structural engineer runs, the observer bank, the reproduction of the seed paper, and every error class.
+identification from measured data and its validation on a new record, sensors, symmetries and
+reparametrizations, the linear tests a structural engineer runs, the observer bank, the reproduction of the
+seed paper, and every error class.
 Everything else is imported from its room, e.g. ``from obsnl.estimation import UKF``,
 ``from obsnl.identification import run_passes``, ``from obsnl.design import design``.
 """
@@ -43,6 +44,9 @@ _LAZY: dict[str, str] = {
     "Identification": "identification.results",
     "read_measured": "estimation.measured",
     "read_record": "estimation.records",
+    # a fitted model run on a new record, and its figures of merit
+    "simulate": "identification.validation.run",
+    "Validation": "identification.validation.merit",
     # which sensors (the design room)
     "sensors": "design.sensors",
     # linear observability and the observer bank

@@ -110,6 +110,11 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}; one at least, repeat for more"),
                 _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
                 _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", metavar="S1,S2,..."), SEED]),
+    "validate": ("obsnl.identification.validation.job", "run a fitted model on a test record: RMSE, NRMSE, fit %, dB",
+                 None, [MODEL, _o("--params", required=True, metavar="DIR/identify.json"), _o("--data", required=True,
+                        metavar="TEST.csv"), _o("--warmup", type=_whole(), default=0, help="samples that estimate "
+                        "the initial state (not scored)"), _o("--intersample", action="append", default=[],
+                        metavar="[NAME=]KIND"), _o("--out", required=True, metavar="DIR"), FORCE]),
 }
 
 

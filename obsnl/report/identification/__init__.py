@@ -1,14 +1,15 @@
 """Identification renderings: the text of one identification run (``run``) and the seed paper's Table 2
 analog over many runs (``table2``).
 
-Owns how identification results read as text, Markdown and LaTeX. The run's text takes the run's value
+Owns how identification results read as text, Markdown and LaTeX, and how a fitted model's validation on
+a new record reads and looks (``validation``). The run's text takes the run's value
 (:class:`obsnl.identification.results.Identification`, read through the protocol
 :class:`~obsnl.report.identification.run.IdentificationRun`); the Table 2 analog takes the ``table2.json``
 document, so that a committed table is re-rendered without running anything.
 
-May import: ``report.tex``, ``_text``, ``errors``, numpy. Must never import: ``identification``,
-``studies``, ``cli`` (rooms above on the data flow: their values are read, never imported), nor run an
-analysis or a filter.
+May import: ``report.tex``, ``report.figures`` (the figures of a validation), ``_text``, ``errors``, numpy.
+Must never import: ``identification``, ``studies``, ``cli`` (rooms above on the data flow: their values are
+read, never imported), nor run an analysis or a filter.
 """
 
 from obsnl.report.identification.run import IdentificationRun, identify_text
