@@ -149,7 +149,9 @@ def plot_fit(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated
     plt = _plt()
     fig, axes = plt.subplots(len(outputs), 1, figsize=(8, 2.4 * len(outputs) + 0.6), sharex=True, squeeze=False)
     for j, (ax, name) in enumerate(zip(axes[:, 0], outputs)):
-        ax.plot(t, measured[:, j], lw=1.4, color="0.7", label="measured")
+        seen = ~np.isnan(measured[:, j])  # an output's missing samples left out (NaN would break the line at each)
+        ax.plot(t[seen], measured[seen, j], lw=1.4, color="0.7", label="measured" if seen.all() else
+                f"measured ({int(seen.sum())} of {len(seen)} samples)")
         ax.plot(t, simulated[:, j], lw=0.8, color="C0", label="simulated at the estimate")
         nrmse = fit.get(name)
         ax.set_title(f"{name}: NRMSE " + (f"{nrmse:.2f} %" if nrmse is not None and np.isfinite(nrmse) else "-"),
