@@ -253,7 +253,9 @@ def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE) -> tuple
     if fit.last_step > STEP_LIMIT:
         return False, (f"the last step moved a parameter by {fit.last_step:.2g} of its std (more than {STEP_LIMIT:g}); "
                        f"{advice}")
-    note = (f"; {', '.join(edge)} rests on the edge of its valid region (a factor 100 from the guess; the first-order "
-            f"conditions of the bounded problem hold there)" if edge else "")
+    if edge:  # the bounded problem's first-order conditions hold there, but a search bound is no maximum
+        return False, (f"{', '.join(edge)} rests on its search bound (a factor 100 from its guess): the likelihood "
+                       f"would rise further beyond it, so this is not its maximum (a true value of 0, a sign or a "
+                       f"guess far off, or a model that does not fit); check the guess and the model")
     return True, (f"first-order condition met (Newton decrement {fit.decrement:.2g} <= {DECREMENT:g}) and the last "
-                  f"step moved no parameter by more than {STEP_LIMIT:g} of its std" + note)
+                  f"step moved no parameter by more than {STEP_LIMIT:g} of its std")
