@@ -17,6 +17,7 @@ import numpy as np
 
 from obsnl._text import block, names, number, one_line
 from obsnl.estimation.ukf import Trajectory
+from obsnl.identification.adequacy import INADEQUATE, Adequacy
 from obsnl.identification.practical import Practical
 from obsnl.identification.profile import Profile
 from obsnl.identification.setup import Tuning
@@ -105,7 +106,9 @@ class Identification:
     ``practical_identifiability`` and ``structural`` (``{}`` for None).
     ``traces``, ``t``, ``y_measured``, ``y_fit`` feed the figures and are not in the JSON.
     ``compiled``: whether the filter and the fit ran compiled to C (the same numbers to rounding; None where not
-    recorded).
+    recorded). ``adequacy``: whether the fitted model explains the data to the noise level
+    (:class:`~obsnl.identification.adequacy.Adequacy`, residual tests after the maximum-likelihood fit; None where no
+    fit was made); when it failed every parameter is flagged, and :meth:`summary` says so first.
     """
 
     model: str
@@ -136,25 +139,31 @@ class Identification:
     refinement: Mapping[str, Any] = field(default_factory=dict)
     profiles: tuple[Profile, ...] = field(default=(), repr=False)
     compiled: bool | None = None
+    adequacy: Adequacy | None = None
 
     def __repr__(self) -> str:
         est = names([f"{p.name}={'held' if p.held else number(p.estimate)}" for p in self.parameters], 6)
         return one_line("Identification", f"model={self.model!r}", f"mode={self.mode!r}", f"method={self.method!r}",
+                        "" if self.adequacy is None else f"adequate={self.adequacy.passed}",
                         f"converged={self.converged}", f"flagged={names(self.flagged, 4)!r}", f"estimates='{est}'")
 
     def summary(self) -> str:
-        """A few lines of plain text: the run, the structural verdict, each parameter's estimate, what is flagged,
-        the fit."""
+        """A few lines of plain text: a failed adequacy first, the run, the structural verdict, each parameter's
+        estimate, what is flagged, the fit, a passed adequacy."""
         fit = names([f"{o} {number(v)} %" for o, v in self.fit.items()])
+        inadequate = self.adequacy is not None and not self.adequacy.passed
         rows = [p.summary().rstrip("\n") for p in self.parameters]
-        most = 8 if self.structural is None else 7  # a dozen lines in all
-        return block(f"{self.model}: {self.mode}, {self.method}, {self.passes_run} of {self.passes} passes, "
+        most = (8 if self.structural is None else 7) - (self.adequacy is not None)  # a dozen lines in all
+        return block(self.adequacy.headline() if self.adequacy is not None and inadequate else "",
+                     f"{self.model}: {self.mode}, {self.method}, {self.passes_run} of {self.passes} passes, "
                      f"{'converged' if self.converged else 'NOT converged'}"
                      f"{f' ({self.converged_reason})' if self.converged_reason else ''}, {self.seconds:.3g} s",
                      self.structural.note() if self.structural is not None else "", *rows[:most],
                      f"... and {len(rows) - most} more parameters" if len(rows) > most else "",
-                     f"flagged (poorly informed by these data): {names(self.flagged)}" if self.flagged else "",
-                     f"fit (NRMSE of the model at the estimate): {fit}")
+                     f"flagged (poorly informed by these data): {names(self.flagged)}" if self.flagged and not
+                     inadequate else f"flagged, every parameter: {INADEQUATE}" if inadequate else "",
+                     f"fit (NRMSE of the model at the estimate): {fit}",
+                     self.adequacy.headline() if self.adequacy is not None and not inadequate else "")
 
     @property
     def held(self) -> tuple[str, ...]:
@@ -182,6 +191,7 @@ class Identification:
             "data": dict(self.data), "structural": {} if self.structural is None else self.structural.to_dict(),
             "repairs": self.repairs,
             "practical_identifiability": {} if self.practical is None else self.practical.to_dict(),
+            "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
             "assumptions": list(self.assumptions)})
 
 

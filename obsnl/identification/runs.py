@@ -26,6 +26,7 @@ import math
 import sys
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace as replace_field
 from typing import Any
 
 import numpy as np
@@ -38,7 +39,8 @@ from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import Trajectory
 from obsnl.executor import Executor
 from obsnl.identification.experiments import Tuning, make_filter, run_passes
-from obsnl.identification.refine import Refinement, refine
+from obsnl.identification.adequacy import FLAG_REASON, Adequacy, adequacy
+from obsnl.identification.refine import Refinement, refine, residual_dof
 from obsnl.identification.practical import practical_identifiability
 from obsnl.identification.profile import THRESHOLD, Profile, judge, profiles
 from obsnl.identification.replicates import check_passes, check_replicates, spread_on
@@ -207,8 +209,12 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
     else:
         converged, reason = False, ("not checked: the maximum-likelihood refinement was skipped (refine=False), whose "
                                     "first-order conditions define convergence")
+    adequate = None if ref is None else _adequacy(setup, data, ref, y_fit)
+    if adequate is not None and not adequate.passed:  # every std and interval assumes a right model
+        params = [replace_field(p, flagged=True, reason="; ".join(w for w in (FLAG_REASON, p.reason) if w))
+                  for p in params]
     return Identification(
-        model=m.name, mode=mode, method=method, parameters=tuple(params),
+        model=m.name, mode=mode, method=method, parameters=tuple(params), adequacy=adequate,
         fit={o: float(100 * v) for o, v in zip(m.outputs, per)}, passes=passes, passes_run=len(trs),
         seconds=float(sum(t.seconds for t in trs)) + refine_seconds, converged=converged,
         output_misfit=misfit if math.isfinite(misfit) else None, noise=noise, tuning=tuning, tuning_scores=scores,
@@ -216,6 +222,32 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
         y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs,
         converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
+
+
+def _adequacy(setup: Setup, data: Data, ref: Refinement, y_fit: np.ndarray) -> Adequacy | None:
+    """The residual tests of the fit at the estimate (:mod:`obsnl.identification.adequacy`); None where the model
+    cannot be simulated there. The residual is the one the likelihood fit minimised (its own integrator; ``y - y_fit``
+    where its rows are not one per sample and output); each output's degrees of freedom are its samples measured
+    less its share of the fitted coordinates (:func:`~obsnl.identification.refine.residual_dof`)."""
+    m = setup.model
+    n = len(setup.record)
+    y = np.asarray(data.y, float).reshape(n, -1)
+    if np.shape(y_fit) != y.shape or not np.all(np.isfinite(y_fit)):
+        return None
+    u = np.asarray(data.u, float).reshape(n, -1)[:, :len(m.inputs)]  # a driven model's row starts with the sample
+    measured = np.sum(np.isfinite(y), axis=0)
+    free = np.r_[[p not in ref.held for p in m.parameters], np.ones(m.nx, bool)]
+    J, r = ref.fit.J, ref.fit.r
+    if J.shape[0] == r.size == n * m.ny:  # a missing sample is a zero row of J and a zero residual: in no N
+        dof = residual_dof(J[:, free], m.ny) - (n - measured)
+        e = np.where(np.isfinite(y), r.reshape(n, m.ny) * ref.sigma, np.nan)
+    else:
+        dof, e = measured - free.sum() / m.ny, y - y_fit
+    try:
+        return adequacy(e, measured=y, inputs=u, outputs=m.outputs, input_names=m.inputs,
+                        dof=np.clip(dof, 1.0, measured))
+    except OptionError:  # fewer samples measured than the tests need
+        return None
 
 
 def _widened(prof: Profile) -> str:
@@ -244,8 +276,11 @@ _REFINED = ("the filter's estimate starts a maximum-likelihood fit (output error
             "interval: 95 % profile-likelihood interval (Raue et al. 2009, chi2(1) threshold 3.84, raised by the "
             "square of the inputs' widening of the std), each other parameter and the initial state re-optimised "
             "at every profile point",
-            "converged: the first-order condition holds (Newton decrement <= 0.01) and the last step moved no "
-            "parameter by more than 0.1 of its std",
+            "converged: the first-order condition holds (Newton decrement <= 0.01), the last step moved no "
+            "parameter by more than 0.1 of its std, and no parameter rests on its search bound",
+            "adequacy: the residuals are tested for whiteness, for correlation with each input and for a misfit above "
+            "the noise level estimated from the raw record, at the 1 % level over all tests (under 'adequacy'); when "
+            "they fail, every parameter is flagged: its std and interval assume a right model",
             "flagged: its 95 % interval is wider than +-5 % of the estimate, or open, or the profile is flat",
             f"fit: NRMSE of the model simulated at the estimate ({FIT_SUBSTEPS} RK4 substeps per sample) from the "
             "estimated initial state, against the measurement")

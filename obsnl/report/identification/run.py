@@ -59,6 +59,22 @@ class _Practical(Protocol):
     def undecided(self) -> Mapping[str, str]: ...
 
 
+class _Test(Protocol):
+    @property
+    def p_value(self) -> float: ...
+    def label(self) -> str: ...
+
+
+class _Adequacy(Protocol):
+    @property
+    def passed(self) -> bool: ...
+    @property
+    def failed(self) -> Sequence[_Test]: ...
+    @property
+    def model_error(self) -> Mapping[str, float]: ...
+    def headline(self) -> str: ...
+
+
 class IdentificationRun(Protocol):
     """What :func:`identify_text` reads of a run (:class:`obsnl.identification.results.Identification`)."""
 
@@ -92,6 +108,8 @@ class IdentificationRun(Protocol):
     def practical(self) -> _Practical | None: ...
     @property
     def refinement(self) -> Mapping[str, Any]: ...
+    @property
+    def adequacy(self) -> _Adequacy | None: ...  # read with getattr: None or absent, no fit was made
 
 
 def _given(v: float | None) -> bool:
@@ -142,6 +160,10 @@ def identify_text(result: IdentificationRun) -> str:
     how = {True: " (compiled)", False: " (not compiled)"}.get(getattr(run, "compiled", None), "")
     lines = [f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
              f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s{how}: {state}"]
+    adequacy = getattr(run, "adequacy", None)
+    inadequate = adequacy is not None and not adequacy.passed
+    if inadequate:  # before anything else: the model does not explain the data, the intervals assume it does
+        lines.insert(0, adequacy.headline())
     said = _data_said(run.data)
     if said:
         lines.append(f"  data: {said}")
@@ -157,7 +179,7 @@ def identify_text(result: IdentificationRun) -> str:
             lines.append(f"  practical identifiability not decided: {prac.inconclusive}")
         lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}"
                   for q, why in prac.undecided.items()]
-    lines += [_parameter(p) for p in run.parameters]
+    lines += [_parameter(p, inadequate) for p in run.parameters]
     held = sum(p.held for p in run.parameters)
     if held:
         lines.append(f"  {held} parameter(s) held at their guess")
@@ -166,6 +188,11 @@ def identify_text(result: IdentificationRun) -> str:
     if ref.get("misfit_over_noise"):
         lines.append("  residual RMS / noise level: " + ", ".join(f"{k} {v:.2f}" for k, v in
                                                               ref["misfit_over_noise"].items()))
+    if adequacy is not None:
+        share = ", ".join(f"{k} {100 * v:.3g} %" for k, v in adequacy.model_error.items())
+        lines.append(f"  {adequacy.headline()}" if adequacy.passed else "  adequacy failed: " + ", ".join(
+            f"{t.label()} p = {t.p_value:.2g}" for t in adequacy.failed) + f"; share of the residual variance "
+            f"attributed to model error: {share}")
     return "\n".join(lines)
 
 
@@ -203,8 +230,9 @@ def _digits(interval: tuple[float | None, float | None] | None, true: float | No
     return 17
 
 
-def _parameter(p: _Estimate) -> str:
-    """One parameter's line: the truth in a simulation study, the estimate (or held), the interval, the flag."""
+def _parameter(p: _Estimate, inadequate: bool = False) -> str:
+    """One parameter's line: the truth in a simulation study, the estimate (or held), the interval, the flag (with
+    ``inadequate``, the model failed adequacy and every parameter is flagged for it)."""
     head = f"  {p.name:10s} "
     d = _digits(p.interval, p.true)
     if p.true is not None:
@@ -218,5 +246,6 @@ def _parameter(p: _Estimate) -> str:
         head += f" 95 % [{lo}, {hi}]"
     if _given(p.error):
         head += f" error {p.error:.2f} %" if p.error_kind == "percent" else f" error {p.error:.3g} (absolute)"
-    return head.rstrip() + (f"  poorly informed: {p.reason}" if p.flagged else f"  {p.reason}" if p.reason else "")
+    flag = "flagged" if inadequate else "poorly informed"
+    return head.rstrip() + (f"  {flag}: {p.reason}" if p.flagged else f"  {p.reason}" if p.reason else "")
 

@@ -1,0 +1,531 @@
+"""Model adequacy: does the fitted model explain the data to the noise level? Residual tests at a stated level.
+
+After a maximum-likelihood fit the residual ``e = y - y_model`` of a right model is the measurement noise (up to
+the few directions the fit removed). Three tests per output channel ask whether it is:
+
+- **whiteness**: the Ljung-Box portmanteau ``Q = N (N + 2) sum_k r_k^2 / (N - k)`` over lags ``1..M`` against
+  ``chi2(M)`` (L. Ljung, System Identification: Theory for the User, 2nd ed., 1999, section 16.6; G. M. Ljung
+  and G. E. P. Box, On a measure of lack of fit in time series models, 1978). Samples where the output is missing
+  are skipped and the others closed up: any subsequence of a white noise is white.
+- **cross-correlation** with each input over lags ``0..M``: under the hypothesis that the residual is independent
+  of the input, ``sqrt(N) r_eu(tau)`` is Gaussian with covariance ``P = sum_k r_e(k) r_u(k)`` (Ljung 1999, eq.
+  16.62). The vector of correlations is whitened by that covariance: the residual is prewhitened by an AR model
+  (order by BIC, at most :data:`AR_MAX`; none where samples are missing) and the input filtered alike, so that
+  ``r_e`` is a unit pulse; the input's own autocorrelation then enters through the lagged-input matrix ``U``.
+  The statistic ``n R^2`` of the regression of the residual on ``U`` is ``N sum r_eu(tau)^2`` for a white input;
+  its p-value is from ``F(rank U, n - rank U - 1)``, exact for a Gaussian white residual given the input.
+- **misfit** against the noise level estimated from the raw record
+  (:func:`obsnl.estimation.measured.estimate_noise`, from the record's differences: independent of the model and
+  of the fit): ``F = (RSS / dof) / s^2``. With a known noise std ``RSS / sigma^2 ~ chi2(dof)``; the estimate
+  ``s`` has its own sampling spread, so the null distribution of ``log F`` is calibrated by :data:`DRAWS` draws of
+  white Gaussian noise of the same length put through the same estimator (mean and std of ``log F``, taken
+  Gaussian; beyond :data:`CALIBRATED` samples both scaled as ``1 / sqrt(N)``), with a fixed seed per record
+  length. One-sided: only a misfit above the noise is a failure. The
+  share of the residual variance attributed to model error, ``1 - s^2 / (RSS / dof)`` floored at 0, is reported
+  per output so that a user can judge a failure on a long record (where a tiny model error is significant).
+
+``level`` is the family-wise level: each of the ``k`` tests is judged at ``level / k`` (Bonferroni), so that a
+right model fails at most with probability ``level``.
+
+Assumptions, stated in every result: the measurement noise is white (its band reaches the Nyquist frequency: a
+sensor whose anti-alias filter colours the noise below Nyquist makes a right model fail whiteness and the misfit),
+Gaussian, independent of the inputs and between channels; the inputs' noise passed through the model is small
+beside it (an input's noise reaches the output filtered, coloured: on a long record a right model fails on it); the
+inputs are measured without feedback from the residual (negative lags are not tested); the channel is oversampled
+(else the noise estimate is only an upper bound and the misfit test is weak: its detail says so).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from obsnl._text import block, names, number, one_line
+from obsnl.errors import OptionError
+from obsnl.estimation.measured import MIN_SAMPLES, UPPER_BOUND, estimate_noise
+
+__all__ = [
+    "AR_MAX",
+    "DRAWS",
+    "FLAG_REASON",
+    "INADEQUATE",
+    "LEVEL",
+    "MAX_LAGS",
+    "Adequacy",
+    "AdequacyTest",
+    "adequacy",
+    "cross_correlation",
+    "lags_for",
+    "misfit",
+    "whiteness",
+]
+
+#: The default family-wise level of the adequacy tests.
+LEVEL = 0.01
+#: Lags of the whiteness and cross-correlation tests: ``min(MAX_LAGS, N // 5)``.
+MAX_LAGS = 25
+#: The highest order of the AR model that prewhitens the residual in the cross-correlation test.
+AR_MAX = 10
+#: Draws of white noise that calibrate the misfit test's null distribution.
+DRAWS = 400
+#: The longest record the calibration draws: beyond it the mean and std of ``log F`` are scaled by
+#: ``sqrt(CALIBRATED / N)`` (both fall as ``1 / sqrt(N)``: the noise estimate's error and the chi2's).
+CALIBRATED = 8192
+#: What a failed adequacy means, said first.
+INADEQUATE = "the model does not explain the data to the noise level"
+#: The reason every parameter is flagged with when the model fails adequacy.
+FLAG_REASON = (f"{INADEQUATE} (adequacy failed): its std and interval assume a right model and do not cover the "
+               "model error")
+
+_ASSUMPTIONS = (
+    ("adequacy: the measurement noise is white (its band reaches the Nyquist frequency; noise coloured below it, "
+     "e.g. by a sensor's anti-alias filter, makes a right model fail whiteness), Gaussian, independent of the inputs "
+     "and between channels; the inputs' own noise, passed through the model, small beside it (else it adds a coloured "
+     "error that a right model fails on, on a long record)"),
+    ("adequacy: whiteness by Ljung-Box Q over lags 1..M, M = min(25, N/5), against chi2(M) (Ljung 1999, sec. 16.6), "
+     "on the residual samples present"),
+    ("adequacy: residual-input cross-correlation over lags 0..M per input, the residual prewhitened by an AR model "
+     "(BIC, order <= 10; none with missing samples) and the input filtered alike, the correlations whitened by the "
+     "input's own autocorrelation (Ljung 1999, eq. 16.62): n R^2 of the regression on the lagged input, p-value "
+     "from F(rank, n - rank - 1); no feedback from the residual to the input (negative lags not tested)"),
+    ("adequacy: misfit RSS/dof over the noise variance estimated from the raw record's differences (independent "
+     "of the model); the estimate's own spread counted by calibrating log F on draws of white Gaussian noise of "
+     "the same length (at most 8192, scaled as 1/sqrt(N) beyond) through the same estimator; one-sided"),
+    "adequacy: the level is family-wise; each of the k tests is judged at level/k (Bonferroni)",
+)
+
+
+@dataclass(frozen=True)
+class AdequacyTest:
+    """One residual test on one output channel.
+
+    ``name``: ``"whiteness"``, ``"cross-correlation"`` (then ``input`` names the input) or ``"misfit"``;
+    ``statistic`` and ``p_value`` (the probability of a statistic at least as large under a right model);
+    ``passed``: ``p_value`` above the level the test was judged at; ``detail``: the statistic's distribution
+    and what it rests on, in words.
+    """
+
+    name: str
+    output: str
+    statistic: float
+    p_value: float
+    passed: bool
+    detail: str
+    input: str | None = None
+
+    def __repr__(self) -> str:
+        return one_line("AdequacyTest", f"{self.name}", f"output={self.output!r}",
+                        f"input={self.input!r}" if self.input else "", f"statistic={number(self.statistic)}",
+                        f"p={number(self.p_value)}", "passed" if self.passed else "FAILED")
+
+    def label(self) -> str:
+        """``whiteness of y``, ``cross-correlation of y with u``, ``misfit of y``."""
+        return f"{self.name} of {self.output}" + (f" with {self.input}" if self.input else "")
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {"name": self.name, "output": self.output, "statistic": _finite(self.statistic),
+             "p_value": _finite(self.p_value), "passed": self.passed, "detail": self.detail}
+        if self.input is not None:
+            d["input"] = self.input
+        return d
+
+
+@dataclass(frozen=True)
+class Adequacy:
+    """The verdict of the residual tests: ``passed`` when every test passed at its share of ``level``.
+
+    ``tests``: one :class:`AdequacyTest` per output and test; ``model_error``: per output, the share of the
+    residual variance attributed to model error, ``1 - s^2 / (RSS / dof)`` floored at 0 (``s``: the independent
+    noise estimate); ``assumptions``: what the verdict rests on.
+    """
+
+    passed: bool
+    level: float
+    tests: tuple[AdequacyTest, ...]
+    assumptions: tuple[str, ...]
+    model_error: Mapping[str, float] = field(default_factory=dict)
+
+    @property
+    def failed(self) -> tuple[AdequacyTest, ...]:
+        """The tests that failed."""
+        return tuple(t for t in self.tests if not t.passed)
+
+    def __repr__(self) -> str:
+        return one_line("Adequacy", f"passed={self.passed}", f"level={self.level:g}", f"tests={len(self.tests)}",
+                        f"failed={names([t.label() for t in self.failed], 3)!r}" if self.failed else "")
+
+    def headline(self) -> str:
+        """One sentence: adequate or not, what a failure means, the failed tests."""
+        k = len(self.tests)
+        if self.passed:
+            kinds = dict.fromkeys(t.name for t in self.tests)
+            return f"adequate: the residuals pass {k} tests ({', '.join(kinds)}) at the {100 * self.level:g} % level"
+        return (f"NOT adequate: {INADEQUATE}; the std and intervals assume a right model (failed at "
+                f"{100 * self.level:g} %: {names([t.label() for t in self.failed], 2)})")
+
+    def summary(self) -> str:
+        """A few lines of plain text: the headline, each test, the share of model error per output."""
+        share = names([f"{o} {100 * v:.3g} %" for o, v in self.model_error.items()])
+        return block(self.headline(), *(f"{t.label()}: statistic {number(t.statistic)}, p = {t.p_value:.3g}, "
+                                        f"{'passed' if t.passed else 'FAILED'}" for t in self.tests[:9]),
+                     f"share of the residual variance attributed to model error: {share}" if self.model_error else "")
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"passed": self.passed, "level": self.level, "per_test_level": self.level / max(len(self.tests), 1),
+                "tests": [t.to_dict() for t in self.tests],
+                "model_error_share": {o: _finite(v) for o, v in self.model_error.items()},
+                "assumptions": list(self.assumptions)}
+
+
+def _finite(x: float) -> float | None:
+    return float(x) if math.isfinite(x) else None
+
+
+def lags_for(n: int) -> int:
+    """The lags ``M`` of the whiteness and cross-correlation tests on ``n`` samples: ``min(MAX_LAGS, n // 5)``,
+    at least 1.
+
+    Examples
+    --------
+    >>> lags_for(400), lags_for(60)
+    (25, 12)
+    """
+    return max(1, min(MAX_LAGS, n // 5))
+
+
+def _column(x: Any, what: str) -> np.ndarray:
+    a = np.asarray(x, float)
+    if a.ndim != 1:
+        raise OptionError(f"{what} must be one series, got shape {a.shape}")
+    return a
+
+
+def _check_level(level: float) -> None:
+    if isinstance(level, bool) or not (isinstance(level, (int, float)) and 0 < level < 0.5):
+        raise OptionError(f"level={level!r} must be a number in (0, 0.5), e.g. 0.01 (the chance a right model fails)")
+
+
+def whiteness(e: Any, *, output: str = "y", lags: int | None = None, level: float = LEVEL) -> AdequacyTest:
+    """Ljung-Box test of the residual ``e`` for whiteness (module docstring); NaN samples are skipped.
+
+    Parameters
+    ----------
+    e : array_like
+        The residual of one output.
+    output : str
+        Its name.
+    lags : int or None
+        ``M`` (default :func:`lags_for` of the samples present).
+    level : float
+        The level the test is judged at.
+
+    Returns
+    -------
+    AdequacyTest
+
+    Raises
+    ------
+    OptionError
+        Fewer than ``MIN_SAMPLES`` samples present, or a bad level.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(0)
+    >>> whiteness(rng.standard_normal(500)).passed
+    True
+    >>> x = np.zeros(500); w = rng.standard_normal(500)
+    >>> for t in range(1, 500): x[t] = 0.5 * x[t - 1] + w[t]
+    >>> whiteness(x).passed
+    False
+    """
+    from scipy import stats  # loaded when a test runs (start-up kept short)
+
+    _check_level(level)
+    e = _column(e, "the residual")
+    e = e[np.isfinite(e)]
+    n = len(e)
+    if n < MIN_SAMPLES:
+        raise OptionError(f"the residual of {output!r} has {n} samples present; the adequacy tests need at least "
+                          f"{MIN_SAMPLES}")
+    m = lags_for(n) if lags is None else int(lags)
+    if not 1 <= m < n:
+        raise OptionError(f"lags={lags!r} must be an integer from 1 to {n - 1}")
+    e = e - e.mean()
+    c0 = float(e @ e)
+    if c0 == 0:
+        return AdequacyTest("whiteness", output, 0.0, 1.0, True, "the residual is constant: nothing to correlate")
+    r = np.array([float(e[k:] @ e[:-k]) / c0 for k in range(1, m + 1)])
+    q = float(n * (n + 2) * np.sum(r ** 2 / (n - np.arange(1, m + 1))))
+    p = float(stats.chi2.sf(q, m))
+    return AdequacyTest("whiteness", output, q, p, p > level,
+                        f"Ljung-Box Q over lags 1..{m} on {n} samples, chi2({m}); largest |r_k| "
+                        f"{np.max(np.abs(r)):.3g} at lag {int(np.argmax(np.abs(r))) + 1} (white: within "
+                        f"{1.96 / math.sqrt(n):.3g} at 95 %)")
+
+
+def _ar_order(e: np.ndarray, most: int) -> tuple[int, np.ndarray]:
+    """The AR model of ``e`` (mean removed) with the lowest BIC among orders ``0..most``, by least squares on the
+    same samples: ``(order, coefficients)``."""
+    n = len(e)
+    rows = np.arange(most, n)
+    best = (n * math.log(max(float(np.mean(e[rows] ** 2)), 1e-300)), 0, np.zeros(0))
+    for p in range(1, most + 1):
+        X = np.column_stack([e[rows - i] for i in range(1, p + 1)])
+        a = np.linalg.lstsq(X, e[rows], rcond=None)[0]
+        s2 = float(np.mean((e[rows] - X @ a) ** 2))
+        bic = len(rows) * math.log(max(s2, 1e-300)) + p * math.log(len(rows))
+        if bic < best[0]:
+            best = (bic, p, a)
+    return best[1], best[2]
+
+
+def _filtered(x: np.ndarray, a: np.ndarray) -> np.ndarray:
+    """``x(t) - sum_i a_i x(t - i)``, NaN for ``t < len(a)``."""
+    p = len(a)
+    out = np.full(len(x), np.nan)
+    out[p:] = x[p:] - sum((a[i - 1] * x[p - i:len(x) - i] for i in range(1, p + 1)), np.zeros(len(x) - p))
+    return out
+
+
+def cross_correlation(e: Any, u: Any, *, output: str = "y", input: str = "u", lags: int | None = None,
+                      level: float = LEVEL) -> AdequacyTest:
+    """Test of the residual ``e`` against the input ``u`` over lags ``0..M`` (module docstring); NaN residual
+    samples are skipped.
+
+    Parameters
+    ----------
+    e, u : array_like
+        The residual of one output and one input, sample by sample (the same length).
+    output, input : str
+        Their names.
+    lags : int or None
+        ``M`` (default :func:`lags_for` of the residual samples present).
+    level : float
+        The level the test is judged at.
+
+    Returns
+    -------
+    AdequacyTest
+        ``statistic`` is ``n R^2`` (``N sum r_eu(tau)^2`` for a white input).
+
+    Raises
+    ------
+    OptionError
+        Series of different lengths, too few samples, or a bad level.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(1)
+    >>> u = rng.standard_normal(600)
+    >>> cross_correlation(rng.standard_normal(600), u).passed
+    True
+    >>> cross_correlation(rng.standard_normal(600) + 0.3 * np.r_[0.0, 0.0, u[:-2]], u).passed   # u two samples late
+    False
+    """
+    from scipy import stats
+
+    _check_level(level)
+    e, u = _column(e, "the residual"), _column(u, "the input")
+    if len(e) != len(u):
+        raise OptionError(f"the residual of {output!r} has {len(e)} samples, the input {input!r} {len(u)}; give "
+                          "them sample by sample")
+    present = np.isfinite(e) & np.isfinite(u)
+    n_present = int(present.sum())
+    if n_present < MIN_SAMPLES:
+        raise OptionError(f"the residual of {output!r} has {n_present} samples present; the adequacy tests need at "
+                          f"least {MIN_SAMPLES}")
+    m = lags_for(n_present) if lags is None else int(lags)
+    if not 0 <= m < n_present // 2:
+        raise OptionError(f"lags={lags!r} must be an integer from 0 to {n_present // 2 - 1}")
+    order, a = (0, np.zeros(0))
+    if present.all():
+        ec = e - e.mean()
+        order, a = _ar_order(ec, min(AR_MAX, max(len(e) // 20, 0)))
+        ew, uw = _filtered(ec, a), _filtered(u - u.mean(), a)
+    else:
+        ew, uw = np.where(present, e, np.nan), np.where(np.isfinite(u), u, np.nan)
+    t = np.arange(m + order, len(e))
+    U = np.column_stack([uw[t - k] for k in range(m + 1)])
+    keep = np.isfinite(ew[t]) & np.all(np.isfinite(U), axis=1)
+    y, U = ew[t][keep], U[keep]
+    n = len(y)
+    y, U = y - y.mean(), U - U.mean(axis=0)
+    lam, V = np.linalg.eigh(U.T @ U) if U.size else (np.zeros(0), np.zeros((0, 0)))
+    live = lam > 1e-12 * lam.max() if lam.size and lam.max() > 0 else np.zeros(len(lam), bool)
+    rank = int(live.sum())  # the directions the lagged input spans (fewer than the lags for a few sines)
+    yy = float(y @ y)
+    if rank == 0 or yy == 0 or n - rank - 1 < 1:
+        return AdequacyTest("cross-correlation", output, 0.0, 1.0, True,
+                            "nothing to correlate (a constant input or residual)", input=input)
+    c = V[:, live].T @ (U.T @ y)
+    proj2 = float(np.sum(c ** 2 / lam[live]))  # |P_U y|^2 with P_U the projection on the lagged input
+    r2 = min(proj2 / yy, 1.0)
+    f = (r2 / rank) / (max(1.0 - r2, 1e-300) / (n - rank - 1))
+    p = float(stats.f.sf(f, rank, n - rank - 1))
+    how = f"the residual prewhitened by AR({order}) (BIC)" if present.all() else "the residual not prewhitened (gaps)"
+    return AdequacyTest("cross-correlation", output, n * r2, p, p > level,
+                        f"n R^2 of the residual on input {input} at lags 0..{m} ({n} samples, rank {rank}), "
+                        f"F({rank}, {n - rank - 1}); {how}", input=input)
+
+
+@lru_cache(maxsize=16)
+def _misfit_null(n: int, fitted: float) -> tuple[float, float]:
+    """Mean and std of ``log F`` for a right model: ``n`` samples of white Gaussian noise, ``fitted`` coordinates
+    removed (an independent ``chi2(fitted)`` subtracted from the sum of squares), the noise estimated by
+    :func:`~obsnl.estimation.measured.estimate_noise`. Seeded by ``n``: the same record length, the same
+    calibration. Beyond :data:`CALIBRATED` samples, drawn at that length and scaled by ``sqrt(CALIBRATED / n)``."""
+    if n > CALIBRATED:
+        mu, sd = _misfit_null(CALIBRATED, fitted)
+        return mu * math.sqrt(CALIBRATED / n), sd * math.sqrt(CALIBRATED / n)
+    rng = np.random.default_rng([n, DRAWS])
+    logs = np.empty(DRAWS)
+    for b in range(DRAWS):
+        w = rng.standard_normal(n)
+        ratio, _ = estimate_noise(w)
+        s2 = ratio ** 2 * float(np.mean(w ** 2))
+        rss = float(w @ w) - (float(rng.chisquare(fitted)) if fitted > 0 else 0.0)
+        logs[b] = math.log(max(rss, 1e-300) / (n - fitted) / s2)
+    return float(np.mean(logs)), float(np.std(logs, ddof=1))
+
+
+def misfit(e: Any, y: Any, *, output: str = "y", dof: float | None = None,
+           level: float = LEVEL) -> tuple[AdequacyTest, float]:
+    """Test of the residual's size against the noise level estimated from the raw record ``y`` (module docstring).
+
+    Parameters
+    ----------
+    e : array_like
+        The residual of one output (NaN: a missing sample).
+    y : array_like
+        The measured output, raw (its noise std is estimated from its differences, over the samples present).
+    output : str
+        Its name.
+    dof : float or None
+        The residual degrees of freedom, the samples present less the fitted coordinates this output carries
+        (default: the samples present).
+    level : float
+        The level the test is judged at.
+
+    Returns
+    -------
+    tuple
+        ``(AdequacyTest, share)``: the test, and the share of the residual variance attributed to model error
+        (``1 - s^2 / (RSS / dof)``, floored at 0).
+
+    Raises
+    ------
+    OptionError
+        Too few samples, a ``dof`` out of range, a bad level.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(2)
+    >>> t = np.arange(2000) * 0.01
+    >>> y = np.sin(2 * np.pi * 0.3 * t) + 0.01 * rng.standard_normal(2000)
+    >>> test, share = misfit(y - np.sin(2 * np.pi * 0.3 * t), y)
+    >>> test.passed, share < 0.1
+    (True, True)
+    >>> test, share = misfit(y - 1.01 * np.sin(2 * np.pi * 0.3 * t), y)    # 1 % off in amplitude: RMS 0.0071
+    >>> test.passed, abs(share - 1 / 3) < 0.05      # its share: 0.0071^2 / (0.0071^2 + 0.01^2) = 1/3
+    (False, True)
+    """
+    from scipy import stats
+
+    _check_level(level)
+    e, y = _column(e, "the residual"), _column(y, "the output")
+    ok = np.isfinite(e)
+    n = int(ok.sum())
+    if n < MIN_SAMPLES:
+        raise OptionError(f"the residual of {output!r} has {n} samples present; the adequacy tests need at least "
+                          f"{MIN_SAMPLES}")
+    dof = float(n if dof is None else dof)
+    if not 1 <= dof <= n:
+        raise OptionError(f"dof={dof!r} must lie in [1, {n}] (the samples present less the fitted coordinates)")
+    raw = y[np.isfinite(y)]
+    ratio, note = estimate_noise(raw)
+    s2 = ratio ** 2 * float(np.mean(raw ** 2))
+    var = float(e[ok] @ e[ok]) / dof
+    if s2 <= 0:
+        return AdequacyTest("misfit", output, math.nan, 1.0, True, "no noise estimate (a zero channel)"), 0.0
+    ratio_f = var / s2
+    mu, sd = _misfit_null(n, round(n - dof, 3))
+    p = float(stats.norm.sf((math.log(max(ratio_f, 1e-300)) - mu) / sd))
+    share = max(0.0, 1.0 - s2 / var) if var > 0 else 0.0
+    weak = ("; the noise estimate is only an upper bound (the channel is not oversampled): a misfit below it goes "
+            "unseen" if UPPER_BOUND in note else "")
+    return AdequacyTest("misfit", output, ratio_f, p, p > level,
+                        f"(RSS/dof) / s^2 with dof {dof:.6g} and s = {math.sqrt(s2):.3g} estimated from the raw "
+                        f"record's differences; log F against its spread under a right model (mean {mu:.3g}, std "
+                        f"{sd:.3g}, {DRAWS} draws of white noise); RMS residual / s = {math.sqrt(var / s2):.4g}"
+                        + weak), share
+
+
+def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[str], input_names: Sequence[str] = (),
+             dof: Sequence[float] | None = None, level: float = LEVEL, lags: int | None = None) -> Adequacy:
+    """Judge whether a fitted model explains the data to the noise level (module docstring).
+
+    Parameters
+    ----------
+    residuals : array_like
+        ``(N, ny)``: measured minus modelled output; NaN where the output is missing (skipped).
+    measured : array_like
+        ``(N, ny)``: the measured outputs, raw (their noise level is estimated from their differences).
+    inputs : array_like
+        ``(N, nu)``: the measured inputs (``(N,)`` for one, ``(N, 0)`` for none).
+    outputs, input_names : sequence of str
+        The channels' names.
+    dof : sequence of float or None
+        Per output, the residual degrees of freedom (default: the samples present).
+    level : float
+        The family-wise level (default 1 %): each of the ``k`` tests is judged at ``level / k``.
+    lags : int or None
+        ``M`` of the whiteness and cross-correlation tests (default :func:`lags_for` of the samples present).
+
+    Returns
+    -------
+    Adequacy
+
+    Raises
+    ------
+    OptionError
+        Shapes that do not match the names, too few samples, a bad level.
+
+    Examples
+    --------
+    >>> rng = np.random.default_rng(3)
+    >>> t = np.arange(1000) * 0.01
+    >>> u = np.sin(2 * np.pi * 0.7 * t) + 0.5 * np.sin(2 * np.pi * 1.9 * t)
+    >>> y = np.sin(2 * np.pi * 0.2 * t) + 0.01 * rng.standard_normal(1000)
+    >>> a = adequacy(y - np.sin(2 * np.pi * 0.2 * t), measured=y, inputs=u, outputs=["y"], input_names=["u"])
+    >>> a.passed, [t.name for t in a.tests]
+    (True, ['whiteness', 'cross-correlation', 'misfit'])
+    """
+    _check_level(level)
+    r = np.asarray(residuals, float)
+    r = r.reshape(len(r), -1)
+    y = np.asarray(measured, float).reshape(len(r), -1) if np.size(measured) == r.size else None
+    u = np.asarray(inputs, float)
+    u = u.reshape(len(u), -1) if u.ndim == 1 or u.size else np.zeros((len(r), 0))
+    if y is None or r.shape[1] != len(outputs) or len(u) != len(r) or u.shape[1] != len(input_names):
+        raise OptionError(f"adequacy: residuals {r.shape}, measured outputs {np.shape(measured)} and inputs "
+                          f"{np.shape(inputs)} do not match {len(outputs)} output(s) and {len(input_names)} input(s); "
+                          "give them sample by sample, one column per channel")
+    if dof is not None and len(dof) != len(outputs):
+        raise OptionError(f"dof= has {len(dof)} values for {len(outputs)} outputs; give one per output")
+    k = len(outputs) * (2 + len(input_names))
+    each = level / k
+    tests: list[AdequacyTest] = []
+    share: dict[str, float] = {}
+    for j, o in enumerate(outputs):
+        tests.append(whiteness(r[:, j], output=o, lags=lags, level=each))
+        tests += [cross_correlation(r[:, j], u[:, i], output=o, input=c, lags=lags, level=each)
+                  for i, c in enumerate(input_names)]
+        test, share[o] = misfit(r[:, j], y[:, j], output=o, dof=None if dof is None else dof[j], level=each)
+        tests.append(test)
+    return Adequacy(passed=all(t.passed for t in tests), level=float(level), tests=tuple(tests),
+                    assumptions=_ASSUMPTIONS, model_error=share)
