@@ -38,7 +38,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy import signal
 
 from obsnl.errors import DataError, OptionError
 from obsnl.estimation.numeric import NumericModel
@@ -211,6 +210,8 @@ def upsample(u: np.ndarray, points: int, *, periodic: bool | None = None) -> np.
         pad[:len(X)] = X
         fine = np.fft.irfft(pad, n=T * m) * m
     else:
+        from scipy import signal  # scipy.signal takes seconds to import: only where a sinc is needed
+
         h = signal.firwin(2 * m * HALF_WIDTH + 1, 1.0 / m, window=("kaiser", KAISER_BETA))
         fine = signal.resample_poly(x, m, 1, window=h, padtype="antireflect")[:T * m]
     fine[::m] = x
@@ -383,6 +384,8 @@ def between_samples(u: np.ndarray, inputs: Sequence[str], kinds: Mapping[str, st
     >>> lin.matters, round(lin.discrepancy, 2)
     (True, 0.06)
     """
+    from scipy import signal  # scipy.signal takes seconds to import: only when a record is judged
+
     x = np.asarray(u, float).reshape(len(u), -1)
     out = []
     for j, name in enumerate(inputs):
