@@ -105,16 +105,18 @@ def test_gaps_in_an_output_are_read_as_missing_samples(tmp_path):
 
 
 # --------------------------------------------------------------------------- the noise of a gappy channel
-@pytest.mark.parametrize("gaps", ["every other", "random 30 %"])
+@pytest.mark.parametrize("gaps", ["every other", "random 30 %", "every 10th"])
 def test_the_noise_of_a_gappy_channel_is_estimated_from_the_samples_measured(gaps):
     # white noise of std 0.01 on a slow sine: k-th differences of evenly spaced samples have variance
-    # C(2k, k) s^2 whatever their spacing. Seeded; the estimate's relative spread is about 1.3 / sqrt(n) (a MAD
-    # over n >= 800 differences: under 5 %), so 15 % is over 3 of its std (error probability below 1e-3).
+    # C(2k, k) s^2 whatever their spacing (every 10th: an output sampled 10 times more slowly than the input).
+    # Seeded; the estimate's relative spread is about 1.3 / sqrt(n) (a MAD over n >= 1900 differences: under 3 %),
+    # so 15 % is over 5 of its std (error probability below 1e-6).
     rng = np.random.default_rng(7)
-    t = np.arange(4000) * 0.01
+    t = np.arange(20000) * 0.002
     x = np.sin(2 * np.pi * 0.2 * t) + 0.01 * rng.standard_normal(t.size)
     rms = np.sqrt(np.mean(np.sin(2 * np.pi * 0.2 * t) ** 2))
-    missing = np.arange(t.size) % 2 == 1 if gaps == "every other" else rng.random(t.size) < 0.3
+    missing = {"every other": np.arange(t.size) % 2 == 1, "random 30 %": rng.random(t.size) < 0.3,
+               "every 10th": np.arange(t.size) % 10 != 0}[gaps]
     x[missing] = np.nan
     ratio, note = estimate_noise(x)
     assert ratio * np.sqrt(np.nanmean(x ** 2)) == pytest.approx(0.01, rel=0.15)

@@ -324,9 +324,10 @@ def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float,
     estimate is only an upper bound: the note says so.
 
     A channel with gaps (NaN: missing samples) is judged on the samples measured: the ``k``-th differences of
-    ``k + 1`` measured samples evenly spaced in time (every sample, every other one, ...: the white-noise
-    factor ``C(2k, k)`` holds for any spacing), taken at the smallest spacing the gaps allow; the note says the
-    spacing when it is not every sample. Its RMS is that of the samples measured.
+    ``k + 1`` measured samples evenly spaced in time (every sample, every other one, every 10th of an output
+    sampled 10 times more slowly than the inputs...: the white-noise factor ``C(2k, k)`` holds for any spacing),
+    taken at the smallest spacing between measured samples that gives enough of them; the note says the spacing
+    when it is not every sample. Its RMS is that of the samples measured.
 
     Parameters
     ----------
@@ -392,13 +393,13 @@ def _even_differences(x: np.ndarray, seen: np.ndarray, k: int) -> tuple[np.ndarr
     smallest spacing that gives at least :data:`MIN_SAMPLES` of them (no gap: every sample), and that spacing."""
     if seen.size == x.size:
         return np.diff(x, k), 1
-    for step in range(1, 9):
+    for step in np.unique(np.diff(seen))[:16]:  # the spacings between measured samples, smallest first
         rows = np.arange(len(x) - k * step)
         idx = rows[:, None] + step * np.arange(k + 1)[None, :]
         ok = np.all(~np.isnan(x[idx]), axis=1)
         if np.count_nonzero(ok) >= MIN_SAMPLES:
             w = np.array([(-1) ** (k - j) * comb(k, j) for j in range(k + 1)], float)
-            return x[idx[ok]] @ w, step
+            return x[idx[ok]] @ w, int(step)
     return np.zeros(0), 0
 
 
