@@ -22,6 +22,7 @@ from obsnl.errors import (
     ParseError,
     TableError,
 )
+from obsnl import _display
 from obsnl._exports import lazy_exports
 
 __version__ = "0.1.0"
@@ -60,6 +61,24 @@ _LAZY: dict[str, str] = {
 
 
 __getattr__, __dir__ = lazy_exports(__name__, globals(), _LAZY)
+
+
+def _markdown(result: object) -> str:
+    from obsnl.report.tables import to_markdown
+
+    return to_markdown(result)
+
+
+def _latex(result: object) -> str:
+    from obsnl.report.tables import to_latex
+
+    return to_latex(result, environment=False)
+
+
+# a result's notebook display asks obsnl._display, which the top level (imported before any module) wires to the
+# report room; the renderers load on first use
+_display.register("md", _markdown)
+_display.register("tex", _latex)
 
 
 __all__ = [

@@ -186,6 +186,9 @@ class Objective:
         if not np.any(sigma_u > 0) or not ok.any():
             return np.zeros_like(C)
         A = self.input_effect(z, J)
+        nu = len(sigma_u)
+        if A.shape[0] != len(self.data.u) * nu:  # a driven model: a sample's noise moves its block (held)
+            A = A.reshape(len(self.data.u), -1, nu, A.shape[1]).sum(axis=1).reshape(-1, A.shape[1])
         CA = np.zeros((len(C), A.shape[0]))
         CA[ok] = C[np.ix_(ok, ok)] @ A[:, ok].T
         S = np.tile(sigma_u ** 2, len(self.data.u))

@@ -143,7 +143,9 @@ class Setup:
         """Absolute noise standard deviations ``(sigma_u (nu,), sigma_y (ny,))`` on these data."""
         # RMS over the samples measured (an output's missing samples are NaN)
         col = lambda a: np.sqrt(np.nanmean(np.asarray(a, float).reshape(len(a), -1) ** 2, axis=0))  # noqa: E731
-        return self.ratios(self.model.inputs) * col(data.u), self.ratios(self.model.outputs) * col(data.y)
+        nu = len(self.model.inputs)  # a driven model's input rows are blocks: their first nu entries are the samples
+        return (self.ratios(self.model.inputs) * col(data.u)[:nu],
+                self.ratios(self.model.outputs) * col(data.y))
 
     def to_dict(self) -> dict[str, Any]:
         return {"model": self.model.name, "record": self.record.to_dict(),

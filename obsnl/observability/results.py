@@ -11,6 +11,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from obsnl._display import render
 from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.observability.joint.result import JointResult
@@ -18,21 +19,6 @@ from obsnl.observability.joint.selection import Visited
 from obsnl.observability.verdicts import BranchResult, Verdict
 
 __all__ = ["AnalysisResult"]
-
-
-#: Notebook renderers (format -> function of a result), filled by :mod:`obsnl.report` when it is
-#: imported: results never import the report's functions, the report registers itself; the first display
-#: loads it by name (:func:`_renderer`), so neither ``import obsnl`` nor an analysis pays for it.
-DISPLAY: dict[str, Any] = {}
-
-
-def _renderer(fmt: str) -> Any:
-    """The registered renderer of ``fmt``, loading the report room (which registers them) on first use."""
-    if fmt not in DISPLAY:
-        import importlib
-
-        importlib.import_module("obsnl.report")  # a plug-in load: the report registers into DISPLAY
-    return DISPLAY.get(fmt)
 
 
 @dataclass(frozen=True)
@@ -263,14 +249,12 @@ class AnalysisResult:
         raise KeyError(f"no branch {label!r}; branches are {[b.label for b in self.branches]}")
 
     def _repr_markdown_(self) -> str | None:
-        """Notebook display: the Markdown table, drawn by the renderer that :mod:`obsnl.report` registers."""
-        render = _renderer("md")
-        return render(self) if render is not None else None
+        """Notebook display: the Markdown table, drawn by :mod:`obsnl.report` (:mod:`obsnl._display`)."""
+        return render("md", self)
 
     def _repr_latex_(self) -> str | None:
         """Notebook display: the LaTeX table (without its environment), drawn by :mod:`obsnl.report`."""
-        render = _renderer("tex")
-        return render(self) if render is not None else None
+        return render("tex", self)
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
         """JSON-ready data with the keys of ``obsnl analyze --format json``: ``model, method, seed,

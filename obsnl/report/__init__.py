@@ -12,11 +12,8 @@ Must never import: ``algebra``, ``recombination``, ``estimation``, ``identificat
 """
 
 from obsnl._exports import lazy_exports
-from obsnl.observability.results import DISPLAY as _DISPLAY
 from obsnl.report.tables import *  # noqa: F403
 from obsnl.report.tables import __all__ as _TABLES
-from obsnl.report.tables import to_latex as _to_latex
-from obsnl.report.tables import to_markdown as _to_markdown
 
 # The tables load with the room (a result's display needs them); the rest on first use, so that rendering one
 # analysis loads neither the report folders' writer nor the bank's and Table 2's renderers: name -> module.
@@ -36,6 +33,3 @@ _LAZY: dict[str, str] = {
 __getattr__, __dir__ = lazy_exports(__name__, globals(), _LAZY)
 
 __all__ = [*_TABLES, *_LAZY]
-
-_DISPLAY.setdefault("md", _to_markdown)
-_DISPLAY.setdefault("tex", lambda result: _to_latex(result, environment=False))
