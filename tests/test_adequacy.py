@@ -153,6 +153,25 @@ def test_missing_output_samples_are_skipped():
     assert all(np.isfinite(t.statistic) for t in a.tests) and "misfit" in {t.name for t in a.tests}
 
 
+def test_misfit_with_gaps_keeps_its_level_and_judges_a_misfit():
+    # 30 % of the output missing at random (one pattern): the noise is estimated from evenly spaced samples measured,
+    # and the calibration draws keep the gaps; at 5 % a right model is rejected about 5 % of the time. Error
+    # probability: the count lies outside its binomial 99.9 % range with probability <= 1e-3.
+    trials, level = 200, 0.05
+    rng = np.random.default_rng(8)
+    gaps = rng.random(N) < 0.3
+    signal_ = np.sin(2 * np.pi * 0.2 * T)
+    rejected = 0
+    for seed in range(trials):
+        e = np.where(gaps, np.nan, 0.01 * np.random.default_rng(2000 + seed).standard_normal(N))
+        rejected += not misfit(e, signal_ + e, level=level)[0].passed
+    lo, hi = _rejections_bound(trials, level)
+    assert lo <= rejected <= hi
+    e = np.where(gaps, np.nan, 0.015 * rng.standard_normal(N))  # 1.5 x the noise std of the record below
+    test, share = misfit(e, signal_ + np.where(gaps, np.nan, 0.01 * rng.standard_normal(N)), level=0.01)
+    assert not test.passed and share == pytest.approx(1 - 1 / 1.5 ** 2, abs=0.12)
+
+
 def test_bad_input_is_one_line_naming_the_fix():
     with pytest.raises(OptionError, match="level=") as exc:
         whiteness(np.ones(100), level=1.5)
@@ -221,6 +240,22 @@ def test_right_model_passes_on_95_percent_of_40_seeds_and_the_misspecified_fails
     # below 38 has binomial probability 8e-3 at a true 1 % failure rate), the misspecified on none of them
     right, wrong = _pass_counts(records, range(40))
     assert right >= 38 and wrong <= 2, (right, wrong)
+
+
+def test_a_fit_with_missing_output_samples_is_judged_on_the_samples_measured(records):
+    # 30 % of the output missing at random: the right model passes all three tests, the linear fit of the Duffing
+    # oscillator fails (fixed seed: deterministic)
+    rng = np.random.default_rng(31)
+    gaps = rng.random(N) < 0.3
+    verdicts = {}
+    for name, x in records.items():
+        y = x + 0.01 * np.sqrt(np.mean(x ** 2)) * rng.standard_normal(N)
+        res = obsnl.identify(OSCILLATOR, {"t": T, "u": U, "y": np.where(gaps, np.nan, y)}, guess={"c": 0.3, "k": 5.0},
+                             noise={"u": 1e-6, "y": 0.01}, jit=False, passes=1, progress=False,
+                             tuning=Tuning(0.3, 0.0, 100.0))
+        assert [t.name for t in res.adequacy.tests] == ["whiteness", "cross-correlation", "misfit"]
+        verdicts[name] = res.adequacy.passed
+    assert verdicts == {"right": True, "duffing": False}
 
 
 def test_a_failed_adequacy_is_said_first_and_flags_every_parameter(records):
