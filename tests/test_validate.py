@@ -272,3 +272,41 @@ def test_bandlimited_input_follows_a_multisine_between_samples():
     band = obsnl.simulate(OSC, {"c": c, "k": k}, rec, intersample="u=bandlimited")
     assert band.intersample == {"u": "bandlimited"} and any("by FFT" in a for a in band.assumptions)
     assert band.outputs["y"].rmse < lin.outputs["y"].rmse / 10
+
+
+def test_an_identification_runs_its_model_on_a_new_record():
+    # identify on one record (a short run: the filter alone), then validate on another: the score is that of a
+    # scipy simulation at the estimates, and the fit's intersample kind (zoh here) is kept
+    c, k = 0.3, 20.0
+    m = obsnl.Model(name="osc", states=["x", "v"], parameters=["c", "k"], inputs=["u"],
+                    equations={"x": "v", "v": "u - c*v - k*x"}, outputs={"y": "x"}, guess={"c": 0.4, "k": 18.0})
+    t, u = _input(600, 0.02, seed=14)
+    X = _scipy(lambda z, f: [z[1], f - c * z[1] - k * z[0]], t, u, [0.0, 0.0])
+    rng = np.random.default_rng(15)
+    res = obsnl.identify(m, {"t": t, "u": u, "y": noisy(X[:, 0], 0.01, rng)}, passes=1, refine=False,
+                         progress=False, jit=False)
+    est = res.estimates()
+    t2, u2 = _input(800, 0.02, seed=16)
+    X2 = _scipy(lambda z, f: [z[1], f - est["c"] * z[1] - est["k"] * z[0]], t2, u2, [0.0, 0.0])
+    y2 = noisy(X2[:, 0], 0.01, rng)[:, None]
+    v = res.simulate({"t": t2, "u": u2, "y": y2[:, 0]})
+    _check_against_scipy(v, y2, X2[:, :1])
+    assert v.parameters == est and v.intersample == {"u": "linear"}
+    held = obsnl.identify(m, {"t": t, "u": u, "y": noisy(X[:, 0], 0.01, rng)}, passes=1, refine=False,
+                          progress=False, jit=False, intersample="zoh")
+    assert held.simulate({"t": t2, "u": u2, "y": y2[:, 0]}).intersample == {"u": "zoh"}
+    import dataclasses
+
+    with pytest.raises(OptionError, match="keeps no model"):
+        dataclasses.replace(res, fitted_model=None).simulate({"t": t2, "u": u2, "y": y2[:, 0]})
+
+
+def test_command_line_intersample_option(cli_case, capsys):
+    tmp, model, params, data = cli_case
+    out = tmp / "held"
+    assert main(["validate", model, "--params", params, "--data", data, "--out", str(out), "--intersample", "u=zoh"]) == 0
+    assert "input u held (zero-order hold)" in capsys.readouterr().out
+    assert json.loads((out / "validate.json").read_text())["intersample"] == {"u": "zoh"}
+    assert main(["validate", model, "--params", params, "--data", data, "--out", str(tmp / "x"), "--intersample",
+                 "u=cubic"]) == 2
+    assert "kind 'cubic' for u is unknown" in capsys.readouterr().err

@@ -191,7 +191,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
                                      replicates=replicates, seed=seed, jit=compiled, hold=hold, progress=bar,
                                      executor=executor, refined=refine, intersample=kinds)
 
-    return _cross_check(_compiled_or_not(jit, run), structural)
+    return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model)
 
 
 def _compiled_or_not(jit: bool | None, run: Callable[[bool], Identification]) -> Identification:
@@ -318,7 +318,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
                                     tuning=tuning, passes=passes, replicates=replicates, jit=compiled, progress=bar,
                                     executor=executor, hold=hold, refined=refine)
 
-    return _cross_check(_compiled_or_not(jit, run), structural)
+    return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model)
 
 
 def write_identification(result: Identification, out: str | Path, *, force: bool = False) -> list[Path]:

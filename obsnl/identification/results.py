@@ -128,6 +128,7 @@ class Identification:
     practical: Practical | None
     assumptions: tuple[str, ...]
     repairs: int = 0
+    fitted_model: Any = field(default=None, repr=False)  # the Model identified (identify, study): simulate() runs it
     structural: StructuralCheck | None = None
     seed: int | None = None
     traces: tuple[Trajectory, ...] = field(default=(), repr=False)
@@ -176,6 +177,43 @@ class Identification:
     def estimates(self) -> dict[str, float | None]:
         """``{name: estimate}`` (``None`` for a held parameter)."""
         return {p.name: p.estimate for p in self.parameters}
+
+    def simulate(self, record: Any, *, warmup: int = 0, intersample: Any = None, model: Any = None) -> Any:
+        """The fitted model run on a new record and scored (:func:`obsnl.simulate`): RMSE, NRMSE, fit % and dB per
+        output, at the estimates (a held parameter at its guess).
+
+        Parameters
+        ----------
+        record : Measured, mapping of str to Any, str or Path
+            The new record, as :func:`obsnl.identify` takes its data.
+        warmup : int
+            Samples at the start that estimate the initial state and are not scored (0: the simulation starts from
+            rest, the model's initial states under ``[values]``, else 0).
+        intersample : None, str, mapping or sequence of str
+            How the inputs are taken between samples (default: as this fit took them).
+        model : Model, str, Path or None
+            The model identified (default: the one this result keeps, from :func:`obsnl.identify` or ``study``;
+            needed only for a result made otherwise).
+
+        Returns
+        -------
+        Validation
+
+        Raises
+        ------
+        OptionError
+            This result keeps no model and ``model`` is not given.
+        """
+        from obsnl.errors import OptionError
+        from obsnl.identification.validation.run import fit_kinds, simulate
+
+        model = self.fitted_model if model is None else model
+        if model is None:
+            raise OptionError(f"this result of {self.model!r} keeps no model (it was not made by obsnl.identify); pass "
+                              f"model=, the model identified")
+        values = {p.name: p.guess if p.held else p.estimate for p in self.parameters}
+        kinds = intersample if intersample is not None else fit_kinds(self.data)
+        return simulate(model, values, record, warmup=warmup, intersample=kinds)
 
     def to_dict(self) -> dict[str, Any]:
         return clean_json({

@@ -328,8 +328,9 @@ def simulate(model: Model | str | Path, parameters: Mapping[str, float] | str | 
               for j, c in enumerate(num.outputs)}
     return Validation(model=model.name, record=data.to_dict(), parameters=values, parameters_from=source, start=start,
                       x0=dict(zip(num.states, map(float, x_start))), warmup=warmup, intersample=kinds, outputs=scores,
-                      assumptions=_assumptions(start, warmup, f"{kinds_from}: {'; '.join(routes)}", data), seconds=time.perf_counter() - t0,
-                      start_note=note, states=num.states, t=data.t, y_measured=data.y, y_simulated=sim.y, x=sim.x)
+                      assumptions=_assumptions(start, warmup, f"{kinds_from}: {'; '.join(routes)}", data),
+                      seconds=time.perf_counter() - t0, start_note=note, states=num.states, t=data.t,
+                      y_measured=data.y, y_simulated=sim.y, x=sim.x)
 
 
 def _assumptions(start: str, warmup: int, between: str, data: Measured) -> tuple[str, ...]:
