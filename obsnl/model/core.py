@@ -30,7 +30,7 @@ MODEL_KEYS: tuple[str, ...] = (
     "name", "description", "source", "states", "parameters", "inputs", "unknown_inputs",
     "known_constants", "outputs", "equations", "known_initial_conditions",
     "initial_condition_values", "switching", "latex", "values", "guess", "definitions",
-    "unknown_input_derivatives", "intersample",
+    "unknown_input_derivatives", "intersample", "bounds",
 )
 #: Keys kept as metadata without interpretation (the published answers of a peer case, notes).
 METADATA_KEYS: tuple[str, ...] = (
@@ -97,6 +97,14 @@ class Model:
         How each input behaves between its samples, ``{input: kind}`` with kind ``zoh``, ``linear`` or
         ``bandlimited`` (:mod:`obsnl.estimation.intersample`; the ``[intersample]`` table of a model file); an
         input not named is linear. ``--intersample`` (``intersample=``) overrides it.
+    bounds : mapping of str to (float, float) or str
+        Declared bounds of parameters and known constants, ``{name: (lo, hi)}`` with ``lo < hi`` and either end
+        possibly infinite (``"-inf"``/``"inf"`` in a file), or the words ``"positive"`` (``(0, inf)``) and
+        ``"negative"``; the ``[bounds]`` table of a model file (``fy = "positive"``, ``gap = [0, 0.01]``).
+        ``[values]`` and ``[guess]`` must lie within them. Whether an end is included does not matter: the
+        branch split keeps a sign pattern only where it holds inside the bounds (``sign(fy)`` with ``fy``
+        positive has one branch, :func:`obsnl.model.split_branches`), and the fit keeps every parameter on the
+        sign of its guess.
 
     Examples
     --------
@@ -130,6 +138,7 @@ class Model:
     metadata: Mapping[str, Any] = field(default_factory=dict)
     unknown_input_derivatives: int | str | None = None
     intersample: Mapping[str, str] = field(default_factory=dict)
+    bounds: Mapping[str, Any] = field(default_factory=dict)
 
     # ------------------------------------------------------------------ validation
     def __post_init__(self) -> None:
@@ -203,6 +212,8 @@ class Model:
             d["unknown_input_derivatives"] = self.unknown_input_derivatives
         if self.intersample:
             d["intersample"] = dict(self.intersample)
+        if self.bounds:  # an infinite end as text: JSON has no infinity
+            d["bounds"] = {k: [_end(lo), _end(hi)] for k, (lo, hi) in self.bounds.items()}
         return d
 
     def replace(self, **changes: Any) -> Model:
@@ -278,6 +289,8 @@ class Model:
         core = {k: d.get(k) for k in ("states", "parameters", "inputs", "unknown_inputs", "known_constants",
                                       "outputs", "equations", "known_initial_conditions",
                                       "initial_condition_values")}
+        if self.bounds:  # a table made under bounds has fewer branches (and no key without them: hashes unchanged)
+            core["bounds"] = d["bounds"]
         return hashlib.sha256(json.dumps(core, sort_keys=True).encode()).hexdigest()[:32]
 
     @property
@@ -312,8 +325,13 @@ class Model:
         return (
             self.name, self.states, self.parameters, self.inputs, self.unknown_inputs, self.known_constants,
             tuple(self.equations[s] for s in self.states), tuple(self.outputs.items()),
-            self.known_initial_conditions, tuple(self.initial_condition_values.items()),
+            self.known_initial_conditions, tuple(self.initial_condition_values.items()), tuple(self.bounds.items()),
         )
+
+
+def _end(x: float) -> float | str:
+    """An end of a bound as a model file writes it: a number, or ``"inf"``/``"-inf"``."""
+    return x if x == x and abs(x) != float("inf") else ("inf" if x > 0 else "-inf")
 
 
 def _expr_text(e: sp.Basic) -> str:

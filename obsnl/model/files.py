@@ -322,7 +322,7 @@ def as_model(model: Model | str | Path, check: Callable[[dict[str, Any]], None] 
 
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
 _TABLES = ("outputs", "equations", "initial_condition_values", "definitions", "latex", "values", "guess",
-           "intersample")
+           "intersample", "bounds")
 
 
 def _key(k: str) -> str:

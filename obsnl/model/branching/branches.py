@@ -331,11 +331,11 @@ def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: t
                                     f"switching functions (e.g. tanh(v/eps) for sign(v))")
         all_sw = outer_sw + sw
         all_signs = outer_signs + tuple(signs)
-        point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, level.memo)
+        point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, level.memo, bounds=level.bounds)
         if point is None and (proved or not undecided):
             dropped.append(DroppedPattern(all_sw, all_signs, reason, proved))
             continue
-        inner = Switching.of(level.field_at(signs), level.declared, level.memo)
+        inner = Switching.of(level.field_at(signs), level.declared, level.memo, level.bounds)
         # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
         _split_level(inner, all_sw, all_signs, (point or {}, reason if point is None else ""), rng, found, dropped,
                      seen, deadline, undecided)

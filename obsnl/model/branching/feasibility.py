@@ -9,20 +9,29 @@ searched: random points at the unit scales, then at the scales the constants of 
 set (``k*x - 1e20`` changes sign where ``|k*x|`` is near 1e20, far beyond the unit scales), then with
 magnitudes spread over those decades, then a local search. A pattern neither found nor proved empty is
 *undecided*: :func:`feasible` says so (``proved=False``) and the callers report it instead of dropping it.
+
+Before any linear program or search, each switching function is checked for a sign it can never take
+(:func:`obsnl.model.branching.definite.never_positive`: a sum of squares plus a positive constant, a
+quadratic of definite sign): ``x**2 - 2*x*v + 2*v**2 + 1 < 0`` is proved empty, not searched.
+
+Declared bounds of parameters (a model's ``[bounds]``, :func:`bound_conditions`) join the sign conditions
+of every pattern whose functions involve them: with ``fy`` declared positive, ``fy < 0`` is proved empty by
+the same linear programs, and a witness lies within the bounds.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import sympy as sp
 
 from obsnl.model.bounds.budget import check_time
 from obsnl.model.bounds.work import can_expand, can_factor
+from obsnl.model.branching.definite import never_positive
 
-__all__ = ["feasible", "affine_coefficients", "UNDECIDED"]
+__all__ = ["feasible", "affine_coefficients", "bound_conditions", "UNDECIDED"]
 
 #: How the reason of an undecided pattern starts.
 UNDECIDED = "no point was found"
@@ -245,8 +254,43 @@ def _search(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol],
     return None
 
 
+def bound_conditions(bounds: Mapping[str, tuple[float, float]],
+                     symbols: Mapping[str, sp.Symbol]) -> tuple[tuple[sp.Expr, int], ...]:
+    """The sign conditions that declared bounds put on symbols: ``p - lo > 0`` and ``p - hi < 0`` for each finite end.
+
+    Strict conditions are exact here: a sign pattern holds on an open set, which meets a box ``[lo, hi]``
+    (``lo < hi``) if and only if it meets its interior.
+
+    Parameters
+    ----------
+    bounds : mapping of str to (float, float)
+        ``{name: (lo, hi)}``, ends possibly infinite (:attr:`obsnl.model.core.Model.bounds`).
+    symbols : mapping of str to sympy.Symbol
+        The model's symbols by name.
+
+    Returns
+    -------
+    tuple of (sympy.Expr, int)
+
+    Examples
+    --------
+    >>> fy, gap = sp.symbols("fy gap", real=True)
+    >>> bound_conditions({"fy": (0.0, math.inf), "gap": (-1.0, 2.5)}, {"fy": fy, "gap": gap})
+    ((fy, 1), (gap + 1, 1), (gap - 5/2, -1))
+    """
+    out: list[tuple[sp.Expr, int]] = []
+    for name, (lo, hi) in bounds.items():
+        s = symbols[name]
+        if math.isfinite(lo):
+            out.append((s - sp.nsimplify(lo, rational=False) if lo else s, 1))
+        if math.isfinite(hi):
+            out.append((s - sp.nsimplify(hi, rational=False) if hi else s, -1))
+    return tuple(out)
+
+
 def feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
-             memo: dict | None = None) -> tuple[dict[str, float] | None, str, bool]:
+             memo: dict | None = None, *, bounds: Sequence[tuple[sp.Expr, int]] = ()
+             ) -> tuple[dict[str, float] | None, str, bool]:
     """A point where every ``(g, s)`` of ``conds`` has ``s * g > 0``.
 
     Parameters
@@ -257,33 +301,56 @@ def feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
         Random source of the witness search.
     memo : dict or None
         Cache shared by the calls of one split.
+    bounds : sequence of (sympy.Expr, int)
+        Declared bounds as sign conditions (:func:`bound_conditions`); those on symbols of ``conds`` hold too.
 
     Returns
     -------
     (witness or None, reason, proved)
         ``proved`` is True when the answer is certain: a witness was found, or no point exists (a linear
-        program proves it; ``reason`` says which). False: no point found and none proved impossible
-        (``reason`` starts with :data:`UNDECIDED`).
+        program, or a sign the function never takes, proves it; ``reason`` says which). False: no point
+        found and none proved impossible (``reason`` starts with :data:`UNDECIDED`).
 
     Examples
     --------
-    >>> k, x = sp.symbols("k x")
+    >>> k, x, v = sp.symbols("k x v", real=True)
     >>> w, _, proved = feasible([(k*x - sp.Integer(10)**20, 1)], np.random.default_rng(0))
     >>> w["k"] * w["x"] > 1e20, proved
     (True, True)
     >>> feasible([(k*x - 1, 1), (k*x - 2, -1), (k*x - 3, 1)], np.random.default_rng(0))[1:]
     ('the sign conditions contradict each other, even with each monomial taken as an unknown of its own (linear program)', True)
+    >>> feasible([(x**2 - 2*x*v + 2*v**2 + 1, -1)], np.random.default_rng(0))[1]
+    '2*v**2 - 2*v*x + x**2 + 1 < 0 holds nowhere: it is a quadratic in x, v whose symmetric matrix is negative semidefinite (exact rational arithmetic)'
+    >>> feasible([(k, -1)], np.random.default_rng(0), bounds=[(k, 1)])[1:]
+    ('the affine sign conditions contradict each other (linear program), within the declared bounds', True)
     """
     if not conds:
         return {}, "", True
+    for g, s in conds:  # a sign the function never takes: proved before any search
+        key = ("never", g, s)
+        if memo is None or key not in memo:
+            why = never_positive(s * g)
+            if memo is not None:
+                memo[key] = why
+        else:
+            why = memo[key]
+        if why:
+            return None, f"{_pattern_text([(g, s)])} holds nowhere: {why}", True
+    within = ""
+    if bounds:
+        names = set().union(*(g.free_symbols for g, _ in conds))
+        extra = [(g, s) for g, s in bounds if g.free_symbols <= names and (g, s) not in conds]
+        if extra:
+            conds, within = list(conds) + extra, ", within the declared bounds"
     syms = sorted(set().union(*(g.free_symbols for g, _ in conds)), key=lambda s: s.name)
     coeffs = [affine_coefficients(g, syms, memo) for g, _ in conds]
     if all(c is not None for c in coeffs):
         w = _affine_witness(conds, syms, coeffs)
-        return w, "" if w is not None else "the affine sign conditions contradict each other (linear program)", True
+        why = f"the affine sign conditions contradict each other (linear program){within}"
+        return w, "" if w is not None else why, True
     if _relaxation_empty(conds, memo):
         return None, ("the sign conditions contradict each other, even with each monomial taken as an unknown of "
-                      "its own (linear program)"), True
+                      f"its own (linear program){within}"), True
     w = _search(conds, syms, rng)
     if w is not None:
         return w, "", True

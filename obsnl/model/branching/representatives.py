@@ -202,7 +202,7 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
         for local in _gray(len(g)):
             trial = dict(zip(g, local))
             conds = [(sw[j], base[j]) for j in fixed] + [(sw[j], trial[j]) for j in g]
-            witness = feasible(conds, rng, level.memo)[0]
+            witness = feasible(conds, rng, level.memo, bounds=level.bounds)[0]
             if witness is not None:
                 for j in g:
                     base[j] = trial[j]

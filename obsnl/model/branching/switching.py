@@ -19,6 +19,7 @@ import sympy as sp
 
 from obsnl.errors import ModelError, NotSupportedError
 from obsnl.model.bounds.budget import check_time
+from obsnl.model.branching.feasibility import bound_conditions
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.reading.parse import shorten
 from obsnl.model.bounds.work import can_factor
@@ -229,6 +230,9 @@ class Switching:
         The model's declared switching functions (their order holds at every level).
     memo
         The factorizations made, shared with the split and the feasibility search that follow.
+    bounds
+        The model's declared bounds as sign conditions
+        (:func:`obsnl.model.branching.feasibility.bound_conditions`), which every sign pattern must meet too.
     """
 
     exprs: tuple[sp.Expr, ...]
@@ -237,17 +241,20 @@ class Switching:
     nested: bool
     declared: tuple[sp.Expr, ...] = ()
     memo: dict = field(default_factory=dict, compare=False, repr=False)
+    bounds: tuple[tuple[sp.Expr, int], ...] = ()
 
     @staticmethod
-    def of(exprs: Sequence[sp.Expr], declared: Sequence[sp.Expr], memo: dict | None = None) -> Switching:
-        """The switching structure of ``exprs``, ``declared`` fixing the order of the functions."""
-        exprs, declared, memo = tuple(exprs), tuple(declared), {} if memo is None else memo
+    def of(exprs: Sequence[sp.Expr], declared: Sequence[sp.Expr], memo: dict | None = None,
+           bounds: Sequence[tuple[sp.Expr, int]] = ()) -> Switching:
+        """The switching structure of ``exprs``, ``declared`` fixing the order of the functions, ``bounds`` the
+        declared bounds as sign conditions."""
+        exprs, declared, memo, bounds = tuple(exprs), tuple(declared), {} if memo is None else memo, tuple(bounds)
         if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
-            return Switching(exprs, (), (), False, declared, memo)
+            return Switching(exprs, (), (), False, declared, memo, bounds)
         nested = any(a.has(*NONSMOOTH_FUNCTIONS) for e in exprs for node in sp.preorder_traversal(e)
                      if isinstance(node, NONSMOOTH_FUNCTIONS) for a in _arguments(node))
         return Switching(exprs, switching_of(exprs, declared, memo), tuple(innermost_nonsmooth(exprs)), nested,
-                         declared, memo)
+                         declared, memo, bounds)
 
     def field_at(self, signs: Sequence[int]) -> list[sp.Expr]:
         """The expressions where the functions have ``signs``: every innermost non-smooth node replaced by its
@@ -268,7 +275,7 @@ class Switching:
 def switching_structure(model: Model) -> Switching:
     """The switching structure of the outermost level of ``model`` (no functions for a smooth model); without
     nested non-smooth functions these are all, and a declared one that is none of them is refused here
-    (:func:`check_declared`; a split checks a nested model's).
+    (:func:`check_declared`; a split checks a nested model's). The model's declared bounds go with it.
 
     Examples
     --------
@@ -280,7 +287,8 @@ def switching_structure(model: Model) -> Switching:
     >>> switching_structure(m.replace(equations={"x": "-a*sign(x + Abs(y))", "y": "-y"})).nested
     True
     """
-    level = Switching.of(list(model.rhs) + list(model.output_exprs), model.switching)
+    level = Switching.of(list(model.rhs) + list(model.output_exprs), model.switching,
+                         bounds=bound_conditions(model.bounds, model.symbols))
     if not level.nested:
         check_declared(model, level.functions)
     return level

@@ -34,7 +34,8 @@ ROLE_NAMES: dict[str, str] = {
     "states": "state", "parameters": "parameter", "inputs": "input",
     "unknown_inputs": "unknown input", "known_constants": "known constant", "outputs": "output",
 }
-_TABLES = ("outputs", "initial_condition_values", "latex", "values", "guess", "definitions", "metadata", "intersample")
+_TABLES = ("outputs", "initial_condition_values", "latex", "values", "guess", "definitions", "metadata", "intersample",
+           "bounds")
 #: How an input may behave between samples (:mod:`obsnl.estimation.intersample`).
 INTERSAMPLE_KINDS = ("zoh", "linear", "bandlimited")
 
@@ -73,7 +74,7 @@ def read_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
     ...        "equations": {"x": "v", "v": "-k*x"}, "known_initial_conditions": (),
     ...        "initial_condition_values": {}, "switching": (), "latex": {}, "values": {"k": 2},
     ...        "guess": {}, "definitions": {}, "metadata": {}, "unknown_input_derivatives": None,
-    ...        "intersample": {}}
+    ...        "intersample": {}, "bounds": {}}
     >>> fields = read_fields(raw)
     >>> fields["name"], fields["states"], dict(fields["equations"]), dict(fields["values"])
     ('msd', (x, v), {x: v, v: -k*x}, {'k': 2.0})
@@ -113,7 +114,61 @@ def read_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
     out["unknown_input_derivatives"] = check_unknown_input_derivatives(raw["unknown_input_derivatives"],
                                                                        allow_none=True)
     out["intersample"] = _read_intersample(raw.get("intersample"), names["inputs"])
+    out["bounds"] = _read_bounds(raw.get("bounds"), seen, out)
     return out
+
+
+#: The words a ``[bounds]`` entry may be instead of ``[lo, hi]``, and the interval each stands for.
+BOUND_WORDS = {"positive": (0.0, float("inf")), "negative": (float("-inf"), 0.0)}
+
+
+def _bound_end(value: Any, where: str) -> float:
+    """One end of a bound: a number, or ``"inf"``/``"-inf"`` (JSON has no infinity)."""
+    if isinstance(value, bool) or getattr(getattr(value, "dtype", None), "kind", "") == "b":
+        raise ModelError(f"{where} is a boolean ({str(value).lower()}); write a number, \"-inf\" or \"inf\"")
+    try:
+        end = plain_float(value) if isinstance(value, str) else float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise ModelError(f"{where} must be a number, \"-inf\" or \"inf\", got {quote(value)}") from None
+    if end != end:
+        raise ModelError(f"{where} is not a number ({quote(value)}); write a number, \"-inf\" or \"inf\"")
+    return end
+
+
+def _read_bounds(table: Any, seen: Mapping[str, str], read: Mapping[str, Any]) -> Mapping[str, tuple[float, float]]:
+    """The ``[bounds]`` table: ``{name: (lo, hi)}`` for parameters and known constants, ``lo < hi``, each end a
+    number or an infinity, or the words ``"positive"``/``"negative"``; ``[values]`` and ``[guess]`` must lie
+    within (ends included)."""
+    if not table:
+        return _frozen({})
+    if not isinstance(table, Mapping):
+        raise ModelError(f"'bounds' must be a table {{name = [lo, hi]}}, got {type(table).__name__}")
+    out: dict[str, tuple[float, float]] = {}
+    for key, value in table.items():
+        k = _key_name(key)
+        if not isinstance(k, str) or k not in seen:
+            raise ModelError(f"bounds.{shorten(str(k), 40)}: not a declared symbol"
+                             f"{close_name(str(k), list(seen))}; name a parameter or a known constant")
+        if seen[k] not in ("parameters", "known_constants"):
+            raise ModelError(f"bounds.{k}: {k!r} is a {ROLE_NAMES[seen[k]]}; bounds are declared for parameters "
+                             f"and known constants only")
+        if isinstance(value, str) and value.strip().lower() in BOUND_WORDS:
+            lo, hi = BOUND_WORDS[value.strip().lower()]
+        elif isinstance(value, (list, tuple)) and len(value) == 2:
+            lo, hi = _bound_end(value[0], f"bounds.{k}[0]"), _bound_end(value[1], f"bounds.{k}[1]")
+        else:
+            raise ModelError(f"bounds.{k} is {quote(value)}; write [lo, hi] (an end may be \"-inf\" or \"inf\"), "
+                             f"\"positive\" or \"negative\"")
+        if not lo < hi:
+            raise ModelError(f"bounds.{k} is [{lo:g}, {hi:g}]: the lower end must be below the upper one (a value "
+                             f"known exactly is a known constant)")
+        for table_name in ("values", "guess"):
+            v = read[table_name].get(k)
+            if v is not None and not lo <= v <= hi:
+                raise ModelError(f"{table_name}.{k} = {v:g} is outside bounds.{k} = [{lo:g}, {hi:g}]; correct the "
+                                 f"value or the bounds")
+        out[k] = (lo, hi)
+    return _frozen(out)
 
 
 def _read_intersample(table: Any, inputs: Sequence[str]) -> Mapping[str, str]:
