@@ -110,11 +110,16 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}; one at least, repeat for more"),
                 _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
                 _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", metavar="S1,S2,..."), SEED]),
-    "validate": ("obsnl.identification.validation.job", "run a fitted model on a test record: RMSE, NRMSE, fit %, dB",
-                 None, [MODEL, _o("--params", required=True, metavar="DIR/identify.json"), _o("--data", required=True,
-                        metavar="TEST.csv"), _o("--warmup", type=_whole(), default=0, help="samples that estimate "
-                        "the initial state (not scored)"), _o("--intersample", action="append", default=[],
-                        metavar="[NAME=]KIND"), _o("--out", required=True, metavar="DIR"), FORCE]),
+    "validate": ("obsnl.identification.validation.job", "run a fitted model on a test record: RMSE, NRMSE, fit %% "
+                 "and dB", "Simulate MODEL at the estimates of an identify.json under the input of a test record, from "
+                 "rest or from the state estimated on the first --warmup samples (then not scored); write "
+                 "validate.json, validation.png and, for a hysteretic state z, loop.png.",
+                 [MODEL, _o("--params", required=True, metavar="DIR/identify.json", help="the fit to validate"),
+                  _o("--data", required=True, metavar="TEST.csv", help="the test record: time_s or t, one column per "
+                     "input and output"), _o("--warmup", type=_whole(), default=0, metavar="N", help="samples that "
+                     "estimate the initial state (not scored)"), _o("--intersample", action="append", default=[],
+                     metavar="[NAME=]KIND", help="zoh, linear or bandlimited (default: as the fit took them)"),
+                  _o("--out", required=True, metavar="DIR"), FORCE]),
 }
 
 
