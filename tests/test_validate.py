@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 
 import numpy as np
 import pytest
@@ -210,6 +211,7 @@ def cli_case(tmp_path):
     ({"params": "not json"}, "is not JSON, so not an identify.json"),
     ({"params": "other json"}, "is not an identify.json"),
     ({"params": "missing"}, "does not exist"),
+    ({"params": "fifo"}, "is not a regular file"),  # read as a file it would never end
 ])
 def test_command_line_refusals_are_one_line_with_exit_code_2(cli_case, change, message, capsys):
     tmp, model, params, data = cli_case
@@ -224,6 +226,9 @@ def test_command_line_refusals_are_one_line_with_exit_code_2(cli_case, change, m
         params = str(tmp / "other.json")
     elif change.get("params") == "missing":
         params = str(tmp / "nowhere.json")
+    elif change.get("params") == "fifo":
+        os.mkfifo(tmp / "fifo.json")
+        params = str(tmp / "fifo.json")
     args = ["validate", model, "--params", params, "--data", data, "--out", str(tmp / "out")]
     args += [x for k, v in change.items() if k.startswith("--") for x in (k, v)]
     assert main(args) == 2

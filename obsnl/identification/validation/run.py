@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import json
 import math
+import stat
 import time
 from collections.abc import Mapping, Sequence
 from numbers import Real
@@ -54,9 +55,15 @@ def _identify_json(path: Path) -> dict[str, Any]:
     path = path / "identify.json" if path.is_dir() else path
     where = f"params {quote(str(path))}"
     try:
-        if path.stat().st_size > MAX_PARAMS_BYTES:
+        if not stat.S_ISREG(path.stat().st_mode):  # a FIFO or a device would be read without end
+            raise DataError(f"{where} is not a regular file; {_IDENTIFY_FIX}")
+        with path.open("rb") as fh:
+            raw = fh.read(MAX_PARAMS_BYTES + 1)
+        if len(raw) > MAX_PARAMS_BYTES:
             raise DataError(f"{where} is over {MAX_PARAMS_BYTES // 2 ** 20} MB, not an identify.json; {_IDENTIFY_FIX}")
-        doc = json.loads(path.read_bytes().decode("utf-8"))
+        doc = json.loads(raw.decode("utf-8"))
+    except DataError:
+        raise
     except FileNotFoundError:
         raise DataError(f"{where} does not exist; {_IDENTIFY_FIX}") from None
     except OSError as exc:
