@@ -47,6 +47,10 @@ class SensorSearch:
         What the verdicts assume: the unknown-input assumption and the visited branches.
     seconds
         Wall time.
+    complete
+        True when :attr:`minimal_sets` are every minimal set of any size, not only of at most ``max_size``
+        sensors: every size was searched, or every larger set that contains none of them was proven
+        insufficient (the search then stopped early), or no set suffices.
     """
 
     model: str
@@ -64,6 +68,7 @@ class SensorSearch:
     seconds: float = 0.0
     ranking: Any = field(default=None, repr=False, compare=False)
     effective_independence: tuple[str, ...] = ()
+    complete: bool = False
 
     @property
     def exhaustive(self) -> int:
@@ -98,6 +103,7 @@ class SensorSearch:
             head = f"no set of the {len(self.candidates)} candidate sensors suffices: {self.proof}"
         elif self.minimal_sets:
             head = "minimal sensor sets: " + "; ".join("{" + ", ".join(s) + "}" for s in self.minimal_sets)
+            head += " (every one, of any size)" if self.complete else f" (of at most {self.max_size} sensors)"
         else:
             head = f"no sufficient set of at most {self.max_size} sensors"
         tail = f"{self.analyses} analyses for {self.exhaustive} possible sets"
@@ -118,6 +124,7 @@ class SensorSearch:
             "proof": self.proof, "analyses": self.analyses, "possible_sets": self.exhaustive,
             "certificates": self.certificates(), "checked": [c.to_dict() for c in self.checked],
             "seed": self.seed, "assumptions": self.assumptions, "seconds": round(self.seconds, 3),
+            "complete": self.complete,
         }
         if self.ranking is not None:
             out["ranking"] = self.ranking.to_dict()["rows"]

@@ -24,6 +24,14 @@ sufficient set is sufficient, a subset of an insufficient set is not):
 4. A sufficient set of size ``k`` is minimal when each of its subsets of size ``k - 1`` was proven
    insufficient; if one of them was left undecided (a time limit, an inconclusive verdict), the set is
    reported as sufficient with its minimality undecided, never as minimal.
+5. After a size that found new minimal sets, the search stops when the answer is already complete: a
+   larger set is minimal only if it contains none of the minimal sets found, and every such set lies
+   within one of the largest sets that contain none (the complements of the minimal transversals of the
+   minimal sets, :func:`_largest_without`). When each of those is proven insufficient (by reachability,
+   by an analysis, or as a subset of a set proven insufficient), so is every set they contain: no larger
+   minimal set exists, and no larger size is enumerated (nor refused for its size). With one sensor that
+   suffices alone among 30 candidates that reach nothing of the target, that is one more check after size 1
+   instead of the 2**29 sets of the others.
 
 Each minimal set comes with its certificate: the probability bound and seed of its own analysis, and for
 each sensor removed, how the remaining set was proven insufficient. On a building whose every floor
@@ -60,6 +68,31 @@ __all__ = ["sensors", "rank_sufficient_sets"]
 #: Most sets of one size the search enumerates (sets with a sensor that suffices alone are counted, not listed): past
 #: it the level is refused with the max_size= that stays within it (a hang on 24 outputs enumerated 2**24 sets).
 MAX_LEVEL_SETS = 100_000
+
+
+#: Most largest sets without a minimal set that the completeness check tests (past it the search goes on by size).
+MAX_COMPLETENESS_SETS = 64
+
+
+def _largest_without(candidates: Sequence[str], minimal: Sequence[tuple[str, ...]]) -> list[tuple[str, ...]] | None:
+    """The largest sets of ``candidates`` that contain none of the ``minimal`` sets: the complements of the minimal
+    transversals (hitting sets) of ``minimal``, by Berge's algorithm; None when there are more than
+    :data:`MAX_COMPLETENESS_SETS`.
+
+    Examples
+    --------
+    >>> _largest_without(["a", "b", "c", "d"], [("a",), ("b", "c")])
+    [('b', 'd'), ('c', 'd')]
+    """
+    hitting: list[frozenset[str]] = [frozenset()]
+    for edge in minimal:
+        grown = {h if h & set(edge) else h | {e} for h in hitting for e in edge}
+        hitting = [h for h in grown if not any(o < h for o in grown)]
+        if len(hitting) > MAX_COMPLETENESS_SETS:
+            return None
+    order = {c: i for i, c in enumerate(candidates)}
+    out = [tuple(c for c in candidates if c not in h) for h in hitting]
+    return sorted(out, key=lambda s: [order[c] for c in s])
 
 
 def _check_task(task: tuple) -> Sufficiency:
@@ -139,8 +172,8 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     OptionError
         A model that is not a Model or a path, a model without outputs, a bad target, ``max_size`` not a
         whole number >= 1, an executor that is not an :class:`~obsnl.executor.Executor`, a ``progress`` that is
-        neither a bool nor a callable; a size with more than :data:`MAX_LEVEL_SETS` sets to examine (the
-        message names the ``max_size`` that fits).
+        neither a bool nor a callable; a size with more than :data:`MAX_LEVEL_SETS` sets to examine that the
+        search has to enumerate, its answer not complete before it (the message names the ``max_size`` that fits).
 
     Examples
     --------
@@ -182,7 +215,7 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
         bar.close()
         return SensorSearch(model.name, candidates, targets, max_size, (), none_exists=True,
                             proof=_symmetry_proof(model, full.missing, seed), checked=(full,), analyses=analyses,
-                            seed=seed, assumptions=assumptions, seconds=time.perf_counter() - t0)
+                            seed=seed, assumptions=assumptions, seconds=time.perf_counter() - t0, complete=True)
     known: dict[frozenset, Sufficiency] = {frozenset(candidates): full}
     insufficient: list[frozenset] = []
     minimal: list[tuple[str, ...]] = []
@@ -200,6 +233,7 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     anc = {c: output_reachable(restrict(model, [c])) for c in candidates}  # reach of a set: the union
     want = set(targets)
     free = list(range(m))  # the candidates that do not suffice alone: a set with one of the others is covered
+    complete = False  # every minimal set of any size is listed (every larger set without one is insufficient)
     for k in range(1, max_size + 1):
         if k == 2:
             free = [i for i in free if (candidates[i],) not in minimal]
@@ -212,7 +246,7 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
         if math.comb(m, k) > n:
             bar(math.comb(m, k) - n)  # each contains a sensor that suffices alone: sufficient, not minimal
         level = [tuple(candidates[i] for i in idx) for idx in itertools.combinations(free, k)]
-        todo, covered = [], set()
+        todo, covered, before = [], set(), len(minimal)
         bases = [frozenset(x) for x in minimal]
         for s in level:
             key = frozenset(s)
@@ -257,6 +291,22 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
                                               "sensor fewer was not decided")
         if k == m and full.sufficient is None and not minimal:
             break
+        if len(minimal) > before and k < m:
+            rest = [i for i in free if (candidates[i],) not in minimal]
+            largest = _largest_without(candidates, minimal)
+            # worth analyses only when they are fewer than the sets of the next size; at the last size asked, only
+            # what is decided without an analysis
+            if largest is not None and (k == max_size or len(largest) < math.comb(len(rest), k + 1)):
+                def lost(x: tuple[str, ...]) -> Sufficiency | None:
+                    reach = set().union(*(anc[c] for c in x))
+                    return None if want <= reach else unreached(x, [n for n in targets if n not in reach])
+
+                found = _without_minimal(largest, known, insufficient, lost, check if k < max_size else None)
+                insufficient.extend(frozenset(x) for x, r in zip(largest, found) if r is False and x)
+                if all(r is False for r in found):  # every larger set lacks a minimal set: within an insufficient one
+                    complete = True
+                    bar(sum(math.comb(m, j) for j in range(k + 1, max_size + 1)))  # each larger set is decided
+                    break
         if not essential_done and not minimal and k < max_size and math.comb(m, k + 1) <= MAX_LEVEL_SETS and \
                 _pending(candidates, k + 1, anc, targets) > 2 * m:  # (a larger next size is refused before any work)
             # no set of k sensors suffices and the next size is large: find the essential sensors (those
@@ -271,9 +321,36 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     bar.close()
     order = {frozenset(c.sensors): i for i, c in enumerate(known.values())}
     checked = tuple(sorted(known.values(), key=lambda c: (len(c.sensors), order[frozenset(c.sensors)])))
+    complete = complete or (max_size == m and not undecided)
     return SensorSearch(model.name, candidates, targets, max_size, tuple(minimal), tuple(undecided),
                         checked=checked, analyses=analyses, seed=seed, assumptions=assumptions,
-                        seconds=time.perf_counter() - t0)
+                        seconds=time.perf_counter() - t0, complete=complete)
+
+
+def _without_minimal(largest: Sequence[tuple[str, ...]], known: dict[frozenset, Sufficiency],
+                     insufficient: Sequence[frozenset], lost: Callable[[tuple[str, ...]], Sufficiency | None],
+                     check: Callable[[list[tuple[str, ...]]], list[Sufficiency]] | None) -> list[bool | None]:
+    """Whether each of the largest sets without a minimal set is sufficient: the empty set is not; a set
+    decided before keeps its answer, a subset of a set proven insufficient is insufficient, and so is a set that
+    does not reach every target (``lost``: its answer from the dependency graph, kept in ``known``); the others
+    are analysed by ``check`` (None: left undecided)."""
+    answers: dict[tuple[str, ...], bool | None] = {}
+    todo = []
+    for x in largest:
+        key = frozenset(x)
+        if not x:
+            answers[x] = False
+        elif key in known:
+            answers[x] = known[key].sufficient
+        elif any(key <= other for other in insufficient):
+            answers[x] = False
+        elif (graph := lost(x)) is not None:
+            known[key], answers[x] = graph, False
+        else:
+            todo.append(x)
+    if check is not None:
+        answers.update((x, r.sufficient) for x, r in zip(todo, check(todo)))
+    return [answers.get(x) for x in largest]
 
 
 def _assumptions(model: Model, full: Sufficiency) -> dict[str, Any]:

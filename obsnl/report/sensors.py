@@ -46,8 +46,11 @@ def _head(search: Any) -> list[str]:
     if search.none_exists:
         lines.append(f"No set of the {len(search.candidates)} candidate sensors suffices: {search.proof}.")
     elif search.minimal_sets:
+        size = ("of any size: every larger set without one of them lies within a set proven insufficient"
+                if getattr(search, "complete", False) and search.max_size < len(search.candidates) else
+                f"at most {search.max_size} sensors")
         lines.append(f"{len(search.minimal_sets)} minimal sensor set{'s' if len(search.minimal_sets) != 1 else ''} "
-                     f"(at most {search.max_size} sensors) make {_targets(search)} jointly identifiable.")
+                     f"({size}) make {_targets(search)} jointly identifiable.")
     else:
         lines.append(f"No set of at most {search.max_size} sensors makes {_targets(search)} jointly identifiable.")
     if search.undecided_sets:
