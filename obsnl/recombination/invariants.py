@@ -164,7 +164,7 @@ def adapted_forms(branch_vectors: Sequence[Sequence[Mapping[sp.Symbol, sp.Ration
     for f in cands:
         f = [sp.Rational(x) for x in f]
         lead = next(x for x in f if x != 0)
-        den = sp.ilcm(*[x.q for x in f]) if f else 1
+        den = math.lcm(*[int(x.q) for x in f])  # (sympy's ilcm refuses a single number: one moved coordinate)
         f = [x * den / abs(lead * den) for x in f]
         g = math.gcd(*[int(x) for x in f if x != 0]) if all(x.is_Integer for x in f) else 1
         f = [x / g for x in f]

@@ -54,6 +54,14 @@ class Reparametrization:
     divided
         The group divided out, one generator per pivot (scalings in rref form over the pivots, e.g.
         the seed model's ``L``-scaling ``L d/dL - sigma d/dsigma - ...``), as text.
+    identifiable
+        True only when the joint verdict of the new model (:func:`obsnl.analyze`, its branches together) finds
+        every one of its states and parameters identifiable; the file is then headed as identifiable, never
+        otherwise.
+    remaining
+        The new model's coordinates that the joint verdict finds not identifiable (what is left to resolve).
+    undecided
+        Those it leaves inconclusive (the model is then not shown identifiable either).
     """
 
     model: Model
@@ -71,9 +79,13 @@ class Reparametrization:
     notes: tuple[str, ...] = ()
     seconds: float = 0.0
     divided: tuple[str, ...] = ()
+    identifiable: bool = False
+    remaining: tuple[str, ...] = ()
+    undecided: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"original": self.original, "model": self.model.name,
+        return {"original": self.original, "model": self.model.name, "identifiable": self.identifiable,
+                "remaining": list(self.remaining), "undecided": list(self.undecided),
                 "mapping": {k: sp.sstr(v) for k, v in self.mapping.items()},
                 "section": {k: sp.sstr(v) for k, v in self.section.items()}, "pivots": list(self.pivots),
                 "functions": [sp.sstr(f) for f in self.functions], "complete": self.complete,
@@ -99,6 +111,14 @@ class Reparametrization:
                      f"... and {len(self.mapping) - 8} more symbols" if len(self.mapping) > 8 else "")
 
     def to_toml(self) -> str:
-        """The new model as a model file (loads with :func:`obsnl.read_model`)."""
-        return model_to_toml(self.model, header=f"Identifiable reparametrization of '{self.original}' "
-                                                f"(obsnl.reparametrize). New symbols are defined in [definitions].")
+        """The new model as a model file (loads with :func:`obsnl.read_model`), headed by what it is: an
+        identifiable reparametrization only when :attr:`identifiable`, else one that is NOT, with what remains."""
+        tail = "New symbols are defined in [definitions]."
+        if self.identifiable:
+            head = f"Identifiable reparametrization of '{self.original}' (obsnl.reparametrize). {tail}"
+        else:
+            left = [f"{', '.join(names)} {what}" for names, what in ((self.remaining, "not identifiable"),
+                                                                      (self.undecided, "undecided")) if names]
+            head = (f"Reparametrization of '{self.original}' (obsnl.reparametrize), NOT identifiable: "
+                    f"{'; '.join(left)} (the joint verdict over its branches). {tail}")
+        return model_to_toml(self.model, header=head)

@@ -21,6 +21,7 @@ no closed form, gets its identifiable functions from :func:`obsnl.recombination.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Mapping, Sequence
 
@@ -35,6 +36,7 @@ from obsnl.recombination.invariants import (
 from obsnl.recombination.scalings import section_map
 from obsnl.recombination.scalings import scaling_section
 from obsnl.observability.limits import check_analysis_limits
+from obsnl.observability.analyze import analyze
 from obsnl.observability.engines.smooth import analyze_smooth
 from obsnl.model.core import Model
 from obsnl.model.reading.parse import make_symbol
@@ -79,13 +81,34 @@ def _piecewise_tidy(e: sp.Expr) -> sp.Expr:
 
 
 def _value_of(expr: sp.Expr, values: Mapping[str, float]) -> float | None:
+    """``expr`` at ``values`` (every symbol of it given), written as the user would: the shortest number that
+    is the same to 12 significant digits (``-300.0``, not ``-300.00000000000006``); None when it has no real
+    finite value there.
+
+    Examples
+    --------
+    >>> k, m = sp.symbols("k m", real=True)
+    >>> _value_of(-k / m, {"k": 30.0, "m": 0.1}), _value_of(k / m, {"k": 1.0}), _value_of(k / m, {"k": 1.0, "m": 0})
+    (-300.0, None, None)
+    """
     if not all(s.name in values for s in expr.free_symbols):
         return None
     try:
         v = complex(expr.subs({s: sp.Float(values[s.name], 30) for s in expr.free_symbols}).evalf(30))
     except (TypeError, ValueError, ZeroDivisionError):
         return None
-    return float(v.real) if abs(v.imag) < 1e-12 * max(1.0, abs(v.real)) and v.real == v.real else None
+    if not (abs(v.imag) < 1e-12 * max(1.0, abs(v.real)) and math.isfinite(v.real)):
+        return None
+    return float(f"{v.real:.12g}")
+
+
+def _positive(expr: sp.Expr, bounds: Mapping[str, tuple[float, float]]) -> bool:
+    """Whether ``expr`` is positive wherever each of its symbols is, all declared non-negative in ``bounds`` (sympy's
+    sign rules over positive symbols: a product of powers of them is, a difference is not)."""
+    syms = expr.free_symbols
+    if not syms or not all(s.name in bounds and bounds[s.name][0] >= 0 for s in syms):
+        return False
+    return bool(expr.xreplace({s: sp.Dummy(s.name, positive=True) for s in syms}).is_positive)
 
 
 # --------------------------------------------------------------------------- the proposal
@@ -230,6 +253,14 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
         if res.reason:
             notes.append(f"branch {b.label} of the new model: {res.reason}")
     nowhere = set.intersection(*(set(v) for v in unobs.values())) if unobs else set()
+    # whether the new model is identifiable: the joint verdict over its branches (a coordinate unobservable in each
+    # branch alone may be revealed by the branches together), never the proposal's own bookkeeping
+    joint = analyze(built, seed=seed, per_branch=False).joint
+    if joint is None:
+        remaining, pending = (), tuple(s.name for s in built.states + built.parameters)
+        notes.append("the joint verdict of the new model could not be made: no branch of it was analysed")
+    else:
+        remaining, pending = tuple(joint.unobservable), tuple(joint.inconclusive)
     missing = sum(s.missing for s in per)
     complete = not nowhere and not missing and not unmerged
     mapping = {nm: phi for nm, phi, _ in new}
@@ -254,7 +285,8 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     return Reparametrization(built, model.name, mapping, {k.name: v for k, v in section.items()},
                              tuple(p.name for p in list(sec.pivots) + list(tpiv)), functions, complete,
                              not nowhere, method, per, unobs, verified, tuple(notes), time.perf_counter() - t0,
-                             tuple(divided))
+                             tuple(divided), identifiable=not remaining and not pending, remaining=remaining,
+                             undecided=pending)
 
 
 def _negated_only(model: Model, deltas: Sequence[str]) -> set[str]:
@@ -303,20 +335,33 @@ def _build(model: Model, new: list, section: Mapping[sp.Symbol, sp.Expr], notes:
     latex = {nm: t for nm in list(eqs) + params + [s.name for s in model.inputs + model.known_constants]
              if (t := _latex_of(model, nm)) is not None}
     values: dict[str, float] = {}
+    guess: dict[str, float] = {}  # each new parameter's guess: its definition at the old guesses
+    bounds: dict[str, str | tuple[float, float]] = {}
     for nm, phi, _ in new:
         v = _value_of(phi, model.values)
         if v is not None:
             values[nm] = v
+        if nm in params and (g := _value_of(phi, model.guess)) is not None and g != 0:
+            guess[nm] = g
+        if nm in params and _positive(phi, model.bounds):
+            bounds[nm] = "positive"
     for s in list(model.inputs) + list(model.known_constants) + kic:
         if s.name in model.values:
             values[s.name] = model.values[s.name]
+    for s in model.known_constants:  # known constants keep their names, and their bounds
+        if s.name in model.bounds:
+            bounds[s.name] = model.bounds[s.name]
+    if model.guess and (lost := [nm for nm in params if nm not in guess]):
+        notes.append(f"no guess for {', '.join(lost)}: its definition needs a guess of every old symbol in it "
+                     f"(a state, or a parameter without one), or is 0 there")
     icv = {s.name: v.xreplace(section) for s, v in model.initial_condition_values.items()}
     pivots = [k.name for k, v in section.items() if v == 1 and k in model.parameters]
-    desc = (f"Identifiable reparametrization of '{model.name}' proposed by obsnl.reparametrize: scaling pivots "
+    desc = (f"Reparametrization of '{model.name}' proposed by obsnl.reparametrize: scaling pivots "
             f"{', '.join(pivots) or 'none'} set to 1 (assumed positive); every new symbol is defined in "
             f"[definitions] in terms of the symbols of '{model.name}'.")
     return Model(name=f"{model.name}_reparam", states=state_names, parameters=params,
                  inputs=[s.name for s in model.inputs], known_constants=[s.name for s in model.known_constants],
                  equations=eqs, outputs=outs, switching=switching, known_initial_conditions=[s.name for s in kic],
                  initial_condition_values=icv, description=desc, source=model.source, latex=latex,
-                 values=values, definitions=defs)
+                 values=values, guess=guess, definitions=defs, bounds=bounds,
+                 intersample=dict(model.intersample))

@@ -14,7 +14,7 @@ from collections.abc import Iterable, Sequence
 from typing import Any
 
 __all__ = ["render_model", "render_branches", "render_symmetries", "reparametrization_lines",
-           "inconclusive_line"]
+           "not_identifiable_line", "inconclusive_line"]
 
 _ROLES = ("parameters", "inputs", "unknown_inputs", "known_constants")
 
@@ -110,6 +110,32 @@ def render_symmetries(found: Sequence[tuple[Any, Any]], fmt: str = "text") -> st
     return "\n".join(lines)
 
 
+def not_identifiable_line(r: Any) -> str | None:
+    """The one line that says a reparametrization's new model is not identifiable and what remains, or None when
+    it is.
+
+    Parameters
+    ----------
+    r : Reparametrization
+        The result of :func:`obsnl.recombination.reparametrize.reparametrize`.
+
+    Returns
+    -------
+    str or None
+    """
+    if r.identifiable:
+        return None
+    where = "by the joint verdict over its branches"
+    if r.remaining:
+        head = f"the new model {r.model.name!r} is NOT identifiable: {', '.join(r.remaining)} not identifiable {where}"
+        if r.undecided:
+            head += f", {', '.join(r.undecided)} undecided"
+    else:
+        head = (f"the new model {r.model.name!r} is not shown identifiable: {', '.join(r.undecided)} undecided "
+                f"{where}")
+    return head + (f" ({r.notes[0]})" if r.notes and not r.complete else "")
+
+
 def reparametrization_lines(r: Any, path: str) -> str:
     """What a reparametrization written to ``path`` holds: its new variables, what was divided out, notes.
 
@@ -126,7 +152,8 @@ def reparametrization_lines(r: Any, path: str) -> str:
         The summary, one line per item, without a final newline.
     """
     lines = [f"wrote {path}: {len(r.mapping)} variables ({'complete' if r.complete else 'incomplete'}, "
-             f"method {r.method}, verified {'yes' if r.verified else 'no'})"]
+             f"{'identifiable' if r.identifiable else 'NOT identifiable'}, method {r.method}, verified "
+             f"{'yes' if r.verified else 'no'})"]
     lines += [f"  {k} = {v}" for k, v in r.mapping.items()]
     lines += [f"  divided out: {g}" for g in r.divided]
     lines += [f"  note: {n}" for n in r.notes]

@@ -384,9 +384,11 @@ def reparametrize_printed(model: Any, **options: Any) -> Printed:
     -------
     Printed
         :meth:`~obsnl.recombination.reparametrize.Reparametrization.to_toml`, or
-        :func:`obsnl.report.structure.reparametrization_lines` of the file written.
+        :func:`obsnl.report.structure.reparametrization_lines` of the file written; its undecided line says
+        that the new model is not identifiable and what remains (``obsnl`` then exits with code 2).
     """
-    from obsnl.report.structure import reparametrization_lines
+    from obsnl.report.structure import not_identifiable_line, reparametrization_lines
 
     r, output = reparametrize_job(model, **options), options.get("output")
-    return Printed(r.to_toml() if output in (None, "-") else reparametrization_lines(r, output))
+    return Printed(r.to_toml() if output in (None, "-") else reparametrization_lines(r, output),
+                   not_identifiable_line(r))

@@ -68,13 +68,17 @@ class _Setup:
     exprs: Expressions | None = None  # f and h, compiled once
 
 
+#: The tables of a model keyed by its names (a name removed must leave each of them).
+_NAMED_TABLES = ("latex", "values", "guess", "bounds")
+
+
 def _reduced(model: Model, live: set[sp.Symbol]) -> Model:
-    """The output-relevant submodel (dead states and parameters removed)."""
+    """The output-relevant submodel (dead states and parameters removed, from every table keyed by names too)."""
     states = [s for s in model.states if s in live]
     keep = {s.name for s in live} | {s.name for s in model.inputs + model.known_constants} | set(model.outputs)
+    tables = {t: {k: v for k, v in getattr(model, t).items() if k in keep} for t in _NAMED_TABLES}
     return model.replace(
-        latex={k: v for k, v in model.latex.items() if k in keep}, definitions={},
-        values={k: v for k, v in model.values.items() if k in keep},
+        **tables, definitions={},
         states=[s.name for s in states], parameters=[p.name for p in model.parameters if p in live],
         equations={s.name: model.equations[s] for s in states},
         known_initial_conditions=[s.name for s in model.known_initial_conditions if s in live],
