@@ -258,6 +258,25 @@ def test_a_fit_with_missing_output_samples_is_judged_on_the_samples_measured(rec
     assert verdicts == {"right": True, "duffing": False}
 
 
+def test_the_share_of_the_residual_the_inputs_noise_makes_is_gauged(records):
+    # 3 % noise on the measured force (given): through the oscillator it makes a share of the residual variance,
+    # derived here from the impulse response of the system discretised with the input linear between samples
+    # (scipy's first-order hold): E d_k^2 = s_u^2 sum_{j <= k} g_j^2 (the record starts at rest), averaged over k
+    A, B = np.array([[0.0, 1.0], [-K_TRUE, -C_TRUE]]), np.array([[0.0], [1.0]])
+    sysd = signal.cont2discrete((A, B, np.array([[1.0, 0.0]]), np.zeros((1, 1))), DT, method="foh")
+    _, (g,) = signal.dimpulse((*sysd[:4], DT), n=N)
+    x = records["right"]
+    su, sy = 0.03 * np.sqrt(np.mean(U ** 2)), 0.01 * np.sqrt(np.mean(x ** 2))
+    made = su ** 2 * np.mean(np.cumsum(g[:, 0] ** 2))
+    rng = np.random.default_rng(5)
+    measured = {"t": T, "u": U + su * rng.standard_normal(N), "y": x + sy * rng.standard_normal(N)}
+    res = obsnl.identify(OSCILLATOR, measured, guess={"c": 0.3, "k": 5.0}, noise={"u": 0.03, "y": 0.01}, jit=False,
+                         passes=1, progress=False, tuning=Tuning(0.3, 0.0, 100.0))
+    # 8 draws of the gauge and one realisation of the residual: within a third of the derived share (0.17)
+    assert res.adequacy.input_noise_share["y"] == pytest.approx(made / (sy ** 2 + made), rel=0.35)
+    assert res.adequacy.to_dict()["input_noise_share"] == {"y": res.adequacy.input_noise_share["y"]}
+
+
 def test_a_failed_adequacy_is_said_first_and_flags_every_parameter(records):
     res = _fit(records["duffing"], 0)
     assert res.adequacy is not None and not res.adequacy.passed
@@ -299,3 +318,25 @@ def test_converged_is_never_said_with_a_parameter_on_its_search_bound(records):
     text = identify_text(res)
     assert ": converged" not in text and "NOT converged" in text and "converged=False" in repr(res)
     assert res.to_dict()["converged"] is False
+
+
+def test_no_goal_of_table2_is_met_where_the_model_failed_adequacy():
+    # the committed Table 2 (its refinements ran before the adequacy tests: none recorded) keeps its goal; one seed
+    # whose refinement failed adequacy makes the maximum-likelihood column's 5 % goal "not met", naming the seed
+    import copy
+
+    from obsnl.report.identification import table2_markdown
+
+    from .conftest import ROOT
+
+    doc = json.loads((ROOT / "reports" / "identification" / "table2.json").read_text())
+    goal = "5 % goal (worst seed, unflagged): "
+    assert goal + "met;" in table2_markdown(doc)
+    bad = copy.deepcopy(doc)
+    seed = bad["refinements"][0]["seed"]
+    bad["refinements"][0]["adequacy"] = {"passed": False, "level": 0.01, "tests": []}
+    text = table2_markdown(bad)
+    assert goal + "met;" not in text and f"{goal}not met (the model does not explain the data to the noise level " \
+        f"on seed(s) {seed}: adequacy failed)" in text
+    bad["refinements"][0]["adequacy"]["passed"] = True
+    assert goal + "met;" in table2_markdown(bad)

@@ -52,9 +52,11 @@ from obsnl.estimation.measured import MIN_SAMPLES, UPPER_BOUND, estimate_noise
 
 __all__ = [
     "AR_MAX",
+    "CALIBRATED",
     "DRAWS",
     "FLAG_REASON",
     "INADEQUATE",
+    "INPUT_NOISE_SHARE",
     "LEVEL",
     "MAX_LAGS",
     "Adequacy",
@@ -77,6 +79,9 @@ DRAWS = 400
 #: The longest record the calibration draws: beyond it the mean and std of ``log F`` are scaled by
 #: ``sqrt(CALIBRATED / N)`` (both fall as ``1 / sqrt(N)``: the noise estimate's error and the chi2's).
 CALIBRATED = 8192
+#: The share of the residual variance made by the inputs' noise above which a failed verdict says that it may be
+#: the cause (the tests take the residual of a right model as the output noise alone).
+INPUT_NOISE_SHARE = 0.1
 #: What a failed adequacy means, said first.
 INADEQUATE = "the model does not explain the data to the noise level"
 #: The reason every parameter is flagged with when the model fails adequacy.
@@ -142,7 +147,9 @@ class Adequacy:
 
     ``tests``: one :class:`AdequacyTest` per output and test; ``model_error``: per output, the share of the
     residual variance attributed to model error, ``1 - s^2 / (RSS / dof)`` floored at 0 (``s``: the independent
-    noise estimate); ``assumptions``: what the verdict rests on.
+    noise estimate); ``input_noise_share``: per output, the share of the residual variance that the inputs' noise
+    passed through the model would make (where it was gauged): the tests take it as absent, so where it is large a
+    right model can fail them, and the headline says so; ``assumptions``: what the verdict rests on.
     """
 
     passed: bool
@@ -150,6 +157,7 @@ class Adequacy:
     tests: tuple[AdequacyTest, ...]
     assumptions: tuple[str, ...]
     model_error: Mapping[str, float] = field(default_factory=dict)
+    input_noise_share: Mapping[str, float] = field(default_factory=dict)
 
     @property
     def failed(self) -> tuple[AdequacyTest, ...]:
@@ -166,8 +174,11 @@ class Adequacy:
         if self.passed:
             kinds = dict.fromkeys(t.name for t in self.tests)
             return f"adequate: the residuals pass {k} tests ({', '.join(kinds)}) at the {100 * self.level:g} % level"
+        loud = {o: v for o, v in self.input_noise_share.items() if v >= INPUT_NOISE_SHARE}
         return (f"NOT adequate: {INADEQUATE}; the std and intervals assume a right model (failed at "
-                f"{100 * self.level:g} %: {names([t.label() for t in self.failed], 2)})")
+                f"{100 * self.level:g} %: {names([t.label() for t in self.failed], 2)})" + (
+                    f"; but the inputs' noise makes {names([f'{100 * v:.2g} %' for v in loud.values()], 2)} of the "
+                    f"residual variance of {names(loud, 2)}, which the tests take as absent" if loud else ""))
 
     def summary(self) -> str:
         """A few lines of plain text: the headline, each test, the share of model error per output."""
@@ -180,6 +191,7 @@ class Adequacy:
         return {"passed": self.passed, "level": self.level, "per_test_level": self.level / max(len(self.tests), 1),
                 "tests": [t.to_dict() for t in self.tests],
                 "model_error_share": {o: _finite(v) for o, v in self.model_error.items()},
+                "input_noise_share": {o: _finite(v) for o, v in self.input_noise_share.items()},
                 "assumptions": list(self.assumptions)}
 
 
@@ -486,7 +498,8 @@ def misfit(e: Any, y: Any, *, output: str = "y", dof: float | None = None,
 
 
 def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[str], input_names: Sequence[str] = (),
-             dof: Sequence[float] | None = None, level: float = LEVEL, lags: int | None = None) -> Adequacy:
+             dof: Sequence[float] | None = None, level: float = LEVEL, lags: int | None = None,
+             input_noise_share: Mapping[str, float] | None = None) -> Adequacy:
     """Judge whether a fitted model explains the data to the noise level (module docstring).
 
     Parameters
@@ -505,6 +518,9 @@ def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[st
         The family-wise level (default 1 %): each of the ``k`` tests is judged at ``level / k``.
     lags : int or None
         ``M`` of the whiteness and cross-correlation tests (default :func:`lags_for` of the samples present).
+    input_noise_share : mapping of str to float or None
+        Per output, the share of the residual variance the inputs' noise makes through the model, where the caller
+        gauged it (:func:`obsnl.identification.refine.adequacy_of`); carried into the verdict.
 
     Returns
     -------
@@ -553,4 +569,5 @@ def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[st
         else:
             tests.append(test)
     return Adequacy(passed=all(t.passed for t in tests), level=float(level), tests=tuple(tests),
-                    assumptions=_ASSUMPTIONS + tuple(notes), model_error=share)
+                    assumptions=_ASSUMPTIONS + tuple(notes), model_error=share,
+                    input_noise_share=dict(input_noise_share or {}))

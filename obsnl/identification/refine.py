@@ -11,10 +11,13 @@ from typing import Any
 import numpy as np
 
 from obsnl._text import block, names, number, one_line
+from obsnl.errors import EstimatorError, OptionError
+from obsnl.identification.adequacy import LEVEL, Adequacy, adequacy
+from obsnl.estimation.simulate import simulate
 from obsnl.identification.setup import BOUND, Data, Setup
 from obsnl.identification.likelihood import DECREMENT, Fit, NOISE_FLOOR, Objective, STEP_LIMIT, covariance, levenberg_marquardt, objective
 
-__all__ = ["Refinement", "refine", "residual_dof", "ADVICE"]
+__all__ = ["Refinement", "refine", "residual_dof", "adequacy_of", "ADVICE"]
 
 #: What to try when the refinement does not converge: the filter initialises it, so its start moves with the
 #: guesses and with the number of passes (``guess=``/``passes=`` in Python, ``--guess``/``--passes`` on the command line).
@@ -241,6 +244,81 @@ def residual_dof(J: np.ndarray, ny: int) -> np.ndarray:
     h = np.sum((J @ covariance(J, mark_flat=False)[0]) * J, axis=1) if J.size else np.zeros(len(J))
     n = len(J) // ny
     return np.maximum(n - h.reshape(n, ny).sum(axis=0), 1.0)
+
+
+def adequacy_of(ref: Refinement, data: Data, *, level: float = LEVEL,
+                input_noise: Sequence[float] | None = None) -> Adequacy | None:
+    """Whether the refined model explains ``data`` to the noise level: the residual tests of
+    :mod:`obsnl.identification.adequacy` on the residual the fit minimised (its own integrator).
+
+    Each output's degrees of freedom are its samples measured less its share of the fitted coordinates
+    (:func:`residual_dof`; a missing sample is a zero row of the Jacobian and a zero residual: it counts in no N).
+    The tests take the residual of a right model as the output noise alone; the share of the residual variance the
+    inputs' noise makes through the model is gauged by one seeded draw of it (the model simulated at the estimate
+    under the measured input and under it plus the draw) and carried into the verdict.
+
+    Parameters
+    ----------
+    ref : Refinement
+        The maximum-likelihood fit (:func:`refine`).
+    data : Data
+        The inputs and outputs it was fitted to (NaN: an output sample missing).
+    level : float
+        The family-wise level of the tests.
+    input_noise : sequence of float or None
+        The noise std of each measured input (default: the set-up's levels on these data; 0: exact).
+
+    Returns
+    -------
+    Adequacy or None
+        None where the tests cannot be run (fewer samples measured than they need).
+    """
+    m = ref.objective.setup.model
+    n = len(ref.objective.setup.record)
+    y = np.asarray(data.y, float).reshape(n, -1)
+    u = np.asarray(data.u, float).reshape(n, -1)[:, :len(m.inputs)]  # a driven model's row starts with the sample
+    measured = np.sum(np.isfinite(y), axis=0)
+    free = np.r_[[p not in ref.held for p in m.parameters], np.ones(m.nx, bool)]
+    J, r = ref.fit.J, ref.fit.r
+    if not J.shape[0] == r.size == n * m.ny:
+        return None
+    dof = residual_dof(J[:, free], m.ny) - (n - measured)
+    e = np.where(np.isfinite(y), r.reshape(n, m.ny) * ref.sigma, np.nan)
+    setup = ref.objective.setup
+    su = setup.noise_std(data)[0] if input_noise is None else np.asarray(input_noise, float)
+    try:
+        return adequacy(e, measured=y, inputs=u, outputs=m.outputs, input_names=m.inputs,
+                        dof=np.clip(dof, 1.0, measured), level=level,
+                        input_noise_share=_input_noise_share(ref, data, su, e))
+    except OptionError:  # fewer samples measured than the tests need
+        return None
+
+
+def _input_noise_share(ref: Refinement, data: Data, su: np.ndarray, e: np.ndarray) -> dict[str, float]:
+    """Per output, the variance the inputs' noise ``su`` makes through the model at the estimate over the
+    residual's; {} without input noise, for a model driven by input blocks, or where it cannot be simulated.
+
+    Seeded draws of the noise, as many as keep about 20 000 samples in all (a short record's output is narrow-band:
+    one draw of it is far from its mean), 8 at most."""
+    setup = ref.objective.setup
+    m = setup.model
+    u = np.asarray(data.u, float).reshape(len(data.u), -1)
+    if not np.any(su > 0) or u.shape[1] != len(m.inputs):
+        return {}
+    rng = np.random.default_rng(0)
+
+    def run(uu: np.ndarray) -> np.ndarray:
+        return simulate(m, theta=ref.theta, x0=ref.x0, u=uu, dt=setup.record.dt, substeps=ref.objective.substeps,
+                        refine=setup.refine, locate=True).y
+
+    try:
+        y0 = run(u)
+        d2 = np.mean([(run(u + rng.standard_normal(u.shape) * su) - y0) ** 2
+                      for _ in range(max(1, min(8, 20000 // len(u))))], axis=0)
+    except EstimatorError:
+        return {}
+    d2 = np.where(np.isfinite(e), d2, np.nan)
+    return {o: float(np.nanmean(d2[:, j]) / max(np.nanmean(e[:, j] ** 2), 1e-300)) for j, o in enumerate(m.outputs)}
 
 
 def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE) -> tuple[bool, str]:

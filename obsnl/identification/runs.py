@@ -39,8 +39,8 @@ from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import Trajectory
 from obsnl.executor import Executor
 from obsnl.identification.experiments import Tuning, make_filter, run_passes
-from obsnl.identification.adequacy import FLAG_REASON, Adequacy, adequacy
-from obsnl.identification.refine import Refinement, refine, residual_dof
+from obsnl.identification.adequacy import FLAG_REASON
+from obsnl.identification.refine import Refinement, adequacy_of, refine
 from obsnl.identification.practical import practical_identifiability
 from obsnl.identification.profile import THRESHOLD, Profile, judge, profiles
 from obsnl.identification.replicates import check_passes, check_replicates, spread_on
@@ -209,7 +209,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
     else:
         converged, reason = False, ("not checked: the maximum-likelihood refinement was skipped (refine=False), whose "
                                     "first-order conditions define convergence")
-    adequate = None if ref is None else _adequacy(setup, data, ref, y_fit)
+    adequate = None if ref is None else adequacy_of(ref, data, input_noise=input_noise)
     if adequate is not None and not adequate.passed:  # every std and interval assumes a right model
         params = [replace_field(p, flagged=True, reason="; ".join(w for w in (FLAG_REASON, p.reason) if w))
                   for p in params]
@@ -222,32 +222,6 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
         y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs,
         converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
-
-
-def _adequacy(setup: Setup, data: Data, ref: Refinement, y_fit: np.ndarray) -> Adequacy | None:
-    """The residual tests of the fit at the estimate (:mod:`obsnl.identification.adequacy`); None where the model
-    cannot be simulated there. The residual is the one the likelihood fit minimised (its own integrator; ``y - y_fit``
-    where its rows are not one per sample and output); each output's degrees of freedom are its samples measured
-    less its share of the fitted coordinates (:func:`~obsnl.identification.refine.residual_dof`)."""
-    m = setup.model
-    n = len(setup.record)
-    y = np.asarray(data.y, float).reshape(n, -1)
-    if np.shape(y_fit) != y.shape or not np.all(np.isfinite(y_fit)):
-        return None
-    u = np.asarray(data.u, float).reshape(n, -1)[:, :len(m.inputs)]  # a driven model's row starts with the sample
-    measured = np.sum(np.isfinite(y), axis=0)
-    free = np.r_[[p not in ref.held for p in m.parameters], np.ones(m.nx, bool)]
-    J, r = ref.fit.J, ref.fit.r
-    if J.shape[0] == r.size == n * m.ny:  # a missing sample is a zero row of J and a zero residual: in no N
-        dof = residual_dof(J[:, free], m.ny) - (n - measured)
-        e = np.where(np.isfinite(y), r.reshape(n, m.ny) * ref.sigma, np.nan)
-    else:
-        dof, e = measured - free.sum() / m.ny, y - y_fit
-    try:
-        return adequacy(e, measured=y, inputs=u, outputs=m.outputs, input_names=m.inputs,
-                        dof=np.clip(dof, 1.0, measured))
-    except OptionError:  # fewer samples measured than the tests need
-        return None
 
 
 def _widened(prof: Profile) -> str:
@@ -332,7 +306,6 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     refined : bool
         Refine the filter's estimate by maximum likelihood, with Fisher std and profile-likelihood
         intervals (:mod:`obsnl.identification.likelihood`, :mod:`obsnl.identification.profile`; default on).
-
     intersample : mapping of str to str or None
         How each input behaves between samples: ``zoh``, ``linear`` (default) or ``bandlimited``
         (:mod:`obsnl.estimation.intersample`); the filter and the fit both use it.

@@ -96,6 +96,7 @@ class Refined:
     newton_decrement: float = float("nan")
     last_step_in_std: float = float("nan")
     error: str = ""
+    adequacy: Mapping[str, Any] | None = None  # the residual tests (Adequacy.to_dict()); None: not run
 
     def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
         err = 100.0 * (np.asarray(self.theta) - truth) / np.abs(truth)
@@ -108,7 +109,7 @@ class Refined:
                 "seconds": _num(self.seconds), "iterations": self.iterations,
                 "newton_decrement": _num(self.newton_decrement), "last_step_in_std": _num(self.last_step_in_std),
                 "misfit_over_noise": {k: _num(v) for k, v in self.misfit_over_noise.items()},
-                "at_edge": list(self.at_edge)}
+                "at_edge": list(self.at_edge), "adequacy": None if self.adequacy is None else dict(self.adequacy)}
 
 
 def _interventions(trs: Sequence[Trajectory]) -> dict[str, int]:

@@ -103,7 +103,7 @@ def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) ->
     described by ``start``); every parameter free, the initial state estimated, Fisher std at the estimate."""
     import time
 
-    from obsnl.identification.refine import refine
+    from obsnl.identification.refine import adequacy_of, refine
 
     spec, seed, theta, start = task
     setup = context(spec)["setup"]
@@ -111,14 +111,17 @@ def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) ->
         setup = replace(setup, jit=False)
     nan = (float("nan"),) * setup.model.np
     tic = time.perf_counter()
+    data = make_data(setup, seed)
     try:
-        ref = refine(setup, make_data(setup, seed), np.asarray(theta, float), max_iter=ML_MAX_ITER,
+        ref = refine(setup, data, np.asarray(theta, float), max_iter=ML_MAX_ITER,
                      advice="the seed paper's guesses are fixed here: try more filter passes (passes=)")
     except ObsnlError as exc:  # reported with its reason, never dropped
         return Refined(seed=seed, start=start, theta=nan, std=nan, converged=False, reason="", error=str(exc),
                        seconds=time.perf_counter() - tic)
     f = ref.fit
+    adequate = adequacy_of(ref, data)  # no goal is met by a model that does not explain the data
     return Refined(seed=seed, start=start, theta=tuple(map(float, ref.theta)), std=tuple(map(float, ref.std)),
+                   adequacy=None if adequate is None else adequate.to_dict(),
                    converged=bool(ref.converged), reason=ref.reason, seconds=ref.seconds, iterations=ref.iterations,
                    misfit_over_noise=dict(ref.misfit), at_edge=ref.at_edge,
                    newton_decrement=float(f.decrement), last_step_in_std=float(f.last_step))

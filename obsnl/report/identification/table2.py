@@ -96,6 +96,7 @@ def table2_ml_summary(doc: Mapping[str, Any]) -> dict[str, Any] | None:
         "yield": _yield_errors(ran, doc["experiment"]["truth"]) if ran else None,
         "converged": [r["seed"] for r in ran if r["converged"]],
         "failed": [(r["seed"], r["error"]) for r in refs if r.get("error")],
+        "inadequate": [r["seed"] for r in ran if (r.get("adequacy") or {}).get("passed") is False],
     }
 
 
@@ -302,6 +303,9 @@ def _ml_markdown(doc: Mapping[str, Any], ml: Mapping[str, Any]) -> list[str]:
     goal = _goal(bad, len(ml["parameters"]) - len(worst), len(ml["parameters"]))
     if ml["failed"]:
         goal = f"not met ({len(ml['failed'])} refinement(s) could not run)"
+    elif ml.get("inadequate"):  # the estimates' std assume a right model: no goal is met without one
+        goal = (f"not met (the model does not explain the data to the noise level on seed(s) "
+                f"{', '.join(map(str, ml['inadequate']))}: adequacy failed)")
     lines = [f"ML column: {doc.get('refinement_protocol') or 'maximum likelihood'}. † in the ML column: its std "
              "(the Fisher information's, the measured input's noise propagated) is above "
              f"{_ML_PIN:.3g} % of the estimate on at least half of the seeds (the 5 % band cannot be "
@@ -319,6 +323,8 @@ def _ml_markdown(doc: Mapping[str, Any], ml: Mapping[str, Any]) -> list[str]:
         why = (r.get("error") or r["reason"] or "").replace("|", "/")
         if r.get("at_edge"):
             why += f" (on the edge of the valid region: {', '.join(r['at_edge'])})"
+        if (r.get("adequacy") or {}).get("passed") is False:
+            why += "; NOT adequate: the model does not explain the data to the noise level"
         lines.append(f"| {r['seed']} | {start} | {r['iterations']} | {_num(r['seconds'], '.1f')} | {fit} | {verdict} "
                      f"| {why} |")
     return lines
