@@ -238,9 +238,10 @@ def _estimated_start(num: NumericModel, theta: np.ndarray, x_ref: np.ndarray, u:
     n, seen = len(y), ~np.isnan(y)
     rms = np.sqrt(np.nanmean(y ** 2, axis=0))
     w = 1.0 / np.where(rms > 0, rms, 1.0)
-    far = np.full(int(seen.sum()), 1e6)
+    far, runs = np.full(int(seen.sum()), 1e6), [0]
 
     def residual(s: np.ndarray) -> np.ndarray:
+        runs[0] += 1
         try:
             sim = simulate_numeric(num, theta=theta, x0=x_ref + scale * s, u=u[:n], dt=dt, substeps=SUBSTEPS,
                                    refine=REFINE, locate=LOCATE)
@@ -252,7 +253,7 @@ def _estimated_start(num: NumericModel, theta: np.ndarray, x_ref: np.ndarray, u:
     misfit = float(np.sqrt(np.mean(fit.fun ** 2)))
     said = "met its tolerances" if fit.success else f"stopped without meeting its tolerances ({fit.message})"
     return x_ref + scale * fit.x, (f"estimated by least squares on the first {n} samples (parameters fixed): "
-                                   f"residual RMS {misfit:.3g} of the outputs' RMS there, {fit.nfev} simulations; "
+                                   f"residual RMS {misfit:.3g} of the outputs' RMS there, {runs[0]} simulations; "
                                    f"the fit {said}")
 
 
@@ -335,19 +336,19 @@ def simulate(model: Model | str | Path, parameters: Mapping[str, float] | str | 
               for j, c in enumerate(num.outputs)}
     return Validation(model=model.name, record=data.to_dict(), parameters=values, parameters_from=source, start=start,
                       x0=dict(zip(num.states, map(float, x_start))), warmup=warmup, intersample=kinds, outputs=scores,
-                      assumptions=_assumptions(start, warmup, f"{kinds_from}: {'; '.join(routes)}", data),
+                      assumptions=_assumptions(start, warmup, f"{kinds_from}: {'; '.join(routes)}", data, source),
                       seconds=time.perf_counter() - t0, start_note=note, states=num.states, t=data.t,
                       y_measured=data.y, y_simulated=sim.y, x=sim.x)
 
 
-def _assumptions(start: str, warmup: int, between: str, data: Measured) -> tuple[str, ...]:
+def _assumptions(start: str, warmup: int, between: str, data: Measured, source: str) -> tuple[str, ...]:
     begin = {"rest": "the simulation starts from rest: the model's initial states under [values], else 0",
              "given": "the simulation starts from the initial state given (x0=)",
              "estimated": f"the initial state is estimated on the first {warmup} samples (least squares on their "
                           "outputs, each weighted by 1/its RMS there, the parameters fixed); those samples are not "
                           "scored"}[start]
-    return (f"the parameters are the fit's, fixed; only {'the initial state is' if warmup else 'nothing is'} "
-            "fitted on this record",
+    return (f"the parameters are fixed at {'the values given' if source == 'given' else 'the estimates of ' + source}"
+            f"; {'only the initial state is' if warmup else 'nothing is'} fitted on this record",
             begin,
             f"integrator: RK4, {SUBSTEPS} substeps per sample (the fit's), a substep where the field jumps split at "
             "the located crossing",
