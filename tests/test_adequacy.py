@@ -340,3 +340,25 @@ def test_no_goal_of_table2_is_met_where_the_model_failed_adequacy():
         f"on seed(s) {seed}: adequacy failed)" in text
     bad["refinements"][0]["adequacy"]["passed"] = True
     assert goal + "met;" in table2_markdown(bad)
+
+
+def test_the_command_line_says_a_failed_adequacy_first_and_writes_it_to_identify_json(records, tmp_path, capsys):
+    # obsnl identify on a CSV of the Duffing oscillator with the linear model: the first line printed is the verdict
+    from obsnl.cli import main
+
+    from .radau_data import write_csv
+
+    toml = tmp_path / "osc.toml"
+    toml.write_text('name = "osc"\nstates = ["x", "v"]\nparameters = ["c", "k"]\ninputs = ["u"]\n[outputs]\ny = "x"\n'
+                    '[equations]\nx = "v"\nv = "u - c*v - k*x"\n[guess]\nc = 0.3\nk = 5.0\n')
+    x = records["duffing"]
+    y = x + 0.01 * np.sqrt(np.mean(x ** 2)) * np.random.default_rng(0).standard_normal(N)
+    csv = write_csv(tmp_path / "duffing.csv", {"time_s": T, "u": U, "y": y})
+    out = tmp_path / "run"
+    assert main(["identify", str(toml), "--data", str(csv), "--noise", "u=1e-6", "--noise", "y=0.01", "--passes", "1",
+                 "--s0", "0.3", "--q-theta", "0", "--q-x", "100", "--gate", "inf", "--no-jit", "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert printed.splitlines()[0].startswith("NOT adequate: " + INADEQUATE)
+    doc = json.loads((out / "identify.json").read_text())
+    assert doc["adequacy"]["passed"] is False and all(p["flagged"] for p in doc["parameters"])
+    assert all({"statistic", "p_value", "passed", "output"} <= set(t) for t in doc["adequacy"]["tests"])
