@@ -122,3 +122,21 @@ def test_the_bounds_table_round_trips_through_a_model_file(tmp_path):
     assert dict(back.bounds) == {"fy": (0.0, math.inf), "k": (0.5, math.inf)} and back == m
     assert back.fingerprint != _friction().fingerprint  # a table made without the bounds is not this model's
     assert _friction().fingerprint == Model.from_dict(_friction().to_dict()).fingerprint
+
+
+def test_every_answer_states_the_bounds_it_assumed(capsys, tmp_path):
+    from obsnl import analyze
+    from obsnl.design.sensors import sensors
+    from obsnl.model.files import model_to_toml
+    from obsnl.report.sensors import render_sensors
+
+    m = _friction(bounds={"fy": "positive"})
+    res = analyze(m, seed=1)
+    assert res.assumptions["bounds"] == {"fy": [0.0, "inf"]}
+    assert {b.label for b in res.branches} == {"a", "b"}  # the two sides of v, fy > 0 in both
+    path = tmp_path / "relay.toml"
+    path.write_text(model_to_toml(m), encoding="utf-8")
+    assert main(["analyze", str(path), "--seed", "1"]) == 0
+    assert "assumes: declared bounds fy > 0" in capsys.readouterr().out
+    assert "declared bounds fy > 0" in render_sensors(sensors(m, target="k"))
+    assert "bounds" not in analyze(_friction(), seed=1).assumptions  # nothing declared, nothing said

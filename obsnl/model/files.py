@@ -256,8 +256,9 @@ def read_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None 
     states, parameters, inputs, outputs {name: expr}, equations {state: rhs}`` and the
     optional ``known_constants, known_initial_conditions, initial_condition_values,
     unknown_inputs``; obsnl adds the optional ``latex`` (symbol -> LaTeX), ``values``
-    (nominal numbers), ``switching`` (order of switching functions) and ``definitions``
-    (new symbol -> expression in the symbols of another model).
+    (nominal numbers), ``switching`` (order of switching functions), ``definitions``
+    (new symbol -> expression in the symbols of another model) and ``bounds`` (declared signs and
+    ranges of parameters and known constants, see :class:`~obsnl.model.core.Model`).
 
     Parameters
     ----------

@@ -241,7 +241,9 @@ def assumptions(model: Model, unknown_input_derivatives: int | str, input_deriva
     Returns
     -------
     dict
-        ``unknown_input_derivatives``, ``known_inputs`` and ``initial_conditions``.
+        ``unknown_input_derivatives``, ``known_inputs`` and ``initial_conditions``; ``bounds`` too when the model
+        declares some (``{name: [lo, hi]}``, an infinite end as ``"inf"``/``"-inf"``: only the sign patterns that
+        can hold within them are branches).
 
     Examples
     --------
@@ -252,7 +254,7 @@ def assumptions(model: Model, unknown_input_derivatives: int | str, input_deriva
     'arbitrary'
     """
     known = model.known_initial_conditions
-    return {
+    out = {
         "unknown_input_derivatives": unknown_input_derivatives if model.unknown_inputs else None,
         "known_inputs": None if not model.inputs else (
             "generic" if input_derivatives is None else f"polynomial of degree {input_derivatives}"),
@@ -262,3 +264,6 @@ def assumptions(model: Model, unknown_input_derivatives: int | str, input_deriva
             "known_values": {s.name: str(v) for s, v in model.initial_condition_values.items()},
         },
     }
+    if model.bounds:
+        out["bounds"] = model.to_dict()["bounds"]
+    return out

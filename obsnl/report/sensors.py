@@ -12,7 +12,7 @@ import json
 import math
 from typing import Any
 
-from obsnl.report.sentences import probability_text
+from obsnl.report.sentences import bounds_text, probability_text
 
 __all__ = ["render_sensors", "undecided_line"]
 
@@ -73,6 +73,8 @@ def _assumptions(search: Any) -> list[str]:
     known = a.get("known_inputs")
     if known:
         out.append(f"known inputs: {known}")
+    if a.get("bounds"):
+        out.append(bounds_text(a["bounds"]))
     out.append(a.get("monotonicity", ""))
     return [x for x in out if x]
 

@@ -3,12 +3,12 @@ first), the union, the assumptions and the verdict lines (text, Markdown and LaT
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 from obsnl._text import probability_text
 from obsnl.observability.results import AnalysisResult
 
-__all__ = ["probability_text", "assumption_texts", "joint_text", "union_text"]
+__all__ = ["probability_text", "assumption_texts", "bounds_text", "joint_text", "union_text"]
 
 
 def _names(names: Sequence[str]) -> str:
@@ -47,7 +47,28 @@ def assumption_texts(result: AnalysisResult) -> list[str]:
         if ic.get("known_values"):
             parts.append("given: " + ", ".join(f"{k}(0) = {v}" for k, v in ic["known_values"].items()))
         out.append("initial conditions " + "; ".join(parts))
+    if a.get("bounds"):
+        out.append(bounds_text(a["bounds"]))
     return out
+
+
+def bounds_text(bounds: Mapping[str, Sequence[float | str]]) -> str:
+    """The declared bounds of an analysis' assumptions (``{name: [lo, hi]}``, an infinite end ``"inf"``/``"-inf"``)
+    in words; whether an end is included does not matter to the branches (a sign pattern holds on an open set).
+
+    Examples
+    --------
+    >>> bounds_text({"fy": [0.0, "inf"], "gap": [0, 0.01], "c": ["-inf", 5]})
+    'declared bounds fy > 0, gap in [0, 0.01], c < 5'
+    """
+    def one(name: str, lo: float | str, hi: float | str) -> str:
+        if hi == "inf":
+            return f"{name} > {lo:g}"
+        if lo == "-inf":
+            return f"{name} < {hi:g}"
+        return f"{name} in [{lo:g}, {hi:g}]"
+
+    return "declared bounds " + ", ".join(one(k, lo, hi) for k, (lo, hi) in bounds.items())
 
 
 def _verdict_lines(result: AnalysisResult) -> list[str]:
