@@ -292,11 +292,11 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
         if k == m and full.sufficient is None and not minimal:
             break
         if len(minimal) > before and k < m:
-            rest = [i for i in free if (candidates[i],) not in minimal]
+            not_alone = [i for i in free if (candidates[i],) not in minimal]
             largest = _largest_without(candidates, minimal)
             # worth analyses only when they are fewer than the sets of the next size; at the last size asked, only
             # what is decided without an analysis
-            if largest is not None and (k == max_size or len(largest) < math.comb(len(rest), k + 1)):
+            if largest is not None and (k == max_size or len(largest) < math.comb(len(not_alone), k + 1)):
                 def lost(x: tuple[str, ...]) -> Sufficiency | None:
                     reach = set().union(*(anc[c] for c in x))
                     return None if want <= reach else unreached(x, [n for n in targets if n not in reach])
