@@ -8,6 +8,7 @@ deterministic (no error probability to state).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import os
@@ -76,6 +77,9 @@ def test_linear_oscillator_rmse_equals_scipy():
     assert d["start"] == "rest" and d["warmup"] == 0 and d["intersample"] == {"u": "linear"}
     assert any("starts from rest" in a for a in d["assumptions"])
     assert json.loads(json.dumps(d, allow_nan=False)) == d
+    assert "\n" not in repr(v) and repr(v).startswith("Validation(model='osc'") and "fit 9" in repr(v)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        v.warmup = 3  # type: ignore[misc]
 
 
 def test_duffing_two_outputs_rmse_equals_scipy():
@@ -300,8 +304,6 @@ def test_an_identification_runs_its_model_on_a_new_record():
     held = obsnl.identify(m, {"t": t, "u": u, "y": noisy(X[:, 0], 0.01, rng)}, passes=1, refine=False,
                           progress=False, jit=False, intersample="zoh")
     assert held.simulate({"t": t2, "u": u2, "y": y2[:, 0]}).intersample == {"u": "zoh"}
-    import dataclasses
-
     with pytest.raises(OptionError, match="keeps no model"):
         dataclasses.replace(res, fitted_model=None).simulate({"t": t2, "u": u2, "y": y2[:, 0]})
 

@@ -18,12 +18,14 @@ from obsnl.model.files import as_model
 from obsnl.report.printed import Printed, written_line
 
 __all__ = ["validate_job", "validate_printed", "write_validation", "validation_files", "HYSTERETIC_STATE",
-           "VALIDATE_FILES"]
+           "DISPLACEMENT_STATE", "VALIDATE_FILES"]
 
 #: What :func:`write_validation` writes, besides ``loop.png`` for a model with a hysteretic state.
 VALIDATE_FILES = ("validate.json", "validation.png")
 #: The name of a hysteretic state (Bouc-Wen's ``z``): its model gets the restoring-force loop, ``loop.png``.
 HYSTERETIC_STATE = "z"
+#: The state the loop is drawn against, where the model has it (else its first output).
+DISPLACEMENT_STATE = "x"
 
 
 def validation_files(states: Sequence[str]) -> tuple[str, ...]:
@@ -68,9 +70,11 @@ def write_validation(result: Validation, out: str | Path, *, force: bool = False
         folder.write_text("validate.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n")
         plot_validation(folder.path("validation.png"), t=result.t, measured=result.y_measured,
                         simulated=result.y_simulated, outputs=outputs, warmup=result.warmup, scores=result.outputs)
-        if "loop.png" in names:
-            plot_loop(folder.path("loop.png"), displacement=result.y_simulated[:, 0],
-                      state=result.x[:, result.states.index(HYSTERETIC_STATE)], output=outputs[0],
+        if "loop.png" in names:  # against the displacement state x where the model has one, else the first output
+            across, values = ((DISPLACEMENT_STATE, result.x[:, result.states.index(DISPLACEMENT_STATE)])
+                              if DISPLACEMENT_STATE in result.states else (outputs[0], result.y_simulated[:, 0]))
+            plot_loop(folder.path("loop.png"), displacement=values,
+                      state=result.x[:, result.states.index(HYSTERETIC_STATE)], output=across,
                       name=HYSTERETIC_STATE, warmup=result.warmup)
         return folder.commit()
 

@@ -224,18 +224,19 @@ def plot_validation(path: str | Path, *, t: np.ndarray, measured: np.ndarray, si
 
 def plot_loop(path: str | Path, *, displacement: np.ndarray, state: np.ndarray, output: str, name: str,
               warmup: int = 0) -> Path:
-    """The restoring-force loop: a hysteretic state against an output, both simulated, over the scored samples.
+    """The restoring-force loop: a hysteretic state against the displacement (a state or an output), both simulated,
+    over the scored samples.
 
     Parameters
     ----------
     path : str or Path
         The PNG file to write.
     displacement : numpy.ndarray
-        The output on the horizontal axis (simulated).
+        The displacement on the horizontal axis (simulated).
     state : numpy.ndarray
         The hysteretic state (simulated).
     output, name : str
-        Their names.
+        The names of the displacement and of the state.
     warmup : int
         Samples left out at the start.
 
