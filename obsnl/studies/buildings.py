@@ -4,7 +4,7 @@ identification, as obsnl models.
 :func:`bouc_wen_building` writes the model of an ``n``-storey shear building under a ground
 acceleration ``ag``: floor ``i`` has displacement ``x_i`` and velocity ``v_i`` relative to the ground,
 storey ``i`` (between floors ``i-1`` and ``i``, floor 0 the ground) has a viscous damper ``c_i``, a linear
-spring ``k_i`` and a Bouc-Wen hysteretic force ``kh_i z_i`` with
+spring ``k_i`` and a Bouc-Wen hysteretic force ``kh_i z_i`` with::
 
     z_i' = A d_i - beta_i |d_i| |z_i|^(n-1) z_i - gamma_i d_i |z_i|^n,    d_i = v_i - v_{i-1},
 

@@ -30,7 +30,7 @@ _ML_PIN = 100 * 0.05 / 3
 
 
 def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, Any]]:
-    """Per (method, passes): mean estimate, mean and worst |error| per parameter, flags, cost, interventions."""
+    """Per (method, passes): mean estimate, mean and worst ``|error|`` per parameter, flags, cost, interventions."""
     groups: dict[tuple[str, int], list[Mapping[str, Any]]] = {}
     for r in doc["runs"]:
         groups.setdefault((r["method"], r["passes"]), []).append(r)
@@ -67,7 +67,7 @@ def table2_summary(doc: Mapping[str, Any]) -> dict[tuple[str, int], dict[str, An
 
 
 def table2_ml_summary(doc: Mapping[str, Any]) -> dict[str, Any] | None:
-    """The maximum-likelihood column (``doc["refinements"]``): mean and worst |error|, mean std, flags,
+    """The maximum-likelihood column (``doc["refinements"]``): mean and worst ``|error|``, mean std, flags,
     the convergence verdict per seed; None when the document has no refinement."""
     refs = doc.get("refinements") or []
     if not refs:
@@ -108,7 +108,7 @@ def _yield_displacement(delta: float, n: float) -> float:
 
 def _yield_errors(runs: Sequence[Mapping[str, Any]],
                   truth: Mapping[str, float]) -> dict[str, tuple[float, np.ndarray]] | None:
-    """Per Delta: the true yield displacement and the |error| in % of each run's (the direction the
+    """Per Delta: the true yield displacement and the ``|error|`` in % of each run's (the direction the
     seed model's data inform along the Delta-N ridge); None for a model without Delta1, Delta2, N."""
     if not {"Delta1", "Delta2", "N"} <= set(truth):
         return None
