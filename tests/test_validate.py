@@ -216,6 +216,7 @@ def cli_case(tmp_path):
     ({"params": "other json"}, "is not an identify.json"),
     ({"params": "missing"}, "does not exist"),
     ({"params": "fifo"}, "is not a regular file"),  # read as a file it would never end
+    ({"params": "text value"}, "identify.json' gives c = '0.3'; give a finite number"),
 ])
 def test_command_line_refusals_are_one_line_with_exit_code_2(cli_case, change, message, capsys):
     tmp, model, params, data = cli_case
@@ -230,6 +231,9 @@ def test_command_line_refusals_are_one_line_with_exit_code_2(cli_case, change, m
         params = str(tmp / "other.json")
     elif change.get("params") == "missing":
         params = str(tmp / "nowhere.json")
+    elif change.get("params") == "text value":
+        (tmp / "identify.json").write_text(json.dumps({"schema": "obsnl.identify/1", "model": "osc", "parameters": [
+            {"name": "c", "estimate": "0.3", "held": False}, {"name": "k", "estimate": 20.0, "held": False}]}))
     elif change.get("params") == "fifo":
         os.mkfifo(tmp / "fifo.json")
         params = str(tmp / "fifo.json")

@@ -149,10 +149,11 @@ def read_parameters(parameters: Mapping[str, float] | str | Path, model: Model) 
 
 def _parameters(parameters: Any, model: Model) -> tuple[dict[str, float], str, dict[str, str] | None]:
     """:func:`read_parameters`, and the fit's kinds of the inputs between samples where an identify.json says."""
-    names, kinds = [s.name for s in model.parameters], None
+    names, kinds, where = [s.name for s in model.parameters], None, "parameters="
     if isinstance(parameters, (str, Path)):
         source, doc = str(parameters), _identify_json(Path(parameters))
-        values, kinds = _from_identify(doc, model.name, f"params {quote(source)}"), fit_kinds(doc.get("data"))
+        where = f"params {quote(source)}"
+        values, kinds = _from_identify(doc, model.name, where), fit_kinds(doc.get("data"))
     elif isinstance(parameters, Mapping):
         source, values = "given", dict(parameters)
     else:
@@ -160,15 +161,15 @@ def _parameters(parameters: Any, model: Model) -> tuple[dict[str, float], str, d
                           f"{type(parameters).__name__}")
     unknown = [k for k in values if k not in names]
     if unknown:
-        raise OptionError(f"parameters= names {quote(unknown[0])}, which is not a parameter of {model.name!r} "
+        raise OptionError(f"{where} names {quote(unknown[0])}, which is not a parameter of {model.name!r} "
                           f"({', '.join(names)}); check the spelling")
     missing = [k for k in names if k not in values]
     if missing:
-        raise OptionError(f"parameters= has no value for {', '.join(missing)} of {model.name!r}; give every parameter")
+        raise OptionError(f"{where} has no value for {', '.join(missing)} of {model.name!r}; give every parameter")
     for k in names:
         v = values[k]
         if isinstance(v, bool) or not isinstance(v, Real) or not math.isfinite(v):
-            raise OptionError(f"parameters= gives {k} = {quote(v)}; give a finite number")
+            raise OptionError(f"{where} gives {k} = {quote(v)}; give a finite number")
     return {k: float(values[k]) for k in names}, source, kinds
 
 
@@ -225,8 +226,8 @@ def _check_warmup(warmup: Any, samples: int, nx: int, ny: int) -> int:
         raise OptionError(f"warmup= {int(warmup)} samples leaves fewer than 2 of the record's {samples} to score; "
                           f"give a warm-up shorter than the record")
     if warmup and warmup * ny < max(nx, 2):
-        raise OptionError(f"warmup= {int(warmup)} samples of {ny} outputs cannot fix {nx} initial states; give at "
-                          f"least {max(-(-nx // ny), 2)}")
+        raise OptionError(f"warmup= {int(warmup)}: {warmup * ny} output samples cannot fix {nx} initial states; give "
+                          f"at least {max(-(-nx // ny), 2)} samples")
     return int(warmup)
 
 
