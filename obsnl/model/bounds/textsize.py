@@ -13,7 +13,9 @@ from __future__ import annotations
 
 import ast
 import math
+from collections.abc import Sized
 from decimal import Decimal
+from typing import cast
 
 from obsnl._text import quote, shorten  # one place that cuts what a message echoes
 from obsnl.errors import ParseError
@@ -256,7 +258,7 @@ def check_model_size(name: object, roles: dict[str, object], *tables: object) ->
     from obsnl.errors import ModelError
 
     def size(v: object) -> int:
-        return len(v) if isinstance(v, (list, tuple, dict)) or hasattr(v, "keys") else 0
+        return len(cast(Sized, v)) if isinstance(v, (list, tuple, dict)) or hasattr(v, "keys") else 0
 
     counts = {role: size(v) for role, v in roles.items()}
     counts["outputs"] = sum(size(t) for t in tables[:1])

@@ -106,6 +106,7 @@ def expanded_size(expr: sp.Basic) -> Size:
     def walk(e: sp.Basic) -> tuple[float, int, float, frozenset]:
         if e in memo:
             return memo[e]
+        out: tuple[float, int, float, frozenset]
         if e.is_Number or e.is_NumberSymbol:
             out = (1.0, 0, exact_digits(e), frozenset())
         elif e.is_Symbol:

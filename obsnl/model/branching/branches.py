@@ -23,7 +23,7 @@ import time
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, NamedTuple
+from typing import Any, Literal, NamedTuple, overload
 
 import numpy as np
 import sympy as sp
@@ -165,6 +165,27 @@ def _labels(n: int) -> list[str]:
     return out
 
 
+@overload
+def split_branches(
+    model: Model, *, seed: int = ..., with_dropped: Literal[False] = ..., max_seconds: float | None = ...,
+    undecided: bool = ...,
+) -> tuple[Branch, ...]: ...
+
+
+@overload
+def split_branches(
+    model: Model, *, seed: int = ..., with_dropped: Literal[True], max_seconds: float | None = ...,
+    undecided: bool = ...,
+) -> tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
+
+
+@overload
+def split_branches(
+    model: Model, *, seed: int = ..., with_dropped: bool, max_seconds: float | None = ...,
+    undecided: bool = ...,
+) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
+
+
 def split_branches(
     model: Model, *, seed: int = 0, with_dropped: bool = False, max_seconds: float | None = None,
     undecided: bool = False,
@@ -218,6 +239,23 @@ def split_branches(
                     max_seconds=max_seconds, undecided=undecided)
 
 
+@overload
+def split_by(model: Model, level: Switching, *, seed: int = ..., with_dropped: Literal[False] = ...,
+             max_seconds: float | None = ..., undecided: bool = ...) -> tuple[Branch, ...]: ...
+
+
+@overload
+def split_by(model: Model, level: Switching, *, seed: int = ..., with_dropped: Literal[True],
+             max_seconds: float | None = ..., undecided: bool = ...
+             ) -> tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
+
+
+@overload
+def split_by(model: Model, level: Switching, *, seed: int = ..., with_dropped: bool,
+             max_seconds: float | None = ..., undecided: bool = ...
+             ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
+
+
 def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: bool = False,
              max_seconds: float | None = None, undecided: bool = False
              ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
@@ -247,16 +285,16 @@ def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: boo
         return (branches, ()) if with_dropped else branches
     deadline = None if max_seconds is None else time.perf_counter() + float(max_seconds)
     found, dropped, seen = sides_of(level, None, np.random.default_rng(seed), deadline=deadline)
-    branches = []
+    smooth: list[Branch] = []
     for label, side in zip(_labels(len(found)), found):
         if side.undecided and not undecided:
             dropped.append(DroppedPattern(side.switching, side.signs, side.undecided, proved=False))
             continue
-        branches.append(smooth_branch(model, label, side.switching, side.signs, side.exprs, side.witness,
-                                      undecided=side.undecided))
+        smooth.append(smooth_branch(model, label, side.switching, side.signs, side.exprs, side.witness,
+                                    undecided=side.undecided))
     if level.nested:  # the declared functions may switch at an inner level only (a flat model's are checked)
         check_declared(model, seen)
-    result = tuple(branches)
+    result = tuple(smooth)
     return (result, tuple(dropped)) if with_dropped else result
 
 

@@ -162,13 +162,14 @@ def _relaxation_empty(conds: Sequence[tuple[sp.Expr, int]], memo: dict | None) -
     if memo is not None and key in memo:
         return memo[key]
     parts = [_monomials(g) for g, _ in conds]
+    known = [p for p in parts if p is not None]
     out = False
-    if all(p is not None for p in parts):
-        monos = sorted({m for p in parts for m in p if m}, key=str)
+    if len(known) == len(parts):
+        monos = sorted({m for p in known for m in p if m}, key=str)
         index = {m: k for k, m in enumerate(monos)}
         rows = np.zeros((len(conds), len(monos)))
         consts = np.zeros(len(conds))
-        for i, p in enumerate(parts):
+        for i, p in enumerate(known):
             for m, c in p.items():
                 if not m:
                     consts[i] = c
@@ -344,8 +345,9 @@ def feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
             conds, within = list(conds) + extra, ", within the declared bounds"
     syms = sorted(set().union(*(g.free_symbols for g, _ in conds)), key=lambda s: s.name)
     coeffs = [affine_coefficients(g, syms, memo) for g, _ in conds]
-    if all(c is not None for c in coeffs):
-        w = _affine_witness(conds, syms, coeffs)
+    affine = [c for c in coeffs if c is not None]
+    if len(affine) == len(coeffs):
+        w = _affine_witness(conds, syms, affine)
         why = f"the affine sign conditions contradict each other (linear program){within}"
         return w, "" if w is not None else why, True
     if _relaxation_empty(conds, memo):

@@ -7,7 +7,7 @@ which the located substep of :mod:`obsnl.estimation.crossing` then resolves.
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import sympy as sp
 
@@ -17,6 +17,9 @@ from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 
 __all__ = ["field_jumps", "field_slides"]
+
+#: ``differences(g, fa, fb, states)``: the expressions to prove zero on ``g = 0`` between two neighbouring fields.
+_Differences = Callable[[sp.Expr, Sequence[sp.Expr], Sequence[sp.Expr], Sequence[sp.Symbol]], list[sp.Expr]]
 
 #: Above this many switching functions :func:`field_jumps` does not split the model (all may jump).
 _MAX_JUMP_CHECK = 6
@@ -101,7 +104,7 @@ def _normal_jump(g: sp.Expr, fa: Sequence[sp.Expr], fb: Sequence[sp.Expr],
     return [sum((sp.diff(g, s) * (a - b) for s, a, b in zip(states, fa, fb)), sp.Integer(0))]
 
 
-def _across(model: Model, switching: Sequence[sp.Expr], differences) -> tuple[bool, ...]:
+def _across(model: Model, switching: Sequence[sp.Expr], differences: _Differences) -> tuple[bool, ...]:
     """For each switching function: not proved that ``differences`` vanish on its surface for every pair of
     neighbouring branches (True also when the model cannot be split or has too many switching functions)."""
     switching = list(switching)
@@ -123,7 +126,7 @@ def _across(model: Model, switching: Sequence[sp.Expr], differences) -> tuple[bo
 
 
 def _vanish_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model,
-                   differences) -> bool:
+                   differences: _Differences) -> bool:
     """Whether ``differences(g, fa, fb, states)`` of the branch fields on the two sides of ``g = 0`` (``g`` the
     ``j``-th switching function) vanish identically on ``g = 0`` for every pair of neighbouring branches."""
     sol = None
