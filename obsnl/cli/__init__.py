@@ -35,6 +35,9 @@ SCHEDULER = _o("--scheduler", metavar="ADDRESS", help="a Dask cluster instead (t
 EXECUTOR = [_o("--workers", type=_whole(1), help="local processes (default: one per core)"), SCHEDULER]
 ONE_WORKER = [_o("--workers", type=_whole(1), default=1, help="local processes (default: 1)"), SCHEDULER]
 RECORD, DESIGN, STUDIES = "(.csv or .AT2) driving the model's one input", "obsnl.design.jobs", "obsnl.studies.jobs"
+INTERSAMPLE = _o("--intersample", action="append", metavar="[NAME=]KIND", help="an input between samples: zoh, "
+                 "linear or bandlimited (repeatable; a bare KIND: every input; default: the model's [intersample], "
+                 "else linear)")
 BIG = f"A model with more than {MAX_UNKNOWNS} unknowns (states + parameters + unknown inputs) is refused first."
 
 #: Each subcommand: the module of its library job (``<module>.<command>_printed``, which takes the options as keywords
@@ -83,6 +86,7 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                   _o("--jit", action=argparse.BooleanOptionalAction, help="compile the filter and the likelihood fit "
                      "to C, or not (default: where a C compiler is on PATH)"),
                   _o("--replicates", type=_whole(), default=0, help="Monte-Carlo replicates (0: off, else >= 3)"),
+                  INTERSAMPLE,
                   *EXECUTOR, _o("--out", metavar="DIR", help="write identify.json and the figures here"), FORCE]),
     "reproduce": (STUDIES, "reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
                   "The default folder reports/identification (/RECORD) holds the committed results and is REGENERATED; "
