@@ -81,6 +81,7 @@ sphinx_gallery_conf = {
     "matplotlib_animations": False,
     "reset_modules": ("matplotlib",),
     "image_scrapers": ("matplotlib",),
+    "reference_url": {"obsnl": None},  # a name of obsnl in a tutorial's code links to its reference page
 }
 
 #: The reference's pages: (module, title, names documented there). ``obsnl`` is the flat API; each room lists its
