@@ -15,7 +15,11 @@ from obsnl.model.bounds.work import can_factor
 __all__ = ["user_form"]
 
 
-def _factor_fraction(g: sp.Expr):
+#: A numerator's or denominator's constant and factors with their multiplicities.
+_Factored = tuple[sp.Rational, tuple[tuple[sp.Expr, int], ...]]
+
+
+def _factor_fraction(g: sp.Expr) -> sp.Rational | tuple[_Factored, ...]:
     """``g`` as a rational number, or ((c, factors) of the numerator, (c, factors) of the denominator).
 
     A part too large to factor cheaply (:func:`obsnl.model.bounds.work.can_factor`) is kept whole: ``log|part|``
@@ -26,7 +30,7 @@ def _factor_fraction(g: sp.Expr):
         raise ModelError("log(0) in the model")
     if g.is_Rational:
         return sp.Rational(g)
-    out = []
+    out: list[_Factored] = []
     for part in sp.fraction(g):
         if part.is_Rational:
             out.append((sp.Rational(part), ()))

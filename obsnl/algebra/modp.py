@@ -132,13 +132,13 @@ def random_prime(rng: random.Random, bits: int = PRIME_BITS) -> int:
     return int(sp.nextprime(start))
 
 
-def mulmod(a: np.ndarray, b: np.ndarray, p: int) -> np.ndarray:
+def mulmod(a: np.ndarray | np.integer, b: np.ndarray | np.integer, p: int) -> np.ndarray:
     """Elementwise ``a*b mod p`` (broadcasting) for int64 ``a, b`` in ``[0, p)``, exact.
 
     Parameters
     ----------
-    a, b : numpy.ndarray
-        int64 arrays with entries in ``[0, p)``.
+    a, b : numpy.ndarray or numpy.integer
+        int64 arrays (or scalars, broadcast) with entries in ``[0, p)``.
     p : int
         Modulus, below ``2**50``.
 

@@ -44,6 +44,12 @@ class TimeUp(Exception):
     """The time limit was reached."""
 
 
+#: A drawn point as :func:`_random_point` returns it: values, input series, unknown-input coefficients, atom
+#: stand-ins and, for each sine, the parameter of its point of the circle.
+_Drawn = tuple[dict[sp.Symbol, int], dict[sp.Symbol, list[int]], dict[sp.Symbol, list[int]], dict[sp.Symbol, int],
+               dict[sp.Symbol, int]]
+
+
 # --------------------------------------------------------------------------- evaluation
 @dataclass
 class Point:
@@ -208,7 +214,7 @@ def prime_density(problem: Problem) -> float:
 
 
 def _random_point(problem: Problem, F: Field, rng: random.Random, K: int, fixed: Mapping[sp.Symbol, int],
-                  forced: tuple = ({}, {}, None)):
+                  forced: tuple = ({}, {}, None)) -> _Drawn:
     """Draw parameters, constants, free initial states, input series, unknown-input coefficients and
     atom stand-ins (always in this order, so that a seed gives the same point for any engine), then
     apply the values forced by ``forced = (states, input series, atom table)`` (see :func:`run_series`)."""

@@ -94,13 +94,14 @@ class _Compiler:
             terms = list(sp.Add.make_args(rest))
             pos = [t for t in terms if not t.could_extract_minus_sign()]
             neg = [-t for t in terms if t.could_extract_minus_sign()]
-            acc = None
+            acc: int | None = None
             for t in pos:
                 n = self.node(t)
                 acc = n if acc is None else self._bin("add", acc, n)
             for t in neg:
                 n = self.node(t)
                 acc = self._un("neg", n) if acc is None else self._bin("sub", acc, n)
+            assert acc is not None  # an Add has a term besides its constant
             if coeff != 0:
                 acc = self._un("shift", acc, sp.Rational(coeff))
             return acc
@@ -117,15 +118,17 @@ class _Compiler:
                 n = self.node(f)
                 acc = n if acc is None else self._bin("mul", acc, n)
             if den:
-                d = None
+                d: int | None = None
                 for f in den:
                     n = self.node(f)
                     d = n if d is None else self._bin("mul", d, n)
+                assert d is not None  # den is not empty
                 if acc is None:
                     acc = self.const(sp.Integer(1))
                 acc = self._bin("div", acc, d)
             if coeff != 1:
                 acc = self.const(coeff) if acc is None else self._un("scale", acc, sp.Rational(coeff))
+            assert acc is not None  # a Mul has a factor besides its coefficient
             return acc
         if e.is_Pow and e.exp.is_Integer:
             n = int(e.exp)
@@ -134,7 +137,7 @@ class _Compiler:
                 return self.const(sp.Integer(1))
             if n < 0:
                 return self._bin("div", self.const(sp.Integer(1)), self.node(e.base ** (-n)))
-            result = None
+            result: int | None = None
             sq = base
             while n:
                 if n & 1:
@@ -142,6 +145,7 @@ class _Compiler:
                 n >>= 1
                 if n:
                     sq = self._bin("mul", sq, sq)
+            assert result is not None  # n > 0 has a set bit
             return result
         raise NotSupportedError(
             f"{e} is not a rational expression; non-rational terms must be rewritten first (obsnl.algebra.augment)"

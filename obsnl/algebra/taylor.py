@@ -32,7 +32,7 @@ coefficient ``k`` of every node is computed at step ``k``).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -185,8 +185,8 @@ class Stepper:
         Time variation per node (a time-invariant right-hand side has no coefficients ``k >= 1``).
     """
 
-    def __init__(self, plan: Plan, X0: np.ndarray, p: int, K: int, state_rhs: Sequence[int], given,
-                 tv: Sequence[bool]) -> None:
+    def __init__(self, plan: Plan, X0: np.ndarray, p: int, K: int, state_rhs: Sequence[int],
+                 given: Callable[[int], np.ndarray], tv: Sequence[bool]) -> None:
         self.plan, self.X0, self.p, self.K = plan, X0, p, K
         self.given = given
         M1 = X0.shape[1]
@@ -211,7 +211,11 @@ class Stepper:
             else:
                 terms = [(nr + u, 1, True)]
             for uu, fac, byk in terms:
-                t_u.append(uu), t_v.append(v), t_c.append(ci), t_fac.append(fac), t_byk.append(byk)
+                t_u.append(uu)
+                t_v.append(v)
+                t_c.append(ci)
+                t_fac.append(fac)
+                t_byk.append(byk)
         self.t_u, self.t_v = t_u, t_v
         self.t_c = np.array(t_c, dtype=np.int64)
         self.t_fac = np.array(t_fac, dtype=np.int64)[:, None]
