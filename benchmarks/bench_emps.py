@@ -34,7 +34,9 @@ import platform
 import sys
 import time
 import traceback
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import matplotlib
 
@@ -143,7 +145,7 @@ FILES = ("README.md", "results.json", "test_closed_loop.png", "test_open_loop.pn
 # ---------------------------------------------------------------------------------------------- data, IDIM-LS
 def read_data(path: Path = DATA) -> dict[str, np.ndarray]:
     d = np.genfromtxt(path, delimiter=",", names=True)
-    return {k: np.asarray(d[k], float) for k in d.dtype.names}
+    return {k: np.asarray(d[k], float) for k in d.dtype.names or ()}
 
 
 def test_start(d: dict[str, np.ndarray]) -> int:
@@ -201,7 +203,19 @@ def control_law_rms(d: dict[str, np.ndarray]) -> float:
 
 
 # ------------------------------------------------------------------------------------------ scipy simulations
-def _interval(x: np.ndarray, t1: float, slip, stick, net, fc: float) -> np.ndarray:
+def _event(f: Callable[[float, np.ndarray], float], direction: float) -> Callable[[float, np.ndarray], float]:
+    """``f`` as a terminal event of solve_ivp, crossing in ``direction``."""
+    def event(t: float, x: np.ndarray) -> float:
+        return f(t, x)
+
+    setattr(event, "terminal", True)  # noqa: B010 - the attributes solve_ivp reads
+    setattr(event, "direction", direction)  # noqa: B010
+    return event
+
+
+def _interval(x: np.ndarray, t1: float, slip: Callable[[float, np.ndarray, float], list],
+              stick: Callable[[float, np.ndarray], list], net: Callable[[float, np.ndarray], float],
+              fc: float) -> np.ndarray:
     """Integrate ``x`` (position, velocity first) over [0, t1] with Coulomb friction as Filippov's solution:
     ``slip(t, x, s)`` while the velocity has the sign s, ``stick(t, x)`` while it is 0 and the net force
     ``net(t, x)`` (all but friction) is within the friction level ``fc``."""
@@ -213,8 +227,7 @@ def _interval(x: np.ndarray, t1: float, slip, stick, net, fc: float) -> np.ndarr
         if s == 0.0:
             n = net(t, x)
             if abs(n) <= fc:  # stuck: until the net force reaches the friction level
-                ev = lambda tt, xx: abs(net(tt, xx)) - fc
-                ev.terminal, ev.direction = True, 1
+                ev = _event(lambda tt, xx: abs(net(tt, xx)) - fc, 1.0)
                 sol = solve_ivp(stick, (t, t1), x, method="RK45", rtol=1e-10, atol=1e-13, events=ev)
                 x, t = sol.y[:, -1].copy(), float(sol.t[-1])
                 x[1] = 0.0
@@ -222,8 +235,7 @@ def _interval(x: np.ndarray, t1: float, slip, stick, net, fc: float) -> np.ndarr
                     return x
                 n = net(t, x)
             s = float(np.sign(n))
-        ev = lambda tt, xx: xx[1]
-        ev.terminal, ev.direction = True, -s
+        ev = _event(lambda tt, xx: xx[1], -s)
         sol = solve_ivp(lambda tt, xx, s=s: slip(tt, xx, s), (t, t1), x, method="RK45", rtol=1e-10, atol=1e-13,
                         events=ev)
         x, t = sol.y[:, -1].copy(), float(sol.t[-1])
@@ -233,7 +245,7 @@ def _interval(x: np.ndarray, t1: float, slip, stick, net, fc: float) -> np.ndarr
 
 
 def simulate(p: dict[str, float], d: dict[str, np.ndarray], k0: int, k1: int, x0: tuple[float, float],
-             loop: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+             loop: str) -> tuple[np.ndarray, np.ndarray]:
     """Position, velocity and acceleration at samples k0..k1-1 (columns) and the force applied over each
     sample: ``loop`` "closed" (the digital PD controller on qref_m, saturated at VMAX) or "open" (the measured
     force held)."""
@@ -249,13 +261,24 @@ def simulate(p: dict[str, float], d: dict[str, np.ndarray], k0: int, k1: int, x0
             u = d["force_N"][k]
         x_out[i], u_out[i] = (x[0], x[1], (u - Fv * x[1] - Fc * np.sign(x[1]) - off) / M), u
         hist = [x[0], hist[0]]
-        x = _interval(x, DT, lambda t, xx, s, u=u: [xx[1], (u - Fv * xx[1] - Fc * s - off) / M],
-                      lambda t, xx: [0.0, 0.0], lambda t, xx, u=u: u - off, Fc)
+        slip, stick, net = _held_field(float(u), M, Fv, Fc, off)
+        x = _interval(x, DT, slip, stick, net, Fc)
     return x_out, u_out
 
 
+#: The field of one sample: slipping (with the sign of the velocity), stuck, and the net force but friction.
+Field = tuple[Callable[[float, np.ndarray, float], list], Callable[[float, np.ndarray], list],
+              Callable[[float, np.ndarray], float]]
+
+
+def _held_field(u: float, M: float, Fv: float, Fc: float, off: float) -> Field:
+    """The plant's field over one sample under the force u held: slipping, stuck, and the net force but friction."""
+    return (lambda t, xx, s: [xx[1], (u - Fv * xx[1] - Fc * s - off) / M], lambda t, xx: [0.0, 0.0],
+            lambda t, xx: u - off)
+
+
 def _loop_field(r0: float, r1: float, th: float | None, tv: float | None, M: float, Fv: float, Fc: float,
-                off: float) -> tuple:
+                off: float) -> Field:
     """The closed-loop model file's field over one sample (reference linear from r0 to r1): slipping, stuck, and
     the net force on the load but friction."""
     ref = lambda t: r0 + (r1 - r0) * t / DT
@@ -282,7 +305,8 @@ def simulate_model_file(p: dict[str, float], d: dict[str, np.ndarray], th: float
         out[k] = x[0]
         if k + 1 == len(qr):
             break
-        x = _interval(x, DT, *_loop_field(qr[k], qr[k + 1], th, tv, M, Fv, Fc, off), Fc)
+        slip, stick, net = _loop_field(qr[k], qr[k + 1], th, tv, M, Fv, Fc, off)
+        x = _interval(x, DT, slip, stick, net, Fc)
     return out
 
 
@@ -673,7 +697,7 @@ def main(argv: list[str] | None = None) -> int:
     validate_seconds = time.perf_counter() - tic
 
     commit, differ = _commit()
-    res = {"commit": commit, "differ": differ, "samples": n, "split": split, "warmup": WARMUP,
+    res: dict[str, Any] = {"commit": commit, "differ": differ, "samples": n, "split": split, "warmup": WARMUP,
            "clock_deviation": float(np.max(np.abs(d["time_s"] - np.arange(n) * DT))),
            "control_law_rms": control_law_rms(d), "max_vir": float(np.max(np.abs(d["vir_V"]))),
            "idim_ls": {k: v for k, v in idim.items() if k not in ("force", "force_fit")},
