@@ -55,7 +55,7 @@ html_title = f"obsnl {release}"
 html_static_path: list[str] = []
 
 # --- the API reference -------------------------------------------------------------------------------------------
-autosummary_generate = True
+autosummary_generate = True  # set to the API pages by _write_api
 autosummary_imported_members = True
 autodoc_typehints = "none"  # the signature shows the hints; numpydoc's Parameters section the types in words
 autodoc_default_options = {"members": False}
@@ -89,6 +89,7 @@ sphinx_gallery_conf = {
 ROOMS: list[tuple[str, str]] = [
     ("obsnl", "The flat API (``import obsnl``)"),
     ("obsnl.model", "Models and branches"),
+    ("obsnl.algebra", "Exact arithmetic below the engines (no public names: its modules)"),
     ("obsnl.observability", "Observability: the analysis, its verdicts and the branch table"),
     ("obsnl.recombination", "Identifiable combinations and reparametrization"),
     ("obsnl.estimation", "The filter core: numeric model, UKF, DUKF, records"),
@@ -132,7 +133,7 @@ def _write(path: Path, text: str) -> None:
 
 def _room_page(module: str, title: str) -> str:
     """The reST of one room's page: its charter, its public names, what each of its modules owns."""
-    names = list(importlib.import_module(module).__all__)
+    names = list(getattr(importlib.import_module(module), "__all__", ()))
     own = [n for n in names if _canonical(module, n) == f"{module}.{n}"]
     elsewhere = [n for n in names if n not in own]
     lines = [title, "=" * len(title), "", f".. automodule:: {module}", "   :no-members:", ""]
@@ -161,6 +162,8 @@ def _write_api(app: Sphinx, config: Config) -> None:
              "with its charter, its own public names and what each of its modules owns.", "",
              ".. toctree::", "   :maxdepth: 1", "", *[f"   {p}" for p in pages], ""]
     _write(out / "index.rst", "\n".join(index))
+    # the pages autosummary writes stubs for, named: an incremental build lists only the sources it knew before
+    config.autosummary_generate = [f"api/{page}.rst" for page in pages]
 
 
 def setup(app: Sphinx) -> None:
