@@ -38,6 +38,7 @@ inputs are measured without feedback from the residual (negative lags are not te
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -49,6 +50,7 @@ import numpy as np
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError, OptionError
 from obsnl.estimation.measured import MIN_SAMPLES, UPPER_BOUND, estimate_noise
+from obsnl.estimation.periods import PeriodicNoise, whiten
 
 __all__ = [
     "AR_MAX",
@@ -65,6 +67,7 @@ __all__ = [
     "cross_correlation",
     "lags_for",
     "misfit",
+    "periodic_misfit",
     "whiteness",
 ]
 
@@ -497,9 +500,77 @@ def misfit(e: Any, y: Any, *, output: str = "y", dof: float | None = None,
                         + weak), share
 
 
+def periodic_misfit(e: Any, noise: PeriodicNoise, j: int, *, output: str = "y", dof: float | None = None,
+                    level: float = LEVEL) -> tuple[AdequacyTest, float]:
+    """The misfit of one output against the noise measured from the periods of a periodic input.
+
+    The residual goes through the noise's whitening filter (``noise.ar[j]``); under a right model it is then white
+    with the variance of the noise's innovations, which the periods measured independently
+    (``noise.innovation_std[j]`` with ``noise.innovation_dof[j]`` degrees of freedom). ``F = (RSS_w / dof_w) / s_w^2``
+    is then ``F(dof_w, innovation_dof)`` for Gaussian noise; one-sided.
+
+    Parameters
+    ----------
+    e : array_like
+        The residual of output ``j`` (no missing sample).
+    noise : PeriodicNoise
+        The noise measured from the periods.
+    j : int
+        The output's column.
+    output : str
+        Its name.
+    dof : float or None
+        The residual's degrees of freedom (default: its samples).
+    level : float
+        The level the test is judged at.
+
+    Returns
+    -------
+    tuple
+        ``(AdequacyTest, share)``, the share of the residual variance attributed to model error (floored at 0).
+
+    Examples
+    --------
+    >>> from obsnl.estimation.periods import periodic_noise
+    >>> rng = np.random.default_rng(4)
+    >>> t = np.arange(4 * 500)
+    >>> u = np.sin(2 * np.pi * 3 * t / 500)
+    >>> y = 2 * u + 0.1 * rng.standard_normal(len(t))
+    >>> noise = periodic_noise(u, y)
+    >>> test, share = periodic_misfit(y - 2 * u, noise, 0)
+    >>> test.passed
+    True
+    >>> periodic_misfit(y - 2.1 * u, noise, 0)[0].passed     # 5 % off: RMS 0.071 beside the noise's 0.1
+    False
+    """
+    from scipy import stats
+
+    _check_level(level)
+    x = _column(e, "the residual")
+    if not np.all(np.isfinite(x)):
+        raise OptionError(f"the residual of {output!r} has missing samples; the periodic noise needs none")
+    a = noise.ar[j]
+    w = whiten(x, a)
+    n = len(w)
+    dof_w = float(n if dof is None else dof) - (len(a) - 1)
+    if not 1 <= dof_w <= n:
+        raise OptionError(f"dof={dof!r} leaves {dof_w:g} degrees of freedom after the whitening filter")
+    s2 = noise.innovation_std[j] ** 2
+    var = float(w @ w) / dof_w
+    f = var / s2 if s2 > 0 else math.inf
+    p = float(stats.f.sf(f, dof_w, noise.innovation_dof[j]))
+    share = max(0.0, 1.0 - s2 / var) if var > 0 else 0.0
+    return AdequacyTest("misfit", output, f, p, p > level,
+                        f"(RSS/dof) / s^2 through the noise's whitening filter (AR {len(a) - 1}), dof {dof_w:.6g}, s "
+                        f"= {math.sqrt(s2):.3g} the noise innovations' std measured from {noise.periods} periods "
+                        f"({noise.innovation_dof[j]} degrees of freedom); against F({dof_w:.6g}, "
+                        f"{noise.innovation_dof[j]}); RMS residual / noise std = "
+                        f"{float(np.sqrt(np.mean(x ** 2))) / noise.std[j]:.4g}"), share
+
+
 def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[str], input_names: Sequence[str] = (),
              dof: Sequence[float] | None = None, level: float = LEVEL, lags: int | None = None,
-             input_noise_share: Mapping[str, float] | None = None) -> Adequacy:
+             input_noise_share: Mapping[str, float] | None = None, noise: PeriodicNoise | None = None) -> Adequacy:
     """Judge whether a fitted model explains the data to the noise level (module docstring).
 
     Parameters
@@ -521,6 +592,11 @@ def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[st
     input_noise_share : mapping of str to float or None
         Per output, the share of the residual variance the inputs' noise makes through the model, where the caller
         gauged it (:func:`obsnl.identification.refine.adequacy_of`); carried into the verdict.
+    noise : PeriodicNoise or None
+        The noise measured from the periods of a periodic input (:func:`obsnl.estimation.periods.periodic_noise`),
+        independent of the model: then its colour is the noise's, not the model's. The whiteness test runs on the
+        residual through the noise's whitening filter, and the misfit compares the filtered residual's variance with
+        the filtered noise's (:func:`periodic_misfit`).
 
     Returns
     -------
@@ -559,15 +635,32 @@ def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[st
     share: dict[str, float] = {}
     notes: list[str] = []
     for j, o in enumerate(outputs):
-        tests.append(whiteness(r[:, j], output=o, lags=lags, level=each))
+        if noise is not None:
+            white = whiteness(whiten(r[:, j], noise.ar[j]), output=o, lags=lags, level=each)
+            tests.append(dataclasses.replace(white, detail=white.detail + (
+                f"; on the residual through the whitening filter of the noise measured from the periods (AR "
+                f"{len(noise.ar[j]) - 1})")))
+        else:
+            tests.append(whiteness(r[:, j], output=o, lags=lags, level=each))
         tests += [cross_correlation(r[:, j], u[:, i], output=o, input=c, lags=lags, level=each)
                   for i, c in enumerate(input_names)]
+        if noise is not None:
+            test, share[o] = periodic_misfit(r[:, j], noise, j, output=o, dof=None if dof is None else dof[j],
+                                             level=each)
+            tests.append(test)
+            continue
         try:
             test, share[o] = misfit(r[:, j], y[:, j], output=o, dof=None if dof is None else dof[j], level=each)
         except OptionError as exc:  # the other tests stand; this one is said not judged
             notes.append(f"adequacy: misfit of {o} not judged ({exc})")
         else:
             tests.append(test)
+    if noise is not None:
+        notes.append(f"adequacy: the noise measured from {noise.periods} periods of {noise.period} samples of the "
+                     f"periodic input{' (the first period left out: a transient)' if noise.first else ''}, independent "
+                     "of the model; the whiteness and misfit tests take its colour (an AR filter fitted to its "
+                     "autocorrelation, Yule-Walker, BIC) as the noise's, so a coloured measurement noise is not blamed "
+                     "on the model")
     return Adequacy(passed=all(t.passed for t in tests), level=float(level), tests=tuple(tests),
                     assumptions=_ASSUMPTIONS + tuple(notes), model_error=share,
                     input_noise_share=dict(input_noise_share or {}))

@@ -13,6 +13,7 @@ import numpy as np
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import EstimatorError, OptionError
 from obsnl.identification.adequacy import LEVEL, Adequacy, adequacy
+from obsnl.estimation.periods import periodic_noise
 from obsnl.estimation.simulate import simulate
 from obsnl.identification.setup import BOUND, Data, Setup
 from obsnl.identification.likelihood import DECREMENT, Fit, NOISE_FLOOR, Objective, STEP_LIMIT, covariance, levenberg_marquardt, objective
@@ -289,7 +290,7 @@ def adequacy_of(ref: Refinement, data: Data, *, level: float = LEVEL,
     try:
         return adequacy(e, measured=y, inputs=u, outputs=m.outputs, input_names=m.inputs,
                         dof=np.clip(dof, 1.0, measured), level=level,
-                        input_noise_share=_input_noise_share(ref, data, su, e))
+                        input_noise_share=_input_noise_share(ref, data, su, e), noise=periodic_noise(u, y))
     except OptionError:  # fewer samples measured than the tests need
         return None
 
