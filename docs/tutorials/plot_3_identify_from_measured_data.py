@@ -26,7 +26,7 @@ import numpy as np
 
 import obsnl
 
-# the repository: found upwards from this script (sphinx-gallery runs it in docs/tutorials, without __file__)
+# the repository, above this script (sphinx-gallery runs it in docs/tutorials, without __file__)
 HERE = Path(globals().get("__file__", "script.py")).resolve().parent
 ROOT = next(p for p in (HERE, *HERE.parents) if (p / "pyproject.toml").is_file())
 model = obsnl.read_model(ROOT / "reports" / "identification" / "boucwen_benchmark" / "model.toml")

@@ -29,7 +29,7 @@ from obsnl.estimation import to_casadi
 from obsnl.identification import Setup, Tuning, make_data, make_filter, run_passes
 from obsnl.observability import read_branch_table
 
-# the repository: found upwards from this script (sphinx-gallery runs it in docs/tutorials, without __file__)
+# the repository, above this script (sphinx-gallery runs it in docs/tutorials, without __file__)
 HERE = Path(globals().get("__file__", "script.py")).resolve().parent
 ROOT = next(p for p in (HERE, *HERE.parents) if (p / "pyproject.toml").is_file())
 original = obsnl.analyze(ROOT / "models" / "damage_healing.toml", seed=0)
