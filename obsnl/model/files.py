@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import re
 from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
@@ -21,7 +22,7 @@ __all__ = ["read_model_file", "parse_text", "read_model", "as_model", "catalogue
 PACKAGED = "obsnl:"
 
 
-def read_model_file(path: str | Path) -> dict[str, Any]:
+def read_model_file(path: str | os.PathLike[str]) -> dict[str, Any]:
     """Read a TOML or JSON model file into a plain dictionary (no validation yet).
 
     Raises
@@ -249,7 +250,7 @@ def catalogue_path(name: str) -> Path:
     return folder / f"{name}.toml"
 
 
-def read_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None = None) -> Model:
+def read_model(path: str | os.PathLike[str], check: Callable[[dict[str, Any]], None] | None = None) -> Model:
     """Read a model from a TOML or JSON file.
 
     The keys are those of ``shared/peer_cases/*.json``: ``name, description, source,
@@ -262,7 +263,7 @@ def read_model(path: str | Path, check: Callable[[dict[str, Any]], None] | None 
 
     Parameters
     ----------
-    path : str or Path
+    path : str or path-like
         A ``.toml`` or ``.json`` file, or ``obsnl:NAME`` for a model packaged with obsnl
         (:func:`catalogue_path`).
     check : callable or None

@@ -10,7 +10,7 @@ plus parameters plus :data:`DERIVATIVES_MARGIN`; the analyses refuse larger valu
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, Literal, overload
 
 from obsnl.errors import ModelError
 from obsnl._text import quote
@@ -25,6 +25,14 @@ ARBITRARY = "arbitrary"
 #: Derivatives allowed beyond the number of states plus parameters (room for the augmented functions
 #: of exp, sin, ... terms, which :func:`obsnl.algebra.problem.arbitrary_terms` also counts).
 DERIVATIVES_MARGIN = 16
+
+
+@overload
+def check_unknown_input_derivatives(value: Any, *, allow_none: Literal[False] = ...) -> int | str: ...
+
+
+@overload
+def check_unknown_input_derivatives(value: Any, *, allow_none: bool) -> int | str | None: ...
 
 
 def check_unknown_input_derivatives(value: Any, *, allow_none: bool = False) -> int | str | None:

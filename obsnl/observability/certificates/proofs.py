@@ -53,7 +53,7 @@ def weight(expr: sp.Expr, weights: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr | _An
     def same(a: sp.Expr, b: sp.Expr) -> bool:
         return sp.expand(a - b) == 0
 
-    def w(e: sp.Basic):
+    def w(e: sp.Basic) -> sp.Expr | _Any | None:
         if e.is_Number:
             return ANY if e == 0 else sp.Integer(0)
         if isinstance(e, sp.Symbol):

@@ -115,8 +115,10 @@ def _monomials(vars_: Sequence[sp.Symbol], degree: int) -> list[tuple[sp.Symbol,
     return out
 
 
-def _solve_stage(st: _Setup, kind: str, rng: random.Random, degree: int = 1, with_exps: bool = False):
-    """Solutions of the determining equations for one ansatz, as {symbol: xi} dicts over Q."""
+def _solve_stage(st: _Setup, kind: str, rng: random.Random, degree: int = 1, with_exps: bool = False
+                 ) -> list[dict[sp.Symbol, sp.Expr]] | None:
+    """Solutions of the determining equations for one ansatz, as {symbol: xi} dicts over Q (None: too many
+    unknowns for the ansatz)."""
     m = st.model
     states = list(m.states)
     ns = len(states)
@@ -149,7 +151,8 @@ def _solve_stage(st: _Setup, kind: str, rng: random.Random, degree: int = 1, wit
                 elif b[0] == "self":
                     e = pt[b[1]] if len(b) > 1 else 1
                     val = pt[z] * e % P
-                    l_ = fvals[uidx[j]] * e % P if uidx[j] is not None else 0
+                    k = uidx[j]
+                    l_ = fvals[k] * e % P if k is not None else 0
                 else:
                     val, l_ = 1, 0
                     for i, s in enumerate(b):

@@ -297,6 +297,7 @@ class BranchTable:
         if sig is None:
             raise TableError("this result carries no model signature; analyse the model with obsnl.analyze")
         params = sig.parameters
+        joint = getattr(result, "joint", None)
         entries = []
         for b in result.branches:
             if not b.signs and sig.switching:
@@ -313,9 +314,9 @@ class BranchTable:
             inputs=sig.inputs, outputs=sig.outputs, switching=sig.switching, method=result.method,
             seed=result.seed, probability=result.probability, branches=tuple(entries),
             overall_observable=result.overall_observable, overall_unobservable=result.overall_unobservable,
-            joint=(None if getattr(result, "joint", None) is None else
-                   {"observable": result.joint.observable, "unobservable": result.joint.unobservable,
-                    "inconclusive": result.joint.inconclusive}),
+            joint=(None if joint is None else
+                   {"observable": joint.observable, "unobservable": joint.unobservable,
+                    "inconclusive": joint.inconclusive}),
             assumptions=dict(getattr(result, "assumptions", None) or {}) or None,
         )
         return cls.from_dict(table.to_dict())

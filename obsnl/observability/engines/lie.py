@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import time
 from collections.abc import Iterator
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import sympy as sp
 
 from obsnl.algebra.augment import atom_rates
 from obsnl.algebra.series import Problem, TimeUp
 from obsnl.errors import NotSupportedError
+
+if TYPE_CHECKING:
+    from flint import nmod_mpoly
 
 __all__ = ["lie_derivatives"]
 
@@ -66,19 +69,19 @@ class _System:
         self.dQ = self.S(Q) if not self.Q_const else None
         self.outputs = [self._frac(e) for e in rat.outputs.values()]
 
-    def _frac(self, e: sp.Expr):
+    def _frac(self, e: sp.Expr) -> tuple[nmod_mpoly, nmod_mpoly]:
         if self.known:
             e = e.xreplace(self.known)
         num, den = sp.fraction(sp.together(e))
         return self._poly(num), self._poly(den)
 
-    def _poly(self, e: sp.Expr):
+    def _poly(self, e: sp.Expr) -> nmod_mpoly:
         """``e`` as a flint polynomial mod p, built node by node (a power is taken in flint, never expanded
         by sympy, and the time limit is checked at every node); sympy's Poly only for other node types."""
         tree = self._tree(e)
         return tree if tree is not None else self._poly_sympy(e)
 
-    def _tree(self, e: sp.Expr):
+    def _tree(self, e: sp.Expr) -> nmod_mpoly | None:
         if self.deadline is not None and time.perf_counter() > self.deadline:
             raise TimeUp("time limit reached while converting the vector field to polynomials")
         if e.is_Symbol and e in self.index:
@@ -87,8 +90,9 @@ class _System:
             c = sp.Rational(e)
             return self.ctx.constant(int(c.p) % self.p * pow(int(c.q) % self.p, -1, self.p) % self.p)
         if e.is_Add or e.is_Mul:
-            parts = [self._tree(a) for a in e.args]
-            if any(q is None for q in parts):
+            tried = [self._tree(a) for a in e.args]
+            parts = [q for q in tried if q is not None]
+            if len(parts) < len(tried):
                 return None
             out = parts[0]
             for q in parts[1:]:
@@ -99,7 +103,7 @@ class _System:
             return None if base is None else base ** int(e.exp)
         return None
 
-    def _poly_sympy(self, e: sp.Expr):
+    def _poly_sympy(self, e: sp.Expr) -> nmod_mpoly:
         gens = [s for s in self.symbols]
         free = e.free_symbols
         unknown = [s for s in free if s not in self.index]

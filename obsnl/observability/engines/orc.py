@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import random
 import time
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -32,6 +34,9 @@ from obsnl.algebra.bounds import BlockOutcome, classify, failure_bound
 from obsnl.algebra.modp import nmod_matrix, rank_mod_p
 from obsnl.algebra.series import Problem, Resample, TimeUp, draw_prime, run_series
 from obsnl.observability.engines.lie import _OutOfInputs, _System, lie_derivatives
+
+if TYPE_CHECKING:
+    from flint import nmod_mpoly
 
 __all__ = ["orc_block"]
 
@@ -73,7 +78,7 @@ class _Point:
             raise Resample("denominator vanishes")
         del model
 
-    def row(self, system: _System, out_index: int, N, a: int, b: int) -> np.ndarray:
+    def row(self, system: _System, out_index: int, N: nmod_mpoly, a: int, b: int) -> np.ndarray:
         p = self.p
         vals = self.values
         n = len(system.coords)
@@ -93,7 +98,7 @@ class _Point:
         return row
 
 
-def _ev(poly, values) -> int:
+def _ev(poly: nmod_mpoly, values: Sequence[int]) -> int:
     return int(poly(*values))
 
 

@@ -36,7 +36,7 @@ import numpy as np
 
 from obsnl.algebra.bounds import BlockOutcome, failure_bound
 from obsnl.algebra.modp import Echelon
-from obsnl.algebra.series import Problem, TimeUp, prime_density, run_series
+from obsnl.algebra.series import Problem, SeriesRun, TimeUp, prime_density, run_series
 
 if TYPE_CHECKING:
     pass
@@ -91,12 +91,14 @@ def stall_safe(problem: Problem) -> bool:
     return not (model.known_initial_conditions or problem.specific or model.unknown_inputs)
 
 
-def _one_run(problem: Problem, rng: random.Random, deadline: float | None):
+def _one_run(problem: Problem, rng: random.Random, deadline: float | None) -> tuple[SeriesRun, int, list[bool]]:
     """One run: rank and per-column classes of the Jacobian at one random point (exact, mod p)."""
     tracker = RankTracker(problem.size, stall=stall_safe(problem))
     run = run_series(problem, rng, K=problem.order_bound(), deadline=deadline, stop=tracker)
     tracker(run.rows, run.p)  # rows the stop rule has not seen (none, unless it was never called)
-    return run, tracker.basis.rank, tracker.basis.unobservable()
+    basis = tracker.basis
+    assert basis is not None  # the call above set it
+    return run, basis.rank, basis.unobservable()
 
 
 def sedoglavic_block(

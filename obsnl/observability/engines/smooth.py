@@ -47,7 +47,7 @@ def _orc(problem: Problem, **kwargs: Any) -> BlockOutcome:
 
 def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | None, target: float,
                unknown_input_derivatives: int | str, input_derivatives: int | None,
-               factor_cache: dict | None = None) -> tuple[BlockOutcome, object]:
+               factor_cache: dict | None = None) -> tuple[BlockOutcome, Problem]:
     rational = rationalize(block, factor_cache=factor_cache)
     problem = make_problem(rational, unknown_input_derivatives=unknown_input_derivatives,
                            input_derivatives=input_derivatives)
@@ -82,6 +82,7 @@ def _branch_result(
     known = {s.name for s in bmodel.known_initial_conditions}
     absent = tuple(v for v in variables if v not in appear and v not in known)
     notes: list[str] = []
+    blocks: tuple[Model, ...]
     unknowns = set(bmodel.states) | set(bmodel.parameters) | set(bmodel.unknown_inputs) | set(bmodel.inputs)
     if not any(e.free_symbols & unknowns for e in bmodel.output_exprs):
         # every output is a constant on this branch (a contact force while the contact is open): the branch
@@ -110,7 +111,7 @@ def _branch_result(
         if deadline is not None and time.perf_counter() >= deadline:
             out = BlockOutcome(method=method, columns=tuple(_unknown_names(block)),
                                reason="time limit reached before this block was analysed")
-            problem = None
+            problem: Problem | None = None
         else:
             out, problem = _run_block(block, method=method, seed_key=f"{seed}:{label}:{i}", deadline=deadline,
                                       target=target, unknown_input_derivatives=unknown_input_derivatives,

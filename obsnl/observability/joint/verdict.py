@@ -148,8 +148,9 @@ def _select(model: Model, branches: Sequence[str | Branch] | None) -> list[Branc
     if branches is None:
         return list(split_branches(model))
     items = list(branches)
-    if all(isinstance(b, Branch) for b in items):
-        return items
+    given = [b for b in items if isinstance(b, Branch)]
+    if len(given) == len(items):
+        return given
     labels = [b for b in items if isinstance(b, str)]
     if len(labels) != len(items):
         raise AnalysisError("branches= must be labels (str) or obsnl Branch objects, not a mixture")

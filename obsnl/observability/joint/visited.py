@@ -105,8 +105,8 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
         raise AnalysisError(f"record= needs every input of the model as a known signal (missing: "
                             f"{', '.join(lacking + [w.name for w in model.unknown_inputs])})")
     xs, us = list(model.states), list(model.inputs)
-    U = [np.asarray(inputs[u.name], float) for u in us]  # checked first, even where nothing is simulated
-    if any(u.shape != t.shape for u in U) or not all(np.all(np.isfinite(u)) for u in U):
+    signals = [np.asarray(inputs[u.name], float) for u in us]  # checked first, even where nothing is simulated
+    if any(u.shape != t.shape for u in signals) or not all(np.all(np.isfinite(u)) for u in signals):
         raise AnalysisError("the record's input must be finite and as long as its time column")
     exprs = list(model.rhs) + list(model.output_exprs)
     if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
@@ -115,7 +115,7 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
     subs = {s: sp.Float(vals[s.name]) for s in list(model.parameters) + list(model.known_constants)}
     f = sp.lambdify([xs, us], [e.xreplace(subs) for e in model.rhs], modules="numpy")
     g = sp.lambdify([xs, us], [e.xreplace(subs) for e in sw], modules="numpy")
-    U = np.vstack(U) if us else np.zeros((0, len(t)))
+    U = np.vstack(signals) if us else np.zeros((0, len(t)))
 
     def rhs(x: np.ndarray, u: np.ndarray) -> np.ndarray:
         return np.asarray(f(list(x), list(u)), float)

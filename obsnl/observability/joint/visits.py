@@ -84,7 +84,8 @@ class _Atoms(MutableMapping):
     """Atom stand-ins: constant atoms shared by all visits of a run, time-varying ones per visit."""
 
     def __init__(self, shared: dict) -> None:
-        self.shared, self.local = shared, {}
+        self.shared = shared
+        self.local: dict = {}
 
     def _d(self, key: tuple) -> dict:
         return self.local if key[3] else self.shared
@@ -198,6 +199,7 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
         When a side's series had to change prime.
     """
     g = plan.g
+    assert g is not None  # a surface's plan carries its switching function
     a_side, b_side = plan.sides
     K = max(a_side.K, b_side.K)
     text = expr_text(g)
