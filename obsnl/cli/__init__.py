@@ -1,5 +1,6 @@
 """The ``obsnl`` command line: each subcommand parses its options, calls its library job and prints what the job
-returns (:func:`obsnl.cli.commands.run`). The parser is the table :data:`COMMANDS`.
+returns (:func:`obsnl.cli.commands.run`; the jobs are imported plainly in :func:`obsnl.cli.commands.job_of`). The
+parser is the table :data:`COMMANDS`.
 
 Exit codes: 0 success, 2 bad input (one line on stderr, no traceback), 1 an internal error. Nothing
 numeric is imported before a command runs: ``obsnl --help`` loads argparse and the package only.
@@ -34,20 +35,20 @@ METHOD = _o("--method", choices=("auto", "orc", "sedoglavic"), default="auto", h
 SCHEDULER = _o("--scheduler", metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
 EXECUTOR = [_o("--workers", type=_whole(1), help="local processes (default: one per core)"), SCHEDULER]
 ONE_WORKER = [_o("--workers", type=_whole(1), default=1, help="local processes (default: 1)"), SCHEDULER]
-RECORD, DESIGN, STUDIES = "(.csv or .AT2) driving the model's one input", "obsnl.design.jobs", "obsnl.studies.jobs"
+RECORD = "(.csv or .AT2) driving the model's one input"
 INTERSAMPLE = _o("--intersample", action="append", metavar="[NAME=]KIND", help="an input between samples: zoh, "
                  "linear or bandlimited (repeatable; a bare KIND: every input; default: the model's [intersample], "
                  "else linear)")
 BIG = f"A model with more than {MAX_UNKNOWNS} unknowns (states + parameters + unknown inputs) is refused first."
 
-#: Each subcommand: the module of its library job (``<module>.<command>_printed``, which takes the options as keywords
-#: and returns what the command prints), its one-line help, its description and its options, in the order --help
-#: lists them.
-COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
-    "show": (DESIGN, "print a model's equations", None, [MODEL, FMT]),
-    "branches": (DESIGN, "list the smooth branches of a non-smooth model", None,
+#: Each subcommand: its one-line help, its description and its options, in the order --help lists them. Its library
+#: job (which takes the options as keywords and returns what the command prints) is imported plainly by
+#: :func:`obsnl.cli.commands.job_of`.
+COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
+    "show": ("print a model's equations", None, [MODEL, FMT]),
+    "branches": ("list the smooth branches of a non-smooth model", None,
                  [MODEL, FMT, _o("--equations", action="store_true", help="print each branch's equations")]),
-    "analyze": (DESIGN, "observability/identifiability of every branch of a model", "Test each smooth branch (ORC "
+    "analyze": ("observability/identifiability of every branch of a model", "Test each smooth branch (ORC "
                 "or Sedoglavic's randomized test), then the branches jointly. Exit code 2 when a branch is "
                 "inconclusive: the result is printed, the reason goes to stderr. " + BIG,
                 [MODEL, _o("--format", dest="fmt", choices=("text", "json", "md", "tex", "json-table"), default="text"),
@@ -57,19 +58,19 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                  _o("--no-joint", dest="joint", action="store_false", help="skip the joint verdict"),
                  _o("--unknown-input-derivatives", metavar="K|arbitrary", help="K non-zero derivatives; K is "
                     f"at most the model's states + parameters + {DERIVATIVES_MARGIN}"), *OUT]),
-    "report": ("obsnl.batch", "analyse models and write their branch tables (Markdown, LaTeX, JSON)",
+    "report": ("analyse models and write their branch tables (Markdown, LaTeX, JSON)",
                "Write DIR/<model>.md, .tex, .json, index.md and timings.md. " + BIG,
                [_o("models", nargs="+", metavar="MODEL"), _o("--out", required=True, metavar="DIR"), METHOD,
                 SEED, SECONDS, FORCE, *ONE_WORKER]),
-    "symmetries": (DESIGN, "generators of the unobservable directions of each branch", None,
+    "symmetries": ("generators of the unobservable directions of each branch", None,
                    [MODEL, FMT, _o("--degree", type=int, choices=(1, 2), default=1), SEED]),
-    "reparametrize": (STUDIES, "propose identifiable combinations and write the model in them", None,
+    "reparametrize": ("propose identifiable combinations and write the model in them", None,
                       [MODEL, _o("-o", "--output", metavar="NEW.toml"), FORCE, SEED,
                        _o("--eliminate", type=_names, default="", metavar="P,Q", help="parameters to normalise to 1"),
                        _o("--keep", type=_names, default="", metavar="P,Q", help="parameters that must not be pivots"),
                        _o("--name", dest="names", action="append", default=[], metavar="OLD=NEW",
                           help="rename a symbol")]),
-    "identify": (STUDIES, "identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
+    "identify": ("identify a model's parameters from measured data (or a simulated study) with a UKF/DUKF",
                  "Analyse MODEL, then estimate its parameters from --data (CSV: time_s or t, one column per "
                  "input and output) or a study of its [values] under --record, refined by maximum likelihood.",
                  [MODEL, _o("--data", one_of=1, help="measured inputs and outputs (.csv)"),
@@ -88,7 +89,7 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                   _o("--replicates", type=_whole(), default=0, help="Monte-Carlo replicates (0: off, else >= 3)"),
                   INTERSAMPLE,
                   *EXECUTOR, _o("--out", metavar="DIR", help="write identify.json and the figures here"), FORCE]),
-    "reproduce": (STUDIES, "reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
+    "reproduce": ("reproduce the seed paper's Table 2 and Figures 2-3 (analysis -> tables -> UKF and DUKF)",
                   "The default folder reports/identification (/RECORD) holds the committed results and is REGENERATED; "
                   "--quick writes reproduce-quick/ here; another --out is never overwritten without --force.",
                   [_o("--quick", action="store_true",
@@ -101,20 +102,20 @@ COMMANDS: dict[str, tuple[str, str, str | None, list[tuple]]] = {
                    _o("--jit", action=argparse.BooleanOptionalAction, help="compile the filters to C (default)"),
                    _o("--replicates", type=_whole(), help="Monte-Carlo replicates per run (default: 32)"),
                    _o("--out", help="output folder (default: reports/identification)"), FORCE, *EXECUTOR]),
-    "bank": (STUDIES, "run the observer-bank crack benchmark on the cantilever link", None,
+    "bank": ("run the observer-bank crack benchmark on the cantilever link", None,
              [_o("--seeds", type=_whole(1), default=3), _o("--out", default="reports/bank"),
               _o("--model", help="link model file (default: obsnl:cantilever_link)"), FORCE]),
-    "sensors": (DESIGN, "which sensors make every target identifiable (minimal sets of the model's outputs)", None,
+    "sensors": ("which sensors make every target identifiable (minimal sets of the model's outputs)", None,
                 [MODEL, _o("--target", default="all"), _o("--max-size", type=_whole(1)), FMT4, *OUT, SEED,
                  _o("--max-seconds", type=_number, help="of each analysis"), _o("--progress", action="store_true"),
                  _o("--record", metavar="FILE", help=f"rank by the Cramer-Rao bound under a record {RECORD}"),
                  _o("--rank-size", type=_whole(1), help="with --record"),
                  _o("--noise", type=_number, help="with --record (default 0.01)"), *ONE_WORKER]),
-    "design": (DESIGN, "the smallest record scale and the records that make a model identifiable", None,
+    "design": ("the smallest record scale and the records that make a model identifiable", None,
                [MODEL, _o("--record", action="append", default=[], metavar="FILE", help=f"a record {RECORD}; one at least, repeat for more"),
                 _o("--target", default="all"), _o("--sensors", metavar="a,b"), FMT4, *OUT,
                 _o("--figure", metavar="FILE.png"), SECONDS, _o("--scales", metavar="S1,S2,..."), SEED]),
-    "validate": ("obsnl.identification.validation.job", "run a fitted model on a test record: RMSE, NRMSE, fit %% "
+    "validate": ("run a fitted model on a test record: RMSE, NRMSE, fit %% "
                  "and dB", "Simulate MODEL at the estimates of an identify.json under the input of a test record, from "
                  "rest or from the state estimated on the first --warmup samples (then not scored); write "
                  "validate.json, validation.png and, for a hysteretic state z, loop.png.",
@@ -135,7 +136,7 @@ def build_parser() -> argparse.ArgumentParser:
                      "non-smooth mechanical models.")
     parser.add_argument("--version", action="version", version=f"obsnl {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name, (job, short, description, options) in COMMANDS.items():
+    for name, (short, description, options) in COMMANDS.items():
         p = sub.add_parser(name, help=short, description=description)
         group = None
         for flags, kw in options:
@@ -145,7 +146,6 @@ def build_parser() -> argparse.ArgumentParser:
             if "nargs" not in kw and kw.get("action") in (None, "append"):  # one value each: refused as '--'
                 one["action"] = _One
             (group if kw.get("one_of") else p).add_argument(*flags, **one)
-        p.set_defaults(job=f"{job}:{name}_printed")
     return parser
 
 
