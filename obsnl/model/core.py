@@ -9,9 +9,9 @@ cannot change: transformations return a new model.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import sympy as sp
 
@@ -139,6 +139,35 @@ class Model:
     unknown_input_derivatives: int | str | None = None
     intersample: Mapping[str, str] = field(default_factory=dict)
     bounds: Mapping[str, Any] = field(default_factory=dict)
+
+    if TYPE_CHECKING:
+        # What the constructor takes, for type checkers: names and expressions as text or sympy objects, in any
+        # iterable or mapping; the fields above hold them read (tuples of symbols, read-only tables). At run time
+        # the dataclass writes __init__ from the fields, in this order (tests/test_typing_surface.py checks it).
+        def __init__(
+            self,
+            name: str,
+            states: Iterable[str | sp.Symbol],
+            parameters: Iterable[str | sp.Symbol],
+            equations: Mapping[str | sp.Symbol, str | float | sp.Expr],
+            outputs: Mapping[str, str | float | sp.Expr],
+            inputs: Iterable[str | sp.Symbol] = (),
+            unknown_inputs: Iterable[str | sp.Symbol] = (),
+            known_constants: Iterable[str | sp.Symbol] = (),
+            known_initial_conditions: Iterable[str | sp.Symbol] = (),
+            initial_condition_values: Mapping[str | sp.Symbol, str | float | sp.Expr] = ...,
+            description: str = "",
+            source: str = "",
+            switching: Iterable[str | sp.Expr] = (),
+            latex: Mapping[str, str] = ...,
+            values: Mapping[str, float] = ...,
+            guess: Mapping[str, float] = ...,
+            definitions: Mapping[str, str] = ...,
+            metadata: Mapping[str, Any] = ...,
+            unknown_input_derivatives: int | str | None = None,
+            intersample: Mapping[str, str] = ...,
+            bounds: Mapping[str, Any] = ...,
+        ) -> None: ...
 
     # ------------------------------------------------------------------ validation
     def __post_init__(self) -> None:
