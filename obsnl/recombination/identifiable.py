@@ -94,7 +94,10 @@ class IdentifiableFunctions:
 
 class _Kept:
     def __init__(self, J: ModularJacobian) -> None:
-        self.J, self.funcs, self.sources, self.grads = J, [], [], []
+        self.J = J
+        self.funcs: list[sp.Expr] = []
+        self.sources: list[str] = []
+        self.grads: list[list[int]] = []
 
     @property
     def full(self) -> bool:

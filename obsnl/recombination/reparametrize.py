@@ -49,7 +49,8 @@ __all__ = ["reparametrize"]
 
 
 # --------------------------------------------------------------------------- helpers
-def _numeric_rows(rows, V, exps) -> flint.fmpq_mat | None:
+def _numeric_rows(rows: Sequence[Sequence[sp.Expr]], V: Sequence[sp.Symbol], exps: Sequence[sp.Symbol]
+                  ) -> flint.fmpq_mat | None:
     """Weight rows at a random integer value of the exponent parameters (for span membership)."""
     at = {e: 1009 + 2 * i for i, e in enumerate(exps)}
     try:
@@ -256,6 +257,7 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     # whether the new model is identifiable: the joint verdict over its branches (a coordinate unobservable in each
     # branch alone may be revealed by the branches together), never the proposal's own bookkeeping
     joint = analyze(built, seed=seed, per_branch=False).joint
+    remaining: tuple[str, ...]
     if joint is None:
         remaining, pending = (), tuple(s.name for s in built.states + built.parameters)
         notes.append("the joint verdict of the new model could not be made: no branch of it was analysed")
