@@ -100,7 +100,7 @@ def riccati_gain(ext: ExtendedSystem, *, R: Any, q_x: float = 1.0, q_v: float = 
                             "check extended_observability and that Q excites the fictitious states") from exc
     L = np.linalg.solve(Rm, ext.C @ P).T
     res = ext.A @ P + P @ ext.A.T - P @ ext.C.T @ np.linalg.solve(Rm, ext.C @ P) + Qm
-    rel = float(np.linalg.norm(res) / max(np.linalg.norm(Qm), np.linalg.norm(ext.A @ P), 1e-300))
+    rel = float(np.linalg.norm(res) / max(float(np.linalg.norm(Qm)), float(np.linalg.norm(ext.A @ P)), 1e-300))
     return _design(ext, L, "riccati", rel)
 
 

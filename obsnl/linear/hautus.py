@@ -96,7 +96,7 @@ class HautusResult:
 def distinct_eigenvalues(A: np.ndarray, *, rtol: float = 1e-9) -> np.ndarray:
     """Distinct eigenvalues with non-negative imaginary part (clusters within ``rtol*||A||`` merged)."""
     lam = np.linalg.eigvals(A)
-    tol = rtol * max(np.linalg.norm(A, 2), 1.0)
+    tol = rtol * max(float(np.linalg.norm(A, 2)), 1.0)
     lam = lam[lam.imag >= -tol]
     out: list[complex] = []
     for v in sorted(lam, key=lambda z: (z.real, z.imag)):

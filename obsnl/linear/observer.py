@@ -257,7 +257,7 @@ def extended_observability(system: Any, N_R: Any, model: FictitiousModel, *, rto
         raise DataError(f"output_scale needs {C.shape[0]} positive finite numbers, one per output")
     lam_v = distinct_eigenvalues(model.V)
     lam_a = distinct_eigenvalues(A)
-    tol_a = 1e-9 * max(np.linalg.norm(A, 2), 1.0)
+    tol_a = 1e-9 * max(float(np.linalg.norm(A, 2)), 1.0)
     plant_lams = [lam for lam in lam_a if np.min(np.abs(lam_v - lam), initial=np.inf) > tol_a]
     plant = hautus(ext.plant, eigenvalues=plant_lams, rtol=rtol, weak_rtol=weak_rtol, scaling=scaling)
     channels: list[ChannelTest] = []
