@@ -43,7 +43,7 @@ from typing import Any
 
 import numpy as np
 
-from obsnl._text import block, names, number, one_line
+from obsnl._text import block, names, number, one_line, plain_float
 from obsnl.errors import DataError
 from obsnl.estimation.records import read_table
 from obsnl.estimation.accelerogram import Record, check_increasing, check_seconds
@@ -195,9 +195,11 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
             raise DataError(f"{where}: column {quote(c)} holds {kind or 'masked samples'}; give real numbers (time in "
                             f"seconds), every sample present (NaN marks a missing output sample)")
         try:
-            a = np.asarray(columns[c], float)
-        except (TypeError, ValueError, OverflowError):
-            raise DataError(f"{where}: column {quote(c)} is not numeric (or beyond the float range)") from None
+            a = _cells(columns[c])
+        except (TypeError, ValueError, OverflowError) as exc:
+            said = f" ({exc})" if "'_'" in str(exc) else ""  # the CSV reader's rule: "1_0" is not 10
+            raise DataError(f"{where}: column {quote(c)} is not numeric (or beyond the float range){said}; give "
+                            f"plain numbers") from None
         if a.ndim != 1:
             raise DataError(f"{where}: column {c!r} must be one series, got shape {a.shape}")
         gap = c in outputs and c != tname  # an output may miss samples (NaN); time and inputs may not
@@ -224,6 +226,16 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
     used = {tname, *inputs, *outputs}
     return Measured(name=name, dt=dt, inputs=tuple(inputs), outputs=tuple(outputs), u=col(inputs), y=col(outputs),
                     source=source, clock_deviation=deviation, ignored=tuple(str(c) for c in columns if c not in used))
+
+
+def _cells(cells: Any) -> np.ndarray:
+    """A column's samples as floats, a text cell read as a record cell is (:func:`obsnl._text.plain_float`:
+    ``"1_0"`` is refused, where ``float`` reads it as 10)."""
+    raw = np.asarray(cells)
+    if raw.dtype.kind in "USO" and any(isinstance(v, (str, bytes)) for v in raw.ravel()):
+        return np.array([plain_float(v.decode() if isinstance(v, bytes) else str(v)) if isinstance(v, (str, bytes))
+                         else float(v) for v in raw.ravel()], float).reshape(raw.shape)
+    return np.asarray(cells, float)
 
 
 def _clock(t: np.ndarray, where: str, tname: str) -> tuple[float, float]:

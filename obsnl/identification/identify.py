@@ -80,12 +80,28 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
     return num, g, table, structural
 
 
-def _check_kinds(guess: Any, noise: Any, **flags: Any) -> None:
-    """Refuse an argument of the wrong kind that Python would read silently (``refine="no"`` is true, a guess of
-    ``None`` fails deep inside): each with one line naming it and the kind it takes."""
+def _check_kinds(guess: Any, noise: Any, *, table: Any = None, tuning: Any = None, executor: Any = None,
+                 jit: Any = None, seed: Any = 0, progress: Any = None, **flags: Any) -> None:
+    """Refuse an argument of the wrong kind that Python would read silently (``refine="no"`` is true, ``jit="no"``
+    compiles, a guess of ``None`` fails deep inside, ``table=5`` an attribute error): each with one line naming it
+    and the kind it takes, as the command line refuses a bad option."""
     for name, v in flags.items():
         if not isinstance(v, (bool, np.bool_)):
             raise OptionError(f"{name}= takes True or False, got {v!r}")
+    if jit is not None and not isinstance(jit, (bool, np.bool_)):
+        raise OptionError(f"jit= takes True, False or None (compiled where a C compiler is on PATH), got {jit!r}")
+    if table is not None and not isinstance(table, (BranchTable, str, Path)):
+        raise OptionError(f"table= takes a BranchTable or the path of a branch-table file, got {table!r}")
+    if tuning is not None and not isinstance(tuning, Tuning):
+        raise OptionError(f"tuning= takes one Tuning, e.g. tuning=Tuning(s0=0.3, q_theta=0.0, q_x=1.0), or None "
+                          f"(tuned over a grid); got {tuning!r}")
+    if executor is not None and not isinstance(executor, Executor):
+        raise OptionError(f"executor= takes an obsnl.executor.Executor, e.g. Executor(workers=2), or None (this "
+                          f"process); got {executor!r}")
+    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise OptionError(f"seed= takes an integer >= 0, got {seed!r}")
+    if progress is not None and not isinstance(progress, (bool, np.bool_)) and not callable(progress):
+        raise OptionError(f"progress= takes True, False or a callable called after each step, got {progress!r}")
     if guess is not None and not isinstance(guess, Mapping):
         raise OptionError(f"guess= takes {{parameter: value}}, e.g. guess={{'k': 30.0}}; got {guess!r}")
     bad = next((k for k, v in (guess or {}).items() if isinstance(v, (bool, np.bool_)) or not isinstance(v, Real)), None)
@@ -171,7 +187,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     """
     check_passes(passes)  # before any work
     check_replicates(replicates)
-    _check_kinds(guess, noise, refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
+    _check_kinds(guess, noise, table=table, tuning=tuning, executor=executor, jit=jit, seed=seed, progress=progress,
+                 refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
     if not isinstance(data, (Measured, Mapping, str, Path)):
         raise DataError(f"data= takes a CSV file, a mapping of columns {{name: samples}} or a Measured; got "
                         f"{type(data).__name__}")
@@ -297,7 +314,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     """
     check_passes(passes)  # before any work
     check_replicates(replicates)
-    _check_kinds(guess, None, refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
+    _check_kinds(guess, None, table=table, tuning=tuning, executor=executor, jit=jit, seed=seed, progress=progress,
+                 refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
     model = as_model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"
