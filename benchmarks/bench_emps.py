@@ -100,6 +100,9 @@ v = "(gtau*(kp*kv*(2*we - (qref_m - q)) - kv*(2*wv - v)) - Fv*v - Fc*sign(v) - o
 we = "2*(qref_m - q - we)/th"
 wv = "2*(v - wv)/tv"
 
+[intersample]
+qref_m = "linear"
+
 [values]
 kp = {KP}
 kv = {KV}
@@ -127,6 +130,9 @@ q_m = "q"
 [equations]
 q = "v"
 v = "(force_N - Fv*v - Fc*sign(v) - offset)/M"
+
+[intersample]
+force_N = "zoh"
 
 [guess]
 {_GUESS_TOML}
@@ -486,8 +492,15 @@ def readme(res: dict) -> str:
               f"{res['max_vir']:.3g} V."),
               "- `emps_open_loop.toml`: input `force_N`, output `q_m`; the rigid plant alone, a pure integrator.", "",
               (f"Guesses for both: {', '.join(f'{k} {v:g}' for k, v in GUESS.items())} (15-37 % from IDIM-LS). "
-              "obsnl's defaults otherwise (3 UKF passes tuned by the output misfit, then maximum likelihood, "
-              "profile-likelihood intervals)."), ""]
+               "obsnl's defaults otherwise (3 UKF passes tuned by the output misfit, then maximum likelihood, "
+               "profile-likelihood intervals). Each file's `[intersample]` table says how its input behaves between "
+               "samples. One run, in Python:"), "",
+              "```python",
+              "import numpy as np, obsnl",
+              "d = np.genfromtxt('benchmarks/data/emps/emps_train.csv', delimiter=',', names=True)",
+              f"train = {{c: d[c][:{res['split']}] for c in ('time_s', 'qref_m', 'q_m')}}  # the recorded clock",
+              "fit = obsnl.identify('reports/benchmarks/emps/emps_closed_loop.toml', train)",
+              "```", ""]
     lines += ["## Estimates", "",
               ("IDIM-LS is the published reference, not the truth: it fits the same rigid model to the same record by "
                "another criterion (the force error of filtered derivatives, where obsnl fits the position). "
