@@ -33,7 +33,7 @@ from obsnl.estimation.intersample import intersample_kinds
 from obsnl.estimation.jitcache import compiler_available
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.replicates import check_passes, check_replicates
-from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
+from obsnl.identification.runs import MEASURED_GRID, Identification, check_unknowns, identify_measured
 from obsnl.identification.simulation import simulation_study
 from obsnl.estimation.measured import MIN_SAMPLES, Measured, measured, read_measured
 from obsnl.estimation.records import read_record
@@ -199,6 +199,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     elif not isinstance(data, Measured):
         data = measured(data, inputs=ins, outputs=outs)
     kinds = intersample_kinds(intersample, ins, table=model.intersample)
+    check_unknowns([s.name for s in model.parameters], [s.name for s in model.states], data)  # before the analysis
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
 
     def run(compiled: bool) -> Identification:

@@ -49,7 +49,7 @@ from obsnl.identification.setup import MIN_NOISE, Data, Setup, coordinates, outp
 from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = [
-    "check_replicates", "identify_measured", "Identification", "ParameterEstimate", "MEASURED_GRID",
+    "check_replicates", "check_unknowns", "identify_measured", "Identification", "ParameterEstimate", "MEASURED_GRID",
     "FIT_SUBSTEPS", "HOLD_BELOW", "clean_json", "error_of",
 ]
 
@@ -264,6 +264,47 @@ def _assumptions(refined: bool, *more: str) -> tuple[str, ...]:
     return _COMMON + (_REFINED if refined else _FILTER_ONLY) + more
 
 
+def check_unknowns(parameters: Sequence[str], states: Sequence[str], data: Measured, *,
+                   known: Sequence[str] = ()) -> None:
+    """Refuse, before any work, a record with no more output samples measured than the fit's unknowns.
+
+    The fit estimates every parameter and every initial state not declared known; with as many unknowns as samples
+    measured (or more) it can pass through every sample, so no noise level, std or interval can be had from it,
+    whatever the initial guesses.
+
+    Parameters
+    ----------
+    parameters, states : sequence of str
+        The model's parameters and states.
+    data : Measured
+        The record (its output samples measured are counted).
+    known : sequence of str
+        States whose initial values are declared known (not estimated).
+
+    Raises
+    ------
+    DataError
+        The unknowns are at least the samples measured.
+
+    Examples
+    --------
+    >>> from obsnl.estimation.measured import measured
+    >>> d = measured({"t": range(20), "u": [1.0] * 20, "y": range(20)}, inputs=["u"], outputs=["y"])
+    >>> check_unknowns([f"p{i}" for i in range(20)], ["x", "v"], d)
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.DataError: 22 unknowns (20 parameters, 2 initial states) against 20 output samples measured: the fit could pass through every sample, so nothing could be said of its precision; give a record of more than 22 output samples (or declare known initial states, or fewer parameters)
+    """
+    free = [s for s in states if s not in set(known)]
+    unknowns = len(parameters) + len(free)
+    seen = int(np.sum(data.present))
+    if unknowns >= seen:
+        raise DataError(f"{unknowns} unknowns ({len(parameters)} parameters, {len(free)} initial states) against "
+                        f"{seen} output samples measured: the fit could pass through every sample, so nothing could "
+                        f"be said of its precision; give a record of more than {unknowns} output samples (or declare "
+                        f"known initial states, or fewer parameters)")
+
+
 def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, float], method: str = "ukf",
                       table: BranchTable | None = None, noise: Mapping[str, float] | None = None,
                       grid: Sequence[Tuning] = MEASURED_GRID, passes: int = 3, replicates: int = 0, seed: int = 0,
@@ -324,6 +365,7 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     if data.inputs != num.inputs or data.outputs != num.outputs:
         raise OptionError(f"the data have inputs {list(data.inputs)} and outputs {list(data.outputs)}, model "
                           f"{num.name!r} has {list(num.inputs)} and {list(num.outputs)}")
+    check_unknowns(num.parameters, num.states, data)
     missing = [q for q in num.parameters if q not in guess]
     if missing:
         raise OptionError(f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
