@@ -125,6 +125,46 @@ def figure3(path: str | Path, *, t: np.ndarray, panels: Mapping[str, np.ndarray]
 
 
 # ---- identification of a structure (obsnl identify)
+def table2_errors_figure(path: str | Path, *, parameters: Sequence[str], errors: Mapping[str, Sequence[float]],
+                         flagged: Mapping[str, Sequence[bool]], goal: float = 5.0) -> Path:
+    """Table 2 as one figure: the worst-seed error in % of each parameter (groups) for each column (bars, log
+    scale), a flagged estimate hatched, the 5 % goal as a line.
+
+    Parameters
+    ----------
+    path : str or Path
+        The PNG file.
+    parameters : sequence of str
+        The parameters' names (as the table prints them).
+    errors, flagged : mapping of str to sequence
+        Per column (a protocol and filter), the errors in % and whether each parameter is flagged.
+    goal : float
+        The goal's line, in %.
+
+    Returns
+    -------
+    Path
+    """
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(max(7.0, 1.1 * len(parameters) + 2), 4.2))
+    width = 0.8 / max(len(errors), 1)
+    x = np.arange(len(parameters))
+    for i, (col, errs) in enumerate(errors.items()):
+        e = np.maximum(np.asarray(errs, float), 1e-3)  # an exact estimate still shows as a stub
+        bars = ax.bar(x + (i - (len(errors) - 1) / 2) * width, e, width, label=col)
+        for b, f in zip(bars, flagged[col]):
+            if f:
+                b.set_hatch("///")
+                b.set_alpha(0.55)
+    ax.axhline(goal, color="k", lw=0.8, ls="--", label=f"{goal:g} % goal")
+    ax.set_yscale("log")
+    ax.set_xticks(x, list(parameters))
+    ax.set_ylabel("worst error over the seeds (%)")
+    ax.set_title("Table 2: errors per parameter and filter (hatched: flagged, not held to the goal)")
+    ax.legend(fontsize=7, ncol=2)
+    return _save(plt, fig, path)
+
+
 def plot_fit(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
              outputs: Sequence[str], fit: Mapping[str, float | None]) -> Path:
     """Measured vs simulated (model at the estimate) output, one panel per output, NRMSE in the title.

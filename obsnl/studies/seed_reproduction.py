@@ -81,12 +81,14 @@ ML_PROTOCOL = ("maximum likelihood of the measured output given the measured inp
 
 #: The text files a reproduction writes (the figures ``fig2_*.png``, ``fig3_*.png`` come on top).
 REPRODUCTION_FILES: tuple[str, ...] = ("table2.json", "table2.md", "table2.tex", "branch_table.json")
+#: The figure of Table 2's errors per parameter and filter.
+TABLE2_FIGURE = "table2_errors.png"
 
 
 def reproduction_files(rep: Reproduction) -> list[str]:
     """The files :func:`write_reproduction` writes for ``rep``: :data:`REPRODUCTION_FILES`, then
     ``fig2_<tag>.png`` and ``fig3_<tag>.png`` per protocol with trajectories (``1pass``, ``3passes``, ...)."""
-    names = list(REPRODUCTION_FILES)
+    names = [*REPRODUCTION_FILES, TABLE2_FIGURE]
     for k in sorted({k for _, k in rep.trajectories}):
         if any((m, k) in rep.trajectories for m in ("ukf", "dukf")):
             tag = "1pass" if k == 1 else f"{k}passes"
@@ -123,8 +125,9 @@ def write_reproduction(rep: Reproduction, out: str | Path, *, force: bool = True
     """
     import json
 
-    from obsnl.report.figures import figure2, figure3
+    from obsnl.report.figures import figure2, figure3, table2_errors_figure
     from obsnl.report.identification import table2_latex, table2_markdown, table2_summary
+    from obsnl.report.identification.table2 import table2_errors
 
     from obsnl.report.files import OutputFolder
 
@@ -138,6 +141,8 @@ def write_reproduction(rep: Reproduction, out: str | Path, *, force: bool = True
     with OutputFolder(out, reproduction_files(rep), force=force) as folder:
         for n, text in zip(REPRODUCTION_FILES, texts):
             folder.write_text(n, text)
+        names, errors, flags = table2_errors(doc)
+        table2_errors_figure(folder.path(TABLE2_FIGURE), parameters=names, errors=errors, flagged=flags)
         for k in sorted({k for _, k in rep.trajectories}):
             trs = {m: rep.trajectories[(m, k)] for m in ("ukf", "dukf") if (m, k) in rep.trajectories}
             if not trs:

@@ -179,15 +179,83 @@ def _t2_kinds(s: Mapping[str, Any]) -> str:
     return ", ".join(f"{k} {v}" for k, v in s["interventions"].items() if v) or "none"
 
 
+def _ml_goal(ml: Mapping[str, Any]) -> str:
+    """The maximum-likelihood column's 5 % goal: met only on adequate, unflagged estimates of seeds that ran."""
+    worst = [(p, w) for p, w in zip(ml["parameters"], ml["worst_abs_error"]) if not _t2_flagged(ml, p)]
+    bad = [f"{_T2_MD.get(p, p)} {w:.1f} %" for p, w in worst if not w <= 5.0]
+    goal = _goal(bad, len(ml["parameters"]) - len(worst), len(ml["parameters"]))
+    if ml["failed"]:
+        goal = f"not met ({len(ml['failed'])} refinement(s) could not run)"
+    elif ml.get("inadequate"):  # the estimates' std assume a right model: no goal is met without one
+        goal = (f"not met (the model does not explain the data to the noise level on seed(s) "
+                f"{', '.join(map(str, ml['inadequate']))}: adequacy failed)")
+    return goal
+
+
+def _worst_unflagged(s: Mapping[str, Any]) -> str:
+    """The largest worst-seed error among a column's unflagged parameters, with its name."""
+    rows = [(w, p) for p, w in zip(s["parameters"], s["worst_abs_error"]) if not _t2_flagged(s, p) and np.isfinite(w)]
+    if not rows:
+        return "- (all flagged)"
+    w, p = max(rows)
+    return f"{w:.2f} % ({_T2_MD.get(p, p)})"
+
+
+def _summary_rows(summ: Mapping[tuple[str, int], Mapping[str, Any]], ml: Mapping[str, Any] | None,
+                  ml_passes: int) -> list[str]:
+    """The compact summary: per protocol and filter (and the maximum-likelihood column), the worst error on the
+    unflagged parameters, what is flagged, and the 5 % goal."""
+    lines = ["| protocol | filter | worst error, unflagged (worst seed) | flagged | 5 % goal |", "|---|---|---|---|---|"]
+    for passes in sorted({k for _, k in summ}):
+        for m in [m for m in _T2_METHODS if (m, passes) in summ]:
+            s = summ[(m, passes)]
+            flagged = ", ".join(_T2_MD.get(p, p) for p in s["parameters"] if _t2_flagged(s, p)) or "none"
+            lines.append(f"| {_passes_title(passes)} | {_T2_METHODS[m]} | {_worst_unflagged(s)} | {flagged} | "
+                         f"{_t2_goal(s)} |")
+        if ml and passes == ml_passes:
+            flagged = ", ".join(_T2_MD.get(p, p) for p in ml["parameters"] if _t2_flagged(ml, p)) or "none"
+            lines.append(f"| {_passes_title(passes)} | maximum likelihood | {_worst_unflagged(ml)} | "
+                         f"{flagged} | {_ml_goal(ml)} |")
+    return lines
+
+
+def table2_errors(doc: Mapping[str, Any]) -> tuple[list[str], dict[str, list[float]], dict[str, list[bool]]]:
+    """What :func:`obsnl.report.figures.table2_errors_figure` draws: the parameters, and per column (protocol and
+    filter, and the maximum-likelihood column) the worst-seed error in % of each parameter and whether it is
+    flagged."""
+    summ = table2_summary(doc)
+    ml = table2_ml_summary(doc)
+    ml_passes = max(k for _, k in summ)
+    params = list(next(iter(summ.values()))["parameters"])
+    errors: dict[str, list[float]] = {}
+    flags: dict[str, list[bool]] = {}
+    for passes in sorted({k for _, k in summ}):
+        tag = "1 pass" if passes == 1 else f"{passes} passes"
+        for m in [m for m in _T2_METHODS if (m, passes) in summ]:
+            s = summ[(m, passes)]
+            errors[f"{_T2_METHODS[m]}, {tag}"] = [float(v) for v in s["worst_abs_error"]]
+            flags[f"{_T2_METHODS[m]}, {tag}"] = [_t2_flagged(s, p) for p in params]
+        if ml and passes == ml_passes:
+            errors["ML"] = [float(v) for v in ml["worst_abs_error"]]
+            flags["ML"] = [_t2_flagged(ml, p) for p in params]
+    return [_T2_MD.get(p, p) for p in params], errors, flags
+
+
 def table2_markdown(doc: Mapping[str, Any]) -> str:
-    """The Table 2 analog as Markdown: one table per protocol (the refined one with the maximum-likelihood
-    column), then costs, interventions, the refinement's verdict per seed and the flags."""
+    """The Table 2 analog as Markdown: a compact summary first (per protocol and filter: the worst error on the
+    unflagged parameters, the flags, the goal), then one table per protocol (the refined one with the
+    maximum-likelihood column) with costs, interventions and the refinement's verdict per seed, the flags, and the
+    protocol last."""
     summ = table2_summary(doc)
     ml = table2_ml_summary(doc)
     ml_passes = max(k for _, k in summ)
     exp = doc["experiment"]
     paper = doc["paper_errors_percent"]
     lines = [f"# Table 2 analog: {exp['model']} under {exp['record']['name']}", "",
+             f"Errors are |estimate - true| / |true| in %, worst over the reported seeds; † = flagged practically "
+             f"unidentifiable (these data cannot pin it within 5 % at 3 sigma); `table2_errors.png` draws every "
+             f"column. The protocol is at the end.", "", *_summary_rows(summ, ml, ml_passes), ""]
+    protocol = ["## Protocol", "",
              f"Noise {100 * exp['noise_ratio']:g} % (RMS) on input and output; branch table: {doc['branch_table']}; "
              f"tuning seeds {doc['tuning_seeds']} (never reported)"
              + (f"; tuning by {doc['tuning_protocol']}" if doc.get("tuning_protocol") else "")
@@ -280,7 +348,8 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
             lines += ["", f"Reasons (first seed of the UKF, {k} pass(es)):", ""]
             lines += [f"- {_T2_MD.get(p, p)}: {why}" for p, why in first.get("reasons", {}).items()]
             lines += [f"- {_T2_MD.get(p, p)}: not decided, {why}" for p, why in (first.get("undecided") or {}).items()]
-    return "\n".join(lines) + "\n"
+    lines += ["", *protocol]
+    return "\n".join(lines).rstrip("\n") + "\n"
 
 
 def _passes_title(passes: int) -> str:
@@ -298,14 +367,7 @@ def _ml_markdown(doc: Mapping[str, Any], ml: Mapping[str, Any]) -> list[str]:
     """The refinement's protocol, its verdict per seed, and its goals."""
     n = len(ml["runs"])
     within, of = ml["within_4_std"]
-    worst = [(p, w) for p, w in zip(ml["parameters"], ml["worst_abs_error"]) if not _t2_flagged(ml, p)]
-    bad = [f"{_T2_MD.get(p, p)} {w:.1f} %" for p, w in worst if not w <= 5.0]
-    goal = _goal(bad, len(ml["parameters"]) - len(worst), len(ml["parameters"]))
-    if ml["failed"]:
-        goal = f"not met ({len(ml['failed'])} refinement(s) could not run)"
-    elif ml.get("inadequate"):  # the estimates' std assume a right model: no goal is met without one
-        goal = (f"not met (the model does not explain the data to the noise level on seed(s) "
-                f"{', '.join(map(str, ml['inadequate']))}: adequacy failed)")
+    goal = _ml_goal(ml)
     lines = [f"ML column: {doc.get('refinement_protocol') or 'maximum likelihood'}. † in the ML column: its std "
              "(the Fisher information's, the measured input's noise propagated) is above "
              f"{_ML_PIN:.3g} % of the estimate on at least half of the seeds (the 5 % band cannot be "
