@@ -9,13 +9,16 @@ error instead; no NaN or inf reaches the JSON.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
 
+from obsnl._display import render
 from obsnl._text import block, names, number, one_line
+from obsnl.errors import ObsnlError
 from obsnl.estimation.ukf import Trajectory
 from obsnl.identification.adequacy import INADEQUATE, Adequacy
 from obsnl.identification.practical import Practical
@@ -141,6 +144,8 @@ class Identification:
     profiles: tuple[Profile, ...] = field(default=(), repr=False)
     compiled: bool | None = None
     adequacy: Adequacy | None = None
+    u_measured: np.ndarray | None = field(default=None, repr=False)  # the measured inputs (T, nu), for the figures
+    inputs: tuple[str, ...] = ()
 
     def __repr__(self) -> str:
         est = names([f"{p.name}={'held' if p.held else number(p.estimate)}" for p in self.parameters], 6)
@@ -215,7 +220,72 @@ class Identification:
         kinds = intersample if intersample is not None else fit_kinds(self.data)
         return simulate(model, values, record, warmup=warmup, intersample=kinds)
 
+    def modal(self, *, state: Mapping[str, float] | Sequence[float] | None = None) -> Any:
+        """The fitted model linearised at rest (or at ``state``): natural frequencies, damping ratios and mode shapes
+        at the measured outputs, each with its std from the estimates' covariance
+        (:func:`obsnl.identification.modal.modal`).
+
+        Parameters
+        ----------
+        state : mapping of str to float, sequence of float or None
+            The state linearised at (None: every state 0, which must be at rest under zero inputs).
+
+        Returns
+        -------
+        Modal
+        """
+        from obsnl.identification.modal import modal
+
+        return modal(self, state=state)
+
+    def state_space(self, *, state: Mapping[str, float] | Sequence[float] | None = None) -> Any:
+        """The fitted model linearised at rest (or at ``state``) as a python-control ``StateSpace``
+        (:meth:`Modal.to_control <obsnl.identification.modal.Modal.to_control>`)."""
+        return self.modal(state=state).to_control()
+
+    @cached_property
+    def modal_at_rest(self) -> Any:
+        """The modal summary at rest where the fitted model has modes (an oscillatory linearisation), else None
+        (no model kept, not at rest at the zero state, no complex pair of eigenvalues)."""
+        if self.fitted_model is None:
+            return None
+        try:
+            m = self.modal()
+        except ObsnlError:
+            return None
+        return m if m.oscillatory else None
+
+    def to_frame(self) -> Any:
+        """The parameters as a pandas DataFrame, one row each (indexed by name): ``estimate``, ``std``,
+        ``interval_low``, ``interval_high``, ``interval_method``, ``held``, ``flagged``, ``reason``, ``guess``, and
+        ``true``, ``error``, ``error_kind`` in a simulation study; the values of :meth:`to_dict` (a missing one NaN).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        import pandas as pd
+
+        rows = []
+        for p in self.parameters:
+            d = p.to_dict()
+            interval = d.pop("interval") or [None, None]
+            d.pop("held_at")
+            rows.append({**d, "interval_low": interval[0], "interval_high": interval[1]})
+        cols = ["name", "estimate", "std", "interval_low", "interval_high", "interval_method", "held", "flagged",
+                "reason", "guess"] + [c for c in ("true", "error", "error_kind") if any(c in r for r in rows)]
+        frame = pd.DataFrame(rows, columns=cols).set_index("name")
+        for c in ("estimate", "std", "interval_low", "interval_high", "guess", "true", "error"):
+            if c in frame:
+                frame[c] = frame[c].astype(float)
+        return frame
+
+    def _repr_html_(self) -> str | None:
+        """Notebook display: the run's table, drawn by :mod:`obsnl.report` (:mod:`obsnl._display`)."""
+        return render("html", self)
+
     def to_dict(self) -> dict[str, Any]:
+        modal = self.modal_at_rest
         return clean_json({
             "schema": "obsnl.identify/1", "model": self.model, "mode": self.mode, "method": self.method,
             "passes": self.passes, "passes_run": self.passes_run, "seconds": self.seconds, "seed": self.seed,
@@ -230,6 +300,7 @@ class Identification:
             "repairs": self.repairs,
             "practical_identifiability": {} if self.practical is None else self.practical.to_dict(),
             "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
+            "modal": None if modal is None else modal.to_dict(),
             "assumptions": list(self.assumptions)})
 
 

@@ -12,7 +12,9 @@ import math
 from collections.abc import Mapping, Sequence
 from typing import Any, Protocol
 
-__all__ = ["identify_text", "IdentificationRun"]
+from obsnl.report.identification.modal import modal_lines
+
+__all__ = ["IdentificationRun", "identify_text"]
 
 
 # the members are read-only properties: the values read are frozen dataclasses
@@ -188,6 +190,9 @@ def identify_text(result: IdentificationRun) -> str:
     if ref.get("misfit_over_noise"):
         lines.append("  residual RMS / noise level: " + ", ".join(f"{k} {v:.2f}" for k, v in
                                                               ref["misfit_over_noise"].items()))
+    modal = getattr(run, "modal_at_rest", None)  # an oscillatory model's modes (None: none, or not linearisable)
+    if modal is not None:
+        lines += modal_lines(modal)
     if adequacy is not None:
         share = ", ".join(f"{k} {100 * v:.3g} %" for k, v in adequacy.model_error.items())
         lines.append(f"  {adequacy.headline()}" if adequacy.passed else "  adequacy failed: " + ", ".join(
