@@ -107,7 +107,7 @@ def test_identification_keeps_practical_and_structural_as_values_and_its_json_ke
     assert list(doc) == ["schema", "model", "mode", "method", "passes", "passes_run", "seconds", "seed", "compiled",
                          "held", "flagged", "parameters", "fit", "converged", "converged_reason", "refinement", "profiles",
                          "output_misfit", "noise", "tuning", "tuning_scores", "data", "structural", "repairs",
-                         "practical_identifiability", "adequacy", "assumptions"]
+                         "practical_identifiability", "adequacy", "modal", "assumptions"]
     assert doc["practical_identifiability"] == json.loads(json.dumps(run.practical.to_dict(), allow_nan=False))
     assert set(doc["practical_identifiability"]) == {
         "parameters", "crb_relative_std", "sensitivity_over_noise", "posterior_over_prior_std", "flagged",
