@@ -22,11 +22,13 @@ curvature of the output noise alone, while the estimate also moves with the inpu
 ``Refinement.widening`` (the ratio of the two std), which to second order is the interval of the estimate's
 whole variance, the profile's own asymmetry kept. With exact inputs the widening is 1.
 
-Shapes: ``closed`` (both ends found); ``open-low``/``open-high``: ``Delta`` stays below the threshold up to
-``SEARCH`` (a factor 10 of the estimate) on that side: the data do not bound the parameter there
-(practical non-identifiability); ``flat``: open on both sides with ``Delta`` never above ``FLAT``
-anywhere, the signature of a structural non-identifiability (cross-checked with the analysis by the
-caller).
+Shapes: ``closed`` (both ends found); ``open-low``/``open-high``: ``Delta`` stays below the threshold on that
+side as far as the profile was followed; ``flat``: open on both sides with ``Delta`` never above ``FLAT``
+anywhere (cross-checked with the structural analysis by the caller). How far a side was followed, and why it
+stopped, is kept per side (:attr:`Profile.sides`): the interval's end (``end``), the full ``SEARCH`` (a factor
+10 of the estimate: the data do not bound the parameter there, a practical non-identifiability), the edge of
+the valid region (``bound``: the search stopped there, not the data; a guess far off), the points' budget
+(``points``), or a point that fits better than the estimate (``better``). :func:`judge` says which.
 """
 
 from __future__ import annotations
@@ -74,10 +76,14 @@ class Profile:
     ``interval``: ``(low, high)`` in the parameter's own units, ``None`` on an open side; ``shape``: one of
     ``closed``, ``open-low``, ``open-high``, ``open`` (both sides open, rising somewhere), ``flat``, or
     ``not-optimal`` (a profile point fitted better than the estimate: no interval is claimed), or
-    ``not-computed`` (the time budget of :func:`profiles` ran out first);
+    ``not-computed`` (the time budget of :func:`profiles` ran out first): those two claim no interval, both ends
+    are ``None``;
     ``better``: a profile point whose chi2 fell below the optimum (the estimate was not the global
-    optimum along this parameter), else ``None``; ``threshold``: the rise of ``Delta`` at which the interval
-    ends (``THRESHOLD``, widened by the measured inputs' noise: module docstring).
+    optimum along this parameter), else ``None``, and ``better_z`` the coordinates of that point (every
+    parameter and the initial state: where a refit starts); ``threshold``: the rise of ``Delta`` at which the
+    interval ends (``THRESHOLD``, widened by the measured inputs' noise: module docstring); ``sides``: why the
+    search stopped on the low and the high side of the parameter (module docstring: ``end``, ``search``,
+    ``bound``, ``points``, ``better``; empty where not searched).
     """
 
     name: str
@@ -88,6 +94,8 @@ class Profile:
     evaluations: int = 0
     better: float | None = None
     threshold: float = THRESHOLD
+    sides: tuple[str, str] = ("", "")
+    better_z: tuple[float, ...] | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:
         lo, hi = ("open" if v is None else number(v) for v in self.interval)
@@ -105,7 +113,7 @@ class Profile:
     def to_dict(self) -> dict[str, Any]:
         return {"name": self.name, "estimate": self.estimate, "interval": list(self.interval), "shape": self.shape,
                 "points": [list(p) for p in self.points], "evaluations": self.evaluations, "better": self.better,
-                "threshold": self.threshold}
+                "threshold": self.threshold, "stopped": {"low": self.sides[0], "high": self.sides[1]}}
 
 
 def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray, stop: float) -> tuple[float, np.ndarray, int]:
@@ -156,13 +164,16 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
     lo_edge, hi_edge = ref.lower[i], ref.upper[i]
     points = [(0.0, 0.0)]
     ends: list[float | None] = []
-    evals, better = 0, None
+    stops: list[str] = []
+    evals, better, better_z = 0, None, None
     peak = 0.0
     for side in (-1.0, 1.0):
-        limit = min(search, (z_hat[i] - lo_edge) if side < 0 else (hi_edge - z_hat[i]))
+        edge = (z_hat[i] - lo_edge) if side < 0 else (hi_edge - z_hat[i])
+        limit = min(search, edge)
         inner, outer = (0.0, 0.0), None  # (distance, sqrt(Delta)) below / above the threshold
         d = min(math.sqrt(level) * sd, limit) if math.isfinite(sd) else min(0.05, limit)
         end = None
+        stop = "points"  # the points' budget ran out below the threshold, unless another reason comes first
         start = z_hat.copy()
         for _ in range(POINTS):
             guess = z_hat + slope * side * d
@@ -171,18 +182,19 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
             evals += n
             delta = c2 - chi2_min
             if delta < -max(tolerance, FLAT) and (better is None or c2 < better):
-                better = c2  # the estimate is not the optimum along this parameter: its profile means little
+                better, better_z, stop = c2, tuple(float(v) for v in z), "better"  # the estimate is not the optimum
                 break
             delta = max(delta, 0.0)
             peak = max(peak, delta)
             points.append((side * d, delta))
             if abs(delta - level) <= tolerance:
-                end = side * d
+                end, stop = side * d, "end"
                 break
             if delta < level:
                 inner, start = (d, math.sqrt(delta)), z
-                if d >= limit - 1e-12:
-                    break  # open on this side
+                if d >= limit - 1e-12:  # open on this side: followed to the full search, or stopped by the bound
+                    stop = "search" if limit >= search - 1e-12 else "bound"
+                    break
                 if outer is None:
                     grow = math.sqrt(level / delta) if delta > 1e-12 else 3.0
                     d = min(d * min(max(grow, 1.1), 3.0), limit)
@@ -194,21 +206,26 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
             d = min(max(d, a + 1e-3 * (b - a)), b - 1e-3 * (b - a))
         else:
             if outer is not None:  # the bracket is tight enough: take its interpolated end
-                end = side * d
+                end, stop = side * d, "end"
         ends.append(end)
+        stops.append(stop)
         if better is not None:
             break
     ends += [None] * (2 - len(ends))
+    stops += [""] * (2 - len(stops))
+    if better is not None:  # not the optimum: no interval is claimed on either side
+        ends = [None, None]
     to_theta = lambda phi: float(ref.objective.theta(np.r_[z_hat[:i], phi, z_hat[i + 1:]])[i])  # noqa: E731
     lo, hi = (None if e is None else to_theta(z_hat[i] + e) for e in ends)
     if ref.theta[i] < 0:  # theta = -exp(phi): the order flips
         lo, hi = hi, lo
+        stops.reverse()
     shape = ("not-optimal" if better is not None else "closed" if lo is not None and hi is not None else "flat" if peak < FLAT
              else "open-low" if lo is None and hi is not None else "open-high" if hi is None and lo is not None
              else "open")
     pts = tuple(sorted((to_theta(z_hat[i] + d), float(v)) for d, v in points))
     return Profile(name=name, estimate=float(ref.theta[i]), interval=(lo, hi), shape=shape, points=pts,
-                   evaluations=evals, better=better, threshold=level)
+                   evaluations=evals, better=better, threshold=level, sides=(stops[0], stops[1]), better_z=better_z)
 
 
 def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress: Any = None,
@@ -360,15 +377,40 @@ def judge(prof: Profile, *, band: float = BAND) -> str | None:
     if prof.shape == "not-optimal":
         return ("a point of its profile fits the data better than the estimate: the estimate is not the maximum "
                 "of the likelihood along it, so no interval is claimed")
-    if prof.shape == "flat":
+    reach = (prof.points[0][0], prof.points[-1][0]) if prof.points else (est, est)  # the farthest points followed
+    open_sides = [(s, why, th) for s, why, th, e in (("low", prof.sides[0], reach[0], lo),
+                                                     ("high", prof.sides[1], reach[1], hi)) if e is None]
+    if not open_sides:
+        if lo < est - band * abs(est) or hi > est + band * abs(est):
+            return (f"its 95 % profile-likelihood interval [{lo:.4g}, {hi:.4g}] is wider than +-{100 * band:g} % of "
+                    f"the estimate {est:.4g}")
+        return None
+    full = all(why in ("search", "") for _, why, _ in open_sides)  # "": an old profile without the record
+    if prof.shape == "flat" and full:
         return (f"flat profile likelihood (chi2 rises by less than {FLAT:g} within a factor "
                 f"{math.exp(SEARCH):.0f} of the estimate): these data cannot identify it at all (a structural or "
                 f"record-wide non-identifiability)")
-    if lo is None or hi is None:
-        side = " and ".join(s for s, e in (("low", lo), ("high", hi)) if e is None)
-        return (f"its profile likelihood stays below the 95 % threshold up to a factor {math.exp(SEARCH):.0f} on the "
-                f"{side} side: practically non-identifiable from these data")
-    if lo < est - band * abs(est) or hi > est + band * abs(est):
-        return (f"its 95 % profile-likelihood interval [{lo:.4g}, {hi:.4g}] is wider than +-{100 * band:g} % of the "
-                f"estimate {est:.4g}")
-    return None
+    said = "; ".join(_side_said(side, why, th) for side, why, th in open_sides)
+    if prof.shape == "flat":
+        return (f"its profile likelihood rises by less than {FLAT:g} as far as it was followed ({said}): the data "
+                f"were not seen to bound it")
+    if full:
+        return f"{said}: practically non-identifiable from these data"
+    return f"{said}: no 95 % interval is claimed on that side"
+
+
+def _side_said(side: str, why: str, theta: float) -> str:
+    """Why the profile search stopped on one open ``side`` at ``theta`` (:attr:`Profile.sides`).
+
+    >>> _side_said("low", "bound", 25.0)
+    'on the low side the search stopped at the edge of the valid region (25, a factor 100 from the guess) with the profile still below the 95 % threshold: the bound, not the data, ended it; start from a guess nearer the estimate'
+    """
+    if why == "bound":
+        return (f"on the {side} side the search stopped at the edge of the valid region ({theta:.4g}, a factor 100 "
+                f"from the guess) with the profile still below the 95 % threshold: the bound, not the data, ended "
+                f"it; start from a guess nearer the estimate")
+    if why == "points":
+        return (f"on the {side} side the profile stays below the 95 % threshold as far as its {POINTS} points "
+                f"followed it ({theta:.4g})")
+    return (f"its profile likelihood stays below the 95 % threshold up to a factor {math.exp(SEARCH):.0f} on the "
+            f"{side} side ({theta:.4g})")

@@ -185,7 +185,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         params.append(ParameterEstimate(name=p, guess=float(setup.guess[p]), estimate=est, std=std, held=is_held,
                                         flagged=flagged, reason="; ".join(w for w in why if w) or None,
                                         true=tru, error=err, error_kind=kind,
-                                        interval=None if prof is None else prof.interval,
+                                        interval=None if prof is None or prof.shape in _NO_INTERVAL else prof.interval,
                                         interval_method=None if prof is None else
                                         f"profile likelihood, 95 % (chi2(1) threshold 3.84{_widened(prof)}), {prof.shape}"))
     try:
@@ -222,6 +222,10 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
         y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs,
         converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
+
+
+#: Profile shapes that claim no interval (none is printed or written for them).
+_NO_INTERVAL = ("not-optimal", "not-computed")
 
 
 def _widened(prof: Profile) -> str:
