@@ -86,10 +86,16 @@ class DUKF(UKF):
             raise EstimatorError(f"band must be >= 0, got {self.band!r}")
         object.__setattr__(self, "band", band)
 
+    @property
+    def _table(self) -> BranchTable:
+        """The branch table (checked when built, never None)."""
+        assert self.table is not None  # __post_init__ refuses a DUKF without one
+        return self.table
+
     def frozen_coordinates(self, signs: Sequence[int]) -> tuple[bool, ...]:
         """For the filter coordinates (states, then parameter coordinates): frozen in this branch?"""
-        frozen_params = {p for p, f in zip(self.model.parameters, self.table.frozen_mask(signs)) if f}
-        coords = tuple(bool(dep) and set(dep) <= frozen_params for dep in self.coordinates.depends)
+        frozen_params = {p for p, f in zip(self.model.parameters, self._table.frozen_mask(signs)) if f}
+        coords = tuple(bool(dep) and set(dep) <= frozen_params for dep in self._coordinates.depends)
         return (False,) * self.model.nx + coords
 
     def _extra_key(self) -> tuple:
@@ -100,8 +106,9 @@ class DUKF(UKF):
 
     def _active_and_signs(self, z: ca.MX, u: ca.MX, prev: ca.MX, scale: ca.MX) -> tuple[ca.MX, ca.MX]:
         g = self._switching_at(z, u, scale)
-        matched, active = 0, 0
-        for b in self.table.branches:
+        matched: Any = 0  # casadi expressions once the first branch is added
+        active: Any = 0
+        for b in self._table.branches:
             hit = 1
             for j, s in enumerate(b.signs):
                 hit = ca.logic_and(hit, s * g[j] > self.band[j])
@@ -112,9 +119,8 @@ class DUKF(UKF):
 
     def branch_labels(self, signs: np.ndarray) -> list[str]:
         """Branch label per row of ``Trajectory.signs`` (``""`` on a switching surface)."""
-        lookup = {tuple(b.signs): b.label for b in self.table.branches}
+        lookup = {tuple(b.signs): b.label for b in self._table.branches}
         out = []
         for row in np.atleast_2d(signs):
-            key = tuple(int(v) for v in row) if np.all(np.isfinite(row)) else None
-            out.append(lookup.get(key, ""))
+            out.append(lookup.get(tuple(int(v) for v in row), "") if np.all(np.isfinite(row)) else "")
         return out

@@ -97,9 +97,9 @@ def intersample_kinds(spec: Any, inputs: Sequence[str], *, table: Mapping[str, s
     obsnl.errors.OptionError: intersample kind 'cubic' for u is unknown; use zoh, linear or bandlimited
     """
     names = list(inputs)
-    base = list((table or {}).items())
+    base: list[tuple[str | None, Any]] = list((table or {}).items())
     if spec is None:
-        items: list[tuple[str | None, Any]] = base
+        items = base
     elif isinstance(spec, str):
         items = [_item(spec)]
     elif isinstance(spec, Mapping):

@@ -277,8 +277,8 @@ def jit_compile(fn: ca.Function) -> ca.Function:
     gen = ca.CodeGenerator(f"{name}.c", {"with_header": False})
     gen.add(fn)
     code = gen.dump()
-    key = hashlib.sha256("\n".join([ca.__version__, *FLAGS, _compiler_identity(), _machine(),
-                                    code]).encode()).hexdigest()[:32]
+    version = ca.__version__  # type: ignore[attr-defined]  # casadi's stubs omit the module's __version__
+    key = hashlib.sha256("\n".join([version, *FLAGS, _compiler_identity(), _machine(), code]).encode()).hexdigest()[:32]
     if key in _LOADED:
         return _LOADED[key]
     folder = cache_directory()

@@ -35,6 +35,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+from numpy import ndarray  # the class's own ``np`` (its number of parameters) hides the module inside it
 
 from obsnl.errors import ModelError
 from obsnl.estimation.crossing import heun3, located_substep, surface_start
@@ -183,7 +184,7 @@ class NumericModel:
     def ny(self) -> int:
         return len(self.outputs)
 
-    def nominal(self, names: Sequence[str]) -> np.ndarray:
+    def nominal(self, names: Sequence[str]) -> ndarray:
         """The nominal values of ``names`` (from the model file); error naming a missing one."""
         missing = [n for n in names if n not in self.values]
         if missing:
@@ -326,22 +327,21 @@ class NumericModel:
                                       locate=locate)
         out = {}
         for name, fn in parts.items():
-            sym = ca.SX if fn.is_a("SXFunction") else ca.MX
+            sym: Any = ca.SX if fn.is_a("SXFunction") else ca.MX  # the piece's own kind: its symbols are SX or MX
             first = 2 if name == "stiff" else 1  # stiff(x, x_rk4, p, u0, u1, ...): the input after two states
             head = [sym.sym(fn.name_in(i), fn.size_in(i)) for i in range(first + 1)]
             U0, U1 = sym.sym("u0", self.nu), sym.sym("u1", self.nu)
             tail = [sym.sym(fn.name_in(i), fn.size_in(i)) for i in range(first + 3, fn.n_in())]
             pts = [U0[j * nu0:(j + 1) * nu0] for j in range(m + 1)]
             if name == "stiff":  # judged on the last piece, at the step's end point
-                outs = fn(*head, pts[m - 1], pts[m], *tail)
-                outs = [outs] if fn.n_out() == 1 else list(outs)
+                outs = fn.call([*head, pts[m - 1], pts[m], *tail])
             else:
                 x, flags = head[0], None
                 for j in range(m):
-                    res = fn(x, *head[1:], pts[j], pts[j + 1], *tail)
-                    res = [res] if fn.n_out() == 1 else list(res)
+                    res = fn.call([x, *head[1:], pts[j], pts[j + 1], *tail])
                     x = res[0]
                     flags = res[1:] if flags is None else [ca.logic_or(a, b) for a, b in zip(flags, res[1:])]
+                assert flags is not None  # a driven model's step has m >= 1 pieces
                 if name == "probe":  # refine only where no piece was stiff (a stiff one takes ROS2 throughout)
                     flags = [flags[0], ca.logic_and(flags[1], ca.logic_not(flags[0]))]
                 outs = [x, *(flags or [])]
@@ -398,8 +398,8 @@ class NumericModel:
         crossed = ca.SX(0.0)
         watch = [i for i in range(len(self.switching)) if not self.jumps or self.jumps[i]]
         track = track and len(watch) > 0
-        g_sel = (lambda xx, uu: self.g(xx, p, uu)[watch]) if track else None  # noqa: E731
-        g_prev = g_sel(x, u0) if track else None
+        g_sel = lambda xx, uu: self.g(xx, p, uu)[watch]  # noqa: E731 - called only when tracking
+        g_prev = g_sel(x, u0) if track else ca.SX()  # unused without tracking
         for i in range(n):
             ua = u0 + du * (i * h)
             ub = u0 + du * ((i + 1) * h)

@@ -29,7 +29,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from itertools import chain, repeat
 from pathlib import Path
-from typing import IO, NamedTuple
+from typing import IO, NamedTuple, cast
 
 import numpy as np
 
@@ -126,8 +126,12 @@ class Table(NamedTuple):
     bad_rows: int
 
 
-def read_table(p: Path, what: str,
-               choose: Callable[[list[str]], tuple[Mapping[str, int], Iterable[str]]]) -> Table:
+#: What a table reader's ``choose(header)`` returns: the chosen columns and the time columns, with or without the
+#: columns whose empty cells are missing samples.
+Chosen = tuple[Mapping[str, int], Iterable[str]] | tuple[Mapping[str, int], Iterable[str], Iterable[str]]
+
+
+def read_table(p: Path, what: str, choose: Callable[[list[str]], Chosen]) -> Table:
     """The numbers of some columns of a CSV file with a header line (shared by the record and data readers).
 
     The header is the first line that is not blank; its separator is the one of :data:`SEPARATORS` it uses
@@ -314,7 +318,8 @@ def _open_text(p: Path, what: str) -> Iterator[IO[str]]:
         try:
             yield f
         except UnicodeDecodeError:
-            raise DataError(f"{where} is not UTF-8 text (byte {_not_utf8(f.buffer)}); save it as UTF-8") from None
+            raw = cast(IO[bytes], f.buffer)  # a file opened as text reads through a BufferedReader, which seeks
+            raise DataError(f"{where} is not UTF-8 text (byte {_not_utf8(raw)}); save it as UTF-8") from None
 
 
 def _lines(f: IO[str], where: str) -> Iterator[tuple[int, str]]:

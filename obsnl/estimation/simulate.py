@@ -80,10 +80,12 @@ def call(fn: ca.Function, args: Sequence[Any]) -> list[np.ndarray]:
     flat = [np.ascontiguousarray(_dense_input(fn, i, a).reshape(-1, order="F")) for i, a in enumerate(args)]
     nz = [np.zeros(fn.nnz_out(j)) for j in range(fn.n_out())]
     buf, evaluate = fn.buffer()
+    # casadi's stubs list a size after the buffer, which its wrapper takes from the memoryview (a third argument
+    # is refused at run time); ``a.data`` is the array's memoryview
     for i, a in enumerate(flat):  # the arrays stay referenced until the evaluation is done
-        buf.set_arg(i, memoryview(a))
+        buf.set_arg(i, a.data)  # type: ignore[call-arg]
     for j, r in enumerate(nz):
-        buf.set_res(j, memoryview(r))
+        buf.set_res(j, r.data)  # type: ignore[call-arg]
     evaluate()
     if buf.ret() != 0:
         raise EstimatorError(f"the evaluation of {fn.name()!r} failed (return code {buf.ret()})")
@@ -151,7 +153,7 @@ def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, 
         if jit:  # one step in C; the fallbacks stay conditional (evaluated only where needed)
             Xs, Ps = ca.MX.sym("x", model.nx), ca.MX.sym("p", model.np)
             Ua, Ub = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
-            step = jit_compile(ca.Function(step.name(), [Xs, Ps, Ua, Ub], step(Xs, Ps, Ua, Ub)))
+            step = jit_compile(ca.Function(step.name(), [Xs, Ps, Ua, Ub], step.call([Xs, Ps, Ua, Ub])))
         one = ca.Function("simulation", [X, P, U0, U1], [step.mapaccum(T - 1)(X, P, U0, U1)[0]])
         return one if n == 1 else one.map(n, "serial")
 

@@ -203,27 +203,33 @@ class UKF:
 
     # ------------------------------------------------------------------ sizes, coordinates
     @property
+    def _coordinates(self) -> ParameterMap:
+        """The parameter coordinates: those given, else the identity (set once built, never None)."""
+        assert self.coordinates is not None  # __post_init__ sets the identity map where none was given
+        return self.coordinates
+
+    @property
     def size(self) -> int:
         """Length ``L`` of the filter state (states + parameter coordinates)."""
-        return self.model.nx + len(self.coordinates.names)
+        return self.model.nx + len(self._coordinates.names)
 
     @property
     def names(self) -> tuple[str, ...]:
-        return self.model.states + self.coordinates.names
+        return self.model.states + self._coordinates.names
 
     def with_options(self, **changes: Any) -> UKF:
         """A copy with some options changed (compiled functions are reused where possible)."""
         return replace(self, **changes)
 
     def to_z(self, x: Any, theta: Any) -> np.ndarray:
-        return np.concatenate([np.asarray(x, float) / self.state_scale, self.coordinates.to_phi(theta)])
+        return np.concatenate([np.asarray(x, float) / self.state_scale, self._coordinates.to_phi(theta)])
 
     def split(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Model states and parameters of filter means ``z`` (``(L,)`` or ``(T, L)``)."""
         z, nx = np.atleast_2d(z), self.model.nx
-        key = ("forward", id(self.coordinates), len(z))
+        key = ("forward", id(self._coordinates), len(z))
         if key not in self.cache:  # keeps the coordinates alive with it: their id stays unique
-            self.cache[key] = (self.coordinates, self.coordinates.forward.map(len(z)))
+            self.cache[key] = (self._coordinates, self._coordinates.forward.map(len(z)))
         th = call(self.cache[key][1], [z[:, nx:].T])[0].T
         return z[:, :nx] * self.state_scale, th
 
@@ -256,7 +262,7 @@ class UKF:
 
     def _switching_at(self, z: ca.MX, u: ca.MX, scale: ca.MX) -> ca.MX:
         nx = self.model.nx
-        return self.model.g(z[:nx] * scale, self.coordinates.forward(z[nx:]), u)
+        return self.model.g(z[:nx] * scale, self._coordinates.forward(z[nx:]), u)
 
     def _cross(self) -> str:
         return "zero"  # nothing is ever frozen in the UKF: both rules coincide, "zero" is cheaper
@@ -264,7 +270,7 @@ class UKF:
     def _compiled(self) -> ca.Function:
         key = self._key()
         if key not in self.cache:
-            core = build_step(self.model, self.coordinates, self.dt, method=self.method, substeps=self.substeps,
+            core = build_step(self.model, self._coordinates, self.dt, method=self.method, substeps=self.substeps,
                               cross=self._cross(), refine=self.refine, locate=self.locate)
             L, m, nu, ny = self.size, len(self.model.switching), self.model.nu, self.model.ny
             z, P, prev = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("prev", L)
@@ -291,7 +297,7 @@ class UKF:
         """1 for coordinates the filter may estimate, 0 for those held fixed (``fixed``)."""
         held = set(self.fixed)
         return np.array([0.0 if dep and set(dep) <= held else 1.0
-                         for dep in ((),) * self.model.nx + self.coordinates.depends])
+                         for dep in ((),) * self.model.nx + self._coordinates.depends])
 
     def _hyp(self) -> np.ndarray:
         return np.array([self.alpha, self.beta, self.kappa, self.gate], float)
@@ -334,7 +340,7 @@ class UKF:
             acc = step.mapaccum("run", T - 1, 3, {})
             ins = [ca.MX.sym(f"i{j}", *(step.size_in(j) if j not in (3, 4, 5) else acc.size_in(j)))
                    for j in range(step.n_in())]
-            one = ca.Function("one_run", ins, acc(*ins))
+            one = ca.Function("one_run", ins, acc.call(ins))
             self.cache[key] = one if n == 1 else one.map(n, "serial")
         return self.cache[key]
 
