@@ -45,7 +45,7 @@ Noise levels: the fit starts with the given or estimated noise per channel, then
 the noise of the fit's residuals, ``sigma_c^2 = RSS_c / (N_c - h_c)`` (``N_c`` its samples measured; the
 concentrated likelihood of unknown channel variances, over the residual degrees of freedom: ``h_c`` is the fitted coordinates' share of channel
 ``c``, :func:`obsnl.identification.refine.residual_dof`; the maximum-likelihood ``RSS_c / N`` is low by them
-and made every std too small by ``sqrt(N / (N - h_c))``), floored at :data:`NOISE_FLOOR` of the channel's RMS (below it the residual is
+and made every std too small by ``sqrt(N / (N - h_c))``), floored at :data:`NOISE_FLOOR` of the channel's standard deviation (below it the residual is
 the integrator's error, not noise), and refits. The Fisher information ``J'J`` at the optimum, with those
 weights, gives the standard deviations of the output noise; noise on the measured inputs adds
 ``C A' S A C`` (:meth:`Objective.input_covariance`: the fit runs on the measured input, so its minimiser
@@ -87,7 +87,7 @@ STEP_LIMIT = 0.1
 #: A damped step that fails to lower chi2 when a full Gauss-Newton step could gain at most this much ends the
 #: iteration: the objective's own roughness (switches of a discontinuous field inside a step) is of that size.
 ROUGH = 0.1
-#: Floor of the re-estimated noise std, relative to each output's RMS: a smaller residual is the error of the
+#: Floor of the re-estimated noise std, relative to each output's standard deviation (its variation, not its offset): a smaller residual is the error of the
 #: integrator (RK4 substeps against the true flow), not noise, and a noise level below it would give intervals
 #: narrower than the model's own numerical precision (on noise-free data they missed the truth).
 NOISE_FLOOR = 1e-5

@@ -175,7 +175,8 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         fit = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter)
         iterations += fit.iterations
         res = fit.r.reshape(-1, m.ny) * obj.sigma
-        floor = NOISE_FLOOR * np.sqrt(np.nanmean(np.asarray(data.y, float) ** 2, axis=0))
+        # the integrator's error scales with the response's variation, not with its offset (a position far from 0)
+        floor = NOISE_FLOOR * np.nanstd(np.asarray(data.y, float), axis=0)
         # a missing output sample (a zero row of J, a zero residual) counts in no N: N_c is the samples measured
         dof = np.maximum(residual_dof(fit.J[:, free], m.ny) - (len(data.u) - obj.measured), 1.0)
         sigma = np.maximum(np.sqrt(np.sum(res ** 2, axis=0) / dof), np.maximum(floor, 1e-300))
