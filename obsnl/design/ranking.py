@@ -229,10 +229,10 @@ def rank_sensor_sets(model: Model | NumericModel, sets: Sequence[Sequence[str]],
     """
     t0 = time.perf_counter()
     num = _numeric(model)
-    sets = [tuple(s) for s in sets]
-    if not sets or any(not s for s in sets):
+    candidates = [tuple(s) for s in sets]
+    if not candidates or any(not s for s in candidates):
         raise OptionError("give at least one sensor set, each of at least one output")
-    unknown = sorted({o for s in sets for o in s} - set(num.outputs))
+    unknown = sorted({o for s in candidates for o in s} - set(num.outputs))
     if unknown:
         raise OptionError(f"{', '.join(map(repr, unknown))} is not an output of {num.name!r}; the candidate "
                           f"sensors are {', '.join(num.outputs)}")
@@ -257,15 +257,16 @@ def rank_sensor_sets(model: Model | NumericModel, sets: Sequence[Sequence[str]],
                   refine=refine, fit_substeps=substeps)
     data = Data(seed=None, u=u, y=setup.y_true)
     obj = objective(setup, data, theta=theta, substeps=substeps, sigma=np.ones(num.ny))
-    _, J = obj.evaluate(np.r_[setup.coordinates.to_phi(theta), np.zeros(num.nx)])
-    J = J.reshape(len(t), num.ny, -1)
+    _, jac = obj.evaluate(np.r_[coords.to_phi(theta), np.zeros(num.nx)])
+    assert jac is not None  # evaluate returns the Jacobian unless told not to
+    J = jac.reshape(len(t), num.ny, -1)
     keep = [num.parameters.index(p) for p in ranked] + (list(range(num.np, num.np + num.nx)) if estimate_x0 else [])
     J = J[:, :, keep]
     rms = np.sqrt(np.mean(np.asarray(setup.y_true, float).reshape(len(t), -1) ** 2, axis=0))
     sigma = levels * rms
     weight = np.where(sigma > 0, 1.0 / np.where(sigma > 0, sigma, 1.0), 0.0)  # a silent output informs nothing
     rows = []
-    for s in sets:
+    for s in candidates:
         idx = [num.outputs.index(o) for o in s]
         C, _ = covariance((J[:, idx, :] * weight[idx][None, :, None]).reshape(-1, len(keep)))
         std = np.sqrt(np.diag(C)[:len(ranked)])
