@@ -22,7 +22,7 @@ methods, the goals of issue 40, times), ``model.toml``, the two runs' ``identify
 (the test record: overlay with a zoom, error, error spectrum) and ``loop.png`` (the hysteresis loop).
 
 Run from the repository root: ``python benchmarks/bench_boucwen.py [--samples N] [--workers 2] [--out DIR]
-[--force]``.
+[--reuse]``.
 """
 
 from __future__ import annotations
@@ -93,30 +93,32 @@ def _identify(model: obsnl.Model, data: dict[str, np.ndarray], kind: str, worker
     return res, time.perf_counter() - t0
 
 
-def _rows(res: obsnl.Identification) -> list[str]:
+def _rows(doc: dict) -> list[str]:
+    """The table rows of one run, from its identify.json."""
     rows = []
-    for p in res.parameters:
-        truth = TRUTH[p.name]
-        err = 100 * (p.estimate - truth) / abs(truth)
-        z = (p.estimate - truth) / p.std if p.std else math.nan
-        lo, hi = p.interval or (None, None)
+    for p in doc["parameters"]:
+        truth = TRUTH[p["name"]]
+        err = 100 * (p["estimate"] - truth) / abs(truth)
+        z = (p["estimate"] - truth) / p["std"] if p["std"] else math.nan
+        lo, hi = p["interval"] or (None, None)
         covers = (lo is None or lo <= truth) and (hi is None or truth <= hi)
         iv = f"[{'open' if lo is None else f'{lo:.6g}'}, {'open' if hi is None else f'{hi:.6g}'}]"
-        rows.append(f"| {p.name} | {truth:.6g} | {p.guess:.6g} | {p.estimate:.6g} | {err:+.3f} | {p.std:.3g} | "
-                    f"{z:+.2f} | {iv} | {'yes' if covers else 'NO'} | {'yes: ' + (p.reason or '') if p.flagged else 'no'} |")
+        flag = "yes: " + (p["reason"] or "") if p["flagged"] else "no"
+        rows.append(f"| {p['name']} | {truth:.6g} | {p['guess']:.6g} | {p['estimate']:.6g} | {err:+.3f} | "
+                    f"{p['std']:.3g} | {z:+.2f} | {iv} | {'yes' if covers else 'NO'} | {flag} |")
     return rows
 
 
-def _stats(res: obsnl.Identification) -> dict[str, object]:
+def _stats(doc: dict) -> dict[str, object]:
     errs, zs, cover = [], [], 0
-    for p in res.parameters:
-        truth = TRUTH[p.name]
-        errs.append(abs(p.estimate - truth) / abs(truth))
-        zs.append(abs(p.estimate - truth) / p.std if p.std else math.inf)
-        lo, hi = p.interval or (None, None)
+    for p in doc["parameters"]:
+        truth = TRUTH[p["name"]]
+        errs.append(abs(p["estimate"] - truth) / abs(truth))
+        zs.append(abs(p["estimate"] - truth) / p["std"] if p["std"] else math.inf)
+        lo, hi = p["interval"] or (None, None)
         cover += (lo is None or lo <= truth) and (hi is None or truth <= hi)
     return {"worst_error": max(errs), "worst_z": max(zs), "outside": len(errs) - cover,
-            "flagged": [p.name for p in res.parameters if p.flagged]}
+            "flagged": [p["name"] for p in doc["parameters"] if p["flagged"]]}
 
 
 def _test_score(model: obsnl.Model, estimates: dict[str, float]) -> tuple[object, float, float, float]:
@@ -171,12 +173,12 @@ def _figures(out: Path, val: object, n: int) -> None:
     plt.close(fig)
 
 
-def _adequacy_line(res: obsnl.Identification) -> str:
-    a = res.adequacy
-    if a is None:
+def _adequacy_line(doc: dict) -> str:
+    a = doc.get("adequacy")
+    if not a:
         return "not judged (no fit)"
-    tests = "; ".join(f"{t.name} {t.output}: p = {t.p_value:.2g}" for t in a.tests)
-    return f"**{'passed' if a.passed else 'FAILED'}** at level {a.level:g} ({tests})"
+    tests = "; ".join(f"{t['name']} {t['output']}: p = {t['p_value']:.2g}" for t in a["tests"])
+    return f"**{'passed' if a['passed'] else 'FAILED'}** at level {a['level']:g} ({tests})"
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -184,7 +186,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--samples", type=int, default=None, help="only the first samples of the training record")
     ap.add_argument("--workers", type=int, default=2)
     ap.add_argument("--out", default=str(ROOT / "reports" / "benchmarks" / "boucwen"))
-    ap.add_argument("--force", action="store_true")
+    ap.add_argument("--reuse", action="store_true", help="take the identifications from the identify.json, "
+                    "summary.txt and seconds.txt of an earlier run in --out (only the test record is simulated again)")
     a = ap.parse_args(argv)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -192,33 +195,39 @@ def main(argv: list[str] | None = None) -> int:
     model = obsnl.read_model(out / "model.toml")
     data = _record(DATA / "train_multisine.csv", a.samples)
     load = os.getloadavg()[0]
-    runs = {}
+    runs: dict[str, tuple[dict, float, str]] = {}  # kind -> (identify.json, seconds, the printed summary)
     for kind in ("bandlimited", "linear"):
+        folder = out / kind
+        if a.reuse:
+            runs[kind] = (json.loads((folder / "identify.json").read_text()),
+                          float((folder / "seconds.txt").read_text()), (folder / "summary.txt").read_text())
+            continue
         print(f"identify, input {kind} between samples ...", file=sys.stderr, flush=True)
         res, secs = _identify(model, data, kind, a.workers)
-        runs[kind] = (res, secs)
-        folder = out / kind
         folder.mkdir(exist_ok=True)
         write_identification(res, folder, force=True)
+        (folder / "seconds.txt").write_text(f"{secs:.2f}\n")
+        (folder / "summary.txt").write_text(res.summary() + "\n")
+        runs[kind] = (res.to_dict(), secs, res.summary())
         print(f"  {secs:.1f} s; {res.summary().splitlines()[0]}", file=sys.stderr)
     best = runs["bandlimited"][0]
-    estimates = {p.name: p.estimate for p in best.parameters}
+    estimates = {p["name"]: p["estimate"] for p in best["parameters"]}
     val, rmse, db, val_secs = _test_score(model, estimates)
     _figures(out, val, PERIOD)
     commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=ROOT).stdout
-    st = {k: _stats(r) for k, (r, _) in runs.items()}
+    st = {k: _stats(r) for k, (r, _, _) in runs.items()}
     bl = st["bandlimited"]
     goals = [
         ("m, c, k, alpha, Delta1, Delta2 each within 0.5 % of the published truth", bl["worst_error"] <= 0.005,
          f"worst {100 * bl['worst_error']:.3f} %"),
         ("each within 4 of its reported std", bl["worst_z"] <= 4, f"worst {bl['worst_z']:.2f} std"),
         ("at most one of the six outside its 95 % interval", bl["outside"] <= 1, f"{bl['outside']} outside"),
-        ("adequacy passed", bool(best.adequacy and best.adequacy.passed), _adequacy_line(best)),
+        ("adequacy passed", bool(best.get("adequacy") and best["adequacy"]["passed"]), _adequacy_line(best)),
         ("nothing flagged", not bl["flagged"], ", ".join(bl["flagged"]) or "none"),
         ("test RMSE in simulation below 5e-6 m", rmse < 5e-6, f"{rmse:.3g} m"),
         ("the linear run fails adequacy and says so first",
-         bool(runs["linear"][0].adequacy and not runs["linear"][0].adequacy.passed
-              and "does not explain" in runs["linear"][0].summary().splitlines()[0]),
+         bool(runs["linear"][0].get("adequacy") and not runs["linear"][0]["adequacy"]["passed"]
+              and "does not explain" in runs["linear"][2].splitlines()[0]),
          _adequacy_line(runs["linear"][0])),
         ("the band-limited identification under 60 s", runs["bandlimited"][1] < 60, f"{runs['bandlimited'][1]:.1f} s"),
     ]
@@ -238,10 +247,10 @@ def main(argv: list[str] | None = None) -> int:
         "",
     ]
     for kind in ("bandlimited", "linear"):
-        res, secs = runs[kind]
+        doc, secs, text = runs[kind]
         lines += [f"## Input {kind} between samples ({secs:.1f} s, `{kind}/identify.json`)", "",
-                  "```", res.summary(), "```", "", *head, *_rows(res), "",
-                  f"Adequacy: {_adequacy_line(res)}. Converged: {res.converged}.", ""]
+                  "```", text.rstrip("\n"), "```", "", *head, *_rows(doc), "",
+                  f"Adequacy: {_adequacy_line(doc)}. Converged: {doc['converged']}.", ""]
     lines += [
         "## Test record: simulation error against the published methods",
         "",
@@ -261,7 +270,7 @@ def main(argv: list[str] | None = None) -> int:
     (out / "README.md").write_text("\n".join(lines) + "\n")
     (out / "summary.json").write_text(json.dumps({
         "goals": [{"goal": g, "met": bool(ok), "value": why} for g, ok, why in goals],
-        "test_rmse": rmse, "seconds": {k: s for k, (_, s) in runs.items()}, "load": load}, indent=2) + "\n")
+        "test_rmse": rmse, "seconds": {k: s for k, (_, s, _) in runs.items()}, "load": load}, indent=2) + "\n")
     print(f"wrote {out}/README.md", file=sys.stderr)
     return 0
 
