@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import errno
 from collections.abc import Callable, Iterable, Sequence
+from typing import TypeVar
 
 __all__ = ["WIDTH", "LINES", "SHOWN", "shorten", "quote", "quoted", "names", "number", "numbers", "probability_text",
            "plain_float", "bound", "one_line", "block", "verdict_words", "os_error_line"]
@@ -72,17 +73,20 @@ def quote(value: object, limit: int = SHOWN) -> str:
     return shorten(repr(value), limit)
 
 
-def names(items: Iterable[str], most: int | None = None, *, name: Callable[[str], str] = str) -> str:
+_Item = TypeVar("_Item")
+
+
+def names(items: Iterable[_Item], most: int | None = None, *, name: Callable[[_Item], str] = str) -> str:
     """Names joined by commas, ``"none"`` for none, cut after ``most`` with the number left out.
 
     Parameters
     ----------
-    items : iterable of str
-        The names.
+    items : iterable
+        The names (or any values ``name`` writes).
     most : int or None
         Names shown at most (None: all).
     name : callable
-        How one name is written (e.g. as LaTeX).
+        How one name is written (e.g. as LaTeX; default ``str``).
 
     Returns
     -------
@@ -136,7 +140,8 @@ def number(x: float | complex | None) -> str:
     """
     if x is None:
         return "n/a"
-    if isinstance(x, complex) or getattr(x, "imag", 0):
+    imag = getattr(x, "imag", 0)  # a numpy number has one too
+    if isinstance(x, complex) or imag:
         z = complex(x)
         return f"{z.real:.4g}{z.imag:+.4g}j" if z.imag else f"{z.real:.4g}"
     return f"{float(x):.4g}"
