@@ -14,6 +14,7 @@ from obsnl.errors import (
     CompileError,
     DataError,
     EstimatorError,
+    ExecutorError,
     ModelError,
     NotSupportedError,
     ObsnlError,
@@ -94,4 +95,5 @@ __all__ = [
     "CompileError",
     "OptionError",
     "OutputError",
+    "ExecutorError",
 ]

@@ -69,7 +69,8 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
     if executor is None or executor.kind == "serial":
         results = tuple(analyze(m, method=method, seed=seed, max_seconds=max_seconds) for m in models)
     else:
-        results = tuple(executor.map(_analyze_task, [(m.to_dict(), method, seed, max_seconds) for m in models]))
+        results = tuple(executor.map(_analyze_task, [(m.to_dict(), method, seed, max_seconds) for m in models],
+                                     label=lambda task: f"the analysis of model {task[0]['name']!r}"))
     write_tables(results, out, force=force)
     return results
 

@@ -24,6 +24,7 @@ __all__ = [
     "CompileError",
     "OptionError",
     "OutputError",
+    "ExecutorError",
     "in_terms",
 ]
 
@@ -73,6 +74,11 @@ class OptionError(ObsnlError, ValueError):
 class OutputError(ObsnlError, OSError):
     """Output cannot be written as asked: the file exists (pass ``--force``), a name is not a plain file
     name, a path would leave the folder the user named, a symlink would be followed."""
+
+
+class ExecutorError(ObsnlError, RuntimeError):
+    """Parallel work cannot finish: a worker process died (the message names its task), or a Dask cluster has no
+    worker or its scheduler stopped answering within the deadline. The message says what to do instead."""
 
 
 #: An option as messages name it: a Python keyword ``name=`` with an optional value (``True``, ``False``, a

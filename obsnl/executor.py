@@ -18,24 +18,33 @@ import signal
 import socket
 import struct
 import threading
+import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
 from typing import Any, TypeVar
 
 from obsnl._text import quote
-from obsnl.errors import OptionError
+from obsnl.errors import ExecutorError, ObsnlError, OptionError
 
 T = TypeVar("T")
 
 #: A Dask scheduler address: an optional scheme, a host name or address ([...] for IPv6), an optional port.
 _ADDRESS = re.compile(r"^(?:(?P<scheme>tcp|tls)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)(?::(?P<port>\d{1,5}))?$")
 
-__all__ = ["Executor", "spawn_seeds", "built_once", "MAX_WORKERS"]
+__all__ = ["Executor", "spawn_seeds", "built_once", "MAX_WORKERS", "DEADLINE"]
 
 #: Most local worker processes (each holds its own copy of the model and its compiled filters); past a
 #: machine integer the process pool itself fails with an OverflowError.
 MAX_WORKERS = 1024
+
+#: Seconds a Dask scheduler may take to answer, and a cluster may stay without a running worker while tasks
+#: wait, before the work is refused with one line (an :class:`~obsnl.errors.ExecutorError`).
+DEADLINE = 10.0
+
+#: What to do about a Dask scheduler that cannot run the work.
+_START = ("start one with `dask scheduler` and workers with `dask worker ADDRESS`, or leave scheduler= out "
+          "to run on this machine")
 
 
 @dataclass(frozen=True)
@@ -74,14 +83,22 @@ class Executor:
             _host_port(self.scheduler)
 
     def probe(self, timeout: float = 5.0) -> Executor:
-        """Refuse, at once, a scheduler address where no Dask scheduler answers (before any work starts).
+        """Refuse, within seconds, a Dask scheduler that cannot run the work (before any work starts).
 
-        A TCP connection is opened and the scheduler's side of the Dask handshake is read and checked
-        (a Dask server speaks first: a length-prefixed message of one small frame holding its
-        ``pickle-protocol``), at most ``timeout`` seconds each; then the connection is closed. Whatever
-        else answers (an HTTP server, whose first bytes read as a frame length of exbibytes, or a server
-        that stays silent) is refused with one line. ``tls://`` addresses are only connected to (their
-        handshake is encrypted). Local executors and client objects pass as they are.
+        For an address, a TCP connection is opened and the scheduler's side of the Dask handshake is read
+        and checked (a Dask server speaks first: a length-prefixed message of one small frame holding its
+        ``pickle-protocol``), at most ``timeout`` seconds each; whatever else answers (an HTTP server, whose
+        first bytes read as a frame length of exbibytes, or a server that stays silent) is refused with one
+        line. Then a Dask client registers with it (a scheduler that sent the handshake and went silent is
+        refused after ``timeout`` seconds), and the scheduler must have a worker, or gain one within
+        ``timeout`` seconds (a cluster with none would wait for ever). A ``distributed.Client`` given as
+        the scheduler is asked for its workers the same way. ``tls://`` addresses are only connected to (their
+        handshake is encrypted). Local executors pass as they are.
+
+        Parameters
+        ----------
+        timeout : float
+            Seconds allowed to each step (connecting, the handshake, the registration, a first worker).
 
         Returns
         -------
@@ -91,23 +108,25 @@ class Executor:
         Raises
         ------
         OptionError
-            The host is unknown, nothing listens at the address, or what answers is not a Dask scheduler.
+            The host is unknown, nothing listens at the address, what answers is not a Dask scheduler, the
+            scheduler stopped answering, or it has no worker.
 
         Examples
         --------
         >>> Executor(workers=1).probe().kind
         'serial'
         """
+        if self.scheduler is None:
+            return self
         if not isinstance(self.scheduler, str):
+            _need_workers(self.scheduler, _address(self.scheduler), timeout, OptionError)
             return self
         host, port = _host_port(self.scheduler)
-        fix = ("start one with `dask scheduler` and workers with `dask worker ADDRESS`, or leave scheduler= out "
-               "to run on this machine")
         try:
             sock = socket.create_connection((host, port), timeout=timeout)
         except OSError as exc:
-            raise OptionError(f"cannot reach the Dask scheduler {self.scheduler!r} ({exc.strerror or exc}); {fix}") \
-                from None
+            raise OptionError(f"cannot reach the Dask scheduler {self.scheduler!r} ({exc.strerror or exc}); "
+                              f"{_START}") from None
         with sock:
             if self.scheduler.strip().startswith("tls://"):
                 return self
@@ -118,7 +137,9 @@ class Executor:
             except OSError as exc:
                 why = f"the connection broke before the Dask handshake: {exc.strerror or exc}"
         if why:
-            raise OptionError(f"{self.scheduler!r} is not a Dask scheduler ({why}); {fix}")
+            raise OptionError(f"{self.scheduler!r} is not a Dask scheduler ({why}); {_START}")
+        if not _ask_scheduler(self.scheduler, timeout).get("n_workers"):
+            raise OptionError(_NO_WORKER.format(name=self.scheduler, seconds=timeout))
         return self
 
     @property
@@ -132,14 +153,44 @@ class Executor:
     def n_workers(self) -> int:
         return self.workers or os.cpu_count() or 1
 
-    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], *,
-            done: Callable[[int, Any], None] | None = None) -> list[Any]:
+    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], *, done: Callable[[int, Any], object] | None = None,
+            label: Callable[[Any], str] | None = None) -> list[Any]:
         """``[fn(t) for t in tasks]``, run where this executor says; ``done(i, result)`` as each finishes.
 
-        ``fn`` must be a module-level function (it is pickled by name for processes and Dask).
+        No path waits for ever: a local worker process that dies, a Dask cluster left without a running worker
+        or a scheduler that stops answering for :data:`DEADLINE` seconds, and a task that kills its Dask workers
+        each stop the work with one line (an :class:`~obsnl.errors.ExecutorError`) naming the task and what to do.
+
+        Parameters
+        ----------
+        fn : callable
+            A module-level function (it is pickled by name for processes and Dask).
+        tasks : sequence
+            Its arguments, one per task.
+        done : callable or None
+            Called in this process as ``done(i, result)`` when task ``i`` finishes.
+        label : callable or None
+            A task's name in messages (``label(task)``, e.g. "the profile of k"); default "task I of N (fn)".
+
+        Returns
+        -------
+        list
+            The results, in the order of ``tasks``.
+
+        Raises
+        ------
+        ExecutorError
+            A worker died or the Dask cluster cannot run the tasks (see above).
+        OptionError
+            The Dask scheduler cannot be reached.
+
+        Examples
+        --------
+        >>> Executor(workers=1).map(len, ["ab", "c"], label=repr)
+        [2, 1]
         """
         with self.session() as session:
-            return session.map(fn, tasks, done=done)
+            return session.map(fn, tasks, done=done, label=label)
 
     @contextmanager
     def session(self) -> Iterator[_Session]:
@@ -225,31 +276,59 @@ def _interrupt(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt(f"signal {signum}")
 
 
+def _start_queue(queue: Any) -> None:
+    """A worker process's start: keep the queue on which it says which task it begins."""
+    global _STARTED
+    _STARTED = queue
+
+
+_STARTED: Any = None  # in a worker process: the queue of (process id, map, task) it has begun
+
+
+def _tagged(job: tuple[Callable[[Any], Any], int, int, Any]) -> Any:
+    """``fn(task)`` in a worker process, said on the start queue first (so a worker that dies is named by its task)."""
+    fn, serial, i, task = job
+    if _STARTED is not None:
+        _STARTED.put((os.getpid(), serial, i))  # a few dozen bytes: one atomic write to the pipe
+    return fn(task)
+
+
+def _how(exitcode: int | None) -> str:
+    """How a worker process ended, in words."""
+    if exitcode is None:
+        return "it vanished"
+    if exitcode < 0:
+        try:
+            name = signal.Signals(-exitcode).name
+        except ValueError:
+            name = f"signal {-exitcode}"
+        return f"killed by {name}" + (" (the system may be out of memory)" if name == "SIGKILL" else "")
+    return f"exit code {exitcode}"
+
+
 class _Session:
     def __init__(self, ex: Executor) -> None:
         self.kind, self.pool, self.client, self.own = ex.kind, None, None, False
+        self.started: Any = None
+        self.procs: dict[int, Any] = {}
+        self.serial = 0
+        self.name = ex.scheduler if isinstance(ex.scheduler, str) else _address(ex.scheduler)
         if self.kind == "processes":
             import multiprocessing as mp
             from concurrent.futures import ProcessPoolExecutor
 
-            self.pool = ProcessPoolExecutor(max_workers=ex.n_workers, mp_context=mp.get_context("spawn"))
+            ctx = mp.get_context("spawn")
+            self.started = ctx.SimpleQueue()
+            self.pool = ProcessPoolExecutor(max_workers=ex.n_workers, mp_context=ctx, initializer=_start_queue,
+                                            initargs=(self.started,))
         elif self.kind == "dask":
-            try:
-                from distributed import Client
-            except ImportError:  # pragma: no cover
-                raise OptionError("scheduler= needs dask.distributed: pip install 'dask[distributed]'") from None
             self.own = isinstance(ex.scheduler, str)
-            try:
-                self.client = Client(ex.scheduler, timeout="30s") if self.own else ex.scheduler
-            except (OSError, ValueError) as exc:  # unreachable, or not an address at all
-                raise OptionError(f"cannot reach the Dask scheduler {ex.scheduler!r} ({exc}); give an address like "
-                                  f"tcp://HOST:8786, start one with `dask scheduler` and workers with "
-                                  f"`dask worker ADDRESS`") from None
+            self.client = _client(ex.scheduler, DEADLINE) if self.own else ex.scheduler
 
     def close(self, *, abort: bool = False) -> None:
         """Shut the workers down; ``abort`` (an interrupt, an error): stop them now, running tasks included."""
         if self.pool is not None:
-            procs = list((getattr(self.pool, "_processes", None) or {}).values())
+            procs = list({**self.procs, **(getattr(self.pool, "_processes", None) or {})}.values())
             self.pool.shutdown(wait=not abort, cancel_futures=True)
             if abort:
                 for p in procs:
@@ -260,38 +339,216 @@ class _Session:
                     if p.is_alive():  # pragma: no cover - a worker that ignores SIGTERM
                         p.kill()
                         p.join(timeout=5.0)
+            self.started.close()
         if self.client is not None and self.own:
-            self.client.close()
+            self.client.close(timeout=DEADLINE)
 
-    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], *,
-            done: Callable[[int, Any], None] | None = None) -> list[Any]:
+    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], *, done: Callable[[int, Any], object] | None = None,
+            label: Callable[[Any], str] | None = None) -> list[Any]:
         tasks = list(tasks)
         results: list[Any] = [None] * len(tasks)
+
+        def finished(i: int, value: Any) -> None:
+            results[i] = value
+            if done:
+                done(i, value)
+
+        def named(i: int) -> str:
+            return label(tasks[i]) if label else f"task {i + 1} of {len(tasks)} ({getattr(fn, '__name__', fn)})"
+
         if self.kind == "serial":
             for i, t in enumerate(tasks):
-                results[i] = fn(t)
-                if done:
-                    done(i, results[i])
-            return results
-        if self.kind == "processes":
-            from concurrent.futures import as_completed
-
-            futures = {self.pool.submit(fn, t): i for i, t in enumerate(tasks)}
-            for fut in as_completed(futures):
-                results[futures[fut]] = fut.result()
-                if done:
-                    done(futures[fut], results[futures[fut]])
-            return results
-        from distributed import as_completed as dask_completed
-
-        futures = self.client.map(fn, tasks, pure=False)
-        index = {f.key: i for i, f in enumerate(futures)}
-        for fut in dask_completed(futures):
-            i = index[fut.key]
-            results[i] = fut.result()
-            if done:
-                done(i, results[i])
+                finished(i, fn(t))
+        elif self.kind == "processes":
+            self._on_processes(fn, tasks, finished, named)
+        else:
+            self._on_dask(fn, tasks, finished, named)
         return results
+
+    def _on_processes(self, fn: Callable[[Any], Any], tasks: list[Any], finished: Callable[[int, Any], None],
+                      named: Callable[[int], str]) -> None:
+        """The tasks on the local pool; a worker that dies is named by the task it ran (an ExecutorError)."""
+        from concurrent.futures import FIRST_COMPLETED, wait
+        from concurrent.futures.process import BrokenProcessPool
+
+        self.serial += 1
+        begun: dict[int, int] = {}  # process id -> the task of this map it began last
+        over: set[int] = set()
+
+        def drain() -> None:  # the start queue read as it fills (a full pipe would block the workers)
+            while not self.started.empty():
+                pid, serial, i = self.started.get()
+                if serial == self.serial:
+                    begun[pid] = i
+
+        pool = self.pool
+        assert pool is not None  # a session of local processes
+        try:
+            futures = {pool.submit(_tagged, (fn, self.serial, i, t)): i for i, t in enumerate(tasks)}
+            self.procs.update(getattr(pool, "_processes", None) or {})
+            pending = set(futures)
+            while pending:
+                ready, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+                drain()
+                for fut in ready:
+                    finished(futures[fut], fut.result())
+                    over.add(futures[fut])
+        except BrokenProcessPool:
+            drain()
+            raise ExecutorError(self._died(begun, over, named)) from None
+
+    def _died(self, begun: dict[int, int], over: set[int], named: Callable[[int], str]) -> str:
+        """The one line for a worker process that died: which task it ran, how it ended, what to do."""
+        procs = {**self.procs, **(getattr(self.pool, "_processes", None) or {})}
+        running = {pid: i for pid, i in begun.items() if i not in over}
+        for pid in running:  # the pool stops the others (SIGTERM): each has ended, or does within a second
+            if pid in procs:
+                procs[pid].join(timeout=2.0)
+        dead = {pid: procs[pid].exitcode for pid in running
+                if pid in procs and procs[pid].exitcode not in (None, -signal.SIGTERM)}
+        if dead:
+            said = "; ".join(f"a worker process died ({_how(code)}) while running {named(running[pid])}"
+                             for pid, code in sorted(dead.items()))
+        elif running:
+            said = "a worker process died while running one of " + ", ".join(named(i) for i in sorted(running.values()))
+        else:
+            said = "a worker process died before its task began"
+        return (f"{said}; run it again with workers=1 (in this process, where its error shows), or with fewer "
+                f"workers if memory is short")
+
+    def _on_dask(self, fn: Callable[[Any], Any], tasks: list[Any], finished: Callable[[int, Any], None],
+                 named: Callable[[int], str]) -> None:
+        """The tasks on the Dask cluster, with a deadline: a cluster without a worker, or a scheduler that stops
+        answering, for :data:`DEADLINE` seconds is refused (an ExecutorError), as is a task that kills its workers."""
+        from concurrent.futures import CancelledError
+
+        from distributed import as_completed
+
+        try:
+            from distributed import KilledWorker
+        except ImportError:  # pragma: no cover - older dask.distributed
+            from distributed.scheduler import KilledWorker
+
+        client = self.client
+        assert client is not None  # a session on Dask
+        futures = client.map(fn, tasks, pure=False)
+        index = {f.key: i for i, f in enumerate(futures)}
+        flow, left, quiet, idle = as_completed(futures, loop=client.loop), len(futures), time.monotonic(), None
+        while left:
+            ready = flow.next_batch(block=False) if flow.has_ready() else []
+            for fut in ready:
+                i = index[fut.key]
+                try:
+                    value = fut.result()
+                except KilledWorker:
+                    raise ExecutorError(f"{named(i)} killed every Dask worker that ran it (it may exhaust their "
+                                        f"memory or crash); run it again with workers=1, in this process, where its "
+                                        f"error shows") from None
+                except CancelledError:
+                    raise ExecutorError(f"the Dask scheduler {self.name!r} dropped {named(i)} (restarted, or the "
+                                        f"connection broke); run again, or leave scheduler= out to run on this "
+                                        f"machine") from None
+                finished(i, value)
+                left -= 1
+            if ready:
+                quiet, idle = time.monotonic(), None
+                continue
+            time.sleep(0.05)
+            if time.monotonic() - quiet < 1.0:  # the cluster asked about after a second without a result
+                continue
+            quiet = time.monotonic()
+            if _workers(client, self.name, DEADLINE, ExecutorError):
+                idle = None
+            elif idle is None:
+                idle = time.monotonic()
+            elif time.monotonic() - idle > DEADLINE:
+                raise ExecutorError(f"the Dask scheduler {self.name!r} has had no worker for {DEADLINE:g} s with "
+                                    f"{left} of {len(tasks)} tasks waiting; start workers with `dask worker "
+                                    f"{self.name}`, or leave scheduler= out to run on this machine")
+
+
+def _address(client: Any) -> str:
+    """The scheduler address of a Dask client, as messages name it."""
+    return str(getattr(getattr(client, "scheduler", None), "address", None) or client)
+
+
+def _client(address: str, seconds: float) -> Any:
+    """A Dask client of the scheduler at ``address``, registered within ``seconds``, or a one-line refusal."""
+    try:
+        from distributed import Client
+    except ImportError:  # pragma: no cover
+        raise OptionError("scheduler= needs dask.distributed: pip install 'dask[distributed]'") from None
+    try:
+        return Client(address, timeout=seconds, set_as_default=False)
+    except TimeoutError:  # it took the connection (and maybe sent the handshake), then said nothing
+        raise OptionError(f"the Dask scheduler {address!r} did not answer a client within {seconds:g} s (it hangs, "
+                          f"or another program holds its port); restart it with `dask scheduler`, or leave "
+                          f"scheduler= out to run on this machine") from None
+    except (OSError, ValueError) as exc:  # unreachable, or not an address at all
+        raise OptionError(f"cannot reach the Dask scheduler {address!r} ({exc}); give an address like "
+                          f"tcp://HOST:8786, {_START}") from None
+
+
+def _workers(client: Any, name: str, seconds: float, error: type[ObsnlError]) -> int:
+    """How many workers the Dask scheduler of ``client`` has (asked with a deadline of ``seconds``)."""
+    if not hasattr(client, "sync") or getattr(client, "asynchronous", False):
+        return 1  # not a synchronous distributed.Client: nothing to ask, its own map says
+    try:
+        info = client.sync(client.scheduler.identity, n_workers=0, callback_timeout=seconds)
+    except (OSError, RuntimeError) as exc:  # TimeoutError included: a scheduler that stopped answering
+        why = str(exc) if str(exc) and not isinstance(exc, TimeoutError) else f"no answer within {seconds:g} s"
+        raise error(f"the Dask scheduler {name!r} stopped answering ({why}); restart it with `dask scheduler`, or "
+                    f"leave scheduler= out to run on this machine") from None
+    return int(info.get("n_workers", 1)) if isinstance(info, dict) else 1
+
+
+#: A scheduler without a worker, refused (``str.format`` with the scheduler's name and the seconds waited).
+_NO_WORKER = ("the Dask scheduler {name!r} has no worker (none joined within {seconds:g} s); start workers with "
+              "`dask worker {name}`, or leave scheduler= out to run on this machine")
+
+
+def _need_workers(client: Any, name: str, seconds: float, error: type[ObsnlError]) -> None:
+    """Refuse a Dask scheduler that has no worker and gains none within ``seconds``."""
+    end = time.monotonic() + seconds
+    while not _workers(client, name, seconds, error):
+        if time.monotonic() >= end:
+            raise error(_NO_WORKER.format(name=name, seconds=seconds))
+        time.sleep(0.2)
+
+
+def _ask_scheduler(address: str, seconds: float) -> dict[str, Any]:
+    """The Dask scheduler's ``identity``, asked over one connection of its own: a client's handshake, then the
+    question, at most ``seconds`` each; asked again (five times a second) until it has a worker or ``seconds``
+    have passed. A scheduler that does not answer is a one-line refusal; the connection is always closed."""
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    try:
+        from distributed.comm import connect
+    except ImportError:  # pragma: no cover
+        raise OptionError("scheduler= needs dask.distributed: pip install 'dask[distributed]'") from None
+
+    async def ask() -> dict[str, Any]:
+        comm = await connect(address, timeout=seconds)
+        try:
+            end = asyncio.get_running_loop().time() + seconds
+            while True:
+                await comm.write({"op": "identity", "n_workers": 0, "reply": True})
+                info = await asyncio.wait_for(comm.read(), seconds)
+                if not isinstance(info, dict) or info.get("n_workers") or asyncio.get_running_loop().time() > end:
+                    return info if isinstance(info, dict) else {}
+                await asyncio.sleep(0.2)
+        finally:
+            comm.abort()
+
+    try:
+        with ThreadPoolExecutor(1) as thread:  # a loop of its own, whether or not this thread runs one
+            return thread.submit(asyncio.run, ask()).result()
+    except (OSError, EOFError) as exc:  # TimeoutError included: a scheduler that went silent after its handshake
+        why = str(exc) if str(exc) and not isinstance(exc, TimeoutError) else f"no answer within {seconds:g} s"
+        raise OptionError(f"the Dask scheduler {address!r} sent its handshake but did not answer a client's question "
+                          f"({why}; it hangs, or another program holds its port); restart it with `dask scheduler`, "
+                          f"or leave scheduler= out to run on this machine") from None
 
 
 _BUILT: dict[str, Any] = {}

@@ -189,6 +189,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     check_replicates(replicates)
     _check_kinds(guess, noise, table=table, tuning=tuning, executor=executor, jit=jit, seed=seed, progress=progress,
                  refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
+    if executor is not None:  # a Dask scheduler that cannot run the work: refused now, not after the filter
+        executor.probe()
     if not isinstance(data, (Measured, Mapping, str, Path)):
         raise DataError(f"data= takes a CSV file, a mapping of columns {{name: samples}} or a Measured; got "
                         f"{type(data).__name__}")
@@ -317,6 +319,8 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     check_replicates(replicates)
     _check_kinds(guess, None, table=table, tuning=tuning, executor=executor, jit=jit, seed=seed, progress=progress,
                  refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
+    if executor is not None:  # a Dask scheduler that cannot run the work: refused now, not after the filter
+        executor.probe()
     model = as_model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"

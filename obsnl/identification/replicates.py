@@ -263,5 +263,9 @@ def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndar
     tasks = [(recipe, th, data.u, data.y, y_hat, tuning, passes, seed, tuple(range(lo, min(replicates, lo + CHUNK))),
               fix_flagged, hold_below) for lo in range(0, replicates, CHUNK)]
     done = (lambda i, chunk: [progress() for _ in chunk]) if progress else None
-    outcomes = [o for chunk in executor.map(replicates_task, tasks, done=done) for o in chunk]
+
+    def named(task: tuple) -> str:  # a task's name in a message (a worker that died while running it)
+        return f"Monte-Carlo replicates {task[8][0] + 1} to {task[8][-1] + 1} of {replicates}"
+
+    outcomes = [o for chunk in executor.map(replicates_task, tasks, done=done, label=named) for o in chunk]
     return mc_spread(setup, outcomes, replicates=replicates, seed=seed)
