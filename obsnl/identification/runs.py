@@ -50,12 +50,16 @@ from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = [
     "check_replicates", "check_unknowns", "identify_measured", "Identification", "ParameterEstimate", "MEASURED_GRID",
-    "FIT_SUBSTEPS", "HOLD_BELOW", "clean_json", "error_of",
+    "FIT_SUBSTEPS", "HOLD_BELOW", "RANDOM_INPUT", "clean_json", "error_of",
 ]
 
 #: Parameters flagged as poorly informed are held at their guess after the first pass whose output misfit is
 #: at most this many times the output noise level (the filter has reached the noise floor).
 HOLD_BELOW = 2.0
+#: An input whose noise, estimated from its differences, is this share of its RMS or more cannot be told from its
+#: noise: its samples differ as white noise does (a random excitation, not oversampled). Such an estimate is only an
+#: upper bound, and the input is taken as exact (a white-noise force read as 90 % noise widened every std 530x).
+RANDOM_INPUT = 0.5
 #: RK4 substeps per sample of the convergence check, the fit and the truth of a simulation study.
 FIT_SUBSTEPS = 32
 #: Tuning grid of measured data (prior std of the log-parameters, state noise factor): 4 configurations,
@@ -399,6 +403,12 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                 r, note = estimate_noise(arr[:, j])
                 levels[c] = {"ratio": max(r, NOISE_FLOOR), "estimate": r, "upper_bound": UPPER_BOUND in note,
                              "source": f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else "")}
+                if c in num.inputs and r >= RANDOM_INPUT:  # a random excitation: its samples differ as noise does
+                    levels[c] = {"ratio": NOISE_FLOOR, "estimate": r, "upper_bound": True, "source": (
+                        f"estimated {note}; that is {100 * r:.2g} % of the input's RMS: its samples differ as white "
+                        f"noise does (a random excitation, not oversampled), so this is only an upper bound and the "
+                        f"input is taken as exact (the filter gets the floor {NOISE_FLOOR:g}); give its noise level "
+                        f"to count it")}
     # the refinement's std counts an input's noise at its given level or its estimate (not the filter's floor); a
     # level that is only an upper bound (the channel is not oversampled) would swamp the std with signal: not counted
     bound = [c for c in num.inputs if levels[c].get("upper_bound")]
