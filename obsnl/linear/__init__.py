@@ -10,6 +10,8 @@ Must never import: ``model``, ``algebra``, ``recombination``, ``estimation``, ``
 ``studies``, ``design``, ``batch``, ``cli``.
 """
 
+from typing import TYPE_CHECKING
+
 from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use (so that importing
@@ -22,6 +24,32 @@ _LAZY: dict[str, str] = {
     "simulate_observer": "simulation", "build_bank": "bank", "ObserverBank": "bank",
     "calibrate_thresholds": "bank", "decide": "bank", "BankDecision": "bank", "Detection": "bank",
 }
+
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.linear.bank import (
+        build_bank as build_bank,
+        ObserverBank as ObserverBank,
+        calibrate_thresholds as calibrate_thresholds,
+        decide as decide,
+        BankDecision as BankDecision,
+        Detection as Detection,
+    )
+    from obsnl.linear.gains import riccati_gain as riccati_gain, place_gain as place_gain
+    from obsnl.linear.hautus import HautusResult as HautusResult
+    from obsnl.linear.observer import (
+        integrator as integrator,
+        oscillator as oscillator,
+        extend as extend,
+        extended_observability as extended_observability,
+    )
+    from obsnl.linear.simulation import simulate_observer as simulate_observer
+    from obsnl.linear.systems import (
+        LinearSystem as LinearSystem,
+        as_linear_system as as_linear_system,
+        system_scaling as system_scaling,
+        kalman_rank as kalman_rank,
+        KalmanRankResult as KalmanRankResult,
+    )
 
 __all__ = list(_LAZY)
 

@@ -12,6 +12,8 @@ Its inner order, lowest first (a module imports only what stands below it, or it
 May import: ``errors``, ``_text``. Must never import any other room of obsnl.
 """
 
+from typing import TYPE_CHECKING
+
 from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use (so that importing
@@ -20,6 +22,15 @@ _LAZY: dict[str, str] = {
     "Model": "core", "read_model": "files", "model_to_toml": "files", "catalogue_path": "files",
     "Branch": "branching.branches", "split_branches": "branching.branches",
 }
+
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.model.branching.branches import Branch as Branch, split_branches as split_branches
+    from obsnl.model.core import Model as Model
+    from obsnl.model.files import (
+        read_model as read_model,
+        model_to_toml as model_to_toml,
+        catalogue_path as catalogue_path,
+    )
 
 __all__ = list(_LAZY)
 

@@ -15,6 +15,8 @@ May import: ``errors``, ``_text``, ``model``, ``algebra``. Must never import: ``
 numbers (that bridge is ``estimation.codegen``).
 """
 
+from typing import TYPE_CHECKING
+
 from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use (so that importing
@@ -26,6 +28,18 @@ _LAZY: dict[str, str] = {
     "Symmetries": "certificates.generators", "BranchTable": "contract.branch_table",
     "read_branch_table": "contract.branch_table",
 }
+
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.observability.certificates.generators import Symmetry as Symmetry, Symmetries as Symmetries
+    from obsnl.observability.certificates.symmetry import symmetries as symmetries
+    from obsnl.observability.contract.branch_table import (
+        BranchTable as BranchTable,
+        read_branch_table as read_branch_table,
+    )
+    from obsnl.observability.engines.decompose import decompose as decompose, dependency_graph as dependency_graph
+    from obsnl.observability.engines.smooth import orc as orc, sedoglavic as sedoglavic
+    from obsnl.observability.results import AnalysisResult as AnalysisResult
+    from obsnl.observability.verdicts import Verdict as Verdict, BranchResult as BranchResult
 
 __all__ = list(_LAZY)
 

@@ -10,6 +10,8 @@ Must never import: ``estimation``, ``linear``, ``report``, ``identification``, `
 ``batch``, ``cli``.
 """
 
+from typing import TYPE_CHECKING
+
 from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use (so that importing
@@ -18,6 +20,14 @@ _LAZY: dict[str, str] = {
     "identifiable_functions": "identifiable", "IdentifiableFunctions": "identifiable",
     "Reparametrization": "reparametrization", "same_field": "fields", "FieldComparison": "fields",
 }
+
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.recombination.fields import same_field as same_field, FieldComparison as FieldComparison
+    from obsnl.recombination.identifiable import (
+        identifiable_functions as identifiable_functions,
+        IdentifiableFunctions as IdentifiableFunctions,
+    )
+    from obsnl.recombination.reparametrization import Reparametrization as Reparametrization
 
 __all__ = list(_LAZY)
 
