@@ -44,6 +44,7 @@ from obsnl.model.files import as_model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.contract.table_check import check_table
 from obsnl.observability.contract.branch_table import BranchTable
+from obsnl.model.branching.signature import ModelSignature
 from obsnl.identification.structural import StructuralCheck, structural_check
 
 __all__ = ["identify", "study", "write_identification", "IDENTIFY_FILES"]
@@ -201,6 +202,12 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     elif not isinstance(data, Measured):
         data = measured(data, inputs=ins, outputs=outs)
     kinds = intersample_kinds(intersample, ins, table=model.intersample)
+    if isinstance(table, (str, Path)):  # a table made for another model is named first, before any count
+        from obsnl.observability.contract.branch_table import read_branch_table
+
+        table = read_branch_table(table)
+    if table is not None:
+        table.signature.check(ModelSignature.of(model))
     check_unknowns([s.name for s in model.parameters], [s.name for s in model.states], data)  # before the analysis
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
 
