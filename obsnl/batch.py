@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TypedDict, Unpack
 
 from obsnl.executor import Executor
 from obsnl.model.bounds.budget import time_budget
@@ -21,6 +22,15 @@ from obsnl.report.printed import Printed
 from obsnl.report.structure import inconclusive_line
 
 __all__ = ["report_models", "report_paths", "report_printed"]
+
+
+class _ReportOptions(TypedDict, total=False):
+    """The options of :func:`report_models` that :func:`report_paths` and :func:`report_printed` pass on."""
+
+    method: str
+    seed: int
+    force: bool
+    executor: Executor | None
 
 
 def _analyze_task(task: tuple[dict, str, int, float | None]) -> AnalysisResult:
@@ -76,7 +86,7 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
 
 
 def report_paths(paths: Sequence[str | Path], out: str | Path, *, max_seconds: float | None = None,
-                 **options: object) -> tuple[AnalysisResult, ...]:
+                 **options: Unpack[_ReportOptions]) -> tuple[AnalysisResult, ...]:
     """:func:`report_models` of model files, within one time budget (reading, splitting, analysing).
 
     Parameters
@@ -88,7 +98,7 @@ def report_paths(paths: Sequence[str | Path], out: str | Path, *, max_seconds: f
         The report folder.
     max_seconds : float or None
         Time limit of the whole job (each model on a worker gets the same limit).
-    **options : object
+    **options : str, int, bool or Executor
         Passed to :func:`report_models` (method, seed, force, executor: its scheduler probed before any work).
 
     Returns
@@ -102,10 +112,11 @@ def report_paths(paths: Sequence[str | Path], out: str | Path, *, max_seconds: f
         models = [read_model(p, check=check_file_limits) for p in paths]
         for m in models:
             check_analysis_limits(m)
-        return report_models(models, out, max_seconds=max_seconds, **options)  # type: ignore[arg-type]
+        return report_models(models, out, max_seconds=max_seconds, **options)
 
 
-def report_printed(models: Sequence[str | Path], out: str | Path, **options: object) -> Printed:
+def report_printed(models: Sequence[str | Path], out: str | Path, *, max_seconds: float | None = None,
+                   **options: Unpack[_ReportOptions]) -> Printed:
     """What ``obsnl report`` prints: :func:`report_paths`, the tables written, and the line that names the
     first inconclusive branch (with its model's name).
 
@@ -115,12 +126,14 @@ def report_printed(models: Sequence[str | Path], out: str | Path, **options: obj
         Model files (or ``obsnl:NAME``).
     out : str or Path
         The report folder.
-    **options : object
+    max_seconds : float or None
+        As for :func:`report_paths`.
+    **options : str, int, bool or Executor
         As for :func:`report_paths`.
 
     Returns
     -------
     Printed
     """
-    results = report_paths(models, out, **options)
+    results = report_paths(models, out, max_seconds=max_seconds, **options)
     return Printed(tables_written_line(len(results), out), inconclusive_line(results, named=True))
