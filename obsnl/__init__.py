@@ -76,10 +76,17 @@ def _latex(result: object) -> str:
     return to_latex(result, environment=False)
 
 
+def _html(result: object) -> str | None:
+    from obsnl.report.html import to_html
+
+    return to_html(result)
+
+
 # a result's notebook display asks obsnl._display, which the top level (imported before any module) wires to the
 # report room; the renderers load on first use
 _display.register("md", _markdown)
 _display.register("tex", _latex)
+_display.register("html", _html)
 
 
 __all__ = [

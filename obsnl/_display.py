@@ -14,10 +14,10 @@ from typing import Any
 
 __all__ = ["register", "render"]
 
-_RENDERERS: dict[str, Callable[[Any], str]] = {}
+_RENDERERS: dict[str, Callable[[Any], str | None]] = {}
 
 
-def register(fmt: str, renderer: Callable[[Any], str]) -> None:
+def register(fmt: str, renderer: Callable[[Any], str | None]) -> None:
     """Render results in ``fmt`` (``"md"``, ``"tex"``, ``"html"``) with ``renderer(result) -> str``.
 
     Parameters
@@ -25,7 +25,7 @@ def register(fmt: str, renderer: Callable[[Any], str]) -> None:
     fmt : str
         The format.
     renderer : callable
-        ``result -> text``.
+        ``result -> text`` (None: not drawn in this format, the notebook falls back).
     """
     _RENDERERS[fmt] = renderer
 

@@ -18,6 +18,7 @@ import numpy as np
 from obsnl._text import quote
 from obsnl.errors import OptionError
 from obsnl.estimation.accelerogram import Record
+from obsnl.estimation.measured import TIME_COLUMNS, frame_columns, is_frame
 from obsnl.model.core import Model
 
 __all__ = ["MAX_SCALES", "model_argument", "names_argument", "design_arguments", "record_run"]
@@ -145,15 +146,19 @@ def design_arguments(model: Any, records: Any, *, scales: Any, tol: Any, sensors
     return grid
 
 
-def record_run(model: Model, rec: Any) -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
+def record_run(model: Model, rec: Any, *, name: str = "data") -> tuple[str, np.ndarray, dict[str, np.ndarray]]:
     """``(name, t, {input: samples})`` of a record (a one-column Record drives the model's one input).
 
     Parameters
     ----------
     model : Model
         The model the record drives.
-    rec : Record or tuple
-        A :class:`~obsnl.estimation.accelerogram.Record` or ``(name, t, {input: samples})``.
+    rec : Record, tuple or pandas.DataFrame
+        A :class:`~obsnl.estimation.accelerogram.Record`, ``(name, t, {input: samples})`` or a DataFrame with a
+        column per input of the model (its time a column or its index:
+        :func:`~obsnl.estimation.measured.frame_columns`; other columns ignored).
+    name : str
+        The name of a DataFrame record without one in its ``attrs["name"]``.
 
     Returns
     -------
@@ -181,6 +186,15 @@ def record_run(model: Model, rec: Any) -> tuple[str, np.ndarray, dict[str, np.nd
             raise OptionError(f"record {rec.name!r} drives one input, model {model.name!r} has {len(model.inputs)} "
                               f"known inputs; give (name, t, {{input: samples}}) instead")
         return rec.name, rec.t, {model.inputs[0].name: a}
+    if is_frame(rec):
+        label = str(rec.attrs.get("name", name))
+        columns = frame_columns(rec, where=f"record {quote(label)}")
+        tname = next(c for c in TIME_COLUMNS if c in columns)
+        missing = [u.name for u in model.inputs if u.name not in columns]
+        if missing:
+            raise OptionError(f"record {quote(label)}: no column for the input {quote(missing[0])} of "
+                              f"{quote(model.name)}; name a column after each input")
+        rec = (label, columns[tname], {u.name: columns[u.name] for u in model.inputs})
     if isinstance(rec, tuple) and len(rec) == 3 and isinstance(rec[2], Mapping):
         name, t, inputs = rec
         known(name, inputs)
@@ -190,4 +204,5 @@ def record_run(model: Model, rec: Any) -> tuple[str, np.ndarray, dict[str, np.nd
             return str(name), np.asarray(t, float), {str(k): np.asarray(v, float) for k, v in inputs.items()}
         except (TypeError, ValueError):  # text, or nested lists of unequal lengths
             raise OptionError(f"record {quote(name)}: its times and inputs must be arrays of numbers") from None
-    raise OptionError(f"a record is a Record or (name, t, {{input: samples}}), got {type(rec).__name__}")
+    raise OptionError(f"a record is a Record, (name, t, {{input: samples}}) or a pandas DataFrame, got "
+                      f"{type(rec).__name__}")

@@ -38,6 +38,7 @@ from typing import Any, Union
 
 import numpy as np
 
+from obsnl._display import render
 from obsnl._text import block, one_line
 from obsnl.design.arguments import design_arguments, record_run
 from obsnl.design.experiment_search import NOT_NOISE, BlowUp, ScaleBlewUp, blow_up, minimal_records, no_scale_ran
@@ -45,6 +46,7 @@ from obsnl.design.experiment_search import scale_notes as _notes, search_scales 
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
 from obsnl.errors import AnalysisError, NotSupportedError, OptionError
 from obsnl.estimation.accelerogram import Record
+from obsnl.estimation.measured import is_frame
 from obsnl.model.branching.branches import split_branches
 from obsnl.model.bounds.budget import check_time, remaining, time_budget
 from obsnl.model.core import Model
@@ -211,6 +213,10 @@ class ExperimentDesign:
                 "blowups": [b.to_dict() for b in self.blowups], "skipped": list(self.skipped),
                 "unjudged_records": list(self.unjudged_records)}
 
+    def _repr_html_(self) -> str | None:
+        """Notebook display: the status and the branches visited per scale, drawn by :mod:`obsnl.report`."""
+        return render("html", self)
+
     def __repr__(self) -> str:
         return one_line("ExperimentDesign", f"model={self.model!r}, status={self.status!r}, min_scale={self.min_scale!r}")
 
@@ -312,7 +318,9 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
         A model with numbers for every parameter in its ``[values]`` and only known inputs.
     records : sequence of RecordLike
         Each a :class:`~obsnl.estimation.accelerogram.Record` (one column drives the model's one input; named columns
-        drive the inputs of their names) or ``(name, t, {input: samples})``; names unique, at most :data:`MAX_RECORDS`.
+        drive the inputs of their names), ``(name, t, {input: samples})`` or a pandas DataFrame with a column per input
+        (its time a column or its index; named by ``attrs["name"]``, else ``record 1``, ``record 2``, ... by
+        position); names unique, at most :data:`MAX_RECORDS`. One Record or DataFrame alone is one record.
     target : str or sequence of str
         ``"all"``, ``"parameters"`` or names (:func:`obsnl.design.sufficiency.resolve_targets`).
     sensors : str or sequence of str or None
@@ -364,14 +372,14 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
     ((('push',),), 2)
     """
     t0 = time.perf_counter()
-    records = [records] if isinstance(records, Record) else records
+    records = [records] if isinstance(records, Record) or is_frame(records) else records
     grid = design_arguments(model, records, scales=scales, tol=tol, sensors=sensors) or DEFAULT_SCALES
     with time_budget(max_seconds):
         targets = resolve_targets(model, target)
         chosen = model.output_names if sensors is None else (
             [s.strip() for s in sensors.split(",") if s.strip()] if isinstance(sensors, str) else list(sensors))
         sub = restrict(model, chosen)
-        runs = [record_run(model, r) for r in records]
+        runs = [record_run(model, r, name=f"record {i + 1}") for i, r in enumerate(records)]
         names = [r[0] for r in runs]
         if not runs or len(runs) > MAX_RECORDS or len(set(names)) < len(names):
             raise OptionError(f"give 1 to {MAX_RECORDS} records with distinct names, got {len(runs)}: "

@@ -7,6 +7,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from obsnl._display import render
 from obsnl.design.sufficiency import Sufficiency
 
 __all__ = ["SensorSearch"]
@@ -110,6 +111,10 @@ class SensorSearch:
         if self.undecided_sets:
             tail += f"; undecided: {len(self.undecided_sets)} sets"
         return f"{head}\n{tail}"
+
+    def _repr_html_(self) -> str | None:
+        """Notebook display: the minimal sets, drawn by :mod:`obsnl.report` (:mod:`obsnl._display`)."""
+        return render("html", self)
 
     def __repr__(self) -> str:
         return (f"SensorSearch(model={self.model!r}, minimal_sets={len(self.minimal_sets)}, "

@@ -35,11 +35,12 @@ below the Nyquist frequency); for a broadband channel the estimate is an upper b
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from math import comb
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -49,9 +50,12 @@ from obsnl.estimation.records import read_table
 from obsnl.estimation.accelerogram import Record, check_increasing, check_seconds
 from obsnl.model.bounds.textsize import quote
 
+if TYPE_CHECKING:  # pandas loads when a DataFrame is given
+    import pandas as pd
+
 __all__ = [
-    "Measured", "measured", "read_measured", "estimate_noise", "NOISE_FLOOR", "TIME_COLUMNS",
-    "MIN_SAMPLES", "UPPER_BOUND", "CLOCK_TOLERANCE",
+    "Measured", "measured", "read_measured", "estimate_noise", "is_frame", "frame_columns", "NOISE_FLOOR",
+    "TIME_COLUMNS", "MIN_SAMPLES", "UPPER_BOUND", "CLOCK_TOLERANCE",
 ]
 
 #: Accepted names of the time column (seconds).
@@ -150,15 +154,16 @@ class Measured:
                 "missing": self.missing, "ignored": list(self.ignored)}
 
 
-def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequence[str], name: str = "data",
-             source: str = "") -> Measured:
+def measured(columns: Mapping[str, Any] | pd.DataFrame, *, inputs: Sequence[str], outputs: Sequence[str],
+             name: str = "data", source: str = "") -> Measured:
     """Measured data from columns (a time column and one per input and output).
 
     Parameters
     ----------
-    columns : mapping of str to Any
+    columns : mapping of str to Any, or pandas.DataFrame
         ``{name: samples}``; the time column is ``time_s`` or ``t``; other columns are ignored (and named in
-        :attr:`Measured.ignored`). NaN in an output column is a missing sample.
+        :attr:`Measured.ignored`). NaN in an output column is a missing sample. A DataFrame is read by
+        :func:`frame_columns` (its time a column, or its index).
     inputs, outputs : sequence of str
         The model's input and output names, in model order.
     name, source : str
@@ -187,6 +192,8 @@ def measured(columns: Mapping[str, Any], *, inputs: Sequence[str], outputs: Sequ
     ({'x': 1}, ('note',))
     """
     where = f"data {source or name!r}"
+    if is_frame(columns):
+        columns = frame_columns(columns, where=where)
     tname = _time_column(columns, inputs, outputs, where)
     arrays = {}
     for c in (tname, *inputs, *outputs):
@@ -236,6 +243,73 @@ def _cells(cells: Any) -> np.ndarray:
         return np.array([plain_float(v.decode() if isinstance(v, bytes) else str(v)) if isinstance(v, (str, bytes))
                          else float(v) for v in raw.ravel()], float).reshape(raw.shape)
     return np.asarray(cells, float)
+
+
+def is_frame(x: Any) -> bool:
+    """Whether ``x`` is a pandas DataFrame (pandas is not imported for the question).
+
+    Examples
+    --------
+    >>> is_frame({"t": [0, 1]})
+    False
+    """
+    pd = sys.modules.get("pandas")
+    return pd is not None and isinstance(x, pd.DataFrame)
+
+
+def frame_columns(frame: Any, *, where: str = "data") -> dict[str, np.ndarray]:
+    """The columns of a pandas DataFrame as :func:`measured` reads them, with its time in seconds.
+
+    The time is a column ``time_s`` or ``t`` (seconds) when the frame has one; otherwise its index: a
+    ``DatetimeIndex`` or a ``TimedeltaIndex`` (seconds from the first sample) or a float index (seconds), which
+    becomes the column ``time_s``. A frame with neither (a default integer index: sample numbers, no clock) is
+    refused.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        One column per input and output, named as in the model.
+    where : str
+        How messages name the data.
+
+    Returns
+    -------
+    dict of str to numpy.ndarray
+
+    Raises
+    ------
+    DataError
+        Column names that are not text or repeat, or no time (no time column, and an index that is not a time).
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> f = pd.DataFrame({"F": [0.0, 1.0, 0.0], "x": [0.0, 0.1, 0.3]}, index=pd.Index([0.0, 0.1, 0.2], name="s"))
+    >>> sorted(frame_columns(f)), frame_columns(f)["time_s"].tolist()
+    (['F', 'time_s', 'x'], [0.0, 0.1, 0.2])
+    >>> f = pd.DataFrame({"F": [0.0, 1.0]}, index=pd.date_range("2024-01-01", periods=2, freq="500ms"))
+    >>> frame_columns(f)["time_s"].tolist()
+    [0.0, 0.5]
+    """
+    import pandas as pd
+
+    names = [c for c in frame.columns]
+    if any(not isinstance(c, str) for c in names) or len(set(names)) < len(names):
+        raise DataError(f"{where}: the DataFrame's columns must be distinct names (text), as in the model; got "
+                        f"{quote(names)}")
+    columns = {c: frame[c].to_numpy() for c in names}
+    if any(c in columns for c in TIME_COLUMNS):
+        return columns
+    index = frame.index
+    if isinstance(index, (pd.DatetimeIndex, pd.TimedeltaIndex)):
+        t = np.asarray((index - index[0]).total_seconds(), float)
+    elif pd.api.types.is_float_dtype(index.dtype):
+        t = index.to_numpy(float)
+    else:
+        raise DataError(f"{where}: the DataFrame has no time column and its index is not a time ({index.dtype}); "
+                        f"add a column 'time_s' (seconds), or index it by time (a DatetimeIndex, or seconds as "
+                        f"floats)")
+    return {"time_s": t, **columns}
 
 
 def _clock(t: np.ndarray, where: str, tname: str) -> tuple[float, float]:

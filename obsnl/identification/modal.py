@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._display import render
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import ModelError, OptionError
 
@@ -112,6 +113,10 @@ class Modal:
                 "inputs": list(self.inputs), "outputs": list(self.outputs),
                 "A": matrix(self.A), "B": matrix(self.B), "C": matrix(self.C), "D": matrix(self.D),
                 "assumptions": list(self.assumptions)}
+
+    def _repr_html_(self) -> str | None:
+        """Notebook display: the modes as a table, drawn by :mod:`obsnl.report` (:mod:`obsnl._display`)."""
+        return render("html", self)
 
     def to_control(self) -> Any:
         """The linearisation as a python-control ``StateSpace`` (``pip install control``), with the model's names.

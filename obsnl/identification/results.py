@@ -244,16 +244,22 @@ class Identification:
         return self.modal(state=state).to_control()
 
     @cached_property
-    def modal_at_rest(self) -> Any:
-        """The modal summary at rest where the fitted model has modes (an oscillatory linearisation), else None
-        (no model kept, not at rest at the zero state, no complex pair of eigenvalues)."""
+    def linear_at_rest(self) -> Any:
+        """The fitted model linearised at rest with its modes (:meth:`modal`), or None where it cannot be: no model
+        kept, or the zero state is not at rest under zero inputs."""
         if self.fitted_model is None:
             return None
         try:
-            m = self.modal()
+            return self.modal()
         except ObsnlError:
             return None
-        return m if m.oscillatory else None
+
+    @property
+    def modal_at_rest(self) -> Any:
+        """:attr:`linear_at_rest` where it has modes (a complex pair of eigenvalues: an oscillatory model), else
+        None; ``identify.json`` holds it as ``"modal"``."""
+        lin = self.linear_at_rest
+        return lin if lin is not None and lin.oscillatory else None
 
     def to_frame(self) -> Any:
         """The parameters as a pandas DataFrame, one row each (indexed by name): ``estimate``, ``std``,

@@ -252,6 +252,10 @@ class AnalysisResult:
         """Notebook display: the Markdown table, drawn by :mod:`obsnl.report` (:mod:`obsnl._display`)."""
         return render("md", self)
 
+    def _repr_html_(self) -> str | None:
+        """Notebook display: the verdicts and the branch table as HTML, drawn by :mod:`obsnl.report`."""
+        return render("html", self)
+
     def _repr_latex_(self) -> str | None:
         """Notebook display: the LaTeX table (without its environment), drawn by :mod:`obsnl.report`."""
         return render("tex", self)

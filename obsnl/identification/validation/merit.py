@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._display import render
 from obsnl._text import block, names, number, one_line
 
 __all__ = ["figures_of_merit", "OutputScore", "Validation"]
@@ -147,6 +148,26 @@ class Validation:
                      f"{number(self.record.get('dt'))} s, simulated {self._start_text()}",
                      *rows[:9], f"... and {len(rows) - 9} more outputs" if len(rows) > 9 else "",
                      f"inputs between samples: {kinds}" if kinds else "")
+
+    def to_frame(self) -> Any:
+        """The figures of merit as a pandas DataFrame, one row per output (indexed by name): ``rmse``, ``nrmse``,
+        ``fit_percent``, ``db`` (the values of :meth:`to_dict`; an undefined one NaN).
+
+        Returns
+        -------
+        pandas.DataFrame
+        """
+        import pandas as pd
+
+        rows = {o: s.to_dict() for o, s in self.outputs.items()}
+        frame = pd.DataFrame.from_dict(rows, orient="index", columns=["rmse", "nrmse", "fit_percent", "db"],
+                                       dtype=float)
+        frame.index.name = "output"
+        return frame
+
+    def _repr_html_(self) -> str | None:
+        """Notebook display: the figures per output, drawn by :mod:`obsnl.report` (:mod:`obsnl._display`)."""
+        return render("html", self)
 
     def to_dict(self) -> dict[str, Any]:
         finite = lambda v: float(v) if math.isfinite(v) else None

@@ -29,7 +29,7 @@ from obsnl._text import quote
 from obsnl.errors import DataError, EstimatorError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.estimation.intersample import between_samples, drive, intersample_kinds
-from obsnl.estimation.measured import Measured, measured, read_measured
+from obsnl.estimation.measured import Measured, is_frame, measured, read_measured
 from obsnl.estimation.numeric import NumericModel
 from obsnl.estimation.simulate import simulate as simulate_numeric
 from obsnl.identification.likelihood import LOCATE
@@ -178,11 +178,11 @@ def _as_measured(record: Measured | Mapping[str, Any] | str | Path, num: Numeric
     ins, outs = list(num.inputs), list(num.outputs)
     if isinstance(record, (str, Path)):
         return read_measured(record, inputs=ins, outputs=outs)
-    if isinstance(record, Mapping):
+    if isinstance(record, Mapping) or is_frame(record):
         return measured(record, inputs=ins, outputs=outs)
     if not isinstance(record, Measured):
-        raise DataError(f"record= takes a CSV file, a mapping of columns {{name: samples}} or a Measured; got "
-                        f"{type(record).__name__}")
+        raise DataError(f"record= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
+                        f"Measured; got {type(record).__name__}")
     if record.inputs != tuple(ins) or record.outputs != tuple(outs):
         raise DataError(f"the record has inputs {list(record.inputs)} and outputs {list(record.outputs)}; model "
                         f"{num.name!r} has {ins} and {outs}")
@@ -269,9 +269,10 @@ def simulate(model: Model | str | Path, parameters: Mapping[str, float] | str | 
         The model, its file or ``obsnl:NAME``.
     parameters : mapping of str to float, str or Path
         ``{name: value}`` of every parameter, or the ``identify.json`` of a fit (its estimates).
-    record : Measured, mapping of str to Any, str or Path
-        The new record, as :func:`obsnl.identify` takes its data: a CSV file, ``{column: samples}`` or a
-        :class:`~obsnl.estimation.measured.Measured`, with a column per model input and output.
+    record : Measured, mapping of str to Any, pandas.DataFrame, str or Path
+        The new record, as :func:`obsnl.identify` takes its data: a CSV file, ``{column: samples}``, a DataFrame
+        (:func:`~obsnl.estimation.measured.frame_columns`) or a :class:`~obsnl.estimation.measured.Measured`, with
+        a column per model input and output.
     intersample : None, str, mapping or sequence of str
         How the inputs are taken between samples: ``"KIND"`` for every input, ``{input: kind}`` or ``"NAME=KIND"``
         strings, kinds ``zoh``, ``linear``, ``bandlimited``
