@@ -12,7 +12,7 @@ with its private columns first; the rows without private entries are its paramet
 from __future__ import annotations
 
 import random
-from collections.abc import Callable, MutableMapping
+from collections.abc import Callable, Iterator, MutableMapping
 from dataclasses import dataclass, replace
 from functools import cached_property
 from typing import Any
@@ -80,8 +80,9 @@ class Plan:
         return [make() for make in self.makers]
 
 
-class _Atoms(MutableMapping):
-    """Atom stand-ins: constant atoms shared by all visits of a run, time-varying ones per visit."""
+class _Atoms(MutableMapping[tuple, tuple[int, int]]):
+    """Atom stand-ins: constant atoms shared by all visits of a run, time-varying ones per visit (keyed by
+    ``(kind, argument, root degree, time-varying)``, valued ``(stand-in, circle parameter)``)."""
 
     def __init__(self, shared: dict) -> None:
         self.shared = shared
@@ -90,23 +91,23 @@ class _Atoms(MutableMapping):
     def _d(self, key: tuple) -> dict:
         return self.local if key[3] else self.shared
 
-    def __getitem__(self, key):
+    def __getitem__(self, key: tuple) -> tuple[int, int]:
         return self._d(key)[key]
 
-    def __setitem__(self, key, value):
+    def __setitem__(self, key: tuple, value: tuple[int, int]) -> None:
         self._d(key)[key] = value
 
-    def __delitem__(self, key):
+    def __delitem__(self, key: tuple) -> None:
         del self._d(key)[key]
 
-    def __contains__(self, key):
+    def __contains__(self, key: Any) -> bool:  # Mapping's takes any object; a key here is a tuple
         return key in self._d(key)
 
-    def __iter__(self):
+    def __iter__(self) -> Iterator[tuple]:
         yield from self.shared
         yield from self.local
 
-    def __len__(self):
+    def __len__(self) -> int:
         return len(self.shared) + len(self.local)
 
 
