@@ -122,8 +122,11 @@ def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray, stop: float
     z0[i] = phi_i
     free = np.ones(len(z0), bool)
     free[i] = False
+    m = ref.objective.setup.model
     for h in ref.held:
-        free[ref.objective.setup.model.parameters.index(h)] = False
+        free[m.parameters.index(h)] = False
+    for s in ref.known:  # a known initial state is never fitted
+        free[m.np + m.states.index(s)] = False
     fit = levenberg_marquardt(ref.objective.evaluate, z0, ref.lower, ref.upper, free=free, max_iter=20, max_evals=30,
                               stop=stop)
     return fit.chi2, fit.z, fit.evaluations
@@ -313,7 +316,7 @@ def _spec(ref: Refinement) -> dict[str, Any]:
     obj = ref.objective
     return {"recipe": recipe_of(obj.setup, "ukf", None), "u": np.asarray(obj.data.u), "y": np.asarray(obj.data.y),
             "substeps": obj.substeps, "scale": obj.scale, "sigma": obj.sigma, "theta": ref.theta, "x0": ref.x0,
-            "std": ref.std, "cov": ref.cov, "chi2": ref.chi2, "z": ref.fit.z, "held": ref.held, "lower": ref.lower,
+            "std": ref.std, "cov": ref.cov, "chi2": ref.chi2, "z": ref.fit.z, "held": ref.held, "known": ref.known, "lower": ref.lower,
             "upper": ref.upper, "input_cov": ref.input_cov}
 
 
@@ -331,7 +334,7 @@ def _rebuilt(spec: dict[str, Any]) -> Refinement:
     fit = Fit(z=spec["z"], chi2=spec["chi2"], iterations=0, evaluations=0, decrement=0.0, last_step=0.0,
               at_bound=(), stalled=False, J=None, r=None)
     return Refinement(theta=spec["theta"], x0=spec["x0"], std=spec["std"], cov=spec["cov"], sigma=spec["sigma"],
-                      chi2=spec["chi2"], held=spec["held"], lower=spec["lower"], upper=spec["upper"], fit=fit,
+                      chi2=spec["chi2"], held=spec["held"], known=spec["known"], lower=spec["lower"], upper=spec["upper"], fit=fit,
                       objective=obj, input_cov=spec["input_cov"])
 
 

@@ -37,7 +37,8 @@ class Refinement:
     output estimated from the residuals over their degrees of freedom (:func:`residual_dof`; the weights of
     ``cov``); ``misfit``: per output, the RMS residual
     over the noise level given or estimated before the fit (1: at the noise floor); ``converged`` with
-    ``reason``; ``objective`` and ``fit`` feed the profiles (:mod:`obsnl.identification.profile`).
+    ``reason``; ``known``: the states whose initial value was held (declared known); ``objective`` and ``fit`` feed
+    the profiles (:mod:`obsnl.identification.profile`).
     """
 
     theta: np.ndarray
@@ -52,6 +53,7 @@ class Refinement:
     iterations: int = 0
     seconds: float = 0.0
     held: tuple[str, ...] = ()
+    known: tuple[str, ...] = ()
     at_edge: tuple[str, ...] = ()
     lower: np.ndarray = field(default=None, repr=False)
     upper: np.ndarray = field(default=None, repr=False)
@@ -124,7 +126,8 @@ class Refinement:
 
 def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
            substeps: int | None = None, max_iter: int = 60, advice: str = ADVICE,
-           input_noise: Sequence[float] | None = None) -> Refinement:
+           input_noise: Sequence[float] | None = None, x0: Sequence[float] | None = None,
+           known: Sequence[str] = ()) -> Refinement:
     """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
 
     Parameters
@@ -148,6 +151,11 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     input_noise : sequence of float or None
         The noise std of each measured input, propagated into the std (:attr:`Refinement.input_cov`); default:
         the setup's levels on these data; 0 takes an input as exact.
+    x0 : sequence of float or None
+        The initial state the fit starts from (default: the setup's, ``setup.x0``): a restart from a better point.
+    known : sequence of str
+        States whose initial value is known (``setup.x0``'s): those coordinates are held, never fitted, and carry
+        no std.
 
     Returns
     -------
@@ -165,8 +173,12 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     guess = setup.coordinates.to_phi(setup.theta_guess)
     lower = np.r_[guess - BOUND, np.full(m.nx, -np.inf)]
     upper = np.r_[guess + BOUND, np.full(m.nx, np.inf)]
-    free = np.r_[[p not in held for p in m.parameters], np.ones(m.nx, bool)]
-    z = np.r_[phi0, np.zeros(m.nx)]
+    unknown = sorted(set(known) - set(m.states))
+    if unknown:
+        raise OptionError(f"known initial states {unknown} are not states of {m.name!r} ({', '.join(m.states)})")
+    free = np.r_[[p not in held for p in m.parameters], [s not in known for s in m.states]]
+    start = np.zeros(m.nx) if x0 is None else (np.asarray(x0, float) - setup.x0) / obj.scale
+    z = np.r_[phi0, np.where(free[m.np:], start, 0.0)]
     noise = obj.sigma
     fit = None
     iterations = 0
@@ -206,12 +218,13 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     res = r.reshape(-1, m.ny) * obj.sigma
     misfit = {o: float(np.sqrt(np.sum(res[:, j] ** 2) / obj.measured[j]) / noise[j])  # over the samples measured
               for j, o in enumerate(m.outputs)}
-    converged, reason = _verdict(fit, m.parameters, advice)
+    converged, reason = _verdict(fit, m.parameters, advice,
+                                 switched=fit.decrement > DECREMENT and _switched(setup, obj, theta, obj.x0(z), data))
     return Refinement(theta=theta, x0=obj.x0(z), std=std, cov=C, sigma=obj.sigma, misfit=misfit, chi2=fit.chi2,
                       converged=converged, reason=reason, iterations=iterations,
                       at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
-                      seconds=time.perf_counter() - t0, held=tuple(held), lower=lower, upper=upper, fit=fit,
-                      objective=obj, input_cov=Cu)
+                      seconds=time.perf_counter() - t0, held=tuple(held), known=tuple(known), lower=lower, upper=upper,
+                      fit=fit, objective=obj, input_cov=Cu)
 
 
 def residual_dof(J: np.ndarray, ny: int) -> np.ndarray:
@@ -280,7 +293,7 @@ def adequacy_of(ref: Refinement, data: Data, *, level: float = LEVEL,
     y = np.asarray(data.y, float).reshape(n, -1)
     u = np.asarray(data.u, float).reshape(n, -1)[:, :len(m.inputs)]  # a driven model's row starts with the sample
     measured = np.sum(np.isfinite(y), axis=0)
-    free = np.r_[[p not in ref.held for p in m.parameters], np.ones(m.nx, bool)]
+    free = np.r_[[p not in ref.held for p in m.parameters], [s not in ref.known for s in m.states]]
     J, r = ref.fit.J, ref.fit.r
     if not J.shape[0] == r.size == n * m.ny:
         return None
@@ -323,13 +336,35 @@ def _input_noise_share(ref: Refinement, data: Data, su: np.ndarray, e: np.ndarra
     return {o: float(np.nanmean(d2[:, j]) / max(np.nanmean(e[:, j] ** 2), 1e-300)) for j, o in enumerate(m.outputs)}
 
 
-def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE) -> tuple[bool, str]:
+def _switched(setup: Setup, obj: Objective, theta: np.ndarray, x0: np.ndarray, data: Data) -> bool:
+    """Whether the model simulated at the estimate crosses a switching function across which its field may jump
+    (between two samples): only then can a switch inside a step make the objective rough."""
+    m = setup.model
+    g_size = m.g.size1_out(0) if m.switching else 0
+    jumps = np.asarray(m.jumps if m.jumps else [True] * g_size, bool)
+    if not g_size or not jumps.any():
+        return False
+    try:
+        sim = simulate(m, theta=theta, x0=x0, u=data.u, dt=setup.record.dt, substeps=obj.substeps,
+                       refine=setup.refine)
+    except EstimatorError:
+        return False
+    u = np.asarray(data.u, float).reshape(len(sim.x), -1)
+    G = np.array([np.asarray(m.g(x, theta, uk), float).ravel() for x, uk in zip(sim.x, u)])[:, jumps]
+    return bool(np.any(np.diff(np.sign(G), axis=0) != 0))
+
+
+def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE, *, switched: bool = False
+             ) -> tuple[bool, str]:
+    """Converged or not, and why: the reason names only what happened (a switch of the field inside a step only
+    where the fitted trajectory crosses a switching function, ``switched``)."""
     edge = [parameters[i] for i in fit.at_bound if i < len(parameters)]
     if fit.decrement > DECREMENT:
         what = "no step lowers the misfit any more" if fit.stalled else f"stopped after {fit.iterations} iterations"
+        rough = ("; the objective may be rough here (the fitted response crosses a switching function: a switch of "
+                 "the field inside a step)" if switched else "")
         return False, (f"first-order condition not met: a Gauss-Newton step would still lower chi2 by "
-                       f"{fit.decrement:.3g} ({what}); the objective may be rough here (a switch of the field "
-                       f"inside a step): {advice}")
+                       f"{fit.decrement:.3g} ({what}){rough}: {advice}")
     if fit.last_step > STEP_LIMIT:
         return False, (f"the last step moved a parameter by {fit.last_step:.2g} of its std (more than {STEP_LIMIT:g}); "
                        f"{advice}")

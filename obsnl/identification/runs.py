@@ -116,12 +116,25 @@ def _refine(setup: Setup, data: Data, theta: np.ndarray, held: Sequence[str],
             progress: Callable[[], Any] | None, executor: Executor | None = None,
             input_noise: np.ndarray | None = None) -> tuple[Refinement | None, tuple[Profile, ...], str]:
     """The maximum-likelihood refinement and the profiles (on ``executor``); ``(None, (), why)`` where it could
-    not run. ``input_noise``: the inputs' noise std propagated into the std (default: the setup's levels)."""
+    not run. ``input_noise``: the inputs' noise std propagated into the std (default: the setup's levels).
+
+    A profile that finds a point fitting better than the estimate shows the fit stopped short of the maximum: the
+    fit restarts from the best such point (its parameters and initial state) and the profiles are computed again,
+    once; the third element then says so."""
     try:
         ref = refine(setup, data, theta, held=held, input_noise=input_noise)
         if progress:
             progress()
-        return ref, profiles(ref, progress=progress, executor=executor), ""
+        profs = profiles(ref, progress=progress, executor=executor)
+        best = min((p for p in profs if p.better_z is not None), key=lambda p: p.better, default=None)
+        if best is None:
+            return ref, profs, ""
+        z = np.asarray(best.better_z, float)
+        again = refine(setup, data, ref.objective.theta(z), held=held, input_noise=input_noise,
+                       x0=ref.objective.x0(z))
+        return again, profiles(again, executor=executor), (
+            f"the profile of {best.name} found a point {ref.chi2 - best.better:.3g} lower in chi2 than the first "
+            f"optimum: the fit restarted from it and the profiles were computed again")
     except EstimatorError as exc:
         return None, (), f"the likelihood refinement could not run: {exc}"
 
@@ -129,7 +142,9 @@ def _refine(setup: Setup, data: Data, theta: np.ndarray, held: Sequence[str],
 def _held_bias(ref: Refinement, names: Sequence[str], h: int) -> str:
     """What holding parameter ``h`` 10 % off does to the free estimates (linearised at the estimate)."""
     J = ref.fit.J
-    free = [i for i in range(J.shape[1]) if i != h and (i >= len(names) or names[i] not in ref.held)]
+    states = ref.objective.setup.model.states
+    free = [i for i in range(J.shape[1]) if i != h and (names[i] not in ref.held if i < len(names) else
+                                                        states[i - len(names)] not in ref.known)]
     Jf = J[:, free]
     shift = -np.linalg.lstsq(Jf, J[:, h], rcond=None)[0] * math.log(1.1)
     effects = sorted(((abs(s), names[i], 100 * math.expm1(s)) for i, s in zip(free, shift) if i < len(names)),
@@ -149,6 +164,7 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
     t0 = time.perf_counter()
     ref, profs, failed = _refine(setup, data, theta, held, progress, executor, input_noise) if refined else (
         None, (), "")
+    restarted = failed if ref is not None else ""  # with a refinement, the third element says a restart
     refine_seconds = time.perf_counter() - t0
     by_name = {pr.name: pr for pr in profs}
     x0 = setup.x0
@@ -204,10 +220,11 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
     if ref is not None:
         misfit = float(np.sqrt(np.mean(per ** 2)))
         better = [pr.name for pr in profs if pr.better is not None]
-        converged, reason = ref.converged and not better, ref.reason
+        converged, reason = ref.converged and not better, "; ".join(w for w in (restarted, ref.reason) if w)
         if better:
-            reason = (f"the profile of {better[0]} found a lower chi2 than the estimate: it is not the maximum of the "
-                      f"likelihood; start again from other initial guesses")
+            reason = (f"the profile of {better[0]} found a lower chi2 than the estimate" + (
+                " again after the fit restarted from the first better point" if restarted else "") +
+                      ": it is not the maximum of the likelihood; no interval is claimed")
     elif refined:
         converged, reason = False, failed
     else:
