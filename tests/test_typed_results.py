@@ -134,7 +134,7 @@ UKF + maximum likelihood on storey, measured data run1, 3 pass(es), 1.50 s: NOT 
   m          true 1           estimate 1.1        std 0.5       error 10.00 %  poorly informed: Cramér-Rao std 40 %
   1 parameter(s) held at their guess
   fit (NRMSE): y 1.23 %, z -
-  residual RMS / noise level: y 1.02"""
+  residual RMS / the noise level the fit was given: y 1.02"""
 
 
 def test_identify_text_renders_the_value_as_the_json_renderer_did():

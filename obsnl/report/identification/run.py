@@ -188,8 +188,12 @@ def identify_text(result: IdentificationRun) -> str:
     fit = ", ".join(f"{k} {v:.2f} %" if _given(v) else f"{k} -" for k, v in run.fit.items())
     lines.append(f"  fit (NRMSE): {fit}")
     if ref.get("misfit_over_noise"):
-        lines.append("  residual RMS / noise level: " + ", ".join(f"{k} {v:.2f}" for k, v in
-                                                              ref["misfit_over_noise"].items()))
+        # over the noise level the fit was given; a level raised to the filter's floor is said, since the ratio then
+        # understates a misfit (the adequacy tests judge against the independent estimate)
+        floored = {k for k, v in (run.noise or {}).items() if "floored" in str(v.get("source", ""))}
+        lines.append("  residual RMS / the noise level the fit was given: " + ", ".join(
+            f"{k} {v:.2f}" + (" (that level floored: a smaller misfit is not seen)" if k in floored else "")
+            for k, v in ref["misfit_over_noise"].items()))
     modal = getattr(run, "modal_at_rest", None)  # an oscillatory model's modes (None: none, or not linearisable)
     if modal is not None:
         lines += modal_lines(modal)
