@@ -9,19 +9,23 @@ Everything else is imported from its room, e.g. ``from obsnl.estimation import U
 ``from obsnl.identification import run_passes``, ``from obsnl.design import design``.
 """
 
-from obsnl.errors import (
-    AnalysisError,
-    CompileError,
-    DataError,
-    EstimatorError,
-    ExecutorError,
-    ModelError,
-    NotSupportedError,
-    ObsnlError,
-    OptionError,
-    OutputError,
-    ParseError,
-    TableError,
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from obsnl.errors import (  # `X as X`: re-exported, for type checkers too
+    AnalysisError as AnalysisError,
+    CompileError as CompileError,
+    DataError as DataError,
+    EstimatorError as EstimatorError,
+    ExecutorError as ExecutorError,
+    ModelError as ModelError,
+    NotSupportedError as NotSupportedError,
+    ObsnlError as ObsnlError,
+    OptionError as OptionError,
+    OutputError as OutputError,
+    ParseError as ParseError,
+    TableError as TableError,
 )
 from obsnl import _display
 from obsnl._exports import lazy_exports
@@ -60,17 +64,38 @@ _LAZY: dict[str, str] = {
     "reproduce": "studies.seed_paper",
 }
 
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.design.sensors import sensors as sensors
+    from obsnl.estimation.measured import read_measured as read_measured
+    from obsnl.estimation.records import read_record as read_record
+    from obsnl.identification.identify import identify as identify
+    from obsnl.identification.results import Identification as Identification
+    from obsnl.identification.validation.merit import Validation as Validation
+    from obsnl.identification.validation.run import simulate as simulate
+    from obsnl.linear.bank import build_bank as build_bank
+    from obsnl.linear.hautus import hautus as hautus
+    from obsnl.linear.systems import as_linear_system as as_linear_system, kalman_rank as kalman_rank
+    from obsnl.model.core import Model as Model
+    from obsnl.model.files import read_model as read_model
+    from obsnl.observability.analyze import analyze as analyze
+    from obsnl.observability.certificates.symmetry import symmetries as symmetries
+    from obsnl.observability.results import AnalysisResult as AnalysisResult
+    from obsnl.observability.verdicts import Verdict as Verdict
+    from obsnl.recombination.identifiable import identifiable_functions as identifiable_functions
+    from obsnl.recombination.reparametrize import reparametrize as reparametrize
+    from obsnl.studies.seed_paper import reproduce as reproduce
+
 
 __getattr__, __dir__ = lazy_exports(__name__, globals(), _LAZY)
 
 
-def _markdown(result: object) -> str:
+def _markdown(result: AnalysisResult) -> str:
     from obsnl.report.tables import to_markdown
 
     return to_markdown(result)
 
 
-def _latex(result: object) -> str:
+def _latex(result: AnalysisResult) -> str:
     from obsnl.report.tables import to_latex
 
     return to_latex(result, environment=False)
