@@ -34,7 +34,7 @@ import time
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Union
+from typing import Any, Union, cast
 
 import numpy as np
 
@@ -307,7 +307,7 @@ class _Runs:
                           by if len(self.runs) > 1 else {})
 
 
-def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequence[str] = "all",
+def design(model: Model, records: Record | Sequence[RecordLike], *, target: str | Sequence[str] = "all",
            sensors: str | Sequence[str] | None = None, scales: Sequence[float] | None = None, tol: float = 1e-3,
            seed: int = 0, max_seconds: float | None = None) -> ExperimentDesign:
     """The branches the records visit per scale, the smallest sufficient scale and the sufficient records.
@@ -316,7 +316,7 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
     ----------
     model : Model
         A model with numbers for every parameter in its ``[values]`` and only known inputs.
-    records : sequence of RecordLike
+    records : Record or sequence of RecordLike
         Each a :class:`~obsnl.estimation.accelerogram.Record` (one column drives the model's one input; named columns
         drive the inputs of their names), ``(name, t, {input: samples})`` or a pandas DataFrame with a column per input
         (its time a column or its index; named by ``attrs["name"]``, else ``record 1``, ``record 2``, ... by
@@ -372,7 +372,8 @@ def design(model: Model, records: Sequence[RecordLike], *, target: str | Sequenc
     ((('push',),), 2)
     """
     t0 = time.perf_counter()
-    records = [records] if isinstance(records, Record) or is_frame(records) else records
+    if isinstance(records, Record) or is_frame(records):  # one Record or DataFrame alone is one record
+        records = [cast(RecordLike, records)]  # a DataFrame is read as a record (pandas has no types here)
     grid = design_arguments(model, records, scales=scales, tol=tol, sensors=sensors) or DEFAULT_SCALES
     with time_budget(max_seconds):
         targets = resolve_targets(model, target)
