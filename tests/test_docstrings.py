@@ -19,6 +19,11 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "obsnl"
 
 
+def _overload(node: ast.FunctionDef) -> bool:
+    """A ``@typing.overload`` signature: its function's docstring is on the implementation that follows it."""
+    return any(ast.unparse(d) in ("overload", "typing.overload") for d in node.decorator_list)
+
+
 def undocumented(root: Path) -> list[str]:
     """``file:function`` for each public function of two or more arguments without ``Parameters``."""
     missing = []
@@ -32,7 +37,7 @@ def undocumented(root: Path) -> list[str]:
                 except ValueError:
                     pass
         for node in tree.body:
-            if (isinstance(node, ast.FunctionDef) and not node.name.startswith("_")
+            if (isinstance(node, ast.FunctionDef) and not node.name.startswith("_") and not _overload(node)
                     and (names is None or node.name in names)
                     and len(node.args.args) + len(node.args.kwonlyargs) >= 2
                     and "Parameters" not in (ast.get_docstring(node) or "")):
@@ -54,6 +59,9 @@ def test_public_functions_document_their_parameters() -> None:
     ('def f(a, *, b):\n    pass\ndef _h(a, b):\n    pass\ndef one(a):\n    pass\n', ["pkg/m.py:f"]),
     # documented: nothing missing
     ('def f(a, b):\n    """Sum.\n\n    Parameters\n    ----------\n    a, b : int\n        Terms.\n    """\n', []),
+    # overloads: documented on the implementation, which is still checked
+    ('@overload\ndef f(a: int, b: int) -> int: ...\n@overload\ndef f(a: str, b: str) -> str: ...\ndef f(a, b):\n'
+     '    """Sum."""\n', ["pkg/m.py:f"]),
 ])
 def test_the_check_catches_an_undocumented_function(tmp_path: Path, source: str, expected: list[str]) -> None:
     pkg = tmp_path / "pkg"
@@ -147,7 +155,8 @@ FROM_PAPERS = {
 def test_a_method_from_a_paper_cites_it(where: str) -> None:
     module, name = where.split(":")
     tree = ast.parse((PACKAGE / module).read_text(encoding="utf-8"))
-    (node,) = [n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.ClassDef)) and n.name == name]
+    (node,) = [n for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.ClassDef)) and n.name == name
+               and not (isinstance(n, ast.FunctionDef) and _overload(n))]
     doc = ast.get_docstring(node) or ""
     assert "\nReferences\n----------\n" in doc, where
     references = doc.split("\nReferences\n----------\n", 1)[1]
