@@ -30,16 +30,12 @@ transcendence degree (rank deficit), see :mod:`obsnl.algebra.bounds`.
 from __future__ import annotations
 
 import random
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from obsnl.algebra.bounds import BlockOutcome, failure_bound
 from obsnl.algebra.modp import Echelon
 from obsnl.algebra.series import Problem, SeriesRun, TimeUp, prime_density, run_series
-
-if TYPE_CHECKING:
-    pass
 
 __all__ = ["sedoglavic_block", "RankTracker", "stall_safe"]
 
