@@ -62,9 +62,11 @@ class EstimatorError(ObsnlError, RuntimeError):
     """A filter cannot continue: a covariance stopped being positive definite, a NaN appeared."""
 
 
-class CompileError(EstimatorError):
-    """Code could not be compiled to C and loaded: no C compiler, a compiler error, a cache folder that cannot
-    be written, a library that does not load. A run that did not ask for compilation goes on uncompiled."""
+class CompileError(ObsnlError, RuntimeError):
+    """Code could not be compiled to C and loaded: no C compiler, a compiler error or one that does not finish
+    in time, a cache folder that cannot be written, a library that does not load. A run that did not ask for
+    compilation goes on uncompiled. Not an :class:`EstimatorError`: a filter or simulation that fails is read as
+    a point far from the data, a failed compilation never is."""
 
 
 class OptionError(ObsnlError, ValueError):

@@ -14,6 +14,7 @@ with a margin for a loaded machine. Every server and cluster here stops by itsel
 
 from __future__ import annotations
 
+import os
 import socket
 import struct
 import threading
@@ -26,7 +27,7 @@ import pytest
 import obsnl
 import obsnl.batch
 from obsnl import executor as executor_module
-from obsnl.errors import ExecutorError, OptionError
+from obsnl.errors import CompileError, ExecutorError, OptionError
 from obsnl.executor import Executor
 
 from .dying_tasks import dies, dies_on_two
@@ -151,7 +152,8 @@ def test_executor_map_stops_when_the_cluster_has_no_worker(monkeypatch):
 
 
 @pytest.mark.parametrize("first, reason", [(b"", "no Dask handshake within 5 s"),
-                                           (_dask_handshake(), "sent its handshake but did not answer")])
+                                           (_dask_handshake(), "sent its handshake but did not answer")],
+                         ids=["silent", "silent-after-its-handshake"])
 def test_identify_refuses_a_silent_scheduler_before_any_work(first, reason, tmp_path, capsys, monkeypatch):
     from obsnl.cli import main
 
@@ -208,3 +210,113 @@ def test_report_exits_2_naming_the_model_whose_worker_died(tmp_path, capsys, mon
     assert code == 2 and "error: a worker process died (exit code 3) while running the analysis of model" in err
     assert "'coulomb_friction'" in err or "'msd_force_accel'" in err
     assert "--workers 1" in err and "BrokenProcessPool" not in err
+
+
+# -- a C compiler that hangs -------------------------------------------------------------------------------------
+
+
+def _hanging_compiler(tmp_path, monkeypatch, *, version_too: bool = False):
+    """``gcc`` and ``cc`` first on PATH that never finish compiling (and, with ``version_too``, never say their
+    version either): each writes its process id to a file, then sleeps 120 s. The compile time limit is 2 s, the
+    library cache empty (on disk and in this process), so the compiler is reached. Returns the file of ids."""
+    import shutil
+
+    from obsnl.estimation import jitcache
+
+    bin_, pids = tmp_path / "bin", tmp_path / "pids"
+    bin_.mkdir()
+    answer = "" if version_too else 'if [ "$1" = "--version" ]; then echo "cc (hangs) 1.0"; exit 0; fi\n'
+    for name in ("gcc", "cc"):
+        script = bin_ / name
+        script.write_text(f"#!/bin/sh\n{answer}echo $$ >> {pids}\nexec {shutil.which('sleep')} 120\n")
+        script.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bin_}{os.pathsep}{os.environ['PATH']}")
+    monkeypatch.setenv("OBSNL_COMPILE_SECONDS", "2")
+    monkeypatch.setenv("OBSNL_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(jitcache, "_LOADED", {})
+    monkeypatch.setattr(jitcache, "_HUNG", {})
+    return pids
+
+
+def _all_stopped(pids) -> bool:
+    """Every process the fake compiler started has ended (it was killed, not left sleeping)."""
+    for pid in map(int, pids.read_text().split()):
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            continue
+        return False
+    return True
+
+
+def _duffing():
+    """A Duffing oscillator with a fifth-power term (C code no earlier test compiled) and its response from scipy."""
+    from scipy.integrate import solve_ivp
+
+    model = obsnl.Model(name="duffing_hang", states=["x", "v"], parameters=["c", "k", "kn"], inputs=["F"],
+                        equations={"x": "v", "v": "F - c*v - k*x - kn*x**5"}, outputs={"disp": "x"},
+                        guess={"c": 0.4, "k": 3.5, "kn": 2.5})
+    t = np.arange(200) * 0.02
+    F = 2.0 * np.sin(2.1 * t) + 1.2 * np.sin(3.7 * t + 0.4)
+
+    def rhs(tt, s):
+        return [s[1], np.interp(tt, t, F) - 0.3 * s[1] - 4.0 * s[0] - 2.0 * s[0] ** 5]
+
+    x = solve_ivp(rhs, (0, t[-1]), [0.0, 0.0], method="LSODA", t_eval=t, rtol=1e-10, atol=1e-12, max_step=0.02).y[0]
+    return model, {"time_s": t, "F": F, "disp": x + 0.01 * np.std(x) * np.random.default_rng(0).standard_normal(t.size)}
+
+
+def test_identify_runs_uncompiled_with_one_warning_when_the_compiler_hangs(tmp_path, monkeypatch, capsys):
+    from obsnl.estimation.jitcache import compiler_available
+    from obsnl.identification.experiments import Tuning
+
+    pids = _hanging_compiler(tmp_path, monkeypatch)
+    assert compiler_available()
+    model, data = _duffing()
+    start = time.monotonic()
+    res = obsnl.identify(model, data, progress=False, refine=False, passes=1, tuning=Tuning(0.3, 0.0, 1.0))
+    seconds = time.monotonic() - start
+    err = capsys.readouterr().err
+    assert res.compiled is False
+    assert err.count("obsnl: warning:") == 1 and len(err.strip().splitlines()) == 1, err
+    assert "did not finish compiling" in err and "within 2 s" in err and "running uncompiled" in err, err
+    assert seconds < 20.0, seconds  # the 2 s limit, then a one-pass uncompiled run (under 2 s unloaded)
+    assert _all_stopped(pids)
+    # asked for explicitly, compiling is an error; the compiler that hung is not waited for again
+    start = time.monotonic()
+    with pytest.raises(CompileError, match="did not finish compiling .* within 2 s .*not run again.*jit=False"):
+        obsnl.identify(model, data, progress=False, refine=False, passes=1, tuning=Tuning(0.3, 0.0, 1.0), jit=True)
+    assert time.monotonic() - start < 1.5
+
+
+def test_identify_cli_with_jit_exits_2_when_the_compiler_does_not_say_its_version(tmp_path, monkeypatch, capsys):
+    from obsnl.cli import main
+
+    pids = _hanging_compiler(tmp_path, monkeypatch, version_too=True)
+    _, data = _duffing()
+    m = tmp_path / "duffing_hang.toml"
+    m.write_text('name = "duffing_hang"\nstates = ["x", "v"]\nparameters = ["c", "k", "kn"]\ninputs = ["F"]\n'
+                 '[equations]\nx = "v"\nv = "F - c*v - k*x - kn*x**5"\n[outputs]\ndisp = "x"\n'
+                 '[guess]\nc = 0.4\nk = 3.5\nkn = 2.5\n')
+    csv = tmp_path / "data.csv"
+    csv.write_text("time_s,F,disp\n" + "".join(f"{a},{b},{c}\n" for a, b, c in zip(*data.values())))
+    start = time.monotonic()
+    code = main(["identify", str(m), "--data", str(csv), "--jit", "--no-refine", "--passes", "1"])
+    seconds = time.monotonic() - start
+    err = capsys.readouterr().err
+    said = [ln for ln in err.replace("\r", "\n").splitlines() if ln.strip() and not ln.startswith("identify:")]
+    assert "Traceback" not in err and len(said) == 1, err
+    err = said[0]
+    assert code == 2 and "did not say its --version within 2 s" in err and "--no-jit" in err, err
+    assert seconds < 20.0 and _all_stopped(pids)
+
+
+@pytest.mark.parametrize("value", ["soon", "0", "-5", "inf", "nan"])
+def test_a_compile_time_limit_that_is_no_number_of_seconds_is_one_line(value, monkeypatch):
+    from obsnl.estimation.jitcache import compile_seconds
+
+    monkeypatch.setenv("OBSNL_COMPILE_SECONDS", value)
+    with pytest.raises(CompileError, match=r"OBSNL_COMPILE_SECONDS=.* is not a number of seconds above 0"):
+        compile_seconds()
+    monkeypatch.setenv("OBSNL_COMPILE_SECONDS", "2.5")
+    assert compile_seconds() == 2.5

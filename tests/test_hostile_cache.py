@@ -163,7 +163,7 @@ def test_7_a_full_cache_file_system_falls_back_with_one_line(cache, monkeypatch,
     from obsnl.estimation import jitcache
 
     jitcache.cache_directory()
-    real_run, real_write = subprocess.run, Path.write_text
+    real_run, real_write = jitcache._run, Path.write_text
 
     def full_run(argv, *args, **kwargs):  # what gcc answers when its output does not fit
         if Path(argv[-1]).parent.parent == cache:
@@ -178,7 +178,7 @@ def test_7_a_full_cache_file_system_falls_back_with_one_line(cache, monkeypatch,
     if where == "the source":
         monkeypatch.setattr(Path, "write_text", full_write)
     else:
-        monkeypatch.setattr(jitcache.subprocess, "run", full_run)
+        monkeypatch.setattr(jitcache, "_run", full_run)  # how jitcache runs the compiler (with a time limit)
     assert float(jitcache.jit_compile(_square())(3.0)) == 10.0
     err = capfd.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "No space left on device" in err[0] and "temporary folder" in err[0], err
@@ -190,11 +190,11 @@ def test_7_a_compiler_error_is_one_line(cache, monkeypatch):
     # a compiler that fails on the code itself is an error, in one line (its stderr spans several)
     import subprocess
 
-    from obsnl.errors import EstimatorError
+    from obsnl.errors import CompileError
     from obsnl.estimation import jitcache
 
-    monkeypatch.setattr(jitcache.subprocess, "run", lambda argv, *a, **k: subprocess.CompletedProcess(
+    monkeypatch.setattr(jitcache, "_run", lambda argv, *a, **k: subprocess.CompletedProcess(
         argv, 1, "", "x.c:1:1: error: expected ';'\n    1 | int x\n      | ^\n"))
-    with pytest.raises(EstimatorError) as info:
+    with pytest.raises(CompileError) as info:
         jitcache.jit_compile(_square())
     assert "\n" not in str(info.value) and "expected ';'" in str(info.value)

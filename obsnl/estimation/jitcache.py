@@ -22,6 +22,12 @@ the expected name, a missing sidecar) it is rebuilt, never loaded. A library tha
 after a rebuild is an error, not a loop. A cache folder that cannot be created or written (under a
 file, on a read-only file system) is replaced by a private temporary folder for this process, with a
 one-line warning on stderr.
+
+No compilation waits for ever: the compiler runs in a process group of its own, and one that has not finished a
+library within :func:`compile_seconds` (``OBSNL_COMPILE_SECONDS``, default 300 s; 10 s for its ``--version``)
+is killed with all it started, and is a :class:`~obsnl.errors.CompileError` (a run that did not ask for
+compilation then goes on uncompiled, with one warning); later compilations in the same process are refused at
+once rather than waiting again.
 """
 
 from __future__ import annotations
@@ -35,6 +41,7 @@ import hmac
 import os
 import platform
 import shutil
+import signal
 import stat
 import subprocess
 import sys
@@ -46,7 +53,8 @@ import casadi as ca
 
 from obsnl.errors import CompileError, OutputError
 
-__all__ = ["jit_compile", "compiler_available", "cache_directory", "FLAGS", "jit_options", "jit_directory"]
+__all__ = ["jit_compile", "compiler_available", "cache_directory", "FLAGS", "jit_options", "jit_directory",
+           "COMPILE_SECONDS", "compile_seconds"]
 
 #: Compiler flags (as :func:`jit_options`).
 FLAGS = ("-O3", "-march=native", "-ffp-contract=off")
@@ -145,19 +153,107 @@ def _compiler() -> str:
     path = _on_path()
     if path is None:
         raise CompileError("jit=True needs a C compiler (gcc, cc or clang) on PATH; install one or pass jit=False")
+    _not_hung(path)
     return path
 
 
-@functools.lru_cache(maxsize=None)
-def _compiler_identity() -> str:
-    """The compiler :func:`_compiler` picks: its resolved path and the first line of its ``--version``
-    (computed once per process; ``"none"`` without a compiler, when only cached libraries can load)."""
-    path = _on_path()
-    if path is None:
-        return "none"
+#: Seconds one compilation (one library) may take by default; ``OBSNL_COMPILE_SECONDS`` sets another limit.
+COMPILE_SECONDS = 300.0
+#: Seconds the compiler may take to say its ``--version`` (at most the compilation's limit).
+_VERSION_SECONDS = 10.0
+_HUNG: dict[str, str] = {}  # compilers stopped at their time limit in this process: what they did not finish
+
+
+def compile_seconds() -> float:
+    """Seconds one compilation may take before the compiler is stopped: ``$OBSNL_COMPILE_SECONDS`` or
+    :data:`COMPILE_SECONDS`.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    CompileError
+        ``OBSNL_COMPILE_SECONDS`` is not a number of seconds above 0.
+
+    Examples
+    --------
+    >>> compile_seconds() > 0
+    True
+    """
+    text = os.environ.get("OBSNL_COMPILE_SECONDS", "").strip()
+    if not text:
+        return COMPILE_SECONDS
     try:
-        proc = subprocess.run([path, "--version"], capture_output=True, text=True, timeout=30)
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < float("inf"):
+        raise CompileError(f"OBSNL_COMPILE_SECONDS={text[:40]!r} is not a number of seconds above 0; set it to one "
+                           f"(e.g. 600) or unset it for {COMPILE_SECONDS:g} s")
+    return value
+
+
+def _not_hung(path: str) -> None:
+    """Refuse at once a compiler that was already stopped at its time limit in this process."""
+    if path in _HUNG:
+        raise CompileError(_stopped(path))
+
+
+def _stopped(path: str) -> str:
+    """The one line for a compiler stopped at its time limit (the same the first time and every later time)."""
+    return (f"the C compiler {path} {_HUNG[path]} (stopped, and not run again by this process); set "
+            f"OBSNL_COMPILE_SECONDS to allow it longer, or run without compiling (jit=False)")
+
+
+def _run(args: list[str], seconds: float) -> subprocess.CompletedProcess[str]:
+    """``args`` run with their output captured, in a process group of their own: past ``seconds`` the whole group
+    (the compiler and whatever it started: cc1, as, ld) is killed and :class:`subprocess.TimeoutExpired` raised;
+    on an interrupt too, the group is killed before the exception goes on."""
+    group = hasattr(os, "killpg")
+    proc = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=group)
+    try:
+        out, err = proc.communicate(timeout=seconds)
+    except BaseException:  # the time limit, or an interrupt: nothing of it may outlive this call
+        try:
+            if group:
+                os.killpg(proc.pid, signal.SIGKILL)
+            else:  # pragma: no cover - no process groups (Windows)
+                proc.kill()
+        except OSError:  # already gone
+            pass
+        try:
+            proc.communicate(timeout=5.0)  # the pipes closed and the process reaped
+        except subprocess.TimeoutExpired:  # pragma: no cover - a child that left the group holds the pipes
+            pass
+        raise
+    return subprocess.CompletedProcess(args, proc.returncode, out, err)
+
+
+def _compiler_identity() -> str:
+    """The compiler :func:`_compiler` picks: its resolved path and the first line of its ``--version`` (computed
+    once per compiler and process; ``"none"`` without a compiler, when only cached libraries can load).
+
+    Raises
+    ------
+    CompileError
+        The compiler did not say its version within ``_VERSION_SECONDS`` (a compiler that hangs).
+    """
+    path = _on_path()
+    return "none" if path is None else _identity_of(path)
+
+
+@functools.cache
+def _identity_of(path: str) -> str:
+    _not_hung(path)
+    seconds = min(_VERSION_SECONDS, compile_seconds())
+    try:
+        proc = _run([path, "--version"], seconds)
         first = (proc.stdout or proc.stderr).splitlines()[0] if (proc.stdout or proc.stderr) else ""
+    except subprocess.TimeoutExpired:
+        _HUNG[path] = f"did not say its --version within {seconds:g} s"
+        raise CompileError(_stopped(path)) from None
     except (OSError, subprocess.SubprocessError):
         first = ""
     return f"{os.path.realpath(path)} {first.strip()}"
@@ -217,8 +313,12 @@ def _build(name: str, code: str, folder: Path, lib_name: str) -> Path:
         src = Path(tmp) / f"{name}.c"
         src.write_text(code, encoding="utf-8")
         out = Path(tmp) / lib_name
-        proc = subprocess.run([cc, *FLAGS, "-fPIC", "-shared", str(src), "-o", str(out)],
-                              capture_output=True, text=True)
+        seconds = compile_seconds()
+        try:
+            proc = _run([cc, *FLAGS, "-fPIC", "-shared", str(src), "-o", str(out)], seconds)
+        except subprocess.TimeoutExpired:  # a compiler that hangs (or a library too large for the limit)
+            _HUNG[cc] = f"did not finish compiling {name} within {seconds:g} s"
+            raise CompileError(_stopped(cc)) from None
         if proc.returncode != 0:
             for number in (errno.ENOSPC, errno.EDQUOT, errno.EROFS):  # the folder, not the code: fall back
                 if os.strerror(number) in proc.stderr:
@@ -261,7 +361,8 @@ def jit_compile(fn: ca.Function) -> ca.Function:
     Raises
     ------
     CompileError
-        No C compiler, the compiler failed, or a freshly built library does not load.
+        No C compiler, the compiler failed or did not finish within :func:`compile_seconds`, or a freshly built
+        library does not load.
     OutputError
         The cache folder is unsafe (:func:`cache_directory`).
 
