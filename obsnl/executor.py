@@ -440,10 +440,12 @@ class _Session:
                 i = index[fut.key]
                 try:
                     value = fut.result()
-                except KilledWorker:
-                    raise ExecutorError(f"{named(i)} killed every Dask worker that ran it (it may exhaust their "
-                                        f"memory or crash); run it again with workers=1, in this process, where its "
-                                        f"error shows") from None
+                except KilledWorker:  # Dask gave up on it (and on any other task the dead workers held)
+                    lost = [named(index[f.key]) for f in futures if f.status == "error"
+                            and isinstance(f.exception(timeout=DEADLINE), KilledWorker)] or [named(i)]
+                    raise ExecutorError(f"Dask workers died while running {', '.join(lost)} (a task that crashes its "
+                                        f"worker or exhausts its memory); run it again without scheduler= and with "
+                                        f"workers=1, in this process, where its error shows") from None
                 except CancelledError:
                     raise ExecutorError(f"the Dask scheduler {self.name!r} dropped {named(i)} (restarted, or the "
                                         f"connection broke); run again, or leave scheduler= out to run on this "

@@ -200,6 +200,24 @@ def test_executor_map_names_the_task_of_a_worker_that_died():
     assert Executor(workers=2).map(dies_on_two, [0, 1, 3]) == [0, 1, 3]
 
 
+def test_executor_map_names_the_tasks_whose_dask_worker_died():
+    import dask
+    from distributed import Client, LocalCluster
+
+    # Dask gives up on a task at the first worker that dies under it (allowed-failures 0: no retry on a new worker)
+    with dask.config.set({"distributed.scheduler.allowed-failures": 0}), \
+            LocalCluster(n_workers=1, threads_per_worker=1, processes=True, host="127.0.0.1",
+                         dashboard_address=None) as cluster, Client(cluster, set_as_default=False) as client:
+        start = time.monotonic()
+        with pytest.raises(ExecutorError) as info:
+            Executor(scheduler=client).map(dies_on_two, [0, 1, 2, 3], label=lambda x: f"the task of x={x}")
+        assert time.monotonic() - start < 20.0
+    msg = str(info.value)
+    # the task that ended the worker is named (tasks queued on the same worker may be named with it)
+    assert msg.startswith("Dask workers died while running ") and "the task of x=2" in msg, msg
+    assert "without scheduler= and with workers=1" in msg and "\n" not in msg
+
+
 def test_report_exits_2_naming_the_model_whose_worker_died(tmp_path, capsys, monkeypatch):
     from obsnl.cli import main
 
