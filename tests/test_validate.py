@@ -82,6 +82,17 @@ def test_linear_oscillator_rmse_equals_scipy():
         v.warmup = 3  # type: ignore[misc]
 
 
+def test_a_validation_without_its_arrays_is_refused_before_any_file(tmp_path):
+    # the arrays default to None (the JSON has none); write_validation says so instead of failing inside matplotlib
+    from obsnl.identification.validation.job import write_validation
+
+    t, u = _input(200, 0.02, seed=1)
+    v = obsnl.simulate(OSC, {"c": 0.3, "k": 20.0}, {"t": t, "u": u, "y": np.zeros(200)})
+    with pytest.raises(DataError, match="carries no arrays"):
+        write_validation(dataclasses.replace(v, y_simulated=None), tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+
+
 def test_duffing_two_outputs_rmse_equals_scipy():
     p = {"c": 0.4, "k": 10.0, "a": 300.0}
     t, u = _input(1200, 0.02, seed=3)

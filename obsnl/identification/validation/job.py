@@ -11,6 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from obsnl.errors import DataError
 from obsnl.identification.validation.merit import Validation
 from obsnl.identification.validation.run import simulate
 from obsnl.model.core import Model
@@ -60,22 +61,27 @@ def write_validation(result: Validation, out: str | Path, *, force: bool = False
     ------
     OutputError
         ``out`` is a file or a link, cannot be written, or one of the files exists and ``force`` is not set.
+    DataError
+        ``result`` carries no arrays (``t``, ``y_measured``, ``y_simulated``, ``x``) to draw.
     """
     from obsnl.report.files import OutputFolder
     from obsnl.report.identification.validation import plot_loop, plot_validation
 
+    t, measured, simulated, x = result.t, result.y_measured, result.y_simulated, result.x
+    if t is None or measured is None or simulated is None or x is None:
+        raise DataError("write_validation: the validation carries no arrays (t, y_measured, y_simulated, x) to draw; "
+                        "pass the one obsnl.simulate returned")
     names = validation_files(result.states)
     outputs = tuple(result.outputs)
     with OutputFolder(out, names, force=force) as folder:
         folder.write_text("validate.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n")
-        plot_validation(folder.path("validation.png"), t=result.t, measured=result.y_measured,
-                        simulated=result.y_simulated, outputs=outputs, warmup=result.warmup, scores=result.outputs)
+        plot_validation(folder.path("validation.png"), t=t, measured=measured, simulated=simulated, outputs=outputs,
+                        warmup=result.warmup, scores=result.outputs)
         if "loop.png" in names:  # against the displacement state x where the model has one, else the first output
-            across, values = ((DISPLACEMENT_STATE, result.x[:, result.states.index(DISPLACEMENT_STATE)])
-                              if DISPLACEMENT_STATE in result.states else (outputs[0], result.y_simulated[:, 0]))
-            plot_loop(folder.path("loop.png"), displacement=values,
-                      state=result.x[:, result.states.index(HYSTERETIC_STATE)], output=across,
-                      name=HYSTERETIC_STATE, warmup=result.warmup)
+            across, values = ((DISPLACEMENT_STATE, x[:, result.states.index(DISPLACEMENT_STATE)])
+                              if DISPLACEMENT_STATE in result.states else (outputs[0], simulated[:, 0]))
+            plot_loop(folder.path("loop.png"), displacement=values, state=x[:, result.states.index(HYSTERETIC_STATE)],
+                      output=across, name=HYSTERETIC_STATE, warmup=result.warmup)
         return folder.commit()
 
 

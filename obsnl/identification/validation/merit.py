@@ -119,10 +119,10 @@ class Validation:
     seconds: float
     start_note: str = ""
     states: tuple[str, ...] = ()
-    t: np.ndarray = field(default=None, repr=False)
-    y_measured: np.ndarray = field(default=None, repr=False)
-    y_simulated: np.ndarray = field(default=None, repr=False)
-    x: np.ndarray = field(default=None, repr=False)
+    t: np.ndarray | None = field(default=None, repr=False)
+    y_measured: np.ndarray | None = field(default=None, repr=False)
+    y_simulated: np.ndarray | None = field(default=None, repr=False)
+    x: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def scored(self) -> int:
