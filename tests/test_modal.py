@@ -128,3 +128,14 @@ def test_a_state_that_does_not_name_the_states_is_refused(run):
     m = run.modal(state={"x1": 0.01, "x2": 0.02, "v1": 0.0, "v2": 0.0})
     assert m.frequency_hz == pytest.approx(run.modal().frequency_hz, rel=1e-12)
     assert any("no equilibrium" in a for a in m.assumptions)
+
+
+def test_a_first_order_model_has_real_poles_and_no_mode():
+    from obsnl.identification.modal import eigen_modes
+
+    # x' = -2 x + u, plus an undamped oscillator w = 3: one real pole -2, one mode of 3 / (2 pi) Hz
+    A = np.array([[-2.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, -9.0, 0.0]])
+    lam, shapes, real = eigen_modes(A[:1, :1], np.eye(1))
+    assert lam.size == 0 and shapes.shape == (0, 1) and real.tolist() == [-2.0]
+    lam, shapes, real = eigen_modes(A, np.eye(3)[:2])
+    assert np.abs(lam) == pytest.approx([3.0]) and real.tolist() == [-2.0]

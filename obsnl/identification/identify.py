@@ -35,7 +35,7 @@ from obsnl.identification.experiments import Tuning
 from obsnl.identification.replicates import check_passes, check_replicates
 from obsnl.identification.runs import MEASURED_GRID, Identification, check_unknowns, identify_measured
 from obsnl.identification.simulation import simulation_study
-from obsnl.estimation.measured import MIN_SAMPLES, Measured, measured, read_measured
+from obsnl.estimation.measured import MIN_SAMPLES, Measured, is_frame, measured, read_measured
 from obsnl.estimation.records import read_record
 from obsnl.estimation.accelerogram import Record
 from obsnl.executor import Executor
@@ -125,9 +125,10 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     ----------
     model : Model or str or Path
         A :class:`~obsnl.Model` or a model file.
-    data : Measured or mapping of str to Any or str or Path
+    data : Measured or mapping of str to Any or pandas.DataFrame or str or Path
         A CSV file (time column ``time_s`` or ``t``, one column per model input and output, named as
-        in the model), ``{column: samples}``, or :class:`~obsnl.estimation.measured.Measured`.
+        in the model), ``{column: samples}``, a DataFrame (its time a column or its index:
+        :func:`~obsnl.estimation.measured.frame_columns`), or :class:`~obsnl.estimation.measured.Measured`.
     guess : mapping of str to float or None
         Initial guesses (default: the model file's ``[guess]`` table; these override it).
     noise : mapping of str to float or None
@@ -192,15 +193,16 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
                  refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
     if executor is not None:  # a Dask scheduler that cannot run the work: refused now, not after the filter
         executor.probe()
-    if not isinstance(data, (Measured, Mapping, str, Path)):
-        raise DataError(f"data= takes a CSV file, a mapping of columns {{name: samples}} or a Measured; got "
-                        f"{type(data).__name__}")
+    if not isinstance(data, (Measured, Mapping, str, Path)) and not is_frame(data):
+        raise DataError(f"data= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
+                        f"Measured; got {type(data).__name__}")
     model = as_model(model)
     ins, outs = [s.name for s in model.inputs], list(model.outputs)
     if isinstance(data, (str, Path)):
         data = read_measured(data, inputs=ins, outputs=outs)
     elif not isinstance(data, Measured):
         data = measured(data, inputs=ins, outputs=outs)
+    inputs = data.u  # kept on the result, for the residual analysis and the frequency response
     kinds = intersample_kinds(intersample, ins, table=model.intersample)
     if isinstance(table, (str, Path)):  # a table made for another model is named first, before any count
         from obsnl.observability.contract.branch_table import read_branch_table
@@ -218,7 +220,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
                                      replicates=replicates, seed=seed, jit=compiled, hold=hold, progress=bar,
                                      executor=executor, refined=refine, intersample=kinds)
 
-    return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model)
+    return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model,
+                               u_measured=inputs, inputs=tuple(s.name for s in model.inputs))
 
 
 def _compiled_or_not(jit: bool | None, run: Callable[[bool], Identification]) -> Identification:
@@ -341,6 +344,7 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
         raise OptionError(f"a simulation study drives one input with record=; {model.name!r} has "
                           f"{[s.name for s in model.inputs]}: give measured data with data=")
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
+    inputs = np.asarray(record.accel, float).reshape(len(record.accel), -1)
 
     def run(compiled: bool) -> Identification:
         with _steps(progress, model, passes, replicates, tuning, refine) as bar:
@@ -348,13 +352,17 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
                                     tuning=tuning, passes=passes, replicates=replicates, jit=compiled, progress=bar,
                                     executor=executor, hold=hold, refined=refine)
 
-    return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model)
+    return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model,
+                               u_measured=inputs, inputs=tuple(s.name for s in model.inputs))
 
 
 def write_identification(result: Identification, out: str | Path, *, force: bool = False) -> list[Path]:
-    """Write ``identify.json``, ``fit.png`` (measured vs simulated per output), ``traces.png`` (parameter
-    traces over the passes with +-2 sigma bands) and ``profiles.png`` (the profile likelihood of each
-    parameter; an empty sheet after ``refine=False``) into the folder ``out``, all of them or none.
+    """Write ``identify.json``, ``fit.png`` (measured vs simulated per output over the whole record, a zoomed
+    window and the residual), ``traces.png`` (parameter traces over the passes with +-2 sigma bands),
+    ``profiles.png`` (the profile likelihood of each parameter; an empty sheet after ``refine=False``) and the
+    engineer's figures (:mod:`obsnl.identification.engineering`: ``residuals.png``; ``frf.png`` for a model that
+    linearises at rest; ``hysteresis.png`` for a model with a hysteretic state) into the folder ``out``, all of
+    them or none.
 
     Parameters
     ----------
@@ -380,15 +388,19 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     >>> IDENTIFY_FILES[0]
     'identify.json'
     """
+    from obsnl.identification.engineering import figure_files, write_figures
     from obsnl.identification.profile import THRESHOLD
-    from obsnl.report.figures import plot_fit, plot_profiles, plot_traces
+    from obsnl.report.figures import plot_profiles, plot_traces
     from obsnl.report.files import OutputFolder
+    from obsnl.report.identification.diagnostics import plot_fit_record
 
     truth = {p.name: p.true for p in result.parameters if p.true is not None}
-    with OutputFolder(out, IDENTIFY_FILES, force=force) as folder:  # no link followed, all files or none
+    extra = figure_files(result)
+    with OutputFolder(out, IDENTIFY_FILES + extra, force=force) as folder:  # no link followed, all files or none
         folder.write_text("identify.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n")
-        plot_fit(folder.path("fit.png"), t=result.t, measured=result.y_measured, simulated=result.y_fit,
-                 outputs=result.outputs, fit=result.fit)
+        plot_fit_record(folder.path("fit.png"), t=result.t, measured=result.y_measured, simulated=result.y_fit,
+                        outputs=result.outputs, fit=result.fit)
+        write_figures(result, folder, extra)
         plot_traces(folder.path("traces.png"), traces=result.traces, truth=truth, held=result.held,
                     flagged=result.flagged)
         plot_profiles(folder.path("profiles.png"), profiles=result.profiles, threshold=THRESHOLD, truth=truth)

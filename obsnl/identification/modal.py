@@ -202,7 +202,7 @@ def eigen_modes(A: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
 def _figures(lam: np.ndarray, shapes: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """Per mode: frequency (Hz), damping ratio and the shape's real parts scaled at the entries ``ref``."""
     w = np.abs(lam)
-    scaled = np.array([s / s[r] if s[r] != 0 else s for s, r in zip(shapes, ref)]).reshape(len(lam), -1)
+    scaled = np.array([s / s[r] if s[r] != 0 else s for s, r in zip(shapes, ref)]).reshape(len(lam), shapes.shape[1])
     return np.column_stack([w / (2 * np.pi), -lam.real / w, scaled.real])
 
 

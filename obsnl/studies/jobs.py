@@ -170,9 +170,10 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
         raise OptionError("give tuning= or its parts (s0=, q_theta=, q_x=, gate=), not both")
     tuning = tuning if tuning is not None else tuning_from(s0, q_theta, q_x, gate)
     if out is not None:  # refused before any work: an output folder that cannot take the files (or empty)
+        from obsnl.identification.engineering import FIGURES
         from obsnl.report.files import check_folder
 
-        check_folder(out, IDENTIFY_FILES, force=force)
+        check_folder(out, IDENTIFY_FILES + FIGURES, force=force)  # every file a run may write
     model = read_model(model) if isinstance(model, (str, Path)) else model
     guesses = parse_assignments(guess, [s.name for s in model.parameters], option="guess=", what="parameter")
     ratios = noise_ratios(noise, [s.name for s in model.inputs] + list(model.outputs), study=not data,
