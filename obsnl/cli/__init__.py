@@ -52,7 +52,7 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
                 "or Sedoglavic's randomized test), then the branches jointly. Exit code 2 when a branch is "
                 "inconclusive: the result is printed, the reason goes to stderr. " + BIG,
                 [MODEL, _o("--format", dest="fmt", choices=("text", "json", "md", "tex", "json-table"), default="text"),
-                 METHOD, _o("--seed", type=_whole(), help="default: drawn and reported"), SECONDS,
+                 METHOD, _o("--seed", type=_whole(), default=0, help="default 0 (the same answer on every run)"), SECONDS,
                  _o("--branches", type=_names, metavar="LABELS", help="only these branches (e.g. a,c)"),
                  _o("--record", metavar="FILE", help=f"only what the [values] visit under a record {RECORD}"),
                  _o("--no-joint", dest="joint", action="store_false", help="skip the joint verdict"),

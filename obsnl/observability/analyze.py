@@ -48,7 +48,7 @@ def analyze(
     model: Model | str | os.PathLike,
     *,
     method: str = "auto",
-    seed: int | None = None,
+    seed: int | None = 0,
     max_seconds: float | None = None,
     prob: float = 0.99,
     unknown_input_derivatives: int | str | None = None,
@@ -70,7 +70,8 @@ def analyze(
     method : str
         ``"auto"``, ``"orc"`` or ``"sedoglavic"``.
     seed : int or None
-        Seed of all random choices; None draws one (reported in the result).
+        Seed of all random choices (default 0: the same answer on every run, its error probability stated); None
+        draws one (reported in the result).
     max_seconds : float or None
         Time limit for the whole analysis; branches or blocks not finished are ``INCONCLUSIVE``. The split
         into branches gets at least 2 s of it and raises :class:`~obsnl.errors.AnalysisError` past that. Inside a
