@@ -179,6 +179,16 @@ def eigen_modes(A: np.ndarray, C: np.ndarray) -> tuple[np.ndarray, np.ndarray, n
     """The modes of ``A``: eigenvalues with a positive imaginary part (by frequency), their shapes ``C v`` scaled to
     a largest entry of 1 (complex), and the real eigenvalues.
 
+    Parameters
+    ----------
+    A, C : numpy.ndarray
+        The state matrix ``(nx, nx)`` and the output matrix ``(ny, nx)``.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(eigenvalues, shapes (modes, ny), real eigenvalues)``.
+
     Examples
     --------
     >>> lam, shapes, real = eigen_modes(np.array([[0.0, 1.0], [-4.0, -0.4]]), np.array([[1.0, 0.0]]))

@@ -111,6 +111,19 @@ def plot_fit_record(path: str | Path, *, t: np.ndarray, measured: np.ndarray, si
 def correlation_bounds(n: int, level: float, p: float = 1.0) -> float:
     """The two-sided bound of an estimated correlation of ``n`` samples at ``level``: ``z sqrt(p / n)``.
 
+    Parameters
+    ----------
+    n : int
+        The samples.
+    level : float
+        The two-sided level (0.01: 99 % bounds).
+    p : float
+        The variance of ``sqrt(n)`` times the correlation under the null (1 for a white series).
+
+    Returns
+    -------
+    float
+
     Examples
     --------
     >>> round(correlation_bounds(400, 0.05), 4)
@@ -203,6 +216,13 @@ def plot_residuals(path: str | Path, *, residuals: np.ndarray, inputs: np.ndarra
 def model_frf(A: Any, B: Any, C: Any, D: Any, f: Any) -> np.ndarray:
     """The frequency response ``C (i 2 pi f I - A)^-1 B + D`` of a linear model at the frequencies ``f`` (Hz).
 
+    Parameters
+    ----------
+    A, B, C, D : array_like
+        The state-space matrices.
+    f : array_like
+        The frequencies (Hz).
+
     Returns
     -------
     numpy.ndarray
@@ -222,6 +242,17 @@ def model_frf(A: Any, B: Any, C: Any, D: Any, f: Any) -> np.ndarray:
 def segment_length(n: int, most: int = SEGMENT) -> int:
     """Samples per Welch segment for a record of ``n``: ``most``, or a quarter of the record where that is shorter
     (7 half-overlapping segments: one segment alone gives a coherence of 1 at every frequency, which says nothing).
+
+    Parameters
+    ----------
+    n : int
+        The samples of the record.
+    most : int
+        The longest segment.
+
+    Returns
+    -------
+    int
 
     Examples
     --------
