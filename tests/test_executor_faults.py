@@ -185,6 +185,19 @@ def test_probe_names_a_scheduler_that_goes_silent_after_its_handshake():
     assert address in msg and "did not answer" in msg and "no answer within 1 s" in msg and "\n" not in msg
 
 
+def test_executor_map_names_a_scheduler_that_went_silent_since_the_probe(monkeypatch):
+    # no probe here (as when the scheduler hangs between the probe and the run): the client's own deadline, and a
+    # reason in words where the bare TimeoutError used to print "()"
+    monkeypatch.setattr(executor_module, "DEADLINE", 2.0)
+    with _silent_server(_dask_handshake()) as address:
+        start = time.monotonic()
+        with pytest.raises(OptionError) as info:
+            Executor(scheduler=address).map(abs, [-1])
+        assert time.monotonic() - start < 8.0
+    msg = str(info.value)
+    assert "did not answer a client within 2 s" in msg and "()" not in msg and "\n" not in msg, msg
+
+
 # -- a local worker that dies ------------------------------------------------------------------------------------
 
 
