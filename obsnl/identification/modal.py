@@ -274,7 +274,8 @@ def modal(result: Any, *, state: Mapping[str, float] | Sequence[float] | None = 
     OptionError
         The result keeps no model, or ``state`` does not name the model's states.
     ModelError
-        The zero state is not at rest under zero inputs (give ``state=``, an equilibrium).
+        The zero state is not at rest under zero inputs (give ``state=``, an equilibrium), or the linearisation
+        there is not finite.
     """
     from obsnl.estimation.codegen import to_casadi
 
@@ -288,6 +289,9 @@ def modal(result: Any, *, state: Mapping[str, float] | Sequence[float] | None = 
         raise OptionError(f"the estimate of {result.model!r} is not finite; no modal summary at it")
     x0 = _state(num.states, state)
     A, B, C, D, xdot = linearise(num, theta, x0)
+    if not all(np.all(np.isfinite(M)) for M in (A, B, C, D, xdot)):
+        raise ModelError(f"the linearisation of {result.model!r} at the state is not finite (a term without a "
+                         f"derivative there, such as x/|x| at 0); give state= where the model is smooth")
     scale = float(np.linalg.norm(A, ord=np.inf)) * max(float(np.linalg.norm(x0, ord=np.inf)), 1.0) + 1.0
     rest = float(np.linalg.norm(xdot, ord=np.inf)) <= AT_REST * scale
     notes = []
@@ -317,6 +321,9 @@ def modal(result: Any, *, state: Mapping[str, float] | Sequence[float] | None = 
             th = theta.copy()
             th[k] += sgn * h
             Ak, _, Ck, _, _ = linearise(num, th, x0)
+            if not (np.all(np.isfinite(Ak)) and np.all(np.isfinite(Ck))):
+                pair = []
+                break
             lk, sk, _ = eigen_modes(Ak, Ck)
             if lk.size != lam.size:  # a pair turned real within the step: no derivative there
                 pair = []
