@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl.errors import ObsnlError
 from obsnl.identification.validation.job import HYSTERETIC_STATE
 
 __all__ = ["figure_files", "write_figures", "restoring_force", "FIGURES"]
@@ -136,8 +137,11 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
     window = max(5, window + (window + 1) % 2)  # odd, at least 5
     window = min(window, len(y) - (1 - len(y) % 2))
     acc = savgol_filter(y, window, 3, deriv=2, delta=dt)
-    sim = result.simulate({"time_s": result.t, result.inputs[0]: u[:, 0],
-                           **{o: result.y_measured[:, k] for k, o in enumerate(result.outputs)}})
+    try:
+        sim = result.simulate({"time_s": result.t, result.inputs[0]: u[:, 0],
+                               **{o: result.y_measured[:, k] for k, o in enumerate(result.outputs)}})
+    except ObsnlError as exc:  # the figure says why, the run's files are still written
+        return f"the model at the estimate could not be simulated from rest: {exc}"
     x = np.asarray(sim.x, float)
     fv = np.array([float(np.asarray(num.f(x[k], theta, u[k]), float).ravel()[v]) for k in range(len(x))])
     name = result.inputs[0]
