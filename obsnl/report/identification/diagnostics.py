@@ -392,7 +392,10 @@ def plot_hysteresis(path: str | Path, *, displacement: Mapping[str, np.ndarray],
         ax.set_xlabel(xlabel)
         ax.set_ylabel(ylabel)
         ax.set_title("hysteresis loop: restoring force against displacement")
-        ax.legend(loc="upper left")
+        if displacement:
+            ax.legend(loc="upper left")
+        else:  # said in the middle, not a blank frame
+            ax.text(0.5, 0.5, textwrap.fill(note, 60), ha="center", va="center", fontsize=8, transform=ax.transAxes)
         lines = textwrap.wrap(note, 100)
         fig.text(0.5, 0.01, "\n".join(lines), ha="center", va="bottom", fontsize=7)
         fig.tight_layout(rect=(0, 0.03 * len(lines), 1, 1))
