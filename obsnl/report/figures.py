@@ -10,12 +10,16 @@ from __future__ import annotations
 import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from obsnl.errors import OutputError
 from obsnl.report.files import check_target
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["figure2", "figure3", "plot_fit", "plot_traces", "plot_bank_forces", "FIGURE_PREFIX"]
 
@@ -26,7 +30,8 @@ _LATEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h": 
           "h_p": r"$h'$", "Delta1": r"$\Delta_1$", "Delta2": r"$\Delta_2$", "N": r"$N$"}
 
 
-def _plt():
+def _plt() -> ModuleType:
+    """``matplotlib.pyplot`` on the Agg backend (no display needed), imported on first use."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -35,7 +40,7 @@ def _plt():
     return plt
 
 
-def _save(plt, fig, path: str | Path, *, dpi: int = 130, tight: bool = True) -> Path:
+def _save(plt: ModuleType, fig: Figure, path: str | Path, *, dpi: int = 130, tight: bool = True) -> Path:
     """Save ``fig`` as PNG at ``path`` through a temporary file in the same folder, renamed onto ``path``:
     a symbolic link there is replaced by the file, never written through (the caller has decided, with
     :func:`obsnl.report.files.check_target`, that ``path`` may be replaced). What no caller may replace is
