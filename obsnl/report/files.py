@@ -240,7 +240,9 @@ class OutputFolder:
                     continue
                 self._stage = name
                 break
-            self._stage_fd = os.open(self._stage, os.O_RDONLY | os.O_DIRECTORY | _NOFOLLOW, dir_fd=self._fd)
+            else:  # 100 random names all taken (never seen): no staging folder of our own
+                raise FileExistsError(errno.EEXIST, "no free name for a staging folder")
+            self._stage_fd = os.open(name, os.O_RDONLY | os.O_DIRECTORY | _NOFOLLOW, dir_fd=self._fd)
         except OSError as exc:
             self._cleanup(committed=False)
             if exc.errno == errno.ELOOP:
