@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from typing import Any, Protocol
+from typing import Any, Protocol, TypeGuard
 
 from obsnl.report.identification.modal import modal_lines
 
@@ -107,6 +107,8 @@ class IdentificationRun(Protocol):
     @property
     def data(self) -> Mapping[str, Any]: ...
     @property
+    def noise(self) -> Mapping[str, Mapping[str, Any]]: ...  # read only beside the refinement's misfit_over_noise
+    @property
     def practical(self) -> _Practical | None: ...
     @property
     def refinement(self) -> Mapping[str, Any]: ...
@@ -114,7 +116,7 @@ class IdentificationRun(Protocol):
     def adequacy(self) -> _Adequacy | None: ...  # read with getattr: None or absent, no fit was made
 
 
-def _given(v: float | None) -> bool:
+def _given(v: float | None) -> TypeGuard[float]:
     return v is not None and math.isfinite(v)
 
 
@@ -159,12 +161,15 @@ def identify_text(result: IdentificationRun) -> str:
     prac, ref = run.practical, run.refinement or {}
     why = run.converged_reason
     state = "converged" if run.converged else "NOT converged" + (f": {why}" if why else "")
-    how = {True: " (compiled)", False: " (not compiled)"}.get(getattr(run, "compiled", None), "")
+    compiled: bool | None = getattr(run, "compiled", None)  # None or absent: not said
+    how = "" if compiled is None else " (compiled)" if compiled else " (not compiled)"
     lines = [f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
              f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s{how}: {state}"]
-    adequacy = getattr(run, "adequacy", None)
-    inadequate = adequacy is not None and not adequacy.passed
-    if inadequate:  # before anything else: the model does not explain the data, the intervals assume it does
+    adequacy: _Adequacy | None = getattr(run, "adequacy", None)  # None or absent: no fit was made
+    inadequate = False
+    if adequacy is not None and not adequacy.passed:
+        # before anything else: the model does not explain the data, the intervals assume it does
+        inadequate = True
         lines.insert(0, adequacy.headline())
     said = _data_said(run.data)
     if said:
@@ -232,9 +237,12 @@ def _digits(interval: tuple[float | None, float | None] | None, true: float | No
     ends = [v for v in (interval or ()) if _given(v)]
     for d in range(4, 17):
         r = [float(f"{v:.{d}g}") for v in ends]
-        t = None if true is None else float(f"{true:.{d}g}")
-        apart = len(r) < 2 or r[0] < r[1]
-        if apart and (t is None or all((a < t) == (v < true) and (a > t) == (v > true) for a, v in zip(r, ends))):
+        if len(r) >= 2 and not r[0] < r[1]:  # the ends not apart
+            continue
+        if true is None:
+            return d
+        t = float(f"{true:.{d}g}")
+        if all((a < t) == (v < true) and (a > t) == (v > true) for a, v in zip(r, ends)):
             return d
     return 17
 
