@@ -271,8 +271,11 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
     for passes in sorted({k for _, k in summ}):
         methods = [m for m in _T2_METHODS if (m, passes) in summ]
         with_ml = ml if passes == ml_passes else None
-        cols = [m for m in methods if m != "dukf-zero"] + (["ml"] if with_ml else []) + \
-            [m for m in methods if m == "dukf-zero"]
+        # each column's summary: the filters', the maximum likelihood's after the refined protocol, DUKF-zero last
+        columns = ([(m, summ[(m, passes)]) for m in methods if m != "dukf-zero"]
+                   + ([("ml", with_ml)] if with_ml else [])
+                   + [(m, summ[(m, passes)]) for m in methods if m == "dukf-zero"])
+        cols = [m for m, _ in columns]
         lines += [f"## {_passes_title(passes)}", ""]
         head = "| parameter | true | guess | " + " | ".join(
             "ML mean est. | ML mean % | ML worst % | ML std %" if m == "ml" else
@@ -281,8 +284,7 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
         lines += [head, "|" + "---|" * (head.count("|") - 1)]
         for i, p in enumerate(summ[(methods[0], passes)]["parameters"]):
             cells = [_T2_MD.get(p, p), f"{exp['truth'][p]:.4g}", f"{exp['guess'][p]:.4g}"]
-            for m in cols:
-                s = with_ml if m == "ml" else summ[(m, passes)]
+            for m, s in columns:
                 mark = " †" if _t2_flagged(s, p) else ""
                 cells += [_num(s['mean_estimate'][i], ".4g"), _num(s['mean_abs_error'][i], ".2f") + mark,
                           _num(s['worst_abs_error'][i], ".2f") + mark]
@@ -291,15 +293,14 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
             if passes == 1:
                 cells += [f"{paper['ukf'][p]:.2f}", f"{paper['dukf'][p]:.2f}"]
             lines.append("| " + " | ".join(cells) + " |")
-        if all((with_ml if m == "ml" else summ[(m, passes)])["yield"] for m in cols):  # what the ridge leaves informed
+        if all(s["yield"] for _, s in columns):  # what the ridge leaves informed
             for d in ("Delta1", "Delta2"):
                 true = summ[(methods[0], passes)]["yield"][d][0]
                 cells = [f"abs({_T2_MD[d]})^(-1/2N) (yield displ.)", f"{true:.4g}", "-"]
-                for m in cols:
-                    e = (with_ml if m == "ml" else summ[(m, passes)])["yield"][d][1]
-                    e = np.asarray(e, float)
-                    spread = [f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"] if np.isfinite(e).any() else ["-", "-"]
-                    cells += ["-", *spread] + (["-"] if m == "ml" else [])  # "-": no seed ran to the end
+                for m, s in columns:
+                    e = np.asarray(s["yield"][d][1], float)
+                    mean_worst = [f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"] if np.isfinite(e).any() else ["-", "-"]
+                    cells += ["-", *mean_worst] + (["-"] if m == "ml" else [])  # "-": no seed ran to the end
                 if passes == 1:
                     cells += ["-", "-"]
                 lines.append("| " + " | ".join(cells) + " |")
@@ -342,7 +343,7 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
         lines += [f"- {_T2_METHODS[r['method']]}, {r['passes']} pass(es), seed {r['seed']}: {r['error']}"
                   for r in stopped]
     for k in sorted({k for m, k in summ if m == "ukf"}):
-        first = next((r["practical_identifiability"] for r in doc["runs"] if r["method"] == "ukf"
+        first: Mapping[str, Any] = next((r["practical_identifiability"] for r in doc["runs"] if r["method"] == "ukf"
                       and r["passes"] == k and r.get("practical_identifiability")), {})
         if first.get("reasons") or first.get("undecided"):
             lines += ["", f"Reasons (first seed of the UKF, {k} pass(es)):", ""]
