@@ -85,6 +85,7 @@ _ARGUMENTS = {
     "guess": _WRONG.filter(lambda v: v is not None),
     "noise": _WRONG.filter(lambda v: v is not None),
     "progress": _WRONG.filter(lambda v: v is not None and not isinstance(v, bool)),
+    "known_initial": _WRONG.filter(lambda v: v is not None),
 }
 
 

@@ -116,7 +116,7 @@ class Measured:
             if n < MIN_SAMPLES:
                 raise DataError(f"output {c!r} of data {self.source or self.name!r} has {int(n)} samples measured "
                                 f"(the others are gaps); {_TOO_SHORT}")
-        return Record(self.name, self.u if self.u.shape[1] > 1 else self.u[:, 0], self.dt, self.source,
+        return Record(self.name, self.u if self.u.shape[1] != 1 else self.u[:, 0], self.dt, self.source,
                       channels=self.inputs)
 
     def __repr__(self) -> str:

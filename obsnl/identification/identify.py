@@ -33,7 +33,7 @@ from obsnl.estimation.intersample import intersample_kinds
 from obsnl.estimation.jitcache import compiler_available
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.replicates import check_passes, check_replicates
-from obsnl.identification.runs import MEASURED_GRID, Identification, check_unknowns, identify_measured
+from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
 from obsnl.identification.simulation import simulation_study
 from obsnl.estimation.measured import MIN_SAMPLES, Measured, is_frame, measured, read_measured
 from obsnl.estimation.records import read_record
@@ -44,7 +44,6 @@ from obsnl.model.files import as_model
 from obsnl.observability.analyze import analyze
 from obsnl.observability.contract.table_check import check_table
 from obsnl.observability.contract.branch_table import BranchTable
-from obsnl.model.branching.signature import ModelSignature
 from obsnl.identification.structural import StructuralCheck, structural_check
 
 __all__ = ["identify", "study", "write_identification", "IDENTIFY_FILES"]
@@ -82,7 +81,8 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
 
 
 def _check_kinds(guess: Any, noise: Any, *, table: Any = None, tuning: Any = None, executor: Any = None,
-                 jit: Any = None, seed: Any = 0, progress: Any = None, **flags: Any) -> None:
+                 jit: Any = None, seed: Any = 0, progress: Any = None, known_initial: Any = None,
+                 **flags: Any) -> None:
     """Refuse an argument of the wrong kind that Python would read silently (``refine="no"`` is true, ``jit="no"``
     compiles, a guess of ``None`` fails deep inside, ``table=5`` an attribute error): each with one line naming it
     and the kind it takes, as the command line refuses a bad option."""
@@ -110,6 +110,41 @@ def _check_kinds(guess: Any, noise: Any, *, table: Any = None, tuning: Any = Non
         raise OptionError(f"guess= gives {bad} = {guess[bad]!r}; give a number")
     if noise is not None and not isinstance(noise, Mapping):
         raise OptionError(f"noise= takes {{channel: ratio}}, e.g. noise={{'disp': 0.01}}; got {noise!r}")
+    if known_initial is not None and not isinstance(known_initial, Mapping):
+        raise OptionError(f"known_initial= takes {{state: value}}, e.g. known_initial={{'x': 0.01, 'v': 0.0}}; got "
+                          f"{known_initial!r}")
+    for k, v in (known_initial or {}).items():
+        if isinstance(v, (bool, np.bool_)) or not isinstance(v, Real) or not math.isfinite(v):
+            raise OptionError(f"known_initial= gives {k} = {v!r}; give a finite number")
+
+
+def _known_initial(model: Model, given: Mapping[str, float] | None) -> tuple[Model, dict[str, float]]:
+    """The model with the states of ``given`` declared known (so the structural analysis counts them known too),
+    and the value of every known initial state: ``given`` over the model's ``initial_condition_values``."""
+    states = [s.name for s in model.states]
+    wrong = [k for k in (given or {}) if k not in states]
+    if wrong:
+        raise OptionError(f"known_initial= names {wrong[0]!r}, which is not a state of {model.name!r} "
+                          f"({', '.join(states)}); check the spelling")
+    if given:
+        names = [s.name for s in model.known_initial_conditions]
+        values = {s.name: v for s, v in model.initial_condition_values.items()}
+        model = model.replace(known_initial_conditions=names + [k for k in given if k not in names],
+                              initial_condition_values={**values, **{k: float(v) for k, v in given.items()}})
+    constants = {sym: model.values[sym.name] for sym in model.known_constants if sym.name in model.values}
+    known = {}
+    for sym in model.known_initial_conditions:
+        expr = model.initial_condition_values.get(sym)
+        try:
+            value = float(expr.subs(constants)) if expr is not None else math.nan
+        except TypeError:  # a symbol without a value
+            value = math.nan
+        if not math.isfinite(value):
+            raise OptionError(f"the initial state {sym.name} of {model.name!r} is declared known but has no numeric "
+                              f"value: give initial_condition_values {sym.name} = VALUE in the model, or "
+                              f"known_initial={{'{sym.name}': VALUE}}")
+        known[sym.name] = value
+    return model, known
 
 
 def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str | Path, *,
@@ -118,7 +153,8 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
              tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool | None = None,
              hold: bool = False, progress: bool | Callable[[], Any] | None = True,
              executor: Executor | None = None, refine: bool = True,
-             intersample: str | Mapping[str, str] | Sequence[str] | None = None) -> Identification:
+             intersample: str | Mapping[str, str] | Sequence[str] | None = None,
+             known_initial: Mapping[str, float] | None = None) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
     Parameters
@@ -165,6 +201,10 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         How the inputs behave between samples (:func:`obsnl.estimation.intersample.intersample_kinds`: a kind for
         every input, ``{input: kind}`` or ``"NAME=KIND"`` strings; kinds ``zoh``, ``linear``, ``bandlimited``).
         Default: the model's ``[intersample]`` table, else linear; what is given here overrides it per input.
+    known_initial : mapping of str to float or None
+        Initial states known, ``{state: value}`` (a free decay from a measured displacement), over the model's
+        ``known_initial_conditions`` with ``initial_condition_values``: the structural analysis counts them known,
+        the filter starts from them, the fit holds them. The other initial states are estimated.
 
     Returns
     -------
@@ -190,7 +230,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     check_passes(passes)  # before any work
     check_replicates(replicates)
     _check_kinds(guess, noise, table=table, tuning=tuning, executor=executor, jit=jit, seed=seed, progress=progress,
-                 refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
+                 known_initial=known_initial, refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
     if executor is not None:  # a Dask scheduler that cannot run the work: refused now, not after the filter
         executor.probe()
     if not isinstance(data, (Measured, Mapping, str, Path)) and not is_frame(data):
@@ -204,13 +244,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
         data = measured(data, inputs=ins, outputs=outs)
     inputs = data.u  # kept on the result, for the residual analysis and the frequency response
     kinds = intersample_kinds(intersample, ins, table=model.intersample)
-    if isinstance(table, (str, Path)):  # a table made for another model is named first, before any count
-        from obsnl.observability.contract.branch_table import read_branch_table
-
-        table = read_branch_table(table)
-    if table is not None:
-        table.signature.check(ModelSignature.of(model))
-    check_unknowns([s.name for s in model.parameters], [s.name for s in model.states], data)  # before the analysis
+    model, known = _known_initial(model, known_initial)
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
 
     def run(compiled: bool) -> Identification:
@@ -218,7 +252,7 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
             return identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
                                      grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
                                      replicates=replicates, seed=seed, jit=compiled, hold=hold, progress=bar,
-                                     executor=executor, refined=refine, intersample=kinds)
+                                     executor=executor, refined=refine, intersample=kinds, known_initial=known)
 
     return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model,
                                u_measured=inputs, inputs=tuple(s.name for s in model.inputs))

@@ -316,8 +316,8 @@ def _spec(ref: Refinement) -> dict[str, Any]:
     obj = ref.objective
     return {"recipe": recipe_of(obj.setup, "ukf", None), "u": np.asarray(obj.data.u), "y": np.asarray(obj.data.y),
             "substeps": obj.substeps, "scale": obj.scale, "sigma": obj.sigma, "theta": ref.theta, "x0": ref.x0,
-            "std": ref.std, "cov": ref.cov, "chi2": ref.chi2, "z": ref.fit.z, "held": ref.held, "known": ref.known, "lower": ref.lower,
-            "upper": ref.upper, "input_cov": ref.input_cov}
+            "std": ref.std, "cov": ref.cov, "chi2": ref.chi2, "z": ref.fit.z, "held": ref.held, "known": ref.known,
+            "lower": ref.lower, "upper": ref.upper, "input_cov": ref.input_cov}
 
 
 def _rebuilt(spec: dict[str, Any]) -> Refinement:
@@ -334,8 +334,8 @@ def _rebuilt(spec: dict[str, Any]) -> Refinement:
     fit = Fit(z=spec["z"], chi2=spec["chi2"], iterations=0, evaluations=0, decrement=0.0, last_step=0.0,
               at_bound=(), stalled=False, J=None, r=None)
     return Refinement(theta=spec["theta"], x0=spec["x0"], std=spec["std"], cov=spec["cov"], sigma=spec["sigma"],
-                      chi2=spec["chi2"], held=spec["held"], known=spec["known"], lower=spec["lower"], upper=spec["upper"], fit=fit,
-                      objective=obj, input_cov=spec["input_cov"])
+                      chi2=spec["chi2"], held=spec["held"], known=spec["known"], lower=spec["lower"],
+                      upper=spec["upper"], fit=fit, objective=obj, input_cov=spec["input_cov"])
 
 
 def _profile_task(task: tuple[dict[str, Any], str, float | None]) -> Profile:

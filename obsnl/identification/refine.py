@@ -127,7 +127,7 @@ class Refinement:
 def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
            substeps: int | None = None, max_iter: int = 60, advice: str = ADVICE,
            input_noise: Sequence[float] | None = None, x0: Sequence[float] | None = None,
-           known: Sequence[str] = ()) -> Refinement:
+           known: Sequence[str] | None = None) -> Refinement:
     """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
 
     Parameters
@@ -153,9 +153,9 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         the setup's levels on these data; 0 takes an input as exact.
     x0 : sequence of float or None
         The initial state the fit starts from (default: the setup's, ``setup.x0``): a restart from a better point.
-    known : sequence of str
+    known : sequence of str or None
         States whose initial value is known (``setup.x0``'s): those coordinates are held, never fitted, and carry
-        no std.
+        no std (default: ``setup.known``).
 
     Returns
     -------
@@ -173,6 +173,7 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     guess = setup.coordinates.to_phi(setup.theta_guess)
     lower = np.r_[guess - BOUND, np.full(m.nx, -np.inf)]
     upper = np.r_[guess + BOUND, np.full(m.nx, np.inf)]
+    known = tuple(setup.known if known is None else known)
     unknown = sorted(set(known) - set(m.states))
     if unknown:
         raise OptionError(f"known initial states {unknown} are not states of {m.name!r} ({', '.join(m.states)})")

@@ -105,7 +105,7 @@ def check_passes(passes: int) -> int:
 CHUNK = 8
 
 _SETUP_FIELDS = ("record", "truth", "guess", "noise", "substeps", "refine", "jit", "y_true", "channel_noise",
-                 "fit_substeps", "locate")
+                 "fit_substeps", "locate", "initial", "known")
 
 
 @dataclass(frozen=True, eq=False)

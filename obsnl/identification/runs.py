@@ -45,7 +45,7 @@ from obsnl.identification.practical import practical_identifiability
 from obsnl.identification.profile import THRESHOLD, Profile, judge, profiles
 from obsnl.identification.replicates import check_passes, check_replicates, spread_on
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
-from obsnl.identification.setup import MIN_NOISE, Data, Setup, coordinates, output_misfit
+from obsnl.identification.setup import MIN_NOISE, Data, Setup, coordinates, free_start, output_misfit
 from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = [
@@ -335,7 +335,8 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                       grid: Sequence[Tuning] = MEASURED_GRID, passes: int = 3, replicates: int = 0, seed: int = 0,
                       jit: bool = False, hold: bool = False, progress: Callable[[], Any] | None = None,
                       executor: Executor | None = None, refined: bool = True,
-                      intersample: Mapping[str, str] | None = None) -> Identification:
+                      intersample: Mapping[str, str] | None = None,
+                      known_initial: Mapping[str, float] | None = None) -> Identification:
     """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
 
     Parameters
@@ -375,6 +376,11 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     intersample : mapping of str to str or None
         How each input behaves between samples: ``zoh``, ``linear`` (default) or ``bandlimited``
         (:mod:`obsnl.estimation.intersample`); the filter and the fit both use it.
+    known_initial : mapping of str to float or None
+        The initial value of each state known (a free decay from a known displacement): the filter starts there
+        and the fit holds it; the other initial states are estimated (a record whose motion the model at rest at
+        the guess cannot make starts from them fitted to its first samples,
+        :func:`obsnl.identification.setup.free_start`).
 
     Returns
     -------
@@ -390,7 +396,9 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     if data.inputs != num.inputs or data.outputs != num.outputs:
         raise OptionError(f"the data have inputs {list(data.inputs)} and outputs {list(data.outputs)}, model "
                           f"{num.name!r} has {list(num.inputs)} and {list(num.outputs)}")
-    check_unknowns(num.parameters, num.states, data)
+    known = dict(known_initial or {})
+    data.record()  # fewer samples than MIN_SAMPLES is named first
+    check_unknowns(num.parameters, num.states, data, known=tuple(known))  # before the noise levels and the filter
     missing = [q for q in num.parameters if q not in guess]
     if missing:
         raise OptionError(f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
@@ -435,11 +443,16 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
     between = between_samples(data.u, num.inputs, kinds) if num.inputs else ()
     stepped, U = drive(num, data.u, kinds)
     record = data.record() if stepped is num else dataclasses.replace(data.record(), accel=U)
+    said = [_between_said(b) for b in between]
     setup = Setup(model=stepped, record=record, truth=None, guess=dict(guess), jit=jit, y_true=data.y,
                   channel_noise={c: v["ratio"] for c, v in levels.items()}, fit_substeps=FIT_SUBSTEPS,
-                  coordinates=coordinates(num, "log", reference=guess))
+                  coordinates=coordinates(num, "log", reference=guess), initial=known, known=tuple(known))
+    start = free_start(stepped, theta=setup.theta_guess, x0=setup.x0, u=U, y=data.y, dt=data.dt, known=tuple(known))
+    if start is not None:  # the record moves where the model at rest would not: it starts in motion
+        setup = dataclasses.replace(setup, initial={**dict(zip(num.states, map(float, start))), **known})
+        said.append("the record moves where the model at rest at the guess would not (a free decay, or a start in "
+                    "motion): the unknown initial states start from their fit to the first samples at the guess")
     d = Data(seed=None, u=U, y=data.y)
-    said = [_between_said(b) for b in between]
     for b in between:
         if b.matters:
             sys.stderr.write(f"obsnl: warning: {_between_said(b)}\n")
@@ -452,9 +465,11 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                    held=held, prac=prac, misfit=misfit, noise=levels, seed=seed,
                    data_dict=data.to_dict() | {"intersample": [b.to_dict() for b in between]},
                    refined=refined, progress=progress, executor=executor, input_noise=input_noise,
-                   assumptions=_assumptions(refined, how, "the initial state is estimated with the parameters" if
-                                            refined else "the structure starts at rest (initial states from the "
-                                            "model file, else 0)", *([
+                   assumptions=_assumptions(refined, how, (
+                       "the initial state is estimated with the parameters" if refined else "the filter starts from "
+                       "the initial states of the model file, else 0") + (
+                       f"; known initial states held: {', '.join(f'{k} = {v:g}' for k, v in known.items())}"
+                       if known else ""), *([
                                                 f"input {', '.join(bound)}: taken as exact by the std and intervals "
                                                 "(its noise level estimated from the data is only an upper bound: "
                                                 "the channel is not oversampled); give its noise level to count it"]

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -22,6 +22,7 @@ from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import UKF
 
 __all__ = ["Tuning", "DEFAULT_GRID", "Setup", "Data", "coordinates", "make_data", "make_filter", "output_misfit",
+           "free_start",
            "BOUND", "DIVERGED", "STATE_CAP"]
 
 #: Threshold on the Cramér-Rao standard deviation of log(theta): a parameter whose 3-sigma bound is
@@ -76,9 +77,11 @@ class Setup:
     refinement) of the free-run output misfit, the convergence check and the fit; default: the
     filter's own (``substeps``). When set, a simulated truth is made with the fit's step at these substeps
     (crossings located, sliding modes followed), so that the check compares like with like and a converged
-    run is never called diverged. ``locate``: the filters' step splits a crossing substep at the located crossing
-    and follows sliding modes, as the fit's does (off by default; on a mass that sticks, the stages of the refined
-    step chatter across ``v = 0`` and bias the filter's estimate).
+    run is never called diverged. ``initial``: the initial state per named state (over the model's ``[values]``,
+    else 0): where the filter and the fit start; ``known``: the states whose initial value is known (held by the
+    fit, :func:`obsnl.identification.refine.refine`). ``locate``: the filters' step splits a crossing substep at
+    the located crossing and follows sliding modes, as the fit's does (off by default; on a mass that sticks, the
+    stages of the refined step chatter across ``v = 0`` and bias the filter's estimate).
     """
 
     model: NumericModel
@@ -95,6 +98,8 @@ class Setup:
     channel_noise: Mapping[str, float] | None = None
     fit_substeps: int | None = None
     locate: bool = False
+    initial: Mapping[str, float] | None = None
+    known: tuple[str, ...] = ()
 
     def __post_init__(self) -> None:
         m = self.model
@@ -110,7 +115,12 @@ class Setup:
                               f"({', '.join(m.inputs + m.outputs)})")
         if self.coordinates is None:
             object.__setattr__(self, "coordinates", coordinates(m, "log", reference=self.guess))
-        x0 = np.array([float(m.values.get(s, 0.0)) for s in m.states])
+        unknown = sorted(set(self.initial or {}).union(self.known) - set(m.states))
+        if unknown:
+            raise OptionError(f"initial values given for {unknown}, which are not states of {m.name!r} "
+                              f"({', '.join(m.states)})")
+        start = {**m.values, **(self.initial or {})}
+        x0 = np.array([float(start.get(s, 0.0)) for s in m.states])
         object.__setattr__(self, "x0", x0)
         if self.y_true is None:
             # the fit's own step (located crossings, sliding modes) at the fit's substeps: the most exact flow
@@ -287,6 +297,69 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
     if kind == "dukf":
         return DUKF(m, table=table, cross=cross, **opts)
     raise OptionError(f"unknown filter {kind!r}; use 'ukf' or 'dukf'")
+
+
+def free_start(model: NumericModel, *, theta: np.ndarray, x0: np.ndarray, u: np.ndarray, y: np.ndarray, dt: float,
+               known: Sequence[str] = (), samples: int = 20, substeps: int = 4) -> np.ndarray | None:
+    """An initial state for a record whose motion the model at rest cannot make (a free decay, a record that starts
+    in motion): ``x0`` with the states not ``known`` fitted to the first ``samples`` output samples at ``theta``.
+
+    Gauss-Newton on those samples (three steps, sensitivities by central differences of the simulated outputs):
+    a start for the filter and the fit, which go on estimating the unknown initial states. ``None`` when the model
+    at ``theta`` moves from ``x0`` already (the record need not start in motion), when every state is known, or when
+    no sample moves.
+
+    Parameters
+    ----------
+    model : NumericModel
+        The compiled model.
+    theta, x0 : numpy.ndarray
+        Parameters (the guess) and the initial state given (known values, the model's values, else 0).
+    u, y : numpy.ndarray
+        The record's input rows and output samples (NaN: missing).
+    dt : float
+        The sampling step.
+    known : sequence of str
+        States whose initial value is known (kept).
+    samples, substeps : int
+        Output samples fitted; RK4 substeps per sample.
+
+    Returns
+    -------
+    numpy.ndarray or None
+    """
+    free = [j for j, s in enumerate(model.states) if s not in set(known)]
+    n = min(len(y), max(samples, 4 * len(free)))
+    yy = np.asarray(y, float).reshape(len(y), -1)[:n]
+    uu = np.asarray(u, float)[:n]
+
+    def outputs(x: np.ndarray) -> np.ndarray:
+        return simulate(model, theta=theta, x0=x, u=uu, dt=dt, substeps=substeps).y
+
+    try:
+        at_rest = not np.any(simulate(model, theta=theta, x0=x0, u=u, dt=dt, substeps=substeps).x - x0)
+    except EstimatorError:
+        return None
+    seen = np.isfinite(yy)
+    if not at_rest or not free or not np.any(np.abs(yy[seen] - yy[seen][0]) > 0):
+        return None
+    x = np.array(x0, float)
+    size = max(float(np.max(np.abs(yy[seen]))), 1e-300)
+    for _ in range(3):
+        try:
+            base = outputs(x)
+            cols = []
+            for j in free:
+                h = 1e-6 * max(abs(x[j]), size)
+                up, down = x.copy(), x.copy()
+                up[j] += h
+                down[j] -= h
+                cols.append(((outputs(up) - outputs(down)) / (2 * h))[seen])
+        except EstimatorError:
+            return None
+        step = np.linalg.lstsq(np.column_stack(cols), (yy - base)[seen], rcond=None)[0]
+        x[free] += step
+    return x
 
 
 def output_misfit(setup: Setup, theta: np.ndarray, data: Data, *, per_output: bool = False) -> Any:
