@@ -37,6 +37,7 @@ Protocol, the same for the UKF and the DUKF:
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
+from dataclasses import replace
 
 import numpy as np
 
@@ -324,9 +325,10 @@ def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed:
 
     m = setup.model
     nan = (float("nan"),) * m.np
-    blank = dict(parameters=m.parameters, std=nan, lower=nan, upper=nan, confidence=confidence, seed=seed)
+    blank = Spread(parameters=m.parameters, std=nan, lower=nan, upper=nan, replicates=0, diverged=0,
+                   confidence=confidence, seed=seed)
     if not simulated:
-        return Spread(replicates=0, diverged=0, inconclusive="the estimate cannot be simulated", **blank)
+        return replace(blank, inconclusive="the estimate cannot be simulated")
     logs = [lg for lg, _ in outcomes if lg is not None]
     held = set(m.parameters)
     for lg, fixed in outcomes:
@@ -334,8 +336,8 @@ def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed:
             held &= set(fixed)
     n, diverged = len(logs), len(outcomes) - len(logs)
     if n < 3 or diverged * 4 > replicates:
-        return Spread(replicates=n, diverged=diverged, **blank,
-                      inconclusive=f"the estimator diverged on {diverged} of {replicates} replicates")
+        return replace(blank, replicates=n, diverged=diverged,
+                       inconclusive=f"the estimator diverged on {diverged} of {replicates} replicates")
     std = np.std(np.array(logs), axis=0, ddof=1)
     a = 1.0 - confidence
     lower = std * np.sqrt((n - 1) / chi2.ppf(1 - a / 2, n - 1))
