@@ -215,10 +215,12 @@ def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: Any, *, step: 
             thetas.append(th)
     sims = simulate_many(m, thetas=thetas, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, refine=setup.refine,
                          jit=setup.jit)
+    ys = []
     for got in sims:
         if isinstance(got, EstimatorError):
             raise got
-    cols = [((sims[2 * i].y - sims[2 * i + 1].y) / (2 * step) / np.asarray(sigma, float)).ravel() for i in range(m.np)]
+        ys.append(got.y)
+    cols = [((ys[2 * i] - ys[2 * i + 1]) / (2 * step) / np.asarray(sigma, float)).ravel() for i in range(m.np)]
     return np.array(cols).T
 
 
@@ -258,7 +260,7 @@ def input_noise_crb(setup: Setup, theta: np.ndarray | None = None, *, u: np.ndar
         e = np.zeros_like(u)
         e[k] = su
         Ju[:, k] = (sim(u + e) - sim(u - e)) / (2 * su)
-    out = {}
+    out: dict[str, Any] = {}
     for name, cov in (("crb_output_only", sy ** 2 * np.eye(len(S))), ("crb_with_input_noise",
                                                                        sy ** 2 * np.eye(len(S)) + su ** 2 * Ju @ Ju.T)):
         F = S.T @ np.linalg.solve(cov, S)
