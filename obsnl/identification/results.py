@@ -216,7 +216,8 @@ class Identification:
         if model is None:
             raise OptionError(f"this result of {self.model!r} keeps no model (it was not made by obsnl.identify); pass "
                               f"model=, the model identified")
-        values = {p.name: p.guess if p.held else p.estimate for p in self.parameters}
+        # a parameter's estimate is None exactly where it was held at its guess
+        values = {p.name: p.guess if p.held or p.estimate is None else p.estimate for p in self.parameters}
         kinds = intersample if intersample is not None else fit_kinds(self.data)
         return simulate(model, values, record, warmup=warmup, intersample=kinds)
 
