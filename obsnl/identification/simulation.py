@@ -75,8 +75,9 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     if missing:
         raise OptionError(f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
                           f"[guess] table in the model file")
-    truth = {q: num.values.get(q) for q in num.parameters}
-    if any(v is None for v in truth.values()):
+    given = {q: num.values.get(q) for q in num.parameters}
+    truth = {q: v for q, v in given.items() if v is not None}
+    if len(truth) < len(given):
         raise OptionError(f"model {num.name!r} needs [values] for every parameter (the truth of the simulation)")
     if not (math.isfinite(noise) and noise > 0):
         raise OptionError(f"noise= must be a ratio > 0, got {noise!r}")
