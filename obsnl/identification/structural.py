@@ -167,6 +167,7 @@ def structurally_unidentifiable(result: AnalysisResult, parameters: Sequence[str
     >>> structurally_unidentifiable(analyze(m, seed=0, joint=False), ["b"])
     (('b',), 'union')
     """
+    kind: Literal["joint", "union"]
     if result.joint is not None:
         bad, kind = set(result.joint.unobservable), "joint"
     else:
@@ -202,7 +203,7 @@ def parse_assignments(items: Sequence[str], names: Sequence[str], *, option: str
     >>> parse_assignments(["k=2.5"], ["k", "c"], option="guess=", what="parameter")
     {'k': 2.5}
     """
-    out = {}
+    out: dict[str, float] = {}
     for item in items:
         name, eq, value = item.partition("=")
         name = name.strip()
