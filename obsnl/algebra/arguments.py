@@ -64,9 +64,12 @@ def _to_exact(e: sp.Expr) -> sp.Expr:
     return e
 
 
-def user_form(e: sp.Expr, prov_exp: Mapping[sp.Symbol, tuple[sp.Expr, sp.Rational]],
-              prov_trig: Mapping[tuple[str, sp.Expr, sp.Rational], sp.Symbol],
-              atoms: Mapping[sp.Symbol, Any]) -> sp.Expr:
+def user_form(
+    e: sp.Expr,
+    prov_exp: Mapping[sp.Symbol, tuple[sp.Expr, sp.Rational]],
+    prov_trig: Mapping[tuple[str, sp.Expr, sp.Rational], sp.Symbol],
+    atoms: Mapping[sp.Symbol, Any],
+) -> sp.Expr:
     """``e`` with the rewriter's provisional and atom symbols (``_pexp0``, ``_log1``, ...) swapped back for
     what they stand for: how a message shows the user's own expression.
 
@@ -95,8 +98,15 @@ def user_form(e: sp.Expr, prov_exp: Mapping[sp.Symbol, tuple[sp.Expr, sp.Rationa
     for (kind, m, c), s in prov_trig.items():
         back[s] = (sp.sin if kind == "sin" else sp.cos)(c * m)
     for s, a in atoms.items():
-        back[s] = (a.arg ** sp.Rational(1, a.q) if a.kind == "root" else a.arg if a.kind == "const" else
-                   sp.log(a.arg) if a.kind == "log" else getattr(sp, a.kind)(a.arg))
+        back[s] = (
+            a.arg ** sp.Rational(1, a.q)
+            if a.kind == "root"
+            else a.arg
+            if a.kind == "const"
+            else sp.log(a.arg)
+            if a.kind == "log"
+            else getattr(sp, a.kind)(a.arg)
+        )
     for _ in range(len(back) + 1):  # an atom's argument may hold earlier atoms
         if not e.free_symbols & set(back):
             break

@@ -17,8 +17,8 @@ from dataclasses import dataclass
 
 import sympy as sp
 
-from obsnl.errors import NotSupportedError
 from obsnl.algebra.arguments import _rational_gcd
+from obsnl.errors import NotSupportedError
 
 __all__ = ["Atom", "AtomTable"]
 
@@ -126,7 +126,7 @@ class AtomTable:
     def _root(self, base: sp.Expr, ex: sp.Rational) -> sp.Expr:
         """``base**ex`` over the atom ``base**(1/q)`` (``ex = p/q``): ``base**s * (base**(1/q))**t``."""
         s, t = divmod(int(ex.p), int(ex.q))
-        return base**s * self._new("root", base, q=int(ex.q))**t
+        return base**s * self._new("root", base, q=int(ex.q)) ** t
 
     # ----------------------------------------------------------------- second pass
     def finalize(self) -> dict[sp.Symbol, sp.Expr]:
@@ -148,7 +148,7 @@ class AtomTable:
         sine-cosine pair likewise; a monomial that already has its atom keeps it (:meth:`seed`)."""
         subs: dict[sp.Symbol, sp.Expr] = {}
         groups: dict[sp.Expr, list[sp.Rational]] = {}
-        for (m, c) in exp_keys:
+        for m, c in exp_keys:
             groups.setdefault(m, []).append(c)
         for m, cs in groups.items():
             if m not in self.fixed_exp:
@@ -161,7 +161,7 @@ class AtomTable:
                 r = c / u
                 subs[self.prov_exp[(m, c)]] = e ** int(r) if r.is_Integer else self._root(e, r)
         tgroups: dict[sp.Expr, list[sp.Rational]] = {}
-        for (_, m, c) in trig_keys:
+        for _, m, c in trig_keys:
             tgroups.setdefault(m, []).append(c)
         X = sp.Dummy("X")
         for m, cs in tgroups.items():
@@ -179,8 +179,10 @@ class AtomTable:
                     continue
                 n = c / u
                 if not n.is_Integer:
-                    raise NotSupportedError(f"{k}({c * m}) is a fraction of the angle {u * m} of an existing "
-                                            f"sine-cosine pair; not supported")
+                    raise NotSupportedError(
+                        f"{k}({c * m}) is a fraction of the angle {u * m} of an existing "
+                        f"sine-cosine pair; not supported"
+                    )
                 expr = sp.expand_trig((sp.sin if k == "sin" else sp.cos)(int(n) * X))
                 subs[self.prov_trig[key]] = expr.xreplace({sp.sin(X): s, sp.cos(X): co})
         return subs
@@ -193,8 +195,7 @@ class AtomTable:
                 new_arg = a.arg.xreplace(subs) if a.kind != "const" else a.arg
                 if new_arg != a.arg:
                     changed = True
-                    self.atoms[sym] = Atom(sym, a.kind, new_arg, q=a.q, partner=a.partner,
-                                           time_varying=a.time_varying)
+                    self.atoms[sym] = Atom(sym, a.kind, new_arg, q=a.q, partner=a.partner, time_varying=a.time_varying)
             subs = {k: v.xreplace(subs) for k, v in subs.items()}
             if not changed:
                 break

@@ -19,12 +19,12 @@ from collections.abc import Iterable
 
 import sympy as sp
 
-from obsnl.errors import NotSupportedError
 from obsnl.algebra.arguments import _factor_fraction, _to_exact, user_form
 from obsnl.algebra.atom_table import Atom, AtomTable
-from obsnl.model.core import NONSMOOTH_FUNCTIONS
+from obsnl.errors import NotSupportedError
 from obsnl.model.bounds.textsize import shorten
 from obsnl.model.bounds.work import MAX_EXPANDED_TERMS, can_expand
+from obsnl.model.core import NONSMOOTH_FUNCTIONS
 
 __all__ = ["Rewriter", "rewrite"]
 
@@ -47,8 +47,13 @@ class Rewriter(AtomTable):
         gcd of the coefficients (fewer, lower-degree atoms for the engines).
     """
 
-    def __init__(self, declared: Iterable[sp.Symbol], time_symbols: Iterable[sp.Symbol] = (),
-                 factor_cache: dict | None = None, unit: bool = False) -> None:
+    def __init__(
+        self,
+        declared: Iterable[sp.Symbol],
+        time_symbols: Iterable[sp.Symbol] = (),
+        factor_cache: dict | None = None,
+        unit: bool = False,
+    ) -> None:
         super().__init__(time_symbols, unit)
         self.factor_cache = {} if factor_cache is None else factor_cache
         self.declared = set(declared)
@@ -113,7 +118,9 @@ class Rewriter(AtomTable):
             self.used_terms.append((base, ex))
             return self.root_power(base, ex)
         if not ex.free_symbols:
-            raise NotSupportedError(f"the irrational exponent in ({base})**({ex}) is not supported; use a rational number")
+            raise NotSupportedError(
+                f"the irrational exponent in ({base})**({ex}) is not supported; use a rational number"
+            )
         self.used_terms.append((base, ex))
         # b**(c0 + e') = b**c0 * exp(e' log b): the rational part stays algebraic in b itself
         c0, rest = self.rat(ex).as_coeff_Add()
@@ -197,8 +204,10 @@ class Rewriter(AtomTable):
             return shorten(str(func(self.user_form(g), evaluate=False)), 60)
 
         if not can_expand(g):
-            raise NotSupportedError(f"the argument of {what()} expands to too many terms (over "
-                                    f"{MAX_EXPANDED_TERMS}); introduce a state for this quantity instead")
+            raise NotSupportedError(
+                f"the argument of {what()} expands to too many terms (over "
+                f"{MAX_EXPANDED_TERMS}); introduce a state for this quantity instead"
+            )
         out: list[tuple[sp.Rational, sp.Expr]] = []
         for term in sp.Add.make_args(sp.expand(g)):
             c, m = term.as_coeff_Mul()

@@ -143,8 +143,9 @@ def rationalize(model: Model, *, factor_cache: dict | None = None, unit: bool = 
     >>> [a.kind for a in r.atoms]
     ['log', 'exp']
     """
-    b = Rewriter(model.symbols.values(), set(model.states) | set(model.inputs) | set(model.unknown_inputs),
-                 factor_cache, unit)
+    b = Rewriter(
+        model.symbols.values(), set(model.states) | set(model.inputs) | set(model.unknown_inputs), factor_cache, unit
+    )
     rhs = {s: b.add(model.equations[s]) for s in model.states}
     outs = {k: b.add(v) for k, v in model.outputs.items()}
     icv = {s: b.add(v) for s, v in model.initial_condition_values.items()}
@@ -156,8 +157,7 @@ def rationalize(model: Model, *, factor_cache: dict | None = None, unit: bool = 
     initial = _specific_initial_values(model, b.ordered_atoms(), icv, b)
     atoms = b.ordered_atoms()  # the initial values may have added constants and roots of numbers
     notes = _notes(atoms, b.used_terms, initial)
-    return Rationalized(model=model, rhs=rhs, outputs=outs, atoms=atoms, ic_values=icv, initial=initial,
-                        notes=notes)
+    return Rationalized(model=model, rhs=rhs, outputs=outs, atoms=atoms, ic_values=icv, initial=initial, notes=notes)
 
 
 def _specific_initial_values(
@@ -191,8 +191,11 @@ def _specific_initial_values(
         elif a.kind == "root":
             if g0 == 0:
                 raise ModelError(f"({a.arg})**(1/{a.q}) is 0 at the given initial conditions (not differentiable)")
-            out[a.symbol] = (b.number_power(g0, sp.Rational(1, a.q)) if g0 > 0  # roots of primes, exact
-                             else b._new("root", g0, q=a.q))
+            out[a.symbol] = (
+                b.number_power(g0, sp.Rational(1, a.q))
+                if g0 > 0  # roots of primes, exact
+                else b._new("root", g0, q=a.q)
+            )
     return out
 
 
@@ -212,14 +215,16 @@ def _notes(atoms: Sequence[Atom], used: Sequence[object], initial: Mapping[sp.Sy
         lines.append("non-rational terms: " + "; ".join(seen))
     if dyn:
         lines.append(
-            "augmented functions: " + ", ".join(f"{a.symbol.name} = {a.text}" for a in dyn)
+            "augmented functions: "
+            + ", ".join(f"{a.symbol.name} = {a.text}" for a in dyn)
             + ". Their initial values are the functions of the unknowns they stand for (not new unknowns): "
             "gradients follow the chain rule and only the values are random stand-ins in GF(p); exact "
             "generically by Ax's theorem (algebraic relations of roots and sin/cos are kept)"
         )
     if consts:
         lines.append(
-            "transcendental constants replaced by random stand-ins: " + ", ".join(a.text for a in consts)
+            "transcendental constants replaced by random stand-ins: "
+            + ", ".join(a.text for a in consts)
             + (" (more than one: exact under Schanuel's conjecture)" if len(consts) > 1 else " (exact)")
         )
     if numbers:

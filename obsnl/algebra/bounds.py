@@ -187,8 +187,9 @@ def program_degree_height(program: Any, roots: Sequence[int]) -> tuple[int, int]
                 if a[1] == 0 and b[1] == 0 and a[3] == 0 and b[3] == 0:
                     nd.append((max(a[0], b[0]), 0, _lsum(a[2], b[2]), 0.0))
                 else:
-                    nd.append((max(a[0] + b[1], b[0] + a[1]), a[1] + b[1], _lsum(a[2] + b[3], b[2] + a[3]),
-                               a[3] + b[3]))
+                    nd.append(
+                        (max(a[0] + b[1], b[0] + a[1]), a[1] + b[1], _lsum(a[2] + b[3], b[2] + a[3]), a[3] + b[3])
+                    )
             elif k == "mul":
                 nd.append((a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]))
             elif k == "div":

@@ -25,9 +25,9 @@ import sympy as sp
 
 from obsnl.algebra.atom_table import Atom
 from obsnl.algebra.atoms import rewrite
-from obsnl.errors import NotSupportedError
 from obsnl.algebra.modp import Field
 from obsnl.algebra.slp import Op, compile_program
+from obsnl.errors import NotSupportedError
 
 __all__ = ["AtomJet", "atom_expressions", "atom_roots", "topological_order", "evaluate", "Expressions"]
 
@@ -107,8 +107,10 @@ def topological_order(ops: Sequence[Op], leaf_deps: Mapping[int, Sequence[int]])
         Every node index once, each after its dependencies.
     """
     n = len(ops)
-    deps = [list(leaf_deps.get(i, ())) if op.kind == "leaf" else [j for j in (op.a, op.b) if j >= 0]
-            for i, op in enumerate(ops)]
+    deps = [
+        list(leaf_deps.get(i, ())) if op.kind == "leaf" else [j for j in (op.a, op.b) if j >= 0]
+        for i, op in enumerate(ops)
+    ]
     topo: list[int] = []
     mark = [0] * n
     for start in range(n):
@@ -134,8 +136,14 @@ def topological_order(ops: Sequence[Op], leaf_deps: Mapping[int, Sequence[int]])
     return topo
 
 
-def evaluate(ops: Sequence[Op], topo: Iterable[int], F: Field, M: int, given: Mapping[int, Jet | int],
-             atoms: Mapping[int, AtomJet]) -> tuple[list[int], list[list[int]]]:
+def evaluate(
+    ops: Sequence[Op],
+    topo: Iterable[int],
+    F: Field,
+    M: int,
+    given: Mapping[int, Jet | int],
+    atoms: Mapping[int, AtomJet],
+) -> tuple[list[int], list[list[int]]]:
     """Values and gradients (``M`` entries) of the nodes in ``topo``, in plain Python integers.
 
     ``given[leaf]`` is the jet of a leaf, or the node whose jet it copies (a state with a given
@@ -244,8 +252,9 @@ def _atom(i: int, a: AtomJet, V: list[int], G: list[list[int]], F: Field) -> Non
         raise NotSupportedError(f"atom kind {a.kind}")
 
 
-def atom_deps(atoms: Sequence[Atom], leaf: Mapping[sp.Symbol, int], arg: Mapping[sp.Symbol, int],
-              den: Mapping[sp.Symbol, int]) -> dict[int, list[int]]:
+def atom_deps(
+    atoms: Sequence[Atom], leaf: Mapping[sp.Symbol, int], arg: Mapping[sp.Symbol, int], den: Mapping[sp.Symbol, int]
+) -> dict[int, list[int]]:
     """The leaf dependencies of atoms for :func:`topological_order`."""
     deps: dict[int, list[int]] = {}
     for a in atoms:
@@ -282,15 +291,18 @@ class Expressions:
     def __init__(self, exprs: Iterable[sp.Expr], symbols: Iterable[sp.Symbol]) -> None:
         self.symbols = tuple(symbols)
         self.rational, self.atoms = rewrite([sp.sympify(e) for e in exprs], self.symbols)
-        self.program = compile_program(self.rational + atom_expressions(self.atoms),
-                                       self.symbols + tuple(a.symbol for a in self.atoms))
+        self.program = compile_program(
+            self.rational + atom_expressions(self.atoms), self.symbols + tuple(a.symbol for a in self.atoms)
+        )
         self._n = len(self.rational)
-        self._arg, self._den = atom_roots(self.atoms, self.program.roots[self._n:])
-        self._topo = topological_order(self.program.ops,
-                                       atom_deps(self.atoms, self.program.leaves, self._arg, self._den))
+        self._arg, self._den = atom_roots(self.atoms, self.program.roots[self._n :])
+        self._topo = topological_order(
+            self.program.ops, atom_deps(self.atoms, self.program.leaves, self._arg, self._den)
+        )
 
-    def jets(self, values: Mapping[sp.Symbol, int], variables: Sequence[sp.Symbol], p: int,
-             rng: random.Random) -> list[Jet]:
+    def jets(
+        self, values: Mapping[sp.Symbol, int], variables: Sequence[sp.Symbol], p: int, rng: random.Random
+    ) -> list[Jet]:
         """Values and gradients (w.r.t. ``variables``) at the point ``values`` (every symbol) mod ``p``.
 
         The atoms take independent random stand-ins from ``rng``.
@@ -305,12 +317,20 @@ class Expressions:
             if s in col:
                 g[col[s]] = 1
             given[leaf[s]] = (values[s] % p, g)
-        atoms = {leaf[a.symbol]: AtomJet(a.kind, self._arg.get(a.symbol, -1), self._den.get(a.symbol, -1),
-                                         leaf[a.partner] if a.partner is not None else -1, a.q,
-                                         value=rng.randrange(1, p), tau=rng.randrange(p) if a.kind == "sin" else 0)
-                 for a in self.atoms}
+        atoms = {
+            leaf[a.symbol]: AtomJet(
+                a.kind,
+                self._arg.get(a.symbol, -1),
+                self._den.get(a.symbol, -1),
+                leaf[a.partner] if a.partner is not None else -1,
+                a.q,
+                value=rng.randrange(1, p),
+                tau=rng.randrange(p) if a.kind == "sin" else 0,
+            )
+            for a in self.atoms
+        }
         V, G = evaluate(self.program.ops, self._topo, Field(p), M, given, atoms)
-        return [(V[r], G[r]) for r in self.program.roots[:self._n]]
+        return [(V[r], G[r]) for r in self.program.roots[: self._n]]
 
     def values(self, values: Mapping[sp.Symbol, int], p: int, rng: random.Random) -> list[int]:
         """Values only (see :meth:`jets`)."""

@@ -35,8 +35,21 @@ import numpy as np
 if TYPE_CHECKING:
     import sympy as sp
 
-__all__ = ["PRIME", "PRIME_BITS", "Field", "Resample", "random_prime", "mulmod", "MatMod", "Echelon", "LIMB",
-           "nmod_matrix", "rank_mod_p", "nullspace_mod_p", "rational_reconstruction"]
+__all__ = [
+    "PRIME",
+    "PRIME_BITS",
+    "Field",
+    "Resample",
+    "random_prime",
+    "mulmod",
+    "MatMod",
+    "Echelon",
+    "LIMB",
+    "nmod_matrix",
+    "rank_mod_p",
+    "nullspace_mod_p",
+    "rational_reconstruction",
+]
 
 #: Bits of the engines' random primes (array products need ``p < 2**50``).
 PRIME_BITS = 50

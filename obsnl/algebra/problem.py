@@ -17,10 +17,10 @@ import sympy as sp
 
 from obsnl.algebra.augment import Rationalized
 from obsnl.algebra.jets import atom_deps, atom_expressions, atom_roots, topological_order
-from obsnl.model.core import Model
-from obsnl.model.reading.unknown_inputs import ARBITRARY
 from obsnl.algebra.slp import Program, compile_program
 from obsnl.algebra.taylor import Plan, make_plan
+from obsnl.model.core import Model
+from obsnl.model.reading.unknown_inputs import ARBITRARY
 
 __all__ = ["Problem", "make_problem", "arbitrary_terms", "Layout"]
 
@@ -157,21 +157,40 @@ def make_problem(
             cols.append(w.name if j == 0 else f"{w.name}_d{j}")
         inp_cols[w.name] = tuple(idx)
     specific = any(v.is_Rational for v in rational.ic_values.values())
-    dim = (len(model.states) + len(model.parameters) + len(rational.atoms)
-           + len(model.unknown_inputs) * (unknown_input_derivatives + 1))
-    leaves = (tuple(model.states) + tuple(model.parameters) + tuple(model.known_constants)
-              + tuple(model.inputs) + tuple(model.unknown_inputs) + rational.atom_symbols)
+    dim = (
+        len(model.states)
+        + len(model.parameters)
+        + len(rational.atoms)
+        + len(model.unknown_inputs) * (unknown_input_derivatives + 1)
+    )
+    leaves = (
+        tuple(model.states)
+        + tuple(model.parameters)
+        + tuple(model.known_constants)
+        + tuple(model.inputs)
+        + tuple(model.unknown_inputs)
+        + rational.atom_symbols
+    )
     exprs: list[sp.Expr] = [rational.rhs[s] for s in model.states]
     exprs += list(rational.outputs.values())
     exprs += atom_expressions(rational.atoms)
     exprs += list(rational.ic_values.values())
     exprs += list(rational.initial.values())
     program = compile_program(exprs, leaves)
-    return Problem(rational=rational, columns=tuple(cols), variables=variables, input_columns=inp_cols,
-                   specific=specific, dim=dim, unknown_input_derivatives=unknown_input_derivatives,
-                   input_derivatives=input_derivatives, arbitrary=arbitrary and bool(model.unknown_inputs),
-                   program=program, leaves=leaves,
-                   layout=_layout(rational, program))
+    return Problem(
+        rational=rational,
+        columns=tuple(cols),
+        variables=variables,
+        input_columns=inp_cols,
+        specific=specific,
+        dim=dim,
+        unknown_input_derivatives=unknown_input_derivatives,
+        input_derivatives=input_derivatives,
+        arbitrary=arbitrary and bool(model.unknown_inputs),
+        program=program,
+        leaves=leaves,
+        layout=_layout(rational, program),
+    )
 
 
 # --------------------------------------------------------------------------- layout
@@ -202,9 +221,9 @@ def _layout(rational: Rationalized, program: Program) -> Layout:
     pos = n_states + n_out
     atom_arg_root, atan_q_root = atom_roots(rational.atoms, roots[pos:])
     pos += len(atom_arg_root) + len(atan_q_root)
-    ic_root = dict(zip(rational.ic_values, roots[pos:pos + len(rational.ic_values)]))
+    ic_root = dict(zip(rational.ic_values, roots[pos : pos + len(rational.ic_values)]))
     pos += len(rational.ic_values)
-    init_root = dict(zip(rational.initial, roots[pos:pos + len(rational.initial)]))
+    init_root = dict(zip(rational.initial, roots[pos : pos + len(rational.initial)]))
     atoms = {a.symbol: a for a in rational.atoms}
     tv_leaf = set(model.states) | set(model.inputs) | set(model.unknown_inputs)
     tv = [False] * len(ops)
@@ -231,13 +250,27 @@ def _layout(rational: Rationalized, program: Program) -> Layout:
         i = leaf[a.symbol]
         if a.kind == "const" or not tv[i]:
             continue
-        atom_info[i] = (a.kind, atom_arg_root[a.symbol], atan_q_root.get(a.symbol, -1),
-                        leaf[a.partner] if a.partner is not None else -1, a.q)
+        atom_info[i] = (
+            a.kind,
+            atom_arg_root[a.symbol],
+            atan_q_root.get(a.symbol, -1),
+            leaf[a.partner] if a.partner is not None else -1,
+            a.q,
+        )
     rhs_roots = tuple(roots[:n_states])
-    out_roots = tuple(roots[n_states:n_states + n_out])
+    out_roots = tuple(roots[n_states : n_states + n_out])
     plan = make_plan(ops, tv, topo, atom_info, state_nodes + input_nodes + winput_nodes, rhs_roots + out_roots)
-    return Layout(rhs_roots=rhs_roots, out_roots=out_roots, atom_arg_root=atom_arg_root, atan_q_root=atan_q_root,
-                  ic_root=ic_root, init_root=init_root, tv=tuple(tv), topo=tuple(topo), state_nodes=state_nodes,
-                  input_nodes=input_nodes, winput_nodes=winput_nodes, plan=plan)
-
-
+    return Layout(
+        rhs_roots=rhs_roots,
+        out_roots=out_roots,
+        atom_arg_root=atom_arg_root,
+        atan_q_root=atan_q_root,
+        ic_root=ic_root,
+        init_root=init_root,
+        tv=tuple(tv),
+        topo=tuple(topo),
+        state_nodes=state_nodes,
+        input_nodes=input_nodes,
+        winput_nodes=winput_nodes,
+        plan=plan,
+    )

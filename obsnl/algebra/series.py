@@ -31,13 +31,23 @@ import numpy as np
 import sympy as sp
 
 from obsnl.algebra.jets import AtomJet, evaluate
-from obsnl.errors import AnalysisError
 from obsnl.algebra.modp import Field, Resample, random_prime
 from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.taylor import Stepper
+from obsnl.errors import AnalysisError
 
-__all__ = ["Problem", "make_problem", "Field", "random_prime", "Point", "SeriesRun", "run_series", "Resample",
-           "draw_prime", "prime_density"]
+__all__ = [
+    "Problem",
+    "make_problem",
+    "Field",
+    "random_prime",
+    "Point",
+    "SeriesRun",
+    "run_series",
+    "Resample",
+    "draw_prime",
+    "prime_density",
+]
 
 
 class TimeUp(Exception):
@@ -46,8 +56,13 @@ class TimeUp(Exception):
 
 #: A drawn point as :func:`_random_point` returns it: values, input series, unknown-input coefficients, atom
 #: stand-ins and, for each sine, the parameter of its point of the circle.
-_Drawn = tuple[dict[sp.Symbol, int], dict[sp.Symbol, list[int]], dict[sp.Symbol, list[int]], dict[sp.Symbol, int],
-               dict[sp.Symbol, int]]
+_Drawn = tuple[
+    dict[sp.Symbol, int],
+    dict[sp.Symbol, list[int]],
+    dict[sp.Symbol, list[int]],
+    dict[sp.Symbol, int],
+    dict[sp.Symbol, int],
+]
 
 
 # --------------------------------------------------------------------------- evaluation
@@ -192,8 +207,10 @@ def draw_prime(problem: Problem, rng: random.Random, *, tries: int = 20000) -> i
         p = random_prime(rng)
         if _admissible(p, roots):
             return p
-    raise AnalysisError(f"model {problem.model.name!r}: no prime found in which the roots of numbers "
-                        f"{sorted(set(roots))} exist; write these constants as rational numbers")
+    raise AnalysisError(
+        f"model {problem.model.name!r}: no prime found in which the roots of numbers "
+        f"{sorted(set(roots))} exist; write these constants as rational numbers"
+    )
 
 
 def prime_density(problem: Problem) -> float:
@@ -213,8 +230,14 @@ def prime_density(problem: Problem) -> float:
     return dens
 
 
-def _random_point(problem: Problem, F: Field, rng: random.Random, K: int, fixed: Mapping[sp.Symbol, int],
-                  forced: tuple = ({}, {}, None)) -> _Drawn:
+def _random_point(
+    problem: Problem,
+    F: Field,
+    rng: random.Random,
+    K: int,
+    fixed: Mapping[sp.Symbol, int],
+    forced: tuple = ({}, {}, None),
+) -> _Drawn:
     """Draw parameters, constants, free initial states, input series, unknown-input coefficients and
     atom stand-ins (always in this order, so that a seed gives the same point for any engine), then
     apply the values forced by ``forced = (states, input series, atom table)`` (see :func:`run_series`)."""
@@ -231,8 +254,9 @@ def _random_point(problem: Problem, F: Field, rng: random.Random, K: int, fixed:
     for u in model.inputs:
         nz = K + 1 if problem.input_derivatives is None else min(K + 1, problem.input_derivatives + 1)
         inputs[u] = [rng.randrange(p) for _ in range(nz)] + [0] * (K + 1 - nz)
-    w_coeffs = {w: [rng.randrange(p) for _ in range(problem.unknown_input_derivatives + 1)]
-                for w in model.unknown_inputs}
+    w_coeffs = {
+        w: [rng.randrange(p) for _ in range(problem.unknown_input_derivatives + 1)] for w in model.unknown_inputs
+    }
     stand_in = {a.symbol: rng.randrange(p) for a in rat.atoms}
     tau = {a.symbol: rng.randrange(p) for a in rat.atoms if a.kind == "sin"}
     f_states, f_inputs, table = forced
@@ -241,7 +265,7 @@ def _random_point(problem: Problem, F: Field, rng: random.Random, K: int, fixed:
             values[s] = int(v) % p
     for u in model.inputs:
         if u in f_inputs:
-            given = [int(c) % p for c in list(f_inputs[u])[:K + 1]]
+            given = [int(c) % p for c in list(f_inputs[u])[: K + 1]]
             inputs[u] = given + [0] * (K + 1 - len(given))
     if table is not None:
         for a in rat.atoms:
@@ -283,10 +307,19 @@ def _initial_jets(problem: Problem, F: Field, point: tuple) -> np.ndarray:
         given[leaf[u]] = (inputs[u][0], zero)
     for w in model.unknown_inputs:  # w(0) = c0, gradient on its column 0
         given[leaf[w]] = (w_coeffs[w][0] % p, unit(problem.input_columns[w.name][0]))
-    atoms = {leaf[a.symbol]: AtomJet(a.kind, lay.atom_arg_root.get(a.symbol, -1), lay.atan_q_root.get(a.symbol, -1),
-                                     leaf[a.partner] if a.partner is not None else -1, a.q,
-                                     lay.init_root.get(a.symbol, -1), stand_in[a.symbol], tau.get(a.symbol, 0))
-             for a in rat.atoms}
+    atoms = {
+        leaf[a.symbol]: AtomJet(
+            a.kind,
+            lay.atom_arg_root.get(a.symbol, -1),
+            lay.atan_q_root.get(a.symbol, -1),
+            leaf[a.partner] if a.partner is not None else -1,
+            a.q,
+            lay.init_root.get(a.symbol, -1),
+            stand_in[a.symbol],
+            tau.get(a.symbol, 0),
+        )
+        for a in rat.atoms
+    }
     V, G = evaluate(prog.ops, lay.topo, F, M, given, atoms)
     X0 = np.zeros((len(V), M + 1), dtype=np.int64)
     X0[:, 0] = V
@@ -296,7 +329,11 @@ def _initial_jets(problem: Problem, F: Field, point: tuple) -> np.ndarray:
 
 
 def _run_once(
-    problem: Problem, F: Field, rng: random.Random, K: int, deadline: float | None,
+    problem: Problem,
+    F: Field,
+    rng: random.Random,
+    K: int,
+    deadline: float | None,
     stop: Callable[[list[np.ndarray], int], bool] | None,
     fixed: Mapping[sp.Symbol, int],
     forced: tuple = ({}, {}, None),

@@ -41,6 +41,7 @@ from obsnl.algebra.modp import MatMod, mulmod
 
 __all__ = ["Plan", "make_plan", "Stepper"]
 
+
 @dataclass(frozen=True)
 class Plan:
     """Point-independent structure of the batched Taylor step of one program.
@@ -185,8 +186,16 @@ class Stepper:
         Time variation per node (a time-invariant right-hand side has no coefficients ``k >= 1``).
     """
 
-    def __init__(self, plan: Plan, X0: np.ndarray, p: int, K: int, state_rhs: Sequence[int],
-                 given: Callable[[int], np.ndarray], tv: Sequence[bool]) -> None:
+    def __init__(
+        self,
+        plan: Plan,
+        X0: np.ndarray,
+        p: int,
+        K: int,
+        state_rhs: Sequence[int],
+        given: Callable[[int], np.ndarray],
+        tv: Sequence[bool],
+    ) -> None:
         self.plan, self.X0, self.p, self.K = plan, X0, p, K
         self.given = given
         M1 = X0.shape[1]
@@ -324,7 +333,7 @@ class Stepper:
             R[ns:n_src] = self.given(k)
         if k >= 2 and self.n_conv:
             U = SS[1:k][:, self.t_u]  # (k-1, terms, M+1): u'[j], j = 1..k-1
-            V = SS[k - 1:0:-1][:, self.t_v]  # v[k-j]
+            V = SS[k - 1 : 0 : -1][:, self.t_v]  # v[k-j]
             P = mulmod(U[:, :, :1], V, p)
             P[:, :, 1:] += mulmod(V[:, :, :1], U[:, :, 1:], p)
             H = P.sum(axis=0) % p

@@ -25,16 +25,23 @@ from obsnl._exports import lazy_exports
 #: The room's public names, each imported from the module that defines it on first use (so that importing
 #: one module of the room loads nothing else): name -> module.
 _LAZY: dict[str, str] = {
-    "design": "experiment", "ExperimentDesign": "experiment", "SensorSearch": "sensor_search",
-    "rank_sensor_sets": "ranking", "effective_independence": "ranking", "BlowUp": "experiment_search",
+    "design": "experiment",
+    "ExperimentDesign": "experiment",
+    "SensorSearch": "sensor_search",
+    "rank_sensor_sets": "ranking",
+    "effective_independence": "ranking",
+    "BlowUp": "experiment_search",
 }
 
 if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
-    from obsnl.design.experiment import design as design, ExperimentDesign as ExperimentDesign
+    from obsnl.design.experiment import ExperimentDesign as ExperimentDesign
+    from obsnl.design.experiment import design as design
     from obsnl.design.experiment_search import BlowUp as BlowUp
     from obsnl.design.ranking import (
-        rank_sensor_sets as rank_sensor_sets,
         effective_independence as effective_independence,
+    )
+    from obsnl.design.ranking import (
+        rank_sensor_sets as rank_sensor_sets,
     )
     from obsnl.design.sensor_search import SensorSearch as SensorSearch
 

@@ -134,11 +134,16 @@ def design_arguments(model: Any, records: Any, *, scales: Any, tol: Any, sensors
         names_argument(sensors, "sensors")
     if scales is None:
         return None
-    values = list(scales) if isinstance(scales, Sequence) and not isinstance(scales, str) or \
-        hasattr(scales, "__array__") else None
+    values = (
+        list(scales)
+        if isinstance(scales, Sequence) and not isinstance(scales, str) or hasattr(scales, "__array__")
+        else None
+    )
     if values is not None and len(values) > MAX_SCALES:
-        raise OptionError(f"{len(values)} scales: give at most {MAX_SCALES} (each is one simulation of every "
-                          f"record; a bisection refines the boundary between them)")
+        raise OptionError(
+            f"{len(values)} scales: give at most {MAX_SCALES} (each is one simulation of every "
+            f"record; a bisection refines the boundary between them)"
+        )
     ok = values is not None and all(isinstance(s, numbers.Real) and not isinstance(s, bool) for s in values)
     grid = tuple(sorted({float(s) for s in values})) if ok and values else ()
     if not grid or not all(math.isfinite(s) and s > 0 for s in grid):
@@ -171,11 +176,14 @@ def record_run(model: Model, rec: Any, *, name: str = "data") -> tuple[str, np.n
     OptionError
         Not a record, a one-column Record for a model of several inputs, or times or samples not numbers.
     """
+
     def known(name: Any, inputs: Any) -> None:  # a misspelt input would be ignored, the model's one reported missing
         other = [k for k in inputs if k not in {u.name for u in model.inputs}]
         if other:
-            raise OptionError(f"record {quote(name)}: {quote(other[0])} is not an input of {quote(model.name)}; its "
-                              f"inputs are {', '.join(u.name for u in model.inputs) or 'none'}")
+            raise OptionError(
+                f"record {quote(name)}: {quote(other[0])} is not an input of {quote(model.name)}; its "
+                f"inputs are {', '.join(u.name for u in model.inputs) or 'none'}"
+            )
 
     if isinstance(rec, Record):
         a = np.asarray(rec.accel, float)
@@ -183,8 +191,10 @@ def record_run(model: Model, rec: Any, *, name: str = "data") -> tuple[str, np.n
             known(rec.name, rec.channels)
             return rec.name, rec.t, {c: a[:, j] for j, c in enumerate(rec.channels)}
         if len(model.inputs) != 1:
-            raise OptionError(f"record {rec.name!r} drives one input, model {model.name!r} has {len(model.inputs)} "
-                              f"known inputs; give (name, t, {{input: samples}}) instead")
+            raise OptionError(
+                f"record {rec.name!r} drives one input, model {model.name!r} has {len(model.inputs)} "
+                f"known inputs; give (name, t, {{input: samples}}) instead"
+            )
         return rec.name, rec.t, {model.inputs[0].name: a}
     if is_frame(rec):
         label = str(rec.attrs.get("name", name))
@@ -192,8 +202,10 @@ def record_run(model: Model, rec: Any, *, name: str = "data") -> tuple[str, np.n
         tname = next(c for c in TIME_COLUMNS if c in columns)
         missing = [u.name for u in model.inputs if u.name not in columns]
         if missing:
-            raise OptionError(f"record {quote(label)}: no column for the input {quote(missing[0])} of "
-                              f"{quote(model.name)}; name a column after each input")
+            raise OptionError(
+                f"record {quote(label)}: no column for the input {quote(missing[0])} of "
+                f"{quote(model.name)}; name a column after each input"
+            )
         rec = (label, columns[tname], {u.name: columns[u.name] for u in model.inputs})
     if isinstance(rec, tuple) and len(rec) == 3 and isinstance(rec[2], Mapping):
         name, t, inputs = rec
@@ -204,5 +216,6 @@ def record_run(model: Model, rec: Any, *, name: str = "data") -> tuple[str, np.n
             return str(name), np.asarray(t, float), {str(k): np.asarray(v, float) for k, v in inputs.items()}
         except (TypeError, ValueError):  # text, or nested lists of unequal lengths
             raise OptionError(f"record {quote(name)}: its times and inputs must be arrays of numbers") from None
-    raise OptionError(f"a record is a Record, (name, t, {{input: samples}}) or a pandas DataFrame, got "
-                      f"{type(rec).__name__}")
+    raise OptionError(
+        f"a record is a Record, (name, t, {{input: samples}}) or a pandas DataFrame, got {type(rec).__name__}"
+    )

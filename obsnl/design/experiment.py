@@ -41,14 +41,23 @@ import numpy as np
 from obsnl._display import render
 from obsnl._text import block, one_line
 from obsnl.design.arguments import design_arguments, record_run
-from obsnl.design.experiment_search import NOT_NOISE, BlowUp, ScaleBlewUp, blow_up, minimal_records, no_scale_ran
-from obsnl.design.experiment_search import scale_notes as _notes, search_scales as _search, structural_targets
+from obsnl.design.experiment_search import (
+    NOT_NOISE,
+    BlowUp,
+    ScaleBlewUp,
+    blow_up,
+    minimal_records,
+    no_scale_ran,
+    structural_targets,
+)
+from obsnl.design.experiment_search import scale_notes as _notes
+from obsnl.design.experiment_search import search_scales as _search
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict
 from obsnl.errors import AnalysisError, NotSupportedError, OptionError
 from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.measured import is_frame
-from obsnl.model.branching.branches import split_branches
 from obsnl.model.bounds.budget import check_time, remaining, time_budget
+from obsnl.model.branching.branches import split_branches
 from obsnl.model.core import Model
 from obsnl.observability.analyze import assumptions as analysis_assumptions
 from obsnl.observability.joint.visited import Visits, visited_patterns
@@ -56,7 +65,7 @@ from obsnl.observability.joint.visited import Visits, visited_patterns
 __all__ = ["VisitedBranch", "ScaleVisit", "ExperimentDesign", "BlowUp", "design", "DEFAULT_SCALES", "MAX_RECORDS"]
 
 #: The default scales: powers of 2 from 2**-10 (about 1e-3) to 2**10 (about 1e3), 21 of them, 1 among them.
-DEFAULT_SCALES = tuple(2.0 ** k for k in range(-10, 11))
+DEFAULT_SCALES = tuple(2.0**k for k in range(-10, 11))
 #: Most records of one design (the search of sufficient subsets visits at most ``2**MAX_RECORDS - 1``).
 MAX_RECORDS = 12
 #: Most switching functions whose visited patterns get branch labels (beyond, the sign pattern names a branch).
@@ -71,12 +80,13 @@ _ASSUMED = {
     "visited": "sign patterns of the model's [values] simulated under each scaled record, at its sample times",
     "scale": "the visited set grows with the scale; if not, the bisection ends on a sufficient boundary (the bracket)",
     "records": "experiments sharing the parameters, each with its own states; the joint verdict pairs switching "
-               "surfaces between visited branches, which may come from different records",
+    "surfaces between visited branches, which may come from different records",
     "sufficient_records": "at scale 1; a superset of a sufficient subset is sufficient and not listed",
     "structural": "targets not jointly identifiable when every branch is visited are so at every scale: named, "
-                  "not searched",
+    "not searched",
     "blow-ups": "a scale whose fixed-step simulation blows up gives no verdict; the larger grid scales are not tried",
-    "min_scale": NOT_NOISE}
+    "min_scale": NOT_NOISE,
+}
 
 
 def _pattern(signs: Sequence[int]) -> str:
@@ -129,10 +139,17 @@ class ScaleVisit:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields."""
-        return {"scale": self.scale, "bisection": self.bisection, "sufficient": self.sufficient,
-                "patterns": [b.to_dict() for b in self.branches], "crossings": dict(self.crossings),
-                "missing": list(self.missing), "undecided": list(self.undecided), "reason": self.reason,
-                "by_record": {k: [_pattern(p) for p in v] for k, v in self.by_record.items()}}
+        return {
+            "scale": self.scale,
+            "bisection": self.bisection,
+            "sufficient": self.sufficient,
+            "patterns": [b.to_dict() for b in self.branches],
+            "crossings": dict(self.crossings),
+            "missing": list(self.missing),
+            "undecided": list(self.undecided),
+            "reason": self.reason,
+            "by_record": {k: [_pattern(p) for p in v] for k, v in self.by_record.items()},
+        }
 
 
 @dataclass(frozen=True)
@@ -202,30 +219,54 @@ class ExperimentDesign:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``min_scale``, ``bracket``, ``visited`` (per scale), ``sufficient_records`` and the rest."""
-        return {"model": self.model, "targets": list(self.targets), "sensors": list(self.sensors),
-                "records": list(self.records), "switching": list(self.switching), "min_scale": self.min_scale,
-                "bracket": list(self.bracket), "status": self.status, "reason": self.reason, "tol": self.tol,
-                "visited": [v.to_dict() for v in self.visits], "analyses": self.analyses, "seed": self.seed,
-                "sufficient_records": [list(s) for s in self.sufficient_records], "notes": list(self.notes),
-                "undecided_records": [list(s) for s in self.undecided_records], "seconds": round(self.seconds, 3),
-                "assumptions": dict(self.assumptions), "structural": list(self.structural),
-                "structural_reason": self.structural_reason, "searched": list(self.searched),
-                "blowups": [b.to_dict() for b in self.blowups], "skipped": list(self.skipped),
-                "unjudged_records": list(self.unjudged_records)}
+        return {
+            "model": self.model,
+            "targets": list(self.targets),
+            "sensors": list(self.sensors),
+            "records": list(self.records),
+            "switching": list(self.switching),
+            "min_scale": self.min_scale,
+            "bracket": list(self.bracket),
+            "status": self.status,
+            "reason": self.reason,
+            "tol": self.tol,
+            "visited": [v.to_dict() for v in self.visits],
+            "analyses": self.analyses,
+            "seed": self.seed,
+            "sufficient_records": [list(s) for s in self.sufficient_records],
+            "notes": list(self.notes),
+            "undecided_records": [list(s) for s in self.undecided_records],
+            "seconds": round(self.seconds, 3),
+            "assumptions": dict(self.assumptions),
+            "structural": list(self.structural),
+            "structural_reason": self.structural_reason,
+            "searched": list(self.searched),
+            "blowups": [b.to_dict() for b in self.blowups],
+            "skipped": list(self.skipped),
+            "unjudged_records": list(self.unjudged_records),
+        }
 
     def _repr_html_(self) -> str | None:
         """Notebook display: the status and the branches visited per scale, drawn by :mod:`obsnl.report`."""
         return render("html", self)
 
     def __repr__(self) -> str:
-        return one_line("ExperimentDesign", f"model={self.model!r}, status={self.status!r}, min_scale={self.min_scale!r}")
+        return one_line(
+            "ExperimentDesign", f"model={self.model!r}, status={self.status!r}, min_scale={self.min_scale!r}"
+        )
 
     def summary(self) -> str:
         """A few lines: the status, ``min_scale`` and why, the records that suffice (``to_dict`` gives everything)."""
-        scale, recs = "unknown" if self.min_scale is None else f"{self.min_scale:.6g}", "; ".join(
-            "{" + ", ".join(r) + "}" for r in self.sufficient_records) or "none"
-        return block(f"{self.model}: {self.status}, min_scale {scale}", self.reason,
-                     f"sufficient records (scale 1): {recs}", f"{self.analyses} joint verdicts, {len(self.visits)} scales")
+        scale, recs = (
+            "unknown" if self.min_scale is None else f"{self.min_scale:.6g}",
+            "; ".join("{" + ", ".join(r) + "}" for r in self.sufficient_records) or "none",
+        )
+        return block(
+            f"{self.model}: {self.status}, min_scale {scale}",
+            self.reason,
+            f"sufficient records (scale 1): {recs}",
+            f"{self.analyses} joint verdicts, {len(self.visits)} scales",
+        )
 
 
 class _Runs:
@@ -249,8 +290,9 @@ class _Runs:
             with np.errstate(over="ignore"):
                 scaled = {k: scale * v for k, v in inputs.items()}
             blow = None
-            if all(np.all(np.isfinite(v)) for v in inputs.values()) and \
-                    not all(np.all(np.isfinite(v)) for v in scaled.values()):
+            if all(np.all(np.isfinite(v)) for v in inputs.values()) and not all(
+                np.all(np.isfinite(v)) for v in scaled.values()
+            ):
                 blow = BlowUp(scale, name, None, f"the record scaled by {scale:g} overflows")
             else:
                 try:
@@ -281,8 +323,15 @@ class _Runs:
         key = frozenset(patterns)
         if key not in self.verdicts:
             check_time("the joint verdict over the visited branches", "raise max_seconds=")
-            res = check_sensors(self.model, self.sub.output_names, self.targets, seed=self.seed,
-                                max_seconds=remaining(), visited=patterns, crossings=crossings)
+            res = check_sensors(
+                self.model,
+                self.sub.output_names,
+                self.targets,
+                seed=self.seed,
+                max_seconds=remaining(),
+                visited=patterns,
+                crossings=crossings,
+            )
             self.analyses += res.how == "analysis"
             self.verdicts[key] = res
         return self.verdicts[key]
@@ -291,8 +340,11 @@ class _Runs:
         """Branch labels by sign pattern (:func:`obsnl.model.split_branches`); none past :data:`LABEL_UP_TO` surfaces."""
         if self._labels is None:
             try:
-                found = split_branches(self.sub, seed=self.seed, undecided=True, max_seconds=remaining()) \
-                    if switching <= LABEL_UP_TO else ()
+                found = (
+                    split_branches(self.sub, seed=self.seed, undecided=True, max_seconds=remaining())
+                    if switching <= LABEL_UP_TO
+                    else ()
+                )
             except NotSupportedError:  # nested or too many surfaces: the patterns name the branches
                 found = ()
             self._labels = {tuple(b.signs): b.label for b in found}
@@ -303,13 +355,30 @@ class _Runs:
         v = self.verdict(patterns, crossings)
         labels = self.labels(len(self.sims[0, scale].switching))
         branches = tuple(VisitedBranch(k, labels.get(k), sec) for k, sec in patterns.items())
-        return ScaleVisit(scale, branches, crossings, v.sufficient, v.missing, v.undecided, v.reason, bisection,
-                          by if len(self.runs) > 1 else {})
+        return ScaleVisit(
+            scale,
+            branches,
+            crossings,
+            v.sufficient,
+            v.missing,
+            v.undecided,
+            v.reason,
+            bisection,
+            by if len(self.runs) > 1 else {},
+        )
 
 
-def design(model: Model, records: Record | Sequence[RecordLike], *, target: str | Sequence[str] = "all",
-           sensors: str | Sequence[str] | None = None, scales: Sequence[float] | None = None, tol: float = 1e-3,
-           seed: int = 0, max_seconds: float | None = None) -> ExperimentDesign:
+def design(
+    model: Model,
+    records: Record | Sequence[RecordLike],
+    *,
+    target: str | Sequence[str] = "all",
+    sensors: str | Sequence[str] | None = None,
+    scales: Sequence[float] | None = None,
+    tol: float = 1e-3,
+    seed: int = 0,
+    max_seconds: float | None = None,
+) -> ExperimentDesign:
     """The branches the records visit per scale, the smallest sufficient scale and the sufficient records.
 
     Parameters
@@ -377,14 +446,19 @@ def design(model: Model, records: Record | Sequence[RecordLike], *, target: str 
     grid = design_arguments(model, records, scales=scales, tol=tol, sensors=sensors) or DEFAULT_SCALES
     with time_budget(max_seconds):
         targets = resolve_targets(model, target)
-        chosen = model.output_names if sensors is None else (
-            [s.strip() for s in sensors.split(",") if s.strip()] if isinstance(sensors, str) else list(sensors))
+        chosen = (
+            model.output_names
+            if sensors is None
+            else ([s.strip() for s in sensors.split(",") if s.strip()] if isinstance(sensors, str) else list(sensors))
+        )
         sub = restrict(model, chosen)
         runs = [record_run(model, r, name=f"record {i + 1}") for i, r in enumerate(records)]
         names = [r[0] for r in runs]
         if not runs or len(runs) > MAX_RECORDS or len(set(names)) < len(names):
-            raise OptionError(f"give 1 to {MAX_RECORDS} records with distinct names, got {len(runs)}: "
-                              f"{', '.join(map(repr, names[:MAX_RECORDS + 1]))}")
+            raise OptionError(
+                f"give 1 to {MAX_RECORDS} records with distinct names, got {len(runs)}: "
+                f"{', '.join(map(repr, names[: MAX_RECORDS + 1]))}"
+            )
         structural, why, reachable = structural_targets(model, sub, targets, seed=seed, max_seconds=remaining())
         state = _Runs(model, sub, runs, tuple(n for n in targets if n not in structural), seed)
         on_grid: list[ScaleVisit] = []
@@ -401,9 +475,27 @@ def design(model: Model, records: Record | Sequence[RecordLike], *, target: str 
         suff, undecided, left_out = minimal_records(state)
     how = {**analysis_assumptions(sub, "arbitrary", None), **_ASSUMED}
     return ExperimentDesign(
-        model.name, targets, tuple(sub.output_names), tuple(names), state.sims[0, grid[0]].switching,
-        tuple(sorted(on_grid + points, key=lambda v: v.scale)), min_scale, bracket, status, reason, float(tol),
-        suff, undecided, state.analyses, seed, how, _notes(on_grid, bracket[1] if status == "found" else None),
-        time.perf_counter() - t0, structural=structural, structural_reason=why,
+        model.name,
+        targets,
+        tuple(sub.output_names),
+        tuple(names),
+        state.sims[0, grid[0]].switching,
+        tuple(sorted(on_grid + points, key=lambda v: v.scale)),
+        min_scale,
+        bracket,
+        status,
+        reason,
+        float(tol),
+        suff,
+        undecided,
+        state.analyses,
+        seed,
+        how,
+        _notes(on_grid, bracket[1] if status == "found" else None),
+        time.perf_counter() - t0,
+        structural=structural,
+        structural_reason=why,
         blowups=tuple(sorted(state.blowups.values(), key=lambda b: (b.scale, b.record))),
-        skipped=tuple(s for s in grid if cut is not None and s > cut.scale), unjudged_records=left_out)
+        skipped=tuple(s for s in grid if cut is not None and s > cut.scale),
+        unjudged_records=left_out,
+    )

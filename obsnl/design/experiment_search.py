@@ -28,13 +28,24 @@ from obsnl.errors import AnalysisError
 from obsnl.model.core import Model
 from obsnl.observability.joint.visited import BlewUp
 
-__all__ = ["BlowUp", "ScaleBlewUp", "blow_up", "no_scale_ran", "structural_targets", "search_scales", "scale_notes",
-           "minimal_records", "NOT_NOISE"]
+__all__ = [
+    "BlowUp",
+    "ScaleBlewUp",
+    "blow_up",
+    "no_scale_ran",
+    "structural_targets",
+    "search_scales",
+    "scale_notes",
+    "minimal_records",
+    "NOT_NOISE",
+]
 
 #: Why a sufficient scale says nothing about noise (the reading of ``min_scale`` the design warns against).
-NOT_NOISE = ("a structural statement (which branches the record visits), not about noise: whether so small a "
-             "response can be measured well enough is a practical question (rank the sensors along the record "
-             "by the Cramer-Rao bound: rank_sensor_sets)")
+NOT_NOISE = (
+    "a structural statement (which branches the record visits), not about noise: whether so small a "
+    "response can be measured well enough is a practical question (rank the sensors along the record "
+    "by the Cramer-Rao bound: rank_sensor_sets)"
+)
 #: Why the grid stops at a blow-up.
 _STOPS = "a larger excitation of the same record is no better behaved with the simulation's fixed step"
 
@@ -115,14 +126,18 @@ def no_scale_ran(blow: BlowUp) -> AnalysisError:
     -------
     AnalysisError
     """
-    return AnalysisError(f"no scale ran: the simulation of record {blow.record!r} blew up at the smallest scale "
-                         f"tried, {blow.scale:g}" + (f" (t = {blow.time:.4g})" if blow.time is not None else "")
-                         + f"; give smaller scales= (below {blow.scale:g}), or check the [values] and the record's "
-                         "amplitude")
+    return AnalysisError(
+        f"no scale ran: the simulation of record {blow.record!r} blew up at the smallest scale "
+        f"tried, {blow.scale:g}"
+        + (f" (t = {blow.time:.4g})" if blow.time is not None else "")
+        + f"; give smaller scales= (below {blow.scale:g}), or check the [values] and the record's "
+        "amplitude"
+    )
 
 
-def structural_targets(model: Model, sub: Model, targets: tuple[str, ...], *, seed: int,
-                       max_seconds: float | None) -> tuple[tuple[str, ...], str, bool]:
+def structural_targets(
+    model: Model, sub: Model, targets: tuple[str, ...], *, seed: int, max_seconds: float | None
+) -> tuple[tuple[str, ...], str, bool]:
     """The targets no scale makes identifiable: the joint verdict with the design's sensors over every branch.
 
     Parameters
@@ -164,9 +179,11 @@ def structural_targets(model: Model, sub: Model, targets: tuple[str, ...], *, se
         return (), "", not whole.undecided
     lost = tuple(n for n in targets if n in lost)
     gens = shared_symmetry_text(sub, seed)
-    why = (f"{', '.join(lost)} {'is' if len(lost) == 1 else 'are'} structurally unidentifiable whatever the scale "
-           f"(not jointly identifiable with {', '.join(sub.output_names)} even when every branch is visited"
-           f"{'; ' + gens if gens else ''}): reparametrize with `obsnl reparametrize`, or add sensors")
+    why = (
+        f"{', '.join(lost)} {'is' if len(lost) == 1 else 'are'} structurally unidentifiable whatever the scale "
+        f"(not jointly identifiable with {', '.join(sub.output_names)} even when every branch is visited"
+        f"{'; ' + gens if gens else ''}): reparametrize with `obsnl reparametrize`, or add sensors"
+    )
     if not left:
         raise AnalysisError(f"{why}; no target is left whose scale could be searched")
     return lost, why, not whole.undecided
@@ -209,8 +226,9 @@ def minimal_records(runs: Any) -> tuple[tuple[tuple[str, ...], ...], tuple[tuple
     return tuple(out[True]), tuple(out[None]), left_out
 
 
-def search_scales(runs: Any, grid: Sequence[Any], tol: float, cut: BlowUp | None = None,
-                  reachable: bool = False) -> tuple[Any, ...]:
+def search_scales(
+    runs: Any, grid: Sequence[Any], tol: float, cut: BlowUp | None = None, reachable: bool = False
+) -> tuple[Any, ...]:
     """``(min_scale, bracket, status, reason, bisection points)`` from the verdicts at the grid scales that ran.
 
     Parameters
@@ -235,38 +253,78 @@ def search_scales(runs: Any, grid: Sequence[Any], tol: float, cut: BlowUp | None
     first = next((i for i, v in enumerate(grid) if v.sufficient), None)
     proven = ([v.scale for v in grid[:first] if v.sufficient is False] or [None])[-1]  # largest insufficient
     top = grid[-1]
-    stop = (f"; the search was cut by the blow-up at {cut.text()} (larger scales not tried: {_STOPS}): "
-            f"inconclusive above {top.scale:g}") if cut is not None else ""
+    stop = (
+        (
+            f"; the search was cut by the blow-up at {cut.text()} (larger scales not tried: {_STOPS}): "
+            f"inconclusive above {top.scale:g}"
+        )
+        if cut is not None
+        else ""
+    )
     if first is None and top.sufficient is False:
         left = f" ({', '.join(top.undecided)} undecided)" if top.undecided else ""
-        lost = f"at the largest scale {'that ran' if cut else 'tried'}, {top.scale:g}, {', '.join(top.missing)} " \
-               f"stay unidentifiable{left}"
+        lost = (
+            f"at the largest scale {'that ran' if cut else 'tried'}, {top.scale:g}, {', '.join(top.missing)} "
+            f"stay unidentifiable{left}"
+        )
         if cut is not None:
             return None, (top.scale, None), "inconclusive", f"no scale that ran suffices: {lost}{stop}", []
-        more = (" (identifiable once every branch is visited: a larger scale or another record may reach the "
-                "branches they need)") if reachable else ""
+        more = (
+            (
+                " (identifiable once every branch is visited: a larger scale or another record may reach the "
+                "branches they need)"
+            )
+            if reachable
+            else ""
+        )
         return None, (top.scale, None), "none_suffices", lost + more, []
     if first is None:
-        return None, (proven, None), "inconclusive", (
-            f"no scale is proven sufficient; at the largest scale {'that ran, ' if cut else ''}{top.scale:g}: "
-            f"{top.reason}{stop}"), []
+        return (
+            None,
+            (proven, None),
+            "inconclusive",
+            (
+                f"no scale is proven sufficient; at the largest scale {'that ran, ' if cut else ''}{top.scale:g}: "
+                f"{top.reason}{stop}"
+            ),
+            [],
+        )
     lo, hi = (grid[first - 1].scale if first else None), grid[first].scale
     if first == 0:
-        return None, (None, hi), "smallest_suffices", (
-            f"the smallest scale tried, {hi:g}, already visits branches that make the targets jointly identifiable: "
-            f"min_scale is at most {hi:g} (give smaller scales to estimate it); {NOT_NOISE}"), []
+        return (
+            None,
+            (None, hi),
+            "smallest_suffices",
+            (
+                f"the smallest scale tried, {hi:g}, already visits branches that make the targets jointly identifiable: "
+                f"min_scale is at most {hi:g} (give smaller scales to estimate it); {NOT_NOISE}"
+            ),
+            [],
+        )
     if grid[first - 1].sufficient is None:
-        return None, (proven, hi), "inconclusive", (
-            f"the verdict at scale {lo:g} is inconclusive ({grid[first - 1].reason}); scale {hi:g} suffices"), []
+        return (
+            None,
+            (proven, hi),
+            "inconclusive",
+            (f"the verdict at scale {lo:g} is inconclusive ({grid[first - 1].reason}); scale {hi:g} suffices"),
+            [],
+        )
     points: list[Any] = []
     while (hi - lo) / hi > tol:
         mid = math.sqrt(lo * hi)
         try:
             points.append(v := runs.at(mid, bisection=True))
         except ScaleBlewUp as exc:  # no verdict there: the bracket stays what the scales that ran prove
-            return None, (lo, hi), "inconclusive", (
-                f"the bisection stopped at {exc.blow.text()}, between {lo:.6g} (insufficient) and {hi:.6g} "
-                f"(sufficient), which ran; the boundary lies in [{lo:.6g}, {hi:.6g}]"), points
+            return (
+                None,
+                (lo, hi),
+                "inconclusive",
+                (
+                    f"the bisection stopped at {exc.blow.text()}, between {lo:.6g} (insufficient) and {hi:.6g} "
+                    f"(sufficient), which ran; the boundary lies in [{lo:.6g}, {hi:.6g}]"
+                ),
+                points,
+            )
         if v.sufficient is None:
             why = f"the verdict at scale {v.scale:.6g} is inconclusive ({v.reason})"
             return None, (lo, hi), "inconclusive", f"{why}; the boundary lies in [{lo:.6g}, {hi:.6g}]", points
@@ -288,14 +346,21 @@ def scale_notes(grid: Sequence[Any], hi: float | None) -> tuple[str, ...]:
     -------
     tuple of str
     """
+
     def pattern(signs: Sequence[int]) -> str:
         return "".join("+" if s > 0 else "-" for s in signs)
 
     shrink = [(a, b, {x.signs for x in a.branches} - {x.signs for x in b.branches}) for a, b in zip(grid, grid[1:])]
-    notes = [f"scale {a.scale:g} visits {', '.join(pattern(s) for s in lost)}, which scale {b.scale:g} does not: "
-             f"the visited set does not grow with the scale there" for a, b, lost in shrink if lost][:1]
+    notes = [
+        f"scale {a.scale:g} visits {', '.join(pattern(s) for s in lost)}, which scale {b.scale:g} does not: "
+        f"the visited set does not grow with the scale there"
+        for a, b, lost in shrink
+        if lost
+    ][:1]
     worse = [v.scale for v in grid if hi is not None and v.scale > hi and v.sufficient is False]
     if worse:
-        notes.append(f"scale(s) {', '.join(f'{s:g}' for s in worse)} above the sufficient boundary are insufficient: "
-                     f"the bracket is a sufficient boundary, not necessarily the only one")
+        notes.append(
+            f"scale(s) {', '.join(f'{s:g}' for s in worse)} above the sufficient boundary are insufficient: "
+            f"the bracket is a sufficient boundary, not necessarily the only one"
+        )
     return tuple(notes)

@@ -15,8 +15,14 @@ from typing import Any
 
 from obsnl.report.printed import Printed, printed
 
-__all__ = ["show_printed", "branches_printed", "symmetries_printed", "analyze_printed", "sensors_printed",
-           "design_printed"]
+__all__ = [
+    "show_printed",
+    "branches_printed",
+    "symmetries_printed",
+    "analyze_printed",
+    "sensors_printed",
+    "design_printed",
+]
 
 
 def _read(model: Any, limits: bool = True) -> Any:
@@ -103,8 +109,15 @@ def symmetries_printed(model: Any, *, fmt: str = "text", degree: int = 1, seed: 
     return Printed(render_symmetries(branch_symmetries(_read(model), seed=seed, degree=degree), fmt))
 
 
-def analyze_printed(model: Any, *, fmt: str = "text", output: str | Path | None = None, force: bool = False,
-                    branches: Sequence[str] | None = None, **options: Any) -> Printed:
+def analyze_printed(
+    model: Any,
+    *,
+    fmt: str = "text",
+    output: str | Path | None = None,
+    force: bool = False,
+    branches: Sequence[str] | None = None,
+    **options: Any,
+) -> Printed:
     """The analysis of a model file (:func:`obsnl.design.records.analyze_file`), rendered
     (:func:`obsnl.report.tables.render`), with the line that names its first inconclusive branch.
 
@@ -136,8 +149,9 @@ def analyze_printed(model: Any, *, fmt: str = "text", output: str | Path | None 
     return printed(render(result, fmt), output, force=force, undecided=inconclusive_line([result]))
 
 
-def sensors_printed(model: Any, *, fmt: str = "text", output: str | Path | None = None, force: bool = False,
-                    **options: Any) -> Printed:
+def sensors_printed(
+    model: Any, *, fmt: str = "text", output: str | Path | None = None, force: bool = False, **options: Any
+) -> Printed:
     """The minimal sensor sets of a model file (:func:`obsnl.design.records.sensors_file`), rendered
     (:func:`obsnl.report.sensors.render_sensors`), with the line that names the sets left undecided.
 
@@ -165,8 +179,15 @@ def sensors_printed(model: Any, *, fmt: str = "text", output: str | Path | None 
     return printed(render_sensors(result, fmt), output, force=force, undecided=undecided_line(result))
 
 
-def design_printed(model: Any, record: Sequence[str | Path] = (), *, fmt: str = "text",
-                   output: str | Path | None = None, force: bool = False, **options: Any) -> Printed:
+def design_printed(
+    model: Any,
+    record: Sequence[str | Path] = (),
+    *,
+    fmt: str = "text",
+    output: str | Path | None = None,
+    force: bool = False,
+    **options: Any,
+) -> Printed:
     """The experiment design of a model file under records (:func:`obsnl.design.records.design_file`),
     rendered (:func:`obsnl.report.experiment.render_design`), with the line that says it is inconclusive.
 

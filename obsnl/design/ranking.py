@@ -44,8 +44,8 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import DataError, OptionError
-from obsnl.estimation.codegen import NumericModel, log_map, to_casadi
 from obsnl.estimation.accelerogram import Record, check_times
+from obsnl.estimation.codegen import NumericModel, log_map, to_casadi
 from obsnl.identification.likelihood import covariance, objective
 from obsnl.identification.setup import MIN_NOISE, Data, Setup
 from obsnl.model.core import Model
@@ -81,9 +81,13 @@ class RankedSet:
     def to_dict(self, parameters: Sequence[str] | None = None) -> dict[str, Any]:
         """JSON-ready fields (``inf`` written as None); ``relative_std`` keyed by ``parameters`` if given."""
         std = [_num(s) for s in self.relative_std]
-        return {"sensors": list(self.sensors), "worst_relative_std": _num(self.worst_relative_std),
-                "worst": self.worst, "log_det_fim": _num(self.log_det_fim),
-                "relative_std": dict(zip(parameters, std)) if parameters is not None else std}
+        return {
+            "sensors": list(self.sensors),
+            "worst_relative_std": _num(self.worst_relative_std),
+            "worst": self.worst,
+            "log_det_fim": _num(self.log_det_fim),
+            "relative_std": dict(zip(parameters, std)) if parameters is not None else std,
+        }
 
 
 def _num(x: float) -> float | None:
@@ -129,13 +133,19 @@ class Ranking:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields."""
-        return {"criterion": "worst relative Cramer-Rao std over the parameters (then larger log det of the "
-                             "relative-scaled Fisher information)",
-                "parameters": list(self.parameters), "nuisance": list(self.nuisance),
-                "noise": "independent Gaussian white noise per output, std = level x RMS of the noise-free output",
-                "noise_level": dict(self.noise_level), "noise_std": dict(self.noise_std),
-                "samples": self.samples, "dt": self.dt, "seconds": round(self.seconds, 3),
-                "rows": [r.to_dict(self.parameters) for r in self.rows]}
+        return {
+            "criterion": "worst relative Cramer-Rao std over the parameters (then larger log det of the "
+            "relative-scaled Fisher information)",
+            "parameters": list(self.parameters),
+            "nuisance": list(self.nuisance),
+            "noise": "independent Gaussian white noise per output, std = level x RMS of the noise-free output",
+            "noise_level": dict(self.noise_level),
+            "noise_std": dict(self.noise_std),
+            "samples": self.samples,
+            "dt": self.dt,
+            "seconds": round(self.seconds, 3),
+            "rows": [r.to_dict(self.parameters) for r in self.rows],
+        }
 
 
 def _numeric(model: Model | NumericModel) -> NumericModel:
@@ -151,8 +161,9 @@ def _inputs(num: NumericModel, inputs: Any, T: int) -> np.ndarray:
     u = np.asarray(inputs, float)
     u = u.reshape(-1, 1) if u.ndim == 1 else u
     if u.shape != (T, num.nu):
-        raise DataError(f"inputs must have shape ({T}, {num.nu}) (one column per input {', '.join(num.inputs)}), "
-                        f"got {u.shape}")
+        raise DataError(
+            f"inputs must have shape ({T}, {num.nu}) (one column per input {', '.join(num.inputs)}), got {u.shape}"
+        )
     return u
 
 
@@ -163,14 +174,25 @@ def _levels(num: NumericModel, noise: float | Mapping[str, float]) -> np.ndarray
         raise OptionError(f"noise given for {bad}, which are not outputs of {num.name!r} ({', '.join(num.outputs)})")
     levels = np.array([float(given.get(o, 0.01)) for o in num.outputs])
     if not np.all(np.isfinite(levels) & (levels >= MIN_NOISE)):
-        raise OptionError(f"noise levels must be finite numbers of at least {MIN_NOISE:g} (noise to signal RMS; "
-                          f"below it double precision cannot resolve the noise), got {given}")
+        raise OptionError(
+            f"noise levels must be finite numbers of at least {MIN_NOISE:g} (noise to signal RMS; "
+            f"below it double precision cannot resolve the noise), got {given}"
+        )
     return levels
 
 
-def rank_sensor_sets(model: Model | NumericModel, sets: Sequence[Sequence[str]], *, t: Any, inputs: Any,
-                     noise: float | Mapping[str, float] = 0.01, parameters: Sequence[str] | None = None,
-                     estimate_x0: bool = True, substeps: int = 8, refine: int = 8) -> Ranking:
+def rank_sensor_sets(
+    model: Model | NumericModel,
+    sets: Sequence[Sequence[str]],
+    *,
+    t: Any,
+    inputs: Any,
+    noise: float | Mapping[str, float] = 0.01,
+    parameters: Sequence[str] | None = None,
+    estimate_x0: bool = True,
+    substeps: int = 8,
+    refine: int = 8,
+) -> Ranking:
     """Rank sensor sets by the Cramer-Rao bounds of the parameters along a simulated response.
 
     Parameters
@@ -234,8 +256,10 @@ def rank_sensor_sets(model: Model | NumericModel, sets: Sequence[Sequence[str]],
         raise OptionError("give at least one sensor set, each of at least one output")
     unknown = sorted({o for s in candidates for o in s} - set(num.outputs))
     if unknown:
-        raise OptionError(f"{', '.join(map(repr, unknown))} is not an output of {num.name!r}; the candidate "
-                          f"sensors are {', '.join(num.outputs)}")
+        raise OptionError(
+            f"{', '.join(map(repr, unknown))} is not an output of {num.name!r}; the candidate "
+            f"sensors are {', '.join(num.outputs)}"
+        )
     ranked = tuple(num.parameters if parameters is None else parameters)
     bad = [p for p in ranked if p not in num.parameters]
     if bad or not ranked:
@@ -243,18 +267,31 @@ def rank_sensor_sets(model: Model | NumericModel, sets: Sequence[Sequence[str]],
     theta = num.nominal(num.parameters)
     zero = [p for p, v in zip(num.parameters, theta) if v == 0.0 and p in ranked]
     if zero:
-        raise OptionError(f"{', '.join(zero)} {'is' if len(zero) == 1 else 'are'} 0 in [values]: a relative bound "
-                          f"needs a nonzero value (or leave it out of parameters=)")
+        raise OptionError(
+            f"{', '.join(zero)} {'is' if len(zero) == 1 else 'are'} 0 in [values]: a relative bound "
+            f"needs a nonzero value (or leave it out of parameters=)"
+        )
     t = np.asarray(t, float)
     dt = check_times(t, "the record")
     u = _inputs(num, inputs, len(t))
     levels = _levels(num, noise)
     values = dict(zip(num.parameters, map(float, theta)))
-    coords = log_map(num.parameters, signs={p: -1 for p, v in values.items() if v < 0},
-                     linear=[p for p, v in values.items() if v == 0.0])  # a held 0 cannot take log coordinates
+    coords = log_map(
+        num.parameters,
+        signs={p: -1 for p, v in values.items() if v < 0},
+        linear=[p for p, v in values.items() if v == 0.0],
+    )  # a held 0 cannot take log coordinates
     record = Record("record", u if num.nu != 1 else u[:, 0], dt, channels=num.inputs if num.nu != 1 else ())
-    setup = Setup(model=num, record=record, truth=values, guess=values, coordinates=coords, substeps=substeps,
-                  refine=refine, fit_substeps=substeps)
+    setup = Setup(
+        model=num,
+        record=record,
+        truth=values,
+        guess=values,
+        coordinates=coords,
+        substeps=substeps,
+        refine=refine,
+        fit_substeps=substeps,
+    )
     data = Data(seed=None, u=u, y=setup.y_true)
     obj = objective(setup, data, theta=theta, substeps=substeps, sigma=np.ones(num.ny))
     _, jac = obj.evaluate(np.r_[coords.to_phi(theta), np.zeros(num.nx)])
@@ -269,20 +306,27 @@ def rank_sensor_sets(model: Model | NumericModel, sets: Sequence[Sequence[str]],
     for s in candidates:
         idx = [num.outputs.index(o) for o in s]
         C, _ = covariance((J[:, idx, :] * weight[idx][None, :, None]).reshape(-1, len(keep)))
-        std = np.sqrt(np.diag(C)[:len(ranked)])
-        block = C[:len(ranked), :len(ranked)]
+        std = np.sqrt(np.diag(C)[: len(ranked)])
+        block = C[: len(ranked), : len(ranked)]
         logdet = -float(np.linalg.slogdet(block)[1]) if np.all(np.isfinite(std)) else -math.inf
         w = int(np.argmax(std))
         rows.append(RankedSet(s, float(std[w]), ranked[w], logdet, tuple(float(x) for x in std)))
     rows.sort(key=lambda r: (r.worst_relative_std, -r.log_det_fim))
-    return Ranking(rows=tuple(rows), parameters=ranked, nuisance=tuple(num.states) if estimate_x0 else (),
-                   noise_level=dict(zip(num.outputs, map(float, levels))),
-                   noise_std=dict(zip(num.outputs, map(float, sigma))), samples=len(t), dt=dt,
-                   seconds=time.perf_counter() - t0)
+    return Ranking(
+        rows=tuple(rows),
+        parameters=ranked,
+        nuisance=tuple(num.states) if estimate_x0 else (),
+        noise_level=dict(zip(num.outputs, map(float, levels))),
+        noise_std=dict(zip(num.outputs, map(float, sigma))),
+        samples=len(t),
+        dt=dt,
+        seconds=time.perf_counter() - t0,
+    )
 
 
-def mode_shapes(model: Model | NumericModel, modes: int, *, candidates: Sequence[str] | None = None
-                ) -> tuple[np.ndarray, np.ndarray]:
+def mode_shapes(
+    model: Model | NumericModel, modes: int, *, candidates: Sequence[str] | None = None
+) -> tuple[np.ndarray, np.ndarray]:
     """The output shapes ``Psi = C Phi`` of the lowest ``modes`` modes of the model linearised at rest.
 
     The model is linearised at states 0, inputs 0 and its parameter ``[values]``: ``A = df/dx`` and
@@ -343,8 +387,9 @@ def mode_shapes(model: Model | NumericModel, modes: int, *, candidates: Sequence
     return Psi, lam[sel]
 
 
-def effective_independence(model: Model | NumericModel, size: int, *,
-                           candidates: Sequence[str] | None = None) -> tuple[str, ...]:
+def effective_independence(
+    model: Model | NumericModel, size: int, *, candidates: Sequence[str] | None = None
+) -> tuple[str, ...]:
     """Kammer's effective independence: the ``size`` outputs that keep the lowest ``size`` modes most
     linearly independent.
 

@@ -80,8 +80,10 @@ def one_input_record(model: Model, path: str | Path, *, option: str = "a record"
     from obsnl.estimation.records import read_record
 
     if len(model.inputs) != 1:
-        raise OptionError(f"{option} drives one input, model {model.name!r} has {len(model.inputs)}; give a model "
-                          "with one known input")
+        raise OptionError(
+            f"{option} drives one input, model {model.name!r} has {len(model.inputs)}; give a model "
+            "with one known input"
+        )
     return read_record(path)
 
 
@@ -106,10 +108,19 @@ def record_visits(model: Model, record: Record) -> Visits:
     return visited_patterns(model, t, {model.inputs[0].name: record.accel})
 
 
-def analyze_file(model: Model | str | Path, *, record: str | Path | None = None, method: str = "auto",
-                 seed: int | None = None, max_seconds: float | None = None, branches: Sequence[str] | None = None,
-                 joint: bool = True, unknown_input_derivatives: int | str | None = None,
-                 output: str | Path | None = None, force: bool = False) -> AnalysisResult:
+def analyze_file(
+    model: Model | str | Path,
+    *,
+    record: str | Path | None = None,
+    method: str = "auto",
+    seed: int | None = None,
+    max_seconds: float | None = None,
+    branches: Sequence[str] | None = None,
+    joint: bool = True,
+    unknown_input_derivatives: int | str | None = None,
+    output: str | Path | None = None,
+    force: bool = False,
+) -> AnalysisResult:
     """Analyse a model file, optionally only what one record visits, all within one time budget.
 
     Parameters
@@ -151,21 +162,37 @@ def analyze_file(model: Model | str | Path, *, record: str | Path | None = None,
     _check_output(output, force)
     with time_budget(max_seconds):
         model = _model(model)
-        k = check_analysis_limits(model, unknown_input_derivatives, option="unknown_input_derivatives=")  # before the simulation
+        k = check_analysis_limits(
+            model, unknown_input_derivatives, option="unknown_input_derivatives="
+        )  # before the simulation
         try:
             visits = record_visits(model, one_input_record(model, record, option=_RECORD)) if record else None
-            return analyze(model, method=method, seed=seed, max_seconds=max_seconds, branches=branches,
-                           visited=visits.patterns if visits else None,
-                           crossings=visits.crossings if visits else None, joint=joint,
-                           unknown_input_derivatives=unknown_input_derivatives)
+            return analyze(
+                model,
+                method=method,
+                seed=seed,
+                max_seconds=max_seconds,
+                branches=branches,
+                visited=visits.patterns if visits else None,
+                crossings=visits.crossings if visits else None,
+                joint=joint,
+                unknown_input_derivatives=unknown_input_derivatives,
+            )
         except MemoryError:  # outside analyze itself (the record's simulation); raised below, arrays freed
             pass
     raise out_of_memory(model, k)
 
 
-def sensors_file(model: Model | str | Path, *, record: str | Path | None = None, rank_size: int | None = None,
-                 noise: float | None = None, output: str | Path | None = None, force: bool = False,
-                 **search: Any) -> Any:
+def sensors_file(
+    model: Model | str | Path,
+    *,
+    record: str | Path | None = None,
+    rank_size: int | None = None,
+    noise: float | None = None,
+    output: str | Path | None = None,
+    force: bool = False,
+    **search: Any,
+) -> Any:
     """The minimal sensor sets of a model file, ranked along one record's response when one is given.
 
     Parameters
@@ -208,20 +235,30 @@ def sensors_file(model: Model | str | Path, *, record: str | Path | None = None,
     rec = None
     if record is not None:  # read before the search: a bad record is refused before any work
         if rank_size is not None and not (isinstance(rank_size, int) and 1 <= rank_size <= len(model.output_names)):
-            raise OptionError(f"the rank size is a number of sensors from 1 to {len(model.output_names)} (the "
-                              f"model's outputs), got {quote(rank_size, 30)}")
+            raise OptionError(
+                f"the rank size is a number of sensors from 1 to {len(model.output_names)} (the "
+                f"model's outputs), got {quote(rank_size, 30)}"
+            )
         rec = one_input_record(model, record, option=_RECORD)
     result = sensors(model, **search)
     if rec is None:
         return result
     t = rec.dt * np.arange(len(rec.accel))
-    return rank_sufficient_sets(result, model, t=t, inputs=rec.accel, size=rank_size,
-                                noise=0.01 if noise is None else noise)
+    return rank_sufficient_sets(
+        result, model, t=t, inputs=rec.accel, size=rank_size, noise=0.01 if noise is None else noise
+    )
 
 
-def design_file(model: Model | str | Path, records: Sequence[str | Path], *, max_seconds: float | None = None,
-                figure: str | Path | None = None, output: str | Path | None = None, force: bool = False,
-                **options: Any) -> Any:
+def design_file(
+    model: Model | str | Path,
+    records: Sequence[str | Path],
+    *,
+    max_seconds: float | None = None,
+    figure: str | Path | None = None,
+    output: str | Path | None = None,
+    force: bool = False,
+    **options: Any,
+) -> Any:
     """The experiment design of a model file under records, within one time budget.
 
     Parameters

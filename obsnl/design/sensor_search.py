@@ -94,8 +94,7 @@ class SensorSearch:
                     continue
                 ans = self.answer(rest)
                 removed[name] = ans.to_dict() if ans is not None else {"sufficient": None, "how": "missing"}
-            out.append({"sensors": list(s), "analysis": own.to_dict() if own is not None else None,
-                        "without": removed})
+            out.append({"sensors": list(s), "analysis": own.to_dict() if own is not None else None, "without": removed})
         return out
 
     def summary(self) -> str:
@@ -117,18 +116,29 @@ class SensorSearch:
         return render("html", self)
 
     def __repr__(self) -> str:
-        return (f"SensorSearch(model={self.model!r}, minimal_sets={len(self.minimal_sets)}, "
-                f"none_exists={self.none_exists}, analyses={self.analyses})")
+        return (
+            f"SensorSearch(model={self.model!r}, minimal_sets={len(self.minimal_sets)}, "
+            f"none_exists={self.none_exists}, analyses={self.analyses})"
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``minimal_sets``, ``analyses``, ``certificates`` and the rest of the search."""
         out = {
-            "model": self.model, "candidates": list(self.candidates), "targets": list(self.targets),
-            "max_size": self.max_size, "minimal_sets": [list(s) for s in self.minimal_sets],
-            "undecided_sets": [list(s) for s in self.undecided_sets], "none_exists": self.none_exists,
-            "proof": self.proof, "analyses": self.analyses, "possible_sets": self.exhaustive,
-            "certificates": self.certificates(), "checked": [c.to_dict() for c in self.checked],
-            "seed": self.seed, "assumptions": self.assumptions, "seconds": round(self.seconds, 3),
+            "model": self.model,
+            "candidates": list(self.candidates),
+            "targets": list(self.targets),
+            "max_size": self.max_size,
+            "minimal_sets": [list(s) for s in self.minimal_sets],
+            "undecided_sets": [list(s) for s in self.undecided_sets],
+            "none_exists": self.none_exists,
+            "proof": self.proof,
+            "analyses": self.analyses,
+            "possible_sets": self.exhaustive,
+            "certificates": self.certificates(),
+            "checked": [c.to_dict() for c in self.checked],
+            "seed": self.seed,
+            "assumptions": self.assumptions,
+            "seconds": round(self.seconds, 3),
             "complete": self.complete,
         }
         if self.ranking is not None:
@@ -139,5 +149,6 @@ class SensorSearch:
 
     def sufficient_sets(self, size: int) -> list[tuple[str, ...]]:
         """Every set of ``size`` candidates known sufficient: a minimal set, or one that contains one."""
-        return [c for c in itertools.combinations(self.candidates, size)
-                if any(set(x) <= set(c) for x in self.minimal_sets)]
+        return [
+            c for c in itertools.combinations(self.candidates, size) if any(set(x) <= set(c) for x in self.minimal_sets)
+        ]

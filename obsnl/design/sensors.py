@@ -50,18 +50,18 @@ from typing import Any
 
 from obsnl._progress import Progress
 from obsnl._text import quote
+from obsnl.design.arguments import model_argument
+from obsnl.design.sensor_search import SensorSearch
+from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict, unreached
 from obsnl.errors import OptionError
 from obsnl.executor import Executor
 from obsnl.model.core import Model
 from obsnl.model.files import read_model
 from obsnl.observability.analyze import assumptions
 from obsnl.observability.certificates.certify import shared_symmetries
-from obsnl.observability.joint.selection import select_branches
-from obsnl.observability.engines.inputs import resolve_unknown_input_derivatives
-from obsnl.design.arguments import model_argument
-from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict, unreached
 from obsnl.observability.engines.decompose import output_reachable
-from obsnl.design.sensor_search import SensorSearch
+from obsnl.observability.engines.inputs import resolve_unknown_input_derivatives
+from obsnl.observability.joint.selection import select_branches
 
 __all__ = ["sensors", "rank_sufficient_sets"]
 
@@ -132,15 +132,25 @@ def shared_symmetry_text(model: Model, seed: int) -> str:
 
 def _symmetry_proof(model: Model, missing: Sequence[str], seed: int) -> str:
     """The targets no sensor reveals, and the shared symmetries that move them (when found)."""
-    text = f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not jointly identifiable even with " \
-           f"every candidate sensor"
+    text = (
+        f"{', '.join(missing)} {'is' if len(missing) == 1 else 'are'} not jointly identifiable even with "
+        f"every candidate sensor"
+    )
     gens = shared_symmetry_text(model, seed)
     return f"{text}; {gens}" if gens else text
 
 
-def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size: int | None = None,
-            seed: int = 0, prob: float = 0.99, max_seconds: float | None = None,
-            executor: Executor | None = None, progress: bool | Callable[[int], Any] = False) -> SensorSearch:
+def sensors(
+    model: Model | str,
+    *,
+    target: str | Sequence[str] = "all",
+    max_size: int | None = None,
+    seed: int = 0,
+    prob: float = 0.99,
+    max_seconds: float | None = None,
+    executor: Executor | None = None,
+    progress: bool | Callable[[int], Any] = False,
+) -> SensorSearch:
     """Every minimal set of the model's outputs that makes ``target`` jointly identifiable.
 
     Parameters
@@ -213,9 +223,21 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     assumptions = _assumptions(model, full)
     if full.sufficient is False:
         bar.close()
-        return SensorSearch(model.name, candidates, targets, max_size, (), none_exists=True,
-                            proof=_symmetry_proof(model, full.missing, seed), checked=(full,), analyses=analyses,
-                            seed=seed, assumptions=assumptions, seconds=time.perf_counter() - t0, complete=True)
+        return SensorSearch(
+            model.name,
+            candidates,
+            targets,
+            max_size,
+            (),
+            none_exists=True,
+            proof=_symmetry_proof(model, full.missing, seed),
+            checked=(full,),
+            analyses=analyses,
+            seed=seed,
+            assumptions=assumptions,
+            seconds=time.perf_counter() - t0,
+            complete=True,
+        )
     known: dict[frozenset, Sufficiency] = {frozenset(candidates): full}
     insufficient: list[frozenset] = []
     minimal: list[tuple[str, ...]] = []
@@ -240,9 +262,11 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
         n = math.comb(len(free), k)
         if n > MAX_LEVEL_SETS:
             bar.close()
-            raise OptionError(f"{n:,} sets of {k} sensors to examine among the {len(free)} candidates that do not "
-                              f"suffice alone, more than {MAX_LEVEL_SETS:,}; give max_size= of at most {max(k - 1, 1)}, "
-                              f"or fewer candidate outputs")
+            raise OptionError(
+                f"{n:,} sets of {k} sensors to examine among the {len(free)} candidates that do not "
+                f"suffice alone, more than {MAX_LEVEL_SETS:,}; give max_size= of at most {max(k - 1, 1)}, "
+                f"or fewer candidate outputs"
+            )
         if math.comb(m, k) > n:
             bar(math.comb(m, k) - n)  # each contains a sensor that suffices alone: sufficient, not minimal
         level = [tuple(candidates[i] for i in idx) for idx in itertools.combinations(free, k)]
@@ -260,8 +284,14 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
                 continue
             bigger = next((x for x in insufficient if key <= x), None)
             if bigger is not None:
-                known[key] = Sufficiency(s, False, missing=known[bigger].missing, how="implied", probability=None,
-                                         reason="a subset of {" + ", ".join(known[bigger].sensors) + "}, insufficient")
+                known[key] = Sufficiency(
+                    s,
+                    False,
+                    missing=known[bigger].missing,
+                    how="implied",
+                    probability=None,
+                    reason="a subset of {" + ", ".join(known[bigger].sensors) + "}, insufficient",
+                )
                 bar()
                 continue
             reach = set().union(*(anc[c] for c in s))
@@ -287,8 +317,9 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
                 minimal.append(s)
             else:
                 undecided.append(s)
-                known[frozenset(s)] = replace(r, reason="sufficient; minimality undecided: a subset with one "
-                                              "sensor fewer was not decided")
+                known[frozenset(s)] = replace(
+                    r, reason="sufficient; minimality undecided: a subset with one sensor fewer was not decided"
+                )
         if k == m and full.sufficient is None and not minimal:
             break
         if len(minimal) > before and k < m:
@@ -297,6 +328,7 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
             # worth analyses only when they are fewer than the sets of the next size; at the last size asked, only
             # what is decided without an analysis
             if largest is not None and (k == max_size or len(largest) < math.comb(len(not_alone), k + 1)):
+
                 def lost(x: tuple[str, ...]) -> Sufficiency | None:
                     reach = set().union(*(anc[c] for c in x))
                     return None if want <= reach else unreached(x, [n for n in targets if n not in reach])
@@ -307,8 +339,13 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
                     complete = True
                     bar(sum(math.comb(m, j) for j in range(k + 1, max_size + 1)))  # each larger set is decided
                     break
-        if not essential_done and not minimal and k < max_size and math.comb(m, k + 1) <= MAX_LEVEL_SETS and \
-                _pending(candidates, k + 1, anc, targets) > 2 * m:  # (a larger next size is refused before any work)
+        if (
+            not essential_done
+            and not minimal
+            and k < max_size
+            and math.comb(m, k + 1) <= MAX_LEVEL_SETS
+            and _pending(candidates, k + 1, anc, targets) > 2 * m
+        ):  # (a larger next size is refused before any work)
             # no set of k sensors suffices and the next size is large: find the essential sensors (those
             # without which even every other sensor is not enough); every set lacking one is then implied
             # insufficient as a subset of that set, so only supersets of the essential sensors are analysed
@@ -322,14 +359,29 @@ def sensors(model: Model | str, *, target: str | Sequence[str] = "all", max_size
     order = {frozenset(c.sensors): i for i, c in enumerate(known.values())}
     checked = tuple(sorted(known.values(), key=lambda c: (len(c.sensors), order[frozenset(c.sensors)])))
     complete = complete or (max_size == m and not undecided)
-    return SensorSearch(model.name, candidates, targets, max_size, tuple(minimal), tuple(undecided),
-                        checked=checked, analyses=analyses, seed=seed, assumptions=assumptions,
-                        seconds=time.perf_counter() - t0, complete=complete)
+    return SensorSearch(
+        model.name,
+        candidates,
+        targets,
+        max_size,
+        tuple(minimal),
+        tuple(undecided),
+        checked=checked,
+        analyses=analyses,
+        seed=seed,
+        assumptions=assumptions,
+        seconds=time.perf_counter() - t0,
+        complete=complete,
+    )
 
 
-def _without_minimal(largest: Sequence[tuple[str, ...]], known: dict[frozenset, Sufficiency],
-                     insufficient: Sequence[frozenset], lost: Callable[[tuple[str, ...]], Sufficiency | None],
-                     check: Callable[[list[tuple[str, ...]]], list[Sufficiency]] | None) -> list[bool | None]:
+def _without_minimal(
+    largest: Sequence[tuple[str, ...]],
+    known: dict[frozenset, Sufficiency],
+    insufficient: Sequence[frozenset],
+    lost: Callable[[tuple[str, ...]], Sufficiency | None],
+    check: Callable[[list[tuple[str, ...]]], list[Sufficiency]] | None,
+) -> list[bool | None]:
     """Whether each of the largest sets without a minimal set is sufficient: the empty set is not; a set
     decided before keeps its answer, a subset of a set proven insufficient is insufficient, and so is a set that
     does not reach every target (``lost``: its answer from the dependency graph, kept in ``known``); the others
@@ -361,8 +413,9 @@ def _assumptions(model: Model, full: Sufficiency) -> dict[str, Any]:
     return out
 
 
-def rank_sufficient_sets(search: SensorSearch, model: Model, *, t: Any, inputs: Any, size: int | None = None,
-                         noise: float = 0.01) -> SensorSearch:
+def rank_sufficient_sets(
+    search: SensorSearch, model: Model, *, t: Any, inputs: Any, size: int | None = None, noise: float = 0.01
+) -> SensorSearch:
     """``search`` with its sufficient sets of one size ranked along a record, and effective independence's choice.
 
     Parameters
@@ -392,16 +445,20 @@ def rank_sufficient_sets(search: SensorSearch, model: Model, *, t: Any, inputs: 
     from obsnl.design.ranking import effective_independence, rank_sensor_sets
 
     if size is not None and (not isinstance(size, int) or not 1 <= size <= len(search.candidates)):
-        raise OptionError(f"the rank size is a number of sensors from 1 to {len(search.candidates)} (the model's "
-                          f"outputs), got {quote(size, 30)}")
+        raise OptionError(
+            f"the rank size is a number of sensors from 1 to {len(search.candidates)} (the model's "
+            f"outputs), got {quote(size, 30)}"
+        )
     if size is None:
         if not search.minimal_sets:
             raise OptionError("no sufficient sensor set to rank: " + (search.proof or "none found"))
         size = min(len(s) for s in search.minimal_sets)
     sets = search.sufficient_sets(size)
     if not sets:
-        raise OptionError(f"no sufficient set of {size} sensors to rank (the minimal sets have "
-                          f"{sorted({len(s) for s in search.minimal_sets}) or 'no'} sensors)")
+        raise OptionError(
+            f"no sufficient set of {size} sensors to rank (the minimal sets have "
+            f"{sorted({len(s) for s in search.minimal_sets}) or 'no'} sensors)"
+        )
     ranking = rank_sensor_sets(model, sets, t=t, inputs=inputs, noise=noise)
     try:
         efi = effective_independence(model, size)

@@ -24,7 +24,8 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from obsnl._text import names as name_list, quote
+from obsnl._text import names as name_list
+from obsnl._text import quote
 from obsnl.design.arguments import names_argument
 from obsnl.errors import OptionError
 from obsnl.model.core import Model
@@ -77,10 +78,18 @@ class Sufficiency:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready fields."""
-        return {"sensors": list(self.sensors), "sufficient": self.sufficient, "missing": list(self.missing),
-                "undecided": list(self.undecided), "how": self.how, "reason": self.reason,
-                "probability": self.probability, "seed": self.seed, "seconds": round(self.seconds, 4),
-                "visited": self.visited}
+        return {
+            "sensors": list(self.sensors),
+            "sufficient": self.sufficient,
+            "missing": list(self.missing),
+            "undecided": list(self.undecided),
+            "how": self.how,
+            "reason": self.reason,
+            "probability": self.probability,
+            "seed": self.seed,
+            "seconds": round(self.seconds, 4),
+            "visited": self.visited,
+        }
 
 
 def resolve_targets(model: Model, target: str | Sequence[str] = "all") -> tuple[str, ...]:
@@ -118,8 +127,10 @@ def resolve_targets(model: Model, target: str | Sequence[str] = "all") -> tuple[
         return tuple(order)
     if isinstance(target, str) and target.strip() == "parameters":
         if not model.parameters:  # nothing to make identifiable: every sensor set would trivially suffice
-            raise OptionError(f"target 'parameters' names nothing: {quote(model.name)} has no parameters; give all "
-                              f"or names of its states")
+            raise OptionError(
+                f"target 'parameters' names nothing: {quote(model.name)} has no parameters; give all "
+                f"or names of its states"
+            )
         return tuple(p.name for p in model.parameters)
     names = [n.strip() for n in (target.split(",") if isinstance(target, str) else target)]
     names = [n for n in names if n]
@@ -127,8 +138,10 @@ def resolve_targets(model: Model, target: str | Sequence[str] = "all") -> tuple[
         raise OptionError("the target is empty: give all, parameters, or names of states and parameters")
     bad = [n for n in names if n not in order]
     if bad:
-        raise OptionError(f"target {name_list(map(quote, bad), 3)} is not a state or parameter of {quote(model.name)}; "
-                          f"choose among {name_list(order, 20)}")
+        raise OptionError(
+            f"target {name_list(map(quote, bad), 3)} is not a state or parameter of {quote(model.name)}; "
+            f"choose among {name_list(order, 20)}"
+        )
     return tuple(n for n in order if n in names)
 
 
@@ -164,8 +177,10 @@ def restrict(model: Model, sensors: Sequence[str]) -> Model:
         raise OptionError("a sensor set needs at least one output")
     bad = [n for n in names if n not in model.outputs]
     if bad:
-        raise OptionError(f"{name_list(map(quote, bad), 3)} is not an output of {quote(model.name)}; "
-                          f"the candidate sensors are {name_list(model.output_names, 20)}")
+        raise OptionError(
+            f"{name_list(map(quote, bad), 3)} is not an output of {quote(model.name)}; "
+            f"the candidate sensors are {name_list(model.output_names, 20)}"
+        )
     keep = {n: model.outputs[n] for n in model.output_names if n in names}
     return model.replace(outputs=keep)
 
@@ -186,15 +201,29 @@ def unreached(names: Sequence[str], lost: Sequence[str], seconds: float = 0.0) -
     -------
     Sufficiency
     """
-    return Sufficiency(tuple(names), False, missing=tuple(lost), how="reachability", probability=1.0,
-                       reason=f"{', '.join(lost)} {'has' if len(lost) == 1 else 'have'} no path to "
-                              f"{', '.join(names)} in the dependency graph", seconds=seconds)
+    return Sufficiency(
+        tuple(names),
+        False,
+        missing=tuple(lost),
+        how="reachability",
+        probability=1.0,
+        reason=f"{', '.join(lost)} {'has' if len(lost) == 1 else 'have'} no path to "
+        f"{', '.join(names)} in the dependency graph",
+        seconds=seconds,
+    )
 
 
-def check_sensors(model: Model, sensors: Sequence[str], targets: Sequence[str], *, seed: int = 0,
-                  prob: float = 0.99, max_seconds: float | None = None,
-                  visited: Mapping[tuple[int, ...], float] | None = None,
-                  crossings: Mapping[str, int] | None = None) -> Sufficiency:
+def check_sensors(
+    model: Model,
+    sensors: Sequence[str],
+    targets: Sequence[str],
+    *,
+    seed: int = 0,
+    prob: float = 0.99,
+    max_seconds: float | None = None,
+    visited: Mapping[tuple[int, ...], float] | None = None,
+    crossings: Mapping[str, int] | None = None,
+) -> Sufficiency:
     """Whether the outputs ``sensors`` make every name of ``targets`` jointly identifiable.
 
     Parameters
@@ -239,14 +268,21 @@ def check_sensors(model: Model, sensors: Sequence[str], targets: Sequence[str], 
     lost = tuple(n for n in targets if n not in reach)
     if lost:
         return unreached(names, lost, time.perf_counter() - t0)
-    res = analyze(sub, seed=seed, prob=prob, max_seconds=max_seconds, visited=visited, crossings=crossings,
-                  per_branch=False)
+    res = analyze(
+        sub, seed=seed, prob=prob, max_seconds=max_seconds, visited=visited, crossings=crossings, per_branch=False
+    )
     joint = res.joint
     note = res.visited.note if res.visited is not None else ""
     if joint is None:  # every branch undecided: nothing was analysed
-        return Sufficiency(names, None, undecided=tuple(targets), reason="no branch could be analysed: "
-                           + "; ".join(b.reason for b in res.branches), seed=res.seed,
-                           seconds=time.perf_counter() - t0, visited=note)
+        return Sufficiency(
+            names,
+            None,
+            undecided=tuple(targets),
+            reason="no branch could be analysed: " + "; ".join(b.reason for b in res.branches),
+            seed=res.seed,
+            seconds=time.perf_counter() - t0,
+            visited=note,
+        )
     unobs, incon = set(joint.unobservable), set(joint.inconclusive)
     missing = tuple(n for n in targets if n in unobs)
     undecided = tuple(n for n in targets if n in incon)
@@ -257,6 +293,15 @@ def check_sensors(model: Model, sensors: Sequence[str], targets: Sequence[str], 
         reason = f"{', '.join(undecided)} undecided: {joint.reason}"
     else:
         reason = ""
-    return Sufficiency(names, sufficient, missing=missing, undecided=undecided, how="analysis", reason=reason,
-                       probability=joint.probability, seed=res.seed, seconds=time.perf_counter() - t0,
-                       visited=note)
+    return Sufficiency(
+        names,
+        sufficient,
+        missing=missing,
+        undecided=undecided,
+        how="analysis",
+        reason=reason,
+        probability=joint.probability,
+        seed=res.seed,
+        seconds=time.perf_counter() - t0,
+        visited=note,
+    )

@@ -32,10 +32,10 @@ import scipy.linalg as sla
 
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import AnalysisError, DataError
-from obsnl.linear.systems import as_linear_system
 from obsnl.linear.gains import ObserverDesign, riccati_gain
 from obsnl.linear.observer import ExtendedObservability, ExtendedSystem, FictitiousModel, extend, extended_observability
 from obsnl.linear.simulation import _samples, observer_matrices
+from obsnl.linear.systems import as_linear_system
 
 __all__ = [
     "ObserverBank",
@@ -107,7 +107,7 @@ class ObserverBank:
                 x = x @ phiT + G[k]
             off = 0
             for j, ext in enumerate(self.systems):
-                Xj = X[..., off: off + ext.A.shape[0]]
+                Xj = X[..., off : off + ext.A.shape[0]]
                 nhat[a:b, :, j] = ext.force(Xj)[..., 0] if ext.s == 1 else np.linalg.norm(ext.force(Xj), axis=-1)
                 r = (Y[a:b] - Xj @ ext.C.T) / self.output_scale
                 resid[a:b, :, j] = np.sqrt(np.mean(r * r, axis=-1))
@@ -116,8 +116,18 @@ class ObserverBank:
         return tuple(BankRun(self.labels, t, nhat[:, i], resid[:, i]) for i in range(R))
 
 
-def build_bank(system: Any, distributions: Mapping[Any, Any], model: FictitiousModel, *, dt: float, R: Any,
-               q_x: float = 1.0, q_v: float = 1.0, output_scale: Any = None, weak_cond: float = 1e2) -> ObserverBank:
+def build_bank(
+    system: Any,
+    distributions: Mapping[Any, Any],
+    model: FictitiousModel,
+    *,
+    dt: float,
+    R: Any,
+    q_x: float = 1.0,
+    q_v: float = 1.0,
+    output_scale: Any = None,
+    weak_cond: float = 1e2,
+) -> ObserverBank:
     """One Riccati-designed extended observer per candidate location.
 
     Parameters
@@ -153,8 +163,10 @@ def build_bank(system: Any, distributions: Mapping[Any, Any], model: FictitiousM
     for label, N in distributions.items():
         chk = extended_observability(plant, N, model, weak_cond=weak_cond)
         if not chk.observable:
-            raise AnalysisError(f"observer {label}: the extended system is not observable ({chk.reason}); "
-                                "add measurements or model fewer force channels")
+            raise AnalysisError(
+                f"observer {label}: the extended system is not observable ({chk.reason}); "
+                "add measurements or model fewer force channels"
+            )
         ext = extend(plant, N, model)
         labels.append(str(label))
         systems.append(ext)
@@ -195,7 +207,7 @@ def sliding_rms(x: np.ndarray, n: int) -> np.ndarray:
         raise DataError(f"window of {n} samples does not fit a record of {x.shape[0]} samples")
     c = np.concatenate([np.zeros((1,) + x.shape[1:]), np.cumsum(x * x, axis=0)])
     out = np.full(x.shape, np.nan)
-    out[n - 1:] = np.sqrt(np.maximum(c[n:] - c[:-n], 0.0) / n)
+    out[n - 1 :] = np.sqrt(np.maximum(c[n:] - c[:-n], 0.0) / n)
     return out
 
 
@@ -219,13 +231,19 @@ class Thresholds:
     seeds: tuple[int, ...] = ()
 
     def to_dict(self) -> dict:
-        return {"labels": list(self.labels), "tau": dict(zip(self.labels, self.tau)),
-                "floor": dict(zip(self.labels, self.floor)), "factor": self.factor, "window": self.window,
-                "seeds": list(self.seeds)}
+        return {
+            "labels": list(self.labels),
+            "tau": dict(zip(self.labels, self.tau)),
+            "floor": dict(zip(self.labels, self.floor)),
+            "factor": self.factor,
+            "window": self.window,
+            "seeds": list(self.seeds),
+        }
 
 
-def calibrate_thresholds(healthy: Sequence[BankRun], *, window: float, factor: float = 3.0,
-                         seeds: Sequence[int] = ()) -> Thresholds:
+def calibrate_thresholds(
+    healthy: Sequence[BankRun], *, window: float, factor: float = 3.0, seeds: Sequence[int] = ()
+) -> Thresholds:
     """Thresholds from healthy runs: ``tau_j = factor * max over runs and time of sliding_rms(nhat_j)``.
 
     Use noise seeds different from the runs you evaluate, and record them in ``seeds``.
@@ -259,8 +277,14 @@ def calibrate_thresholds(healthy: Sequence[BankRun], *, window: float, factor: f
         if run.labels != healthy[0].labels:
             raise DataError("all healthy runs must come from the same bank (same observer labels)")
         floor = np.maximum(floor, np.nanmax(sliding_rms(run.nhat, _window_samples(run, window)), axis=0))
-    return Thresholds(healthy[0].labels, tuple(float(factor * f) for f in floor), tuple(float(f) for f in floor),
-                      float(factor), float(window), tuple(int(s) for s in seeds))
+    return Thresholds(
+        healthy[0].labels,
+        tuple(float(factor * f) for f in floor),
+        tuple(float(f) for f in floor),
+        float(factor),
+        float(window),
+        tuple(int(s) for s in seeds),
+    )
 
 
 class Detection(str, enum.Enum):
@@ -279,10 +303,12 @@ class Detection(str, enum.Enum):
         >>> Detection.DETECTED.summary()
         'detected: an alarm, but no windowed RMS force clears its threshold (no location claimed)'
         """
-        return {"not detected": "not detected: no force estimate exceeded its threshold",
-                "detected": "detected: an alarm, but no windowed RMS force clears its threshold (no location claimed)",
-                "located": "located: a clear winner, the magnitude and residual rules agree",
-                "inconclusive": "inconclusive: the two largest forces are too close, or the two rules disagree"}[self.value]
+        return {
+            "not detected": "not detected: no force estimate exceeded its threshold",
+            "detected": "detected: an alarm, but no windowed RMS force clears its threshold (no location claimed)",
+            "located": "located: a clear winner, the magnitude and residual rules agree",
+            "inconclusive": "inconclusive: the two largest forces are too close, or the two rules disagree",
+        }[self.value]
 
 
 @dataclass(frozen=True)
@@ -313,30 +339,57 @@ class BankDecision:
         return self.by_magnitude if self.outcome is Detection.LOCATED else None
 
     def __repr__(self) -> str:
-        return one_line("BankDecision", f"outcome={self.outcome.value!r}", f"located_at={self.located_at!r}",
-                        f"t_detect={number(self.t_detect)}", f"false_alarm={self.false_alarm}",
-                        f"margin={number(self.margin)}")
+        return one_line(
+            "BankDecision",
+            f"outcome={self.outcome.value!r}",
+            f"located_at={self.located_at!r}",
+            f"t_detect={number(self.t_detect)}",
+            f"false_alarm={self.false_alarm}",
+            f"margin={number(self.margin)}",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the outcome and its reason, when, and each observer's RMS force."""
-        when = "" if self.t_detect is None else f"first alarm at t = {number(self.t_detect)} s" + (
-            f" ({number(self.time_to_detection)} s after the onset)" if self.time_to_detection is not None else "")
+        when = (
+            ""
+            if self.t_detect is None
+            else f"first alarm at t = {number(self.t_detect)} s"
+            + (f" ({number(self.time_to_detection)} s after the onset)" if self.time_to_detection is not None else "")
+        )
         forces = [f"{lab} {number(f)}" for lab, f in zip(self.labels, self.rms_force)]
-        return block(self.outcome.summary(), self.reason, when,
-                     "false alarm before the onset" if self.false_alarm else "",
-                     f"largest force: {self.by_magnitude}; smallest residual: {self.by_residual}; margin "
-                     f"{number(self.margin)}", f"RMS force per observer: {names(forces, 8)}")
+        return block(
+            self.outcome.summary(),
+            self.reason,
+            when,
+            "false alarm before the onset" if self.false_alarm else "",
+            f"largest force: {self.by_magnitude}; smallest residual: {self.by_residual}; margin {number(self.margin)}",
+            f"RMS force per observer: {names(forces, 8)}",
+        )
 
     def to_dict(self) -> dict:
-        return {"detected": self.detected, "false_alarm": self.false_alarm, "t_detect": _f(self.t_detect),
-                "time_to_detection": _f(self.time_to_detection), "by_magnitude": self.by_magnitude,
-                "by_residual": self.by_residual, "margin": _f(self.margin), "verdict": self.outcome.value,
-                "reason": self.reason, "rms_force": dict(zip(self.labels, map(_f, self.rms_force))),
-                "rms_residual": dict(zip(self.labels, map(_f, self.rms_residual)))}
+        return {
+            "detected": self.detected,
+            "false_alarm": self.false_alarm,
+            "t_detect": _f(self.t_detect),
+            "time_to_detection": _f(self.time_to_detection),
+            "by_magnitude": self.by_magnitude,
+            "by_residual": self.by_residual,
+            "margin": _f(self.margin),
+            "verdict": self.outcome.value,
+            "reason": self.reason,
+            "rms_force": dict(zip(self.labels, map(_f, self.rms_force))),
+            "rms_residual": dict(zip(self.labels, map(_f, self.rms_residual))),
+        }
 
 
-def decide(run: BankRun, thresholds: Thresholds, *, evaluation_window: float, onset: float | None = None,
-           ratio_band: float = 1.5) -> BankDecision:
+def decide(
+    run: BankRun,
+    thresholds: Thresholds,
+    *,
+    evaluation_window: float,
+    onset: float | None = None,
+    ratio_band: float = 1.5,
+) -> BankDecision:
     """Detect, locate and state an honest outcome for one bank run.
 
     Parameters
@@ -369,8 +422,20 @@ def decide(run: BankRun, thresholds: Thresholds, *, evaluation_window: float, on
     order = np.argsort(-f)
     margin = float(f[order[0]] / f[order[1]]) if f.size > 1 and f[order[1]] > 0 else float("inf")
     if not after.size:
-        return BankDecision(run.labels, False, false_alarm, None, None, None, None, margin, tuple(map(float, f)),
-                            tuple(map(float, r)), Detection.NOT_DETECTED, "no force estimate exceeded its threshold")
+        return BankDecision(
+            run.labels,
+            False,
+            false_alarm,
+            None,
+            None,
+            None,
+            None,
+            margin,
+            tuple(map(float, f)),
+            tuple(map(float, r)),
+            Detection.NOT_DETECTED,
+            "no force estimate exceeded its threshold",
+        )
     t_det = float(run.t[after[0]])
     mag, res = run.labels[order[0]], run.labels[int(np.argmin(r))]
     above = [run.labels[j] for j in range(f.size) if f[j] > tau[j]]
@@ -378,11 +443,25 @@ def decide(run: BankRun, thresholds: Thresholds, *, evaluation_window: float, on
         outcome, reason = Detection.DETECTED, "alarm raised, but no windowed RMS force clears its threshold"
     elif margin < ratio_band:
         outcome = Detection.INCONCLUSIVE
-        reason = (f"forces at {run.labels[order[0]]} and {run.labels[order[1]]} within a ratio of {margin:.2f} "
-                  f"< {ratio_band:g} (fault between them?)")
+        reason = (
+            f"forces at {run.labels[order[0]]} and {run.labels[order[1]]} within a ratio of {margin:.2f} "
+            f"< {ratio_band:g} (fault between them?)"
+        )
     elif mag != res:
         outcome, reason = Detection.INCONCLUSIVE, f"magnitude rule picks {mag}, residual rule picks {res}"
     else:
         outcome, reason = Detection.LOCATED, f"largest force at {mag} (margin {margin:.2f}), residual rule agrees"
-    return BankDecision(run.labels, True, false_alarm, t_det, None if onset is None else t_det - onset, mag, res,
-                        margin, tuple(map(float, f)), tuple(map(float, r)), outcome, reason)
+    return BankDecision(
+        run.labels,
+        True,
+        false_alarm,
+        t_det,
+        None if onset is None else t_det - onset,
+        mag,
+        res,
+        margin,
+        tuple(map(float, f)),
+        tuple(map(float, r)),
+        outcome,
+        reason,
+    )

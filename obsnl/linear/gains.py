@@ -41,9 +41,14 @@ class ObserverDesign:
 
     def to_dict(self) -> dict:
         c = lambda z: [[float(v.real), float(v.imag)] for v in z]  # noqa: E731
-        return {"method": self.method, "stable": self.stable, "eigenvalues": c(self.eigenvalues),
-                "force_eigenvalues": c(self.force_eigenvalues), "residual": self.residual,
-                "gain_norm": float(np.linalg.norm(self.L, 2))}
+        return {
+            "method": self.method,
+            "stable": self.stable,
+            "eigenvalues": c(self.eigenvalues),
+            "force_eigenvalues": c(self.force_eigenvalues),
+            "residual": self.residual,
+            "gain_norm": float(np.linalg.norm(self.L, 2)),
+        }
 
 
 def _design(ext: ExtendedSystem, L: np.ndarray, method: str, residual: float) -> ObserverDesign:
@@ -51,12 +56,14 @@ def _design(ext: ExtendedSystem, L: np.ndarray, method: str, residual: float) ->
     w, vl, vr = sla.eig(Acl, left=True, right=True)
     vl = vl / np.conj(np.sum(np.conj(vl) * vr, axis=0))[None, :]
     part = np.abs(vl * vr)
-    frac = part[ext.n:].sum(axis=0) / part.sum(axis=0)
+    frac = part[ext.n :].sum(axis=0) / part.sum(axis=0)
     idx = np.argsort(-frac)[: ext.q]
     bad = int(np.sum(w.real >= -1e-9 * np.abs(w).max(initial=1.0)))
     if bad:
-        raise AnalysisError(f"the {method} gain leaves {bad} observer eigenvalue(s) unstable or on the imaginary "
-                            "axis; check extended_observability (an unobservable fictitious mode?)")
+        raise AnalysisError(
+            f"the {method} gain leaves {bad} observer eigenvalue(s) unstable or on the imaginary "
+            "axis; check extended_observability (an unobservable fictitious mode?)"
+        )
     return ObserverDesign(L, method, w, w[idx], residual)
 
 
@@ -96,8 +103,10 @@ def riccati_gain(ext: ExtendedSystem, *, R: Any, q_x: float = 1.0, q_v: float = 
     try:
         P = sla.solve_continuous_are(ext.A.T, ext.C.T, Qm, Rm)
     except (np.linalg.LinAlgError, ValueError) as exc:
-        raise AnalysisError(f"the observer Riccati equation has no stabilising solution ({exc}); "
-                            "check extended_observability and that Q excites the fictitious states") from exc
+        raise AnalysisError(
+            f"the observer Riccati equation has no stabilising solution ({exc}); "
+            "check extended_observability and that Q excites the fictitious states"
+        ) from exc
     L = np.linalg.solve(Rm, ext.C @ P).T
     res = ext.A @ P + P @ ext.A.T - P @ ext.C.T @ np.linalg.solve(Rm, ext.C @ P) + Qm
     rel = float(np.linalg.norm(res) / max(float(np.linalg.norm(Qm)), float(np.linalg.norm(ext.A @ P)), 1e-300))

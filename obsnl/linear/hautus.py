@@ -31,8 +31,14 @@ class EigenTest:
 
     def to_dict(self) -> dict:
         lam = complex(self.eigenvalue)
-        return {"eigenvalue": [lam.real, lam.imag], "sigma_min": self.sigma_min, "margin": self.margin,
-                "deficiency": self.deficiency, "mode_index": self.mode_index, "verdict": self.verdict.value}
+        return {
+            "eigenvalue": [lam.real, lam.imag],
+            "sigma_min": self.sigma_min,
+            "margin": self.margin,
+            "deficiency": self.deficiency,
+            "mode_index": self.mode_index,
+            "verdict": self.verdict.value,
+        }
 
 
 @dataclass(frozen=True)
@@ -76,21 +82,41 @@ class HautusResult:
         return Verdict.OBSERVABLE
 
     def __repr__(self) -> str:
-        return one_line("HautusResult", f"verdict={self.verdict.value!r}", f"eigenvalues={len(self.tests)}",
-                        f"deficiency={self.deficiency}", f"margin={number(self.margin)}", f"detectable={self.detectable}")
+        return one_line(
+            "HautusResult",
+            f"verdict={self.verdict.value!r}",
+            f"eigenvalues={len(self.tests)}",
+            f"deficiency={self.deficiency}",
+            f"margin={number(self.margin)}",
+            f"detectable={self.detectable}",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the verdict, then each eigenvalue's test."""
-        rows = [f"lambda = {number(t.eigenvalue)}: {t.verdict.value} (margin {number(t.margin)}, rank loss {t.deficiency}, mode index "
-                f"{number(t.mode_index)})" for t in self.tests]
-        return block(f"{claim(self.verdict)}; {'detectable' if self.detectable else 'NOT detectable'}, "
-                     f"margin {number(self.margin)} (Hautus test, {self.n} states)", *rows[:10],
-                     f"... and {len(rows) - 10} more eigenvalues" if len(rows) > 10 else "")
+        rows = [
+            f"lambda = {number(t.eigenvalue)}: {t.verdict.value} (margin {number(t.margin)}, rank loss {t.deficiency}, mode index "
+            f"{number(t.mode_index)})"
+            for t in self.tests
+        ]
+        return block(
+            f"{claim(self.verdict)}; {'detectable' if self.detectable else 'NOT detectable'}, "
+            f"margin {number(self.margin)} (Hautus test, {self.n} states)",
+            *rows[:10],
+            f"... and {len(rows) - 10} more eigenvalues" if len(rows) > 10 else "",
+        )
 
     def to_dict(self) -> dict:
-        return {"n": self.n, "verdict": self.verdict.value, "observable": self.observable,
-                "detectable": self.detectable, "margin": self.margin, "rtol": self.rtol,
-                "weak_rtol": self.weak_rtol, "scaling": self.scaling, "tests": [t.to_dict() for t in self.tests]}
+        return {
+            "n": self.n,
+            "verdict": self.verdict.value,
+            "observable": self.observable,
+            "detectable": self.detectable,
+            "margin": self.margin,
+            "rtol": self.rtol,
+            "weak_rtol": self.weak_rtol,
+            "scaling": self.scaling,
+            "tests": [t.to_dict() for t in self.tests],
+        }
 
 
 def distinct_eigenvalues(A: np.ndarray, *, rtol: float = 1e-9) -> np.ndarray:
@@ -105,8 +131,15 @@ def distinct_eigenvalues(A: np.ndarray, *, rtol: float = 1e-9) -> np.ndarray:
     return np.array(out, dtype=complex)
 
 
-def hautus(system: Any, C: Any = None, *, eigenvalues: Any = None, rtol: float = DEFAULT_RTOL,
-           weak_rtol: float = DEFAULT_WEAK_RTOL, scaling: str = "balance") -> HautusResult:
+def hautus(
+    system: Any,
+    C: Any = None,
+    *,
+    eigenvalues: Any = None,
+    rtol: float = DEFAULT_RTOL,
+    weak_rtol: float = DEFAULT_WEAK_RTOL,
+    scaling: str = "balance",
+) -> HautusResult:
     """Hautus / Popov-Belevitch-Hautus test: ``rank [lam I - A; C] = n`` at every eigenvalue of A.
 
     Parameters

@@ -24,13 +24,26 @@ import numpy as np
 import scipy.linalg as sla
 
 from obsnl.errors import DataError
-from obsnl.linear.systems import DEFAULT_RTOL, DEFAULT_WEAK_RTOL, LinearSystem, _matrix, as_linear_system, system_scaling
 from obsnl.linear.hautus import HautusResult, distinct_eigenvalues, hautus
+from obsnl.linear.systems import (
+    DEFAULT_RTOL,
+    DEFAULT_WEAK_RTOL,
+    LinearSystem,
+    _matrix,
+    as_linear_system,
+    system_scaling,
+)
 from obsnl.observability.verdicts import Verdict
 
 __all__ = [
-    "FictitiousModel", "integrator", "oscillator", "ExtendedSystem", "extend", "ChannelTest",
-    "ExtendedObservability", "extended_observability",
+    "FictitiousModel",
+    "integrator",
+    "oscillator",
+    "ExtendedSystem",
+    "extend",
+    "ChannelTest",
+    "ExtendedObservability",
+    "extended_observability",
 ]
 
 
@@ -124,7 +137,7 @@ class ExtendedSystem:
 
     def force(self, xe: np.ndarray) -> np.ndarray:
         """Force estimate ``H v`` from extended states (..., n + q) -> (..., s)."""
-        return np.asarray(xe)[..., self.n:] @ self.model.H.T
+        return np.asarray(xe)[..., self.n :] @ self.model.H.T
 
 
 def extend(system: Any, N_R: Any, model: FictitiousModel) -> ExtendedSystem:
@@ -180,8 +193,13 @@ class ChannelTest:
 
     def to_dict(self) -> dict:
         lam = complex(self.eigenvalue)
-        return {"eigenvalue": [lam.real, lam.imag], "method": self.method, "singular_values": list(self.singular_values),
-                "deficiency": self.deficiency, "condition": self.condition}
+        return {
+            "eigenvalue": [lam.real, lam.imag],
+            "method": self.method,
+            "singular_values": list(self.singular_values),
+            "deficiency": self.deficiency,
+            "condition": self.condition,
+        }
 
 
 @dataclass(frozen=True)
@@ -207,15 +225,31 @@ class ExtendedObservability:
         return self.verdict is not Verdict.UNOBSERVABLE
 
     def to_dict(self) -> dict:
-        return {"verdict": self.verdict.value, "observable": self.observable, "detectable": self.detectable,
-                "reason": self.reason, "n_outputs": self.n_outputs, "n_channels": self.n_channels,
-                "enough_outputs": self.enough_outputs, "weak_cond": self.weak_cond,
-                "channels": [c.to_dict() for c in self.channels], "plant": self.plant.to_dict()}
+        return {
+            "verdict": self.verdict.value,
+            "observable": self.observable,
+            "detectable": self.detectable,
+            "reason": self.reason,
+            "n_outputs": self.n_outputs,
+            "n_channels": self.n_channels,
+            "enough_outputs": self.enough_outputs,
+            "weak_cond": self.weak_cond,
+            "channels": [c.to_dict() for c in self.channels],
+            "plant": self.plant.to_dict(),
+        }
 
 
-def extended_observability(system: Any, N_R: Any, model: FictitiousModel, *, rtol: float = DEFAULT_RTOL,
-                           weak_rtol: float = DEFAULT_WEAK_RTOL, weak_cond: float = 1e2,
-                           scaling: str = "balance", output_scale: Any = None) -> ExtendedObservability:
+def extended_observability(
+    system: Any,
+    N_R: Any,
+    model: FictitiousModel,
+    *,
+    rtol: float = DEFAULT_RTOL,
+    weak_rtol: float = DEFAULT_WEAK_RTOL,
+    weak_cond: float = 1e2,
+    scaling: str = "balance",
+    output_scale: Any = None,
+) -> ExtendedObservability:
     """Hautus test of the extended pair ``(A_e, C_e)``, split by eigenvalue (docs/observer_bank.md section 1.4).
 
     Parameters
@@ -290,8 +324,11 @@ def extended_observability(system: Any, N_R: Any, model: FictitiousModel, *, rto
         verdict = Verdict.UNOBSERVABLE
     elif weak or plant.verdict is Verdict.WEAK:
         verdict = Verdict.WEAK
-        reasons.append(f"cond(G(lam)) = {weak[0].condition:.3g} > {weak_cond:g}" if weak
-                       else f"plant PBH margin {plant.margin:.2e} < {weak_rtol:g}")
+        reasons.append(
+            f"cond(G(lam)) = {weak[0].condition:.3g} > {weak_cond:g}"
+            if weak
+            else f"plant PBH margin {plant.margin:.2e} < {weak_rtol:g}"
+        )
     else:
         verdict = Verdict.OBSERVABLE
     detectable = not bad_ch and p >= s and all(t.eigenvalue.real < 0 for t in bad_plant)

@@ -11,8 +11,8 @@ import numpy as np
 import scipy.linalg as sla
 
 from obsnl.errors import DataError
-from obsnl.linear.systems import _matrix
 from obsnl.linear.observer import ExtendedSystem
+from obsnl.linear.systems import _matrix
 
 __all__ = ["ObserverRun", "simulate_observer", "zoh", "run_discrete"]
 

@@ -23,8 +23,15 @@ from obsnl.errors import DataError
 from obsnl.observability.verdicts import Verdict
 
 __all__ = [
-    "LinearSystem", "as_linear_system", "Scaling", "system_scaling", "claim", "KalmanRankResult",
-    "kalman_rank", "DEFAULT_RTOL", "DEFAULT_WEAK_RTOL",
+    "LinearSystem",
+    "as_linear_system",
+    "Scaling",
+    "system_scaling",
+    "claim",
+    "KalmanRankResult",
+    "kalman_rank",
+    "DEFAULT_RTOL",
+    "DEFAULT_WEAK_RTOL",
 ]
 
 #: Default relative rank tolerance: a singular value counts as zero below ``rtol * scale``.
@@ -97,8 +104,9 @@ class LinearSystem:
         return self.C.shape[0]
 
     def __repr__(self) -> str:
-        return one_line("LinearSystem", f"states={self.n_states}", f"inputs={self.n_inputs}",
-                        f"outputs={self.n_outputs}")
+        return one_line(
+            "LinearSystem", f"states={self.n_states}", f"inputs={self.n_inputs}", f"outputs={self.n_outputs}"
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the sizes and the eigenvalues of ``A``.
@@ -109,8 +117,10 @@ class LinearSystem:
         linear system: 2 states, 1 inputs, 1 outputs
         eigenvalues of A: [0+2j, 0-2j]
         """
-        return block(f"linear system: {self.n_states} states, {self.n_inputs} inputs, {self.n_outputs} outputs",
-                     f"eigenvalues of A: {numbers(np.linalg.eigvals(self.A), 8)}")
+        return block(
+            f"linear system: {self.n_states} states, {self.n_inputs} inputs, {self.n_outputs} outputs",
+            f"eigenvalues of A: {numbers(np.linalg.eigvals(self.A), 8)}",
+        )
 
 
 def as_linear_system(system: Any, C: Any = None) -> LinearSystem:
@@ -211,10 +221,12 @@ def claim(verdict: Verdict) -> str:
     >>> claim(Verdict.WEAK)
     'weakly observable: full rank, but some mode reaches the outputs only by a margin below the weak tolerance'
     """
-    return {"observable": "observable: every mode reaches the outputs with a margin",
-            "weakly observable": "weakly observable: full rank, but some mode reaches the outputs only by a "
-                                 "margin below the weak tolerance",
-            "unobservable": "unobservable: some mode never reaches the outputs (rank lost at an eigenvalue)"}[verdict.value]
+    return {
+        "observable": "observable: every mode reaches the outputs with a margin",
+        "weakly observable": "weakly observable: full rank, but some mode reaches the outputs only by a "
+        "margin below the weak tolerance",
+        "unobservable": "unobservable: some mode never reaches the outputs (rank lost at an eigenvalue)",
+    }[verdict.value]
 
 
 @dataclass(frozen=True)
@@ -237,19 +249,32 @@ class KalmanRankResult:
         return self.rank == self.n
 
     def __repr__(self) -> str:
-        return one_line("KalmanRankResult", f"observable={self.observable}", f"rank={self.rank}/{self.n}",
-                        f"scaling={self.scaling!r}")
+        return one_line(
+            "KalmanRankResult",
+            f"observable={self.observable}",
+            f"rank={self.rank}/{self.n}",
+            f"scaling={self.scaling!r}",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the rank, and the new directions and margins of each Krylov step."""
-        return block(f"{'observable' if self.observable else 'unobservable'}: Kalman rank {self.rank} of {self.n} "
-                     f"(rtol {self.rtol:g}, scaling {self.scaling})",
-                     f"new directions per Krylov step: {list(self.steps)}; smallest accepted singular value per step "
-                     f"(relative): {numbers(self.margins, 8)}")
+        return block(
+            f"{'observable' if self.observable else 'unobservable'}: Kalman rank {self.rank} of {self.n} "
+            f"(rtol {self.rtol:g}, scaling {self.scaling})",
+            f"new directions per Krylov step: {list(self.steps)}; smallest accepted singular value per step "
+            f"(relative): {numbers(self.margins, 8)}",
+        )
 
     def to_dict(self) -> dict:
-        return {"n": self.n, "rank": self.rank, "observable": self.observable, "steps": list(self.steps),
-                "margins": list(self.margins), "rtol": self.rtol, "scaling": self.scaling}
+        return {
+            "n": self.n,
+            "rank": self.rank,
+            "observable": self.observable,
+            "steps": list(self.steps),
+            "margins": list(self.margins),
+            "rtol": self.rtol,
+            "scaling": self.scaling,
+        }
 
 
 def kalman_rank(system: Any, C: Any = None, *, rtol: float = 1e-8, scaling: str = "balance") -> KalmanRankResult:

@@ -19,17 +19,26 @@ from obsnl._exports import lazy_exports
 #: The room's public names, each imported from the module that defines it on first use (so that importing
 #: one module of the room loads nothing else): name -> module.
 _LAZY: dict[str, str] = {
-    "Model": "core", "read_model": "files", "model_to_toml": "files", "catalogue_path": "files",
-    "Branch": "branching.branches", "split_branches": "branching.branches",
+    "Model": "core",
+    "read_model": "files",
+    "model_to_toml": "files",
+    "catalogue_path": "files",
+    "Branch": "branching.branches",
+    "split_branches": "branching.branches",
 }
 
 if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
-    from obsnl.model.branching.branches import Branch as Branch, split_branches as split_branches
+    from obsnl.model.branching.branches import Branch as Branch
+    from obsnl.model.branching.branches import split_branches as split_branches
     from obsnl.model.core import Model as Model
     from obsnl.model.files import (
-        read_model as read_model,
-        model_to_toml as model_to_toml,
         catalogue_path as catalogue_path,
+    )
+    from obsnl.model.files import (
+        model_to_toml as model_to_toml,
+    )
+    from obsnl.model.files import (
+        read_model as read_model,
     )
 
 __all__ = list(_LAZY)

@@ -27,15 +27,39 @@ NONSMOOTH_FUNCTIONS: tuple[type, ...] = (sp.sign, sp.Abs, sp.Heaviside, sp.Piece
 
 #: Keys of a model file/dict, in the order they are written.
 MODEL_KEYS: tuple[str, ...] = (
-    "name", "description", "source", "states", "parameters", "inputs", "unknown_inputs",
-    "known_constants", "outputs", "equations", "known_initial_conditions",
-    "initial_condition_values", "switching", "latex", "values", "guess", "definitions",
-    "unknown_input_derivatives", "intersample", "bounds",
+    "name",
+    "description",
+    "source",
+    "states",
+    "parameters",
+    "inputs",
+    "unknown_inputs",
+    "known_constants",
+    "outputs",
+    "equations",
+    "known_initial_conditions",
+    "initial_condition_values",
+    "switching",
+    "latex",
+    "values",
+    "guess",
+    "definitions",
+    "unknown_input_derivatives",
+    "intersample",
+    "bounds",
 )
 #: Keys kept as metadata without interpretation (the published answers of a peer case, notes).
 METADATA_KEYS: tuple[str, ...] = (
-    "answer_source", "answer_kind", "expected", "expected_global", "expected_identifiable_functions",
-    "expected_unknown_inputs", "notes", "metadata", "citation", "units",
+    "answer_source",
+    "answer_kind",
+    "expected",
+    "expected_global",
+    "expected_identifiable_functions",
+    "expected_unknown_inputs",
+    "notes",
+    "metadata",
+    "citation",
+    "units",
 )
 
 
@@ -187,11 +211,15 @@ class Model:
             raise ParseError("a model must be a table/object of keys")
         unknown = [k for k in data if k not in MODEL_KEYS and k not in METADATA_KEYS]
         if {"structure", "crack", "bank"} <= set(data):  # the packaged cantilever_link.toml and its copies
-            raise ParseError("this is an observer-bank study file (a cracked cantilever link), not a model: run it "
-                             "with the bank study (obsnl bank, its model option), or give a model file")
+            raise ParseError(
+                "this is an observer-bank study file (a cracked cantilever link), not a model: run it "
+                "with the bank study (obsnl bank, its model option), or give a model file"
+            )
         if unknown:
             k = unknown[0]
-            raise ParseError(f"unknown key {quote(k, 40)}{_close(k, MODEL_KEYS)}; model keys are {', '.join(MODEL_KEYS)}")
+            raise ParseError(
+                f"unknown key {quote(k, 40)}{_close(k, MODEL_KEYS)}; model keys are {', '.join(MODEL_KEYS)}"
+            )
         for req in ("name", "states", "equations"):
             if req not in data:
                 raise ParseError(f"the model has no {req!r}; add it")
@@ -315,9 +343,20 @@ class Model:
         import json
 
         d = self.to_dict()
-        core = {k: d.get(k) for k in ("states", "parameters", "inputs", "unknown_inputs", "known_constants",
-                                      "outputs", "equations", "known_initial_conditions",
-                                      "initial_condition_values")}
+        core = {
+            k: d.get(k)
+            for k in (
+                "states",
+                "parameters",
+                "inputs",
+                "unknown_inputs",
+                "known_constants",
+                "outputs",
+                "equations",
+                "known_initial_conditions",
+                "initial_condition_values",
+            )
+        }
         if self.bounds:  # a table made under bounds has fewer branches (and no key without them: hashes unchanged)
             core["bounds"] = d["bounds"]
         return hashlib.sha256(json.dumps(core, sort_keys=True).encode()).hexdigest()[:32]
@@ -352,9 +391,17 @@ class Model:
 
     def _key(self) -> tuple:
         return (
-            self.name, self.states, self.parameters, self.inputs, self.unknown_inputs, self.known_constants,
-            tuple(self.equations[s] for s in self.states), tuple(self.outputs.items()),
-            self.known_initial_conditions, tuple(self.initial_condition_values.items()), tuple(self.bounds.items()),
+            self.name,
+            self.states,
+            self.parameters,
+            self.inputs,
+            self.unknown_inputs,
+            self.known_constants,
+            tuple(self.equations[s] for s in self.states),
+            tuple(self.outputs.items()),
+            self.known_initial_conditions,
+            tuple(self.initial_condition_values.items()),
+            tuple(self.bounds.items()),
         )
 
 

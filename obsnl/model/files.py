@@ -16,7 +16,16 @@ from obsnl.errors import ParseError
 from obsnl.model.bounds.textsize import MAX_DIGITS
 from obsnl.model.core import Model
 
-__all__ = ["read_model_file", "parse_text", "read_model", "as_model", "catalogue_path", "catalogue_folder", "model_to_toml", "PACKAGED"]
+__all__ = [
+    "read_model_file",
+    "parse_text",
+    "read_model",
+    "as_model",
+    "catalogue_path",
+    "catalogue_folder",
+    "model_to_toml",
+    "PACKAGED",
+]
 
 #: Prefix of a packaged model's name where a file name is expected (``obsnl:bouc_wen``).
 PACKAGED = "obsnl:"
@@ -73,22 +82,25 @@ _DIGIT_RUN = re.compile(r"\d[\d_]*")
 
 
 def _long_number(where: str, what: str) -> _LongNumber:
-    return _LongNumber(f"a number with more than {MAX_DIGITS} digits in {where}: {what}; write it with an exponent "
-                       f"(e.g. 1.5e20) or scale the model (numbers in expressions have the same bound)")
+    return _LongNumber(
+        f"a number with more than {MAX_DIGITS} digits in {where}: {what}; write it with an exponent "
+        f"(e.g. 1.5e20) or scale the model (numbers in expressions have the same bound)"
+    )
 
 
 def _line_of(text: str, literal: str | None = None) -> str:
     """'line N' of ``literal`` in ``text``, or of the first run of more than MAX_DIGITS digits."""
     at = text.find(literal) if literal else -1
     if at < 0:
-        at = next((m.start() for m in _DIGIT_RUN.finditer(text)
-                   if sum(c.isdigit() for c in m.group()) > MAX_DIGITS), -1)
+        at = next(
+            (m.start() for m in _DIGIT_RUN.finditer(text) if sum(c.isdigit() for c in m.group()) > MAX_DIGITS), -1
+        )
     return f"line {text.count(chr(10), 0, at) + 1}" if at >= 0 else "a number literal"
 
 
 def _check_numbers(data: Any, where: str, path: str = "") -> None:
     """Refuse an integer over MAX_DIGITS digits anywhere in parsed data (TOML reads integers itself)."""
-    if isinstance(data, int) and not isinstance(data, bool) and abs(data) >= 10 ** MAX_DIGITS:
+    if isinstance(data, int) and not isinstance(data, bool) and abs(data) >= 10**MAX_DIGITS:
         raise _long_number(where, path or "the top level")
     items = data.items() if isinstance(data, dict) else enumerate(data) if isinstance(data, list) else ()
     for k, v in items:
@@ -135,8 +147,7 @@ def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
         elif c in "]}":
             depth -= 1
     if deepest > MAX_NESTING:
-        raise ParseError(f"{where} nests arrays/tables {deepest} deep (at most {MAX_NESTING}); "
-                         f"a model file needs 3")
+        raise ParseError(f"{where} nests arrays/tables {deepest} deep (at most {MAX_NESTING}); a model file needs 3")
 
     def number(literal: str, read: Callable[[str], Any]) -> Any:
         if sum(c.isdigit() for c in literal.lower().partition("e")[0]) > MAX_DIGITS:
@@ -158,8 +169,13 @@ def parse_text(text: str, *, kind: str, where: str = "the file") -> Any:
             raise ParseError(f"{name} is not a number obsnl accepts; write a finite number")
 
         try:
-            return json.loads(text, object_pairs_hook=_unique_keys, parse_constant=constant,
-                              parse_int=lambda s: number(s, int), parse_float=lambda s: number(s, float))
+            return json.loads(
+                text,
+                object_pairs_hook=_unique_keys,
+                parse_constant=constant,
+                parse_int=lambda s: number(s, int),
+                parse_float=lambda s: number(s, float),
+            )
         except json.JSONDecodeError as exc:
             raise ParseError(f"{where} is not valid JSON: {exc}") from None
     except _LongNumber as exc:  # final as it is, raised as the plain ParseError
@@ -217,8 +233,11 @@ def catalogue_folder() -> Path:
         if folder.is_dir() and any(folder.glob("*.toml")):
             return folder
         places.append(folder)
-    raise ParseError("the models packaged with obsnl are missing (looked in "
-                     + ", ".join(str(p) for p in places) + "); reinstall obsnl")
+    raise ParseError(
+        "the models packaged with obsnl are missing (looked in "
+        + ", ".join(str(p) for p in places)
+        + "); reinstall obsnl"
+    )
 
 
 def catalogue_path(name: str) -> Path:
@@ -286,7 +305,7 @@ def read_model(path: str | os.PathLike[str], check: Callable[[dict[str, Any]], N
     (x, v)
     """
     if isinstance(path, str) and path.startswith(PACKAGED):
-        path = catalogue_path(path[len(PACKAGED):])
+        path = catalogue_path(path[len(PACKAGED) :])
     data = read_model_file(path)
     if check is not None:
         check(data)
@@ -323,8 +342,17 @@ def as_model(model: Model | str | Path, check: Callable[[dict[str, Any]], None] 
 # ----------------------------------------------------------------------------- writing
 
 _BARE = re.compile(r"^[A-Za-z0-9_-]+$")
-_TABLES = ("outputs", "equations", "initial_condition_values", "definitions", "latex", "values", "guess",
-           "intersample", "bounds")
+_TABLES = (
+    "outputs",
+    "equations",
+    "initial_condition_values",
+    "definitions",
+    "latex",
+    "values",
+    "guess",
+    "intersample",
+    "bounds",
+)
 
 
 def _key(k: str) -> str:

@@ -22,24 +22,37 @@ from obsnl._exports import lazy_exports
 #: The room's public names, each imported from the module that defines it on first use (so that importing
 #: one module of the room loads nothing else): name -> module.
 _LAZY: dict[str, str] = {
-    "Verdict": "verdicts", "BranchResult": "verdicts", "AnalysisResult": "results", "orc": "engines.smooth",
-    "sedoglavic": "engines.smooth", "decompose": "engines.decompose", "dependency_graph": "engines.decompose",
-    "symmetries": "certificates.symmetry", "Symmetry": "certificates.generators",
-    "Symmetries": "certificates.generators", "BranchTable": "contract.branch_table",
+    "Verdict": "verdicts",
+    "BranchResult": "verdicts",
+    "AnalysisResult": "results",
+    "orc": "engines.smooth",
+    "sedoglavic": "engines.smooth",
+    "decompose": "engines.decompose",
+    "dependency_graph": "engines.decompose",
+    "symmetries": "certificates.symmetry",
+    "Symmetry": "certificates.generators",
+    "Symmetries": "certificates.generators",
+    "BranchTable": "contract.branch_table",
     "read_branch_table": "contract.branch_table",
 }
 
 if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
-    from obsnl.observability.certificates.generators import Symmetry as Symmetry, Symmetries as Symmetries
+    from obsnl.observability.certificates.generators import Symmetries as Symmetries
+    from obsnl.observability.certificates.generators import Symmetry as Symmetry
     from obsnl.observability.certificates.symmetry import symmetries as symmetries
     from obsnl.observability.contract.branch_table import (
         BranchTable as BranchTable,
+    )
+    from obsnl.observability.contract.branch_table import (
         read_branch_table as read_branch_table,
     )
-    from obsnl.observability.engines.decompose import decompose as decompose, dependency_graph as dependency_graph
-    from obsnl.observability.engines.smooth import orc as orc, sedoglavic as sedoglavic
+    from obsnl.observability.engines.decompose import decompose as decompose
+    from obsnl.observability.engines.decompose import dependency_graph as dependency_graph
+    from obsnl.observability.engines.smooth import orc as orc
+    from obsnl.observability.engines.smooth import sedoglavic as sedoglavic
     from obsnl.observability.results import AnalysisResult as AnalysisResult
-    from obsnl.observability.verdicts import Verdict as Verdict, BranchResult as BranchResult
+    from obsnl.observability.verdicts import BranchResult as BranchResult
+    from obsnl.observability.verdicts import Verdict as Verdict
 
 __all__ = list(_LAZY)
 

@@ -25,21 +25,21 @@ import time
 from collections.abc import Mapping, Sequence
 
 from obsnl.model.bounds.budget import deadline as budget_deadline
-from obsnl.model.core import Model
-from obsnl.model.files import read_model
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text
-from obsnl.observability.joint.verdict import joint_verdict_of
+from obsnl.model.core import Model
+from obsnl.model.files import read_model
 from obsnl.observability.certificates.certify import (
     certify_by_symmetry,
     undecided_beyond_visits,
 )
+from obsnl.observability.engines.inputs import METHODS, _check
+from obsnl.observability.engines.smooth import _fresh_seed, branch_result
+from obsnl.observability.joint.selection import select_branches
+from obsnl.observability.joint.verdict import joint_verdict_of
 from obsnl.observability.limits import limits_checked, out_of_memory
 from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import BranchResult
-from obsnl.observability.joint.selection import select_branches
-from obsnl.observability.engines.inputs import METHODS, _check
-from obsnl.observability.engines.smooth import _fresh_seed, branch_result
 
 __all__ = ["analyze", "assumptions", "METHODS"]
 
@@ -153,25 +153,51 @@ def analyze(
         model = read_model(model)
     # the options and the limits are checked, the unknown-input assumption resolved and the variables named here
     # once: the joint verdict and the symmetry certificates below do not check again (limits_checked)
-    unknown_input_derivatives, variables = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives,
-                                                  input_derivatives)
+    unknown_input_derivatives, variables = _check(
+        model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives
+    )
     assumed = assumptions(model, unknown_input_derivatives, input_derivatives)
     try:
         with limits_checked():
-            return _analyze(model, variables, assumed, method=method, seed=seed, max_seconds=max_seconds, prob=prob,
-                            unknown_input_derivatives=unknown_input_derivatives,
-                            input_derivatives=input_derivatives, decompose=decompose, branches=branches,
-                            visited=visited, crossings=crossings, joint=joint, per_branch=per_branch)
+            return _analyze(
+                model,
+                variables,
+                assumed,
+                method=method,
+                seed=seed,
+                max_seconds=max_seconds,
+                prob=prob,
+                unknown_input_derivatives=unknown_input_derivatives,
+                input_derivatives=input_derivatives,
+                decompose=decompose,
+                branches=branches,
+                visited=visited,
+                crossings=crossings,
+                joint=joint,
+                per_branch=per_branch,
+            )
     except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the arrays are freed
         pass
     raise out_of_memory(model, unknown_input_derivatives)
 
 
 def _analyze(
-    model: Model, variables: tuple[str, ...], assumed: dict, *, method: str, seed: int | None,
-    max_seconds: float | None, prob: float, unknown_input_derivatives: int | str, input_derivatives: int | None,
-    decompose: bool, branches: Sequence[str] | None, visited: Mapping[tuple[int, ...], float] | None,
-    crossings: Mapping[str, int] | None, joint: bool, per_branch: bool = True,
+    model: Model,
+    variables: tuple[str, ...],
+    assumed: dict,
+    *,
+    method: str,
+    seed: int | None,
+    max_seconds: float | None,
+    prob: float,
+    unknown_input_derivatives: int | str,
+    input_derivatives: int | None,
+    decompose: bool,
+    branches: Sequence[str] | None,
+    visited: Mapping[tuple[int, ...], float] | None,
+    crossings: Mapping[str, int] | None,
+    joint: bool,
+    per_branch: bool = True,
 ) -> AnalysisResult:
     """The body of :func:`analyze`, its arguments checked (:func:`~obsnl.observability.engines.inputs._check`) and
     what it assumes settled: the branches chosen once and handed down."""
@@ -181,39 +207,61 @@ def _analyze(
     deadline = outer if deadline is None else deadline if outer is None else min(deadline, outer)
     seed = _fresh_seed(seed)
     # the split is bounded too, with a floor: a tiny limit still yields branches (each then inconclusive)
-    chosen, how = select_branches(model, labels=branches, patterns=visited, crossings=crossings, seed=seed,
-                                  max_seconds=None if max_seconds is None else max(float(max_seconds), 2.0))
+    chosen, how = select_branches(
+        model,
+        labels=branches,
+        patterns=visited,
+        crossings=crossings,
+        seed=seed,
+        max_seconds=None if max_seconds is None else max(float(max_seconds), 2.0),
+    )
     target = (1 - prob) / max(1, len(chosen))
     results: list[BranchResult] = []
     failure = 0.0
     factor_cache: dict = {}  # branches share their logarithm arguments (|sigma - eta| in the seed model)
     for b in chosen:
         if per_branch or b.undecided:  # an undecided one is reported as such, never silently dropped
-            br, f = branch_result(b, variables, method=method, seed=seed, deadline=deadline, target=target,
-                                  decompose=decompose, unknown_input_derivatives=unknown_input_derivatives,
-                                  input_derivatives=input_derivatives, factor_cache=factor_cache)
+            br, f = branch_result(
+                b,
+                variables,
+                method=method,
+                seed=seed,
+                deadline=deadline,
+                target=target,
+                decompose=decompose,
+                unknown_input_derivatives=unknown_input_derivatives,
+                input_derivatives=input_derivatives,
+                factor_cache=factor_cache,
+            )
             results.append(br)
             failure += f
     verdict = None
     decided = [b for b in chosen if not b.undecided]
     if (joint or not per_branch) and decided:
         left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
-        verdict = joint_verdict_of(model, decided, seed=seed, prob=prob, max_seconds=left,
-                                   unknown_input_derivatives=unknown_input_derivatives)
+        verdict = joint_verdict_of(
+            model, decided, seed=seed, prob=prob, max_seconds=left, unknown_input_derivatives=unknown_input_derivatives
+        )
         representatives = how.how == "representatives"
         if (representatives or len(decided) < len(chosen)) and verdict.unobservable:
             verdict = undecided_beyond_visits(verdict, how.note)  # a verdict about the model, not decided by the visits
         if verdict.inconclusive and (deadline is None or time.perf_counter() < deadline):
-            verdict = certify_by_symmetry(verdict, model, chosen, seed=seed,
-                                          kinds=("scaling", "translation") if representatives else None)
+            verdict = certify_by_symmetry(
+                verdict, model, chosen, seed=seed, kinds=("scaling", "translation") if representatives else None
+            )
     switching = tuple(expr_text(g) for g in chosen[0].switching) if chosen else ()
     return AnalysisResult(
         model=model.name,
         method=method,
         seed=seed,
         # every verdict printed: the branches' and the joint one's (a union bound: each may fail on its own)
-        probability=(max(0.0, 1.0 - failure - (0.0 if verdict is None else 1.0 - verdict.probability)) if per_branch
-                     else 1.0 - failure if verdict is None else verdict.probability),
+        probability=(
+            max(0.0, 1.0 - failure - (0.0 if verdict is None else 1.0 - verdict.probability))
+            if per_branch
+            else 1.0 - failure
+            if verdict is None
+            else verdict.probability
+        ),
         seconds=round(time.perf_counter() - t0, 6),
         branches=tuple(results),
         variables=variables,
@@ -257,8 +305,9 @@ def assumptions(model: Model, unknown_input_derivatives: int | str, input_deriva
     known = model.known_initial_conditions
     out = {
         "unknown_input_derivatives": unknown_input_derivatives if model.unknown_inputs else None,
-        "known_inputs": None if not model.inputs else (
-            "generic" if input_derivatives is None else f"polynomial of degree {input_derivatives}"),
+        "known_inputs": None
+        if not model.inputs
+        else ("generic" if input_derivatives is None else f"polynomial of degree {input_derivatives}"),
         "initial_conditions": {
             "unknown": [s.name for s in model.states if s not in known],
             "known_generic": [s.name for s in known if s not in model.initial_condition_values],

@@ -28,14 +28,26 @@ from typing import TYPE_CHECKING, Any
 
 from obsnl._text import shorten
 from obsnl.errors import AnalysisError, ModelError, OptionError
-from obsnl.model.reading.unknown_inputs import (ARBITRARY, DERIVATIVES_MARGIN, check_unknown_input_derivatives,
-                                        max_unknown_input_derivatives)
+from obsnl.model.reading.unknown_inputs import (
+    ARBITRARY,
+    DERIVATIVES_MARGIN,
+    check_unknown_input_derivatives,
+    max_unknown_input_derivatives,
+)
 
 if TYPE_CHECKING:  # only annotated: the command line reads the limits for its help without loading sympy
     from obsnl.model.core import Model
 
-__all__ = ["MAX_UNKNOWNS", "analysis_size", "dense_bytes", "check_analysis_limits", "out_of_memory",
-           "check_file_limits", "limits_checked", "check_limits_once"]
+__all__ = [
+    "MAX_UNKNOWNS",
+    "analysis_size",
+    "dense_bytes",
+    "check_analysis_limits",
+    "out_of_memory",
+    "check_file_limits",
+    "limits_checked",
+    "check_limits_once",
+]
 
 #: The most unknowns (states + parameters + unknown-input coefficients) an analysis accepts.
 MAX_UNKNOWNS = 300
@@ -124,8 +136,9 @@ def _given(where: str, value: object) -> str:
     return f"{where} = {value}"
 
 
-def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | None = None, *,
-                          option: str = _OPTION) -> int | str:
+def check_analysis_limits(
+    model: Model, unknown_input_derivatives: int | str | None = None, *, option: str = _OPTION
+) -> int | str:
     """Refuse, before any heavy work, an analysis of ``model`` larger than the engines can hold.
 
     Checks that ``unknown_input_derivatives`` (the caller's option, else the model's key, else
@@ -180,8 +193,10 @@ def check_analysis_limits(model: Model, unknown_input_derivatives: int | str | N
     except ModelError as exc:
         raise error(f"{where}: {exc}") from None
     if given and not model.unknown_inputs:  # it describes the unknown inputs: without any it would be ignored
-        raise OptionError(f"{where} describes the unknown inputs, and model {model.name!r} has none; drop it "
-                          f"(or declare the model's unknown_inputs)")
+        raise OptionError(
+            f"{where} describes the unknown inputs, and model {model.name!r} has none; drop it "
+            f"(or declare the model's unknown_inputs)"
+        )
     n_x, n_p = len(model.states), len(model.parameters)
     bound = max_unknown_input_derivatives(n_x, n_p)
     if model.unknown_inputs and k != ARBITRARY and int(k) > bound:
@@ -271,6 +286,7 @@ def check_file_limits(data: Mapping[str, Any]) -> None:
     ...
     obsnl.errors.AnalysisError: model 'chain' has 401 unknowns (400 states + 1 parameter), more than the 300 the exact engines accept (their dense arrays grow as the cube of that number: at least 1.0 GiB here); analyse a reduced model (fewer states or parameters)
     """
+
     def count(key: str) -> int:
         v = data.get(key)
         return len(v) if isinstance(v, (list, tuple)) else 0
@@ -283,7 +299,8 @@ def check_file_limits(data: Mapping[str, Any]) -> None:
             f"{'at least ' if count('unknown_inputs') else ''}{n_x + n_p} unknowns "
             f"({_plural(n_x, 'state')} + {_plural(n_p, 'parameter')}), more than the {MAX_UNKNOWNS} the exact "
             f"engines accept (their dense arrays grow as the cube of that number: at least "
-            f"{_gib(dense_bytes(n_x, n_x + n_p))} here); analyse a reduced model (fewer states or parameters)")
+            f"{_gib(dense_bytes(n_x, n_x + n_p))} here); analyse a reduced model (fewer states or parameters)"
+        )
 
 
 def out_of_memory(model: Model, unknown_input_derivatives: int | str | None = None) -> AnalysisError:
@@ -311,8 +328,11 @@ def out_of_memory(model: Model, unknown_input_derivatives: int | str | None = No
     """
     k = ARBITRARY if unknown_input_derivatives is None else unknown_input_derivatives
     size = analysis_size(model, k)
-    fewer = ("fewer states, parameters or unknown inputs, or a smaller unknown_input_derivatives"
-             if model.unknown_inputs else "fewer states or parameters")
+    fewer = (
+        "fewer states, parameters or unknown inputs, or a smaller unknown_input_derivatives"
+        if model.unknown_inputs
+        else "fewer states or parameters"
+    )
     return AnalysisError(
         f"ran out of memory analysing model {model.name!r} ({size} unknowns); give the process more memory, "
         f"or analyse a reduced model ({fewer})"

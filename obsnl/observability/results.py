@@ -92,6 +92,7 @@ class AnalysisResult:
     def union_unobservable(self) -> tuple[str, ...]:
         """Unobservable in every visited branch, in model order."""
         return self.overall_unobservable
+
     assumptions: Mapping[str, Any] = field(default_factory=dict)
 
     @property
@@ -142,8 +143,10 @@ class AnalysisResult:
         obs = {n for b in self.branches for n in b.unknown_inputs.get("observable", ())}
         unobs = {n for b in self.branches for n in b.unknown_inputs.get("unobservable", ())}
         stuck = any(b.verdict is Verdict.INCONCLUSIVE for b in self.branches)
-        return {"observable": tuple(n for n in names if n in obs),
-                "unobservable": tuple(n for n in names if n in unobs and n not in obs and not stuck)}
+        return {
+            "observable": tuple(n for n in names if n in obs),
+            "unobservable": tuple(n for n in names if n in unobs and n not in obs and not stuck),
+        }
 
     @property
     def only_jointly(self) -> tuple[str, ...]:
@@ -211,8 +214,13 @@ class AnalysisResult:
 
     def __repr__(self) -> str:
         p = "" if self.overall_verdict is Verdict.INCONCLUSIVE else bound(self.probability)
-        return one_line("AnalysisResult", f"model={self.model!r}", f"joint={self.joint_words(most=6)!r}",
-                        f"branches={len(self.branches)}", p)
+        return one_line(
+            "AnalysisResult",
+            f"model={self.model!r}",
+            f"joint={self.joint_words(most=6)!r}",
+            f"branches={len(self.branches)}",
+            p,
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the joint verdict first, then the union over branches, then the
@@ -227,19 +235,32 @@ class AnalysisResult:
         jointly identifiable: all
         union over branches (each branch on its own, the seed paper's rule): every state and parameter is observable
         """
-        prob = ("no probability bound (not every verdict decided)" if self.overall_verdict is Verdict.INCONCLUSIVE
-                else f"P >= {probability_text(self.probability)}")
+        prob = (
+            "no probability bound (not every verdict decided)"
+            if self.overall_verdict is Verdict.INCONCLUSIVE
+            else f"P >= {probability_text(self.probability)}"
+        )
         n = len(self.branches)
         j = self.joint
-        shown = [f"({b.label}) {b.guard}: unobservable: {names(b.unobservable, 6)}" if b.unobservable else
-                 f"({b.label}) {b.guard}: {b.verdict.value}" for b in self.branches[:4]] if n > 1 else []
-        return block(f"{self.model}: {n} branch{'es' if n != 1 else ''}, method {self.method}, seed {self.seed}, "
-                     f"{prob}, {self.seconds:.3g} s",
-                     self.joint_words(most=12),
-                     f"undecided because: {j.reason}" if j is not None and j.inconclusive else "",
-                     f"union over branches (each branch on its own, the seed paper's rule): "
-                     f"{self.union_words(most=12)}",
-                     *shown, f"... and {n - 4} more branches" if n > 4 and len(shown) == 4 else "")
+        shown = (
+            [
+                f"({b.label}) {b.guard}: unobservable: {names(b.unobservable, 6)}"
+                if b.unobservable
+                else f"({b.label}) {b.guard}: {b.verdict.value}"
+                for b in self.branches[:4]
+            ]
+            if n > 1
+            else []
+        )
+        return block(
+            f"{self.model}: {n} branch{'es' if n != 1 else ''}, method {self.method}, seed {self.seed}, "
+            f"{prob}, {self.seconds:.3g} s",
+            self.joint_words(most=12),
+            f"undecided because: {j.reason}" if j is not None and j.inconclusive else "",
+            f"union over branches (each branch on its own, the seed paper's rule): {self.union_words(most=12)}",
+            *shown,
+            f"... and {n - 4} more branches" if n > 4 and len(shown) == 4 else "",
+        )
 
     def branch(self, label: str) -> BranchResult:
         """The result of the branch labelled ``label``."""
@@ -296,10 +317,15 @@ class AnalysisResult:
         if j is None:
             out["overall"] = {**union, "rule": "union"}
         else:
-            out["overall"] = {"rule": "joint", "observable": list(j.observable), "unobservable": list(j.unobservable),
-                              "inconclusive": list(j.inconclusive), "reason": j.reason,
-                              "only_jointly": list(self.only_jointly),
-                              "unknown_inputs": {k: list(v) for k, v in j.unknown_inputs.items()}}
+            out["overall"] = {
+                "rule": "joint",
+                "observable": list(j.observable),
+                "unobservable": list(j.unobservable),
+                "inconclusive": list(j.inconclusive),
+                "reason": j.reason,
+                "only_jointly": list(self.only_jointly),
+                "unknown_inputs": {k: list(v) for k, v in j.unknown_inputs.items()},
+            }
             out["joint"] = j.to_dict()
         if self.visited is not None:
             out["visited"] = self.visited.to_dict()

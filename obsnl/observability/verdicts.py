@@ -38,11 +38,13 @@ class Verdict(str, enum.Enum):
 
     def summary(self) -> str:
         """What the verdict claims, in one line."""
-        return {"observable": "observable: the outputs determine every unknown",
-                "weakly observable": "weakly observable: full rank, but some mode reaches the outputs only by a "
-                                     "margin below the weak tolerance",
-                "unobservable": "unobservable: some unknown is not determined by the outputs",
-                "inconclusive": "inconclusive: some unknowns were not decided (the result gives the reason)"}[self.value]
+        return {
+            "observable": "observable: the outputs determine every unknown",
+            "weakly observable": "weakly observable: full rank, but some mode reaches the outputs only by a "
+            "margin below the weak tolerance",
+            "unobservable": "unobservable: some unknown is not determined by the outputs",
+            "inconclusive": "inconclusive: some unknowns were not decided (the result gives the reason)",
+        }[self.value]
 
 
 @dataclass(frozen=True)
@@ -99,17 +101,26 @@ class BranchResult:
     signs: tuple[int, ...] = ()
 
     def __repr__(self) -> str:
-        return one_line("BranchResult", f"label={self.label!r}", f"guard={self.guard!r}", f"verdict={self.verdict.value!r}",
-                        f"rank={self.rank}/{self.size}", f"unobservable={names(self.unobservable, 6)!r}")
+        return one_line(
+            "BranchResult",
+            f"label={self.label!r}",
+            f"guard={self.guard!r}",
+            f"verdict={self.verdict.value!r}",
+            f"rank={self.rank}/{self.size}",
+            f"unobservable={names(self.unobservable, 6)!r}",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the branch's verdict, then its lists."""
         degree = "not decided" if self.verdict is Verdict.INCONCLUSIVE else self.transcendence_degree
-        return block(f"branch ({self.label}) {self.guard}: {self.verdict.value} (rank {self.rank}/{self.size}, "
-                     f"transcendence degree {degree}, {self.method or 'method not recorded'}, {self.seconds:.3g} s)",
-                     f"observable: {names(self.observable, 12)}", f"unobservable: {names(self.unobservable, 12)}",
-                     f"absent: {names(self.absent, 12)}" if self.absent else "",
-                     f"undecided: {names(self.undecided, 12)} ({self.reason})" if self.undecided else "")
+        return block(
+            f"branch ({self.label}) {self.guard}: {self.verdict.value} (rank {self.rank}/{self.size}, "
+            f"transcendence degree {degree}, {self.method or 'method not recorded'}, {self.seconds:.3g} s)",
+            f"observable: {names(self.observable, 12)}",
+            f"unobservable: {names(self.unobservable, 12)}",
+            f"absent: {names(self.absent, 12)}" if self.absent else "",
+            f"undecided: {names(self.undecided, 12)} ({self.reason})" if self.undecided else "",
+        )
 
     def to_dict(self, *, extended: bool = False) -> dict[str, Any]:
         """The branch as JSON-ready data.

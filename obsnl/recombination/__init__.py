@@ -17,15 +17,21 @@ from obsnl._exports import lazy_exports
 #: The room's public names, each imported from the module that defines it on first use (so that importing
 #: one module of the room loads nothing else): name -> module.
 _LAZY: dict[str, str] = {
-    "identifiable_functions": "identifiable", "IdentifiableFunctions": "identifiable",
-    "Reparametrization": "reparametrization", "same_field": "fields", "FieldComparison": "fields",
+    "identifiable_functions": "identifiable",
+    "IdentifiableFunctions": "identifiable",
+    "Reparametrization": "reparametrization",
+    "same_field": "fields",
+    "FieldComparison": "fields",
 }
 
 if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
-    from obsnl.recombination.fields import same_field as same_field, FieldComparison as FieldComparison
+    from obsnl.recombination.fields import FieldComparison as FieldComparison
+    from obsnl.recombination.fields import same_field as same_field
+    from obsnl.recombination.identifiable import (
+        IdentifiableFunctions as IdentifiableFunctions,
+    )
     from obsnl.recombination.identifiable import (
         identifiable_functions as identifiable_functions,
-        IdentifiableFunctions as IdentifiableFunctions,
     )
     from obsnl.recombination.reparametrization import Reparametrization as Reparametrization
 

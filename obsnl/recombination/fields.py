@@ -25,15 +25,27 @@ import sympy as sp
 
 from obsnl._text import block, one_line
 from obsnl.algebra.jets import Expressions
-from obsnl.errors import ModelError
 from obsnl.algebra.modp import PRIME, Resample, nullspace_mod_p, rank_mod_p, rational_reconstruction
+from obsnl.errors import ModelError
 
-__all__ = ["PRIME", "FieldComparison", "same_field", "jacobian_mod_p", "rank_mod_p", "nullspace_mod_p",
-           "rational_reconstruction"]
+__all__ = [
+    "PRIME",
+    "FieldComparison",
+    "same_field",
+    "jacobian_mod_p",
+    "rank_mod_p",
+    "nullspace_mod_p",
+    "rational_reconstruction",
+]
 
 
-def jacobian_mod_p(exprs: Sequence[sp.Expr], variables: Sequence[sp.Symbol], *, seed: int = 0,
-                   point: Mapping[sp.Symbol, int] | None = None) -> list[list[int]]:
+def jacobian_mod_p(
+    exprs: Sequence[sp.Expr],
+    variables: Sequence[sp.Symbol],
+    *,
+    seed: int = 0,
+    point: Mapping[sp.Symbol, int] | None = None,
+) -> list[list[int]]:
     """The Jacobian of ``exprs`` w.r.t. ``variables`` at a random point mod :data:`PRIME` (rows = exprs).
 
     Symbols that are not ``variables`` take random values too (they are constants here).
@@ -62,8 +74,9 @@ def _compile(exprs: Sequence[sp.Expr], variables: Sequence[sp.Symbol]) -> Expres
     return Expressions(exprs, sorted(set(variables).union(*(e.free_symbols for e in exprs)), key=lambda s: s.name))
 
 
-def _jacobian(compiled: Expressions, variables: Sequence[sp.Symbol], seed: int,
-              point: Mapping[sp.Symbol, int] | None) -> list[list[int]]:
+def _jacobian(
+    compiled: Expressions, variables: Sequence[sp.Symbol], seed: int, point: Mapping[sp.Symbol, int] | None
+) -> list[list[int]]:
     rng = random.Random(seed)
     for _ in range(20):
         pt = dict(point) if point is not None else {}
@@ -112,23 +125,45 @@ class FieldComparison:
         return self.rank_joint == self.rank_b
 
     def __repr__(self) -> str:
-        return one_line("FieldComparison", f"same={self.same}", f"rank_a={self.rank_a}", f"rank_b={self.rank_b}",
-                        f"rank_joint={self.rank_joint}", f"error_bound={self.error_bound:.1e}")
+        return one_line(
+            "FieldComparison",
+            f"same={self.same}",
+            f"rank_a={self.rank_a}",
+            f"rank_b={self.rank_b}",
+            f"rank_joint={self.rank_joint}",
+            f"error_bound={self.error_bound:.1e}",
+        )
 
     def summary(self) -> str:
         """One or two lines of plain text: same field or not, and which contains which."""
-        rel = ("the same field" if self.same else "A contains B" if self.a_contains_b else "B contains A"
-               if self.b_contains_a else "neither field contains the other")
-        return block(f"{rel} (ranks A {self.rank_a}, B {self.rank_b}, together {self.rank_joint})",
-                     f"wrong with probability <= {self.error_bound:.1e} (seed {self.seed})")
+        rel = (
+            "the same field"
+            if self.same
+            else "A contains B"
+            if self.a_contains_b
+            else "B contains A"
+            if self.b_contains_a
+            else "neither field contains the other"
+        )
+        return block(
+            f"{rel} (ranks A {self.rank_a}, B {self.rank_b}, together {self.rank_joint})",
+            f"wrong with probability <= {self.error_bound:.1e} (seed {self.seed})",
+        )
 
     def __bool__(self) -> bool:
         return self.same
 
     def to_dict(self) -> dict[str, Any]:
-        return {"same": self.same, "rank_a": self.rank_a, "rank_b": self.rank_b, "rank_joint": self.rank_joint,
-                "a_contains_b": self.a_contains_b, "b_contains_a": self.b_contains_a,
-                "error_bound": self.error_bound, "seed": self.seed}
+        return {
+            "same": self.same,
+            "rank_a": self.rank_a,
+            "rank_b": self.rank_b,
+            "rank_joint": self.rank_joint,
+            "a_contains_b": self.a_contains_b,
+            "b_contains_a": self.b_contains_a,
+            "error_bound": self.error_bound,
+            "seed": self.seed,
+        }
 
 
 def _as_exprs(exprs: Iterable[Any], names: Mapping[str, sp.Symbol], where: str) -> list[sp.Expr]:
@@ -145,15 +180,23 @@ def degree_bound(rational: Sequence[sp.Expr]) -> int:
         deg = 0
         for part in (num, den):
             try:
-                deg += sp.Poly(part, *sorted(part.atoms(sp.Symbol, sp.Function), key=sp.default_sort_key)).total_degree()
+                deg += sp.Poly(
+                    part, *sorted(part.atoms(sp.Symbol, sp.Function), key=sp.default_sort_key)
+                ).total_degree()
             except (sp.PolynomialError, sp.GeneratorsError):
                 deg += sp.count_ops(part) + 1
         best = max(best, deg)
     return best
 
 
-def same_field(exprs_a: Iterable[Any], exprs_b: Iterable[Any], variables: Sequence[Any], *,
-               constants: Sequence[Any] = (), seed: int = 0) -> FieldComparison:
+def same_field(
+    exprs_a: Iterable[Any],
+    exprs_b: Iterable[Any],
+    variables: Sequence[Any],
+    *,
+    constants: Sequence[Any] = (),
+    seed: int = 0,
+) -> FieldComparison:
     """Whether two sets of functions generate the same field (each locally a function of the other).
 
     Parameters
@@ -199,6 +242,6 @@ def same_field(exprs_a: Iterable[Any], exprs_b: Iterable[Any], variables: Sequen
     compiled = _compile(ea + eb, var_syms)
     J = _jacobian(compiled, var_syms, seed, None)
     n = len(var_syms)
-    ra, rb, rj = rank_mod_p(J[:len(ea)], n), rank_mod_p(J[len(ea):], n), rank_mod_p(J, n)
+    ra, rb, rj = rank_mod_p(J[: len(ea)], n), rank_mod_p(J[len(ea) :], n), rank_mod_p(J, n)
     D = 2 * max(rj, 1) * degree_bound(compiled.rational)
     return FieldComparison(ra, rb, rj, min(1.0, D / PRIME), seed)

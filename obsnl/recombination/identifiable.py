@@ -24,6 +24,7 @@ probability: ranks and kernels are those of the engine's Jacobian at one random 
 
 from __future__ import annotations
 
+import itertools
 import math
 import random
 import time
@@ -35,12 +36,13 @@ import sympy as sp
 
 from obsnl._text import block, names, one_line
 from obsnl.algebra.jets import Expressions
-from obsnl.errors import AnalysisError, NotSupportedError
-from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
-from obsnl.model.core import Model
 from obsnl.algebra.modp import PRIME, nullspace_mod_p, rank_mod_p, rational_reconstruction
-from obsnl.observability.certificates.symmetry import _monomials, symmetries as find_symmetries
+from obsnl.errors import AnalysisError, NotSupportedError
+from obsnl.model.core import Model
 from obsnl.observability.certificates.generators import Symmetries
+from obsnl.observability.certificates.symmetry import _monomials
+from obsnl.observability.certificates.symmetry import symmetries as find_symmetries
+from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
 
 __all__ = ["IdentifiableFunctions", "identifiable_functions"]
 
@@ -74,22 +76,35 @@ class IdentifiableFunctions:
     seconds: float = 0.0
 
     def __repr__(self) -> str:
-        return one_line("IdentifiableFunctions", f"model={self.model!r}",
-                        f"functions={names([sp.sstr(f) for f in self.functions], 5)!r}", f"rank={self.rank}",
-                        f"complete={self.complete}")
+        return one_line(
+            "IdentifiableFunctions",
+            f"model={self.model!r}",
+            f"functions={names([sp.sstr(f) for f in self.functions], 5)!r}",
+            f"rank={self.rank}",
+            f"complete={self.complete}",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: how many functions, whether they generate every identifiable one, which."""
-        return block(f"{self.model}: {len(self.functions)} identifiable functions of rank {self.rank}, "
-                     f"{'generating every identifiable function' if self.complete else 'NOT complete'} "
-                     f"(found by {self.method})",
-                     *(f"{sp.sstr(f)}   ({src})" for f, src in list(zip(self.functions, self.sources))[:10]),
-                     f"... and {len(self.functions) - 10} more" if len(self.functions) > 10 else "")
+        return block(
+            f"{self.model}: {len(self.functions)} identifiable functions of rank {self.rank}, "
+            f"{'generating every identifiable function' if self.complete else 'NOT complete'} "
+            f"(found by {self.method})",
+            *(f"{sp.sstr(f)}   ({src})" for f, src in list(zip(self.functions, self.sources))[:10]),
+            f"... and {len(self.functions) - 10} more" if len(self.functions) > 10 else "",
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"model": self.model, "functions": [sp.sstr(f) for f in self.functions],
-                "sources": list(self.sources), "rank": self.rank, "complete": self.complete,
-                "method": self.method, "notes": list(self.notes), "seconds": self.seconds}
+        return {
+            "model": self.model,
+            "functions": [sp.sstr(f) for f in self.functions],
+            "sources": list(self.sources),
+            "rank": self.rank,
+            "complete": self.complete,
+            "method": self.method,
+            "notes": list(self.notes),
+            "seconds": self.seconds,
+        }
 
 
 class _Kept:
@@ -143,14 +158,16 @@ def _pairs(kept: _Kept, coords: Sequence[sp.Expr]) -> None:
         return
     jets = J.jets(list(coords))
     p = J.p
-    for i, j in ((i, j) for i in range(len(coords)) for j in range(i + 1, len(coords))):
+    for i, j in itertools.combinations(range(len(coords)), 2):
         (vi, gi), (vj, gj) = jets[i], jets[j]
         inv_i, inv_j = pow(vi, -1, p), pow(vj, -1, p)
-        forms = [(coords[i] * coords[j], [(vj * a + vi * b) % p for a, b in zip(gi, gj)]),
-                 (coords[i] / coords[j], [(a * inv_j - vi * inv_j * inv_j * b) % p for a, b in zip(gi, gj)]),
-                 (coords[j] / coords[i], [(b * inv_i - vj * inv_i * inv_i * a) % p for a, b in zip(gi, gj)]),
-                 (coords[i] + coords[j], [(a + b) % p for a, b in zip(gi, gj)]),
-                 (coords[i] - coords[j], [(a - b) % p for a, b in zip(gi, gj)])]
+        forms = [
+            (coords[i] * coords[j], [(vj * a + vi * b) % p for a, b in zip(gi, gj)]),
+            (coords[i] / coords[j], [(a * inv_j - vi * inv_j * inv_j * b) % p for a, b in zip(gi, gj)]),
+            (coords[j] / coords[i], [(b * inv_i - vj * inv_i * inv_i * a) % p for a, b in zip(gi, gj)]),
+            (coords[i] + coords[j], [(a + b) % p for a, b in zip(gi, gj)]),
+            (coords[i] - coords[j], [(a - b) % p for a, b in zip(gi, gj)]),
+        ]
         for expr, g in forms:
             if kept.full:
                 return
@@ -162,8 +179,9 @@ def _pairs(kept: _Kept, coords: Sequence[sp.Expr]) -> None:
                 kept.sources.append("invariant pairs")
 
 
-def _polynomial_invariants(model: Model, J: ModularJacobian, S: Symmetries, degree: int, rng: random.Random,
-                           deadline: float) -> list[sp.Expr]:
+def _polynomial_invariants(
+    model: Model, J: ModularJacobian, S: Symmetries, degree: int, rng: random.Random, deadline: float
+) -> list[sp.Expr]:
     """Polynomials of degree <= ``degree`` annihilated by the generators (and orthogonal to the kernel)."""
     vars_ = list(J.variables) + list(model.known_initial_conditions)
     monos = _monomials(vars_, degree)[1:]
@@ -213,12 +231,14 @@ def _polynomial_invariants(model: Model, J: ModularJacobian, S: Symmetries, degr
         if any(c is None for c, x in zip(coeffs, vec) if x):
             continue
         out.append(_normalise(sp.Add(*[c * sp.Mul(*mono) for c, mono in zip(coeffs, monos) if c])))
-    return sorted(out, key=lambda e: (len(sp.Add.make_args(e)), sp.Poly(e, *vars_).total_degree(), sp.default_sort_key(e)))
+    return sorted(
+        out, key=lambda e: (len(sp.Add.make_args(e)), sp.Poly(e, *vars_).total_degree(), sp.default_sort_key(e))
+    )
 
 
 def _lie(expr: sp.Expr, model: Model, useries: dict[sp.Symbol, list[sp.Symbol]]) -> sp.Expr:
     out = sp.Add(*[sp.diff(expr, x) * f for x, f in model.equations.items()])
-    for u, ders in useries.items():
+    for _u, ders in useries.items():
         for k, uk in enumerate(ders[:-1]):
             out += sp.diff(expr, uk) * ders[k + 1]
     return out
@@ -229,8 +249,11 @@ def _split_offer(kept: _Kept, c: sp.Expr) -> None:
     top, den = sp.fraction(sp.together(c))
     terms = sp.Add.make_args(sp.expand(top))
     if 1 < len(terms) <= 60:
-        rest = [t for t in terms if not kept.offer(t.as_coeff_Mul()[1] / den, "output derivatives")
-                and not kept.redundant(t / den)]
+        rest = [
+            t
+            for t in terms
+            if not kept.offer(t.as_coeff_Mul()[1] / den, "output derivatives") and not kept.redundant(t / den)
+        ]
         c = sp.Add(*rest) / den
     kept.offer(sp.factor_terms(c), "output derivatives")
 
@@ -256,9 +279,15 @@ def _output_derivatives(model: Model, kept: _Kept, deadline: float, max_ops: int
             return
 
 
-def identifiable_functions(model: Model, *, seed: int = 0, symmetries: Symmetries | None = None,
-                           invariants: Sequence[sp.Expr] = (), degree: int = 2,
-                           max_seconds: float = 60.0) -> IdentifiableFunctions:
+def identifiable_functions(
+    model: Model,
+    *,
+    seed: int = 0,
+    symmetries: Symmetries | None = None,
+    invariants: Sequence[sp.Expr] = (),
+    degree: int = 2,
+    max_seconds: float = 60.0,
+) -> IdentifiableFunctions:
     """A generating set of the identifiable functions (with states) of a smooth model.
 
     Parameters
@@ -310,10 +339,18 @@ def identifiable_functions(model: Model, *, seed: int = 0, symmetries: Symmetrie
     complete = kept.full and ok2 and rank_mod_p(J2.gradients(kept.funcs), len(J2.variables), J2.p) == J2.rank
     if not complete:
         notes.append(f"{len(kept.funcs)} of {J.rank} independent identifiable functions found")
-    used = [s for s in ("symmetries", "invariant pairs", "polynomial invariants", "output derivatives")
-            if s in kept.sources]
+    used = [
+        s for s in ("symmetries", "invariant pairs", "polynomial invariants", "output derivatives") if s in kept.sources
+    ]
     method = "+".join(used or ["symmetries"])
     known = list(model.known_initial_conditions)
-    return IdentifiableFunctions(model.name, tuple(known) + tuple(kept.funcs),
-                                 ("known",) * len(known) + tuple(kept.sources), J.rank, complete, method,
-                                 tuple(notes), time.perf_counter() - t0)
+    return IdentifiableFunctions(
+        model.name,
+        tuple(known) + tuple(kept.funcs),
+        ("known",) * len(known) + tuple(kept.sources),
+        J.rank,
+        complete,
+        method,
+        tuple(notes),
+        time.perf_counter() - t0,
+    )

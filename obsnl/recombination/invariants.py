@@ -66,12 +66,14 @@ def span_intersection(a: Sequence[Sequence[sp.Expr]], b: Sequence[Sequence[sp.Ex
     list of list of sympy.Expr
     """
     if a and b:
-        syms = sorted(set().union(*(sp.sympify(x).free_symbols for r in list(a) + list(b) for x in r)),
-                      key=lambda s: s.name)
+        syms = sorted(
+            set().union(*(sp.sympify(x).free_symbols for r in list(a) + list(b) for x in r)), key=lambda s: s.name
+        )
         try:
-            same = all(_rank_at(a, at) == _rank_at(b, at) == _rank_at(list(a) + list(b), at) == len(a)
-                       for at in ({s: 1009 + 2 * i for i, s in enumerate(syms)},
-                                  {s: 2003 + 2 * i for i, s in enumerate(syms)}))
+            same = all(
+                _rank_at(a, at) == _rank_at(b, at) == _rank_at(list(a) + list(b), at) == len(a)
+                for at in ({s: 1009 + 2 * i for i, s in enumerate(syms)}, {s: 2003 + 2 * i for i, s in enumerate(syms)})
+            )
         except TypeError:
             same = False
         if same:
@@ -85,8 +87,9 @@ def span_intersection(a: Sequence[Sequence[sp.Expr]], b: Sequence[Sequence[sp.Ex
 
 
 # --------------------------------------------------------------------------- translations
-def translation_invariants(vectors: Sequence[Mapping[sp.Symbol, sp.Rational]], coords: Sequence[sp.Symbol],
-                           allowed_pivots: Sequence[sp.Symbol]) -> tuple[list[sp.Symbol], dict[sp.Symbol, sp.Expr]]:
+def translation_invariants(
+    vectors: Sequence[Mapping[sp.Symbol, sp.Rational]], coords: Sequence[sp.Symbol], allowed_pivots: Sequence[sp.Symbol]
+) -> tuple[list[sp.Symbol], dict[sp.Symbol, sp.Expr]]:
     """Pivots (dropped) and linear invariants ``{coordinate: y_j - sum c y_piv}`` of commuting translations.
 
     Parameters
@@ -120,8 +123,9 @@ def translation_invariants(vectors: Sequence[Mapping[sp.Symbol, sp.Rational]], c
     return pivots, out
 
 
-def adapted_forms(branch_vectors: Sequence[Sequence[Mapping[sp.Symbol, sp.Rational]]],
-                  coords: Sequence[sp.Symbol]) -> list[tuple[dict[sp.Symbol, sp.Rational], tuple[int, ...]]]:
+def adapted_forms(
+    branch_vectors: Sequence[Sequence[Mapping[sp.Symbol, sp.Rational]]], coords: Sequence[sp.Symbol]
+) -> list[tuple[dict[sp.Symbol, sp.Rational], tuple[int, ...]]]:
     """Linear forms on the coordinates moved by branch translations, adapted to every branch.
 
     Returns a basis of forms ``(coefficients, branches where the form is invariant)``: for each
@@ -150,8 +154,11 @@ def adapted_forms(branch_vectors: Sequence[Sequence[Mapping[sp.Symbol, sp.Ration
         anns.append([list(x) for x in ns])
 
     def invariant_in(form: list) -> tuple[int, ...]:
-        return tuple(b for b, vs in enumerate(branch_vectors)
-                     if all(sum(f * sp.Rational(v.get(c, 0)) for f, c in zip(form, moved)) == 0 for v in vs))
+        return tuple(
+            b
+            for b, vs in enumerate(branch_vectors)
+            if all(sum(f * sp.Rational(v.get(c, 0)) for f, c in zip(form, moved)) == 0 for v in vs)
+        )
 
     cands: list[list] = [list(sp.eye(n).row(i)) for i in range(n)]
     for ann in anns:
@@ -185,8 +192,9 @@ def adapted_forms(branch_vectors: Sequence[Sequence[Mapping[sp.Symbol, sp.Ration
 
 
 # --------------------------------------------------------------------------- coordinates of a reparametrization
-def pushforward(comp: Mapping[sp.Symbol, sp.Expr],
-                coords: Sequence[tuple[sp.Symbol, sp.Expr]]) -> dict[sp.Symbol, sp.Rational] | None:
+def pushforward(
+    comp: Mapping[sp.Symbol, sp.Expr], coords: Sequence[tuple[sp.Symbol, sp.Expr]]
+) -> dict[sp.Symbol, sp.Rational] | None:
     """The translation vector of generator ``comp`` in ``coords`` (None if it is not a translation there).
 
     Returns ``{}`` when the generator does not move the coordinates (it lies in the divided group).
@@ -203,7 +211,7 @@ def pushforward(comp: Mapping[sp.Symbol, sp.Expr],
     dict of sympy.Symbol to sympy.Rational or None
     """
     vals = []
-    for y, phi in coords:
+    for _y, phi in coords:
         vals.append(sp.Add(*[c * sp.diff(phi, v) for v, c in comp.items()]))
     vals = [sp.expand(v) for v in vals]
     nz = [(y, v) for (y, _), v in zip(coords, vals) if v != 0 and sp.cancel(sp.together(canonical(v))) != 0]
@@ -222,9 +230,14 @@ def pushforward(comp: Mapping[sp.Symbol, sp.Expr],
     return out
 
 
-def coordinates(coords: Sequence[tuple[sp.Symbol, sp.Expr]], rest: Sequence[sp.Symbol],
-                tinv: Mapping[sp.Symbol, sp.Expr], forms: Sequence[tuple[Mapping[sp.Symbol, sp.Rational], tuple]],
-                V: Sequence[sp.Symbol], flips: set[str]) -> list[tuple[str, sp.Expr, sp.Expr]]:
+def coordinates(
+    coords: Sequence[tuple[sp.Symbol, sp.Expr]],
+    rest: Sequence[sp.Symbol],
+    tinv: Mapping[sp.Symbol, sp.Expr],
+    forms: Sequence[tuple[Mapping[sp.Symbol, sp.Rational], tuple]],
+    V: Sequence[sp.Symbol],
+    flips: set[str],
+) -> list[tuple[str, sp.Expr, sp.Expr]]:
     """The new coordinates ``(name, expression in the old symbols, linear expression in the y)``.
 
     Parameters

@@ -12,8 +12,8 @@ import sympy as sp
 
 from obsnl._text import block, names, one_line
 from obsnl.model.core import Model
-from obsnl.observability.certificates.symmetry import Symmetries
 from obsnl.model.files import model_to_toml
+from obsnl.observability.certificates.symmetry import Symmetries
 
 __all__ = ["Reparametrization"]
 
@@ -84,31 +84,52 @@ class Reparametrization:
     undecided: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"original": self.original, "model": self.model.name, "identifiable": self.identifiable,
-                "remaining": list(self.remaining), "undecided": list(self.undecided),
-                "mapping": {k: sp.sstr(v) for k, v in self.mapping.items()},
-                "section": {k: sp.sstr(v) for k, v in self.section.items()}, "pivots": list(self.pivots),
-                "functions": [sp.sstr(f) for f in self.functions], "complete": self.complete,
-                "observable": self.observable,
-                "method": self.method, "verified": self.verified,
-                "unobservable": {k: list(v) for k, v in self.unobservable.items()},
-                "branches": [b.to_dict() for b in self.branches], "notes": list(self.notes),
-                "divided": list(self.divided),
-                "seconds": self.seconds}
+        return {
+            "original": self.original,
+            "model": self.model.name,
+            "identifiable": self.identifiable,
+            "remaining": list(self.remaining),
+            "undecided": list(self.undecided),
+            "mapping": {k: sp.sstr(v) for k, v in self.mapping.items()},
+            "section": {k: sp.sstr(v) for k, v in self.section.items()},
+            "pivots": list(self.pivots),
+            "functions": [sp.sstr(f) for f in self.functions],
+            "complete": self.complete,
+            "observable": self.observable,
+            "method": self.method,
+            "verified": self.verified,
+            "unobservable": {k: list(v) for k, v in self.unobservable.items()},
+            "branches": [b.to_dict() for b in self.branches],
+            "notes": list(self.notes),
+            "divided": list(self.divided),
+            "seconds": self.seconds,
+        }
 
     def __repr__(self) -> str:
-        return one_line("Reparametrization", f"original={self.original!r}", f"model={self.model.name!r}",
-                        f"new={names(self.mapping, 6)!r}", f"pivots={names(self.pivots, 4)!r}",
-                        f"complete={self.complete}", f"observable={self.observable}")
+        return one_line(
+            "Reparametrization",
+            f"original={self.original!r}",
+            f"model={self.model.name!r}",
+            f"new={names(self.mapping, 6)!r}",
+            f"pivots={names(self.pivots, 4)!r}",
+            f"complete={self.complete}",
+            f"observable={self.observable}",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: is the new model observable, the group divided out, the new symbols."""
-        seen = "every new coordinate observable in some branch" if self.observable else "NOT every new coordinate observable"
-        return block(f"{self.original} -> {self.model.name}: {seen}, {'complete' if self.complete else 'incomplete'}, "
-                     f"{'verified' if self.verified else 'not verified'} symbolically",
-                     f"normalised away: {names(self.pivots, 8)}",
-                     *(f"{k} = {sp.sstr(v)}" for k, v in list(self.mapping.items())[:8]),
-                     f"... and {len(self.mapping) - 8} more symbols" if len(self.mapping) > 8 else "")
+        seen = (
+            "every new coordinate observable in some branch"
+            if self.observable
+            else "NOT every new coordinate observable"
+        )
+        return block(
+            f"{self.original} -> {self.model.name}: {seen}, {'complete' if self.complete else 'incomplete'}, "
+            f"{'verified' if self.verified else 'not verified'} symbolically",
+            f"normalised away: {names(self.pivots, 8)}",
+            *(f"{k} = {sp.sstr(v)}" for k, v in list(self.mapping.items())[:8]),
+            f"... and {len(self.mapping) - 8} more symbols" if len(self.mapping) > 8 else "",
+        )
 
     def to_toml(self) -> str:
         """The new model as a model file (loads with :func:`obsnl.read_model`), headed by what it is: an
@@ -117,8 +138,13 @@ class Reparametrization:
         if self.identifiable:
             head = f"Identifiable reparametrization of '{self.original}' (obsnl.reparametrize). {tail}"
         else:
-            left = [f"{', '.join(names)} {what}" for names, what in ((self.remaining, "not identifiable"),
-                                                                      (self.undecided, "undecided")) if names]
-            head = (f"Reparametrization of '{self.original}' (obsnl.reparametrize), NOT identifiable: "
-                    f"{'; '.join(left)} (the joint verdict over its branches). {tail}")
+            left = [
+                f"{', '.join(names)} {what}"
+                for names, what in ((self.remaining, "not identifiable"), (self.undecided, "undecided"))
+                if names
+            ]
+            head = (
+                f"Reparametrization of '{self.original}' (obsnl.reparametrize), NOT identifiable: "
+                f"{'; '.join(left)} (the joint verdict over its branches). {tail}"
+            )
         return model_to_toml(self.model, header=head)

@@ -28,29 +28,33 @@ from collections.abc import Mapping, Sequence
 import flint
 import sympy as sp
 
-from obsnl.model.branching.branches import split_branches
 from obsnl.errors import ModelError
-from obsnl.recombination.invariants import (
-    adapted_forms, coordinates, pushforward, span_intersection, translation_invariants,
-)
-from obsnl.recombination.scalings import section_map
-from obsnl.recombination.scalings import scaling_section
-from obsnl.observability.limits import check_analysis_limits
-from obsnl.observability.analyze import analyze
-from obsnl.observability.engines.smooth import analyze_smooth
+from obsnl.model.branching.branches import split_branches
 from obsnl.model.core import Model
 from obsnl.model.reading.parse import make_symbol
+from obsnl.observability.analyze import analyze
+from obsnl.observability.certificates.generators import Symmetry
 from obsnl.observability.certificates.proofs import verify_reparametrization
 from obsnl.observability.certificates.symmetry import symmetries
-from obsnl.observability.certificates.generators import Symmetry
+from obsnl.observability.engines.smooth import analyze_smooth
+from obsnl.observability.limits import check_analysis_limits
+from obsnl.recombination.invariants import (
+    adapted_forms,
+    coordinates,
+    pushforward,
+    span_intersection,
+    translation_invariants,
+)
 from obsnl.recombination.reparametrization import Reparametrization
+from obsnl.recombination.scalings import scaling_section, section_map
 
 __all__ = ["reparametrize"]
 
 
 # --------------------------------------------------------------------------- helpers
-def _numeric_rows(rows: Sequence[Sequence[sp.Expr]], V: Sequence[sp.Symbol], exps: Sequence[sp.Symbol]
-                  ) -> flint.fmpq_mat | None:
+def _numeric_rows(
+    rows: Sequence[Sequence[sp.Expr]], V: Sequence[sp.Symbol], exps: Sequence[sp.Symbol]
+) -> flint.fmpq_mat | None:
     """Weight rows at a random integer value of the exponent parameters (for span membership)."""
     at = {e: 1009 + 2 * i for i, e in enumerate(exps)}
     try:
@@ -62,6 +66,7 @@ def _numeric_rows(rows: Sequence[Sequence[sp.Expr]], V: Sequence[sp.Symbol], exp
 
 def _piecewise_tidy(e: sp.Expr) -> sp.Expr:
     """``a + b*sign(g)`` -> ``Piecewise((a + b, g > 0), (a - b, True))`` when that reads shorter."""
+
     def fix(node: sp.Basic) -> sp.Basic:
         if not isinstance(node, sp.Add):
             return node
@@ -113,8 +118,15 @@ def _positive(expr: sp.Expr, bounds: Mapping[str, tuple[float, float]]) -> bool:
 
 
 # --------------------------------------------------------------------------- the proposal
-def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence[str] = (),
-                  names: Mapping[str, str] | None = None, seed: int = 0, degree: int = 1) -> Reparametrization:
+def reparametrize(
+    model: Model,
+    *,
+    keep: Sequence[str] = (),
+    eliminate: Sequence[str] = (),
+    names: Mapping[str, str] | None = None,
+    seed: int = 0,
+    degree: int = 1,
+) -> Reparametrization:
     """Propose identifiable combinations and write the model in them.
 
     Parameters
@@ -158,8 +170,12 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     every = split_branches(model, seed=seed, undecided=True)
     branches = [b for b in every if not b.undecided]
     per = tuple(symmetries(b.model, seed=seed + i, degree=degree) for i, b in enumerate(branches))
-    notes = [f"branch {b.label} ({b.guard_text}) not used, its feasibility is undecided (the new coordinates "
-             f"are not checked there): {b.undecided}" for b in every if b.undecided]
+    notes = [
+        f"branch {b.label} ({b.guard_text}) not used, its feasibility is undecided (the new coordinates "
+        f"are not checked there): {b.undecided}"
+        for b in every
+        if b.undecided
+    ]
     kic = set(model.known_initial_conditions)
     V = [s for s in model.states if s not in kic] + list(model.parameters)
     exps = sorted({syms[e] for s in per for e in s.exponents}, key=lambda s: s.name)
@@ -175,8 +191,15 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
         if x.name not in hidden:
             measured |= model.equations[x].free_symbols
     try:
-        sec = scaling_section([dict(zip(V, r)) for r in (common or [])], V, model.parameters, exponents=exps,
-                              keep=keep_s, eliminate=elim_s, avoid=[p for p in model.parameters if p in measured])
+        sec = scaling_section(
+            [dict(zip(V, r)) for r in (common or [])],
+            V,
+            model.parameters,
+            exponents=exps,
+            keep=keep_s,
+            eliminate=elim_s,
+            avoid=[p for p in model.parameters if p in measured],
+        )
     except ModelError as exc:
         if elim_s or keep_s:
             raise
@@ -194,8 +217,11 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
             comp = {syms[k]: c for k, c in g.components.items()}
             if g.kind == "scaling" and common_num is not None:
                 row = _numeric_rows([[sp.cancel(comp.get(v, 0) / v) for v in V]], V, exps)
-                if (common_num.nrows() and row is not None and
-                        flint.fmpq_mat(common_num.tolist() + row.tolist()).rank() == common_num.rank()):
+                if (
+                    common_num.nrows()
+                    and row is not None
+                    and flint.fmpq_mat(common_num.tolist() + row.tolist()).rank() == common_num.rank()
+                ):
                     continue  # in the divided group: it does not move the invariants
             pf = pushforward(comp, coords)
             if pf is None:
@@ -209,8 +235,9 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
         common_t = rows if common_t is None else span_intersection(common_t, rows)
     ys = [y for y, _ in coords]
     unit_states = [y for y in ys if y in model.states and [int(y == z) for z in ys] in (common_t or [])]
-    tpiv, tinv = translation_invariants([dict(zip(ys, r)) for r in (common_t or [])], ys,
-                                        list(model.parameters) + unit_states)
+    tpiv, tinv = translation_invariants(
+        [dict(zip(ys, r)) for r in (common_t or [])], ys, list(model.parameters) + unit_states
+    )
     if any(p in model.states and p not in unit_states for p in tpiv):
         notes.append("a common translation moves states only; it was not divided out")
         tpiv, tinv = [], {}
@@ -219,8 +246,9 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     for vecs in branch_vecs:
         rv = []
         for v in vecs:
-            w = {y: sp.expand(tinv[y].xreplace({q: v.get(q, 0) for q in ys}) if y in tinv else v.get(y, 0))
-                 for y in rest}
+            w = {
+                y: sp.expand(tinv[y].xreplace({q: v.get(q, 0) for q in ys}) if y in tinv else v.get(y, 0)) for y in rest
+            }
             if any(w.values()):
                 rv.append(w)
         rvecs.append(rv)
@@ -232,8 +260,10 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
         internal = coordinates(coords, rest, tinv, forms, V, flips)
         unknown = set(names) - {nm for nm, _, _ in internal}
         if unknown:
-            raise ModelError(f"names= renames {sorted(unknown)[0]!r}, which is not a proposed symbol; proposed: "
-                             f"{', '.join(nm for nm, _, _ in internal)}")
+            raise ModelError(
+                f"names= renames {sorted(unknown)[0]!r}, which is not a proposed symbol; proposed: "
+                f"{', '.join(nm for nm, _, _ in internal)}"
+            )
         new = [(names.get(nm, nm), phi, lin) for nm, phi, lin in internal]
         section = section_map(new, rest, tpiv, sec, V, kic)
         built = _build(model, new, section, notes)
@@ -243,8 +273,10 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
             break
         flips |= {deltas[n] for n in neg}
     if unmerged:
-        notes.append(f"{unmerged} generator(s) are neither translations nor scalings in the invariant "
-                     f"coordinates; their directions remain in the new model")
+        notes.append(
+            f"{unmerged} generator(s) are neither translations nor scalings in the invariant "
+            f"coordinates; their directions remain in the new model"
+        )
     new_branches = split_branches(built, seed=seed)
     verified = verify_reparametrization(built, {nm: phi for nm, phi, _ in new}, branches, new_branches)
     unobs = {}
@@ -282,20 +314,35 @@ def reparametrize(model: Model, *, keep: Sequence[str] = (), eliminate: Sequence
     if nowhere:
         notes.append(f"unobservable in every branch of the new model: {', '.join(sorted(nowhere))}")
     divided = [str(Symmetry("scaling", {v.name: w * v for v, w in row.items()})) for row in sec.weights]
-    divided += [str(Symmetry("translation", {y.name: c for y, c in zip(ys, r) if c != 0})) for r in (common_t or [])
-                if tpiv]
-    return Reparametrization(built, model.name, mapping, {k.name: v for k, v in section.items()},
-                             tuple(p.name for p in list(sec.pivots) + list(tpiv)), functions, complete,
-                             not nowhere, method, per, unobs, verified, tuple(notes), time.perf_counter() - t0,
-                             tuple(divided), identifiable=not remaining and not pending, remaining=remaining,
-                             undecided=pending)
+    divided += [
+        str(Symmetry("translation", {y.name: c for y, c in zip(ys, r) if c != 0})) for r in (common_t or []) if tpiv
+    ]
+    return Reparametrization(
+        built,
+        model.name,
+        mapping,
+        {k.name: v for k, v in section.items()},
+        tuple(p.name for p in list(sec.pivots) + list(tpiv)),
+        functions,
+        complete,
+        not nowhere,
+        method,
+        per,
+        unobs,
+        verified,
+        tuple(notes),
+        time.perf_counter() - t0,
+        tuple(divided),
+        identifiable=not remaining and not pending,
+        remaining=remaining,
+        undecided=pending,
+    )
 
 
 def _negated_only(model: Model, deltas: Sequence[str]) -> set[str]:
     """Delta symbols that appear only as ``-Delta`` in the Piecewise values of ``model``."""
     out = set()
-    pieces = [a for e in list(model.rhs) + list(model.output_exprs) for pw in e.atoms(sp.Piecewise)
-              for a, _ in pw.args]
+    pieces = [a for e in list(model.rhs) + list(model.output_exprs) for pw in e.atoms(sp.Piecewise) for a, _ in pw.args]
     for nm in deltas:
         s = make_symbol(nm)
         if any(a == -s for a in pieces) and not any(a == s for a in pieces):
@@ -334,8 +381,11 @@ def _build(model: Model, new: list, section: Mapping[sp.Symbol, sp.Expr], notes:
     outs = {k: _piecewise_tidy(v.xreplace(section)) for k, v in model.outputs.items()}
     switching = [g.xreplace(section) for g in model.switching]
     switching = [g for g in switching if g.free_symbols]
-    latex = {nm: t for nm in list(eqs) + params + [s.name for s in model.inputs + model.known_constants]
-             if (t := _latex_of(model, nm)) is not None}
+    latex = {
+        nm: t
+        for nm in list(eqs) + params + [s.name for s in model.inputs + model.known_constants]
+        if (t := _latex_of(model, nm)) is not None
+    }
     values: dict[str, float] = {}
     guess: dict[str, float] = {}  # each new parameter's guess: its definition at the old guesses
     bounds: dict[str, str | tuple[float, float]] = {}
@@ -354,16 +404,34 @@ def _build(model: Model, new: list, section: Mapping[sp.Symbol, sp.Expr], notes:
         if s.name in model.bounds:
             bounds[s.name] = model.bounds[s.name]
     if model.guess and (lost := [nm for nm in params if nm not in guess]):
-        notes.append(f"no guess for {', '.join(lost)}: its definition needs a guess of every old symbol in it "
-                     f"(a state, or a parameter without one), or is 0 there")
+        notes.append(
+            f"no guess for {', '.join(lost)}: its definition needs a guess of every old symbol in it "
+            f"(a state, or a parameter without one), or is 0 there"
+        )
     icv = {s.name: v.xreplace(section) for s, v in model.initial_condition_values.items()}
     pivots = [k.name for k, v in section.items() if v == 1 and k in model.parameters]
-    desc = (f"Reparametrization of '{model.name}' proposed by obsnl.reparametrize: scaling pivots "
-            f"{', '.join(pivots) or 'none'} set to 1 (assumed positive); every new symbol is defined in "
-            f"[definitions] in terms of the symbols of '{model.name}'.")
-    return Model(name=f"{model.name}_reparam", states=state_names, parameters=params,
-                 inputs=[s.name for s in model.inputs], known_constants=[s.name for s in model.known_constants],
-                 equations=eqs, outputs=outs, switching=switching, known_initial_conditions=[s.name for s in kic],
-                 initial_condition_values=icv, description=desc, source=model.source, latex=latex,
-                 values=values, guess=guess, definitions=defs, bounds=bounds,
-                 intersample=dict(model.intersample))
+    desc = (
+        f"Reparametrization of '{model.name}' proposed by obsnl.reparametrize: scaling pivots "
+        f"{', '.join(pivots) or 'none'} set to 1 (assumed positive); every new symbol is defined in "
+        f"[definitions] in terms of the symbols of '{model.name}'."
+    )
+    return Model(
+        name=f"{model.name}_reparam",
+        states=state_names,
+        parameters=params,
+        inputs=[s.name for s in model.inputs],
+        known_constants=[s.name for s in model.known_constants],
+        equations=eqs,
+        outputs=outs,
+        switching=switching,
+        known_initial_conditions=[s.name for s in kic],
+        initial_condition_values=icv,
+        description=desc,
+        source=model.source,
+        latex=latex,
+        values=values,
+        guess=guess,
+        definitions=defs,
+        bounds=bounds,
+        intersample=dict(model.intersample),
+    )

@@ -52,8 +52,9 @@ def _samples(exps: Sequence[sp.Symbol]) -> list[dict[sp.Symbol, int]]:
 
 def _numeric(W: sp.Matrix, at: Mapping[sp.Symbol, int]) -> flint.fmpq_mat:
     Wn = W.subs(at) if at else W
-    return flint.fmpq_mat([[flint.fmpq(int(sp.Rational(x).p), int(sp.Rational(x).q)) for x in Wn.row(i)]
-                           for i in range(Wn.rows)])
+    return flint.fmpq_mat(
+        [[flint.fmpq(int(sp.Rational(x).p), int(sp.Rational(x).q)) for x in Wn.row(i)] for i in range(Wn.rows)]
+    )
 
 
 def _score(mats: Sequence[flint.fmpq_mat], cols: Sequence[int], exps: Sequence[sp.Symbol]) -> tuple | None:
@@ -76,7 +77,7 @@ def _score(mats: Sequence[flint.fmpq_mat], cols: Sequence[int], exps: Sequence[s
             if j in cols:
                 continue
             vals = [M[i][j] for M in solved]
-            slopes = [v - vals[0] for v in vals[1:1 + ne]]
+            slopes = [v - vals[0] for v in vals[1 : 1 + ne]]
             const = vals[0] - 3 * sum(slopes, flint.fmpq(0))
             ok = vals[-1] == const + sum((c * chk[e] for c, e in zip(slopes, exps)), flint.fmpq(0))
             cs = [const] + slopes
@@ -85,10 +86,16 @@ def _score(mats: Sequence[flint.fmpq_mat], cols: Sequence[int], exps: Sequence[s
     return bad, float(total)
 
 
-def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: Sequence[sp.Symbol],
-                    parameters: Sequence[sp.Symbol], *, exponents: Sequence[sp.Symbol] = (),
-                    keep: Sequence[sp.Symbol] = (), eliminate: Sequence[sp.Symbol] = (),
-                    avoid: Sequence[sp.Symbol] = ()) -> ScalingSection:
+def scaling_section(
+    weights: Sequence[Mapping[sp.Symbol, sp.Expr]],
+    variables: Sequence[sp.Symbol],
+    parameters: Sequence[sp.Symbol],
+    *,
+    exponents: Sequence[sp.Symbol] = (),
+    keep: Sequence[sp.Symbol] = (),
+    eliminate: Sequence[sp.Symbol] = (),
+    avoid: Sequence[sp.Symbol] = (),
+) -> ScalingSection:
     """Hubert-Labahn invariants of the scaling group spanned by ``weights`` (see module doc).
 
     Pivot sets are ranked by (number of fractional or non-affine exponents, number of pivots in
@@ -136,8 +143,9 @@ def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: S
     forced = [variables.index(v) for v in eliminate if v in variables]
     both = [v for v in eliminate if v in set(keep)]
     if both:
-        raise ModelError(f"{both[0]} is asked both to be eliminated and to be kept; name it in one of "
-                         f"eliminate= and keep=")
+        raise ModelError(
+            f"{both[0]} is asked both to be eliminated and to be kept; name it in one of eliminate= and keep="
+        )
     bad = [v for v in eliminate if v not in variables or variables.index(v) not in cand]
     if bad:
         raise ModelError(f"cannot eliminate {bad[0]}: it is not a parameter moved by the scalings")
@@ -158,8 +166,10 @@ def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: S
         if best is None or key < best:
             best = key
     if best is None:
-        raise ModelError("the scaling group moves no set of parameters that can serve as pivots "
-                         "(it acts on states only); its invariants need a state pivot")
+        raise ModelError(
+            "the scaling group moves no set of parameters that can serve as pivots "
+            "(it acts on states only); its invariants need a state pivot"
+        )
     cols = best[3]
     M = (W[:, cols].inv() * W).applyfunc(sp.factor)
     pivots = tuple(variables[j] for j in cols)
@@ -179,8 +189,14 @@ def scaling_section(weights: Sequence[Mapping[sp.Symbol, sp.Expr]], variables: S
     return ScalingSection(pivots, inv, powers, wrows)
 
 
-def section_map(new: Sequence[tuple[str, sp.Expr, sp.Expr]], rest: Sequence[sp.Symbol], tpiv: Sequence[sp.Symbol],
-                sec: ScalingSection, V: Sequence[sp.Symbol], kic: set[sp.Symbol]) -> dict[sp.Symbol, sp.Expr]:
+def section_map(
+    new: Sequence[tuple[str, sp.Expr, sp.Expr]],
+    rest: Sequence[sp.Symbol],
+    tpiv: Sequence[sp.Symbol],
+    sec: ScalingSection,
+    V: Sequence[sp.Symbol],
+    kic: set[sp.Symbol],
+) -> dict[sp.Symbol, sp.Expr]:
     """Old symbols in terms of the new ones on the section (pivots 1, translation pivots 0).
 
     Parameters

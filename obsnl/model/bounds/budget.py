@@ -48,8 +48,11 @@ def check_seconds(seconds: float | None) -> float | None:
     >>> check_seconds(2.5), check_seconds(None)
     (2.5, None)
     """
-    if seconds is not None and (isinstance(seconds, bool) or not isinstance(seconds, (int, float)) or not (
-            math.isfinite(seconds) and seconds > 0)):
+    if seconds is not None and (
+        isinstance(seconds, bool)
+        or not isinstance(seconds, (int, float))
+        or not (math.isfinite(seconds) and seconds > 0)
+    ):
         raise OptionError(f"max_seconds= must be a positive finite number of seconds, got {quote(seconds, 30)}")
     return seconds
 

@@ -24,7 +24,6 @@ def _operand_end(tok: str, kind: int) -> bool:
     return tok in _CLOSE
 
 
-
 def _balanced(terms: list[list[str]]) -> list[str]:
     if len(terms) <= _WIDTH:
         return [t for term in terms for t in term]
@@ -33,7 +32,7 @@ def _balanced(terms: list[list[str]]) -> list[str]:
     for k in range(0, len(terms), size):
         if k:
             out.append("+")  # each later bracket starts with its first term's own sign (unary there)
-        out += ["(", *_balanced(terms[k:k + size]), ")"]
+        out += ["(", *_balanced(terms[k : k + size]), ")"]
     return out
 
 
@@ -78,8 +77,11 @@ def regroup_sums(text: str) -> str:
 
     """
     try:
-        toks = [(t.string, t.type) for t in tokenize.generate_tokens(io.StringIO(text).readline)
-                if t.type in (tokenize.NAME, tokenize.NUMBER, tokenize.OP, tokenize.STRING, tokenize.ERRORTOKEN)]
+        toks = [
+            (t.string, t.type)
+            for t in tokenize.generate_tokens(io.StringIO(text).readline)
+            if t.type in (tokenize.NAME, tokenize.NUMBER, tokenize.OP, tokenize.STRING, tokenize.ERRORTOKEN)
+        ]
     except (tokenize.TokenError, IndentationError, SyntaxError):
         return text
     depth = deepest = plus = 0
@@ -112,8 +114,9 @@ def regroup_sums(text: str) -> str:
                 out += [*_stretch(items), ","]
                 items, ends = [], False
             else:
-                loose = s in _LOOSE or (kind == tokenize.NAME and keyword.iskeyword(s)
-                                        and s not in ("True", "False", "None"))
+                loose = s in _LOOSE or (
+                    kind == tokenize.NAME and keyword.iskeyword(s) and s not in ("True", "False", "None")
+                )
                 items.append(([s], s in ("+", "-") and ends, loose))
                 ends = _operand_end(s, kind)
         return out + _stretch(items)

@@ -19,11 +19,17 @@ from typing import cast
 
 from obsnl._text import quote, shorten  # one place that cuts what a message echoes
 from obsnl.errors import ParseError
-from obsnl.model.bounds.work import MAX_EXACT_DIGITS
 from obsnl.model.bounds.regroup import regroup_sums
+from obsnl.model.bounds.work import MAX_EXACT_DIGITS
 
 __all__ = [
-    "MAX_NODES", "MAX_DEPTH", "MAX_DIGITS", "MAX_EXPONENT", "MAX_LENGTH", "shorten", "quote",
+    "MAX_NODES",
+    "MAX_DEPTH",
+    "MAX_DIGITS",
+    "MAX_EXPONENT",
+    "MAX_LENGTH",
+    "shorten",
+    "quote",
     "check_expression_size",
 ]
 
@@ -41,8 +47,10 @@ MAX_EXPONENT = 100
 
 # --------------------------------------------------------------------------- bounds on the text
 def _refuse(where: str, text: str, what: str) -> ParseError:
-    return ParseError(f"{where}: {what} in {shorten(text)!r}; obsnl refuses exponents above {MAX_EXPONENT} "
-                      f"and constants over {MAX_DIGITS} digits (rescale the model)")
+    return ParseError(
+        f"{where}: {what} in {shorten(text)!r}; obsnl refuses exponents above {MAX_EXPONENT} "
+        f"and constants over {MAX_DIGITS} digits (rescale the model)"
+    )
 
 
 def _const_log10(node: ast.AST, where: str, text: str) -> float | None:
@@ -64,7 +72,7 @@ def _const_log10(node: ast.AST, where: str, text: str) -> float | None:
                     raise _refuse(where, text, "a power with an exponent over " + str(MAX_EXPONENT))
                 if left is None:
                     return None
-                bound = left * 10 ** right if left > 0 else 0.0
+                bound = left * 10**right if left > 0 else 0.0
                 if bound > MAX_DIGITS:
                     raise _refuse(where, text, f"a constant power with more than {MAX_DIGITS} digits")
                 return bound
@@ -150,9 +158,11 @@ def _check_exact_digits(tree: ast.AST, where: str, text: str) -> None:
             else:
                 total = _exact_digits(node, memo) or 0.0
             if total > limit:
-                raise ParseError(f"{where}: {shorten(text)!r} computes an exact constant of about {total:.0f} "
-                                 f"digits (over {MAX_EXACT_DIGITS}; obsnl computes exactly, with rationals); round "
-                                 f"the constants, e.g. write its value as a decimal of at most {MAX_DIGITS} digits")
+                raise ParseError(
+                    f"{where}: {shorten(text)!r} computes an exact constant of about {total:.0f} "
+                    f"digits (over {MAX_EXACT_DIGITS}; obsnl computes exactly, with rationals); round "
+                    f"the constants, e.g. write its value as a decimal of at most {MAX_DIGITS} digits"
+                )
         stack.extend((child, ops) for child in ast.iter_child_nodes(node))
 
 
@@ -189,8 +199,9 @@ def check_expression_size(text: str, where: str = "expression", *, grouped: str 
     obsnl.errors.ParseError: expression: a power with an exponent over 100 in '9**9**9'; obsnl refuses exponents above 100 and constants over 100 digits (rescale the model)
     """
     if len(text) > MAX_LENGTH:
-        raise ParseError(f"{where}: the expression is longer than {MAX_LENGTH} characters; split it with "
-                         f"intermediate states")
+        raise ParseError(
+            f"{where}: the expression is longer than {MAX_LENGTH} characters; split it with intermediate states"
+        )
     grouped = regroup_sums(text) if grouped is None else grouped
     try:
         tree = ast.parse(grouped.replace("^", "**"), mode="eval")
@@ -198,8 +209,9 @@ def check_expression_size(text: str, where: str = "expression", *, grouped: str 
         raise ParseError(f"{where}: {shorten(text)!r} is nested too deeply; split it") from None
     except SyntaxError as exc:
         if "too many nested" in str(exc):  # Python's own limit (200 brackets), not a typo
-            raise ParseError(f"{where}: {shorten(text)!r} nests brackets more than 200 deep; split it with "
-                             f"intermediate states") from None
+            raise ParseError(
+                f"{where}: {shorten(text)!r} nests brackets more than 200 deep; split it with intermediate states"
+            ) from None
         return  # the parser below reports the syntax error with its own message
     except ValueError:
         return
@@ -210,11 +222,15 @@ def check_expression_size(text: str, where: str = "expression", *, grouped: str 
         node, depth = stack.pop()
         count += 1
         if count > MAX_NODES:
-            raise ParseError(f"{where}: {shorten(text)!r} has more than {MAX_NODES} operations and names; "
-                             f"split it with intermediate states or simplify it")
+            raise ParseError(
+                f"{where}: {shorten(text)!r} has more than {MAX_NODES} operations and names; "
+                f"split it with intermediate states or simplify it"
+            )
         if depth > MAX_DEPTH:
-            raise ParseError(f"{where}: {shorten(text)!r} nests more than {MAX_DEPTH} operations (a product of n "
-                             f"factors nests n deep); simplify it")
+            raise ParseError(
+                f"{where}: {shorten(text)!r} nests more than {MAX_DEPTH} operations (a product of n "
+                f"factors nests n deep); simplify it"
+            )
         stack.extend((child, depth + 1) for child in ast.iter_child_nodes(node) if not isinstance(child, skip))
     # constant growth: bottom-up bound without evaluating (raises on the first runaway power)
     for node in ast.walk(tree.body):
@@ -264,13 +280,20 @@ def check_model_size(name: object, roles: dict[str, object], *tables: object) ->
     counts["outputs"] = sum(size(t) for t in tables[:1])
     n = sum(counts.values())
     if n > MAX_MODEL_NAMES:
-        parts = ", ".join(f"{c} {role.replace('_', ' ') if c != 1 else role.rstrip('s').replace('_', ' ')}"
-                          for role, c in counts.items() if c)
-        raise ModelError(f"model {quote(name, 40)} declares {n} names and outputs ({parts}), more than the "
-                         f"{MAX_MODEL_NAMES} obsnl reads (and the analyses accept at most 300 states and "
-                         f"parameters); reduce the model")
+        parts = ", ".join(
+            f"{c} {role.replace('_', ' ') if c != 1 else role.rstrip('s').replace('_', ' ')}"
+            for role, c in counts.items()
+            if c
+        )
+        raise ModelError(
+            f"model {quote(name, 40)} declares {n} names and outputs ({parts}), more than the "
+            f"{MAX_MODEL_NAMES} obsnl reads (and the analyses accept at most 300 states and "
+            f"parameters); reduce the model"
+        )
     text = sum(len(v) for t in tables if hasattr(t, "values") for v in t.values() if isinstance(v, str))
     if text > MAX_MODEL_TEXT:
-        raise ModelError(f"model {quote(name, 40)} has {text} characters of expressions, more than the "
-                         f"{MAX_MODEL_TEXT} obsnl reads (about 2 s per 100 000); split long expressions with "
-                         f"intermediate states or reduce the model")
+        raise ModelError(
+            f"model {quote(name, 40)} has {text} characters of expressions, more than the "
+            f"{MAX_MODEL_TEXT} obsnl reads (about 2 s per 100 000); split long expressions with "
+            f"intermediate states or reduce the model"
+        )

@@ -18,9 +18,19 @@ from typing import NamedTuple
 
 import sympy as sp
 
-__all__ = ["Size", "expanded_size", "can_expand", "can_factor", "MAX_EXPANDED_TERMS", "MAX_FACTOR_TERMS",
-           "MAX_FACTOR_DEGREE", "MAX_EXACT_DIGITS", "exact_digits", "same_up_to_sign",
-           "degree_in"]
+__all__ = [
+    "Size",
+    "expanded_size",
+    "can_expand",
+    "can_factor",
+    "MAX_EXPANDED_TERMS",
+    "MAX_FACTOR_TERMS",
+    "MAX_FACTOR_DEGREE",
+    "MAX_EXACT_DIGITS",
+    "exact_digits",
+    "same_up_to_sign",
+    "degree_in",
+]
 
 #: Most terms an expansion may produce.
 MAX_EXPANDED_TERMS = 5000
@@ -113,15 +123,18 @@ def expanded_size(expr: sp.Basic) -> Size:
             out = (1.0, 1, 0.0, frozenset([e]))
         elif isinstance(e, sp.Add):
             parts = [walk(a) for a in e.args]
-            out = (min(_CAP, sum(p[0] for p in parts)), max(p[1] for p in parts),
-                   max(p[2] for p in parts) + math.log10(len(parts)), frozenset().union(*(p[3] for p in parts)))
+            out = (
+                min(_CAP, sum(p[0] for p in parts)),
+                max(p[1] for p in parts),
+                max(p[2] for p in parts) + math.log10(len(parts)),
+                frozenset().union(*(p[3] for p in parts)),
+            )
         elif isinstance(e, sp.Mul):
             parts = [walk(a) for a in e.args]
             terms = 1.0
             for p in parts:
                 terms = min(_CAP, terms * p[0])
-            out = (terms, sum(p[1] for p in parts), sum(p[2] for p in parts),
-                   frozenset().union(*(p[3] for p in parts)))
+            out = (terms, sum(p[1] for p in parts), sum(p[2] for p in parts), frozenset().union(*(p[3] for p in parts)))
         elif isinstance(e, sp.Pow) and e.exp.is_Integer:
             t, d, g, vs = walk(e.base)
             k = abs(int(e.exp))

@@ -30,9 +30,7 @@ import sympy as sp
 
 from obsnl.errors import AnalysisError, ModelError, NotSupportedError
 from obsnl.model.bounds.budget import check_time
-from obsnl.model.core import Model
 from obsnl.model.branching.feasibility import feasible
-from obsnl.model.reading.parse import shorten
 from obsnl.model.branching.switching import (
     Switching,
     check_declared,
@@ -40,9 +38,20 @@ from obsnl.model.branching.switching import (
     switching_functions,
     switching_structure,
 )
+from obsnl.model.core import Model
+from obsnl.model.reading.parse import shorten
 
-__all__ = ["Branch", "DroppedPattern", "Side", "split_branches", "split_by", "sides_of", "smooth_branch",
-           "switching_functions", "check_finite"]
+__all__ = [
+    "Branch",
+    "DroppedPattern",
+    "Side",
+    "split_branches",
+    "split_by",
+    "sides_of",
+    "smooth_branch",
+    "switching_functions",
+    "check_finite",
+]
 
 _MAX_SWITCHING = 12  # switching functions in all (nested ones included): 2**12 sign patterns at most
 _MAX_BRANCHES = 1024  # smooth branches in all
@@ -81,8 +90,9 @@ class Branch:
     @property
     def relations(self) -> tuple[sp.Rel, ...]:
         """The guard as sympy relations, e.g. ``(sigma - eta > 0, x2 < 0)``."""
-        return tuple(sp.StrictGreaterThan(g, 0) if s > 0 else sp.StrictLessThan(g, 0)
-                     for g, s in zip(self.switching, self.signs))
+        return tuple(
+            sp.StrictGreaterThan(g, 0) if s > 0 else sp.StrictLessThan(g, 0) for g, s in zip(self.switching, self.signs)
+        )
 
     @property
     def guard(self) -> sp.Basic:
@@ -167,27 +177,43 @@ def _labels(n: int) -> list[str]:
 
 @overload
 def split_branches(
-    model: Model, *, seed: int = ..., with_dropped: Literal[False] = ..., max_seconds: float | None = ...,
+    model: Model,
+    *,
+    seed: int = ...,
+    with_dropped: Literal[False] = ...,
+    max_seconds: float | None = ...,
     undecided: bool = ...,
 ) -> tuple[Branch, ...]: ...
 
 
 @overload
 def split_branches(
-    model: Model, *, seed: int = ..., with_dropped: Literal[True], max_seconds: float | None = ...,
+    model: Model,
+    *,
+    seed: int = ...,
+    with_dropped: Literal[True],
+    max_seconds: float | None = ...,
     undecided: bool = ...,
 ) -> tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
 
 
 @overload
 def split_branches(
-    model: Model, *, seed: int = ..., with_dropped: bool, max_seconds: float | None = ...,
+    model: Model,
+    *,
+    seed: int = ...,
+    with_dropped: bool,
+    max_seconds: float | None = ...,
     undecided: bool = ...,
 ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
 
 
 def split_branches(
-    model: Model, *, seed: int = 0, with_dropped: bool = False, max_seconds: float | None = None,
+    model: Model,
+    *,
+    seed: int = 0,
+    with_dropped: bool = False,
+    max_seconds: float | None = None,
     undecided: bool = False,
 ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
     """Split ``model`` into its smooth branches.
@@ -235,30 +261,61 @@ def split_branches(
     >>> [(b.label, b.guard_text) for b in split_branches(m)]
     [('a', 'v > 0'), ('b', 'v < 0')]
     """
-    return split_by(model, switching_structure(model), seed=seed, with_dropped=with_dropped,
-                    max_seconds=max_seconds, undecided=undecided)
+    return split_by(
+        model,
+        switching_structure(model),
+        seed=seed,
+        with_dropped=with_dropped,
+        max_seconds=max_seconds,
+        undecided=undecided,
+    )
 
 
 @overload
-def split_by(model: Model, level: Switching, *, seed: int = ..., with_dropped: Literal[False] = ...,
-             max_seconds: float | None = ..., undecided: bool = ...) -> tuple[Branch, ...]: ...
+def split_by(
+    model: Model,
+    level: Switching,
+    *,
+    seed: int = ...,
+    with_dropped: Literal[False] = ...,
+    max_seconds: float | None = ...,
+    undecided: bool = ...,
+) -> tuple[Branch, ...]: ...
 
 
 @overload
-def split_by(model: Model, level: Switching, *, seed: int = ..., with_dropped: Literal[True],
-             max_seconds: float | None = ..., undecided: bool = ...
-             ) -> tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
+def split_by(
+    model: Model,
+    level: Switching,
+    *,
+    seed: int = ...,
+    with_dropped: Literal[True],
+    max_seconds: float | None = ...,
+    undecided: bool = ...,
+) -> tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
 
 
 @overload
-def split_by(model: Model, level: Switching, *, seed: int = ..., with_dropped: bool,
-             max_seconds: float | None = ..., undecided: bool = ...
-             ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
+def split_by(
+    model: Model,
+    level: Switching,
+    *,
+    seed: int = ...,
+    with_dropped: bool,
+    max_seconds: float | None = ...,
+    undecided: bool = ...,
+) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]: ...
 
 
-def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: bool = False,
-             max_seconds: float | None = None, undecided: bool = False
-             ) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
+def split_by(
+    model: Model,
+    level: Switching,
+    *,
+    seed: int = 0,
+    with_dropped: bool = False,
+    max_seconds: float | None = None,
+    undecided: bool = False,
+) -> tuple[Branch, ...] | tuple[tuple[Branch, ...], tuple[DroppedPattern, ...]]:
     """:func:`split_branches` of ``model`` whose outermost switching structure ``level``
     (:func:`obsnl.model.branching.switching.switching_structure`, which checks a flat model's declared switching
     functions) is already found.
@@ -290,8 +347,9 @@ def split_by(model: Model, level: Switching, *, seed: int = 0, with_dropped: boo
         if side.undecided and not undecided:
             dropped.append(DroppedPattern(side.switching, side.signs, side.undecided, proved=False))
             continue
-        smooth.append(smooth_branch(model, label, side.switching, side.signs, side.exprs, side.witness,
-                                    undecided=side.undecided))
+        smooth.append(
+            smooth_branch(model, label, side.switching, side.signs, side.exprs, side.witness, undecided=side.undecided)
+        )
     if level.nested:  # the declared functions may switch at an inner level only (a flat model's are checked)
         check_declared(model, seen)
     result = tuple(smooth)
@@ -308,9 +366,14 @@ class Side(NamedTuple):
     undecided: str  # why its feasibility is not decided ("" when a witness was found)
 
 
-def sides_of(level: Switching, patterns: Iterable[tuple[int, ...]] | None, rng: np.random.Generator, *,
-             deadline: float | None = None, undecided: bool = True
-             ) -> tuple[list[Side], list[DroppedPattern], tuple[sp.Expr, ...]]:
+def sides_of(
+    level: Switching,
+    patterns: Iterable[tuple[int, ...]] | None,
+    rng: np.random.Generator,
+    *,
+    deadline: float | None = None,
+    undecided: bool = True,
+) -> tuple[list[Side], list[DroppedPattern], tuple[sp.Expr, ...]]:
     """The sides of ``level``'s sign ``patterns`` (None: every pattern, in Gray-code order), nested non-smooth
     functions resolved level by level; the patterns with no point (with those whose feasibility is undecided,
     ``proved=False``, unless ``undecided``: then such a side is kept, marked); every level's switching functions.
@@ -342,10 +405,19 @@ def sides_of(level: Switching, patterns: Iterable[tuple[int, ...]] | None, rng: 
     return found, dropped, tuple(seen)
 
 
-def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: tuple[int, ...],
-                 witness: tuple[dict[str, float], str], rng: np.random.Generator, found: list[Side],
-                 dropped: list[DroppedPattern], seen: dict, deadline: float | None, undecided: bool,
-                 patterns: Iterable[tuple[int, ...]] | None = None) -> None:
+def _split_level(
+    level: Switching,
+    outer_sw: tuple[sp.Expr, ...],
+    outer_signs: tuple[int, ...],
+    witness: tuple[dict[str, float], str],
+    rng: np.random.Generator,
+    found: list[Side],
+    dropped: list[DroppedPattern],
+    seen: dict,
+    deadline: float | None,
+    undecided: bool,
+    patterns: Iterable[tuple[int, ...]] | None = None,
+) -> None:
     """Split one nesting level; ``witness`` is the outer pattern's (point, why undecided), a leaf's is its own;
     ``seen`` collects every level's switching functions, in order."""
     if not level.nodes:
@@ -356,17 +428,21 @@ def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: t
     if patterns is None and len(outer_sw) + len(sw) > _MAX_SWITCHING:
         n = len(outer_sw) + len(sw)
         raise NotSupportedError(
-            f"{n} switching functions{' (nested ones included)' if outer_sw else ''} ({2 ** n} sign patterns); "
+            f"{n} switching functions{' (nested ones included)' if outer_sw else ''} ({2**n} sign patterns); "
             f"at most {_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
         )
     for signs in _gray(len(sw)) if patterns is None else patterns:
         if deadline is not None and time.perf_counter() > deadline:
-            raise AnalysisError("splitting the model into branches ran past the time limit; raise max_seconds= "
-                                "or smooth some switching functions")
+            raise AnalysisError(
+                "splitting the model into branches ran past the time limit; raise max_seconds= "
+                "or smooth some switching functions"
+            )
         check_time("splitting the model into branches", "raise max_seconds= or smooth some switching functions")
         if patterns is None and len(found) >= _MAX_BRANCHES:  # an enumeration (patterns asked for are all made)
-            raise NotSupportedError(f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
-                                    f"switching functions (e.g. tanh(v/eps) for sign(v))")
+            raise NotSupportedError(
+                f"the model has more than {_MAX_BRANCHES} smooth branches; smooth some "
+                f"switching functions (e.g. tanh(v/eps) for sign(v))"
+            )
         all_sw = outer_sw + sw
         all_signs = outer_signs + tuple(signs)
         point, reason, proved = feasible(list(zip(all_sw, all_signs)), rng, level.memo, bounds=level.bounds)
@@ -375,12 +451,30 @@ def _split_level(level: Switching, outer_sw: tuple[sp.Expr, ...], outer_signs: t
             continue
         inner = Switching.of(level.field_at(signs), level.declared, level.memo, level.bounds)
         # undecided (no point found, none proved impossible): kept, marked, and decided again one level down
-        _split_level(inner, all_sw, all_signs, (point or {}, reason if point is None else ""), rng, found, dropped,
-                     seen, deadline, undecided)
+        _split_level(
+            inner,
+            all_sw,
+            all_signs,
+            (point or {}, reason if point is None else ""),
+            rng,
+            found,
+            dropped,
+            seen,
+            deadline,
+            undecided,
+        )
 
 
-def smooth_branch(model: Model, label: str, switching: Sequence[sp.Expr], signs: Sequence[int],
-                  exprs: Sequence[sp.Expr], witness: Mapping[str, float], *, undecided: str = "") -> Branch:
+def smooth_branch(
+    model: Model,
+    label: str,
+    switching: Sequence[sp.Expr],
+    signs: Sequence[int],
+    exprs: Sequence[sp.Expr],
+    witness: Mapping[str, float],
+    *,
+    undecided: str = "",
+) -> Branch:
     """The branch of ``model`` where ``switching`` have ``signs``, ``exprs`` being its smooth right-hand sides, then
     its outputs; a branch whose feasibility is decided is refused where it divides by zero (:func:`check_finite`).
 
@@ -406,8 +500,13 @@ def smooth_branch(model: Model, label: str, switching: Sequence[sp.Expr], signs:
     if not undecided:  # an undecided branch is not analysed: a division by zero there may be in no point at all
         check_finite(model, exprs, switching, signs)
     n_rhs = len(model.states)
-    sub = derived_model(model, name=f"{model.name}[{label}]", equations=dict(zip(model.states, exprs[:n_rhs])),
-                        outputs=dict(zip(model.output_names, exprs[n_rhs:])), switching=())
+    sub = derived_model(
+        model,
+        name=f"{model.name}[{label}]",
+        equations=dict(zip(model.states, exprs[:n_rhs])),
+        outputs=dict(zip(model.output_names, exprs[n_rhs:])),
+        switching=(),
+    )
     return Branch(label, tuple(switching), tuple(signs), sub, witness, undecided=undecided)
 
 
@@ -433,5 +532,7 @@ def check_finite(model: Model, exprs: Sequence[sp.Expr], switching: Sequence[sp.
     for name, before, after in zip(names, list(model.rhs) + list(model.output_exprs), exprs):
         if after.has(*bad):
             where = " and ".join(f"{expr_text(g)} {'>' if s > 0 else '<'} 0" for g, s in zip(switching, signs))
-            raise ModelError(f"{name}, {shorten(str(before))!r}, divides by zero where {where}; rewrite it so that "
-                             f"it is finite on both sides of every switching surface")
+            raise ModelError(
+                f"{name}, {shorten(str(before))!r}, divides by zero where {where}; rewrite it so that "
+                f"it is finite on both sides of every switching surface"
+            )

@@ -62,8 +62,10 @@ def never_positive(h: sp.Expr) -> str:
         return ""
     gens, matrix = found
     if (-matrix).is_positive_semidefinite:
-        return (f"it is a quadratic in {', '.join(gens)} whose symmetric matrix is negative semidefinite "
-                f"(exact rational arithmetic)")
+        return (
+            f"it is a quadratic in {', '.join(gens)} whose symmetric matrix is negative semidefinite "
+            f"(exact rational arithmetic)"
+        )
     return ""
 
 
@@ -99,5 +101,5 @@ def _quadratic(h: sp.Expr) -> tuple[list[str], sp.Matrix] | None:
         for key in {(i, j), (j, i)}:
             entries[key] = entries.get(key, sp.Integer(0)) + half
     matrix = sp.Matrix(n + 1, n + 1, lambda i, j: entries.get((i, j), sp.Integer(0)))
-    gens = [sp.sstr(g if d == 1 else g ** d) for g, d in zip(poly.gens, lift)]
+    gens = [sp.sstr(g if d == 1 else g**d) for g, d in zip(poly.gens, lift)]
     return gens, matrix

@@ -39,8 +39,9 @@ UNDECIDED = "no point was found"
 _FIX = "raise max_seconds=, or smooth some switching functions (tanh(g/eps) for sign(g))"
 
 
-def affine_coefficients(g: sp.Expr, syms: Sequence[sp.Symbol],
-                        memo: dict | None = None) -> tuple[list[float], float] | None:
+def affine_coefficients(
+    g: sp.Expr, syms: Sequence[sp.Symbol], memo: dict | None = None
+) -> tuple[list[float], float] | None:
     """(coefficients of ``syms``, constant) when ``g`` is affine in ``syms`` with numeric coefficients, else
     None; an expression too large to expand cheaply (:func:`obsnl.model.bounds.work.can_factor`) counts as not
     affine, without expanding it.
@@ -80,8 +81,7 @@ def affine_coefficients(g: sp.Expr, syms: Sequence[sp.Symbol],
     return out
 
 
-def _lp(rows: np.ndarray, consts: np.ndarray, signs: np.ndarray,
-        known: Sequence[int] = ()) -> np.ndarray | None:
+def _lp(rows: np.ndarray, consts: np.ndarray, signs: np.ndarray, known: Sequence[int] = ()) -> np.ndarray | None:
     """A point ``z`` with ``signs * (rows @ z + consts) > 0`` (strictly, with a margin), or None when the
     linear program proves there is none. Unknowns are scaled to the constants' magnitude and each row to
     unit size, so that ``x - 1e20 > 0`` is as solvable as ``x - 1 > 0``. ``known[k]`` is the sign of unknown
@@ -106,8 +106,9 @@ def _lp(rows: np.ndarray, consts: np.ndarray, signs: np.ndarray,
     return None
 
 
-def _affine_witness(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol],
-                    coeffs: Sequence[tuple[list[float], float]]) -> dict[str, float] | None:
+def _affine_witness(
+    conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol], coeffs: Sequence[tuple[list[float], float]]
+) -> dict[str, float] | None:
     n = len(syms)
     rows = np.array([c[0] for c in coeffs], dtype=float).reshape(len(conds), n)
     consts = np.array([c[1] for c in coeffs], dtype=float)
@@ -136,7 +137,9 @@ def _monomials(g: sp.Expr) -> dict[tuple, float] | None:
         return None
     out: dict[tuple, float] = {}
     for exps, c in poly.terms():
-        mono = tuple(sorted(((b, int(e)) for b, e in zip(poly.gens, exps) if e), key=lambda p: sp.default_sort_key(p[0])))
+        mono = tuple(
+            sorted(((b, int(e)) for b, e in zip(poly.gens, exps) if e), key=lambda p: sp.default_sort_key(p[0]))
+        )
         out[mono] = out.get(mono, 0.0) + float(c)
     return out
 
@@ -202,8 +205,9 @@ def _scales(conds: Sequence[tuple[sp.Expr, int]]) -> list[float]:
     return sorted(s for s in out if 1e-6 < s < 1e150 and not 0.01 <= s <= 100)
 
 
-def _search(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol],
-            rng: np.random.Generator) -> dict[str, float] | None:
+def _search(
+    conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol], rng: np.random.Generator
+) -> dict[str, float] | None:
     fn = sp.lambdify(list(syms), [g for g, _ in conds], modules="numpy")
     signs = np.array([s for _, s in conds], dtype=float)
     n = len(syms)
@@ -255,8 +259,9 @@ def _search(conds: Sequence[tuple[sp.Expr, int]], syms: Sequence[sp.Symbol],
     return None
 
 
-def bound_conditions(bounds: Mapping[str, tuple[float, float]],
-                     symbols: Mapping[str, sp.Symbol]) -> tuple[tuple[sp.Expr, int], ...]:
+def bound_conditions(
+    bounds: Mapping[str, tuple[float, float]], symbols: Mapping[str, sp.Symbol]
+) -> tuple[tuple[sp.Expr, int], ...]:
     """The sign conditions that declared bounds put on symbols: ``p - lo > 0`` and ``p - hi < 0`` for each finite end.
 
     Strict conditions are exact here: a sign pattern holds on an open set, which meets a box ``[lo, hi]``
@@ -289,9 +294,13 @@ def bound_conditions(bounds: Mapping[str, tuple[float, float]],
     return tuple(out)
 
 
-def feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
-             memo: dict | None = None, *, bounds: Sequence[tuple[sp.Expr, int]] = ()
-             ) -> tuple[dict[str, float] | None, str, bool]:
+def feasible(
+    conds: Sequence[tuple[sp.Expr, int]],
+    rng: np.random.Generator,
+    memo: dict | None = None,
+    *,
+    bounds: Sequence[tuple[sp.Expr, int]] = (),
+) -> tuple[dict[str, float] | None, str, bool]:
     """A point where every ``(g, s)`` of ``conds`` has ``s * g > 0``.
 
     Parameters
@@ -351,13 +360,25 @@ def feasible(conds: Sequence[tuple[sp.Expr, int]], rng: np.random.Generator,
         why = f"the affine sign conditions contradict each other (linear program){within}"
         return w, "" if w is not None else why, True
     if _relaxation_empty(conds, memo):
-        return None, ("the sign conditions contradict each other, even with each monomial taken as an unknown of "
-                      f"its own (linear program){within}"), True
+        return (
+            None,
+            (
+                "the sign conditions contradict each other, even with each monomial taken as an unknown of "
+                f"its own (linear program){within}"
+            ),
+            True,
+        )
     w = _search(conds, syms, rng)
     if w is not None:
         return w, "", True
-    return None, (f"{UNDECIDED} where {_pattern_text(conds)} (random search at the scales of the constants, then "
-                  f"a local search) and none was proved impossible: the branch may be empty or not"), False
+    return (
+        None,
+        (
+            f"{UNDECIDED} where {_pattern_text(conds)} (random search at the scales of the constants, then "
+            f"a local search) and none was proved impossible: the branch may be empty or not"
+        ),
+        False,
+    )
 
 
 def _pattern_text(conds: Sequence[tuple[sp.Expr, int]]) -> str:

@@ -98,8 +98,9 @@ def _jump(g: sp.Expr, fa: Sequence[sp.Expr], fb: Sequence[sp.Expr], states: Sequ
     return [a - b for a, b in zip(fa, fb)]
 
 
-def _normal_jump(g: sp.Expr, fa: Sequence[sp.Expr], fb: Sequence[sp.Expr],
-                 states: Sequence[sp.Symbol]) -> list[sp.Expr]:
+def _normal_jump(
+    g: sp.Expr, fa: Sequence[sp.Expr], fb: Sequence[sp.Expr], states: Sequence[sp.Symbol]
+) -> list[sp.Expr]:
     """The difference to prove zero on ``g = 0`` for a jump along the surface only: ``grad g . (fa - fb)``."""
     return [sum((sp.diff(g, s) * (a - b) for s, a, b in zip(states, fa, fb)), sp.Integer(0))]
 
@@ -125,8 +126,9 @@ def _across(model: Model, switching: Sequence[sp.Expr], differences: _Difference
     return tuple(out)
 
 
-def _vanish_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model,
-                   differences: _Differences) -> bool:
+def _vanish_across(
+    g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model, differences: _Differences
+) -> bool:
     """Whether ``differences(g, fa, fb, states)`` of the branch fields on the two sides of ``g = 0`` (``g`` the
     ``j``-th switching function) vanish identically on ``g = 0`` for every pair of neighbouring branches."""
     sol = None
@@ -144,7 +146,7 @@ def _vanish_across(g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch
         return False
     pairs = 0
     for signs, b in by_signs.items():
-        other = by_signs.get(signs[:j] + (-1,) + signs[j + 1:]) if signs[j] > 0 else None
+        other = by_signs.get(signs[:j] + (-1,) + signs[j + 1 :]) if signs[j] > 0 else None
         if other is None:
             continue
         pairs += 1

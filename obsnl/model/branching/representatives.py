@@ -29,14 +29,22 @@ import numpy as np
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
+from obsnl.model.bounds.work import can_expand
 from obsnl.model.branching.branches import Branch, _gray, sides_of, smooth_branch
 from obsnl.model.branching.feasibility import feasible
-from obsnl.model.core import Model
 from obsnl.model.branching.switching import Switching, switching_structure
-from obsnl.model.bounds.work import can_expand
+from obsnl.model.core import Model
 
-__all__ = ["Representatives", "switching_groups", "groups_of", "representative_branches", "representatives_of",
-           "branch_of_pattern", "pattern_branch", "MAX_GROUP"]
+__all__ = [
+    "Representatives",
+    "switching_groups",
+    "groups_of",
+    "representative_branches",
+    "representatives_of",
+    "branch_of_pattern",
+    "pattern_branch",
+    "MAX_GROUP",
+]
 
 #: At most this many switching functions in one group (2**12 local patterns).
 MAX_GROUP = 12
@@ -75,14 +83,16 @@ class Representatives:
     def describe(self) -> str:
         """One sentence for an answer's notes: what was enumerated and what was argued."""
         sizes = [len(g) for g in self.groups]
-        return (f"{len(self.switching)} switching functions in {len(self.groups)} independent groups "
-                f"(sizes {sizes}); {len(self.branches)} representative branches analysed (a base pattern and "
-                f"each group's other patterns in turn; {len(self.merged)} merged as equal fields, "
-                f"{len(self.infeasible)} infeasible"
-                f"{f', {len(self.undecided)} undecided (no point found, none proved impossible)' if self.undecided else ''}"
-                f") instead of {self.patterns} sign patterns; per-branch "
-                f"verdicts are exact for these branches, a jointly observable verdict is exact, a jointly "
-                f"unobservable one over them is not decided")
+        return (
+            f"{len(self.switching)} switching functions in {len(self.groups)} independent groups "
+            f"(sizes {sizes}); {len(self.branches)} representative branches analysed (a base pattern and "
+            f"each group's other patterns in turn; {len(self.merged)} merged as equal fields, "
+            f"{len(self.infeasible)} infeasible"
+            f"{f', {len(self.undecided)} undecided (no point found, none proved impossible)' if self.undecided else ''}"
+            f") instead of {self.patterns} sign patterns; per-branch "
+            f"verdicts are exact for these branches, a jointly observable verdict is exact, a jointly "
+            f"unobservable one over them is not decided"
+        )
 
 
 def _expanded(e: sp.Expr) -> sp.Expr:
@@ -194,8 +204,10 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
     sw, groups = level.functions, groups_of(level)  # not nested: its declared functions are checked
     big = [g for g in groups if len(g) > MAX_GROUP]
     if big:
-        raise NotSupportedError(f"{len(big[0])} switching functions act on the same equations; at most "
-                                f"{MAX_GROUP} per group are supported. Smooth some of them (tanh(v/eps) for sign(v))")
+        raise NotSupportedError(
+            f"{len(big[0])} switching functions act on the same equations; at most "
+            f"{MAX_GROUP} per group are supported. Smooth some of them (tanh(v/eps) for sign(v))"
+        )
     base = [0] * len(sw)
     fixed: list[int] = []
     for g in groups:
@@ -229,9 +241,15 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
             continue
         fields[new] = f"r{len(branches)}"
         branches.append(smooth_branch(model, fields[new], sw, side.signs, new, side.witness))
-    return Representatives(branches=tuple(branches), switching=sw, groups=groups, patterns=2 ** len(sw),
-                           merged=tuple(merged), infeasible=tuple(d.signs for d in dropped if d.proved),
-                           undecided=tuple(d.signs for d in dropped if not d.proved))
+    return Representatives(
+        branches=tuple(branches),
+        switching=sw,
+        groups=groups,
+        patterns=2 ** len(sw),
+        merged=tuple(merged),
+        infeasible=tuple(d.signs for d in dropped if d.proved),
+        undecided=tuple(d.signs for d in dropped if not d.proved),
+    )
 
 
 def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, label: str | None = None) -> Branch:
@@ -269,8 +287,9 @@ def branch_of_pattern(model: Model, signs: tuple[int, ...], *, seed: int = 0, la
     return pattern_branch(model, switching_structure(model), signs, seed=seed, label=label)
 
 
-def pattern_branch(model: Model, level: Switching, signs: tuple[int, ...], *, seed: int = 0,
-                   label: str | None = None) -> Branch:
+def pattern_branch(
+    model: Model, level: Switching, signs: tuple[int, ...], *, seed: int = 0, label: str | None = None
+) -> Branch:
     """:func:`branch_of_pattern` of ``model`` whose switching structure ``level`` is already found.
 
     Parameters

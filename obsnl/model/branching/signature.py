@@ -74,29 +74,46 @@ class ModelSignature:
         from obsnl.model.branching.switching import expr_text, switching_functions
 
         return cls(
-            name=model.name, fingerprint=model.fingerprint,
-            states=tuple(s.name for s in model.states), parameters=tuple(s.name for s in model.parameters),
-            inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.output_names),
-            switching=tuple(switching) if switching is not None else tuple(
-                expr_text(g) for g in switching_functions(model)),
+            name=model.name,
+            fingerprint=model.fingerprint,
+            states=tuple(s.name for s in model.states),
+            parameters=tuple(s.name for s in model.parameters),
+            inputs=tuple(s.name for s in model.inputs),
+            outputs=tuple(model.output_names),
+            switching=tuple(switching)
+            if switching is not None
+            else tuple(expr_text(g) for g in switching_functions(model)),
         )
 
     @classmethod
     def from_dict(cls, data: Mapping[str, Any]) -> ModelSignature:
         """Read the signature keys of a branch table or a compiled model's ``to_dict()``."""
-        return cls(name=str(data["model"] if "model" in data else data["name"]),
-                   fingerprint=str(data["fingerprint"]),
-                   **{k: tuple(str(x) for x in data[k]) for k in ("states", "parameters", "inputs", "outputs",
-                                                                 "switching")})
+        return cls(
+            name=str(data["model"] if "model" in data else data["name"]),
+            fingerprint=str(data["fingerprint"]),
+            **{k: tuple(str(x) for x in data[k]) for k in ("states", "parameters", "inputs", "outputs", "switching")},
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready keys (``name`` is written as ``model`` by the branch table)."""
-        return {"name": self.name, "fingerprint": self.fingerprint, "states": list(self.states),
-                "parameters": list(self.parameters), "inputs": list(self.inputs), "outputs": list(self.outputs),
-                "switching": list(self.switching)}
+        return {
+            "name": self.name,
+            "fingerprint": self.fingerprint,
+            "states": list(self.states),
+            "parameters": list(self.parameters),
+            "inputs": list(self.inputs),
+            "outputs": list(self.outputs),
+            "switching": list(self.switching),
+        }
 
-    def check(self, other: ModelSignature, *, exact_switching: bool = False, fix: str = TABLE_FIX,
-              what: str = "the branch table") -> None:
+    def check(
+        self,
+        other: ModelSignature,
+        *,
+        exact_switching: bool = False,
+        fix: str = TABLE_FIX,
+        what: str = "the branch table",
+    ) -> None:
         """Refuse ``other`` unless it describes the same model as this signature, name included.
 
         Parameters
@@ -122,18 +139,24 @@ class ModelSignature:
         for key in ("states", "parameters", "inputs", "outputs"):
             mine, theirs = getattr(self, key), getattr(other, key)
             if tuple(mine) != tuple(theirs):
-                raise TableError(f"{what} was made for model {quote(self.name)} with {key} {quoted(mine)}, "
-                                 f"but this model has {quoted(theirs)}; {fix}")
+                raise TableError(
+                    f"{what} was made for model {quote(self.name)} with {key} {quoted(mine)}, "
+                    f"but this model has {quoted(theirs)}; {fix}"
+                )
         if len(self.switching) != len(other.switching):
-            raise TableError(f"{what} has {len(self.switching)} switching functions, the model "
-                             f"{len(other.switching)}; {fix}")
+            raise TableError(
+                f"{what} has {len(self.switching)} switching functions, the model {len(other.switching)}; {fix}"
+            )
         if exact_switching and tuple(self.switching) != tuple(other.switching):
-            raise TableError(f"{what}'s switching functions {quoted(self.switching)} differ from the compiled "
-                             f"model's {quoted(other.switching)}; compile with to_casadi(model, "
-                             f"switching=table.switching)")
+            raise TableError(
+                f"{what}'s switching functions {quoted(self.switching)} differ from the compiled "
+                f"model's {quoted(other.switching)}; compile with to_casadi(model, "
+                f"switching=table.switching)"
+            )
         if self.name and other.name and self.name != other.name:  # an empty name: not known, not compared
             raise TableError(f"{what} is for model {quote(self.name)}, not {quote(other.name)}; {fix}")
         if self.fingerprint != other.fingerprint:
-            raise TableError(f"{what}'s fingerprint {self.fingerprint[:12]}... does not match this model's "
-                             f"{other.fingerprint[:12]}... (the equations differ); {fix}")
-
+            raise TableError(
+                f"{what}'s fingerprint {self.fingerprint[:12]}... does not match this model's "
+                f"{other.fingerprint[:12]}... (the equations differ); {fix}"
+            )

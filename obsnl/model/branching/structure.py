@@ -63,8 +63,9 @@ class Branching:
         return pattern_branch(self.model, self.switching, tuple(int(s) for s in signs), seed=self.seed)
 
 
-def branching(model: Model, *, seed: int = 0, max_seconds: float | None = None,
-              enumerate_up_to: int = ENUMERATE_UP_TO) -> Branching:
+def branching(
+    model: Model, *, seed: int = 0, max_seconds: float | None = None, enumerate_up_to: int = ENUMERATE_UP_TO
+) -> Branching:
     """The branches of ``model``: every feasible one, or representatives past ``enumerate_up_to`` switching functions.
 
     Parameters

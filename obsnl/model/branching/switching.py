@@ -19,13 +19,21 @@ import sympy as sp
 
 from obsnl.errors import ModelError, NotSupportedError
 from obsnl.model.bounds.budget import check_time
+from obsnl.model.bounds.work import can_factor
 from obsnl.model.branching.feasibility import bound_conditions
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.reading.parse import shorten
-from obsnl.model.bounds.work import can_factor
 
-__all__ = ["Switching", "switching_structure", "expr_text", "switching_functions", "switching_of",
-           "innermost_nonsmooth", "resolve", "check_declared"]
+__all__ = [
+    "Switching",
+    "switching_structure",
+    "expr_text",
+    "switching_functions",
+    "switching_of",
+    "innermost_nonsmooth",
+    "resolve",
+    "check_declared",
+]
 
 
 def expr_text(g: sp.Expr) -> str:
@@ -119,8 +127,10 @@ def _factor_signs(g: sp.Expr) -> tuple[int, list[sp.Expr]]:
     just as correct (the branches are the sides of ``g = 0``) and only forgoes merging it with its factors.
     Inside a time budget (:func:`obsnl.model.bounds.budget.time_budget`) the budget is checked first.
     """
-    check_time(f"factoring the switching function {shorten(expr_text(g), 60)!r}",
-               "raise max_seconds=, or smooth some switching functions (tanh(g/eps) for sign(g))")
+    check_time(
+        f"factoring the switching function {shorten(expr_text(g), 60)!r}",
+        "raise max_seconds=, or smooth some switching functions (tanh(g/eps) for sign(g))",
+    )
     if not can_factor(g):
         s, fc = _canonical(g)
         return s, [fc]
@@ -179,8 +189,9 @@ def _factored(g: sp.Expr, memo: dict | None) -> tuple[int, list[sp.Expr]]:
     return c, list(factors)
 
 
-def switching_of(exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr],
-                  memo: dict | None = None) -> tuple[sp.Expr, ...]:
+def switching_of(
+    exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr], memo: dict | None = None
+) -> tuple[sp.Expr, ...]:
     """The distinct switching functions of the non-smooth nodes of ``exprs``, declared ones first.
 
     Each switching function is factored and reduced to a canonical form; those matching ``declared``
@@ -244,17 +255,33 @@ class Switching:
     bounds: tuple[tuple[sp.Expr, int], ...] = ()
 
     @staticmethod
-    def of(exprs: Sequence[sp.Expr], declared: Sequence[sp.Expr], memo: dict | None = None,
-           bounds: Sequence[tuple[sp.Expr, int]] = ()) -> Switching:
+    def of(
+        exprs: Sequence[sp.Expr],
+        declared: Sequence[sp.Expr],
+        memo: dict | None = None,
+        bounds: Sequence[tuple[sp.Expr, int]] = (),
+    ) -> Switching:
         """The switching structure of ``exprs``, ``declared`` fixing the order of the functions, ``bounds`` the
         declared bounds as sign conditions."""
         exprs, declared, memo, bounds = tuple(exprs), tuple(declared), {} if memo is None else memo, tuple(bounds)
         if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
             return Switching(exprs, (), (), False, declared, memo, bounds)
-        nested = any(a.has(*NONSMOOTH_FUNCTIONS) for e in exprs for node in sp.preorder_traversal(e)
-                     if isinstance(node, NONSMOOTH_FUNCTIONS) for a in _arguments(node))
-        return Switching(exprs, switching_of(exprs, declared, memo), tuple(innermost_nonsmooth(exprs)), nested,
-                         declared, memo, bounds)
+        nested = any(
+            a.has(*NONSMOOTH_FUNCTIONS)
+            for e in exprs
+            for node in sp.preorder_traversal(e)
+            if isinstance(node, NONSMOOTH_FUNCTIONS)
+            for a in _arguments(node)
+        )
+        return Switching(
+            exprs,
+            switching_of(exprs, declared, memo),
+            tuple(innermost_nonsmooth(exprs)),
+            nested,
+            declared,
+            memo,
+            bounds,
+        )
 
     def field_at(self, signs: Sequence[int]) -> list[sp.Expr]:
         """The expressions where the functions have ``signs``: every innermost non-smooth node replaced by its
@@ -268,8 +295,9 @@ class Switching:
         if self.nested:
             raise NotSupportedError("nested non-smooth functions: use obsnl.model.split_branches")
         index = {_canonical(f)[1]: j for j, f in enumerate(self.functions)}
-        return tuple(tuple(sorted({index[_canonical(f)[1]] for f in switching_of([e], (), self.memo)}))
-                     for e in self.exprs)
+        return tuple(
+            tuple(sorted({index[_canonical(f)[1]] for f in switching_of([e], (), self.memo)})) for e in self.exprs
+        )
 
 
 def switching_structure(model: Model) -> Switching:
@@ -287,8 +315,11 @@ def switching_structure(model: Model) -> Switching:
     >>> switching_structure(m.replace(equations={"x": "-a*sign(x + Abs(y))", "y": "-y"})).nested
     True
     """
-    level = Switching.of(list(model.rhs) + list(model.output_exprs), model.switching,
-                         bounds=bound_conditions(model.bounds, model.symbols))
+    level = Switching.of(
+        list(model.rhs) + list(model.output_exprs),
+        model.switching,
+        bounds=bound_conditions(model.bounds, model.symbols),
+    )
     if not level.nested:
         check_declared(model, level.functions)
     return level
@@ -323,9 +354,11 @@ def check_declared(model: Model, found: Sequence[sp.Expr]) -> None:
     for d in model.switching:
         if _canonical(d)[1] not in canon:
             have = ", ".join(expr_text(f) for f in found) or "none, the model is smooth"
-            raise ModelError(f"the declared switching function {expr_text(d)!r} does not occur in model "
-                             f"{model.name!r} (its switching functions: {have}); remove it from 'switching' or "
-                             f"correct it")
+            raise ModelError(
+                f"the declared switching function {expr_text(d)!r} does not occur in model "
+                f"{model.name!r} (its switching functions: {have}); remove it from 'switching' or "
+                f"correct it"
+            )
 
 
 # --------------------------------------------------------------------------- resolution in a branch

@@ -31,11 +31,24 @@ __all__ = ["ROLES", "ROLE_NAMES", "read_fields"]
 ROLES: tuple[str, ...] = ("states", "parameters", "inputs", "unknown_inputs", "known_constants")
 #: Each role (and ``outputs``) in words, singular.
 ROLE_NAMES: dict[str, str] = {
-    "states": "state", "parameters": "parameter", "inputs": "input",
-    "unknown_inputs": "unknown input", "known_constants": "known constant", "outputs": "output",
+    "states": "state",
+    "parameters": "parameter",
+    "inputs": "input",
+    "unknown_inputs": "unknown input",
+    "known_constants": "known constant",
+    "outputs": "output",
 }
-_TABLES = ("outputs", "initial_condition_values", "latex", "values", "guess", "definitions", "metadata", "intersample",
-           "bounds")
+_TABLES = (
+    "outputs",
+    "initial_condition_values",
+    "latex",
+    "values",
+    "guess",
+    "definitions",
+    "metadata",
+    "intersample",
+    "bounds",
+)
 #: How an input may behave between samples (:mod:`obsnl.estimation.intersample`).
 INTERSAMPLE_KINDS = ("zoh", "linear", "bandlimited")
 
@@ -87,12 +100,14 @@ def read_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
     for key in _TABLES:
         val = raw[key]
         if val is not None and not isinstance(val, Mapping):
-            raise ModelError(f"'{key}' must be a table {{name = value}}, got {type(val).__name__} "
-                             f"{shorten(repr(val), 40)}")
+            raise ModelError(
+                f"'{key}' must be a table {{name = value}}, got {type(val).__name__} {shorten(repr(val), 40)}"
+            )
     switching = raw["switching"]
     if switching is not None and not isinstance(switching, (str, sp.Basic, list, tuple)):
-        raise ModelError(f"'switching' must be a list of expressions, got {type(switching).__name__} "
-                         f"{shorten(repr(switching), 40)}")
+        raise ModelError(
+            f"'switching' must be a list of expressions, got {type(switching).__name__} {shorten(repr(switching), 40)}"
+        )
 
     # the size first, on the raw values: reading costs about 1 ms per expression (20 000 states took 13 s)
     check_model_size(out["name"], {r: raw[r] for r in ROLES}, raw["outputs"], raw["equations"])
@@ -111,8 +126,9 @@ def read_fields(raw: Mapping[str, Any]) -> dict[str, Any]:
         sw = [sw]
     out["switching"] = tuple(parse_expression(e, symbols, where="switching") for e in sw)
     out.update(_read_tables(raw, seen, outs, names["parameters"]))
-    out["unknown_input_derivatives"] = check_unknown_input_derivatives(raw["unknown_input_derivatives"],
-                                                                       allow_none=True)
+    out["unknown_input_derivatives"] = check_unknown_input_derivatives(
+        raw["unknown_input_derivatives"], allow_none=True
+    )
     out["intersample"] = _read_intersample(raw.get("intersample"), names["inputs"])
     out["bounds"] = _read_bounds(raw.get("bounds"), seen, out)
     return out
@@ -125,13 +141,13 @@ BOUND_WORDS = {"positive": (0.0, float("inf")), "negative": (float("-inf"), 0.0)
 def _bound_end(value: Any, where: str) -> float:
     """One end of a bound: a number, or ``"inf"``/``"-inf"`` (JSON has no infinity)."""
     if isinstance(value, bool) or getattr(getattr(value, "dtype", None), "kind", "") == "b":
-        raise ModelError(f"{where} is a boolean ({str(value).lower()}); write a number, \"-inf\" or \"inf\"")
+        raise ModelError(f'{where} is a boolean ({str(value).lower()}); write a number, "-inf" or "inf"')
     try:
         end = plain_float(value) if isinstance(value, str) else float(value)
     except (TypeError, ValueError, OverflowError):
-        raise ModelError(f"{where} must be a number, \"-inf\" or \"inf\", got {quote(value)}") from None
+        raise ModelError(f'{where} must be a number, "-inf" or "inf", got {quote(value)}') from None
     if end != end:
-        raise ModelError(f"{where} is not a number ({quote(value)}); write a number, \"-inf\" or \"inf\"")
+        raise ModelError(f'{where} is not a number ({quote(value)}); write a number, "-inf" or "inf"')
     return end
 
 
@@ -147,26 +163,36 @@ def _read_bounds(table: Any, seen: Mapping[str, str], read: Mapping[str, Any]) -
     for key, value in table.items():
         k = _key_name(key)
         if not isinstance(k, str) or k not in seen:
-            raise ModelError(f"bounds.{shorten(str(k), 40)}: not a declared symbol"
-                             f"{close_name(str(k), list(seen))}; name a parameter or a known constant")
+            raise ModelError(
+                f"bounds.{shorten(str(k), 40)}: not a declared symbol"
+                f"{close_name(str(k), list(seen))}; name a parameter or a known constant"
+            )
         if seen[k] not in ("parameters", "known_constants"):
-            raise ModelError(f"bounds.{k}: {k!r} is a {ROLE_NAMES[seen[k]]}; bounds are declared for parameters "
-                             f"and known constants only")
+            raise ModelError(
+                f"bounds.{k}: {k!r} is a {ROLE_NAMES[seen[k]]}; bounds are declared for parameters "
+                f"and known constants only"
+            )
         if isinstance(value, str) and value.strip().lower() in BOUND_WORDS:
             lo, hi = BOUND_WORDS[value.strip().lower()]
         elif isinstance(value, (list, tuple)) and len(value) == 2:
             lo, hi = _bound_end(value[0], f"bounds.{k}[0]"), _bound_end(value[1], f"bounds.{k}[1]")
         else:
-            raise ModelError(f"bounds.{k} is {quote(value)}; write [lo, hi] (an end may be \"-inf\" or \"inf\"), "
-                             f"\"positive\" or \"negative\"")
+            raise ModelError(
+                f'bounds.{k} is {quote(value)}; write [lo, hi] (an end may be "-inf" or "inf"), '
+                f'"positive" or "negative"'
+            )
         if not lo < hi:
-            raise ModelError(f"bounds.{k} is [{lo:g}, {hi:g}]: the lower end must be below the upper one (a value "
-                             f"known exactly is a known constant)")
+            raise ModelError(
+                f"bounds.{k} is [{lo:g}, {hi:g}]: the lower end must be below the upper one (a value "
+                f"known exactly is a known constant)"
+            )
         for table_name in ("values", "guess"):
             v = read[table_name].get(k)
             if v is not None and not lo <= v <= hi:
-                raise ModelError(f"{table_name}.{k} = {v:g} is outside bounds.{k} = [{lo:g}, {hi:g}]; correct the "
-                                 f"value or the bounds")
+                raise ModelError(
+                    f"{table_name}.{k} = {v:g} is outside bounds.{k} = [{lo:g}, {hi:g}]; correct the "
+                    f"value or the bounds"
+                )
         out[k] = (lo, hi)
     return _frozen(out)
 
@@ -180,8 +206,10 @@ def _read_intersample(table: Any, inputs: Sequence[str]) -> Mapping[str, str]:
         raise ModelError(f"'intersample' must be a table {{input: kind}}, got {type(table).__name__}")
     for k, v in table.items():
         if k not in inputs:
-            raise ModelError(f"intersample.{k}: {quote(k, 40)} is not an input of this model"
-                             f"{close_name(str(k), list(inputs))}; name an input")
+            raise ModelError(
+                f"intersample.{k}: {quote(k, 40)} is not an input of this model"
+                f"{close_name(str(k), list(inputs))}; name an input"
+            )
         if v not in INTERSAMPLE_KINDS:
             raise ModelError(f"intersample.{k} is {quote(v)}; use one of {', '.join(INTERSAMPLE_KINDS)}")
     return _frozen(dict(table))
@@ -225,8 +253,11 @@ def _read_names(raw: Mapping[str, Any]) -> tuple[dict[str, tuple[str, ...]], dic
     return names, seen
 
 
-def _read_outputs(outputs_in: Any, seen: Mapping[str, str], symbols: Mapping[str, sp.Symbol],
-                  ) -> tuple[dict[str, sp.Expr], dict[str, str]]:
+def _read_outputs(
+    outputs_in: Any,
+    seen: Mapping[str, str],
+    symbols: Mapping[str, sp.Symbol],
+) -> tuple[dict[str, sp.Expr], dict[str, str]]:
     """The outputs parsed, and the output names no right-hand side may use (name -> the refusal)."""
     if outputs_in is None:
         outputs_in = {}
@@ -247,13 +278,20 @@ def _read_outputs(outputs_in: Any, seen: Mapping[str, str], symbols: Mapping[str
             f"output {oname_s!r} appears on a right-hand side; outputs may appear only on the left-hand "
             f"side of their own definition (use the expression it stands for)"
         )
-    outs = {_key_name(oname): parse_expression(expr, symbols, where=f"output {_key_name(oname)}", reserved=reserved)
-            for oname, expr in outputs_in.items()}
+    outs = {
+        _key_name(oname): parse_expression(expr, symbols, where=f"output {_key_name(oname)}", reserved=reserved)
+        for oname, expr in outputs_in.items()
+    }
     return outs, reserved
 
 
-def _read_equations(eqs_in: Any, state_names: tuple[str, ...], seen: Mapping[str, str],
-                    symbols: Mapping[str, sp.Symbol], reserved: Mapping[str, str]) -> dict[sp.Symbol, sp.Expr]:
+def _read_equations(
+    eqs_in: Any,
+    state_names: tuple[str, ...],
+    seen: Mapping[str, str],
+    symbols: Mapping[str, sp.Symbol],
+    reserved: Mapping[str, str],
+) -> dict[sp.Symbol, sp.Expr]:
     """One right-hand side per state, parsed, in state order."""
     if not isinstance(eqs_in, Mapping):
         raise ModelError("'equations' must map each state to its right-hand side, e.g. {x = \"v\"}")
@@ -278,13 +316,16 @@ def _read_equations(eqs_in: Any, state_names: tuple[str, ...], seen: Mapping[str
             )
     for sn in state_names:
         if sn not in eqs_by_name:
-            raise ModelError(f"state {sn!r} has no equation; add equations.{sn} = \"...\" (its time derivative)")
-    return {symbols[sn]: parse_expression(eqs_by_name[sn], symbols, where=f"equation of {sn}", reserved=reserved)
-            for sn in state_names}
+            raise ModelError(f'state {sn!r} has no equation; add equations.{sn} = "..." (its time derivative)')
+    return {
+        symbols[sn]: parse_expression(eqs_by_name[sn], symbols, where=f"equation of {sn}", reserved=reserved)
+        for sn in state_names
+    }
 
 
-def _read_initial_conditions(raw: Mapping[str, Any], state_names: tuple[str, ...],
-                             symbols: Mapping[str, sp.Symbol]) -> dict[str, Any]:
+def _read_initial_conditions(
+    raw: Mapping[str, Any], state_names: tuple[str, ...], symbols: Mapping[str, sp.Symbol]
+) -> dict[str, Any]:
     """The states with a known initial value, and the values given (over the symbols that are not states)."""
     kic = name_list(raw["known_initial_conditions"], "known_initial_conditions")
     for n in kic:
@@ -306,14 +347,16 @@ def _read_initial_conditions(raw: Mapping[str, Any], state_names: tuple[str, ...
     return {"known_initial_conditions": tuple(symbols[n] for n in kic), "initial_condition_values": _frozen(icv)}
 
 
-def _read_tables(raw: Mapping[str, Any], seen: Mapping[str, str], outs: Mapping[str, sp.Expr],
-                 parameters: tuple[str, ...]) -> dict[str, Mapping]:
+def _read_tables(
+    raw: Mapping[str, Any], seen: Mapping[str, str], outs: Mapping[str, sp.Expr], parameters: tuple[str, ...]
+) -> dict[str, Mapping]:
     """The LaTeX names, the numbers (values, guesses), the definitions and the metadata, frozen."""
     latex = dict(raw["latex"] or {})
     for k, v in latex.items():
         if k not in seen and k not in outs:
-            raise ModelError(f"latex name given for undeclared symbol {quote(k, 40)}"
-                             f"{close_name(k, list(seen) + list(outs))}")
+            raise ModelError(
+                f"latex name given for undeclared symbol {quote(k, 40)}{close_name(k, list(seen) + list(outs))}"
+            )
         problem = latex_problem(v) if isinstance(v, str) else "must be a string"
         if problem:
             raise ModelError(f"latex.{k}: {problem}")
@@ -328,15 +371,20 @@ def _read_tables(raw: Mapping[str, Any], seen: Mapping[str, str], outs: Mapping[
         numbers: dict[str, float] = {}
         for k, v in dict(table).items():
             if k not in seen:
-                raise ModelError(f"{key} gives a number for undeclared symbol {quote(k, 40)}{close_name(k, list(seen))}")
+                raise ModelError(
+                    f"{key} gives a number for undeclared symbol {quote(k, 40)}{close_name(k, list(seen))}"
+                )
             if key == "guess" and k not in parameters:
                 raise ModelError(f"guess.{k}: only parameters have guesses; remove it")
             if isinstance(v, bool) or getattr(getattr(v, "dtype", None), "kind", "") == "b":  # float(True) is 1.0
-                raise ModelError(f"{key}.{k} is a boolean ({str(v).lower()}), not a number; write a number "
-                                 f"(e.g. {k} = 1.0)")
-            if isinstance(v, int) and abs(v) >= 10 ** MAX_DIGITS:  # as a literal in an expression (and unprintable)
-                raise ModelError(f"{key}.{k} is a number with more than {MAX_DIGITS} digits; write it with an "
-                                 f"exponent (e.g. 1.5e20) or scale the model")
+                raise ModelError(
+                    f"{key}.{k} is a boolean ({str(v).lower()}), not a number; write a number (e.g. {k} = 1.0)"
+                )
+            if isinstance(v, int) and abs(v) >= 10**MAX_DIGITS:  # as a literal in an expression (and unprintable)
+                raise ModelError(
+                    f"{key}.{k} is a number with more than {MAX_DIGITS} digits; write it with an "
+                    f"exponent (e.g. 1.5e20) or scale the model"
+                )
             try:
                 fv = plain_float(v) if isinstance(v, str) else float(v)  # a quoted "1_0" is not 10
             except (TypeError, ValueError, OverflowError):

@@ -29,7 +29,7 @@ _GREEK = (
 ALLOWED_COMMANDS: frozenset[str] = frozenset(
     _GREEK.split()
     + "mathrm mathit mathbf mathsf mathcal mathbb boldsymbol bar hat tilde dot ddot vec check breve widehat "
-      "widetilde overline underline prime ell infty partial nabla star ast dagger circ cdot operatorname".split()
+    "widetilde overline underline prime ell infty partial nabla star ast dagger circ cdot operatorname".split()
 )
 _ALLOWED_SYMBOLS = {",", ";", "!", " ", "_", "|"}  # \, \; \! \  \_ \| (spacing and escapes)
 _PLAIN = re.compile(r"[A-Za-z0-9 _^{}',.+\-()|/*\\]*")
@@ -60,8 +60,10 @@ def latex_problem(text: str) -> str | None:
         return f"longer than {_MAX_LENGTH} characters"
     if not _PLAIN.fullmatch(text):
         bad = next(c for c in text if not _PLAIN.fullmatch(c))
-        return (f"the character {bad!r} is not allowed in a LaTeX name (letters, digits, spaces and "
-                f"_ ^ {{ }} ' , . + - ( ) | / * and allowed control words only)")
+        return (
+            f"the character {bad!r} is not allowed in a LaTeX name (letters, digits, spaces and "
+            f"_ ^ {{ }} ' , . + - ( ) | / * and allowed control words only)"
+        )
     depth = 0
     for c in text:
         depth += {"{": 1, "}": -1}.get(c, 0)
@@ -75,8 +77,10 @@ def latex_problem(text: str) -> str | None:
             continue
         if len(word) == 1 and word in _ALLOWED_SYMBOLS:
             continue
-        return (f"the control word \\{word} is not allowed in a LaTeX name; use Greek letters, accents and "
-                f"\\mathrm{{...}} only")
+        return (
+            f"the control word \\{word} is not allowed in a LaTeX name; use Greek letters, accents and "
+            f"\\mathrm{{...}} only"
+        )
     return None
 
 
@@ -117,7 +121,7 @@ def default_latex(name: str) -> str:
     """
     tex = sp.latex(sp.Symbol(name))
     m = _BASE.match(tex)
-    return f"\\mathit{{{m.group(0)}}}{tex[m.end():]}" if m else tex
+    return f"\\mathit{{{m.group(0)}}}{tex[m.end() :]}" if m else tex
 
 
 def _shape(tex: str) -> str:

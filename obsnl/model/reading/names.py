@@ -37,17 +37,23 @@ from obsnl.model.reading.parse import FUNCTION_NAMES, PARSER_NAMES, nfkc_problem
 __all__ = ["check_name", "check_text", "check_distinct", "skeleton", "name_list", "close_name", "LOOK_ALIKE"]
 
 #: Cyrillic and Greek letters that look like a Latin letter, and that letter.
-LOOK_ALIKE: dict[str, str] = dict(zip(
-    "аеорсухіјѕԁһԛԝӏАВЕКМНОРСТХУІЈЅ" "ονϲϳΑΒΕΖΗΙΚΜΝΟΡΤΥΧ",
-    "aeopcyxijsdhqwlABEKMHOPCTXYIJS" "ovcjABEZHIKMNOPTYX",
-))
+LOOK_ALIKE: dict[str, str] = dict(
+    zip(
+        "аеорсухіјѕԁһԛԝӏАВЕКМНОРСТХУІЈЅονϲϳΑΒΕΖΗΙΚΜΝΟΡΤΥΧ",
+        "aeopcyxijsdhqwlABEKMHOPCTXYIJSovcjABEZHIKMNOPTYX",
+    )
+)
 
 _NAME = re.compile(r"[^\W\d]\w*")
 
 #: The keys that declare symbols of the expressions, each in words (an output's name is never a symbol).
 _SYMBOL_ROLES: dict[str, str] = {
-    "states": "state", "parameters": "parameter", "inputs": "input", "unknown_inputs": "unknown input",
-    "known_constants": "known constant", "known_initial_conditions": "state",
+    "states": "state",
+    "parameters": "parameter",
+    "inputs": "input",
+    "unknown_inputs": "unknown input",
+    "known_constants": "known constant",
+    "known_initial_conditions": "state",
 }
 
 
@@ -81,8 +87,9 @@ def check_text(value: str, key: str, *, multiline: bool = False) -> None:
     try:
         value.encode("utf-8")
     except UnicodeEncodeError:
-        raise ModelError(f"'{key}' contains a lone surrogate ({shorten(ascii(value), 40)}); "
-                         f"write it as valid Unicode text") from None
+        raise ModelError(
+            f"'{key}' contains a lone surrogate ({shorten(ascii(value), 40)}); write it as valid Unicode text"
+        ) from None
     bad = next((c for c in value if _control(c, multiline)), None)
     if bad is not None:
         kind = "a line break" if bad in "\n\r\x0b\x0c\x85\u2028\u2029" else "a control character"
@@ -129,18 +136,22 @@ def check_name(name: str, key: str) -> None:
     if problem:
         raise ModelError(f"'{key}': {problem}; two spellings of one name are refused")
     if not name.isidentifier() or not _NAME.fullmatch(name):
-        raise ModelError(f"'{key}': {quote(name)} is not a valid name (letters, digits and '_', not starting with "
-                         f"a digit)")
+        raise ModelError(
+            f"'{key}': {quote(name)} is not a valid name (letters, digits and '_', not starting with a digit)"
+        )
     if keyword.iskeyword(name):
         raise ModelError(f"'{key}': {name!r} is a Python keyword; rename it (e.g. {name + '_'!r})")
     if name.startswith("__"):
         raise ModelError(f"'{key}': names starting with '__' are not allowed ({quote(name)})")
     if name in PARSER_NAMES:
-        raise ModelError(f"'{key}': {name!r} is the name of a class the expression reader uses; rename it "
-                         f"(e.g. {name + '_'!r})")
+        raise ModelError(
+            f"'{key}': {name!r} is the name of a class the expression reader uses; rename it (e.g. {name + '_'!r})"
+        )
     if name in FUNCTION_NAMES and key in _SYMBOL_ROLES:  # the symbol would shadow the function: exp(x) fails
-        raise ModelError(f"name {name!r} is a function of the model language ({name}(...)); rename the "
-                         f"{_SYMBOL_ROLES[key]} (e.g. {name + '_'!r})")
+        raise ModelError(
+            f"name {name!r} is a function of the model language ({name}(...)); rename the "
+            f"{_SYMBOL_ROLES[key]} (e.g. {name + '_'!r})"
+        )
 
 
 def skeleton(name: str) -> str:
@@ -181,8 +192,10 @@ def check_distinct(names: Iterable[str]) -> None:
         if k in seen and seen[k] != n:
             other = seen[k]
             scripts = sorted({unicodedata.name(c, "?").split()[0].title() for c in n + other if ord(c) > 127})
-            raise ModelError(f"{ascii(other)} and {ascii(n)} ({', '.join(scripts)}) look alike; rename one of them "
-                             f"(two names that look alike are refused)")
+            raise ModelError(
+                f"{ascii(other)} and {ascii(n)} ({', '.join(scripts)}) look alike; rename one of them "
+                f"(two names that look alike are refused)"
+            )
         seen[k] = n
 
 

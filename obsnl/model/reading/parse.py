@@ -26,14 +26,27 @@ from sympy.parsing.sympy_parser import (
 
 from obsnl.errors import ParseError
 from obsnl.model.bounds.budget import check_time
-from obsnl.model.bounds.textsize import (
-    MAX_DEPTH, MAX_DIGITS, MAX_EXPONENT, MAX_LENGTH, MAX_NODES, check_expression_size, quote, shorten,
-)
 from obsnl.model.bounds.regroup import regroup_sums
+from obsnl.model.bounds.textsize import (
+    MAX_DIGITS,
+    MAX_LENGTH,
+    check_expression_size,
+    quote,
+    shorten,
+)
 from obsnl.model.bounds.work import MAX_EXACT_DIGITS, exact_digits
 
-__all__ = ["ALLOWED_FUNCTIONS", "FUNCTION_NAMES", "PARSER_NAMES", "make_symbol", "parse_expression",
-           "check_expression_size", "nfkc_problem", "shorten", "quote"]  # the last three are defined in obsnl.model.bounds.textsize
+__all__ = [
+    "ALLOWED_FUNCTIONS",
+    "FUNCTION_NAMES",
+    "PARSER_NAMES",
+    "make_symbol",
+    "parse_expression",
+    "check_expression_size",
+    "nfkc_problem",
+    "shorten",
+    "quote",
+]  # the last three are defined in obsnl.model.bounds.textsize
 
 #: Functions a model expression may use, by the name written in the file.
 ALLOWED_FUNCTIONS: dict[str, Any] = {
@@ -61,12 +74,21 @@ ALLOWED_FUNCTIONS: dict[str, Any] = {
 _CONSTANTS: dict[str, Any] = {"pi": sp.pi}
 
 #: Logical helpers for Piecewise conditions.
-_LOGIC: dict[str, Any] = {"And": sp.And, "Or": sp.Or, "Not": sp.Not, "Eq": sp.Eq, "Ne": sp.Ne, "True": sp.true, "False": sp.false}
+_LOGIC: dict[str, Any] = {
+    "And": sp.And,
+    "Or": sp.Or,
+    "Not": sp.Not,
+    "Eq": sp.Eq,
+    "Ne": sp.Ne,
+    "True": sp.true,
+    "False": sp.false,
+}
 
 #: Every name an expression can call (``exp(x)``, ``Eq(v, 0)`` in a Piecewise condition): a declared symbol of
 #: that name would shadow the function, and ``exp(...)`` would then call a symbol.
 FUNCTION_NAMES: frozenset[str] = frozenset(ALLOWED_FUNCTIONS) | frozenset(
-    k for k, v in _LOGIC.items() if isinstance(v, type))
+    k for k, v in _LOGIC.items() if isinstance(v, type)
+)
 
 # The names parse_expr's generated code needs; nothing else from sympy is visible.
 _PARSER_GLOBALS: dict[str, Any] = {
@@ -82,6 +104,7 @@ _PARSER_GLOBALS: dict[str, Any] = {
 PARSER_NAMES: frozenset[str] = frozenset(k for k in _PARSER_GLOBALS if not k.startswith("__"))
 
 _TRANSFORMS = standard_transformations + (convert_xor, rationalize)
+
 
 def nfkc_problem(name: str) -> str | None:
     """Why ``name`` cannot be a name, if its NFKC form differs from it (Python reads identifiers in NFKC:
@@ -128,13 +151,17 @@ def _check_names_token_level(text: str, where: str) -> set[str]:
         if tok.type == tokenize.COMMENT:
             raise ParseError(f"{where}: '#' in {shorten(text)!r} would cut the expression; remove it")
         if tok.type == tokenize.NUMBER and sum(c.isdigit() for c in tok.string) > MAX_DIGITS:
-            raise ParseError(f"{where}: a number with more than {MAX_DIGITS} digits in {shorten(text)!r}; "
-                             f"write it with an exponent or scale the model")
+            raise ParseError(
+                f"{where}: a number with more than {MAX_DIGITS} digits in {shorten(text)!r}; "
+                f"write it with an exponent or scale the model"
+            )
         if tok.type == tokenize.NUMBER and "e" in tok.string.lower() and not tok.string.lower().startswith("0x"):
             mantissa, _, exponent = tok.string.lower().rstrip("j").partition("e")
             if exponent.lstrip("+-").replace("_", "").isdigit() and abs(int(exponent.replace("_", ""))) > MAX_DIGITS:
-                raise ParseError(f"{where}: the number {shorten(tok.string, 30)!r} is beyond 1e{MAX_DIGITS} or below "
-                                 f"1e-{MAX_DIGITS}; rescale the model")
+                raise ParseError(
+                    f"{where}: the number {shorten(tok.string, 30)!r} is beyond 1e{MAX_DIGITS} or below "
+                    f"1e-{MAX_DIGITS}; rescale the model"
+                )
         if tok.type == tokenize.NAME:
             names.add(tok.string)
             problem = nfkc_problem(tok.string)
@@ -148,7 +175,9 @@ def _check_names_token_level(text: str, where: str) -> set[str]:
             if tok.string.startswith("__"):
                 raise ParseError(f"{where}: the name {tok.string!r} in {shorten(text)!r} is not allowed; rename it")
         elif tok.type == tokenize.OP and tok.string in ("=", ":=", ";", "[", "]", "{", "}", "@", "."):
-            raise ParseError(f"{where}: unexpected {tok.string!r} in {shorten(text)!r}; write a single sympy expression")
+            raise ParseError(
+                f"{where}: unexpected {tok.string!r} in {shorten(text)!r}; write a single sympy expression"
+            )
         elif tok.type == tokenize.STRING:
             raise ParseError(f"{where}: string literal in {shorten(text)!r}; write a sympy expression, not a string")
     return names
@@ -203,8 +232,9 @@ def parse_expression(
         if isinstance(text, float) and not (text == text and abs(text) != float("inf")):
             raise ParseError(f"{where}: the number {text!r} is not finite")
         if isinstance(text, int) and text.bit_length() > MAX_DIGITS * 3.33:
-            raise ParseError(f"{where}: a number with more than {MAX_DIGITS} digits; write it with an exponent "
-                             f"or scale the model")
+            raise ParseError(
+                f"{where}: a number with more than {MAX_DIGITS} digits; write it with an exponent or scale the model"
+            )
         return sp.nsimplify(text, rational=True) if isinstance(text, float) else sp.Integer(text)
     if isinstance(text, sp.Basic):
         return _adopt_sympy(text, symbols, where=where, allow_relations=allow_relations, reserved=reserved)
@@ -214,8 +244,9 @@ def parse_expression(
     if not stripped:
         raise ParseError(f"{where}: the expression is empty")
     if len(stripped) > MAX_LENGTH:
-        raise ParseError(f"{where}: the expression is longer than {MAX_LENGTH} characters; split it with "
-                         f"intermediate states")
+        raise ParseError(
+            f"{where}: the expression is longer than {MAX_LENGTH} characters; split it with intermediate states"
+        )
     check_time(f"reading the {where} ({shorten(stripped, 40)!r})", "raise max_seconds=")
     used = _check_names_token_level(stripped, where)
     grouped = regroup_sums(stripped)  # a long sum as a balanced tree: linear parsing, no recursion limit
@@ -237,8 +268,9 @@ def parse_expression(
     except RecursionError:
         raise ParseError(f"{where}: {shorten(stripped)!r} is nested too deeply; simplify it") from None
     except Exception as exc:  # noqa: BLE001 - the door: anything sympy raises becomes our error
-        raise ParseError(f"{where}: cannot read {shorten(stripped)!r}: {type(exc).__name__}: "
-                         f"{shorten(str(exc))}") from None
+        raise ParseError(
+            f"{where}: cannot read {shorten(stripped)!r}: {type(exc).__name__}: {shorten(str(exc))}"
+        ) from None
     return _adopt_sympy(expr, symbols, where=where, allow_relations=allow_relations, text=stripped, reserved=reserved)
 
 
@@ -283,9 +315,12 @@ def _adopt_sympy(
         if expr.has(bad):
             raise ParseError(f"{where}: {shown()!r} evaluates to {bad} (a division by zero or an infinity)")
     if expr.has(sp.I):
-        hint = ("a log, sqrt or fractional power of a negative constant" if "I" in symbols
-                else "a log, sqrt or fractional power of a negative constant, or the imaginary unit I; declare a "
-                     "symbol 'I' if you meant a variable")
+        hint = (
+            "a log, sqrt or fractional power of a negative constant"
+            if "I" in symbols
+            else "a log, sqrt or fractional power of a negative constant, or the imaginary unit I; declare a "
+            "symbol 'I' if you meant a variable"
+        )
         raise ParseError(f"{where}: {shown()!r} is complex-valued ({hint}); obsnl models are real")
     problem = _folded_constant_problem(expr) or _never_real_problem(expr)
     if problem:
@@ -320,14 +355,18 @@ def _folded_constant_problem(expr: sp.Basic) -> str | None:
         if n == 0 or not n.is_finite:
             continue
         if exact_digits(n) > MAX_EXACT_DIGITS:  # counted on the bits: printing it may be refused by Python
-            return (f"holds an exact constant of {exact_digits(n):.0f} digits (after multiplying its numbers out), "
-                    f"over {MAX_EXACT_DIGITS}; obsnl computes exactly, with rationals: round the constants, e.g. "
-                    f"write the value as a decimal of at most {MAX_DIGITS} digits")
+            return (
+                f"holds an exact constant of {exact_digits(n):.0f} digits (after multiplying its numbers out), "
+                f"over {MAX_EXACT_DIGITS}; obsnl computes exactly, with rationals: round the constants, e.g. "
+                f"write the value as a decimal of at most {MAX_DIGITS} digits"
+            )
         p, q = (abs(int(n.p)), int(n.q)) if n.is_Rational else sp.Rational(abs(n)).as_numer_denom()
-        if p > q * 10 ** MAX_DIGITS or p * 10 ** MAX_DIGITS < q:
+        if p > q * 10**MAX_DIGITS or p * 10**MAX_DIGITS < q:
             size = len(str(p)) - len(str(q))
-            return (f"holds the constant 1e{size:+d} (after multiplying its numbers out), beyond 1e{MAX_DIGITS} or "
-                    f"below 1e-{MAX_DIGITS}; rescale the model")
+            return (
+                f"holds the constant 1e{size:+d} (after multiplying its numbers out), beyond 1e{MAX_DIGITS} or "
+                f"below 1e-{MAX_DIGITS}; rescale the model"
+            )
     return None
 
 
@@ -341,11 +380,15 @@ def _never_real_problem(expr: sp.Basic) -> str | None:
     for pw in expr.atoms(sp.Pow):
         b, e = pw.base, pw.exp
         if e.is_Number and not e.is_integer and small(b) and b.is_negative:
-            return (f"is not real for any real value of its symbols: {shorten(str(pw), 40)!r} takes a root of "
-                    f"{shorten(str(b), 40)!r}, which is negative everywhere; obsnl models are real")
+            return (
+                f"is not real for any real value of its symbols: {shorten(str(pw), 40)!r} takes a root of "
+                f"{shorten(str(b), 40)!r}, which is negative everywhere; obsnl models are real"
+            )
     for lg in expr.atoms(sp.log):
         a = lg.args[0]
         if small(a) and a.is_nonpositive:
-            return (f"is not real for any real value of its symbols: {shorten(str(lg), 40)!r} takes the log of "
-                    f"{shorten(str(a), 40)!r}, which is never positive; obsnl models are real")
+            return (
+                f"is not real for any real value of its symbols: {shorten(str(lg), 40)!r} takes the log of "
+                f"{shorten(str(a), 40)!r}, which is never positive; obsnl models are real"
+            )
     return None

@@ -12,11 +12,14 @@ from __future__ import annotations
 
 from typing import Any, Literal, overload
 
-from obsnl.errors import ModelError
 from obsnl._text import quote
+from obsnl.errors import ModelError
 
 __all__ = [
-    "ARBITRARY", "DERIVATIVES_MARGIN", "check_unknown_input_derivatives", "max_unknown_input_derivatives",
+    "ARBITRARY",
+    "DERIVATIVES_MARGIN",
+    "check_unknown_input_derivatives",
+    "max_unknown_input_derivatives",
 ]
 
 #: The value of ``unknown_input_derivatives`` for unknown inputs that are any function of time.
@@ -68,7 +71,7 @@ def check_unknown_input_derivatives(value: Any, *, allow_none: bool = False) -> 
     if isinstance(value, int) and not isinstance(value, bool) and 0 <= value <= 10**6:
         return value
     raise ModelError(
-        f"unknown_input_derivatives must be \"arbitrary\" (any unknown input) or a non-negative integer K "
+        f'unknown_input_derivatives must be "arbitrary" (any unknown input) or a non-negative integer K '
         f"(polynomial unknown inputs with K non-zero derivatives, STRIKE-GOLDD's nnzDerW), got {quote(value)}"
     )
 

@@ -27,13 +27,13 @@ from dataclasses import replace
 import sympy as sp
 
 from obsnl.errors import ObsnlError
+from obsnl.model.bounds.work import can_expand
 from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
-from obsnl.model.bounds.work import can_expand
-from obsnl.observability.joint.result import JointResult
+from obsnl.observability.certificates.generators import Symmetry
 from obsnl.observability.certificates.proofs import ANY, is_zero, verify_generator, weight
 from obsnl.observability.certificates.symmetry import symmetries
-from obsnl.observability.certificates.generators import Symmetry
+from obsnl.observability.joint.result import JointResult
 
 __all__ = ["shared_symmetries", "certify_by_symmetry", "undecided_beyond_visits"]
 
@@ -54,8 +54,9 @@ def _keeps_surface(gen: Symmetry, comp: dict[sp.Symbol, sp.Expr], g: sp.Expr) ->
     return not sp.fraction(ratio)[1].free_symbols
 
 
-def shared_symmetries(model: Model, branches: Sequence[Branch], *, seed: int = 0,
-                      kinds: Sequence[str] | None = None) -> tuple[Symmetry, ...]:
+def shared_symmetries(
+    model: Model, branches: Sequence[Branch], *, seed: int = 0, kinds: Sequence[str] | None = None
+) -> tuple[Symmetry, ...]:
     """Generators found in the first branch that are symmetries of every branch and keep every surface.
 
     Parameters
@@ -106,8 +107,9 @@ def shared_symmetries(model: Model, branches: Sequence[Branch], *, seed: int = 0
     return tuple(out)
 
 
-def certify_by_symmetry(result: JointResult, model: Model, branches: Sequence[Branch], *,
-                        seed: int = 0, kinds: Sequence[str] | None = None) -> JointResult:
+def certify_by_symmetry(
+    result: JointResult, model: Model, branches: Sequence[Branch], *, seed: int = 0, kinds: Sequence[str] | None = None
+) -> JointResult:
     """Move the variables that a shared symmetry moves from ``inconclusive`` to ``unobservable``.
 
     Parameters
@@ -142,9 +144,13 @@ def certify_by_symmetry(result: JointResult, model: Model, branches: Sequence[Br
     assumptions = dict(result.assumptions)
     assumptions["symmetry_certificates"] = [str(g) for g in gens]
     reason = result.reason if left else ""
-    return replace(result, unobservable=tuple(v for v in names if v in unobs) + tuple(
-        v for v in order if v in unobs and v not in names), inconclusive=left, reason=reason,
-        assumptions=assumptions)
+    return replace(
+        result,
+        unobservable=tuple(v for v in names if v in unobs) + tuple(v for v in order if v in unobs and v not in names),
+        inconclusive=left,
+        reason=reason,
+        assumptions=assumptions,
+    )
 
 
 def undecided_beyond_visits(result: JointResult, why: str) -> JointResult:
@@ -165,9 +171,15 @@ def undecided_beyond_visits(result: JointResult, why: str) -> JointResult:
     """
     if not result.unobservable:
         return result
-    reason = (f"unobservable over the visited branches only ({why}); other sign patterns were not visited, "
-              f"so {', '.join(result.unobservable)} are not decided for the model")
+    reason = (
+        f"unobservable over the visited branches only ({why}); other sign patterns were not visited, "
+        f"so {', '.join(result.unobservable)} are not decided for the model"
+    )
     pending = set(result.unobservable) | set(result.inconclusive)
     order = list(result.observable) + list(result.unobservable) + list(result.inconclusive)
-    return replace(result, unobservable=(), inconclusive=tuple(v for v in order if v in pending),
-                   reason="; ".join(r for r in (result.reason, reason) if r))
+    return replace(
+        result,
+        unobservable=(),
+        inconclusive=tuple(v for v in order if v in pending),
+        reason="; ".join(r for r in (result.reason, reason) if r),
+    )

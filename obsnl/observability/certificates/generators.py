@@ -50,7 +50,9 @@ class Symmetry:
         for k, v in self.components.items():
             neg = not isinstance(v, sp.Add) and v.could_extract_minus_sign()
             a = -v if neg else v
-            body = f"d/d{k}" if a == 1 else (f"({sp.sstr(a)})*d/d{k}" if isinstance(a, sp.Add) else f"{sp.sstr(a)}*d/d{k}")
+            body = (
+                f"d/d{k}" if a == 1 else (f"({sp.sstr(a)})*d/d{k}" if isinstance(a, sp.Add) else f"{sp.sstr(a)}*d/d{k}")
+            )
             out += (" - " if neg else " + ") + body if out else ("-" if neg else "") + body
         return out or "0"
 
@@ -62,8 +64,11 @@ class Symmetry:
         return block(f"{self.kind} {self} (verified: {self.verification})")
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "components": {k: sp.sstr(v) for k, v in self.components.items()},
-                "verification": self.verification}
+        return {
+            "kind": self.kind,
+            "components": {k: sp.sstr(v) for k, v in self.components.items()},
+            "verification": self.verification,
+        }
 
 
 @dataclass(frozen=True)
@@ -105,10 +110,15 @@ class Symmetries:
 
     def __repr__(self) -> str:
         kinds = {g.kind: len(self.of_kind(g.kind)) for g in self.generators}
-        return one_line("Symmetries", f"model={self.model!r}", f"dimension={self.dimension}",
-                        f"generators={len(self.generators)}" + (f" ({', '.join(f'{n} {k}' for k, n in kinds.items())})"
-                                                               if kinds else ""),
-                        f"missing={self.missing}", f"unobservable={names(self.unobservable, 6)!r}")
+        return one_line(
+            "Symmetries",
+            f"model={self.model!r}",
+            f"dimension={self.dimension}",
+            f"generators={len(self.generators)}"
+            + (f" ({', '.join(f'{n} {k}' for k, n in kinds.items())})" if kinds else ""),
+            f"missing={self.missing}",
+            f"unobservable={names(self.unobservable, 6)!r}",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: how many unobservable directions, how many have a closed form, which.
@@ -124,16 +134,26 @@ class Symmetries:
         """
         n = self.dimension
         found = "every one generated (complete)" if self.complete else f"{self.missing} without a closed form"
-        return block(f"{self.model}: {n} unobservable direction{'s' if n != 1 else ''}, {found}",
-                     f"unobservable: {names(self.unobservable, 12)}",
-                     *(f"{g.kind} {g}" for g in self.generators[:8]),
-                     f"... and {len(self.generators) - 8} more generators" if len(self.generators) > 8 else "")
+        return block(
+            f"{self.model}: {n} unobservable direction{'s' if n != 1 else ''}, {found}",
+            f"unobservable: {names(self.unobservable, 12)}",
+            *(f"{g.kind} {g}" for g in self.generators[:8]),
+            f"... and {len(self.generators) - 8} more generators" if len(self.generators) > 8 else "",
+        )
 
     def of_kind(self, kind: str) -> tuple[Symmetry, ...]:
         return tuple(g for g in self.generators if g.kind == kind)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"model": self.model, "dimension": self.dimension, "missing": self.missing,
-                "complete": self.complete, "unobservable": list(self.unobservable),
-                "exponents": list(self.exponents), "generators": [g.to_dict() for g in self.generators],
-                "seconds": self.seconds, "seed": self.seed, "notes": list(self.notes)}
+        return {
+            "model": self.model,
+            "dimension": self.dimension,
+            "missing": self.missing,
+            "complete": self.complete,
+            "unobservable": list(self.unobservable),
+            "exponents": list(self.exponents),
+            "generators": [g.to_dict() for g in self.generators],
+            "seconds": self.seconds,
+            "seed": self.seed,
+            "notes": list(self.notes),
+        }

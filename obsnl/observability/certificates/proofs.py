@@ -15,10 +15,10 @@ from collections.abc import Mapping, Sequence
 import sympy as sp
 
 from obsnl.errors import NotSupportedError
+from obsnl.model.bounds.work import can_expand
 from obsnl.model.branching.branches import Branch
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.reading.parse import make_symbol
-from obsnl.model.bounds.work import can_expand
 
 __all__ = ["ANY", "weight", "is_zero", "same", "canonical", "verify_generator", "verify_reparametrization"]
 
@@ -97,9 +97,9 @@ def weight(expr: sp.Expr, weights: Mapping[sp.Symbol, sp.Expr]) -> sp.Expr | _An
 
 
 # --------------------------------------------------------------------------- canonical form
-_TPow = sp.Function("_tpow")   # _tpow(f, m) = f**m, f a factor, m a monomial exponent (or a rational)
-_TExp = sp.Function("_texp")   # _texp(m) = exp(m)
-_TLog = sp.Function("_tlog")   # _tlog(f) = log(f)
+_TPow = sp.Function("_tpow")  # _tpow(f, m) = f**m, f a factor, m a monomial exponent (or a rational)
+_TExp = sp.Function("_texp")  # _texp(m) = exp(m)
+_TLog = sp.Function("_tlog")  # _tlog(f) = log(f)
 
 
 def canonical(expr: sp.Expr) -> sp.Expr:
@@ -116,7 +116,9 @@ def canonical(expr: sp.Expr) -> sp.Expr:
 @functools.lru_cache(maxsize=8192)
 def _canonical(expr: sp.Expr) -> sp.Expr:
     if expr.has(*NONSMOOTH_FUNCTIONS):
-        raise NotSupportedError(f"{expr} is not smooth; split the model into branches first (obsnl.model.split_branches)")
+        raise NotSupportedError(
+            f"{expr} is not smooth; split the model into branches first (obsnl.model.split_branches)"
+        )
 
     def walk(e: sp.Basic) -> sp.Basic:
         if e.is_Atom:
@@ -134,8 +136,9 @@ def _canonical(expr: sp.Expr) -> sp.Expr:
         if isinstance(e, (sp.tanh, sp.sinh, sp.cosh)):
             return walk(e.rewrite(sp.exp))
         if isinstance(e, sp.Function) and not isinstance(e, sp.core.function.AppliedUndef):
-            raise NotSupportedError(f"{type(e).__name__} is not supported by the modular evaluator; "
-                                    f"rewrite it with exp/log or powers")
+            raise NotSupportedError(
+                f"{type(e).__name__} is not supported by the modular evaluator; rewrite it with exp/log or powers"
+            )
         return e.func(*args)
 
     return walk(expr)
@@ -261,8 +264,9 @@ def verify_generator(model: Model, kind: str, comp: Mapping[sp.Symbol, sp.Expr])
     return all(is_zero(sum(c * sp.diff(e, v) for v, c in comp.items())) for e in h)
 
 
-def verify_reparametrization(new: Model, mapping: Mapping[str, sp.Expr], old_branches: Sequence[Branch],
-                             new_branches: Sequence[Branch]) -> bool:
+def verify_reparametrization(
+    new: Model, mapping: Mapping[str, sp.Expr], old_branches: Sequence[Branch], new_branches: Sequence[Branch]
+) -> bool:
     """Branch by branch: ``L_f(phi_s) == f~_s(phi)`` for every new state and ``h == h~(phi)``.
 
     Parameters

@@ -42,11 +42,11 @@ from obsnl.algebra.modp import (
 from obsnl.errors import NotSupportedError
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
+from obsnl.observability.certificates.generators import Symmetries, Symmetry
+from obsnl.observability.certificates.proofs import verify_generator
 from obsnl.observability.engines.decompose import output_reachable
 from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
 from obsnl.observability.limits import check_limits_once
-from obsnl.observability.certificates.proofs import verify_generator
-from obsnl.observability.certificates.generators import Symmetries, Symmetry
 
 __all__ = ["symmetries", "branch_symmetries"]
 
@@ -61,9 +61,9 @@ _MAX_UNKNOWNS = 2500
 class _Setup:
     model: Model
     J: ModularJacobian
-    moved: list[sp.Symbol]          # unknowns allowed to move (unobservable)
-    basis_vars: list[sp.Symbol]     # variables of the ansatz monomials
-    exps: list[sp.Symbol]           # exponent parameters allowed in weights
+    moved: list[sp.Symbol]  # unknowns allowed to move (unobservable)
+    basis_vars: list[sp.Symbol]  # variables of the ansatz monomials
+    exps: list[sp.Symbol]  # exponent parameters allowed in weights
     samples: list[tuple[dict, list]] = field(default_factory=list)  # (point, [(value, grad)] of f and h)
     exprs: Expressions | None = None  # f and h, compiled once
 
@@ -78,11 +78,14 @@ def _reduced(model: Model, live: set[sp.Symbol]) -> Model:
     keep = {s.name for s in live} | {s.name for s in model.inputs + model.known_constants} | set(model.outputs)
     tables = {t: {k: v for k, v in getattr(model, t).items() if k in keep} for t in _NAMED_TABLES}
     return model.replace(
-        **tables, definitions={},
-        states=[s.name for s in states], parameters=[p.name for p in model.parameters if p in live],
+        **tables,
+        definitions={},
+        states=[s.name for s in states],
+        parameters=[p.name for p in model.parameters if p in live],
         equations={s.name: model.equations[s] for s in states},
         known_initial_conditions=[s.name for s in model.known_initial_conditions if s in live],
-        initial_condition_values={s.name: v for s, v in model.initial_condition_values.items() if s in live})
+        initial_condition_values={s.name: v for s, v in model.initial_condition_values.items() if s in live},
+    )
 
 
 def _exponent_parameters(model: Model, observable: set[sp.Symbol]) -> list[sp.Symbol]:
@@ -115,8 +118,9 @@ def _monomials(vars_: Sequence[sp.Symbol], degree: int) -> list[tuple[sp.Symbol,
     return out
 
 
-def _solve_stage(st: _Setup, kind: str, rng: random.Random, degree: int = 1, with_exps: bool = False
-                 ) -> list[dict[sp.Symbol, sp.Expr]] | None:
+def _solve_stage(
+    st: _Setup, kind: str, rng: random.Random, degree: int = 1, with_exps: bool = False
+) -> list[dict[sp.Symbol, sp.Expr]] | None:
     """Solutions of the determining equations for one ansatz, as {symbol: xi} dicts over Q (None: too many
     unknowns for the ansatz)."""
     m = st.model
@@ -159,7 +163,7 @@ def _solve_stage(st: _Setup, kind: str, rng: random.Random, degree: int = 1, wit
                         si = sidx.get(s)
                         if si is not None:
                             rest = fvals[si]
-                            for t in b[:i] + b[i + 1:]:
+                            for t in b[:i] + b[i + 1 :]:
                                 rest = rest * pt[t] % P
                             l_ += rest
                         val = val * pt[s] % P
@@ -176,7 +180,7 @@ def _solve_stage(st: _Setup, kind: str, rng: random.Random, degree: int = 1, wit
             if i < ns:
                 for j in range(len(U)):
                     if uidx[j] == i:
-                        row[j * nb:(j + 1) * nb] = [(a - b) % P for a, b in zip(row[j * nb:(j + 1) * nb], lf[j])]
+                        row[j * nb : (j + 1) * nb] = [(a - b) % P for a, b in zip(row[j * nb : (j + 1) * nb], lf[j])]
             rows.append(row)
     sols = []
     for vec in nullspace_mod_p(rows, len(unknowns)):
@@ -245,8 +249,10 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
     """
     t0 = time.perf_counter()
     if not model.is_smooth:
-        raise NotSupportedError(f"model {model.name!r} is not smooth; pass one branch at a time "
-                                f"([b.model for b in obsnl.model.split_branches(model)])")
+        raise NotSupportedError(
+            f"model {model.name!r} is not smooth; pass one branch at a time "
+            f"([b.model for b in obsnl.model.split_branches(model)])"
+        )
     if degree not in (1, 2):
         raise NotSupportedError(f"degree must be 1 or 2, got {degree!r}")
     check_limits_once(model)  # the size the dense Jacobian and series can hold, before any work (once per call)
@@ -266,8 +272,10 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
         kept.append(Symmetry("decoupled", {v.name: sp.Integer(1)}, "dependency graph"))
         kept_vals.append([int(u == v) for u in J.variables])
     if dead:
-        notes.append(f"{', '.join(v.name for v in dead)} cannot influence any output (dependency graph); "
-                     f"the search ran on the output-relevant submodel")
+        notes.append(
+            f"{', '.join(v.name for v in dead)} cannot influence any output (dependency graph); "
+            f"the search ran on the output-relevant submodel"
+        )
     if d > len(kept):
         sub = _reduced(model, live) if dead else model
         st = _Setup(sub, J, [v for v in moved if v in live], list(sub.states) + list(sub.parameters), exps)
@@ -299,10 +307,22 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
                         break
     missing = d - len(kept)
     if missing:
-        notes.append(f"{missing} unobservable direction(s) have no closed form in the "
-                     f"{'quadratic' if degree == 2 else 'affine'} ansatz")
-    return Symmetries(model.name, tuple(kept), d, missing, tuple(v.name for v in moved), tuple(e.name for e in exps),
-                      time.perf_counter() - t0, seed, tuple(notes), J)
+        notes.append(
+            f"{missing} unobservable direction(s) have no closed form in the "
+            f"{'quadratic' if degree == 2 else 'affine'} ansatz"
+        )
+    return Symmetries(
+        model.name,
+        tuple(kept),
+        d,
+        missing,
+        tuple(v.name for v in moved),
+        tuple(e.name for e in exps),
+        time.perf_counter() - t0,
+        seed,
+        tuple(notes),
+        J,
+    )
 
 
 def branch_symmetries(model: Model, *, seed: int = 0, degree: int = 1) -> list[tuple[Branch, Symmetries | None]]:
@@ -324,5 +344,7 @@ def branch_symmetries(model: Model, *, seed: int = 0, degree: int = 1) -> list[t
     list of (Branch, Symmetries or None)
         Each branch with the generators found on it (None: its feasibility is undecided).
     """
-    return [(b, None if b.undecided else symmetries(b.model, seed=seed + i, degree=degree))
-            for i, b in enumerate(split_branches(model, seed=seed, undecided=True))]
+    return [
+        (b, None if b.undecided else symmetries(b.model, seed=seed + i, degree=degree))
+        for i, b in enumerate(split_branches(model, seed=seed, undecided=True))
+    ]

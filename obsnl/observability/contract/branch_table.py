@@ -17,10 +17,10 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from obsnl.errors import TableError
-from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
 from obsnl._text import quoted
+from obsnl.errors import TableError
 from obsnl.model.bounds.textsize import quote, shorten
+from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
 
 if TYPE_CHECKING:  # the estimators read this module: the result class is named, not imported
     from obsnl.observability.results import AnalysisResult
@@ -53,8 +53,10 @@ def _check_sizes(data: Mapping[str, Any]) -> None:
         value = data.get(key)
         cap = MAX_TABLE_BRANCHES if key == "branches" else MAX_TABLE_NAMES
         if isinstance(value, (list, tuple)) and len(value) > cap:
-            raise TableError(f"the branch table lists {len(value)} {key}, more than the {cap} a table of an obsnl "
-                             f"analysis can have; {TABLE_FIX}")
+            raise TableError(
+                f"the branch table lists {len(value)} {key}, more than the {cap} a table of an obsnl "
+                f"analysis can have; {TABLE_FIX}"
+            )
 
 
 @dataclass(frozen=True)
@@ -122,13 +124,17 @@ class BranchTable:
             )
         _check_sizes(data)  # before the schema: validating 60 000 branches took 11.5 s
         if "method" in data and data["method"] not in TABLE_METHODS:  # else check_table would run "auto"
-            raise TableError(f"the branch table's method {quote(data['method'])} is not an analysis method of obsnl; "
-                             f"known: {', '.join(TABLE_METHODS)}; {TABLE_FIX}")
+            raise TableError(
+                f"the branch table's method {quote(data['method'])} is not an analysis method of obsnl; "
+                f"known: {', '.join(TABLE_METHODS)}; {TABLE_FIX}"
+            )
         try:
             jsonschema.validate(dict(data), schema())
         except jsonschema.ValidationError as exc:
             where = "/".join(str(p) for p in exc.absolute_path) or "(top level)"
-            raise TableError(f"branch table fails its schema at {shorten(where, 80)}: {shorten(exc.message, 200)}") from None
+            raise TableError(
+                f"branch table fails its schema at {shorten(where, 80)}: {shorten(exc.message, 200)}"
+            ) from None
         table = cls(
             model=data["model"],
             fingerprint=data["fingerprint"],
@@ -142,11 +148,16 @@ class BranchTable:
             probability=data["probability"],
             branches=tuple(
                 BranchEntry(
-                    label=b["label"], guard=b["guard"], signs=tuple(b["signs"]),
-                    observable=tuple(b["observable"]), unobservable=tuple(b["unobservable"]),
-                    absent=tuple(b["absent"]), identifiable_parameters=tuple(b["identifiable_parameters"]),
+                    label=b["label"],
+                    guard=b["guard"],
+                    signs=tuple(b["signs"]),
+                    observable=tuple(b["observable"]),
+                    unobservable=tuple(b["unobservable"]),
+                    absent=tuple(b["absent"]),
+                    identifiable_parameters=tuple(b["identifiable_parameters"]),
                     unidentifiable_parameters=tuple(b["unidentifiable_parameters"]),
-                    transcendence_degree=b["transcendence_degree"], verdict=b["verdict"],
+                    transcendence_degree=b["transcendence_degree"],
+                    verdict=b["verdict"],
                 )
                 for b in data["branches"]
             ),
@@ -173,8 +184,11 @@ class BranchTable:
             "probability": self.probability,
             "branches": [b.to_dict() for b in self.branches],
             "overall": {"observable": list(self.overall_observable), "unobservable": list(self.overall_unobservable)},
-            **({"joint": {k: list(self.joint[k]) for k in ("observable", "unobservable", "inconclusive")}}
-               if self.joint is not None else {}),
+            **(
+                {"joint": {k: list(self.joint[k]) for k in ("observable", "unobservable", "inconclusive")}}
+                if self.joint is not None
+                else {}
+            ),
             **({"assumptions": dict(self.assumptions)} if self.assumptions else {}),
         }
 
@@ -208,20 +222,29 @@ class BranchTable:
         variables = set(self.states) | set(self.parameters)
         params = set(self.parameters)
         labels = [b.label for b in self.branches]
-        if self.probability is not None and not (isinstance(self.probability, (int, float))
-                                                 and 0.0 <= self.probability <= 1.0):
+        if self.probability is not None and not (
+            isinstance(self.probability, (int, float)) and 0.0 <= self.probability <= 1.0
+        ):
             raise TableError(f"probability {quote(self.probability)} is not a number in [0, 1]; {TABLE_FIX}")
         if len(set(self.switching)) != len(self.switching) or len(self.branches) > 2 ** len(self.switching):
-            raise TableError(f"{len(self.branches)} branches for {len(self.switching)} switching functions; {TABLE_FIX}")
+            raise TableError(
+                f"{len(self.branches)} branches for {len(self.switching)} switching functions; {TABLE_FIX}"
+            )
         obs_union = set().union(*(b.observable for b in self.branches)) if self.branches else set()
         unobs_all = set(variables).intersection(*(b.unobservable for b in self.branches)) if self.branches else set()
-        if not set(self.overall_observable) <= obs_union or not set(self.overall_unobservable) <= unobs_all or (
-                set(self.overall_observable) & set(self.overall_unobservable)):
-            raise TableError(f"'overall' contradicts the branches (observable must be observable in some branch, "
-                             f"unobservable in every branch); {TABLE_FIX}")
+        if (
+            not set(self.overall_observable) <= obs_union
+            or not set(self.overall_unobservable) <= unobs_all
+            or (set(self.overall_observable) & set(self.overall_unobservable))
+        ):
+            raise TableError(
+                f"'overall' contradicts the branches (observable must be observable in some branch, "
+                f"unobservable in every branch); {TABLE_FIX}"
+            )
         if len(set(labels)) != len(labels):
-            raise TableError(f"branch labels repeat: {quoted(sorted(x for x, n in Counter(labels).items() if n > 1))}; "
-                             f"{TABLE_FIX}")
+            raise TableError(
+                f"branch labels repeat: {quoted(sorted(x for x, n in Counter(labels).items() if n > 1))}; {TABLE_FIX}"
+            )
         patterns = set()
         for b in self.branches:
             where = f"branch {quote(b.label)}"
@@ -232,21 +255,27 @@ class BranchTable:
             if b.signs in patterns:
                 raise TableError(f"{where} repeats the sign pattern of another branch; {TABLE_FIX}")
             patterns.add(b.signs)
-            for key in ("observable", "unobservable", "absent", "identifiable_parameters",
-                        "unidentifiable_parameters"):
+            for key in ("observable", "unobservable", "absent", "identifiable_parameters", "unidentifiable_parameters"):
                 unknown = set(getattr(b, key)) - variables
                 if unknown:
-                    raise TableError(f"{where}: {key} names {quoted(sorted(unknown))}, which are not states or "
-                                     f"parameters; {TABLE_FIX}")
+                    raise TableError(
+                        f"{where}: {key} names {quoted(sorted(unknown))}, which are not states or "
+                        f"parameters; {TABLE_FIX}"
+                    )
             if not 0 <= b.transcendence_degree <= len(variables):
-                raise TableError(f"{where}: transcendence degree {b.transcendence_degree} is not between 0 and the "
-                                 f"number of states and parameters ({len(variables)}); {TABLE_FIX}")
+                raise TableError(
+                    f"{where}: transcendence degree {b.transcendence_degree} is not between 0 and the "
+                    f"number of states and parameters ({len(variables)}); {TABLE_FIX}"
+                )
             if b.verdict == "observable" and b.unobservable:
-                raise TableError(f"{where}: verdict 'observable' with unobservable variables {quoted(b.unobservable)}; "
-                                 f"{TABLE_FIX}")
+                raise TableError(
+                    f"{where}: verdict 'observable' with unobservable variables {quoted(b.unobservable)}; {TABLE_FIX}"
+                )
             if set(b.observable) & set(b.unobservable):
-                raise TableError(f"{where}: {quoted(sorted(set(b.observable) & set(b.unobservable)))} are both "
-                                 f"observable and unobservable; {TABLE_FIX}")
+                raise TableError(
+                    f"{where}: {quoted(sorted(set(b.observable) & set(b.unobservable)))} are both "
+                    f"observable and unobservable; {TABLE_FIX}"
+                )
             if not set(b.absent) <= set(b.unobservable):
                 raise TableError(f"{where}: absent variables must also be unobservable; {TABLE_FIX}")
             if set(b.identifiable_parameters) | set(b.unidentifiable_parameters) != params or (
@@ -262,12 +291,26 @@ class BranchTable:
     @property
     def signature(self) -> ModelSignature:
         """The signature of the model the table was made for."""
-        return ModelSignature(name=self.model, fingerprint=self.fingerprint, states=tuple(self.states),
-                              parameters=tuple(self.parameters), inputs=tuple(self.inputs),
-                              outputs=tuple(self.outputs), switching=tuple(self.switching))
+        return ModelSignature(
+            name=self.model,
+            fingerprint=self.fingerprint,
+            states=tuple(self.states),
+            parameters=tuple(self.parameters),
+            inputs=tuple(self.inputs),
+            outputs=tuple(self.outputs),
+            switching=tuple(self.switching),
+        )
 
-    def check_model(self, *, states: Sequence[str], parameters: Sequence[str], inputs: Sequence[str],
-                    outputs: Sequence[str], switching_count: int, fingerprint: str) -> None:
+    def check_model(
+        self,
+        *,
+        states: Sequence[str],
+        parameters: Sequence[str],
+        inputs: Sequence[str],
+        outputs: Sequence[str],
+        switching_count: int,
+        fingerprint: str,
+    ) -> None:
         """Refuse the table unless it was made for this model (names, order, fingerprint).
 
         A keyword form of ``table.signature.check(ModelSignature.of(model))``.
@@ -277,8 +320,15 @@ class BranchTable:
         TableError
             Naming the first difference and how to regenerate the table.
         """
-        other = ModelSignature(name="", fingerprint=fingerprint, states=tuple(states), parameters=tuple(parameters),
-                               inputs=tuple(inputs), outputs=tuple(outputs), switching=("",) * switching_count)
+        other = ModelSignature(
+            name="",
+            fingerprint=fingerprint,
+            states=tuple(states),
+            parameters=tuple(parameters),
+            inputs=tuple(inputs),
+            outputs=tuple(outputs),
+            switching=("",) * switching_count,
+        )
         self.signature.check(other, fix=TABLE_FIX)
 
     @classmethod
@@ -301,22 +351,46 @@ class BranchTable:
         entries = []
         for b in result.branches:
             if not b.signs and sig.switching:
-                raise TableError(f"branch {quote(b.label)} carries no sign pattern; analyse the model with obsnl.analyze")
-            entries.append(BranchEntry(
-                label=b.label, guard=b.guard, signs=tuple(b.signs),
-                observable=tuple(b.observable), unobservable=tuple(b.unobservable), absent=tuple(b.absent),
-                identifiable_parameters=tuple(p for p in params if p not in b.unobservable),
-                unidentifiable_parameters=tuple(p for p in params if p in b.unobservable),
-                transcendence_degree=b.transcendence_degree, verdict=b.verdict.value,
-            ))
+                raise TableError(
+                    f"branch {quote(b.label)} carries no sign pattern; analyse the model with obsnl.analyze"
+                )
+            entries.append(
+                BranchEntry(
+                    label=b.label,
+                    guard=b.guard,
+                    signs=tuple(b.signs),
+                    observable=tuple(b.observable),
+                    unobservable=tuple(b.unobservable),
+                    absent=tuple(b.absent),
+                    identifiable_parameters=tuple(p for p in params if p not in b.unobservable),
+                    unidentifiable_parameters=tuple(p for p in params if p in b.unobservable),
+                    transcendence_degree=b.transcendence_degree,
+                    verdict=b.verdict.value,
+                )
+            )
         table = cls(
-            model=sig.name, fingerprint=sig.fingerprint, states=sig.states, parameters=params,
-            inputs=sig.inputs, outputs=sig.outputs, switching=sig.switching, method=result.method,
-            seed=result.seed, probability=result.probability, branches=tuple(entries),
-            overall_observable=result.overall_observable, overall_unobservable=result.overall_unobservable,
-            joint=(None if joint is None else
-                   {"observable": joint.observable, "unobservable": joint.unobservable,
-                    "inconclusive": joint.inconclusive}),
+            model=sig.name,
+            fingerprint=sig.fingerprint,
+            states=sig.states,
+            parameters=params,
+            inputs=sig.inputs,
+            outputs=sig.outputs,
+            switching=sig.switching,
+            method=result.method,
+            seed=result.seed,
+            probability=result.probability,
+            branches=tuple(entries),
+            overall_observable=result.overall_observable,
+            overall_unobservable=result.overall_unobservable,
+            joint=(
+                None
+                if joint is None
+                else {
+                    "observable": joint.observable,
+                    "unobservable": joint.unobservable,
+                    "inconclusive": joint.inconclusive,
+                }
+            ),
             assumptions=dict(getattr(result, "assumptions", None) or {}) or None,
         )
         return cls.from_dict(table.to_dict())
@@ -351,8 +425,10 @@ def read_branch_table(path: str | Path) -> BranchTable:
     p = Path(path)
     try:
         if p.is_dir():
-            raise TableError(f"branch table {str(p)!r} is a folder; give the .json file "
-                             f"(`obsnl analyze MODEL --format json-table -o FILE.json` writes one)")
+            raise TableError(
+                f"branch table {str(p)!r} is a folder; give the .json file "
+                f"(`obsnl analyze MODEL --format json-table -o FILE.json` writes one)"
+            )
         if not p.is_file():
             raise TableError(f"branch table {str(p)!r} does not exist")
         data = parse_text(p.read_bytes().decode("utf-8"), kind="json", where=f"branch table {str(p)!r}")

@@ -14,9 +14,9 @@ import sympy as sp
 
 from obsnl._text import quote, quoted
 from obsnl.errors import ObsnlError, TableError
+from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
 from obsnl.model.core import Model
 from obsnl.model.reading.parse import parse_expression
-from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
 from obsnl.observability.contract.branch_table import BranchEntry, BranchTable
 from obsnl.observability.results import AnalysisResult
 
@@ -95,27 +95,33 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     result = analyze(model, method=method, seed=table.seed if table.seed is not None else 0, max_seconds=max_seconds)
     fresh = BranchTable.from_result(result)
     if len(table.switching) != len(fresh.switching):
-        raise TableError(f"the table has {len(table.switching)} switching functions, the model "
-                         f"{len(fresh.switching)}; {TABLE_FIX}")
+        raise TableError(
+            f"the table has {len(table.switching)} switching functions, the model {len(fresh.switching)}; {TABLE_FIX}"
+        )
     for mine, theirs in zip(table.switching, fresh.switching):
         if not _same(mine, theirs, model):
             how = "the opposite orientation of" if _flipped(mine, theirs, model) else "not"
-            raise TableError(f"the table's switching function {quote(mine)} is {how} the model's {quote(theirs)}; "
-                             f"{TABLE_FIX}")
+            raise TableError(
+                f"the table's switching function {quote(mine)} is {how} the model's {quote(theirs)}; {TABLE_FIX}"
+            )
     ours = {b.signs: b for b in table.branches}
     for b in fresh.branches:
         if b.signs not in ours:
-            raise TableError(f"the branch table lacks the branch with signs {list(b.signs)} ({b.guard}) that the "
-                             f"model has; {TABLE_FIX}")
+            raise TableError(
+                f"the branch table lacks the branch with signs {list(b.signs)} ({b.guard}) that the "
+                f"model has; {TABLE_FIX}"
+            )
     known = {b.signs for b in fresh.branches}
     for b in table.branches:
         if b.signs not in known:
-            raise TableError(f"branch {quote(b.label)} has signs {list(b.signs)}, which no point of the model has; "
-                             f"{TABLE_FIX}")
+            raise TableError(
+                f"branch {quote(b.label)} has signs {list(b.signs)}, which no point of the model has; {TABLE_FIX}"
+            )
     for b in fresh.branches:
         _compare(ours[b.signs], b, model)
-    if set(table.overall_observable) != set(fresh.overall_observable) or \
-            set(table.overall_unobservable) != set(fresh.overall_unobservable):
+    if set(table.overall_observable) != set(fresh.overall_observable) or set(table.overall_unobservable) != set(
+        fresh.overall_unobservable
+    ):
         raise TableError(f"the table's 'overall' differs from the model's union over branches; {TABLE_FIX}")
     _compare_joint(table, fresh)
     return result
@@ -130,28 +136,41 @@ def _compare_joint(table: BranchTable, fresh: BranchTable) -> None:
         raise TableError(f"the table has a 'joint' key the fresh analysis cannot confirm; {TABLE_FIX}")
     undecided = sorted(set(fresh.joint.get("inconclusive", ())) - set(table.joint.get("inconclusive", ())))
     if undecided:
-        raise TableError(f"the fresh joint verdict is inconclusive for {quoted(undecided)}, so the table's 'joint' key cannot "
-                         f"be confirmed; analyse the model with a longer time limit")
+        raise TableError(
+            f"the fresh joint verdict is inconclusive for {quoted(undecided)}, so the table's 'joint' key cannot "
+            f"be confirmed; analyse the model with a longer time limit"
+        )
     for key in ("observable", "unobservable", "inconclusive"):
         mine, theirs = set(table.joint.get(key, ())), set(fresh.joint.get(key, ()))
         if mine != theirs:
             extra, missing = sorted(mine - theirs), sorted(theirs - mine)
-            what = ", ".join(x for x in (f"lacks {quoted(missing)}" if missing else "", f"adds {quoted(extra)}" if extra
-                                          else "") if x)
-            raise TableError(f"the table's joint verdict contradicts the model's: joint.{key} is {quoted(sorted(mine))} in "
-                             f"the table, which {what}; {TABLE_FIX}")
+            what = ", ".join(
+                x
+                for x in (f"lacks {quoted(missing)}" if missing else "", f"adds {quoted(extra)}" if extra else "")
+                if x
+            )
+            raise TableError(
+                f"the table's joint verdict contradicts the model's: joint.{key} is {quoted(sorted(mine))} in "
+                f"the table, which {what}; {TABLE_FIX}"
+            )
 
 
 def _compare(mine: BranchEntry, fresh: BranchEntry, model: Model) -> None:
     where = f"branch {quote(mine.label)} (signs {list(mine.signs)})"
     if fresh.verdict == "inconclusive":
-        raise TableError(f"{where}: the fresh analysis of the model is inconclusive there, so the table cannot be "
-                         f"confirmed; analyse the model with a longer time limit")
+        raise TableError(
+            f"{where}: the fresh analysis of the model is inconclusive there, so the table cannot be "
+            f"confirmed; analyse the model with a longer time limit"
+        )
     if not _same(mine.guard, fresh.guard, model, relation=True):
-        raise TableError(f"{where}: guard {quote(mine.guard)} contradicts its signs (the model gives {quote(fresh.guard)}); "
-                         f"{TABLE_FIX}")
+        raise TableError(
+            f"{where}: guard {quote(mine.guard)} contradicts its signs (the model gives {quote(fresh.guard)}); "
+            f"{TABLE_FIX}"
+        )
     for key in ("verdict", "observable", "unobservable", "absent", "transcendence_degree"):
         a, b = getattr(mine, key), getattr(fresh, key)
         if (set(a) != set(b)) if isinstance(a, tuple) else a != b:
-            raise TableError(f"{where}: {key} is {quoted(a) if isinstance(a, tuple) else quote(a)} in the table but "
-                             f"{quoted(b) if isinstance(b, tuple) else quote(b)} for the model; {TABLE_FIX}")
+            raise TableError(
+                f"{where}: {key} is {quoted(a) if isinstance(a, tuple) else quote(a)} in the table but "
+                f"{quoted(b) if isinstance(b, tuple) else quote(b)} for the model; {TABLE_FIX}"
+            )

@@ -119,7 +119,7 @@ def decompose(model: Model) -> Decomposition:
         return y
 
     for i, y1 in enumerate(outs):
-        for y2 in outs[i + 1:]:
+        for y2 in outs[i + 1 :]:
             if any(role.get(v) in shared_roles for v in anc[y1] & anc[y2]):
                 group[find(y1)] = find(y2)
     by_root: dict[str, list[str]] = {}
@@ -148,8 +148,10 @@ def decompose(model: Model) -> Decomposition:
     if len(comps) > 1:
         report.append(
             f"{len(comps)} independent blocks analysed separately: "
-            + "; ".join(f"[{', '.join(c)}] <- {', '.join(s.name for s in b.states + b.parameters)}"
-                        for c, b in zip(comps, blocks))
+            + "; ".join(
+                f"[{', '.join(c)}] <- {', '.join(s.name for s in b.states + b.parameters)}"
+                for c, b in zip(comps, blocks)
+            )
         )
     return Decomposition(unreachable=unreachable, blocks=tuple(blocks), report=tuple(report))
 
@@ -219,6 +221,11 @@ def _submodel(model: Model, outputs: list[str], names: set[str], index: int | No
         known_constants=keep(model.known_constants),
         known_initial_conditions=tuple(s for s in model.known_initial_conditions if s in sset),
         initial_condition_values={s: v for s, v in model.initial_condition_values.items() if s in sset},
-        description="", source="", switching=(), latex={}, values={}, definitions={}, metadata={},
+        description="",
+        source="",
+        switching=(),
+        latex={},
+        values={},
+        definitions={},
+        metadata={},
     )
-

@@ -11,6 +11,7 @@ from obsnl.errors import AnalysisError, ModelError
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
 from obsnl.observability.limits import check_analysis_limits
+
 __all__ = ["METHODS", "Checked", "resolve_unknown_input_derivatives"]
 
 #: The engines that ``method=`` names (``auto`` picks one per branch).
@@ -25,8 +26,15 @@ class Checked(NamedTuple):
     variables: tuple[str, ...]
 
 
-def _check(model: Model, method: str, seed: int | None, max_seconds: float | None, prob: float,
-           unknown_input_derivatives: int | str | None, input_derivatives: int | None) -> Checked:
+def _check(
+    model: Model,
+    method: str,
+    seed: int | None,
+    max_seconds: float | None,
+    prob: float,
+    unknown_input_derivatives: int | str | None,
+    input_derivatives: int | None,
+) -> Checked:
     """Refuse bad options and a model the engines cannot take, before any work; return what they settle,
     resolved here once."""
     if not isinstance(model, Model):
@@ -58,9 +66,7 @@ def _check(model: Model, method: str, seed: int | None, max_seconds: float | Non
                 f"input; it carries no information: remove it or write what it measures"
             )
     if not any(expr.free_symbols & states for expr in model.outputs.values()):
-        raise AnalysisError(
-            f"no output of model {model.name!r} depends on a state; measure at least one state"
-        )
+        raise AnalysisError(f"no output of model {model.name!r} depends on a state; measure at least one state")
     # last: the size of what the engines will hold (refused before any heavy work)
     return Checked(check_analysis_limits(model, unknown_input_derivatives), variables)
 

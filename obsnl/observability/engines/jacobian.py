@@ -68,21 +68,30 @@ class _AtPoint:
         new = [a for a in self.rewriter.ordered_atoms() if a.symbol not in self.known]
         prog = compile_program(rational + atom_expressions(new), tuple(self.known) + tuple(a.symbol for a in new))
         leaf = prog.leaves
-        arg, den = atom_roots(new, prog.roots[len(rational):])
+        arg, den = atom_roots(new, prog.roots[len(rational) :])
         topo = topological_order(prog.ops, atom_deps(new, leaf, arg, den))
         p = self.F.p
-        atoms = {leaf[a.symbol]: AtomJet(a.kind, arg.get(a.symbol, -1), den.get(a.symbol, -1),
-                                         leaf[a.partner] if a.partner is not None else -1, a.q,
-                                         value=self.rng.randrange(1, p), tau=self.rng.randrange(p) if a.kind == "sin" else 0)
-                 for a in new}
+        atoms = {
+            leaf[a.symbol]: AtomJet(
+                a.kind,
+                arg.get(a.symbol, -1),
+                den.get(a.symbol, -1),
+                leaf[a.partner] if a.partner is not None else -1,
+                a.q,
+                value=self.rng.randrange(1, p),
+                tau=self.rng.randrange(p) if a.kind == "sin" else 0,
+            )
+            for a in new
+        }
         try:
             V, G = evaluate(prog.ops, topo, self.F, self.M, {leaf[s]: j for s, j in self.known.items()}, atoms)
         except Resample as exc:
-            raise AnalysisError(f"{exc} at the point of this Jacobian (in {', '.join(map(str, exprs))}); "
-                                f"use another seed") from None
+            raise AnalysisError(
+                f"{exc} at the point of this Jacobian (in {', '.join(map(str, exprs))}); use another seed"
+            ) from None
         for a in new:
             self.known[a.symbol] = (V[leaf[a.symbol]], G[leaf[a.symbol]])
-        return [(V[r], G[r]) for r in prog.roots[:len(rational)]]
+        return [(V[r], G[r]) for r in prog.roots[: len(rational)]]
 
 
 @dataclass(frozen=True)
@@ -142,8 +151,7 @@ class ModularJacobian:
 
     def identifiable(self, exprs: Iterable[sp.Expr]) -> list[bool]:
         """Function test: ``grad g . k == 0`` for every kernel vector ``k``, for each expression."""
-        return [all(sum(a * b for a, b in zip(g, k)) % self.p == 0 for k in self.kernel)
-                for g in self.gradients(exprs)]
+        return [all(sum(a * b for a, b in zip(g, k)) % self.p == 0 for k in self.kernel) for g in self.gradients(exprs)]
 
 
 def observability_jacobian(model: Model, *, seed: int = 0, p: int | None = None) -> ModularJacobian:
@@ -174,8 +182,9 @@ def observability_jacobian(model: Model, *, seed: int = 0, p: int | None = None)
     if not model.is_smooth:
         raise NotSupportedError(f"model {model.name!r} is not smooth; pass a branch (obsnl.model.split_branches)")
     if model.unknown_inputs:
-        raise NotSupportedError("unknown inputs are not supported by the symmetry search; "
-                                "declare them as parameters or known inputs")
+        raise NotSupportedError(
+            "unknown inputs are not supported by the symmetry search; declare them as parameters or known inputs"
+        )
     if not model.outputs:
         raise AnalysisError(f"model {model.name!r} has no outputs; nothing is observable")
     problem = make_problem(rationalize(model, unit=True))  # exp(N log x) for x**(2*N): x**N needs no root
@@ -188,7 +197,13 @@ def observability_jacobian(model: Model, *, seed: int = 0, p: int | None = None)
     syms = model.symbols
     point = {s: run.init[s][0] for s in syms.values() if s in run.init}
     return ModularJacobian(
-        variables=tuple(syms[c] for c in problem.columns), rows=tuple(map(tuple, rows.tolist())),
-        rank=M - len(kernel), kernel=tuple(map(tuple, kernel)), point=point, p=run.p, order=run.orders,
+        variables=tuple(syms[c] for c in problem.columns),
+        rows=tuple(map(tuple, rows.tolist())),
+        rank=M - len(kernel),
+        kernel=tuple(map(tuple, kernel)),
+        point=point,
+        p=run.p,
+        order=run.orders,
         failure=failure_bound(run.p, nfuncs=M, **bound_sizes(problem)),
-        _at=_AtPoint(model, problem.rational.atoms, run, M, seed))
+        _at=_AtPoint(model, problem.rational.atoms, run, M, seed),
+    )

@@ -21,8 +21,9 @@ __all__ = ["lie_derivatives"]
 class _System:
     """The augmented rational system as flint polynomials modulo p."""
 
-    def __init__(self, problem: Problem, p: int, n_input_derivs: int, deadline: float | None = None,
-                 known: dict | None = None) -> None:
+    def __init__(
+        self, problem: Problem, p: int, n_input_derivs: int, deadline: float | None = None, known: dict | None = None
+    ) -> None:
         import flint
 
         self.deadline = deadline
@@ -34,7 +35,9 @@ class _System:
         # coordinates: dynamic ones first, then constants, then input derivative symbols
         self.w_chain: dict[sp.Symbol, list[sp.Symbol]] = {}
         for w in model.unknown_inputs:
-            chain = [w] + [sp.Symbol(f"{w.name}_d{j}", real=True) for j in range(1, problem.unknown_input_derivatives + 1)]
+            chain = [w] + [
+                sp.Symbol(f"{w.name}_d{j}", real=True) for j in range(1, problem.unknown_input_derivatives + 1)
+            ]
             self.w_chain[w] = chain
         tv_atoms = [a.symbol for a in rat.atoms if a.time_varying]
         ti_atoms = [a.symbol for a in rat.atoms if not a.time_varying]
@@ -53,7 +56,7 @@ class _System:
         input_rates = {u: ch[1] for u, ch in self.u_chain.items() if len(ch) > 1}
         input_rates.update({w: ch[1] if len(ch) > 1 else sp.Integer(0) for w, ch in self.w_chain.items()})
         rates.update(atom_rates(rat, input_rates))
-        for w, ch in self.w_chain.items():
+        for _w, ch in self.w_chain.items():
             for j, s in enumerate(ch):
                 rates[s] = ch[j + 1] if j + 1 < len(ch) else sp.Integer(0)
         nums, dens = {}, {}
@@ -130,8 +133,9 @@ class _System:
         """Refuse a product of ``pairs`` term pairs that cannot finish before the deadline (flint cannot be
         interrupted mid-product; :data:`SECONDS_PER_PAIR` is a measured optimistic cost)."""
         if self.deadline is not None and pairs * SECONDS_PER_PAIR > self.deadline - time.perf_counter():
-            raise TimeUp(f"time limit reached: a product of {pairs:.2e} term pairs would not finish in time "
-                         f"(expression swell)")
+            raise TimeUp(
+                f"time limit reached: a product of {pairs:.2e} term pairs would not finish in time (expression swell)"
+            )
 
     def S(self, X: Any) -> Any:
         """Q times the extended Lie derivative of X."""

@@ -64,14 +64,16 @@ class _Point:
                 j = system.w_chain[w].index(s)
                 values.append(run.point.unknown_inputs[w][j] % p)
                 T[i, problem.input_columns[w.name][j]] = 1
-        for u, ch in system.u_chain.items():
-            for j, s in enumerate(ch):
+        for _u, ch in system.u_chain.items():
+            for j, _s in enumerate(ch):
                 keep = problem.input_derivatives is None or j <= problem.input_derivatives
                 values.append(rng.randrange(p) if keep else 0)
         self.values = values
         self.T = T
-        self.G_eval = [(_ev(G, values), [_ev(G.derivative(i), values) for i in range(len(system.coords))])
-                       for _, G in system.outputs]
+        self.G_eval = [
+            (_ev(G, values), [_ev(G.derivative(i), values) for i in range(len(system.coords))])
+            for _, G in system.outputs
+        ]
         self.Q_val = _ev(system.Q, values)
         self.dQ_vals = [_ev(system.Q.derivative(i), values) for i in range(len(system.coords))]
         if self.Q_val == 0 or any(g == 0 for g, _ in self.G_eval):

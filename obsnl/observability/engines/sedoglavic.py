@@ -66,7 +66,7 @@ class RankTracker:
         if self.basis is None or self.basis.p != p:  # a new prime after a resample
             self.basis, self.seen = Echelon(self.M, p), 0
         before = self.basis.rank
-        for block in rows[self.seen:]:
+        for block in rows[self.seen :]:
             for r in block:
                 self.basis.add(r)
         grew = self.basis.rank > before

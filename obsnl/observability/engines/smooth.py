@@ -27,10 +27,10 @@ from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY
 from obsnl.observability.engines.decompose import decompose as _decompose
+from obsnl.observability.engines.inputs import _check, _unknown_names
+from obsnl.observability.engines.sedoglavic import sedoglavic_block
 from obsnl.observability.limits import out_of_memory
 from obsnl.observability.verdicts import BranchResult, Verdict
-from obsnl.observability.engines.sedoglavic import sedoglavic_block
-from obsnl.observability.engines.inputs import _check, _unknown_names
 
 __all__ = ["analyze_smooth", "orc", "sedoglavic"]
 
@@ -45,12 +45,21 @@ def _orc(problem: Problem, **kwargs: Any) -> BlockOutcome:
     return orc_block(problem, **kwargs)
 
 
-def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | None, target: float,
-               unknown_input_derivatives: int | str, input_derivatives: int | None,
-               factor_cache: dict | None = None) -> tuple[BlockOutcome, Problem]:
+def _run_block(
+    block: Model,
+    *,
+    method: str,
+    seed_key: str,
+    deadline: float | None,
+    target: float,
+    unknown_input_derivatives: int | str,
+    input_derivatives: int | None,
+    factor_cache: dict | None = None,
+) -> tuple[BlockOutcome, Problem]:
     rational = rationalize(block, factor_cache=factor_cache)
-    problem = make_problem(rational, unknown_input_derivatives=unknown_input_derivatives,
-                           input_derivatives=input_derivatives)
+    problem = make_problem(
+        rational, unknown_input_derivatives=unknown_input_derivatives, input_derivatives=input_derivatives
+    )
     bargs = bound_sizes(problem)
     if method == "auto":
         # The series engine first: on every published case and catalogue model it is as fast as the
@@ -58,8 +67,11 @@ def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | No
         # unknowns (genssi_biomd10_mapk: 1 s of Lie derivatives before a fallback, against 0.02 s).
         # The ORC is only a second opinion on a small block where the random points disagreed.
         out = sedoglavic_block(problem, seed=seed_key, deadline=deadline, bound_args=bargs, target=target)
-        if not out.inconclusive or problem.size > _AUTO_ORC_SIZE or (
-                deadline is not None and time.perf_counter() >= deadline):
+        if (
+            not out.inconclusive
+            or problem.size > _AUTO_ORC_SIZE
+            or (deadline is not None and time.perf_counter() >= deadline)
+        ):
             return out, problem
         budget = time.perf_counter() + _AUTO_ORC_SECONDS
         dl = budget if deadline is None else min(budget, deadline)
@@ -71,9 +83,19 @@ def _run_block(block: Model, *, method: str, seed_key: str, deadline: float | No
 
 
 def _branch_result(
-    label: str, guard: str, bmodel: Model, variables: Sequence[str], *, method: str, seed: int,
-    deadline: float | None, target: float, decompose: bool, unknown_input_derivatives: int | str,
-    input_derivatives: int | None, factor_cache: dict | None = None,
+    label: str,
+    guard: str,
+    bmodel: Model,
+    variables: Sequence[str],
+    *,
+    method: str,
+    seed: int,
+    deadline: float | None,
+    target: float,
+    decompose: bool,
+    unknown_input_derivatives: int | str,
+    input_derivatives: int | None,
+    factor_cache: dict | None = None,
 ) -> tuple[BranchResult, float]:
     t0 = time.perf_counter()
     appear: set[str] = set()
@@ -109,13 +131,23 @@ def _branch_result(
     methods: list[str] = []
     for i, block in enumerate(blocks):
         if deadline is not None and time.perf_counter() >= deadline:
-            out = BlockOutcome(method=method, columns=tuple(_unknown_names(block)),
-                               reason="time limit reached before this block was analysed")
+            out = BlockOutcome(
+                method=method,
+                columns=tuple(_unknown_names(block)),
+                reason="time limit reached before this block was analysed",
+            )
             problem: Problem | None = None
         else:
-            out, problem = _run_block(block, method=method, seed_key=f"{seed}:{label}:{i}", deadline=deadline,
-                                      target=target, unknown_input_derivatives=unknown_input_derivatives,
-                                      input_derivatives=input_derivatives, factor_cache=factor_cache)
+            out, problem = _run_block(
+                block,
+                method=method,
+                seed_key=f"{seed}:{label}:{i}",
+                deadline=deadline,
+                target=target,
+                unknown_input_derivatives=unknown_input_derivatives,
+                input_derivatives=input_derivatives,
+                factor_cache=factor_cache,
+            )
         methods.append(out.method)
         if arbitrary and problem is not None and problem.arbitrary:
             size += problem.size - len(problem.variables)
@@ -158,10 +190,15 @@ def _branch_result(
                 f"and count in size and rank)"
             )
     if bmodel.inputs:
-        notes.append("known inputs are generic" if input_derivatives is None else
-                     f"known inputs have {input_derivatives} non-zero derivative(s)")
+        notes.append(
+            "known inputs are generic"
+            if input_derivatives is None
+            else f"known inputs have {input_derivatives} non-zero derivative(s)"
+        )
     if absent:
-        notes.append("absent from this branch (unobservable, counted in the transcendence degree): " + ", ".join(absent))
+        notes.append(
+            "absent from this branch (unobservable, counted in the transcendence degree): " + ", ".join(absent)
+        )
     # rank contribution of unreachable unknown-input columns is zero; absent variables are unreachable
     verdict = Verdict.INCONCLUSIVE if reasons else (Verdict.UNOBSERVABLE if unobservable else Verdict.OBSERVABLE)
     used = sorted(set(methods)) or [method]
@@ -190,10 +227,21 @@ def branch_result(b: Branch, variables: Sequence[str], **options: Any) -> tuple[
     """The result of one branch of an analysis (:func:`_branch_result` with ``options``) and its failure bound; a
     branch whose feasibility is undecided (:attr:`~obsnl.model.Branch.undecided`) is not analysed: inconclusive."""
     if b.undecided:
-        return BranchResult(label=b.label, guard=b.guard_text, observable=(), unobservable=(), absent=(), rank=0,
-                            size=len(variables), transcendence_degree=0, seconds=0.0, verdict=Verdict.INCONCLUSIVE,
-                            reason=f"not analysed, its feasibility is undecided: {b.undecided}",
-                            undecided=tuple(variables), signs=tuple(b.signs)), 0.0
+        return BranchResult(
+            label=b.label,
+            guard=b.guard_text,
+            observable=(),
+            unobservable=(),
+            absent=(),
+            rank=0,
+            size=len(variables),
+            transcendence_degree=0,
+            seconds=0.0,
+            verdict=Verdict.INCONCLUSIVE,
+            reason=f"not analysed, its feasibility is undecided: {b.undecided}",
+            undecided=tuple(variables),
+            signs=tuple(b.signs),
+        ), 0.0
     br, failure = _branch_result(b.label, b.guard_text, b.model, variables, **options)
     return replace(br, signs=tuple(b.signs)), failure
 
@@ -258,9 +306,19 @@ def analyze_smooth(
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     try:
-        br, _ = _branch_result("smooth", "true", model, variables, method=method,
-                               seed=_fresh_seed(seed), deadline=deadline, target=1 - prob, decompose=decompose,
-                               unknown_input_derivatives=k, input_derivatives=input_derivatives)
+        br, _ = _branch_result(
+            "smooth",
+            "true",
+            model,
+            variables,
+            method=method,
+            seed=_fresh_seed(seed),
+            deadline=deadline,
+            target=1 - prob,
+            decompose=decompose,
+            unknown_input_derivatives=k,
+            input_derivatives=input_derivatives,
+        )
         return br
     except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the arrays are freed
         pass
@@ -312,9 +370,15 @@ def orc(
     >>> r.unobservable, r.order
     (('a', 'b'), 2)
     """
-    return analyze_smooth(model, method="orc", seed=seed, max_seconds=max_seconds,
-                          unknown_input_derivatives=unknown_input_derivatives,
-                          input_derivatives=input_derivatives, decompose=decompose)
+    return analyze_smooth(
+        model,
+        method="orc",
+        seed=seed,
+        max_seconds=max_seconds,
+        unknown_input_derivatives=unknown_input_derivatives,
+        input_derivatives=input_derivatives,
+        decompose=decompose,
+    )
 
 
 def sedoglavic(
@@ -365,6 +429,12 @@ def sedoglavic(
     >>> r.observable, r.unobservable, r.transcendence_degree
     (('x',), ('a', 'b'), 1)
     """
-    return analyze_smooth(model, method="sedoglavic", seed=seed, max_seconds=max_seconds,
-                          unknown_input_derivatives=unknown_input_derivatives,
-                          input_derivatives=input_derivatives, decompose=decompose)
+    return analyze_smooth(
+        model,
+        method="sedoglavic",
+        seed=seed,
+        max_seconds=max_seconds,
+        unknown_input_derivatives=unknown_input_derivatives,
+        input_derivatives=input_derivatives,
+        decompose=decompose,
+    )

@@ -1,12 +1,10 @@
-"""The joint verdict as a value: what the visited branches and switching surfaces determine together.
-"""
+"""The joint verdict as a value: what the visited branches and switching surfaces determine together."""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
-
 
 from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
 
@@ -49,9 +47,16 @@ class JointVisit:
     reason: str = ""
 
     def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "labels": list(self.labels), "switching": self.switching,
-                "visible": self.visible, "parameter_rank": self.parameter_rank, "rank_gain": self.rank_gain,
-                "solved_for": self.solved_for, "reason": self.reason}
+        return {
+            "kind": self.kind,
+            "labels": list(self.labels),
+            "switching": self.switching,
+            "visible": self.visible,
+            "parameter_rank": self.parameter_rank,
+            "rank_gain": self.rank_gain,
+            "solved_for": self.solved_for,
+            "reason": self.reason,
+        }
 
 
 @dataclass(frozen=True)
@@ -110,18 +115,22 @@ class JointResult:
 
     def __repr__(self) -> str:
         words = verdict_words(self.observable, self.unobservable, self.inconclusive, most=6)
-        return one_line("JointResult", f"model={self.model!r}", repr(words), f"visits={len(self.visits)}",
-                        bound(self.probability))
+        return one_line(
+            "JointResult", f"model={self.model!r}", repr(words), f"visits={len(self.visits)}", bound(self.probability)
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the verdict, why some is undecided, the visits used."""
-        return block(f"{self.model}: {verdict_words(self.observable, self.unobservable, self.inconclusive, most=12)}",
-                     f"undecided because: {self.reason}" if self.inconclusive else "",
-                     f"visits: {names([v.kind + ' ' + '/'.join(v.labels) for v in self.visits], 6)}; parameter rank "
-                     f"{self.parameter_rank}; P >= {probability_text(self.probability)}, seed {self.seed}")
+        return block(
+            f"{self.model}: {verdict_words(self.observable, self.unobservable, self.inconclusive, most=12)}",
+            f"undecided because: {self.reason}" if self.inconclusive else "",
+            f"visits: {names([v.kind + ' ' + '/'.join(v.labels) for v in self.visits], 6)}; parameter rank "
+            f"{self.parameter_rank}; P >= {probability_text(self.probability)}, seed {self.seed}",
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready dictionary (tuples as lists)."""
+
         def plain(v: Any) -> Any:
             if isinstance(v, Mapping):
                 return {k: plain(x) for k, x in v.items()}
@@ -130,10 +139,19 @@ class JointResult:
             return v
 
         return {
-            "model": self.model, "observable": list(self.observable), "unobservable": list(self.unobservable),
-            "inconclusive": list(self.inconclusive), "unknown_inputs": plain(self.unknown_inputs),
-            "visits": [v.to_dict() for v in self.visits], "union_observable": list(self.union_observable),
-            "parameter_rank": self.parameter_rank, "probability": self.probability, "seed": self.seed,
-            "runs": self.runs, "early_stop": self.early_stop, "reason": self.reason,
-            "assumptions": plain(self.assumptions), "seconds": self.seconds,
+            "model": self.model,
+            "observable": list(self.observable),
+            "unobservable": list(self.unobservable),
+            "inconclusive": list(self.inconclusive),
+            "unknown_inputs": plain(self.unknown_inputs),
+            "visits": [v.to_dict() for v in self.visits],
+            "union_observable": list(self.union_observable),
+            "parameter_rank": self.parameter_rank,
+            "probability": self.probability,
+            "seed": self.seed,
+            "runs": self.runs,
+            "early_stop": self.early_stop,
+            "reason": self.reason,
+            "assumptions": plain(self.assumptions),
+            "seconds": self.seconds,
         }

@@ -47,14 +47,24 @@ class Visited:
     crossings: Mapping[str, int] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
-        return {"how": self.how, "note": self.note, "exhaustive": self.exhaustive,
-                "durations": dict(self.durations), "crossings": dict(self.crossings)}
+        return {
+            "how": self.how,
+            "note": self.note,
+            "exhaustive": self.exhaustive,
+            "durations": dict(self.durations),
+            "crossings": dict(self.crossings),
+        }
 
 
-def select_branches(model: Model, *, labels: Sequence[str] | None = None,
-                    patterns: Mapping[tuple[int, ...], float] | None = None,
-                    crossings: Mapping[str, int] | None = None, seed: int = 0,
-                    max_seconds: float | None = None) -> tuple[list[Branch], Visited]:
+def select_branches(
+    model: Model,
+    *,
+    labels: Sequence[str] | None = None,
+    patterns: Mapping[tuple[int, ...], float] | None = None,
+    crossings: Mapping[str, int] | None = None,
+    seed: int = 0,
+    max_seconds: float | None = None,
+) -> tuple[list[Branch], Visited]:
     """The branches to analyse, and how they were chosen.
 
     Parameters
@@ -106,27 +116,43 @@ def select_branches(model: Model, *, labels: Sequence[str] | None = None,
             chosen.append(b)
             durations[b.label] = round(float(seconds), 6)
         return chosen, Visited(
-            how="record", exhaustive=False, durations=durations, crossings=dict(crossings or {}),
-            note=(f"the {len(chosen)} branches a simulation under the record visits (time in each and the "
-                  f"crossings are listed); the verdicts are what this experiment reveals"))
+            how="record",
+            exhaustive=False,
+            durations=durations,
+            crossings=dict(crossings or {}),
+            note=(
+                f"the {len(chosen)} branches a simulation under the record visits (time in each and the "
+                f"crossings are listed); the verdicts are what this experiment reveals"
+            ),
+        )
     branches = list(found.branches)
     open_ = [b.label for b in branches if b.undecided]
     if found.representatives is not None:
         visited = Visited(how="representatives", exhaustive=False, note=found.representatives.describe())
     elif open_:  # reported, never dropped: each is an inconclusive branch of the answer
-        visited = Visited(how="all", exhaustive=False, note=(
-            f"every feasible branch ({len(branches) - len(open_)}) and {len(open_)} whose feasibility is undecided "
-            f"({', '.join(open_)}: no point was found in them and none was proved impossible; not analysed)"))
+        visited = Visited(
+            how="all",
+            exhaustive=False,
+            note=(
+                f"every feasible branch ({len(branches) - len(open_)}) and {len(open_)} whose feasibility is undecided "
+                f"({', '.join(open_)}: no point was found in them and none was proved impossible; not analysed)"
+            ),
+        )
     else:
-        visited = Visited(how="all", exhaustive=True,
-                          note=f"every feasible branch ({len(branches)})" if len(branches) > 1 else "smooth model")
+        visited = Visited(
+            how="all",
+            exhaustive=True,
+            note=f"every feasible branch ({len(branches)})" if len(branches) > 1 else "smooth model",
+        )
     if labels is None:
         return branches, visited
     every = {b.label: b for b in branches}
     missing = [lb for lb in labels if lb not in every]
     if missing:
-        raise AnalysisError(f"no branch labelled {', '.join(map(repr, missing))}; the branches are "
-                            f"{', '.join(every)}")
+        raise AnalysisError(f"no branch labelled {', '.join(map(repr, missing))}; the branches are {', '.join(every)}")
     chosen = [every[lb] for lb in dict.fromkeys(labels)]
-    return chosen, Visited(how="labels", exhaustive=len(chosen) == len(every) and visited.exhaustive,
-                           note=f"only the branches {', '.join(b.label for b in chosen)} (the branches asked)")
+    return chosen, Visited(
+        how="labels",
+        exhaustive=len(chosen) == len(every) and visited.exhaustive,
+        note=f"only the branches {', '.join(b.label for b in chosen)} (the branches asked)",
+    )

@@ -58,13 +58,21 @@ from obsnl.algebra.series import TimeUp, draw_prime
 from obsnl.errors import AnalysisError
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
-from obsnl.observability.limits import check_limits_once
 from obsnl.observability.joint.modular import kernel_rows
 from obsnl.observability.joint.result import JointResult, JointVisit
 from obsnl.observability.joint.visits import (
-    NewPrime, Plan, Prepared, VisitData, _Classes, branch_visit, certified, classify_visit,
-    replace_visit, surface_visit,
+    NewPrime,
+    Plan,
+    Prepared,
+    VisitData,
+    _Classes,
+    branch_visit,
+    certified,
+    classify_visit,
+    replace_visit,
+    surface_visit,
 )
+from obsnl.observability.limits import check_limits_once
 
 __all__ = ["JointVisit", "joint_verdict", "joint_verdict_of"]
 
@@ -83,14 +91,13 @@ class _Run:
     pi_rank: int
     early_stop: bool
     union: set[str]
-    
+
 
 def _names(model: Model) -> tuple[list[str], list[str], list[str]]:
     return ([s.name for s in model.states], [s.name for s in model.parameters], [w.name for w in model.unknown_inputs])
 
 
-def _one_run(model: Model, plans: list[Plan], seed: int, run_no: int, deadline: float | None,
-             known: set[str]) -> _Run:
+def _one_run(model: Model, plans: list[Plan], seed: int, run_no: int, deadline: float | None, known: set[str]) -> _Run:
     states, params, ws = _names(model)
     reported = states + params + ws
     for attempt in range(_MAX_PRIMES):
@@ -105,8 +112,19 @@ def _one_run(model: Model, plans: list[Plan], seed: int, run_no: int, deadline: 
     raise AnalysisError(f"model {model.name!r}: no prime of {_MAX_PRIMES} tried gave a usable point for every visit")
 
 
-def _run_at(model: Model, plans: list[Plan], seed: int, run_no: int, attempt: int, p: int, shared: dict,
-            atoms: dict, deadline: float | None, known: set[str], reported: list[str]) -> _Run:
+def _run_at(
+    model: Model,
+    plans: list[Plan],
+    seed: int,
+    run_no: int,
+    attempt: int,
+    p: int,
+    shared: dict,
+    atoms: dict,
+    deadline: float | None,
+    known: set[str],
+    reported: list[str],
+) -> _Run:
     states, params, ws = _names(model)
     n_par = len(params)
     ech = Echelon(n_par, p)
@@ -157,8 +175,7 @@ def _select(model: Model, branches: Sequence[str | Branch] | None) -> list[Branc
     every = {b.label: b for b in split_branches(model)}
     missing = [lb for lb in labels if lb not in every]
     if missing:
-        raise AnalysisError(f"no branch labelled {', '.join(map(repr, missing))}; the branches are "
-                            f"{', '.join(every)}")
+        raise AnalysisError(f"no branch labelled {', '.join(map(repr, missing))}; the branches are {', '.join(every)}")
     return [every[lb] for lb in labels]
 
 
@@ -236,12 +253,25 @@ def joint_verdict(
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
     if not model.outputs:
         raise AnalysisError(f"model {model.name!r} has no outputs; nothing is observable")
-    return joint_verdict_of(model, _select(model, branches), seed=seed, prob=prob, max_seconds=max_seconds,
-                            unknown_input_derivatives=unknown_input_derivatives)
+    return joint_verdict_of(
+        model,
+        _select(model, branches),
+        seed=seed,
+        prob=prob,
+        max_seconds=max_seconds,
+        unknown_input_derivatives=unknown_input_derivatives,
+    )
 
 
-def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob: float, max_seconds: float | None,
-                     unknown_input_derivatives: int | str) -> JointResult:
+def joint_verdict_of(
+    model: Model,
+    chosen: Sequence[Branch],
+    *,
+    seed: int,
+    prob: float,
+    max_seconds: float | None,
+    unknown_input_derivatives: int | str,
+) -> JointResult:
     """:func:`joint_verdict` over the branches ``chosen`` (:class:`~obsnl.model.Branch` values), the model and the
     options checked already (as :func:`obsnl.analyze` checks them before it chooses the branches).
 
@@ -273,17 +303,18 @@ def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob:
 
     def prepared(i: int, free: bool) -> Callable[[], Prepared]:
         """Branch ``i``'s problem; ``free``: known initial conditions dropped (surface visits)."""
+
         def make() -> Prepared:
             key = (i, free and bool(model.known_initial_conditions))
             if key not in cache:
                 cache[key] = Prepared.of(chosen[i].model, unknown_input_derivatives, free=key[1])
             return cache[key]
+
         return make
 
     plans: list[Plan] = [Plan("branch", (b.label,), [prepared(i, False)]) for i, b in enumerate(chosen)]
     for i, j, g in _surface_pairs(chosen):
-        plans.append(Plan("surface", (chosen[i].label, chosen[j].label), [prepared(i, True), prepared(j, True)],
-                           g=g))
+        plans.append(Plan("surface", (chosen[i].label, chosen[j].label), [prepared(i, True), prepared(j, True)], g=g))
     states, params, ws = _names(model)
     known = {s.name for s in model.known_initial_conditions}
     variables = states + params
@@ -310,8 +341,7 @@ def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob:
         reason = f"{len(runs)} random points disagree on {', '.join(undecided)}; no verdict"
     visits = tuple(v.record for v in first.visits) if first else ()
     used_surfaces = [f"{v.switching} ({'/'.join(v.labels)})" for v in visits if v.kind == "surface" and v.visible]
-    invisible = [f"{v.switching} ({'/'.join(v.labels)})" for v in visits if v.kind == "surface"
-                 and v.visible is False]
+    invisible = [f"{v.switching} ({'/'.join(v.labels)})" for v in visits if v.kind == "surface" and v.visible is False]
     assumptions = {
         "unknown_input_derivatives": unknown_input_derivatives,
         "known_inputs": "generic (random series, independent per visit; shared by both sides of a surface)",
@@ -319,8 +349,9 @@ def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob:
         "surfaces_used": tuple(used_surfaces),
         "surfaces_invisible": tuple(invisible),
         "surfaces_skipped": tuple(f"{v.switching} ({'/'.join(v.labels)}): {v.reason}" for v in skipped),
-        "known_initial_conditions": ("applied in branch visits; surface visits have free states"
-                                     if model.known_initial_conditions else "none"),
+        "known_initial_conditions": (
+            "applied in branch visits; surface visits have free states" if model.known_initial_conditions else "none"
+        ),
         "union_over": tuple(v.labels[0] for v in visits if v.kind == "branch"),
         "parameters": "shared by every visit, at one generic value per run",
     }
@@ -329,8 +360,12 @@ def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob:
         observable=tuple(c for c in variables if verdict.get(c) is True),
         unobservable=tuple(c for c in variables if verdict.get(c) is False),
         inconclusive=tuple(c for c in variables + ws if verdict.get(c) is None),
-        unknown_inputs={"observable": tuple(w for w in ws if verdict.get(w) is True),
-                        "unobservable": tuple(w for w in ws if verdict.get(w) is False)} if ws else {},
+        unknown_inputs={
+            "observable": tuple(w for w in ws if verdict.get(w) is True),
+            "unobservable": tuple(w for w in ws if verdict.get(w) is False),
+        }
+        if ws
+        else {},
         visits=visits,
         union_observable=tuple(c for c in variables if first and c in first.union),
         parameter_rank=first.pi_rank if first else 0,
@@ -344,8 +379,9 @@ def joint_verdict_of(model: Model, chosen: Sequence[Branch], *, seed: int, prob:
     )
 
 
-def _decided(runs: list[_Run], prob: float, names: list[str], final: bool = False
-             ) -> tuple[dict[str, bool | None], float] | None:
+def _decided(
+    runs: list[_Run], prob: float, names: list[str], final: bool = False
+) -> tuple[dict[str, bool | None], float] | None:
     """Verdicts from the runs so far and their failure bound; None while more runs are wanted.
 
     A name certified in some run is observable (failure 0). Otherwise the class given by at least

@@ -20,8 +20,8 @@ import sympy as sp
 
 from obsnl.errors import AnalysisError
 from obsnl.model.bounds.budget import check_time
-from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.branching.switching import expr_text, switching_of
+from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 
 __all__ = ["Visits", "visited_patterns", "BlewUp"]
 
@@ -30,8 +30,9 @@ class BlewUp(AnalysisError):
     """The simulation under a record left the finite numbers: ``time`` is the exact sample time it did so."""
 
     def __init__(self, time: float) -> None:
-        super().__init__(f"the simulation under the record blew up at t = {time:.4g}; check the [values] and the "
-                         "record's amplitude")
+        super().__init__(
+            f"the simulation under the record blew up at t = {time:.4g}; check the [values] and the record's amplitude"
+        )
         self.time = float(time)
 
 
@@ -54,8 +55,14 @@ class Visits:
     crossings: Mapping[str, int]
 
 
-def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarray], *,
-                     values: Mapping[str, float] | None = None, substeps: int = 10) -> Visits:
+def visited_patterns(
+    model: Model,
+    t: np.ndarray,
+    inputs: Mapping[str, np.ndarray],
+    *,
+    values: Mapping[str, float] | None = None,
+    substeps: int = 10,
+) -> Visits:
     """Simulate ``model`` under ``inputs`` and collect the visited sign patterns.
 
     Parameters
@@ -102,8 +109,10 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
         raise AnalysisError(f"record= simulates the model's [values]: give a number for {', '.join(missing)}")
     lacking = [u.name for u in model.inputs if u.name not in inputs]
     if lacking or model.unknown_inputs:
-        raise AnalysisError(f"record= needs every input of the model as a known signal (missing: "
-                            f"{', '.join(lacking + [w.name for w in model.unknown_inputs])})")
+        raise AnalysisError(
+            f"record= needs every input of the model as a known signal (missing: "
+            f"{', '.join(lacking + [w.name for w in model.unknown_inputs])})"
+        )
     xs, us = list(model.states), list(model.inputs)
     signals = [np.asarray(inputs[u.name], float) for u in us]  # checked first, even where nothing is simulated
     if any(u.shape != t.shape for u in signals) or not all(np.all(np.isfinite(u)) for u in signals):
@@ -125,8 +134,10 @@ def visited_patterns(model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarra
     with np.errstate(all="ignore"):  # a blow-up is refused below in one line, not warned of on the way
         for k in range(len(t) - 1):
             if k % 256 == 0:  # a command's --max-seconds covers the simulation (200 000 samples took 32 s)
-                check_time(f"simulating the model under the record (sample {k} of {len(t)})",
-                           "raise max_seconds=, or give a shorter record")
+                check_time(
+                    f"simulating the model under the record (sample {k} of {len(t)})",
+                    "raise max_seconds=, or give a shorter record",
+                )
             x, h = X[k].copy(), (t[k + 1] - t[k]) / substeps
             for i in range(substeps):
                 a0, a1 = i / substeps, (i + 0.5) / substeps

@@ -26,15 +26,25 @@ from obsnl.algebra.modp import Echelon
 from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.series import run_series
 from obsnl.errors import AnalysisError
-from obsnl.model.branching.branches import derived_model, expr_text
 from obsnl.model.bounds.work import degree_in
+from obsnl.model.branching.branches import derived_model, expr_text
 from obsnl.model.core import Model
 from obsnl.observability.engines.sedoglavic import RankTracker, stall_safe
 from obsnl.observability.joint.modular import _mod, _rref, kernel_rows
 from obsnl.observability.joint.result import JointVisit
 
-__all__ = ["NewPrime", "Plan", "Prepared", "VisitData", "branch_visit", "certified", "classify_visit", "private_names",
-           "replace_visit", "surface_visit"]
+__all__ = [
+    "NewPrime",
+    "Plan",
+    "Prepared",
+    "VisitData",
+    "branch_visit",
+    "certified",
+    "classify_visit",
+    "private_names",
+    "replace_visit",
+    "surface_visit",
+]
 
 
 # --------------------------------------------------------------------------- prepared problems
@@ -127,8 +137,9 @@ class VisitData:
 
 def _unused(plan: Plan, model: Model, record: JointVisit) -> VisitData:
     """A surface visit that adds no rows (invisible, or skipped for the reason in ``record``)."""
-    return VisitData(plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64),
-                     record, used=False)
+    return VisitData(
+        plan, np.zeros((0, 0), dtype=np.int64), np.zeros((0, len(model.parameters)), dtype=np.int64), record, used=False
+    )
 
 
 def branch_visit(plan: Plan, p: int, shared: dict, atoms: dict, key: str, deadline: float | None) -> VisitData:
@@ -160,16 +171,25 @@ def branch_visit(plan: Plan, p: int, shared: dict, atoms: dict, key: str, deadli
     """
     prep = plan.sides[0]
     tracker = RankTracker(prep.problem.size, stall=stall_safe(prep.problem))  # the visit's own rank stops growing
-    run = run_series(prep.problem, random.Random(key), K=prep.K, p=p, deadline=deadline, fixed=shared,
-                     atom_values=_Atoms(atoms), stop=tracker)
+    run = run_series(
+        prep.problem,
+        random.Random(key),
+        K=prep.K,
+        p=p,
+        deadline=deadline,
+        fixed=shared,
+        atom_values=_Atoms(atoms),
+        stop=tracker,
+    )
     if run.p != p:
         raise NewPrime(f"branch {plan.labels[0]}")
     R = np.vstack(run.rows) if run.rows else np.zeros((0, prep.problem.size), dtype=np.int64)
     return _finish(plan, R[:, prep.priv + prep.par], prep.n_priv, p, JointVisit("branch", plan.labels))
 
 
-def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, key: str,
-                   deadline: float | None) -> VisitData:
+def surface_visit(
+    plan: Plan, model: Model, p: int, shared: dict, atoms: dict, key: str, deadline: float | None
+) -> VisitData:
     """One surface visit: both sides of ``plan.g = 0`` at one point on the surface (module docstring).
 
     Parameters
@@ -228,8 +248,15 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
         solved = s
         break
     if solved is None:
-        return _unused(plan, model, replace_visit(record, reason=f"{text} = 0 cannot be solved for a state in which it is affine "
-                                              f"(with a rational, nonzero coefficient at the point)"))
+        return _unused(
+            plan,
+            model,
+            replace_visit(
+                record,
+                reason=f"{text} = 0 cannot be solved for a state in which it is affine "
+                f"(with a rational, nonzero coefficient at the point)",
+            ),
+        )
     record = replace_visit(record, solved_for=solved.name)
     runs = []
     local: dict = {}  # both sides share the point, so also the time-varying atoms' stand-ins
@@ -237,11 +264,27 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
         table = _Atoms(atoms)
         table.local = local
         try:
-            run = run_series(side.problem, random.Random(key), K=K, p=p, deadline=deadline, fixed=shared,
-                             states=states, input_series=inputs, atom_values=table)
+            run = run_series(
+                side.problem,
+                random.Random(key),
+                K=K,
+                p=p,
+                deadline=deadline,
+                fixed=shared,
+                states=states,
+                input_series=inputs,
+                atom_values=table,
+            )
         except AnalysisError:  # e.g. |g|**N with N unknown: its logarithm is singular on g = 0
-            return _unused(plan, model, replace_visit(record, reason=f"the field of side {label} is singular on {text} = 0 (a denominator or a "
-                                                          f"logarithm vanishes there, e.g. |g|**N with N unknown)"))
+            return _unused(
+                plan,
+                model,
+                replace_visit(
+                    record,
+                    reason=f"the field of side {label} is singular on {text} = 0 (a denominator or a "
+                    f"logarithm vanishes there, e.g. |g|**N with N unknown)",
+                ),
+            )
         if run.p != p:
             raise NewPrime(f"surface {text}")
         runs.append(run)
@@ -261,7 +304,9 @@ def surface_visit(plan: Plan, model: Model, p: int, shared: dict, atoms: dict, k
         s = syms.get(c)
         d = _mod(sp.diff(g, s), values, p) if s is not None else 0
         if d is None:
-            return _unused(plan, model, replace_visit(record, reason=f"the gradient of {text} is not rational at the point"))
+            return _unused(
+                plan, model, replace_visit(record, reason=f"the gradient of {text} is not rational at the point")
+            )
         grow.append(d)
     R = np.vstack(ra.rows + rb.rows + [np.array([grow], dtype=np.int64)])
     return _finish(plan, R[:, a_side.priv + a_side.par], a_side.n_priv, p, record)
@@ -339,8 +384,9 @@ class _Classes:
         return out
 
 
-def certified(done: list[VisitData], p: int, n_par: int, states: list[str], params: list[str],
-               ws: list[str], known: set[str]) -> set[str]:
+def certified(
+    done: list[VisitData], p: int, n_par: int, states: list[str], params: list[str], ws: list[str], known: set[str]
+) -> set[str]:
     """Names certified by a full-column-rank sub-stack (see :mod:`obsnl.observability.joint.verdict`).
 
     Parameters
