@@ -89,9 +89,9 @@ class Executor:
         and checked (a Dask server speaks first: a length-prefixed message of one small frame holding its
         ``pickle-protocol``), at most ``timeout`` seconds each; whatever else answers (an HTTP server, whose
         first bytes read as a frame length of exbibytes, or a server that stays silent) is refused with one
-        line. Then a Dask client registers with it (a scheduler that sent the handshake and went silent is
-        refused after ``timeout`` seconds), and the scheduler must have a worker, or gain one within
-        ``timeout`` seconds (a cluster with none would wait for ever). A ``distributed.Client`` given as
+        line. Then, over a Dask connection of its own, the scheduler is asked how many workers it has (one that
+        sent the handshake and went silent is refused after ``timeout`` seconds): it must have a worker, or gain
+        one within ``timeout`` seconds (a cluster with none would wait for ever). A ``distributed.Client`` given as
         the scheduler is asked for its workers the same way. ``tls://`` addresses are only connected to (their
         handshake is encrypted). Local executors pass as they are.
 
@@ -138,7 +138,7 @@ class Executor:
                 why = f"the connection broke before the Dask handshake: {exc.strerror or exc}"
         if why:
             raise OptionError(f"{self.scheduler!r} is not a Dask scheduler ({why}); {_START}")
-        if not _ask_scheduler(self.scheduler, timeout).get("n_workers"):
+        if not _ask_scheduler(self.scheduler.strip(), timeout).get("n_workers"):
             raise OptionError(_NO_WORKER.format(name=self.scheduler, seconds=timeout))
         return self
 
@@ -323,7 +323,7 @@ class _Session:
                                             initargs=(self.started,))
         elif self.kind == "dask":
             self.own = isinstance(ex.scheduler, str)
-            self.client = _client(ex.scheduler, DEADLINE) if self.own else ex.scheduler
+            self.client = _client(ex.scheduler.strip(), DEADLINE) if self.own else ex.scheduler
 
     def close(self, *, abort: bool = False) -> None:
         """Shut the workers down; ``abort`` (an interrupt, an error): stop them now, running tasks included."""
@@ -546,6 +546,9 @@ def _ask_scheduler(address: str, seconds: float) -> dict[str, Any]:
     try:
         with ThreadPoolExecutor(1) as thread:  # a loop of its own, whether or not this thread runs one
             return thread.submit(asyncio.run, ask()).result()
+    except ValueError as exc:  # an address Dask does not read
+        raise OptionError(f"cannot reach the Dask scheduler {address!r} ({exc}); give an address like "
+                          f"tcp://HOST:8786, {_START}") from None
     except (OSError, EOFError) as exc:  # TimeoutError included: a scheduler that went silent after its handshake
         why = str(exc) if str(exc) and not isinstance(exc, TimeoutError) else f"no answer within {seconds:g} s"
         raise OptionError(f"the Dask scheduler {address!r} sent its handshake but did not answer a client's question "
