@@ -284,7 +284,8 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
         deadline = None if max_seconds is None else time.time() + max_seconds
         spec = _spec(ref)
         done = (lambda i, _: progress()) if progress else None
-        return tuple(executor.map(_profile_task, [(spec, p, deadline) for p in names], done=done))
+        return tuple(executor.map(_profile_task, [(spec, p, deadline) for p in names], done=done,
+                                  label=lambda task: f"the profile likelihood of {task[1]}"))
     out = []
     t0 = time.perf_counter()
     for p in names:
