@@ -342,6 +342,28 @@ def test_identify_cli_with_jit_exits_2_when_the_compiler_does_not_say_its_versio
     assert seconds < 20.0 and _all_stopped(pids)
 
 
+def test_a_failing_compiler_is_tried_once_not_once_per_tuning(tmp_path, monkeypatch, capsys):
+    # the tuning grid's runs read an error as a tuning that fails and tried the next, which compiled again: a compiler
+    # that fails slowly (or hangs) cost the run once per tuning of the grid (5 attempts here) before the fallback
+    from obsnl.estimation import jitcache
+
+    bin_, count = tmp_path / "bin", tmp_path / "count"
+    bin_.mkdir()
+    for name in ("gcc", "cc"):
+        script = bin_ / name
+        script.write_text(f'#!/bin/sh\nif [ "$1" = "--version" ]; then echo "cc (fails) 1.0"; exit 0; fi\n'
+                          f'echo x >> {count}\necho "cc1: internal compiler error" >&2\nexit 1\n')
+        script.chmod(0o755)
+    monkeypatch.setenv("PATH", f"{bin_}{os.pathsep}{os.environ['PATH']}")
+    monkeypatch.setenv("OBSNL_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(jitcache, "_LOADED", {})
+    model, data = _duffing()
+    res = obsnl.identify(model, data, progress=False, refine=False, passes=1)  # the tuning grid
+    err = capsys.readouterr().err
+    assert res.compiled is False and err.count("obsnl: warning:") == 1 and "internal compiler error" in err
+    assert len(count.read_text().split()) == 1
+
+
 @pytest.mark.parametrize("value", ["soon", "0", "-5", "inf", "nan"])
 def test_a_compile_time_limit_that_is_no_number_of_seconds_is_one_line(value, monkeypatch):
     from obsnl.estimation.jitcache import compile_seconds

@@ -41,7 +41,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from obsnl.errors import EstimatorError, ObsnlError, OptionError
+from obsnl.errors import CompileError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import UKF, Trajectory
 from obsnl.identification.practical import Practical, Spread, practical_identifiability
@@ -290,6 +290,8 @@ def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning
                                     hold_below=hold_below)
             est = trs[-1].theta[-1]
             ok = len(trs) == passes and output_misfit(setup, est, rep) <= DIVERGED * setup.noise_level
+        except CompileError:  # the compiler's failure, not this replicate's
+            raise
         except ObsnlError:
             ok = False
         out.append((np.log(np.abs(est)), tuple(fixed)) if ok else (None, ()))
@@ -371,5 +373,7 @@ def tune_one(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int
         trs, _, seen = _run_passes(setup, filt, data, tuning, passes=passes)
         first = seen[0] if 0 in seen else output_misfit(setup, trs[0].theta[-1], data)
         return {1: first, passes: output_misfit(setup, trs[-1].theta[-1], data)}
+    except CompileError:  # the compiler's failure, not this tuning's
+        raise
     except ObsnlError:
         return {1: float("inf"), passes: float("inf")}

@@ -31,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from obsnl.errors import DataError, EstimatorError, ObsnlError, OptionError
+from obsnl.errors import CompileError, DataError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.codegen import NumericModel
 from obsnl.estimation.intersample import between_samples, drive, intersample_kinds
 from obsnl.estimation.measured import NOISE_FLOOR, UPPER_BOUND, Measured, estimate_noise
@@ -92,6 +92,8 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
             try:
                 (tr,), _ = run_passes(setup, filt, data, t, passes=1, fix_flagged=False)
                 scores.append((t, output_misfit(setup, tr.theta[-1], data)))
+            except CompileError:  # the compiler's failure, not this tuning's: said once, not once per tuning
+                raise
             except ObsnlError:
                 scores.append((t, float("inf")))
             if progress:
