@@ -107,7 +107,7 @@ def _check_kinds(guess: Any, noise: Any, *, table: Any = None, tuning: Any = Non
         raise OptionError(f"guess= takes {{parameter: value}}, e.g. guess={{'k': 30.0}}; got {guess!r}")
     bad = next((k for k, v in (guess or {}).items() if isinstance(v, (bool, np.bool_)) or not isinstance(v, Real)), None)
     if bad is not None:
-        raise OptionError(f"guess= gives {bad} = {guess[bad]!r}; give a number")
+        raise OptionError(f"guess= gives {bad} = {dict(guess or {})[bad]!r}; give a number")
     if noise is not None and not isinstance(noise, Mapping):
         raise OptionError(f"noise= takes {{channel: ratio}}, e.g. noise={{'disp': 0.01}}; got {noise!r}")
     if known_initial is not None and not isinstance(known_initial, Mapping):
