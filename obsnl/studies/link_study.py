@@ -169,7 +169,8 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
     for o in outs:
         _finite(o.nhat, "the observer bank's force estimates")
     thr = calibrate_thresholds(outs[: len(cal)], window=win_det, factor=factor, seeds=cal)
-    runs, traces = [], {}
+    runs: list[ScenarioRun] = []
+    traces: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     w = healthy.t >= T - win_ev + 0.5 * dt
     for i, (name, (c, sim)) in enumerate(sims.items()):
         truth = float(np.sqrt(np.mean(sim.n_true[w] ** 2)))
