@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from obsnl.errors import ObsnlError
+from obsnl.errors import ObsnlError, OptionError
 from obsnl.identification.experiments import (DIVERGED, Practical, Setup, Tuning, make_data, output_misfit,
                                               practical_identifiability, run_passes)
 from obsnl.estimation.ukf import Trajectory
@@ -172,6 +172,11 @@ def reported_with_fallbacks(setup: Setup, f: Any, name: str, k: int, seed: int, 
     -------
     tuple
         ``(RunResult, trajectories or None)``.
+
+    Raises
+    ------
+    OptionError
+        ``ranking`` is empty or ``fallbacks`` negative: no run to report.
     """
     data = make_data(setup, seed)
     result, trs, redone = None, None, []
@@ -182,6 +187,9 @@ def reported_with_fallbacks(setup: Setup, f: Any, name: str, k: int, seed: int, 
         result, trs = _reported_run(setup, f, data, name, k, seed, tuning)
         if not _diverged(result, setup):
             break
+    if result is None:  # nothing was run: never a run reported as None
+        raise OptionError(f"no tuning to run: the ranking has {len(ranking)} configurations and fallbacks={fallbacks}; "
+                          f"give at least one Tuning and fallbacks >= 0")
     if redone:
         result = replace(result, redone=tuple(redone))
     return result, trs
