@@ -21,7 +21,7 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 from obsnl._text import quote
 from obsnl.errors import OptionError
@@ -63,6 +63,17 @@ def tuning_from(s0: float | None = None, q_theta: float | None = None, q_x: floa
     if given == (None,) * 4:
         return None
     return Tuning(*(d if v is None else v for v, d in zip(given, TUNING_DEFAULTS)))
+
+
+@overload
+def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: Literal[True],
+                 option: str = "noise=") -> float: ...
+@overload
+def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: Literal[False],
+                 option: str = "noise=") -> dict[str, float]: ...
+@overload
+def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
+                 option: str = "noise=") -> dict[str, float] | float: ...
 
 
 def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
@@ -176,12 +187,15 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
         check_folder(out, IDENTIFY_FILES + FIGURES, force=force)  # every file a run may write
     model = read_model(model) if isinstance(model, (str, Path)) else model
     guesses = parse_assignments(guess, [s.name for s in model.parameters], option="guess=", what="parameter")
-    ratios = noise_ratios(noise, [s.name for s in model.inputs] + list(model.outputs), study=not data,
-                          option="noise=")
+    channels = [s.name for s in model.inputs] + list(model.outputs)
     if data:
+        ratios = noise_ratios(noise, channels, study=False, option="noise=")
         res = identify(model, data, guess=guesses, noise=ratios, tuning=tuning, **options)
+    elif record is None:
+        raise OptionError("give data= (a measured CSV) or record= (a record driving a simulation study)")
     else:
-        res = study(model, record, guess=guesses, noise=ratios, samples=samples, tuning=tuning, **options)
+        ratio = noise_ratios(noise, channels, study=True, option="noise=")
+        res = study(model, record, guess=guesses, noise=ratio, samples=samples, tuning=tuning, **options)
     return res, (write_identification(res, out, force=force) if out else [])
 
 
