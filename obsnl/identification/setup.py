@@ -93,8 +93,9 @@ class Setup:
     substeps: int = 4
     refine: int = 8
     jit: bool = False
-    y_true: np.ndarray = field(default=None, repr=False)
-    x0: np.ndarray = field(default=None, repr=False)
+    # None: simulated from the truth in __post_init__, so never None once built (the readers take it as an array)
+    y_true: np.ndarray = field(default=None, repr=False)  # type: ignore[arg-type]
+    x0: np.ndarray = field(init=False, repr=False)  # the initial state, set in __post_init__ (initial, values, 0)
     channel_noise: Mapping[str, float] | None = None
     fit_substeps: int | None = None
     locate: bool = False
@@ -130,6 +131,12 @@ class Setup:
             object.__setattr__(self, "y_true", sim.y)
 
     @property
+    def coordinate_map(self) -> ParameterMap:
+        """The parameter coordinates: those given, else log coordinates about the guesses (set once built)."""
+        assert self.coordinates is not None  # __post_init__ sets the log coordinates where none were given
+        return self.coordinates
+
+    @property
     def theta_true(self) -> np.ndarray:
         if self.truth is None:
             raise OptionError("measured data have no true values")
@@ -161,7 +168,7 @@ class Setup:
         return {"model": self.model.name, "record": self.record.to_dict(),
                 "truth": None if self.truth is None else dict(self.truth),
                 "guess": dict(self.guess), "noise_ratio": self.noise, "channel_noise": dict(self.channel_noise or {}),
-                "coordinates": self.coordinates.to_dict(),
+                "coordinates": self.coordinate_map.to_dict(),
                 "substeps": self.substeps, "refine": self.refine, "locate": self.locate, "fit_substeps": self.fit_substeps,
                 "integrator": "RK4; a substep in which a switching function across which the field can jump "
                               "changes sign redone with refine finer ones; ROS2 (refine x the substeps) where stiff"}
@@ -287,7 +294,7 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
         raise DataError(f"{why}: model {m.name!r} stays at rest at the guess, so there is nothing to identify "
                         f"from; give data with excitation (or initial values that are not at rest)")
     scale = np.maximum(typical, 1e-2 * max(typical.max(), 1e-300))  # of the largest (a state idle at the guess)
-    phi0 = setup.coordinates.to_phi(setup.theta_guess)  # valid region: within 100x of the guesses
+    phi0 = setup.coordinate_map.to_phi(setup.theta_guess)  # valid region: within 100x of the guesses
     bounds = (np.r_[np.full(m.nx, -np.inf), phi0 - BOUND], np.r_[np.full(m.nx, np.inf), phi0 + BOUND])
     cap = np.r_[np.full(m.nx, STATE_CAP), np.full(len(phi0), BOUND)]  # ceilings: sanity, not tuning
     opts = dict(dt=setup.record.dt, coordinates=setup.coordinates, state_scale=scale, R=1.0,
