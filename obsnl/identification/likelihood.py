@@ -62,6 +62,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Literal, overload
 
 import casadi as ca
 import numpy as np
@@ -119,7 +120,7 @@ class Objective:
 
     def theta(self, z: np.ndarray) -> np.ndarray:
         """The model parameters at ``z``."""
-        return self.setup.coordinates.to_theta(np.asarray(z)[:self.n_parameters])
+        return self.setup.coordinate_map.to_theta(np.asarray(z)[:self.n_parameters])
 
     def x0(self, z: np.ndarray) -> np.ndarray:
         """The initial state at ``z``."""
@@ -140,13 +141,21 @@ class Objective:
         y = np.asarray(self.data.y, float).reshape(len(self.data.u), -1)
         return np.where(np.isnan(y), 0.0, y)
 
+    @overload
+    def evaluate(self, z: np.ndarray, *, jacobian: Literal[True] = True) -> tuple[np.ndarray, np.ndarray]: ...
+    @overload
+    def evaluate(self, z: np.ndarray, *, jacobian: Literal[False]) -> tuple[np.ndarray, None]: ...
+    @overload
+    def evaluate(self, z: np.ndarray, *, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]: ...
+
     def evaluate(self, z: np.ndarray, *, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
-        """Residuals (and their Jacobian) at ``z``; non-finite entries where the simulation overflowed. The residual
-        of a missing output sample and its row of the Jacobian are 0 (weight zero: no NaN reaches the fit)."""
+        """Residuals (and their Jacobian, unless ``jacobian`` is False: then None) at ``z``; non-finite entries where
+        the simulation overflowed. The residual of a missing output sample and its row of the Jacobian are 0 (weight
+        zero: no NaN reaches the fit)."""
         u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
-        r, J = call(self.function, [np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma, self.setup.x0,
-                                    self.scale])
-        r, J = np.asarray(r).ravel(), (np.asarray(J) if jacobian else None)
+        r_all, J_all = call(self.function, [np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma,
+                                            self.setup.x0, self.scale])
+        r, J = np.asarray(r_all).ravel(), (np.asarray(J_all) if jacobian else None)
         missing = ~self.present.ravel()  # sample-major, as r
         if missing.any():
             r[missing] = 0.0
@@ -161,7 +170,7 @@ class Objective:
         key = self._key() + ("input",)
         if key not in _BUILT:
             m = self.setup.model
-            zs, U, Y, W, X0, SC, R = residual_graph(m, self.setup.coordinates.forward, self.setup.record.dt,
+            zs, U, Y, W, X0, SC, R = residual_graph(m, self.setup.coordinate_map.forward, self.setup.record.dt,
                                                     len(self.data.u), substeps=self.substeps,
                                                     refine=self.setup.refine, locate=LOCATE)
             V = ca.MX.sym("v", R.shape[0], zs.shape[0])
@@ -243,7 +252,7 @@ def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | No
     scale = np.asarray(scale, float)
     key = _key(setup, T, n)
     if key not in _BUILT:
-        _BUILT[key] = residuals(m, setup.coordinates.forward, setup.record.dt, T, substeps=n, refine=setup.refine,
+        _BUILT[key] = residuals(m, setup.coordinate_map.forward, setup.record.dt, T, substeps=n, refine=setup.refine,
                                 locate=LOCATE, jit=setup.jit)
         _trim()
     if sigma is None:
@@ -318,7 +327,7 @@ class Fit:
 
 
 def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], z0: np.ndarray,
-                        lower: np.ndarray, upper: np.ndarray, *, free: Sequence[bool] | None = None,
+                        lower: np.ndarray, upper: np.ndarray, *, free: Sequence[bool] | np.ndarray | None = None,
                         max_iter: int = 60, max_evals: int = 400, stop: float = STOP) -> Fit:
     """Minimise ``|r(z)|^2`` from ``z0`` within ``[lower, upper]``, moving only the ``free`` coordinates.
 
@@ -335,7 +344,7 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
         ``z -> (r, J)``.
     z0, lower, upper : numpy.ndarray
         Start and bounds.
-    free : sequence of bool or None
+    free : sequence of bool, numpy.ndarray or None
         Coordinates to move (default: all).
     max_iter : int
         Iterations at most.
@@ -366,7 +375,7 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
     >>> bool(np.allclose(fit.z, np.linalg.lstsq(A, b, rcond=None)[0]))
     True
     """
-    free = np.ones(len(z0), bool) if free is None else np.asarray(free, bool)
+    mask = np.ones(len(z0), bool) if free is None else np.asarray(free, bool)
     z = np.clip(np.asarray(z0, float), lower, upper)
     r, J = fun(z)
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
@@ -377,8 +386,8 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
     for it in range(1, max_iter + 1):
         gz = J.T @ r
         # active set: a coordinate on a bound whose gradient pushes it out stays there this iteration (KKT)
-        blocked = free & (((z <= lower) & (gz > 0)) | ((z >= upper) & (gz < 0)))
-        move = free & ~blocked
+        blocked = mask & (((z <= lower) & (gz > 0)) | ((z >= upper) & (gz < 0)))
+        move = mask & ~blocked
         Jf = J[:, move]
         g, H = gz[move], Jf.T @ Jf
         P, flat = covariance(Jf, mark_flat=False)  # the pseudo-inverse, positive semi-definite
@@ -417,6 +426,6 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
             # no step lowers chi2: at the bottom to rounding (then the decrement is at rounding level), or stuck
             last = 0.0
             break
-    at_bound = tuple(int(i) for i in np.flatnonzero(free & ((z <= lower) | (z >= upper))))
+    at_bound = tuple(int(i) for i in np.flatnonzero(mask & ((z <= lower) | (z >= upper))))
     return Fit(z=z, chi2=cost, iterations=it, evaluations=evals, decrement=decrement, last_step=last,
                at_bound=at_bound, stalled=stalled, J=J, r=r)
