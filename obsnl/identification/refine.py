@@ -55,11 +55,14 @@ class Refinement:
     held: tuple[str, ...] = ()
     known: tuple[str, ...] = ()
     at_edge: tuple[str, ...] = ()
-    lower: np.ndarray = field(default=None, repr=False)
-    upper: np.ndarray = field(default=None, repr=False)
-    fit: Fit = field(default=None, repr=False)
-    objective: Objective = field(default=None, repr=False)
-    input_cov: np.ndarray = field(default=None, repr=False)
+    # what the fit rests on: refine() and a worker's rebuild always set it; None only in a Refinement built by hand
+    # for its text (repr, summary), which reads none of it, so the readers (to_dict, the profiles, the adequacy
+    # tests) take it as set
+    lower: np.ndarray = field(default=None, repr=False)  # type: ignore[arg-type]
+    upper: np.ndarray = field(default=None, repr=False)  # type: ignore[arg-type]
+    fit: Fit = field(default=None, repr=False)  # type: ignore[assignment]
+    objective: Objective = field(default=None, repr=False)  # type: ignore[assignment]
+    input_cov: np.ndarray | None = field(default=None, repr=False)
 
     def total_cov(self) -> np.ndarray:
         """The covariance of ``z`` under the noise of the outputs and of the measured inputs."""
@@ -126,7 +129,7 @@ class Refinement:
 
 def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
            substeps: int | None = None, max_iter: int = 60, advice: str = ADVICE,
-           input_noise: Sequence[float] | None = None, x0: Sequence[float] | None = None,
+           input_noise: Sequence[float] | np.ndarray | None = None, x0: Sequence[float] | np.ndarray | None = None,
            known: Sequence[str] | None = None) -> Refinement:
     """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
 
@@ -148,10 +151,10 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     advice : str
         What to try when the refinement does not converge (the end of the reason); a caller whose guesses
         are fixed (the seed paper's study) names only what its user can change.
-    input_noise : sequence of float or None
+    input_noise : sequence of float, numpy.ndarray or None
         The noise std of each measured input, propagated into the std (:attr:`Refinement.input_cov`); default:
         the setup's levels on these data; 0 takes an input as exact.
-    x0 : sequence of float or None
+    x0 : sequence of float, numpy.ndarray or None
         The initial state the fit starts from (default: the setup's, ``setup.x0``): a restart from a better point.
     known : sequence of str or None
         States whose initial value is known (``setup.x0``'s): those coordinates are held, never fitted, and carry
@@ -169,8 +172,8 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     t0 = time.perf_counter()
     m = setup.model
     obj = objective(setup, data, theta=theta0, substeps=substeps or 2 * setup.substeps)
-    phi0 = setup.coordinates.to_phi(theta0)
-    guess = setup.coordinates.to_phi(setup.theta_guess)
+    phi0 = setup.coordinate_map.to_phi(theta0)
+    guess = setup.coordinate_map.to_phi(setup.theta_guess)
     lower = np.r_[guess - BOUND, np.full(m.nx, -np.inf)]
     upper = np.r_[guess + BOUND, np.full(m.nx, np.inf)]
     known = tuple(setup.known if known is None else known)
@@ -181,7 +184,6 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     start = np.zeros(m.nx) if x0 is None else (np.asarray(x0, float) - setup.x0) / obj.scale
     z = np.r_[phi0, np.where(free[m.np:], start, 0.0)]
     noise = obj.sigma
-    fit = None
     iterations = 0
     factor = 1.0  # the common factor of a re-weighting that changed every weight alike (then no refit)
     for _ in range(2):  # the given noise levels, then the ML levels of the fit (concentrated likelihood)
@@ -263,7 +265,7 @@ def residual_dof(J: np.ndarray, ny: int) -> np.ndarray:
 
 
 def adequacy_of(ref: Refinement, data: Data, *, level: float = LEVEL,
-                input_noise: Sequence[float] | None = None) -> Adequacy | None:
+                input_noise: Sequence[float] | np.ndarray | None = None) -> Adequacy | None:
     """Whether the refined model explains ``data`` to the noise level: the residual tests of
     :mod:`obsnl.identification.adequacy` on the residual the fit minimised (its own integrator).
 
@@ -281,7 +283,7 @@ def adequacy_of(ref: Refinement, data: Data, *, level: float = LEVEL,
         The inputs and outputs it was fitted to (NaN: an output sample missing).
     level : float
         The family-wise level of the tests.
-    input_noise : sequence of float or None
+    input_noise : sequence of float, numpy.ndarray or None
         The noise std of each measured input (default: the set-up's levels on these data; 0: exact).
 
     Returns
