@@ -128,14 +128,17 @@ def _refine(setup: Setup, data: Data, theta: np.ndarray, held: Sequence[str],
         if progress:
             progress()
         profs = profiles(ref, progress=progress, executor=executor)
-        best = min((p for p in profs if p.better_z is not None), key=lambda p: p.better, default=None)
+        # a profile that found a better point gives its chi2 and its coordinates together
+        best = min(((p.better, p.name, p.better_z) for p in profs if p.better is not None and p.better_z is not None),
+                   key=lambda b: b[0], default=None)
         if best is None:
             return ref, profs, ""
-        z = np.asarray(best.better_z, float)
+        chi2, name, better_z = best
+        z = np.asarray(better_z, float)
         again = refine(setup, data, ref.objective.theta(z), held=held, input_noise=input_noise,
                        x0=ref.objective.x0(z))
         return again, profiles(again, executor=executor), (
-            f"the profile of {best.name} found a point {ref.chi2 - best.better:.3g} lower in chi2 than the first "
+            f"the profile of {name} found a point {ref.chi2 - chi2:.3g} lower in chi2 than the first "
             f"optimum: the fit restarted from it and the profiles were computed again")
     except EstimatorError as exc:
         return None, (), f"the likelihood refinement could not run: {exc}"
