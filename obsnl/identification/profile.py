@@ -333,7 +333,7 @@ def _rebuilt(spec: dict[str, Any]) -> Refinement:
     obj = objective(setup, Data(seed=None, u=spec["u"], y=spec["y"]), theta=spec["theta"],
                     substeps=spec["substeps"], sigma=spec["sigma"], scale=spec["scale"])
     fit = Fit(z=spec["z"], chi2=spec["chi2"], iterations=0, evaluations=0, decrement=0.0, last_step=0.0,
-              at_bound=(), stalled=False, J=None, r=None)
+              at_bound=(), stalled=False, J=None, r=None)  # type: ignore[arg-type]  # a worker's profile reads z alone
     return Refinement(theta=spec["theta"], x0=spec["x0"], std=spec["std"], cov=spec["cov"], sigma=spec["sigma"],
                       chi2=spec["chi2"], held=spec["held"], known=spec["known"], lower=spec["lower"],
                       upper=spec["upper"], fit=fit, objective=obj, input_cov=spec["input_cov"])
@@ -384,7 +384,7 @@ def judge(prof: Profile, *, band: float = BAND) -> str | None:
     reach = (prof.points[0][0], prof.points[-1][0]) if prof.points else (est, est)  # the farthest points followed
     open_sides = [(s, why, th) for s, why, th, e in (("low", prof.sides[0], reach[0], lo),
                                                      ("high", prof.sides[1], reach[1], hi)) if e is None]
-    if not open_sides:
+    if lo is not None and hi is not None:  # closed on both sides (no open side)
         if lo < est - band * abs(est) or hi > est + band * abs(est):
             return (f"its 95 % profile-likelihood interval [{lo:.4g}, {hi:.4g}] is wider than +-{100 * band:g} % of "
                     f"the estimate {est:.4g}")
