@@ -256,8 +256,9 @@ def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndar
     recipe = recipe_of(setup, method, table)
     y_hat = mc_truth(setup, theta, data)
     if y_hat is None:
-        for _ in range(replicates if progress else 0):
-            progress()
+        if progress:  # not run (the estimate cannot be simulated): the count still ends at its total
+            for _ in range(replicates):
+                progress()
         return mc_spread(setup, [], replicates=replicates, seed=seed, simulated=False)
     th = tuple(float(v) for v in theta)
     tasks = [(recipe, th, data.u, data.y, y_hat, tuning, passes, seed, tuple(range(lo, min(replicates, lo + CHUNK))),
