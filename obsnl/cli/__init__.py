@@ -140,13 +140,22 @@ def build_parser() -> argparse.ArgumentParser:
         p = sub.add_parser(name, help=short, description=description)
         group = None
         for flags, kw in options:
-            if kw.get("one_of") and group is None:  # one of these options is required
-                group = p.add_mutually_exclusive_group(required=True)
             one = {k: v for k, v in kw.items() if k != "one_of"}
             if "nargs" not in kw and kw.get("action") in (None, "append"):  # one value each: refused as '--'
                 one["action"] = _One
-            (group if kw.get("one_of") else p).add_argument(*flags, **one)
+            if kw.get("one_of"):  # one of these options is required
+                if group is None:
+                    group = p.add_mutually_exclusive_group(required=True)
+                group.add_argument(*flags, **one)
+            else:
+                p.add_argument(*flags, **one)
     return parser
+
+
+def _command_parser(parser: argparse.ArgumentParser, command: str) -> argparse.ArgumentParser:
+    """The parser of ``command``, a subcommand of ``parser`` (its flags name the options in a message)."""
+    action = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    return action.choices[command]
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -164,7 +173,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         run_job(args)
         return 0
     except (ObsnlError, OSError) as exc:  # bad input, or the system's refusal (a name too long, a full disk)
-        sub = parser._subparsers._group_actions[0].choices[args.command]  # type: ignore[union-attr]
+        sub = _command_parser(parser, args.command)
         # the library names options as Python keywords (a result's reason too): this command's flags instead
         line = cli_terms(str(exc), sub) if isinstance(exc, ObsnlError) else os_error_line(exc)
         print(f"obsnl {args.command}: error: {line}", file=sys.stderr)

@@ -48,6 +48,7 @@ def job_of(command: str) -> Callable[..., Any]:
     KeyError
         For a command that has no job (a programming error: the parser knows every command).
     """
+    job: Callable[..., Any]  # each command's job takes its own options
     match command:
         case "show":
             from obsnl.design.jobs import show_printed as job
