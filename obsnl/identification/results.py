@@ -77,9 +77,14 @@ class ParameterEstimate:
                         if self.error is not None else "")
 
     def summary(self) -> str:
-        """One line of plain text: the estimate and its std (or held), the error in a simulation study, the flag."""
+        """One line of plain text: the estimate, its std and its 95 % interval (or held), the error in a simulation
+        study, the flag. An interval end the profile did not reach is said open."""
+        interval = ""
+        if self.interval is not None and not self.held:
+            lo, hi = (("open" if v is None else number(v)) for v in self.interval)
+            interval = f", 95 % [{lo}, {hi}]"
         value = (f"held at its guess {number(self.guess)}" if self.held else
-                 f"= {number(self.estimate)} (std {number(self.std)})")
+                 f"= {number(self.estimate)} (std {number(self.std)}{interval})")
         truth = "" if self.true is None else f"; true {number(self.true)}, error {number(self.error)}" + (
             " %" if self.error_kind == "percent" else "")
         return block(f"{self.name} {value}{truth}" + (f"; flagged: {self.reason}" if self.flagged else ""))
