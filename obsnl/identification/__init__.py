@@ -15,6 +15,8 @@ Must never import: ``studies``, ``design``, ``cli``, ``batch``; and nothing here
 ``model``/``observability`` at the door.
 """
 
+from typing import TYPE_CHECKING
+
 from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use (so that importing
@@ -25,6 +27,19 @@ _LAZY: dict[str, str] = {
     "monte_carlo": "experiments", "practical_identifiability": "practical", "Practical": "practical",
     "StructuralCheck": "structural",
 }
+
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.identification.experiments import monte_carlo as monte_carlo
+    from obsnl.identification.experiments import run_passes as run_passes
+    from obsnl.identification.practical import Practical as Practical
+    from obsnl.identification.practical import practical_identifiability as practical_identifiability
+    from obsnl.identification.results import Identification as Identification
+    from obsnl.identification.setup import Setup as Setup
+    from obsnl.identification.setup import Tuning as Tuning
+    from obsnl.identification.setup import make_data as make_data
+    from obsnl.identification.setup import make_filter as make_filter
+    from obsnl.identification.setup import output_misfit as output_misfit
+    from obsnl.identification.structural import StructuralCheck as StructuralCheck
 
 __all__ = list(_LAZY)
 

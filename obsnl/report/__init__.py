@@ -11,6 +11,8 @@ Must never import: ``algebra``, ``recombination``, ``estimation``, ``identificat
 ``design``, ``batch``, ``cli``.
 """
 
+from typing import TYPE_CHECKING
+
 from obsnl._exports import lazy_exports
 from obsnl.report.tables import *  # noqa: F403
 from obsnl.report.tables import __all__ as _TABLES
@@ -29,6 +31,18 @@ _LAZY: dict[str, str] = {
     "table2_markdown": "identification",
     "table2_summary": "identification",
 }
+
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.report.bank import bank_table_markdown as bank_table_markdown
+    from obsnl.report.folders import report_files as report_files
+    from obsnl.report.folders import timing_table as timing_table
+    from obsnl.report.folders import write_tables as write_tables
+    from obsnl.report.groups import BranchGroup as BranchGroup
+    from obsnl.report.groups import branch_groups as branch_groups
+    from obsnl.report.identification import table2_latex as table2_latex
+    from obsnl.report.identification import table2_markdown as table2_markdown
+    from obsnl.report.identification import table2_summary as table2_summary
+    from obsnl.report.tex import tex_escape as tex_escape
 
 __getattr__, __dir__ = lazy_exports(__name__, globals(), _LAZY)
 

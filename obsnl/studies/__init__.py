@@ -14,6 +14,8 @@ May import: ``errors``, ``_exports``, ``executor``, ``model``, ``observability``
 Must never import: ``design``, ``batch``, ``cli``.
 """
 
+from typing import TYPE_CHECKING
+
 from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use (so that importing
@@ -23,6 +25,15 @@ _LAZY: dict[str, str] = {
     "build_cantilever": "cantilever", "read_link_spec": "link_model", "BreathingCrack": "cantilever",
     "bouc_wen_building": "buildings",
 }
+
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.studies.buildings import bouc_wen_building as bouc_wen_building
+    from obsnl.studies.cantilever import BreathingCrack as BreathingCrack
+    from obsnl.studies.cantilever import build_cantilever as build_cantilever
+    from obsnl.studies.link_model import read_link_spec as read_link_spec
+    from obsnl.studies.link_study import run_link_study as run_link_study
+    from obsnl.studies.seed_paper import reproduce as reproduce
+    from obsnl.studies.seed_reproduction import Reproduction as Reproduction
 
 __all__ = list(_LAZY)
 

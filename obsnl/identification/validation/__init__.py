@@ -12,6 +12,8 @@ Must never import: ``studies``, ``design``, ``cli``, ``batch``; and nothing here
 ``model`` and ``estimation.codegen`` at the door.
 """
 
+from typing import TYPE_CHECKING
+
 from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use: name -> module.
@@ -19,6 +21,14 @@ _LAZY: dict[str, str] = {
     "simulate": "run", "read_parameters": "run", "Validation": "merit", "OutputScore": "merit",
     "figures_of_merit": "merit", "write_validation": "job",
 }
+
+if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.identification.validation.job import write_validation as write_validation
+    from obsnl.identification.validation.merit import OutputScore as OutputScore
+    from obsnl.identification.validation.merit import Validation as Validation
+    from obsnl.identification.validation.merit import figures_of_merit as figures_of_merit
+    from obsnl.identification.validation.run import read_parameters as read_parameters
+    from obsnl.identification.validation.run import simulate as simulate
 
 __all__ = list(_LAZY)
 
