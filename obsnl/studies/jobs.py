@@ -186,7 +186,9 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
 
         check_folder(out, IDENTIFY_FILES + FIGURES, force=force)  # every file a run may write
     model = read_model(model) if isinstance(model, (str, Path)) else model
-    guesses = parse_assignments(guess, [s.name for s in model.parameters], option="guess=", what="parameter")
+    # --guess takes several P=V at once, and may be repeated: a list of lists from the command line
+    flat = [g for item in guess for g in (item if isinstance(item, (list, tuple)) else [item])]
+    guesses = parse_assignments(flat, [s.name for s in model.parameters], option="guess=", what="parameter")
     channels = [s.name for s in model.inputs] + list(model.outputs)
     if data:
         ratios = noise_ratios(noise, channels, study=False, option="noise=")
@@ -368,8 +370,14 @@ def reproduce_printed(**options: Any) -> Printed:
     -------
     Printed
     """
+    import json
+
+    from obsnl.report.identification.table2 import table2_found
+
     folder, files = reproduce_job(**options)
-    return Printed(written_line(files, folder))
+    table = Path(folder) / "table2.json"
+    found = table2_found(json.loads(table.read_text(encoding="utf-8"))) if table.is_file() else ""
+    return Printed((found + "\n" if found else "") + written_line(files, folder))
 
 
 def bank_printed(**options: Any) -> Printed:

@@ -219,6 +219,30 @@ def _summary_rows(summ: Mapping[tuple[str, int], Mapping[str, Any]], ml: Mapping
     return lines
 
 
+def table2_found(doc: Mapping[str, Any]) -> str:
+    """What a reproduction found, in a few plain lines: per protocol and filter (and the maximum-likelihood column),
+    the worst error on the unflagged parameters, what is flagged and the 5 % goal (the summary of
+    :func:`table2_markdown`).
+
+    Parameters
+    ----------
+    doc : mapping
+        The reproduction's ``table2.json``.
+
+    Returns
+    -------
+    str
+    """
+    summ = table2_summary(doc)
+    ml = table2_ml_summary(doc)
+    ml_passes = max(k for _, k in summ)
+    lines = []
+    for row in _summary_rows(summ, ml, ml_passes)[2:]:
+        protocol, column, worst, flagged, goal = (c.strip() for c in row.strip("|").split(" | "))
+        lines.append(f"{column}, {protocol}: worst unflagged error {worst}; flagged {flagged}; 5 % goal {goal}")
+    return "\n".join(lines)
+
+
 def table2_errors(doc: Mapping[str, Any]) -> tuple[list[str], dict[str, list[float]], dict[str, list[bool]]]:
     """What :func:`obsnl.report.figures.table2_errors_figure` draws: the parameters, and per column (protocol and
     filter, and the maximum-likelihood column) the worst-seed error in % of each parameter and whether it is
