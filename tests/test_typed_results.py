@@ -137,6 +137,17 @@ UKF + maximum likelihood on storey, measured data run1, 3 pass(es), 1.50 s: NOT 
   residual RMS / the noise level the fit was given: y 1.02"""
 
 
+def test_a_result_without_its_record_is_refused_before_any_file(tmp_path):
+    # t, y_measured and y_fit default to None (a result built by hand, as here); write_identification says so
+    # instead of failing inside matplotlib with the folder half made
+    from obsnl.errors import DataError
+    from obsnl.identification.identify import write_identification
+
+    with pytest.raises(DataError, match="carries no record"):
+        write_identification(_identification(), tmp_path / "out")
+    assert not (tmp_path / "out").exists()
+
+
 def test_identify_text_renders_the_value_as_the_json_renderer_did():
     from obsnl.report.identification import identify_text
 

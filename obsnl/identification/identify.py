@@ -416,6 +416,8 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     OutputError
         ``out`` is a file or a link, cannot be written, or one of the files exists (or is a link) and
         ``force`` is not set (:class:`obsnl.report.files.OutputFolder`).
+    DataError
+        ``result`` carries no record (``t``, ``y_measured``, ``y_fit``) to draw.
 
     Examples
     --------
@@ -428,12 +430,16 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     from obsnl.report.files import OutputFolder
     from obsnl.report.identification.diagnostics import plot_fit_record
 
+    t, measured, simulated = result.t, result.y_measured, result.y_fit
+    if t is None or measured is None or simulated is None:
+        raise DataError("write_identification: the result carries no record (t, y_measured, y_fit) to draw; pass "
+                        "the one obsnl.identify returned")
     truth = {p.name: p.true for p in result.parameters if p.true is not None}
     extra = figure_files(result)
     with OutputFolder(out, IDENTIFY_FILES + extra, force=force) as folder:  # no link followed, all files or none
         folder.write_text("identify.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n")
-        plot_fit_record(folder.path("fit.png"), t=result.t, measured=result.y_measured, simulated=result.y_fit,
-                        outputs=result.outputs, fit=result.fit)
+        plot_fit_record(folder.path("fit.png"), t=t, measured=measured, simulated=simulated, outputs=result.outputs,
+                        fit=result.fit)
         write_figures(result, folder, extra)
         plot_traces(folder.path("traces.png"), traces=result.traces, truth=truth, held=result.held,
                     flagged=result.flagged)

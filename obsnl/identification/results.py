@@ -140,9 +140,9 @@ class Identification:
     structural: StructuralCheck | None = None
     seed: int | None = None
     traces: tuple[Trajectory, ...] = field(default=(), repr=False)
-    t: np.ndarray = field(default=None, repr=False)
-    y_measured: np.ndarray = field(default=None, repr=False)
-    y_fit: np.ndarray = field(default=None, repr=False)
+    t: np.ndarray | None = field(default=None, repr=False)
+    y_measured: np.ndarray | None = field(default=None, repr=False)
+    y_fit: np.ndarray | None = field(default=None, repr=False)
     outputs: tuple[str, ...] = ()
     converged_reason: str = ""
     refinement: Mapping[str, Any] = field(default_factory=dict)
