@@ -383,8 +383,8 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         (:mod:`obsnl.estimation.intersample`); the filter and the fit both use it.
     known_initial : mapping of str to float or None
         The initial value of each state known (a free decay from a known displacement): the filter starts there
-        and the fit holds it; the other initial states are estimated (a record whose motion the model at rest at
-        the guess cannot make starts from them fitted to its first samples,
+        and the fit holds it; the fit estimates the other initial states (for a record whose motion the model at
+        rest at the guess cannot make, the filter and the fit start from them fitted to its first samples,
         :func:`obsnl.identification.setup.free_start`).
 
     Returns

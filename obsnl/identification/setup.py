@@ -312,9 +312,9 @@ def free_start(model: NumericModel, *, theta: np.ndarray, x0: np.ndarray, u: np.
     in motion): ``x0`` with the states not ``known`` fitted to the first ``samples`` output samples at ``theta``.
 
     Gauss-Newton on those samples (three steps, sensitivities by central differences of the simulated outputs):
-    a start for the filter and the fit, which go on estimating the unknown initial states. ``None`` when the model
-    at ``theta`` moves from ``x0`` already (the record need not start in motion), when every state is known, or when
-    no sample moves.
+    where the filter starts (the record read as starting there) and where the fit starts, which estimates the unknown
+    initial states with the parameters. ``None`` when the model at ``theta`` moves from ``x0`` already (the record
+    need not start in motion), when every state is known, or when no sample moves.
 
     Parameters
     ----------
