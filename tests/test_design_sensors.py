@@ -95,7 +95,7 @@ def test_symmetric_structure_measured_on_its_axis_misses_the_antisymmetric_motio
     assert not _linear_answer(SYMMETRIC, ["y0"], targets)
     expected = _expected_minimal(SYMMETRIC, targets)
     assert expected == [("y1",), ("y2",)]  # the derivation's own result, before obsnl is asked
-    res = sensors(SYMMETRIC, seed=3)
+    res = sensors(SYMMETRIC, target="all", seed=3)
     assert [tuple(s) for s in res.minimal_sets] == expected
     on_axis = res.answer(["y0"])
     assert on_axis.sufficient is False and set(on_axis.missing) == {"x1", "v1", "x2", "v2"}
@@ -114,7 +114,7 @@ def test_substructures_that_do_not_interact_need_one_sensor_each_or_their_sum():
     targets = [s.name for s in SEPARATE.states] + [p.name for p in SEPARATE.parameters]
     expected = _expected_minimal(SEPARATE, targets)
     assert expected == [("s",), ("a1", "a2")]
-    res = sensors(SEPARATE, seed=5)
+    res = sensors(SEPARATE, target="all", seed=5)
     assert [tuple(s) for s in res.minimal_sets] == expected
     # {a1} and {a2} fail on reachability alone (the other oscillator has no path to them): no analysis
     for alone, lost in (("a1", {"x2", "v2", "k2", "c2"}), ("a2", {"x1", "v1", "k1", "c1"})):
@@ -126,7 +126,7 @@ def test_substructures_that_do_not_interact_need_one_sensor_each_or_their_sum():
 
 @pytest.mark.parametrize("case, seed", [(SYMMETRIC, 3), (SEPARATE, 5)])
 def test_every_minimal_set_passes_analyze_and_fails_with_any_sensor_removed(case, seed):
-    res = sensors(case, seed=seed)
+    res = sensors(case, target="all", seed=seed)
     targets = set(res.targets)
     for s in res.minimal_sets:
         joint = analyze(restrict(case, s), seed=seed + 100).joint  # a fresh seed: an independent analysis
@@ -159,7 +159,7 @@ def test_no_sensor_breaks_a_symmetry_of_the_dynamics():
 
 
 def test_max_size_bounds_the_search_and_json_keys():
-    res = sensors(SEPARATE, max_size=1, seed=5)
+    res = sensors(SEPARATE, target="all", max_size=1, seed=5)
     assert res.minimal_sets == (("s",),) and res.max_size == 1
     d = res.to_dict()
     assert {"minimal_sets", "analyses", "certificates"} <= set(d)
@@ -173,10 +173,10 @@ def test_cli_sensors_json_and_bad_input(tmp_path, capsys):
         'name = "sep"\nstates = ["x1", "v1", "x2", "v2"]\nparameters = ["k1", "c1", "k2", "c2"]\n'
         'inputs = ["u1", "u2"]\n[equations]\nx1 = "v1"\nv1 = "u1 - k1*x1 - c1*v1"\nx2 = "v2"\n'
         'v2 = "u2 - k2*x2 - c2*v2"\n[outputs]\na1 = "x1"\na2 = "x2"\ns = "x1 + x2"\n', encoding="utf-8")
-    assert main(["sensors", str(path), "--format", "json", "--seed", "5"]) == 0
+    assert main(["sensors", str(path), "--target", "all", "--format", "json", "--seed", "5"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["minimal_sets"] == [["s"], ["a1", "a2"]] and out["analyses"] == 3
-    assert main(["sensors", str(path), "--seed", "5"]) == 0
+    assert main(["sensors", str(path), "--target", "all", "--seed", "5"]) == 0
     text = capsys.readouterr().out
     assert "{s}" in text and "{a1, a2}" in text
     assert main(["sensors", str(path), "--target", "kk"]) == 2
@@ -192,7 +192,7 @@ def test_cli_sensors_json_and_bad_input(tmp_path, capsys):
 
 def test_progress_callable_counts_every_set():
     seen = []
-    sensors(SEPARATE, seed=5, progress=seen.append)
+    sensors(SEPARATE, target="all", seed=5, progress=seen.append)
     assert sum(seen) == res_total(SEPARATE)
 
 
@@ -203,8 +203,8 @@ def res_total(model: Model) -> int:
 def test_parallel_search_gives_the_same_answer():
     from obsnl.executor import Executor
 
-    serial = sensors(SYMMETRIC, seed=3)
-    parallel = sensors(SYMMETRIC, seed=3, executor=Executor(workers=2))
+    serial = sensors(SYMMETRIC, target="all", seed=3)
+    parallel = sensors(SYMMETRIC, target="all", seed=3, executor=Executor(workers=2))
     assert parallel.minimal_sets == serial.minimal_sets and parallel.analyses == serial.analyses
 
 
@@ -221,7 +221,7 @@ def test_undecided_is_never_reported_minimal(monkeypatch):
         return real(model, names, targets, **kw)
 
     monkeypatch.setattr(mod, "check_sensors", flaky)
-    res = mod.sensors(SYMMETRIC, seed=3)
+    res = mod.sensors(SYMMETRIC, target="all", seed=3)
     assert ("y0",) in res.undecided_sets
     # {y0, y1} contains the minimal {y1}: not minimal whatever {y0} is; the answer is otherwise unchanged
     assert res.minimal_sets == (("y1",), ("y2",))
@@ -241,14 +241,15 @@ def test_cli_ranks_sufficient_sets_along_a_record(tmp_path, capsys):
     rec = tmp_path / "rec.csv"
     rec.write_text("time_s,accel_m_s2\n" + "\n".join(f"{a:.6f},{np.sin(2.1 * a) + 0.5 * np.sin(5.3 * a):.9f}"
                                                      for a in t) + "\n", encoding="utf-8")
-    assert main(["sensors", str(model), "--record", str(rec), "--format", "json", "--seed", "3"]) == 0
+    assert main(["sensors", str(model), "--target", "all", "--record", str(rec), "--format", "json", "--seed", "3"]) == 0
     out = json.loads(capsys.readouterr().out)
     rows = out["ranking"]
     assert sorted(tuple(r["sensors"]) for r in rows) == [("y1",), ("y2",)]
     a, b = (r["worst_relative_std"] for r in rows)
     assert a == pytest.approx(b, rel=1e-6) and 0 < a < 1
     assert out["effective_independence"] and set(out["effective_independence"]) <= {"y0", "y1", "y2"}
-    assert main(["sensors", str(model), "--record", str(rec), "--rank-size", "2", "--format", "md", "--seed", "3"]) == 0
+    assert main(["sensors", str(model), "--target", "all", "--record", str(rec), "--rank-size", "2", "--format", "md",
+                 "--seed", "3"]) == 0
     md = capsys.readouterr().out
     assert md.count("| {y") >= 3  # the three pairs, each containing a minimal set
     assert main(["sensors", str(model), "--record", str(tmp_path / "missing.csv")]) == 2
@@ -268,7 +269,7 @@ def test_an_essential_sensor_prunes_every_set_without_it():
     targets = [s.name for s in ESSENTIAL.states] + [p.name for p in ESSENTIAL.parameters]
     expected = _expected_minimal(ESSENTIAL, targets, max_size=2)
     assert expected == [("m1", "q"), ("m2", "q"), ("m3", "q"), ("m4", "q"), ("m5", "q")]
-    res = sensors(ESSENTIAL, max_size=2, seed=7)
+    res = sensors(ESSENTIAL, target="all", max_size=2, seed=7)
     assert [tuple(s) for s in res.minimal_sets] == expected
     # without q even every other sensor is not enough: each pair of on-axis sensors is implied insufficient
     without_q = res.answer(["m1", "m2", "m3", "m4", "m5"])

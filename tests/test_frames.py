@@ -122,5 +122,5 @@ def test_notebook_html_of_the_results(runs):
     assert "a&lt;b" in shown and "a<b" not in shown and "Observable" in shown
     modal = res.modal()
     assert f"{modal.frequency_hz[0]:.4g}" in modal._repr_html_()
-    search = obsnl.sensors(m)
+    search = obsnl.sensors(m, target="all")
     assert "minimal set" in search._repr_html_()

@@ -64,14 +64,14 @@ def _refused(code: int, err: str, *words: str) -> None:
 def test_many_outputs_that_each_suffice_alone_end_at_once():
     """24 outputs, each sufficient alone: the search enumerated all 2**24 sets (a hang) though each contains one."""
     t0 = time.perf_counter()
-    res = obsnl.sensors(_many(24))
+    res = obsnl.sensors(_many(24), target="all")
     assert time.perf_counter() - t0 < 10
     assert len(res.minimal_sets) == 24 and res.analyses == 25  # the full set and each sensor alone
 
 
 def test_the_progress_still_counts_every_set():
     seen: list[int] = []
-    obsnl.sensors(_many(6), progress=seen.append)
+    obsnl.sensors(_many(6), target="all", progress=seen.append)
     assert sum(seen) == 2 ** 6 - 1
 
 
@@ -119,7 +119,7 @@ def test_target_parameters_of_a_model_without_parameters_is_refused(function):
 
 def test_a_progress_that_is_neither_a_flag_nor_a_callable_is_refused():
     with pytest.raises(OptionError, match="progress is True, False or a callable"):
-        obsnl.sensors(GAP, progress="yes")
+        obsnl.sensors(GAP, target="all", progress="yes")
 
 
 @pytest.mark.parametrize("record", [("r", T, {"u": U, "w": U}), ("r", T, {"U": U, "u": U}),

@@ -143,7 +143,7 @@ def _symmetry_proof(model: Model, missing: Sequence[str], seed: int) -> str:
 def sensors(
     model: Model | str,
     *,
-    target: str | Sequence[str] = "all",
+    target: str | Sequence[str] = "parameters",
     max_size: int | None = None,
     seed: int = 0,
     prob: float = 0.99,
@@ -158,7 +158,8 @@ def sensors(
     model : Model or str
         A model whose outputs are the candidate sensors, or its file (a path or ``obsnl:NAME``).
     target : str or sequence of str
-        ``"all"`` (every state and parameter), ``"parameters"`` or names (see
+        ``"parameters"`` (the default: what an identification needs), ``"all"`` (every state and parameter) or names
+        (see
         :func:`obsnl.design.sufficiency.resolve_targets`).
     max_size : int or None
         Largest set searched (default: every size).
