@@ -13,22 +13,44 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from obsnl.errors import (  # `X as X`: re-exported, for type checkers too
-    AnalysisError as AnalysisError,
-    CompileError as CompileError,
-    DataError as DataError,
-    EstimatorError as EstimatorError,
-    ExecutorError as ExecutorError,
-    ModelError as ModelError,
-    NotSupportedError as NotSupportedError,
-    ObsnlError as ObsnlError,
-    OptionError as OptionError,
-    OutputError as OutputError,
-    ParseError as ParseError,
-    TableError as TableError,
-)
 from obsnl import _display
 from obsnl._exports import lazy_exports
+from obsnl.errors import (  # `X as X`: re-exported, for type checkers too
+    AnalysisError as AnalysisError,
+)
+from obsnl.errors import (
+    CompileError as CompileError,
+)
+from obsnl.errors import (
+    DataError as DataError,
+)
+from obsnl.errors import (
+    EstimatorError as EstimatorError,
+)
+from obsnl.errors import (
+    ExecutorError as ExecutorError,
+)
+from obsnl.errors import (
+    ModelError as ModelError,
+)
+from obsnl.errors import (
+    NotSupportedError as NotSupportedError,
+)
+from obsnl.errors import (
+    ObsnlError as ObsnlError,
+)
+from obsnl.errors import (
+    OptionError as OptionError,
+)
+from obsnl.errors import (
+    OutputError as OutputError,
+)
+from obsnl.errors import (
+    ParseError as ParseError,
+)
+from obsnl.errors import (
+    TableError as TableError,
+)
 
 __version__ = "0.1.0"
 
@@ -74,7 +96,8 @@ if TYPE_CHECKING:  # the public names as type checkers see them; at run time eac
     from obsnl.identification.validation.run import simulate as simulate
     from obsnl.linear.bank import build_bank as build_bank
     from obsnl.linear.hautus import hautus as hautus
-    from obsnl.linear.systems import as_linear_system as as_linear_system, kalman_rank as kalman_rank
+    from obsnl.linear.systems import as_linear_system as as_linear_system
+    from obsnl.linear.systems import kalman_rank as kalman_rank
     from obsnl.model.core import Model as Model
     from obsnl.model.files import read_model as read_model
     from obsnl.observability.analyze import analyze as analyze

@@ -40,8 +40,15 @@ class Progress:
     ...     step()
     """
 
-    def __init__(self, progress: bool | Callable[..., Any] | None, total: int | None, desc: str,
-                 unit: str = "step", *, counted: bool = False) -> None:
+    def __init__(
+        self,
+        progress: bool | Callable[..., Any] | None,
+        total: int | None,
+        desc: str,
+        unit: str = "step",
+        *,
+        counted: bool = False,
+    ) -> None:
         self._user = progress if callable(progress) else None
         self._show = progress is True
         self._total, self._desc, self._unit, self._counted = total, desc, unit, counted

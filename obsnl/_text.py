@@ -14,8 +14,24 @@ import errno
 from collections.abc import Callable, Iterable, Sequence
 from typing import TypeVar
 
-__all__ = ["WIDTH", "LINES", "SHOWN", "shorten", "quote", "quoted", "names", "number", "numbers", "probability_text",
-           "plain_float", "bound", "one_line", "block", "verdict_words", "os_error_line"]
+__all__ = [
+    "WIDTH",
+    "LINES",
+    "SHOWN",
+    "shorten",
+    "quote",
+    "quoted",
+    "names",
+    "number",
+    "numbers",
+    "probability_text",
+    "plain_float",
+    "bound",
+    "one_line",
+    "block",
+    "verdict_words",
+    "os_error_line",
+]
 
 #: Characters of a one-line ``repr`` at most.
 WIDTH = 160
@@ -282,8 +298,14 @@ def block(*lines: str, most: int = LINES, width: int = WIDTH) -> str:
     return "".join((k if len(k) <= width else k[: width - 3] + "...") + "\n" for k in kept)
 
 
-def verdict_words(observable: Sequence[str], unobservable: Sequence[str], undecided: Sequence[str], *,
-                  most: int | None = None, name: Callable[[str], str] = str) -> str:
+def verdict_words(
+    observable: Sequence[str],
+    unobservable: Sequence[str],
+    undecided: Sequence[str],
+    *,
+    most: int | None = None,
+    name: Callable[[str], str] = str,
+) -> str:
     """The joint verdict in words, the answer a user needs first.
 
     Parameters
@@ -319,10 +341,15 @@ def verdict_words(observable: Sequence[str], unobservable: Sequence[str], undeci
 
 
 #: What to do about the system's refusals that a user can fix (else: check the path).
-_OS_FIXES = {errno.ENAMETOOLONG: "use a file name of at most 255 bytes", errno.ENOSPC: "free some space or write "
-             "elsewhere", errno.EROFS: "write to a writable file system", errno.EACCES: "choose a path you may use",
-             errno.EPERM: "choose a path you may use", errno.EISDIR: "name a file, not a folder",
-             errno.ENOTDIR: "a part of the path is a file, not a folder"}
+_OS_FIXES = {
+    errno.ENAMETOOLONG: "use a file name of at most 255 bytes",
+    errno.ENOSPC: "free some space or write elsewhere",
+    errno.EROFS: "write to a writable file system",
+    errno.EACCES: "choose a path you may use",
+    errno.EPERM: "choose a path you may use",
+    errno.EISDIR: "name a file, not a folder",
+    errno.ENOTDIR: "a part of the path is a file, not a folder",
+}
 
 
 def os_error_line(exc: OSError) -> str:

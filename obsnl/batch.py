@@ -39,9 +39,16 @@ def _analyze_task(task: tuple[dict, str, int, float | None]) -> AnalysisResult:
     return analyze(Model.from_dict(spec), method=method, seed=seed, max_seconds=max_seconds)
 
 
-def report_models(models: Sequence[Model], out: str | Path, *, method: str = "auto", seed: int = 0,
-                  force: bool = False, max_seconds: float | None = None,
-                  executor: Executor | None = None) -> tuple[AnalysisResult, ...]:
+def report_models(
+    models: Sequence[Model],
+    out: str | Path,
+    *,
+    method: str = "auto",
+    seed: int = 0,
+    force: bool = False,
+    max_seconds: float | None = None,
+    executor: Executor | None = None,
+) -> tuple[AnalysisResult, ...]:
     """Analyse ``models`` and write one table per model (``.md``, ``.tex``, ``.json``), ``index.md``
     and ``timings.md`` into ``out``.
 
@@ -79,14 +86,20 @@ def report_models(models: Sequence[Model], out: str | Path, *, method: str = "au
     if executor is None or executor.kind == "serial":
         results = tuple(analyze(m, method=method, seed=seed, max_seconds=max_seconds) for m in models)
     else:
-        results = tuple(executor.map(_analyze_task, [(m.to_dict(), method, seed, max_seconds) for m in models],
-                                     label=lambda task: f"the analysis of model {task[0]['name']!r}"))
+        results = tuple(
+            executor.map(
+                _analyze_task,
+                [(m.to_dict(), method, seed, max_seconds) for m in models],
+                label=lambda task: f"the analysis of model {task[0]['name']!r}",
+            )
+        )
     write_tables(results, out, force=force)
     return results
 
 
-def report_paths(paths: Sequence[str | Path], out: str | Path, *, max_seconds: float | None = None,
-                 **options: Unpack[_ReportOptions]) -> tuple[AnalysisResult, ...]:
+def report_paths(
+    paths: Sequence[str | Path], out: str | Path, *, max_seconds: float | None = None, **options: Unpack[_ReportOptions]
+) -> tuple[AnalysisResult, ...]:
     """:func:`report_models` of model files, within one time budget (reading, splitting, analysing).
 
     Parameters
@@ -115,8 +128,13 @@ def report_paths(paths: Sequence[str | Path], out: str | Path, *, max_seconds: f
         return report_models(models, out, max_seconds=max_seconds, **options)
 
 
-def report_printed(models: Sequence[str | Path], out: str | Path, *, max_seconds: float | None = None,
-                   **options: Unpack[_ReportOptions]) -> Printed:
+def report_printed(
+    models: Sequence[str | Path],
+    out: str | Path,
+    *,
+    max_seconds: float | None = None,
+    **options: Unpack[_ReportOptions],
+) -> Printed:
     """What ``obsnl report`` prints: :func:`report_paths`, the tables written, and the line that names the
     first inconclusive branch (with its model's name).
 

@@ -125,7 +125,7 @@ def in_terms(message: str, names: Mapping[str, tuple[str, bool | None]]) -> str:
         if switch and sets is not None:
             return option if switch == str(sets) else f"without {option}"
         value = word if word is not None else (switch or "")
-        follows = message[m.end():m.end() + 1]
+        follows = message[m.end() : m.end() + 1]
         if not value and follows and not follows.isspace() and follows not in ",;:.)]`":
             return f"{option} "  # name=3 -> --name 3
         return f"{option} {value}" if value else option

@@ -30,7 +30,9 @@ from obsnl.errors import ExecutorError, ObsnlError, OptionError
 T = TypeVar("T")
 
 #: A Dask scheduler address: an optional scheme, a host name or address ([...] for IPv6), an optional port.
-_ADDRESS = re.compile(r"^(?:(?P<scheme>tcp|tls)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)(?::(?P<port>\d{1,5}))?$")
+_ADDRESS = re.compile(
+    r"^(?:(?P<scheme>tcp|tls)://)?(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9._-]+)(?::(?P<port>\d{1,5}))?$"
+)
 
 __all__ = ["Executor", "spawn_seeds", "built_once", "MAX_WORKERS", "DEADLINE"]
 
@@ -43,8 +45,10 @@ MAX_WORKERS = 1024
 DEADLINE = 10.0
 
 #: What to do about a Dask scheduler that cannot run the work.
-_START = ("start one with `dask scheduler` and workers with `dask worker ADDRESS`, or leave scheduler= out "
-          "to run on this machine")
+_START = (
+    "start one with `dask scheduler` and workers with `dask worker ADDRESS`, or leave scheduler= out "
+    "to run on this machine"
+)
 
 
 @dataclass(frozen=True)
@@ -71,14 +75,20 @@ class Executor:
 
     def __post_init__(self) -> None:
         if isinstance(self.workers, int) and self.workers > MAX_WORKERS:  # a pool too large: why, and what instead
-            raise OptionError(f"workers={quote(self.workers, 30)} is more than {MAX_WORKERS}: each is a process of its "
-                              f"own (from 1 to {MAX_WORKERS}); a larger pool is a Dask cluster (scheduler=)")
+            raise OptionError(
+                f"workers={quote(self.workers, 30)} is more than {MAX_WORKERS}: each is a process of its "
+                f"own (from 1 to {MAX_WORKERS}); a larger pool is a Dask cluster (scheduler=)"
+            )
         if self.workers is not None and (not isinstance(self.workers, int) or not 1 <= self.workers <= MAX_WORKERS):
-            raise OptionError(f"workers must be a whole number from 1 to {MAX_WORKERS} or None (one per core), got "
-                              f"{quote(self.workers, 30)}; a larger pool is a Dask cluster (scheduler=)")
+            raise OptionError(
+                f"workers must be a whole number from 1 to {MAX_WORKERS} or None (one per core), got "
+                f"{quote(self.workers, 30)}; a larger pool is a Dask cluster (scheduler=)"
+            )
         if self.scheduler is not None and not isinstance(self.scheduler, str) and not hasattr(self.scheduler, "map"):
-            raise OptionError(f"scheduler must be a Dask scheduler address like tcp://host:8786 or a "
-                              f"distributed.Client, got {self.scheduler!r}")
+            raise OptionError(
+                f"scheduler must be a Dask scheduler address like tcp://host:8786 or a "
+                f"distributed.Client, got {self.scheduler!r}"
+            )
         if isinstance(self.scheduler, str):
             _host_port(self.scheduler)
 
@@ -125,8 +135,9 @@ class Executor:
         try:
             sock = socket.create_connection((host, port), timeout=timeout)
         except OSError as exc:
-            raise OptionError(f"cannot reach the Dask scheduler {self.scheduler!r} ({exc.strerror or exc}); "
-                              f"{_START}") from None
+            raise OptionError(
+                f"cannot reach the Dask scheduler {self.scheduler!r} ({exc.strerror or exc}); {_START}"
+            ) from None
         with sock:
             if self.scheduler.strip().startswith("tls://"):
                 return self
@@ -153,8 +164,14 @@ class Executor:
     def n_workers(self) -> int:
         return self.workers or os.cpu_count() or 1
 
-    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], *, done: Callable[[int, Any], object] | None = None,
-            label: Callable[[Any], str] | None = None) -> list[Any]:
+    def map(
+        self,
+        fn: Callable[[Any], Any],
+        tasks: Sequence[Any],
+        *,
+        done: Callable[[int, Any], object] | None = None,
+        label: Callable[[Any], str] | None = None,
+    ) -> list[Any]:
         """``[fn(t) for t in tasks]``, run where this executor says; ``done(i, result)`` as each finishes.
 
         No path waits for ever: a local worker process that dies, a Dask cluster left without a running worker
@@ -219,10 +236,16 @@ def _host_port(address: str) -> tuple[str, int]:
     """Host and port of a Dask scheduler address (port 8786 when none is given), or a one-line refusal."""
     m = _ADDRESS.match(address.strip())
     labels = [] if m is None or m["host"].startswith("[") else m["host"].removesuffix(".").split(".")
-    if m is None or not 0 < int(m["port"] or 8786) < 65536 or len(m["host"]) > 253 or \
-            not all(0 < len(x) < 64 for x in labels):  # the labels a host name may have (an empty one: "a..b")
-        raise OptionError(f"scheduler={quote(address)} is not a Dask scheduler address; give one like "
-                          f"tcp://HOST:8786 (port 1-65535, a host name of dot-separated labels of 1 to 63 characters)")
+    if (
+        m is None
+        or not 0 < int(m["port"] or 8786) < 65536
+        or len(m["host"]) > 253
+        or not all(0 < len(x) < 64 for x in labels)
+    ):  # the labels a host name may have (an empty one: "a..b")
+        raise OptionError(
+            f"scheduler={quote(address)} is not a Dask scheduler address; give one like "
+            f"tcp://HOST:8786 (port 1-65535, a host name of dot-separated labels of 1 to 63 characters)"
+        )
     return m["host"].strip("[]"), int(m["port"] or 8786)
 
 
@@ -257,13 +280,13 @@ def _dask_handshake(sock: socket.socket) -> str:
     (nframes,) = struct.unpack("<Q", body[:8]) if len(body) >= 8 else (0,)
     if len(body) < total or not 1 <= nframes <= 16 or 8 * (nframes + 1) > total:
         return "its first message is no Dask handshake"
-    lengths = struct.unpack(f"<{nframes}Q", body[8:8 * (nframes + 1)])
+    lengths = struct.unpack(f"<{nframes}Q", body[8 : 8 * (nframes + 1)])
     if 8 * (nframes + 1) + sum(lengths) != total:
         return "its first message is no Dask handshake"
     try:
         import msgpack
 
-        info = msgpack.loads(body[8 * (nframes + 1):8 * (nframes + 1) + lengths[0]])
+        info = msgpack.loads(body[8 * (nframes + 1) : 8 * (nframes + 1) + lengths[0]])
     except ImportError:  # pragma: no cover - msgpack comes with dask.distributed
         return ""
     except Exception:  # noqa: BLE001 - any undecodable frame is a refusal
@@ -319,8 +342,9 @@ class _Session:
 
             ctx = mp.get_context("spawn")
             self.started = ctx.SimpleQueue()
-            self.pool = ProcessPoolExecutor(max_workers=ex.n_workers, mp_context=ctx, initializer=_start_queue,
-                                            initargs=(self.started,))
+            self.pool = ProcessPoolExecutor(
+                max_workers=ex.n_workers, mp_context=ctx, initializer=_start_queue, initargs=(self.started,)
+            )
         elif self.kind == "dask":
             self.own = isinstance(ex.scheduler, str)
             self.client = _client(ex.scheduler.strip(), DEADLINE) if self.own else ex.scheduler
@@ -343,8 +367,14 @@ class _Session:
         if self.client is not None and self.own:
             self.client.close(timeout=DEADLINE)
 
-    def map(self, fn: Callable[[Any], Any], tasks: Sequence[Any], *, done: Callable[[int, Any], object] | None = None,
-            label: Callable[[Any], str] | None = None) -> list[Any]:
+    def map(
+        self,
+        fn: Callable[[Any], Any],
+        tasks: Sequence[Any],
+        *,
+        done: Callable[[int, Any], object] | None = None,
+        label: Callable[[Any], str] | None = None,
+    ) -> list[Any]:
         tasks = list(tasks)
         results: list[Any] = [None] * len(tasks)
 
@@ -365,8 +395,13 @@ class _Session:
             self._on_dask(fn, tasks, finished, named)
         return results
 
-    def _on_processes(self, fn: Callable[[Any], Any], tasks: list[Any], finished: Callable[[int, Any], None],
-                      named: Callable[[int], str]) -> None:
+    def _on_processes(
+        self,
+        fn: Callable[[Any], Any],
+        tasks: list[Any],
+        finished: Callable[[int, Any], None],
+        named: Callable[[int], str],
+    ) -> None:
         """The tasks on the local pool; a worker that dies is named by the task it ran (an ExecutorError)."""
         from concurrent.futures import FIRST_COMPLETED, wait
         from concurrent.futures.process import BrokenProcessPool
@@ -404,20 +439,32 @@ class _Session:
         for pid in running:  # the pool stops the others (SIGTERM): each has ended, or does within a second
             if pid in procs:
                 procs[pid].join(timeout=2.0)
-        dead = {pid: procs[pid].exitcode for pid in running
-                if pid in procs and procs[pid].exitcode not in (None, -signal.SIGTERM)}
+        dead = {
+            pid: procs[pid].exitcode
+            for pid in running
+            if pid in procs and procs[pid].exitcode not in (None, -signal.SIGTERM)
+        }
         if dead:
-            said = "; ".join(f"a worker process died ({_how(code)}) while running {named(running[pid])}"
-                             for pid, code in sorted(dead.items()))
+            said = "; ".join(
+                f"a worker process died ({_how(code)}) while running {named(running[pid])}"
+                for pid, code in sorted(dead.items())
+            )
         elif running:
             said = "a worker process died while running one of " + ", ".join(named(i) for i in sorted(running.values()))
         else:
             said = "a worker process died before its task began"
-        return (f"{said}; run it again with workers=1 (in this process, where its error shows), or with fewer "
-                f"workers if memory is short")
+        return (
+            f"{said}; run it again with workers=1 (in this process, where its error shows), or with fewer "
+            f"workers if memory is short"
+        )
 
-    def _on_dask(self, fn: Callable[[Any], Any], tasks: list[Any], finished: Callable[[int, Any], None],
-                 named: Callable[[int], str]) -> None:
+    def _on_dask(
+        self,
+        fn: Callable[[Any], Any],
+        tasks: list[Any],
+        finished: Callable[[int, Any], None],
+        named: Callable[[int], str],
+    ) -> None:
         """The tasks on the Dask cluster, with a deadline: a cluster without a worker, or a scheduler that stops
         answering, for :data:`DEADLINE` seconds is refused (an ExecutorError), as is a task that kills its workers."""
         from concurrent.futures import CancelledError
@@ -441,15 +488,22 @@ class _Session:
                 try:
                     value = fut.result()
                 except KilledWorker:  # Dask gave up on it (and on any other task the dead workers held)
-                    lost = [named(index[f.key]) for f in futures if f.status == "error"
-                            and isinstance(f.exception(timeout=DEADLINE), KilledWorker)] or [named(i)]
-                    raise ExecutorError(f"Dask workers died while running {', '.join(lost)} (a task that crashes its "
-                                        f"worker or exhausts its memory); run it again without scheduler= and with "
-                                        f"workers=1, in this process, where its error shows") from None
+                    lost = [
+                        named(index[f.key])
+                        for f in futures
+                        if f.status == "error" and isinstance(f.exception(timeout=DEADLINE), KilledWorker)
+                    ] or [named(i)]
+                    raise ExecutorError(
+                        f"Dask workers died while running {', '.join(lost)} (a task that crashes its "
+                        f"worker or exhausts its memory); run it again without scheduler= and with "
+                        f"workers=1, in this process, where its error shows"
+                    ) from None
                 except CancelledError:
-                    raise ExecutorError(f"the Dask scheduler {self.name!r} dropped {named(i)} (restarted, or the "
-                                        f"connection broke); run again, or leave scheduler= out to run on this "
-                                        f"machine") from None
+                    raise ExecutorError(
+                        f"the Dask scheduler {self.name!r} dropped {named(i)} (restarted, or the "
+                        f"connection broke); run again, or leave scheduler= out to run on this "
+                        f"machine"
+                    ) from None
                 finished(i, value)
                 left -= 1
             if ready:
@@ -464,9 +518,11 @@ class _Session:
             elif idle is None:
                 idle = time.monotonic()
             elif time.monotonic() - idle > DEADLINE:
-                raise ExecutorError(f"the Dask scheduler {self.name!r} has had no worker for {DEADLINE:g} s with "
-                                    f"{left} of {len(tasks)} tasks waiting; start workers with `dask worker "
-                                    f"{self.name}`, or leave scheduler= out to run on this machine")
+                raise ExecutorError(
+                    f"the Dask scheduler {self.name!r} has had no worker for {DEADLINE:g} s with "
+                    f"{left} of {len(tasks)} tasks waiting; start workers with `dask worker "
+                    f"{self.name}`, or leave scheduler= out to run on this machine"
+                )
 
 
 def _address(client: Any) -> str:
@@ -483,12 +539,15 @@ def _client(address: str, seconds: float) -> Any:
     try:
         return Client(address, timeout=seconds, set_as_default=False)
     except TimeoutError:  # it took the connection (and maybe sent the handshake), then said nothing
-        raise OptionError(f"the Dask scheduler {address!r} did not answer a client within {seconds:g} s (it hangs, "
-                          f"or another program holds its port); restart it with `dask scheduler`, or leave "
-                          f"scheduler= out to run on this machine") from None
+        raise OptionError(
+            f"the Dask scheduler {address!r} did not answer a client within {seconds:g} s (it hangs, "
+            f"or another program holds its port); restart it with `dask scheduler`, or leave "
+            f"scheduler= out to run on this machine"
+        ) from None
     except (OSError, ValueError) as exc:  # unreachable, or not an address at all
-        raise OptionError(f"cannot reach the Dask scheduler {address!r} ({exc}); give an address like "
-                          f"tcp://HOST:8786, {_START}") from None
+        raise OptionError(
+            f"cannot reach the Dask scheduler {address!r} ({exc}); give an address like tcp://HOST:8786, {_START}"
+        ) from None
 
 
 def _workers(client: Any, name: str, seconds: float, error: type[ObsnlError]) -> int:
@@ -499,14 +558,18 @@ def _workers(client: Any, name: str, seconds: float, error: type[ObsnlError]) ->
         info = client.sync(client.scheduler.identity, n_workers=0, callback_timeout=seconds)
     except (OSError, RuntimeError) as exc:  # TimeoutError included: a scheduler that stopped answering
         why = str(exc) if str(exc) and not isinstance(exc, TimeoutError) else f"no answer within {seconds:g} s"
-        raise error(f"the Dask scheduler {name!r} stopped answering ({why}); restart it with `dask scheduler`, or "
-                    f"leave scheduler= out to run on this machine") from None
+        raise error(
+            f"the Dask scheduler {name!r} stopped answering ({why}); restart it with `dask scheduler`, or "
+            f"leave scheduler= out to run on this machine"
+        ) from None
     return int(info.get("n_workers", 1)) if isinstance(info, dict) else 1
 
 
 #: A scheduler without a worker, refused (``str.format`` with the scheduler's name and the seconds waited).
-_NO_WORKER = ("the Dask scheduler {name!r} has no worker (none joined within {seconds:g} s); start workers with "
-              "`dask worker {name}`, or leave scheduler= out to run on this machine")
+_NO_WORKER = (
+    "the Dask scheduler {name!r} has no worker (none joined within {seconds:g} s); start workers with "
+    "`dask worker {name}`, or leave scheduler= out to run on this machine"
+)
 
 
 def _need_workers(client: Any, name: str, seconds: float, error: type[ObsnlError]) -> None:
@@ -547,13 +610,16 @@ def _ask_scheduler(address: str, seconds: float) -> dict[str, Any]:
         with ThreadPoolExecutor(1) as thread:  # a loop of its own, whether or not this thread runs one
             return thread.submit(asyncio.run, ask()).result()
     except ValueError as exc:  # an address Dask does not read
-        raise OptionError(f"cannot reach the Dask scheduler {address!r} ({exc}); give an address like "
-                          f"tcp://HOST:8786, {_START}") from None
+        raise OptionError(
+            f"cannot reach the Dask scheduler {address!r} ({exc}); give an address like tcp://HOST:8786, {_START}"
+        ) from None
     except (OSError, EOFError) as exc:  # TimeoutError included: a scheduler that went silent after its handshake
         why = str(exc) if str(exc) and not isinstance(exc, TimeoutError) else f"no answer within {seconds:g} s"
-        raise OptionError(f"the Dask scheduler {address!r} sent its handshake but did not answer a client's question "
-                          f"({why}; it hangs, or another program holds its port); restart it with `dask scheduler`, "
-                          f"or leave scheduler= out to run on this machine") from None
+        raise OptionError(
+            f"the Dask scheduler {address!r} sent its handshake but did not answer a client's question "
+            f"({why}; it hangs, or another program holds its port); restart it with `dask scheduler`, "
+            f"or leave scheduler= out to run on this machine"
+        ) from None
 
 
 _BUILT: dict[str, Any] = {}

@@ -15,8 +15,11 @@ from obsnl.errors import AnalysisError
 
 
 def _regenerating(folder: Path) -> None:
-    print(f"obsnl reproduce: regenerating the default folder {folder} (committed results); pass --out DIR or "
-          "--quick to keep them", file=sys.stderr)
+    print(
+        f"obsnl reproduce: regenerating the default folder {folder} (committed results); pass --out DIR or "
+        "--quick to keep them",
+        file=sys.stderr,
+    )
 
 
 def _opts(a: Namespace) -> dict[str, Any]:
@@ -25,6 +28,7 @@ def _opts(a: Namespace) -> dict[str, Any]:
     opts = {k: v for k, v in vars(a).items() if k not in ("command", "workers", "scheduler")}
     if "workers" in vars(a):
         from obsnl.executor import Executor
+
         opts["executor"] = Executor(scheduler=a.scheduler, workers=a.workers)
     return opts | ({"regenerating": _regenerating} if a.command == "reproduce" else {})
 
@@ -85,7 +89,8 @@ def run(a: Namespace) -> None:
     its escape); its undecided line is then said as an error, never passed over."""
     text, stuck = job_of(a.command)(**_opts(a))
     if text is not None:
-        sys.stdout.write((text if text.endswith("\n") else text + "\n").encode("utf-8", "backslashreplace")
-                         .decode("utf-8"))
+        sys.stdout.write(
+            (text if text.endswith("\n") else text + "\n").encode("utf-8", "backslashreplace").decode("utf-8")
+        )
     if stuck:
         raise AnalysisError(stuck)

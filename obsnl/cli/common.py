@@ -29,6 +29,7 @@ def _whole(low: int = 0) -> Any:
 def _number(text: str) -> float:
     """An argparse type: a number (its range is the library's check), echoed short when it is not one."""
     from obsnl._text import plain_float  # "1_0" is not 10
+
     try:
         return plain_float(text)
     except ValueError:
@@ -44,11 +45,18 @@ class _One(argparse.Action):
     """``store`` (``append`` for a repeatable option), refusing the ``[]`` that Python 3.11's argparse makes of
     ``--opt=--`` past the option's type and choices."""
 
-    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, values: Any,
-                 option_string: str | None = None) -> None:
+    def __call__(
+        self,
+        parser: argparse.ArgumentParser,
+        namespace: argparse.Namespace,
+        values: Any,
+        option_string: str | None = None,
+    ) -> None:
         if isinstance(values, list) and not values:
-            parser.error(f"argument {option_string}: expected one value, got '--' (a value that starts with '-' is "
-                         f"written {option_string}=VALUE)")
+            parser.error(
+                f"argument {option_string}: expected one value, got '--' (a value that starts with '-' is "
+                f"written {option_string}=VALUE)"
+            )
         if isinstance(self.default, list):  # a repeatable option
             values = [*(getattr(namespace, self.dest, None) or []), values]
         setattr(namespace, self.dest, values)
@@ -85,8 +93,11 @@ def cli_terms(message: str, parser: argparse.ArgumentParser) -> str:
     """
     from obsnl.errors import in_terms
 
-    names = {a.dest: (a.option_strings[-1], a.const if a.nargs == 0 else None)
-             for a in parser._actions if a.option_strings and a.option_strings[-1].startswith("--")}
+    names = {
+        a.dest: (a.option_strings[-1], a.const if a.nargs == 0 else None)
+        for a in parser._actions
+        if a.option_strings and a.option_strings[-1].startswith("--")
+    }
     for a in (a for a in parser._actions if isinstance(a, argparse.BooleanOptionalAction)):  # --jit, --no-jit
         names |= {a.dest: (a.option_strings[0], True), f"no_{a.dest}": (a.option_strings[1], True)}
     return in_terms(message, names)

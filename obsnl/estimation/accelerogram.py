@@ -18,9 +18,19 @@ from obsnl._text import block, names, number, one_line, quote
 from obsnl.errors import DataError
 
 __all__ = [
-    "Record", "check_times", "check_increasing", "check_inputs", "G", "ABSOLUTE_TIME", "time_since", "times_from_text",
+    "Record",
+    "check_times",
+    "check_increasing",
+    "check_inputs",
+    "G",
+    "ABSOLUTE_TIME",
+    "time_since",
+    "times_from_text",
     "check_seconds",
-    "acceleration_unit", "check_motion", "rms", "add_noise",
+    "acceleration_unit",
+    "check_motion",
+    "rms",
+    "add_noise",
 ]
 
 
@@ -61,8 +71,9 @@ class Record:
             raise DataError(f"record {self.name!r}: need a series of at least 2 samples, got shape {a.shape}")
         bad = np.flatnonzero(~np.all(np.isfinite(a.reshape(len(a), -1)), axis=1))
         if bad.size:
-            raise DataError(f"record {self.name!r}: NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
-                            f"clean the record first")
+            raise DataError(
+                f"record {self.name!r}: NaN/inf at sample {bad[0]} ({bad.size} bad samples); clean the record first"
+            )
         if not (np.isfinite(self.dt) and self.dt > 0):
             raise DataError(f"record {self.name!r}: the time step must be positive, got {self.dt!r}")
         a.setflags(write=False)
@@ -78,8 +89,10 @@ class Record:
     def head(self, n: int) -> Record:
         """The first ``n`` samples."""
         if n < 2:
-            raise DataError(f"cannot keep the first {n} samples of {self.name!r}: a record needs at least 2 "
-                            f"(ask for 2 or more samples)")
+            raise DataError(
+                f"cannot keep the first {n} samples of {self.name!r}: a record needs at least 2 "
+                f"(ask for 2 or more samples)"
+            )
         return Record(self.name, self.accel[:n], self.dt, self.source, self.notes, self.channels)
 
     def resampled(self, dt: float) -> Record:
@@ -90,26 +103,50 @@ class Record:
 
         ratio = Fraction(self.dt / dt).limit_denominator(1000)
         if abs(float(ratio) - self.dt / dt) > 1e-9 * self.dt / dt:
-            raise DataError(f"cannot resample from dt={float(self.dt)!r} to dt={float(dt)!r}: not a ratio of small integers")
+            raise DataError(
+                f"cannot resample from dt={float(self.dt)!r} to dt={float(dt)!r}: not a ratio of small integers"
+            )
         a = resample_poly(self.accel, ratio.numerator, ratio.denominator, axis=0)
-        return Record(self.name, a, dt, self.source,
-                      self.notes + (f"resampled from dt={self.dt:g} s to {dt:g} s (polyphase, x{ratio})",), self.channels)
+        return Record(
+            self.name,
+            a,
+            dt,
+            self.source,
+            self.notes + (f"resampled from dt={self.dt:g} s to {dt:g} s (polyphase, x{ratio})",),
+            self.channels,
+        )
 
     def __repr__(self) -> str:
         ch = f"channels={names(self.channels, 4)!r}" if self.channels else ""
-        return one_line("Record", f"name={self.name!r}", f"samples={len(self)}", f"dt={number(self.dt)} s",
-                        f"peak={number(float(np.max(np.abs(self.accel))))}", ch)
+        return one_line(
+            "Record",
+            f"name={self.name!r}",
+            f"samples={len(self)}",
+            f"dt={number(self.dt)} s",
+            f"peak={number(float(np.max(np.abs(self.accel))))}",
+            ch,
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: length, step, peak, source, channels, what was done to it."""
-        return block(f"record {self.name}: {len(self)} samples at dt = {number(self.dt)} s, peak |value| "
-                     f"{number(float(np.max(np.abs(self.accel))))}", f"source: {self.source}" if self.source else "",
-                     f"channels: {names(self.channels)}" if self.channels else "", *self.notes)
+        return block(
+            f"record {self.name}: {len(self)} samples at dt = {number(self.dt)} s, peak |value| "
+            f"{number(float(np.max(np.abs(self.accel))))}",
+            f"source: {self.source}" if self.source else "",
+            f"channels: {names(self.channels)}" if self.channels else "",
+            *self.notes,
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "dt": self.dt, "samples": len(self), "source": self.source,
-                "notes": list(self.notes), "pga_m_s2": float(np.max(np.abs(self.accel))),
-                **({"channels": list(self.channels)} if self.channels else {})}
+        return {
+            "name": self.name,
+            "dt": self.dt,
+            "samples": len(self),
+            "source": self.source,
+            "notes": list(self.notes),
+            "pga_m_s2": float(np.max(np.abs(self.accel))),
+            **({"channels": list(self.channels)} if self.channels else {}),
+        }
 
 
 def check_increasing(t: np.ndarray, where: str) -> float:
@@ -145,12 +182,16 @@ def check_increasing(t: np.ndarray, where: str) -> float:
     rounding = 4 * np.finfo(float).eps * float(max(abs(t[0]), abs(t[-1])))  # of one time value
     mean = float(t[-1] - t[0]) / (len(t) - 1)
     if mean > 0 and rounding > 1e-3 * mean:
-        raise DataError(f"{where}: the time column starts at {float(t[0]):.10g} s, absolute (epoch) time by the look "
-                        f"of it, too large to resolve its step of {mean:.3g} s; subtract the first time from every "
-                        f"time (obsnl counts time from the first sample)")
+        raise DataError(
+            f"{where}: the time column starts at {float(t[0]):.10g} s, absolute (epoch) time by the look "
+            f"of it, too large to resolve its step of {mean:.3g} s; subtract the first time from every "
+            f"time (obsnl counts time from the first sample)"
+        )
     if np.any(d <= 0):
         i = int(np.flatnonzero(d <= 0)[0])
-        raise DataError(f"{where}: time does not increase at sample {i + 1} (t={float(t[i + 1])!r} after {float(t[i])!r})")
+        raise DataError(
+            f"{where}: time does not increase at sample {i + 1} (t={float(t[i + 1])!r} after {float(t[i])!r})"
+        )
     return float(rounding)
 
 
@@ -191,8 +232,10 @@ def check_times(t: np.ndarray, where: str) -> float:
     off = np.flatnonzero(np.abs(d - dt) > max(_DT_RTOL * dt, 1e-9 + 1e-6 * dt) + 2 * rounding)
     if off.size:
         i = int(off[0])
-        raise DataError(f"{where}: irregular time step at sample {i + 1} (step {d[i]:.6g} s, expected {dt:.6g} s; "
-                        f"{off.size} irregular steps); resample the record to an even step first")
+        raise DataError(
+            f"{where}: irregular time step at sample {i + 1} (step {d[i]:.6g} s, expected {dt:.6g} s; "
+            f"{off.size} irregular steps); resample the record to an even step first"
+        )
     return float((t[-1] - t[0]) / (len(t) - 1))
 
 
@@ -231,8 +274,10 @@ def check_inputs(ys: Any, us: Any, *, ny: int, nu: int) -> tuple[np.ndarray, np.
     for name, arr in (("outputs", ys), ("inputs", us)):
         bad = np.flatnonzero(~np.all(np.isfinite(arr), axis=1))
         if bad.size:
-            raise DataError(f"{name} contain NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
-                            f"clean or interpolate the record first")
+            raise DataError(
+                f"{name} contain NaN/inf at sample {bad[0]} ({bad.size} bad samples); "
+                f"clean or interpolate the record first"
+            )
     return ys, us
 
 
@@ -306,13 +351,16 @@ def check_seconds(name: str, where: str) -> None:
     """
     unit = re.split(r"[_\[(\s]+", name.strip().lower().rstrip(")]"), maxsplit=1)[1:]
     if unit and unit[0] not in ("s", "sec", "secs", "second", "seconds"):
-        raise DataError(f"{where}: the time column {quote(name)} is not in seconds; give the time in seconds as "
-                        f"'time_s'")
+        raise DataError(
+            f"{where}: the time column {quote(name)} is not in seconds; give the time in seconds as 'time_s'"
+        )
 
 
 #: A unit in the words of a column's name: g and its parts, gal, a length per second (squared: "cm s 2", "cms 2").
-_UNIT = re.compile(r"\b(?:(?P<g>g|gs|mg|ug|µg|gal|gals|mgal)|(?P<l>m|cm|mm|um|µm|km|in|ft)"
-                   r"(?:(?: per)? (?:s|sec)(?P<two> 2| s| sec)?|p?s(?P<fused> 2)))\b")
+_UNIT = re.compile(
+    r"\b(?:(?P<g>g|gs|mg|ug|µg|gal|gals|mgal)|(?P<l>m|cm|mm|um|µm|km|in|ft)"
+    r"(?:(?: per)? (?:s|sec)(?P<two> 2| s| sec)?|p?s(?P<fused> 2)))\b"
+)
 
 
 def acceleration_unit(name: str) -> str | None:
@@ -340,15 +388,17 @@ def check_motion(rec: Record) -> Record:
     if peak > 1e100:
         raise DataError(f"record {rec.name!r} reaches {peak:.3g}; rescale it (the record is read in m/s^2)")
     if not 1e-6 <= rec.dt <= 1.0:
-        raise DataError(f"record {rec.name!r} is sampled every {rec.dt:.3g} s; a ground motion is sampled every "
-                        f"1e-6 to 1 s: check that the time is in seconds")
+        raise DataError(
+            f"record {rec.name!r} is sampled every {rec.dt:.3g} s; a ground motion is sampled every "
+            f"1e-6 to 1 s: check that the time is in seconds"
+        )
     return rec
 
 
 def rms(x: Any) -> float:
     """Root mean square of ``x`` (all entries)."""
     x = np.asarray(x, float)
-    return float(np.sqrt(np.mean(x ** 2)))
+    return float(np.sqrt(np.mean(x**2)))
 
 
 def add_noise(signal: Any, *, ratio: float, seed: int | np.random.Generator | None = None) -> np.ndarray:
@@ -383,5 +433,5 @@ def add_noise(signal: Any, *, ratio: float, seed: int | np.random.Generator | No
         raise DataError(f"noise ratio must be >= 0, got {ratio!r}")
     x = np.asarray(signal, float)
     rng = seed if isinstance(seed, np.random.Generator) else np.random.default_rng(seed)
-    scale = np.sqrt(np.mean(x ** 2, axis=0)) * ratio
+    scale = np.sqrt(np.mean(x**2, axis=0)) * ratio
     return x + scale * rng.standard_normal(x.shape)

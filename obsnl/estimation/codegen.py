@@ -20,22 +20,37 @@ import casadi as ca
 import numpy as np
 import sympy as sp
 
+from obsnl.errors import ModelError, NotSupportedError, TableError
+from obsnl.estimation.jitcache import jit_options
+from obsnl.estimation.numeric import NumericModel, ParameterMap
 from obsnl.model.branching.jumps import field_jumps, field_slides
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text, switching_functions
-from obsnl.errors import ModelError, NotSupportedError, TableError
 from obsnl.model.core import Model
-from obsnl.estimation.numeric import NumericModel, ParameterMap
-from obsnl.estimation.jitcache import jit_options
 from obsnl.model.reading.parse import make_symbol, parse_expression
 
 __all__ = [
-    "NumericModel", "ParameterMap", "to_casadi", "parameter_map", "log_map", "numpy_model", "jit_options",
+    "NumericModel",
+    "ParameterMap",
+    "to_casadi",
+    "parameter_map",
+    "log_map",
+    "numpy_model",
+    "jit_options",
 ]
 
 _UNARY = {
-    sp.exp: ca.exp, sp.log: ca.log, sp.sin: ca.sin, sp.cos: ca.cos, sp.tan: ca.tan, sp.tanh: ca.tanh,
-    sp.sinh: ca.sinh, sp.cosh: ca.cosh, sp.atan: ca.atan, sp.sign: ca.sign, sp.Abs: ca.fabs,
+    sp.exp: ca.exp,
+    sp.log: ca.log,
+    sp.sin: ca.sin,
+    sp.cos: ca.cos,
+    sp.tan: ca.tan,
+    sp.tanh: ca.tanh,
+    sp.sinh: ca.sinh,
+    sp.cosh: ca.cosh,
+    sp.atan: ca.atan,
+    sp.sign: ca.sign,
+    sp.Abs: ca.fabs,
 }
 
 
@@ -92,8 +107,14 @@ class _ToCasadi:
             for expr, cond in reversed(e.args):
                 out = c(expr) if cond is sp.true else ca.if_else(c(cond), c(expr), out)
             return out
-        rel = {sp.StrictGreaterThan: ca.gt, sp.StrictLessThan: ca.lt, sp.GreaterThan: ca.ge,
-               sp.LessThan: ca.le, sp.Eq: ca.eq, sp.Ne: ca.ne}
+        rel = {
+            sp.StrictGreaterThan: ca.gt,
+            sp.StrictLessThan: ca.lt,
+            sp.GreaterThan: ca.ge,
+            sp.LessThan: ca.le,
+            sp.Eq: ca.eq,
+            sp.Ne: ca.ne,
+        }
         if type(e) in rel:
             return rel[type(e)](c(e.lhs), c(e.rhs))
         if isinstance(e, (sp.And, sp.Or)):
@@ -129,8 +150,9 @@ def _constant_values(model: Model, constants: Mapping[str, float] | None) -> dic
     return out
 
 
-def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
-              constants: Mapping[str, float] | None = None) -> NumericModel:
+def to_casadi(
+    model: Model, *, switching: Sequence[str] | None = None, constants: Mapping[str, float] | None = None
+) -> NumericModel:
     """Compile ``model`` into casadi Functions.
 
     Parameters
@@ -165,8 +187,10 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
     -4.0
     """
     if model.unknown_inputs:
-        raise NotSupportedError(f"model {model.name!r} has unknown inputs {[s.name for s in model.unknown_inputs]}; "
-                                f"the filters need them known or modelled as states")
+        raise NotSupportedError(
+            f"model {model.name!r} has unknown inputs {[s.name for s in model.unknown_inputs]}; "
+            f"the filters need them known or modelled as states"
+        )
     xs = ca.SX.sym("x", len(model.states))
     ps = ca.SX.sym("p", len(model.parameters))
     us = ca.SX.sym("u", len(model.inputs))
@@ -183,8 +207,9 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
         for text in switching:
             g = parse_expression(text, model.symbols, where="switching function")
             if not any(sp.expand(g - s) == 0 or sp.expand(g + s) == 0 for s in own):
-                raise TableError(f"switching function {text!r} is not one of model {model.name!r}'s "
-                                 f"{[expr_text(s) for s in own]}")
+                raise TableError(
+                    f"switching function {text!r} is not one of model {model.name!r}'s {[expr_text(s) for s in own]}"
+                )
             gs.append(g)
     fx = ca.vertcat(*[conv(e) for e in model.rhs]) if model.states else ca.SX.zeros(0)
     hx = ca.vertcat(*[conv(e) for e in model.output_exprs]) if model.outputs else ca.SX.zeros(0)
@@ -193,16 +218,20 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
     values = {k: float(v) for k, v in (model.values or {}).items()}
     return NumericModel(
         signature=ModelSignature(
-            name=model.name, fingerprint=model.fingerprint,
-            states=tuple(s.name for s in model.states), parameters=tuple(s.name for s in model.parameters),
-            inputs=tuple(s.name for s in model.inputs), outputs=tuple(model.outputs),
-            switching=tuple(expr_text(g) if isinstance(g, sp.Basic) else str(g) for g in
-                            (gs if switching is None else switching))),
+            name=model.name,
+            fingerprint=model.fingerprint,
+            states=tuple(s.name for s in model.states),
+            parameters=tuple(s.name for s in model.parameters),
+            inputs=tuple(s.name for s in model.inputs),
+            outputs=tuple(model.outputs),
+            switching=tuple(
+                expr_text(g) if isinstance(g, sp.Basic) else str(g) for g in (gs if switching is None else switching)
+            ),
+        ),
         values=MappingProxyType(values),
         jumps=field_jumps(model, gs) if gs else (),
         slides=field_slides(model, gs) if gs else (),
-        source=(model, None if switching is None else tuple(switching),
-                None if constants is None else dict(constants)),
+        source=(model, None if switching is None else tuple(switching), None if constants is None else dict(constants)),
         f=ca.Function("f", args, [fx], names, ["xdot"]),
         h=ca.Function("h", args, [hx], names, ["y"]),
         g=ca.Function("g", args, [gx], names, ["g"]),
@@ -213,8 +242,13 @@ def to_casadi(model: Model, *, switching: Sequence[str] | None = None,
 
 
 # --------------------------------------------------------------------------- parameter coordinates
-def parameter_map(parameters: Sequence[str], forward: Mapping[str, str], inverse: Mapping[str, str],
-                  *, check: Mapping[str, float] | None = None) -> ParameterMap:
+def parameter_map(
+    parameters: Sequence[str],
+    forward: Mapping[str, str],
+    inverse: Mapping[str, str],
+    *,
+    check: Mapping[str, float] | None = None,
+) -> ParameterMap:
     """Build a :class:`ParameterMap` from expressions.
 
     Parameters
@@ -249,7 +283,8 @@ def parameter_map(parameters: Sequence[str], forward: Mapping[str, str], inverse
     inv_exprs = [parse_expression(inverse[n], old_syms, where=f"definition of {n}") for n in names]
     depends = tuple(tuple(p for p, e in zip(parameters, fwd_exprs) if new_syms[n] in e.free_symbols) for n in names)
     pm = ParameterMap(
-        names=names, parameters=tuple(parameters),
+        names=names,
+        parameters=tuple(parameters),
         forward=ca.Function("forward", [phi], [ca.vertcat(*[to_new(e) for e in fwd_exprs])], ["phi"], ["theta"]),
         inverse=ca.Function("inverse", [theta], [ca.vertcat(*[to_old(e) for e in inv_exprs])], ["theta"], ["phi"]),
         depends=depends,
@@ -262,8 +297,9 @@ def parameter_map(parameters: Sequence[str], forward: Mapping[str, str], inverse
     return pm
 
 
-def log_map(parameters: Sequence[str], *, signs: Mapping[str, int] | None = None,
-            linear: Sequence[str] = ()) -> ParameterMap:
+def log_map(
+    parameters: Sequence[str], *, signs: Mapping[str, int] | None = None, linear: Sequence[str] = ()
+) -> ParameterMap:
     """Log coordinates ``theta = sign * exp(phi)`` (``phi`` named ``log_<p>``); ``linear`` ones kept as is.
 
     Parameters

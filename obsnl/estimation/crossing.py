@@ -61,8 +61,10 @@ def heun3(f: Any, x: Any, p: Any, ua: Any, ub: Any, s: Any, h: float) -> Any:
     -------
     casadi.SX
     """
+
     def u_at(t: Any) -> Any:
         return ua + (ub - ua) * (t / h)
+
     k1 = f(x, p, ua)
     k3 = f(x + 2 * s / 3 * f(x + s / 3 * k1, p, u_at(s / 3)), p, u_at(2 * s / 3))
     return x + s / 4 * (k1 + 3 * k3)
@@ -109,8 +111,10 @@ def surface_start(model: Any, x: Any, p: Any, u: Any, h: float) -> tuple[Any, An
     g = model.g(x, p, u)
     gdot = ca.mtimes(model.jac_g(x, p, u), model.f(x, p, u))
     lin = g + h * gdot
-    return (ca.fabs(g) <= 1e-6 * h * ca.fabs(gdot),
-            ca.if_else(g * lin < 0, g / ca.if_else(g * lin < 0, g - lin, 1.0), 2.0))
+    return (
+        ca.fabs(g) <= 1e-6 * h * ca.fabs(gdot),
+        ca.if_else(g * lin < 0, g / ca.if_else(g * lin < 0, g - lin, 1.0), 2.0),
+    )
 
 
 def _rk4_with(field: Any, x0: Any, t0: Any, r: Any, first: Any) -> Any:
@@ -203,8 +207,12 @@ def located_substep(model: Any, h: float, *, iterations: int = 4) -> ca.Function
     ga, gb, ge = model.g(x, p, ua)[watch], model.g(xb, p, ub)[watch], model.g(old(h), p, ub)[watch]
     # the earliest sign change, seen at the RK4 end or at the old branch's extrapolated end (a crossing late in
     # the substep, which the RK4 end may not show), by linear interpolation; piecewise constant in (x, p)
-    frac = [ca.if_else(ga[j] * gb[j] < 0, ga[j] / (ga[j] - gb[j]),
-                       ca.if_else(ga[j] * ge[j] < 0, ga[j] / (ga[j] - ge[j]), 2.0)) for j in range(len(watch))]
+    frac = [
+        ca.if_else(
+            ga[j] * gb[j] < 0, ga[j] / (ga[j] - gb[j]), ca.if_else(ga[j] * ge[j] < 0, ga[j] / (ga[j] - ge[j]), 2.0)
+        )
+        for j in range(len(watch))
+    ]
     # where the trajectory may slide: a start on the surface (at rest on a friction surface, or where the previous
     # substep's sliding left g at rounding level) is a crossing at the start, so that the sliding rule below
     # decides; and the crossing that the old field's tangent shows counts too (into a sliding mode the stages past
@@ -214,8 +222,9 @@ def located_substep(model: Any, h: float, *, iterations: int = 4) -> ca.Function
         on, tangent = surface_start(model, x, p, ua, h)
         for j in may_slide:
             i = watch[j]
-            tangent_only = ca.logic_or(tangent_only, ca.logic_and(ca.logic_and(frac[j] >= 2.0, tangent[i] < 2.0),
-                                                                  ca.logic_not(on[i])))
+            tangent_only = ca.logic_or(
+                tangent_only, ca.logic_and(ca.logic_and(frac[j] >= 2.0, tangent[i] < 2.0), ca.logic_not(on[i]))
+            )
             frac[j] = ca.if_else(on[i], 0.0, ca.fmin(frac[j], tangent[i]))
     first = frac[0]
     for fj in frac[1:]:
@@ -256,13 +265,15 @@ def located_substep(model: Any, h: float, *, iterations: int = 4) -> ca.Function
     for _ in range(int(iterations)):
         den = g_cur - g_prev
         ok = ca.fabs(den) > 1e-300
-        t_new = ca.fmin(ca.fmax(ca.if_else(ok, t_cur - g_cur * (t_cur - t_prev) / ca.if_else(ok, den, 1.0), t_cur),
-                                0.0), h)
+        t_new = ca.fmin(
+            ca.fmax(ca.if_else(ok, t_cur - g_cur * (t_cur - t_prev) / ca.if_else(ok, den, 1.0), t_cur), 0.0), h
+        )
         t_prev, g_prev, t_cur = t_cur, g_cur, t_new
         g_cur = chosen(kept(t_cur), u_at(t_cur))
     xs = kept(t_cur)
-    crossed = ca.logic_and(crossed, ca.logic_or(ca.logic_not(tangent_only),
-                                                ca.fabs(g_cur) <= 1e-3 * ca.fabs(g_start)))  # a root, not a guess
+    crossed = ca.logic_and(
+        crossed, ca.logic_or(ca.logic_not(tangent_only), ca.fabs(g_cur) <= 1e-3 * ca.fabs(g_start))
+    )  # a root, not a guess
     # the first stage after the crossing: the state pushed across along grad g by a hair (1e-9 of the change
     # of g over the substep, plus what the iteration left), so that it samples the new branch. The new side is
     # the one opposite the start; the plain RK4 end may still lie on the old side (a crossing late in the

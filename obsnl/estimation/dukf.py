@@ -38,9 +38,9 @@ from typing import Any
 import casadi as ca
 import numpy as np
 
-from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.errors import EstimatorError, TableError
 from obsnl.estimation.ukf import UKF
+from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = ["DUKF"]
 

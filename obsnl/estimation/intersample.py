@@ -43,8 +43,19 @@ from obsnl.errors import DataError, OptionError
 from obsnl.estimation.numeric import NumericModel
 from obsnl.model.reading.fields import INTERSAMPLE_KINDS
 
-__all__ = ["KINDS", "POINTS", "HALF_WIDTH", "MATTERS", "intersample_kinds", "is_periodic", "upsample", "blocks",
-           "drive", "between_samples", "InputBetween"]
+__all__ = [
+    "KINDS",
+    "POINTS",
+    "HALF_WIDTH",
+    "MATTERS",
+    "intersample_kinds",
+    "is_periodic",
+    "upsample",
+    "blocks",
+    "drive",
+    "between_samples",
+    "InputBetween",
+]
 
 #: The kinds of input between samples (the model file's ``[intersample]`` table takes the same).
 KINDS = INTERSAMPLE_KINDS
@@ -107,20 +118,25 @@ def intersample_kinds(spec: Any, inputs: Sequence[str], *, table: Mapping[str, s
     elif isinstance(spec, (list, tuple)):
         items = [_item(s) for s in spec]
     else:
-        raise OptionError(f"intersample= takes a kind, 'NAME=KIND' strings or a mapping {{input: kind}}, not "
-                          f"{type(spec).__name__}")
+        raise OptionError(
+            f"intersample= takes a kind, 'NAME=KIND' strings or a mapping {{input: kind}}, not {type(spec).__name__}"
+        )
     if spec is not None and all(name is not None for name, _ in items):
         items = base + items  # the table's kinds, then those given (which win)
     default, named = "linear", {}
     for name, kind in items:
         if not isinstance(kind, str) or kind not in KINDS:
-            raise OptionError(f"intersample kind {kind!r}{'' if name is None else ' for ' + str(name)} is unknown; "
-                              f"use {', '.join(KINDS[:-1])} or {KINDS[-1]}")
+            raise OptionError(
+                f"intersample kind {kind!r}{'' if name is None else ' for ' + str(name)} is unknown; "
+                f"use {', '.join(KINDS[:-1])} or {KINDS[-1]}"
+            )
         if name is None:
             default = kind
         elif name not in names:
-            raise OptionError(f"intersample names {name!r}, which is not an input of the model "
-                              f"({', '.join(names) or 'it has none'}); check the spelling")
+            raise OptionError(
+                f"intersample names {name!r}, which is not an input of the model "
+                f"({', '.join(names) or 'it has none'}); check the spelling"
+            )
         else:
             named[name] = kind
     return {n: named.get(n, default) for n in names}
@@ -172,7 +188,7 @@ def is_periodic(u: np.ndarray, *, order: int = 32) -> bool:
     wrapped = np.concatenate([x[-p:], x[:p]])  # the end, then the start
     W = np.lib.stride_tricks.sliding_window_view(wrapped, p + 1)
     across = np.abs(W[:, :p][:, ::-1] @ coef - W[:, p])
-    return bool(across.max() <= 4.0 * inside + 1e-12 * float(np.sqrt(np.mean(x ** 2))))
+    return bool(across.max() <= 4.0 * inside + 1e-12 * float(np.sqrt(np.mean(x**2))))
 
 
 def upsample(u: np.ndarray, points: int, *, periodic: bool | None = None) -> np.ndarray:
@@ -207,13 +223,13 @@ def upsample(u: np.ndarray, points: int, *, periodic: bool | None = None) -> np.
         if T % 2 == 0:
             X[-1] /= 2.0  # the Nyquist bin, split between +fs/2 and -fs/2
         pad = np.zeros(T * m // 2 + 1, complex)
-        pad[:len(X)] = X
+        pad[: len(X)] = X
         fine = np.fft.irfft(pad, n=T * m) * m
     else:
         from scipy import signal  # scipy.signal takes seconds to import: only where a sinc is needed
 
         h = signal.firwin(2 * m * HALF_WIDTH + 1, 1.0 / m, window=("kaiser", KAISER_BETA))
-        fine = signal.resample_poly(x, m, 1, window=h, padtype="antireflect")[:T * m]
+        fine = signal.resample_poly(x, m, 1, window=h, padtype="antireflect")[: T * m]
     fine[::m] = x
     return fine
 
@@ -270,8 +286,9 @@ def blocks(u: np.ndarray, kinds: Sequence[str], *, periodic: bool | None = None)
     return fine.reshape(T, (m + 1) * nu), m
 
 
-def drive(num: NumericModel, u: np.ndarray, kinds: Mapping[str, str] | Sequence[str] | None,
-          *, periodic: bool | None = None) -> tuple[NumericModel, np.ndarray]:
+def drive(
+    num: NumericModel, u: np.ndarray, kinds: Mapping[str, str] | Sequence[str] | None, *, periodic: bool | None = None
+) -> tuple[NumericModel, np.ndarray]:
     """The model to step and the input its compiled functions take, for a record with these kinds.
 
     Parameters
@@ -333,8 +350,14 @@ class InputBetween:
     matters: bool
 
     def to_dict(self) -> dict[str, Any]:
-        return {"input": self.input, "kind": self.kind, "route": self.route, "high_share": self.high_share,
-                "discrepancy": self.discrepancy, "matters": self.matters}
+        return {
+            "input": self.input,
+            "kind": self.kind,
+            "route": self.route,
+            "high_share": self.high_share,
+            "discrepancy": self.discrepancy,
+            "matters": self.matters,
+        }
 
 
 def _error_gain(kind: str, f: np.ndarray) -> np.ndarray:
@@ -349,8 +372,9 @@ def _error_gain(kind: str, f: np.ndarray) -> np.ndarray:
     return np.mean(np.abs(true - approx) ** 2, axis=1)
 
 
-def between_samples(u: np.ndarray, inputs: Sequence[str], kinds: Mapping[str, str],
-                    *, periodic: bool | None = None) -> tuple[InputBetween, ...]:
+def between_samples(
+    u: np.ndarray, inputs: Sequence[str], kinds: Mapping[str, str], *, periodic: bool | None = None
+) -> tuple[InputBetween, ...]:
     """How each input is taken between samples and how much the choice matters (:class:`InputBetween`).
 
     The judgement: with the input's Welch spectrum ``S(f)``, the relative RMS error between samples of a kind is

@@ -53,8 +53,16 @@ import casadi as ca
 
 from obsnl.errors import CompileError, OutputError
 
-__all__ = ["jit_compile", "compiler_available", "cache_directory", "FLAGS", "jit_options", "jit_directory",
-           "COMPILE_SECONDS", "compile_seconds"]
+__all__ = [
+    "jit_compile",
+    "compiler_available",
+    "cache_directory",
+    "FLAGS",
+    "jit_options",
+    "jit_directory",
+    "COMPILE_SECONDS",
+    "compile_seconds",
+]
 
 #: Compiler flags (as :func:`jit_options`).
 FLAGS = ("-O3", "-march=native", "-ffp-contract=off")
@@ -105,8 +113,10 @@ def cache_directory() -> Path:
     if hasattr(os, "getuid") and st.st_uid != os.getuid():
         raise OutputError(f"the compiled-filter cache {base} belongs to another user; {_FIX}")
     if st.st_mode & 0o077:
-        raise OutputError(f"the compiled-filter cache {base} is open to other users (mode "
-                          f"{stat.S_IMODE(st.st_mode):o}); run chmod 700 on it or {_FIX}")
+        raise OutputError(
+            f"the compiled-filter cache {base} is open to other users (mode "
+            f"{stat.S_IMODE(st.st_mode):o}); run chmod 700 on it or {_FIX}"
+        )
     return base
 
 
@@ -116,13 +126,17 @@ def _fallback(why: str) -> Path:
         try:
             folder = Path(tempfile.mkdtemp(prefix="obsnl-jit-"))  # mode 0700, a new name
         except OSError as exc:
-            raise CompileError(f"{why}, and no temporary folder can be made ({exc.strerror or exc}); set "
-                               f"OBSNL_CACHE_DIR to a writable folder or run without compiling "
-                               f"(jit=False)") from None
+            raise CompileError(
+                f"{why}, and no temporary folder can be made ({exc.strerror or exc}); set "
+                f"OBSNL_CACHE_DIR to a writable folder or run without compiling "
+                f"(jit=False)"
+            ) from None
         atexit.register(shutil.rmtree, folder, True)
         _FALLBACK.append(folder)
-        sys.stderr.write(f"obsnl: warning: {why}; compiled filters go to a temporary folder for this run "
-                         f"(set OBSNL_CACHE_DIR to a writable folder to keep them)\n")
+        sys.stderr.write(
+            f"obsnl: warning: {why}; compiled filters go to a temporary folder for this run "
+            f"(set OBSNL_CACHE_DIR to a writable folder to keep them)\n"
+        )
     return _FALLBACK[0]
 
 
@@ -190,8 +204,10 @@ def compile_seconds() -> float:
     except ValueError:
         value = float("nan")
     if not 0 < value < float("inf"):
-        raise CompileError(f"OBSNL_COMPILE_SECONDS={text[:40]!r} is not a number of seconds above 0; set it to one "
-                           f"(e.g. 600) or unset it for {COMPILE_SECONDS:g} s")
+        raise CompileError(
+            f"OBSNL_COMPILE_SECONDS={text[:40]!r} is not a number of seconds above 0; set it to one "
+            f"(e.g. 600) or unset it for {COMPILE_SECONDS:g} s"
+        )
     return value
 
 
@@ -203,8 +219,10 @@ def _not_hung(path: str) -> None:
 
 def _stopped(path: str) -> str:
     """The one line for a compiler stopped at its time limit (the same the first time and every later time)."""
-    return (f"the C compiler {path} {_HUNG[path]} (stopped, and not run again by this process); set "
-            f"OBSNL_COMPILE_SECONDS to allow it longer, or run without compiling (jit=False)")
+    return (
+        f"the C compiler {path} {_HUNG[path]} (stopped, and not run again by this process); set "
+        f"OBSNL_COMPILE_SECONDS to allow it longer, or run without compiling (jit=False)"
+    )
 
 
 def _run(args: list[str], seconds: float) -> subprocess.CompletedProcess[str]:
@@ -259,7 +277,7 @@ def _identity_of(path: str) -> str:
     return f"{os.path.realpath(path)} {first.strip()}"
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _machine() -> str:
     """The CPU the libraries are built for (``-march=native``): architecture, model name and a hash
     of the CPU's feature flags (from ``/proc/cpuinfo`` where there is one)."""
@@ -296,8 +314,11 @@ def _trusted(lib: Path, sidecar: Path) -> bool:
     try:
         for p in (lib, sidecar):
             st = os.lstat(p)
-            if not stat.S_ISREG(st.st_mode) or st.st_mode & 0o022 or \
-                    (hasattr(os, "getuid") and st.st_uid != os.getuid()):
+            if (
+                not stat.S_ISREG(st.st_mode)
+                or st.st_mode & 0o022
+                or (hasattr(os, "getuid") and st.st_uid != os.getuid())
+            ):
                 return False
         recorded = sidecar.read_text(encoding="ascii").split()
         return bool(recorded) and hmac.compare_digest(_sha256(lib), recorded[0])
@@ -391,15 +412,21 @@ def jit_compile(fn: ca.Function) -> ca.Function:
             lib = _build(name, code, folder, lib_name)
         except OSError as exc:  # a cache folder that cannot be written (read-only file system)
             if folder in _FALLBACK:
-                raise CompileError(f"cannot compile {name} into {folder} ({exc.strerror or exc}); set "
-                                   f"OBSNL_CACHE_DIR to a writable folder or run without compiling") from None
-            folder = _fallback(f"the compiled-filter cache {folder} cannot be written "
-                               f"({exc.strerror or errno.errorcode.get(exc.errno or 0, exc)})")
+                raise CompileError(
+                    f"cannot compile {name} into {folder} ({exc.strerror or exc}); set "
+                    f"OBSNL_CACHE_DIR to a writable folder or run without compiling"
+                ) from None
+            folder = _fallback(
+                f"the compiled-filter cache {folder} cannot be written "
+                f"({exc.strerror or errno.errorcode.get(exc.errno or 0, exc)})"
+            )
             lib = _build(name, code, folder, lib_name)
         loaded = _load(name, lib)
         if loaded is None:
-            raise CompileError(f"the library compiled for {name} ({lib}) does not load; remove the cache folder "
-                               f"{folder} or run without compiling (jit=False)")
+            raise CompileError(
+                f"the library compiled for {name} ({lib}) does not load; remove the cache folder "
+                f"{folder} or run without compiling (jit=False)"
+            )
     _LOADED[key] = loaded
     return loaded
 
@@ -415,8 +442,11 @@ def jit_options() -> dict[str, Any]:
     noise of a filter pass). The compiler's scratch files (C source, object, shared library) go to
     :func:`jit_directory`, never to the working directory.
     """
-    return {"jit": True, "compiler": "shell",
-            "jit_options": {"flags": list(FLAGS), "verbose": False, "directory": jit_directory()}}
+    return {
+        "jit": True,
+        "compiler": "shell",
+        "jit_options": {"flags": list(FLAGS), "verbose": False, "directory": jit_directory()},
+    }
 
 
 _PRIVATE_JIT: list[str] = []  # a fresh private folder of this process, when the shared one cannot be trusted

@@ -46,16 +46,25 @@ import numpy as np
 
 from obsnl._text import block, names, number, one_line, plain_float
 from obsnl.errors import DataError
-from obsnl.estimation.records import read_table
 from obsnl.estimation.accelerogram import Record, check_increasing, check_seconds
+from obsnl.estimation.records import read_table
 from obsnl.model.bounds.textsize import quote
 
 if TYPE_CHECKING:  # pandas loads when a DataFrame is given
     import pandas as pd
 
 __all__ = [
-    "Measured", "measured", "read_measured", "estimate_noise", "is_frame", "frame_columns", "NOISE_FLOOR",
-    "TIME_COLUMNS", "MIN_SAMPLES", "UPPER_BOUND", "CLOCK_TOLERANCE",
+    "Measured",
+    "measured",
+    "read_measured",
+    "estimate_noise",
+    "is_frame",
+    "frame_columns",
+    "NOISE_FLOOR",
+    "TIME_COLUMNS",
+    "MIN_SAMPLES",
+    "UPPER_BOUND",
+    "CLOCK_TOLERANCE",
 ]
 
 #: Accepted names of the time column (seconds).
@@ -70,8 +79,10 @@ MIN_SAMPLES = 20
 CLOCK_TOLERANCE = 1e-3
 #: How :func:`estimate_noise`'s note ends when the estimate is only an upper bound (the channel is not oversampled).
 UPPER_BOUND = "this is an upper bound"
-_TOO_SHORT = (f"identification needs at least {MIN_SAMPLES} samples (noise levels are estimated from 4th "
-              f"differences, and a filter needs many samples per unknown); give a longer record")
+_TOO_SHORT = (
+    f"identification needs at least {MIN_SAMPLES} samples (noise levels are estimated from 4th "
+    f"differences, and a filter needs many samples per unknown); give a longer record"
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -114,14 +125,23 @@ class Measured:
             raise DataError(f"data {self.source or self.name!r} have {len(self.y)} samples; {_TOO_SHORT}")
         for c, n in zip(self.outputs, np.sum(self.present, axis=0)):
             if n < MIN_SAMPLES:
-                raise DataError(f"output {c!r} of data {self.source or self.name!r} has {int(n)} samples measured "
-                                f"(the others are gaps); {_TOO_SHORT}")
-        return Record(self.name, self.u if self.u.shape[1] != 1 else self.u[:, 0], self.dt, self.source,
-                      channels=self.inputs)
+                raise DataError(
+                    f"output {c!r} of data {self.source or self.name!r} has {int(n)} samples measured "
+                    f"(the others are gaps); {_TOO_SHORT}"
+                )
+        return Record(
+            self.name, self.u if self.u.shape[1] != 1 else self.u[:, 0], self.dt, self.source, channels=self.inputs
+        )
 
     def __repr__(self) -> str:
-        return one_line("Measured", f"name={self.name!r}", f"samples={len(self.y)}", f"dt={number(self.dt)} s",
-                        f"inputs={names(self.inputs, 4)!r}", f"outputs={names(self.outputs, 4)!r}")
+        return one_line(
+            "Measured",
+            f"name={self.name!r}",
+            f"samples={len(self.y)}",
+            f"dt={number(self.dt)} s",
+            f"inputs={names(self.inputs, 4)!r}",
+            f"outputs={names(self.outputs, 4)!r}",
+        )
 
     def notes(self) -> tuple[str, ...]:
         """What reading the record took as given: the clock read as regular, the gaps of the outputs, the
@@ -129,33 +149,59 @@ class Measured:
         return tuple(x for x in (self._clock_note() if self.clock_deviation > 1e-9 else "", *self._other_notes()) if x)
 
     def _clock_note(self) -> str:
-        return (f"the time column is read as a regular clock of step {number(self.dt)} s: its samples lie within "
-                f"{self.clock_deviation:.2g} of a step of k*dt (tolerance {CLOCK_TOLERANCE:g} of a step)")
+        return (
+            f"the time column is read as a regular clock of step {number(self.dt)} s: its samples lie within "
+            f"{self.clock_deviation:.2g} of a step of k*dt (tolerance {CLOCK_TOLERANCE:g} of a step)"
+        )
 
     def _other_notes(self) -> tuple[str, str]:
         gaps = [f"{c} {n} of {len(self.y)}" for c, n in self.missing.items() if n]
-        return (f"output samples missing (skipped by the filter, no weight in the likelihood): {names(gaps, 8)}"
-                if gaps else "",
-                f"columns ignored (the model does not use them): {names(self.ignored, 8)}" if self.ignored else "")
+        return (
+            f"output samples missing (skipped by the filter, no weight in the likelihood): {names(gaps, 8)}"
+            if gaps
+            else "",
+            f"columns ignored (the model does not use them): {names(self.ignored, 8)}" if self.ignored else "",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: length, step, the channels and their RMS (over the samples measured), the
         clock, the gaps and the columns ignored, where the data came from."""
-        rms = [f"{c} {number(float(np.sqrt(np.nanmean(v ** 2))))}" for c, v in
-               [*zip(self.inputs, self.u.T), *zip(self.outputs, self.y.T)]]
-        return block(f"measured {self.name}: {len(self.y)} samples at dt = {number(self.dt)} s", f"source: {self.source}"
-                     if self.source else "", f"inputs: {names(self.inputs, 8)}; outputs: {names(self.outputs, 8)}",
-                     f"RMS: {names(rms, 10)}", self._clock_note(), *self._other_notes())
+        rms = [
+            f"{c} {number(float(np.sqrt(np.nanmean(v**2))))}"
+            for c, v in [*zip(self.inputs, self.u.T), *zip(self.outputs, self.y.T)]
+        ]
+        return block(
+            f"measured {self.name}: {len(self.y)} samples at dt = {number(self.dt)} s",
+            f"source: {self.source}" if self.source else "",
+            f"inputs: {names(self.inputs, 8)}; outputs: {names(self.outputs, 8)}",
+            f"RMS: {names(rms, 10)}",
+            self._clock_note(),
+            *self._other_notes(),
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "source": self.source, "dt": self.dt, "samples": len(self.y),
-                "inputs": list(self.inputs), "outputs": list(self.outputs),
-                "clock_deviation": self.clock_deviation, "clock_tolerance": CLOCK_TOLERANCE,
-                "missing": self.missing, "ignored": list(self.ignored)}
+        return {
+            "name": self.name,
+            "source": self.source,
+            "dt": self.dt,
+            "samples": len(self.y),
+            "inputs": list(self.inputs),
+            "outputs": list(self.outputs),
+            "clock_deviation": self.clock_deviation,
+            "clock_tolerance": CLOCK_TOLERANCE,
+            "missing": self.missing,
+            "ignored": list(self.ignored),
+        }
 
 
-def measured(columns: Mapping[str, Any] | pd.DataFrame, *, inputs: Sequence[str], outputs: Sequence[str],
-             name: str = "data", source: str = "") -> Measured:
+def measured(
+    columns: Mapping[str, Any] | pd.DataFrame,
+    *,
+    inputs: Sequence[str],
+    outputs: Sequence[str],
+    name: str = "data",
+    source: str = "",
+) -> Measured:
     """Measured data from columns (a time column and one per input and output).
 
     Parameters
@@ -197,31 +243,42 @@ def measured(columns: Mapping[str, Any] | pd.DataFrame, *, inputs: Sequence[str]
     tname = _time_column(columns, inputs, outputs, where)
     arrays = {}
     for c in (tname, *inputs, *outputs):
-        kind = {"c": "complex numbers", "M": "dates", "m": "time spans", "b": "booleans"}.get(np.asarray(columns[c]).dtype.kind)
+        kind = {"c": "complex numbers", "M": "dates", "m": "time spans", "b": "booleans"}.get(
+            np.asarray(columns[c]).dtype.kind
+        )
         if kind or np.ma.is_masked(columns[c]):  # read as floats they would lose a part, or a mask, silently
-            raise DataError(f"{where}: column {quote(c)} holds {kind or 'masked samples'}; give real numbers (time in "
-                            f"seconds), every sample present (NaN marks a missing output sample)")
+            raise DataError(
+                f"{where}: column {quote(c)} holds {kind or 'masked samples'}; give real numbers (time in "
+                f"seconds), every sample present (NaN marks a missing output sample)"
+            )
         try:
             a = _cells(columns[c])
         except (TypeError, ValueError, OverflowError) as exc:
             said = f" ({exc})" if "'_'" in str(exc) else ""  # the CSV reader's rule: "1_0" is not 10
-            raise DataError(f"{where}: column {quote(c)} is not numeric (or beyond the float range){said}; give "
-                            f"plain numbers") from None
+            raise DataError(
+                f"{where}: column {quote(c)} is not numeric (or beyond the float range){said}; give plain numbers"
+            ) from None
         if a.ndim != 1:
             raise DataError(f"{where}: column {c!r} must be one series, got shape {a.shape}")
         gap = c in outputs and c != tname  # an output may miss samples (NaN); time and inputs may not
         bad = np.flatnonzero(np.isinf(a) if gap else ~np.isfinite(a))
         if bad.size:
-            fix = ("an input drives the model at every sample (only outputs may have gaps): fill the gap (interpolate "
-                   "the input) or cut the record there" if c in inputs and c != tname else
-                   "clean or interpolate the record first")
+            fix = (
+                "an input drives the model at every sample (only outputs may have gaps): fill the gap (interpolate "
+                "the input) or cut the record there"
+                if c in inputs and c != tname
+                else "clean or interpolate the record first"
+            )
             raise DataError(f"{where}: column {c!r} has NaN/inf at sample {bad[0]} ({bad.size} bad samples); {fix}")
         if gap and a.size and np.all(np.isnan(a)):
-            raise DataError(f"{where}: output column {c!r} has no sample (every cell is empty or NaN); measure it, "
-                            f"or remove the output from the model")
+            raise DataError(
+                f"{where}: output column {c!r} has no sample (every cell is empty or NaN); measure it, "
+                f"or remove the output from the model"
+            )
         if c != tname and a.size and np.nanmax(np.abs(a)) > 1e100:  # squared by the noise levels and the filter
-            raise DataError(f"{where}: column {c!r} reaches {float(np.nanmax(np.abs(a))):.3g}; rescale it (check its "
-                            f"units)")
+            raise DataError(
+                f"{where}: column {c!r} reaches {float(np.nanmax(np.abs(a))):.3g}; rescale it (check its units)"
+            )
         arrays[c] = a
     lengths = {len(a) for a in arrays.values()}
     if len(lengths) != 1:
@@ -231,8 +288,17 @@ def measured(columns: Mapping[str, Any] | pd.DataFrame, *, inputs: Sequence[str]
     dt, deviation = _clock(arrays[tname], where, tname)
     col = lambda names: np.column_stack([arrays[c] for c in names]) if names else np.zeros((len(arrays[tname]), 0))  # noqa: E731
     used = {tname, *inputs, *outputs}
-    return Measured(name=name, dt=dt, inputs=tuple(inputs), outputs=tuple(outputs), u=col(inputs), y=col(outputs),
-                    source=source, clock_deviation=deviation, ignored=tuple(str(c) for c in columns if c not in used))
+    return Measured(
+        name=name,
+        dt=dt,
+        inputs=tuple(inputs),
+        outputs=tuple(outputs),
+        u=col(inputs),
+        y=col(outputs),
+        source=source,
+        clock_deviation=deviation,
+        ignored=tuple(str(c) for c in columns if c not in used),
+    )
 
 
 def _cells(cells: Any) -> np.ndarray:
@@ -240,8 +306,13 @@ def _cells(cells: Any) -> np.ndarray:
     ``"1_0"`` is refused, where ``float`` reads it as 10)."""
     raw = np.asarray(cells)
     if raw.dtype.kind in "USO" and any(isinstance(v, (str, bytes)) for v in raw.ravel()):
-        return np.array([plain_float(v.decode() if isinstance(v, bytes) else str(v)) if isinstance(v, (str, bytes))
-                         else float(v) for v in raw.ravel()], float).reshape(raw.shape)
+        return np.array(
+            [
+                plain_float(v.decode() if isinstance(v, bytes) else str(v)) if isinstance(v, (str, bytes)) else float(v)
+                for v in raw.ravel()
+            ],
+            float,
+        ).reshape(raw.shape)
     return np.asarray(cells, float)
 
 
@@ -295,8 +366,9 @@ def frame_columns(frame: Any, *, where: str = "data") -> dict[str, np.ndarray]:
 
     names = [c for c in frame.columns]
     if any(not isinstance(c, str) for c in names) or len(set(names)) < len(names):
-        raise DataError(f"{where}: the DataFrame's columns must be distinct names (text), as in the model; got "
-                        f"{quote(names)}")
+        raise DataError(
+            f"{where}: the DataFrame's columns must be distinct names (text), as in the model; got {quote(names)}"
+        )
     columns = {c: frame[c].to_numpy() for c in names}
     if any(c in columns for c in TIME_COLUMNS):
         return columns
@@ -306,9 +378,11 @@ def frame_columns(frame: Any, *, where: str = "data") -> dict[str, np.ndarray]:
     elif pd.api.types.is_float_dtype(index.dtype):
         t = index.to_numpy(float)
     else:
-        raise DataError(f"{where}: the DataFrame has no time column and its index is not a time ({index.dtype}); "
-                        f"add a column 'time_s' (seconds), or index it by time (a DatetimeIndex, or seconds as "
-                        f"floats)")
+        raise DataError(
+            f"{where}: the DataFrame has no time column and its index is not a time ({index.dtype}); "
+            f"add a column 'time_s' (seconds), or index it by time (a DatetimeIndex, or seconds as "
+            f"floats)"
+        )
     return {"time_s": t, **columns}
 
 
@@ -323,9 +397,11 @@ def _clock(t: np.ndarray, where: str, tname: str) -> tuple[float, float]:
     off = np.abs((t - t[0]) - np.arange(len(t)) * dt)
     k = int(np.argmax(off))
     if off[k] > CLOCK_TOLERANCE * float(np.median(np.diff(t))) + 2 * rounding:
-        raise DataError(f"{where}: irregular time step: sample {k} of {tname!r} (t = {float(t[k]):.10g} s) is "
-                        f"{off[k] / dt:.3g} of a step off k*dt (dt = {dt:.6g} s; up to {CLOCK_TOLERANCE:g} of a step "
-                        f"is read as regular); resample the record onto a regular clock first")
+        raise DataError(
+            f"{where}: irregular time step: sample {k} of {tname!r} (t = {float(t[k]):.10g} s) is "
+            f"{off[k] / dt:.3g} of a step off k*dt (dt = {dt:.6g} s; up to {CLOCK_TOLERANCE:g} of a step "
+            f"is read as regular); resample the record onto a regular clock first"
+        )
     return dt, float(off[k] / dt)
 
 
@@ -389,14 +465,18 @@ def _time_column(columns: Mapping[str, Any], inputs: Sequence[str], outputs: Seq
         raise DataError(f"{where}: two time columns {found}; keep one, 'time_s'")
     taken = [c for c in TIME_COLUMNS if c in channels]
     if not found and taken and taken[0] in columns:
-        raise DataError(f"{where}: the column {taken[0]!r} is a model input or output, so it cannot also be the "
-                        f"time column; add the time in seconds as a column 'time_s'")
+        raise DataError(
+            f"{where}: the column {taken[0]!r} is a model input or output, so it cannot also be the "
+            f"time column; add the time in seconds as a column 'time_s'"
+        )
     if not found:
         raise DataError(f"{where}: no time column; name it 'time_s' (seconds) or 't'")
     missing = [c for c in channels if c not in columns]
     if missing:
-        raise DataError(f"{where}: no column for {', '.join(repr(c) for c in missing)}; add one per model input "
-                        f"and output, named as in the model ({', '.join(channels)})")
+        raise DataError(
+            f"{where}: no column for {', '.join(repr(c) for c in missing)}; add one per model input "
+            f"and output, named as in the model ({', '.join(channels)})"
+        )
     return found[0]
 
 
@@ -448,8 +528,11 @@ def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float,
     x = np.asarray(x, float)
     seen = np.flatnonzero(~np.isnan(x))
     if seen.size < MIN_SAMPLES:
-        raise DataError(f"a channel of {seen.size} samples" + (f" measured (of {x.size})" if seen.size < x.size
-                                                                else "") + f": {_TOO_SHORT}")
+        raise DataError(
+            f"a channel of {seen.size} samples"
+            + (f" measured (of {x.size})" if seen.size < x.size else "")
+            + f": {_TOO_SHORT}"
+        )
     scale = float(np.sqrt(np.mean(x[seen] ** 2)))
     if scale == 0:
         return NOISE_FLOOR, "a zero channel: noise set to the floor"
@@ -461,8 +544,10 @@ def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float,
         spacing = max(spacing, spacing_k)
         est.append(float(np.median(np.abs(d - np.median(d))) / 0.6745 / np.sqrt(comb(2 * k, k))))
     if not est:
-        raise DataError(f"a channel with {x.size - seen.size} gaps among {x.size} samples has too few runs of evenly "
-                        f"spaced samples to estimate its noise from; give its noise level")
+        raise DataError(
+            f"a channel with {x.size - seen.size} gaps among {x.size} samples has too few runs of evenly "
+            f"spaced samples to estimate its noise from; give its noise level"
+        )
     s = min(est)
     spread = max(est) / max(s, 1e-300)
     note = f"from the differences of orders {list(orders)} (noise std {s:.3g})"
@@ -470,7 +555,8 @@ def estimate_noise(x: Any, *, orders: Sequence[int] = (2, 3, 4)) -> tuple[float,
         note += f"; they disagree by a factor {spread:.2g}: the channel is not oversampled, {UPPER_BOUND}"
     if seen.size < x.size:
         note += f"; {x.size - seen.size} samples missing, differences of the measured ones, " + (
-            "every sample" if spacing == 1 else f"every {_ordinal(spacing)} sample")
+            "every sample" if spacing == 1 else f"every {_ordinal(spacing)} sample"
+        )
     return s / scale, note
 
 

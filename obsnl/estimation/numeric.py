@@ -176,9 +176,17 @@ class NumericModel:
                 out = ca.horzcat(out, ca.SX.zeros(out.shape[0], pad))
             return ca.Function(fn.name(), [x, p, U], [out], [fn.name_in(i) for i in range(3)], [fn.name_out(0)])
 
-        return replace(self, f=at_sample(self.f), h=at_sample(self.h), g=at_sample(self.g),
-                       jac_x=at_sample(self.jac_x), jac_u=at_sample(self.jac_u, nu0 * int(points)),
-                       jac_g=at_sample(self.jac_g), points=int(points), base=self)
+        return replace(
+            self,
+            f=at_sample(self.f),
+            h=at_sample(self.h),
+            g=at_sample(self.g),
+            jac_x=at_sample(self.jac_x),
+            jac_u=at_sample(self.jac_u, nu0 * int(points)),
+            jac_g=at_sample(self.jac_g),
+            points=int(points),
+            base=self,
+        )
 
     @property
     def ny(self) -> int:
@@ -191,8 +199,18 @@ class NumericModel:
             raise ModelError(f"model {self.name!r} has no value for {missing}; add them to [values]")
         return np.array([float(self.values[n]) for n in names])
 
-    def step(self, dt: float, *, method: str = "auto", substeps: int = 8, scale: Any = None,
-             threshold: float = 2.0, jit: bool = False, refine: int = 8, locate: bool = False) -> ca.Function:
+    def step(
+        self,
+        dt: float,
+        *,
+        method: str = "auto",
+        substeps: int = 8,
+        scale: Any = None,
+        threshold: float = 2.0,
+        jit: bool = False,
+        refine: int = 8,
+        locate: bool = False,
+    ) -> ca.Function:
         """The discrete step ``(x, p, u0, u1) -> (x_next, implicit, refined)`` over ``dt`` (input linear
         in time).
 
@@ -242,22 +260,36 @@ class NumericModel:
         if int(refine) < 1:
             raise ModelError(f"refine must be at least 1, got {refine!r}")
         n = int(substeps)
-        key = (float(dt), method, n, None if scale is None else np.asarray(scale, float).tobytes(), float(threshold),
-               bool(jit), int(refine), bool(locate))
+        key = (
+            float(dt),
+            method,
+            n,
+            None if scale is None else np.asarray(scale, float).tobytes(),
+            float(threshold),
+            bool(jit),
+            int(refine),
+            bool(locate),
+        )
         if key not in self._steps:  # building the integrators takes about 50 ms; a step is reused many times
             self._steps[key] = self._build_step(dt, method, n, scale, threshold, jit, int(refine), bool(locate))
         return self._steps[key]
 
-    def _build_step(self, dt: float, method: str, n: int, scale: Any, threshold: float, jit: bool,
-                    refine: int, locate: bool = False) -> ca.Function:
+    def _build_step(
+        self, dt: float, method: str, n: int, scale: Any, threshold: float, jit: bool, refine: int, locate: bool = False
+    ) -> ca.Function:
         fns = self.integrators(dt, substeps=n, jit=jit, refine=refine, locate=locate)
         x, p = ca.SX.sym("x", self.nx), ca.SX.sym("p", self.np)
         u0, u1 = ca.SX.sym("u0", self.nu), ca.SX.sym("u1", self.nu)
         names_in, names_out = ["x", "p", "u0", "u1"], ["x_next", "implicit", "refined"]
         if method != "auto":
             flag = 1.0 if method == "ros2" else 0.0
-            return ca.Function(f"step_{method}{n}", [x, p, u0, u1],
-                               [fns[method](x, p, u0, u1), ca.SX(flag), ca.SX(0.0)], names_in, names_out)
+            return ca.Function(
+                f"step_{method}{n}",
+                [x, p, u0, u1],
+                [fns[method](x, p, u0, u1), ca.SX(flag), ca.SX(0.0)],
+                names_in,
+                names_out,
+            )
         X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         U0, U1 = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu)
         d = ca.DM(np.ones(self.nx) if scale is None else np.asarray(scale, float))
@@ -265,8 +297,9 @@ class NumericModel:
         xn = ca.if_else(ca.logic_or(stiff, refined), fns["fine"](X, P, U0, U1, stiff), xr, True)
         return ca.Function(f"step_auto{n}", [X, P, U0, U1], [xn, stiff, refined], names_in, names_out)
 
-    def integrators(self, dt: float, *, substeps: int, jit: bool = False, refine: int = 8,
-                    locate: bool = False) -> dict[str, ca.Function]:
+    def integrators(
+        self, dt: float, *, substeps: int, jit: bool = False, refine: int = 8, locate: bool = False
+    ) -> dict[str, ca.Function]:
         """The pieces of :meth:`step`: ``rk4`` and ``ros2`` ``(x, p, u0, u1) -> x_next`` with
         ``substeps``; ``rk4_fine``, RK4 with every substep in which a watched switching function
         (``jumps``) changes sign split into ``refine`` (with ``locate``, located); ``ros2_fine``, ROS2 with
@@ -291,13 +324,20 @@ class NumericModel:
         x, xr, p = ca.SX.sym("x", self.nx), ca.SX.sym("xr", self.nx), ca.SX.sym("p", self.np)
         u0, u1, thr = ca.SX.sym("u0", self.nu), ca.SX.sym("u1", self.nu), ca.SX.sym("threshold")
         names_in = ["x", "p", "u0", "u1"]
-        out = {m: c(ca.Function(f"{m}{n}", [x, p, u0, u1], [self._integrate(m, x, p, u0, u1, dt, n)[0]], names_in,
-                                ["x_next"])) for m in ("rk4", "ros2")}
+        out = {
+            m: c(
+                ca.Function(
+                    f"{m}{n}", [x, p, u0, u1], [self._integrate(m, x, p, u0, u1, dt, n)[0]], names_in, ["x_next"]
+                )
+            )
+            for m in ("rk4", "ros2")
+        }
         out["rk4_fine"] = self._refined(dt, n, int(refine), opts, locate)
         out["ros2_fine"] = self._looped("ros2", dt, nf, opts)
         xt, crossed = self._integrate("rk4", x, p, u0, u1, dt, n, track=True, wide=locate)
-        out["rk4_track"] = c(ca.Function(f"rk4_track{n}", [x, p, u0, u1], [xt, crossed], names_in,
-                                         ["x_next", "crossed"]))
+        out["rk4_track"] = c(
+            ca.Function(f"rk4_track{n}", [x, p, u0, u1], [xt, crossed], names_in, ["x_next", "crossed"])
+        )
         d = ca.SX.sym("scale", self.nx)  # an input, not a constant: the code is the same for every scale
         ratio = ca.repmat(1.0 / d, 1, self.nx) * ca.repmat(d.T, self.nx, 1)  # (1/d_i) d_j, as numpy's outer
         Js = self.jac_x(xr, p, u1) * ratio
@@ -307,14 +347,24 @@ class NumericModel:
         out["stiff"] = c(ca.Function("stiff", [x, xr, p, u0, u1, thr, d], [stiff]))
         x_rk4, crossed = out["rk4_track"](x, p, u0, u1)
         is_stiff = out["stiff"](x, x_rk4, p, u0, u1, thr, d)
-        out["probe"] = c(ca.Function("probe", [x, p, u0, u1, thr, d],
-                                     [x_rk4, is_stiff, ca.logic_and(crossed, ca.logic_not(is_stiff))],
-                                     names_in + ["threshold", "scale"], ["x_rk4", "stiff", "refine"]))
+        out["probe"] = c(
+            ca.Function(
+                "probe",
+                [x, p, u0, u1, thr, d],
+                [x_rk4, is_stiff, ca.logic_and(crossed, ca.logic_not(is_stiff))],
+                names_in + ["threshold", "scale"],
+                ["x_rk4", "stiff", "refine"],
+            )
+        )
         X, P = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         U0, U1, S = ca.MX.sym("u0", self.nu), ca.MX.sym("u1", self.nu), ca.MX.sym("stiff")
-        out["fine"] = ca.Function("fine", [X, P, U0, U1, S],  # MX: only the chosen integrator runs
-                                  [ca.if_else(S, out["ros2_fine"](X, P, U0, U1), out["rk4_fine"](X, P, U0, U1), True)],
-                                  names_in + ["stiff"], ["x_next"])
+        out["fine"] = ca.Function(
+            "fine",
+            [X, P, U0, U1, S],  # MX: only the chosen integrator runs
+            [ca.if_else(S, out["ros2_fine"](X, P, U0, U1), out["rk4_fine"](X, P, U0, U1), True)],
+            names_in + ["stiff"],
+            ["x_next"],
+        )
         return out
 
     def _chained(self, dt: float, *, substeps: int, jit: bool, refine: int, locate: bool) -> dict[str, ca.Function]:
@@ -323,8 +373,9 @@ class NumericModel:
         step is stiff, or crossed, where one of its pieces is."""
         assert self.base is not None
         m, nu0 = self.points, len(self.inputs)
-        parts = self.base.integrators(dt / m, substeps=max(1, -(-int(substeps) // m)), jit=jit, refine=refine,
-                                      locate=locate)
+        parts = self.base.integrators(
+            dt / m, substeps=max(1, -(-int(substeps) // m)), jit=jit, refine=refine, locate=locate
+        )
         out = {}
         for name, fn in parts.items():
             sym: Any = ca.SX if fn.is_a("SXFunction") else ca.MX  # the piece's own kind: its symbols are SX or MX
@@ -332,7 +383,7 @@ class NumericModel:
             head = [sym.sym(fn.name_in(i), fn.size_in(i)) for i in range(first + 1)]
             U0, U1 = sym.sym("u0", self.nu), sym.sym("u1", self.nu)
             tail = [sym.sym(fn.name_in(i), fn.size_in(i)) for i in range(first + 3, fn.n_in())]
-            pts = [U0[j * nu0:(j + 1) * nu0] for j in range(m + 1)]
+            pts = [U0[j * nu0 : (j + 1) * nu0] for j in range(m + 1)]
             if name == "stiff":  # judged on the last piece, at the step's end point
                 outs = fn.call([*head, pts[m - 1], pts[m], *tail])
             else:
@@ -345,9 +396,13 @@ class NumericModel:
                 if name == "probe":  # refine only where no piece was stiff (a stiff one takes ROS2 throughout)
                     flags = [flags[0], ca.logic_and(flags[1], ca.logic_not(flags[0]))]
                 outs = [x, *(flags or [])]
-            out[name] = ca.Function(name, [*head, U0, U1, *tail], outs,
-                                    [fn.name_in(i) for i in range(fn.n_in())],
-                                    [fn.name_out(i) for i in range(fn.n_out())])
+            out[name] = ca.Function(
+                name,
+                [*head, U0, U1, *tail],
+                outs,
+                [fn.name_in(i) for i in range(fn.n_in())],
+                [fn.name_out(i) for i in range(fn.n_out())],
+            )
         return out
 
     def _refined(self, dt: float, n: int, refine: int, opts: Mapping[str, Any], locate: bool = False) -> ca.Function:
@@ -355,15 +410,20 @@ class NumericModel:
         watched switching function changed sign over it (the crossing substep carries the error)."""
         x, p = ca.SX.sym("x", self.nx), ca.SX.sym("p", self.np)
         ua, ub = ca.SX.sym("ua", self.nu), ca.SX.sym("ub", self.nu)
-        one = ca.Function("substep", [x, p, ua, ub],
-                          list(self._integrate("rk4", x, p, ua, ub, dt / n, 1, track=True, wide=locate)))
-        fine = (self._over_substeps(located_substep(self, dt / n / refine), refine, f"located{refine}", {}) if locate
-                else self._looped("rk4", dt / n, refine, {}))
+        one = ca.Function(
+            "substep", [x, p, ua, ub], list(self._integrate("rk4", x, p, ua, ub, dt / n, 1, track=True, wide=locate))
+        )
+        fine = (
+            self._over_substeps(located_substep(self, dt / n / refine), refine, f"located{refine}", {})
+            if locate
+            else self._looped("rk4", dt / n, refine, {})
+        )
         xm, pm = ca.MX.sym("x", self.nx), ca.MX.sym("p", self.np)
         uam, ubm = ca.MX.sym("ua", self.nu), ca.MX.sym("ub", self.nu)
         xb, crossed = one(xm, pm, uam, ubm)
-        cell = ca.Function("refined_substep", [xm, pm, uam, ubm],
-                           [ca.if_else(crossed, fine(xm, pm, uam, ubm), xb, True)])
+        cell = ca.Function(
+            "refined_substep", [xm, pm, uam, ubm], [ca.if_else(crossed, fine(xm, pm, uam, ubm), xb, True)]
+        )
         return self._over_substeps(cell, n, f"rk4_refined{n}x{refine}", opts)
 
     def _looped(self, method: str, dt: float, n: int, opts: Mapping[str, Any]) -> ca.Function:
@@ -386,8 +446,18 @@ class NumericModel:
         f = ca.Function(name, [X, P, U0, U1], [xs[:, n - 1]], ["x", "p", "u0", "u1"], ["x_next"])
         return jit_compile(f) if opts.get("jit") else f
 
-    def _integrate(self, method: str, x: ca.SX, p: ca.SX, u0: ca.SX, u1: ca.SX, dt: float, n: int,
-                   track: bool = False, wide: bool = False) -> tuple[ca.SX, ca.SX]:
+    def _integrate(
+        self,
+        method: str,
+        x: ca.SX,
+        p: ca.SX,
+        u0: ca.SX,
+        u1: ca.SX,
+        dt: float,
+        n: int,
+        track: bool = False,
+        wide: bool = False,
+    ) -> tuple[ca.SX, ca.SX]:
         """``(x_next, crossed)``: ``n`` substeps of ``method``; with ``track``, ``crossed`` is 1 where a
         switching function changed sign (strictly) between two substep ends (else always 0); with ``wide``
         also where it changed sign at the old branch's extrapolated end of a substep (Heun's third-order
@@ -430,8 +500,19 @@ class NumericModel:
                     g_old = g_sel(heun3(self.f, x_start, p, ua, ub, h, h), ub)
                     crossed = ca.logic_or(crossed, ca.mmin(g_prev * g_old) < 0)
                     on, tangent = surface_start(self, x_start, p, ua, h)  # where it may slide: on it, or heading in
-                    crossed = ca.logic_or(crossed, ca.mmax(ca.vertcat(0, *[ca.logic_or(on[i], tangent[i] < 2) for i in
-                                                                           watch if not self.slides or self.slides[i]])))
+                    crossed = ca.logic_or(
+                        crossed,
+                        ca.mmax(
+                            ca.vertcat(
+                                0,
+                                *[
+                                    ca.logic_or(on[i], tangent[i] < 2)
+                                    for i in watch
+                                    if not self.slides or self.slides[i]
+                                ],
+                            )
+                        ),
+                    )
                 g_prev = g_i
         return xi, crossed
 
@@ -487,5 +568,8 @@ class ParameterMap:
         return np.asarray(self.inverse(np.asarray(theta, float))).ravel()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"names": list(self.names), "parameters": list(self.parameters),
-                "depends": {n: list(d) for n, d in zip(self.names, self.depends)}}
+        return {
+            "names": list(self.names),
+            "parameters": list(self.parameters),
+            "depends": {n: list(d) for n, d in zip(self.names, self.depends)},
+        }

@@ -64,9 +64,16 @@ class PeriodicNoise:
     innovation_dof: tuple[int, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        return {"period": self.period, "first_period": self.first, "periods": self.periods, "std": list(self.std),
-                "dof": self.dof, "ar": [list(a) for a in self.ar], "innovation_std": list(self.innovation_std),
-                "innovation_dof": list(self.innovation_dof)}
+        return {
+            "period": self.period,
+            "first_period": self.first,
+            "periods": self.periods,
+            "std": list(self.std),
+            "dof": self.dof,
+            "ar": [list(a) for a in self.ar],
+            "innovation_std": list(self.innovation_std),
+            "innovation_dof": list(self.innovation_dof),
+        }
 
 
 def input_period(u: Any, *, min_periods: int = 2) -> int | None:
@@ -98,12 +105,12 @@ def input_period(u: Any, *, min_periods: int = 2) -> int | None:
     n = 1 << int(np.ceil(np.log2(2 * T)))
     F = np.fft.rfft(x, n=n, axis=0)
     corr = np.fft.irfft(np.abs(F) ** 2, n=n, axis=0)[:T].sum(axis=1)  # sum_k x(k) x(k + L)
-    sq = np.cumsum((x ** 2).sum(axis=1))
+    sq = np.cumsum((x**2).sum(axis=1))
     lags = np.arange(1, T // min_periods + 1)
     head = sq[T - 1 - lags]  # sum over k < T - L of x(k)^2
     tail = sq[-1] - sq[lags - 1]  # sum over k >= L of x(k)^2
     diff = head + tail - 2 * corr[lags]
-    ok = diff <= (REPEAT_TOLERANCE ** 2) * np.maximum(head, 1e-300)
+    ok = diff <= (REPEAT_TOLERANCE**2) * np.maximum(head, 1e-300)
     hits = lags[ok & (head > 0)]
     return int(hits[0]) if hits.size else None
 
@@ -115,8 +122,8 @@ def _levinson_bic(r: np.ndarray, n: int, most: int) -> np.ndarray:
     from scipy.linalg import solve_toeplitz
 
     for p in range(1, most + 1):
-        a = solve_toeplitz(r[:p], r[1:p + 1])
-        var = r[0] - a @ r[1:p + 1]
+        a = solve_toeplitz(r[:p], r[1 : p + 1])
+        var = r[0] - a @ r[1 : p + 1]
         if not var > 0:
             break
         bic = np.log(var) + p * np.log(n) / n
@@ -148,7 +155,7 @@ def whiten(e: Any, ar: Any) -> np.ndarray:
     p = len(a) - 1
     out = x[p:].copy()
     for i in range(1, p + 1):
-        out += a[i] * x[p - i:len(x) - i]
+        out += a[i] * x[p - i : len(x) - i]
     return out
 
 
@@ -193,13 +200,13 @@ def periodic_noise(u: Any, y: Any, *, min_periods: int = 2) -> PeriodicNoise | N
     used = P - first
     if used < min_periods:
         return None
-    Y = ys[first * L:(first + used) * L].reshape(used, L, -1)
+    Y = ys[first * L : (first + used) * L].reshape(used, L, -1)
     E = Y - Y.mean(axis=0)
     dof = (used - 1) * L
     std, ar, istd, idof = [], [], [], []
     for j in range(ys.shape[1]):
         e = E[:, :, j]
-        ss = float(np.sum(e ** 2))
+        ss = float(np.sum(e**2))
         std.append(float(np.sqrt(ss / dof)))
         a = np.array([1.0])
         if ss > 0:

@@ -35,13 +35,35 @@ import numpy as np
 
 from obsnl._text import os_error_line, shorten
 from obsnl.errors import DataError
+from obsnl.estimation.accelerogram import (
+    ABSOLUTE_TIME,
+    G,
+    Record,
+    acceleration_unit,
+    add_noise,
+    check_motion,
+    check_seconds,
+    check_times,
+    rms,
+    time_since,
+    times_from_text,
+)
 from obsnl.model.bounds.textsize import quote
-from obsnl.estimation.accelerogram import (ABSOLUTE_TIME, G, Record, acceleration_unit, add_noise, check_motion,
-                                           check_seconds, check_times, rms, time_since, times_from_text)
 
 __all__ = [
-    "check_seconds", "read_record", "read_csv", "read_at2", "add_noise", "rms", "Table",
-    "MAX_FILE_BYTES", "MAX_LINE", "MAX_VALUES", "read_table", "times_from_text", "acceleration_unit",
+    "check_seconds",
+    "read_record",
+    "read_csv",
+    "read_at2",
+    "add_noise",
+    "rms",
+    "Table",
+    "MAX_FILE_BYTES",
+    "MAX_LINE",
+    "MAX_VALUES",
+    "read_table",
+    "times_from_text",
+    "acceleration_unit",
 ]
 
 #: Largest record or data file read (bytes): a long measured record of ten channels and a million
@@ -75,8 +97,9 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
         if not times:
             raise DataError(f"{str(p)!r}: no time column in header {quote(header)} (name it 'time_s')")
         if len(times) > 1:
-            raise DataError(f"{str(p)!r}: {len(times)} time columns {quote([header[i] for i in times])}; keep "
-                            f"one, 'time_s'")
+            raise DataError(
+                f"{str(p)!r}: {len(times)} time columns {quote([header[i] for i in times])}; keep one, 'time_s'"
+            )
         tcol = times[0]
         check_seconds(header[tcol], str(p))
         if column is None:  # by name: a column called acc..., else the only column besides time
@@ -84,9 +107,11 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
             named = [i for i in others if header[i].lower().startswith("acc")]
             pick = named if named else others
             if len(pick) != 1:
-                raise DataError(f"{str(p)!r}: cannot tell the acceleration column among "
-                                f"{quote([header[i] for i in pick])}; name it 'accel_m_s2' (or keep only time "
-                                f"and acceleration)")
+                raise DataError(
+                    f"{str(p)!r}: cannot tell the acceleration column among "
+                    f"{quote([header[i] for i in pick])}; name it 'accel_m_s2' (or keep only time "
+                    f"and acceleration)"
+                )
             acol: int | None = pick[0]
         else:
             acol = column if isinstance(column, int) else header.index(column) if column in header else None
@@ -94,18 +119,22 @@ def read_csv(path: str | Path, *, column: str | int | None = None) -> Record:
             raise DataError(f"{str(p)!r}: no acceleration column {quote(column)} in header {quote(header)}")
         unit = acceleration_unit(header[acol])
         if unit:  # read as m/s^2 it would be wrong by a factor (9.81 for g), silently
-            raise DataError(f"{str(p)!r}: the acceleration column {quote(header[acol])} is in {unit}, not m/s^2; "
-                            f"convert it to m/s^2 and name it 'accel_m_s2'")
+            raise DataError(
+                f"{str(p)!r}: the acceleration column {quote(header[acol])} is in {unit}, not m/s^2; "
+                f"convert it to m/s^2 and name it 'accel_m_s2'"
+            )
         return {"t": tcol, "a": acol}, ("t",)
 
     table = read_table(p, "record", choose)
     if table.bad_rows:
-        raise DataError(f"{str(p)!r} line {table.bad_line}: NaN/inf value ({table.bad_rows} bad rows); clean the "
-                        f"record first")
+        raise DataError(
+            f"{str(p)!r} line {table.bad_line}: NaN/inf value ({table.bad_rows} bad rows); clean the record first"
+        )
     dt = check_times(table.values["t"], str(p))
     start = table.starts["t"]
-    notes = (f"the time column starts at {start:.10g} s (absolute time?): counted from the first sample",) \
-        if start else ()
+    notes = (
+        (f"the time column starts at {start:.10g} s (absolute time?): counted from the first sample",) if start else ()
+    )
     accel = np.ascontiguousarray(table.values["a"])  # not a view keeping the time column alive
     return check_motion(Record(p.stem, accel, dt, source=p.name, notes=notes))
 
@@ -161,16 +190,25 @@ def read_table(p: Path, what: str, choose: Callable[[list[str]], Chosen]) -> Tab
         counts = {c: head.count(c) for c in SEPARATORS}
         sep = max(counts, key=lambda c: counts[c])
         if not counts[sep]:
-            raise DataError(f"{where}: the header {quote(head.strip())} has a single column; separate the "
-                            f"columns (time, then one per channel) with commas")
+            raise DataError(
+                f"{where}: the header {quote(head.strip())} has a single column; separate the "
+                f"columns (time, then one per channel) with commas"
+            )
         header = [h.strip() for h in head.split(sep)]
         twice, many = Counter(header).most_common(1)[0]
         if many > 1:  # it would be read from one of its columns, silently
-            raise DataError(f"{where}: column {quote(twice)} appears {many} times in the header; rename or remove "
-                            f"the copies")
+            raise DataError(
+                f"{where}: column {quote(twice)} appears {many} times in the header; rename or remove the copies"
+            )
         chosen, times, *gaps = choose(header)  # gaps: the columns where an empty cell is a missing sample (NaN)
-        rows = _Rows(where, sep, header, list(chosen.values()), [c in times for c in chosen],
-                     [c in (gaps[0] if gaps else ()) for c in chosen])
+        rows = _Rows(
+            where,
+            sep,
+            header,
+            list(chosen.values()),
+            [c in times for c in chosen],
+            [c in (gaps[0] if gaps else ()) for c in chosen],
+        )
         return rows.read(f, lines, list(chosen))
 
 
@@ -189,8 +227,9 @@ class _Rows:
     every line as in the header, numbers numpy reads: as :data:`_NUMBER`) is parsed by numpy; any other chunk
     line by line, cell by cell (:meth:`row`), which names the line and the column of a refusal."""
 
-    def __init__(self, where: str, sep: str, header: list[str], idx: list[int], timed: list[bool],
-                 gaps: list[bool] | None = None):
+    def __init__(
+        self, where: str, sep: str, header: list[str], idx: list[int], timed: list[bool], gaps: list[bool] | None = None
+    ):
         self.where, self.sep, self.header, self.idx, self.timed = where, sep, header, idx, timed
         self.gaps = gaps or [False] * len(idx)
         self.conv: list[Callable[[str], float]] = [float] * len(idx)
@@ -210,8 +249,10 @@ class _Rows:
         while chunk := f.readlines(_CHUNK):
             if max(map(len, chunk)) > MAX_LINE:
                 n += 1 + [len(line) > MAX_LINE for line in chunk].index(True)
-                raise DataError(f"{self.where} line {n} is over {MAX_LINE:,} characters; a line of samples is "
-                                f"short: give a CSV of one sample a line")
+                raise DataError(
+                    f"{self.where} line {n} is over {MAX_LINE:,} characters; a line of samples is "
+                    f"short: give a CSV of one sample a line"
+                )
             block = self.block(chunk, n)
             if block is None:
                 flat.extend(v for k, line in enumerate(chunk, n + 1) if (row := self.row(k, line)) for v in row)
@@ -219,16 +260,17 @@ class _Rows:
                 flat.frombytes(block.tobytes())
             n += len(chunk)
             if len(flat) > MAX_VALUES:
-                raise DataError(f"{self.where} line {n}: over {MAX_VALUES:,} numbers to read; obsnl reads at most "
-                                f"that many (cut the file, decimate it, or drop unused columns)")
+                raise DataError(
+                    f"{self.where} line {n}: over {MAX_VALUES:,} numbers to read; obsnl reads at most "
+                    f"that many (cut the file, decimate it, or drop unused columns)"
+                )
         a = np.frombuffer(flat, float).reshape(-1, len(self.idx)) if flat else np.zeros((0, len(self.idx)))
         return Table({c: a[:, j] for j, c in enumerate(names)}, dict(zip(names, self.starts)), *self.bad)
 
     def block(self, chunk: list[str], n: int) -> np.ndarray | None:
         """The numbers of a plain chunk of lines ``n + 1, ...`` (the class docstring), None for any other."""
         text, sep = "".join(chunk), self.sep
-        if (sep != "," and "," in text) or \
-                set(map(str.count, chunk, repeat(sep))) != {len(self.header) - 1}:
+        if (sep != "," and "," in text) or set(map(str.count, chunk, repeat(sep))) != {len(self.header) - 1}:
             return None
         try:  # numpy reads a number as float does, 3 times faster, but refuses 1_0 and digits not 0-9
             block = np.loadtxt(chunk, delimiter=sep, comments=None, usecols=self.idx, ndmin=2, dtype=float)
@@ -251,15 +293,18 @@ class _Rows:
         cells = line.split(self.sep)
         comma = next((c for c in cells if _DECIMAL_COMMA.fullmatch(c)), None) if self.sep != "," else None
         if comma is not None:
-            raise DataError(f"{where}: {quote(comma.strip())} has a decimal comma; write numbers with a decimal "
-                            f"point (0.01)")
+            raise DataError(
+                f"{where}: {quote(comma.strip())} has a decimal comma; write numbers with a decimal point (0.01)"
+            )
         vals: list[float] = []
         for f, i, gap in zip(self.conv, self.idx, self.gaps):
             cell, name = cells[i], quote(self.header[i])
             if not cell.strip():
                 if not gap:
-                    raise DataError(f"{where}: column {name} is empty; give a number in every cell of it" +
-                                    (" (only the outputs may have empty cells)" if any(self.gaps) else ""))
+                    raise DataError(
+                        f"{where}: column {name} is empty; give a number in every cell of it"
+                        + (" (only the outputs may have empty cells)" if any(self.gaps) else "")
+                    )
                 vals.append(float("nan"))  # a missing sample
                 continue
             try:
@@ -269,19 +314,27 @@ class _Rows:
             except ValueError:
                 v = None
             if v is None:
-                raise DataError(f"{where}: column {name} is not a number: {quote(cell.strip())} (write plain "
-                                f"decimal numbers: digits 0-9, a sign, a point, an exponent)")
+                raise DataError(
+                    f"{where}: column {name} is not a number: {quote(cell.strip())} (write plain "
+                    f"decimal numbers: digits 0-9, a sign, a point, an exponent)"
+                )
             if not np.isfinite(v):
                 if not _NON_FINITE.fullmatch(cell):
-                    raise DataError(f"{where}: column {name}: {quote(cell.strip())} is beyond the range of "
-                                    f"floating-point numbers (1.8e308); correct it, or rescale the column")
+                    raise DataError(
+                        f"{where}: column {name}: {quote(cell.strip())} is beyond the range of "
+                        f"floating-point numbers (1.8e308); correct it, or rescale the column"
+                    )
                 self.bad = [self.bad[0] or n, self.bad[1] + bool(np.all(np.isfinite(vals)))]
             vals.append(v)
         return vals
 
 
-_KINDS = ((stat.S_ISFIFO, "FIFO"), (stat.S_ISCHR, "character device"), (stat.S_ISBLK, "block device"),
-          (stat.S_ISSOCK, "socket"))
+_KINDS = (
+    (stat.S_ISFIFO, "FIFO"),
+    (stat.S_ISCHR, "character device"),
+    (stat.S_ISBLK, "block device"),
+    (stat.S_ISSOCK, "socket"),
+)
 
 
 @contextmanager
@@ -312,8 +365,10 @@ def _open_text(p: Path, what: str) -> Iterator[IO[str]]:
         kind = next((name for test, name in _KINDS if test(st.st_mode)), "special file")
         raise DataError(f"{where} is a {kind}, not a regular file: give a file")
     if fd is None:
-        raise DataError(f"{where} has {st.st_size / 2**20:.0f} MiB; obsnl reads at most {MAX_FILE_BYTES >> 20} "
-                        f"MiB (cut the record, or decimate it)")
+        raise DataError(
+            f"{where} has {st.st_size / 2**20:.0f} MiB; obsnl reads at most {MAX_FILE_BYTES >> 20} "
+            f"MiB (cut the record, or decimate it)"
+        )
     with open(fd, encoding="utf-8-sig", newline=None) as f:
         try:
             yield f
@@ -329,8 +384,10 @@ def _lines(f: IO[str], where: str) -> Iterator[tuple[int, str]]:
     while line := f.readline(MAX_LINE + 1):
         n += 1
         if len(line) > MAX_LINE:
-            raise DataError(f"{where} line {n} is over {MAX_LINE:,} characters; a line of samples is short: give "
-                            f"a CSV of one sample a line")
+            raise DataError(
+                f"{where} line {n} is over {MAX_LINE:,} characters; a line of samples is short: give "
+                f"a CSV of one sample a line"
+            )
         yield n, line
 
 
@@ -363,8 +420,10 @@ def read_at2(path: str | Path) -> Record:
         if not head[4]:
             raise DataError(f"{where}: too short for a PEER AT2 file (4 header lines, then values)")
         if len(head[3]) > _AT2_LINE:
-            raise DataError(f"{where} line 4 has {len(head[3]):,} characters; a PEER AT2 file's is "
-                            f"'NPTS= n, DT= dt' (is this an AT2 file?)")
+            raise DataError(
+                f"{where} line 4 has {len(head[3]):,} characters; a PEER AT2 file's is "
+                f"'NPTS= n, DT= dt' (is this an AT2 file?)"
+            )
         mt = _AT2_HEAD.search(head[3])
         if not mt:
             raise DataError(f"{where} line 4: expected 'NPTS= n, DT= dt', got {quote(head[3].strip())}")
@@ -375,8 +434,10 @@ def read_at2(path: str | Path) -> Record:
         if not (np.isfinite(dt) and dt > 0):
             raise DataError(f"{where} line 4: DT={quote(mt.group(2))} must be a positive time step in seconds")
         if npts > MAX_VALUES:
-            raise DataError(f"{where} line 4: NPTS={npts} is over the {MAX_VALUES:,} samples obsnl reads; cut the "
-                            f"record, or decimate it")
+            raise DataError(
+                f"{where} line 4: NPTS={npts} is over the {MAX_VALUES:,} samples obsnl reads; cut the "
+                f"record, or decimate it"
+            )
         if "UNITS OF G" not in head[2].upper():
             raise DataError(f"{where} line 3: expected acceleration in units of g, got {quote(head[2].strip())}")
         for n, line in chain([(5, head[4])], lines):
@@ -390,14 +451,16 @@ def read_at2(path: str | Path) -> Record:
                 if tok is not None:
                     raise DataError(f"{where} line {n}: not a number: {quote(tok)}") from None
                 vals = [float(tok) for tok in tokens]
-            values.extend(vals[:max(npts - total, 0)])
-            padding = padding and not any(vals[max(npts - total, 0):])
+            values.extend(vals[: max(npts - total, 0)])
+            padding = padding and not any(vals[max(npts - total, 0) :])
             total, row = total + len(vals), max(row, len(vals))
     if total < npts:
         raise DataError(f"{where}: header says NPTS={npts} but the file holds {total} values (truncated?)")
     if total > npts and not (total - npts < row and padding):  # zeros filling the last row are padding
-        raise DataError(f"{where}: header says NPTS={npts} but the file holds {total} values; correct NPTS "
-                        f"(obsnl does not cut a record to its header's count)")
+        raise DataError(
+            f"{where}: header says NPTS={npts} but the file holds {total} values; correct NPTS "
+            f"(obsnl does not cut a record to its header's count)"
+        )
     a = np.frombuffer(values, float) * G
     bad = np.flatnonzero(~np.isfinite(a))
     if bad.size:

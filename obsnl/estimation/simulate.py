@@ -20,9 +20,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
 import casadi as ca
+import numpy as np
 
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError, EstimatorError
@@ -36,8 +35,9 @@ def _dense_input(fn: ca.Function, i: int, value: Any) -> np.ndarray:
     shape = fn.size_in(i)
     arr = np.asarray(value, float)
     if arr.size != shape[0] * shape[1]:
-        raise EstimatorError(f"input {fn.name_in(i)!r} of {fn.name()!r} needs {shape[0]}x{shape[1]} values, "
-                             f"got shape {arr.shape}")
+        raise EstimatorError(
+            f"input {fn.name_in(i)!r} of {fn.name()!r} needs {shape[0]}x{shape[1]} values, got shape {arr.shape}"
+        )
     if arr.ndim == 2 and arr.shape != shape and 1 not in shape:
         raise EstimatorError(f"input {fn.name_in(i)!r} of {fn.name()!r} needs shape {shape}, got {arr.shape}")
     return arr.reshape(shape, order="F") if arr.ndim < 2 else arr
@@ -113,18 +113,31 @@ class Simulation:
     outputs: tuple[str, ...]
 
     def __repr__(self) -> str:
-        return one_line("Simulation", f"samples={len(self.t)}", f"t={number(self.t[0])}..{number(self.t[-1])} s",
-                        f"states={names(self.states, 6)!r}", f"outputs={names(self.outputs, 6)!r}")
+        return one_line(
+            "Simulation",
+            f"samples={len(self.t)}",
+            f"t={number(self.t[0])}..{number(self.t[-1])} s",
+            f"states={names(self.states, 6)!r}",
+            f"outputs={names(self.outputs, 6)!r}",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the span simulated and the peak of each output."""
         peaks = [f"{o} {number(float(np.max(np.abs(self.y[:, j]))))}" for j, o in enumerate(self.outputs)]
-        return block(f"simulation of {len(self.t)} samples, t = {number(self.t[0])} to {number(self.t[-1])} s",
-                     f"states: {names(self.states, 12)}", f"peak |output|: {names(peaks, 8)}")
+        return block(
+            f"simulation of {len(self.t)} samples, t = {number(self.t[0])} to {number(self.t[-1])} s",
+            f"states: {names(self.states, 12)}",
+            f"peak |output|: {names(peaks, 8)}",
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"t": self.t.tolist(), "states": list(self.states), "outputs": list(self.outputs),
-                "x": self.x.tolist(), "y": self.y.tolist()}
+        return {
+            "t": self.t.tolist(),
+            "states": list(self.states),
+            "outputs": list(self.outputs),
+            "x": self.x.tolist(),
+            "y": self.y.tolist(),
+        }
 
 
 _RUNS: dict[tuple, tuple[NumericModel, ca.Function]] = {}
@@ -141,8 +154,17 @@ def _built(key: tuple, model: NumericModel, build: Callable[[], ca.Function]) ->
     return _RUNS[key][1]
 
 
-def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, refine: int,
-            jit: bool, n: int = 1, locate: bool = False) -> ca.Function:
+def _runner(
+    model: NumericModel,
+    dt: float,
+    T: int,
+    method: str,
+    substeps: int,
+    refine: int,
+    jit: bool,
+    n: int = 1,
+    locate: bool = False,
+) -> ca.Function:
     """``(x0, theta, u0s, u1s) -> X`` over ``T - 1`` steps for ``n`` parameter vectors side by side; with
     ``jit`` one compiled step (cached per model) looped over the record."""
 
@@ -157,8 +179,9 @@ def _runner(model: NumericModel, dt: float, T: int, method: str, substeps: int, 
         one = ca.Function("simulation", [X, P, U0, U1], [step.mapaccum(T - 1)(X, P, U0, U1)[0]])
         return one if n == 1 else one.map(n, "serial")
 
-    return _built(("run", float(dt), int(T), method, int(substeps), int(refine), bool(jit), int(n), bool(locate)),
-                  model, build)
+    return _built(
+        ("run", float(dt), int(T), method, int(substeps), int(refine), bool(jit), int(n), bool(locate)), model, build
+    )
 
 
 def _outputs(model: NumericModel, T: int) -> ca.Function:
@@ -176,8 +199,19 @@ def _checked_input(model: NumericModel, u: Any) -> np.ndarray:
     return u
 
 
-def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, method: str = "auto",
-             substeps: int = 100, refine: int = 8, jit: bool = False, locate: bool = False) -> Simulation:
+def simulate(
+    model: NumericModel,
+    *,
+    theta: Any,
+    x0: Any,
+    u: Any,
+    dt: float,
+    method: str = "auto",
+    substeps: int = 100,
+    refine: int = 8,
+    jit: bool = False,
+    locate: bool = False,
+) -> Simulation:
     """Simulate ``model`` from ``x0`` with parameters ``theta`` under the input samples ``u``.
 
     Parameters
@@ -208,16 +242,36 @@ def simulate(model: NumericModel, *, theta: Any, x0: Any, u: Any, dt: float, met
     EstimatorError
         The simulation left the finite numbers (the parameters make the model unstable).
     """
-    got = simulate_many(model, thetas=[theta], x0=x0, u=u, dt=dt, method=method, substeps=substeps, refine=refine,
-                        jit=jit, locate=locate)[0]
+    got = simulate_many(
+        model,
+        thetas=[theta],
+        x0=x0,
+        u=u,
+        dt=dt,
+        method=method,
+        substeps=substeps,
+        refine=refine,
+        jit=jit,
+        locate=locate,
+    )[0]
     if isinstance(got, EstimatorError):
         raise got
     return got
 
 
-def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any, dt: float, method: str = "auto",
-                  substeps: int = 100, refine: int = 8, jit: bool = False,
-                  locate: bool = False) -> list[Simulation | EstimatorError]:
+def simulate_many(
+    model: NumericModel,
+    *,
+    thetas: Sequence[Any],
+    x0: Any,
+    u: Any,
+    dt: float,
+    method: str = "auto",
+    substeps: int = 100,
+    refine: int = 8,
+    jit: bool = False,
+    locate: bool = False,
+) -> list[Simulation | EstimatorError]:
     """:func:`simulate` for several parameter vectors in one compiled call (the same numbers as one at a time).
 
     Parameters
@@ -261,12 +315,13 @@ def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any
         raise DataError(f"theta needs {model.np} values and x0 {model.nx}")
     n, T = len(thetas), len(u)
     run = _runner(model, dt, T, method, substeps, refine, jit, n, locate)
-    Xs = call(run, [np.repeat(x0[:, None], n, axis=1), np.column_stack(thetas), np.tile(u[:-1].T, n),
-                    np.tile(u[1:].T, n)])[0]
+    Xs = call(
+        run, [np.repeat(x0[:, None], n, axis=1), np.column_stack(thetas), np.tile(u[:-1].T, n), np.tile(u[1:].T, n)]
+    )[0]
     out: list[Simulation | EstimatorError] = []
     h = _outputs(model, T)
     for i, th in enumerate(thetas):
-        X = np.vstack([x0, Xs[:, i * (T - 1):(i + 1) * (T - 1)].T])
+        X = np.vstack([x0, Xs[:, i * (T - 1) : (i + 1) * (T - 1)].T])
         if not np.all(np.isfinite(X)):
             k = int(np.flatnonzero(~np.all(np.isfinite(X), axis=1))[0])
             out.append(EstimatorError(f"the simulation of {model.name!r} left the finite numbers at sample {k}"))
@@ -276,8 +331,9 @@ def simulate_many(model: NumericModel, *, thetas: Sequence[Any], x0: Any, u: Any
     return out
 
 
-def residual_graph(model: NumericModel, forward: ca.Function, dt: float, T: int, *, substeps: int, refine: int,
-                   locate: bool = False) -> tuple[ca.MX, ...]:
+def residual_graph(
+    model: NumericModel, forward: ca.Function, dt: float, T: int, *, substeps: int, refine: int, locate: bool = False
+) -> tuple[ca.MX, ...]:
     """``(z, u, y, w, x0, scale, r)``: the whitened output residuals ``r`` of ``T`` samples as a casadi graph.
 
     ``z = (phi, s)``: the coordinates ``phi`` of the parameters (``theta = forward(phi)``) and the scaled
@@ -318,11 +374,20 @@ def _record_symbols(model: NumericModel, T: int) -> tuple[ca.MX, ...]:
     z = ca.MX.sym("z", model.np + model.nx)
     U, Y, W = ca.MX.sym("u", model.nu, T), ca.MX.sym("y", model.ny, T), ca.MX.sym("w", model.ny)
     X0, SC = ca.MX.sym("x0", model.nx), ca.MX.sym("scale", model.nx)
-    return z, z[:model.np], X0 + SC * z[model.np:], U, Y, W, X0, SC
+    return z, z[: model.np], X0 + SC * z[model.np :], U, Y, W, X0, SC
 
 
-def residuals(model: NumericModel, forward: ca.Function, dt: float, T: int, *, substeps: int, refine: int,
-              locate: bool = False, jit: bool = False) -> ca.Function:
+def residuals(
+    model: NumericModel,
+    forward: ca.Function,
+    dt: float,
+    T: int,
+    *,
+    substeps: int,
+    refine: int,
+    locate: bool = False,
+    jit: bool = False,
+) -> ca.Function:
     """``(z, u, y, w, x0, scale) -> (r, J)``: the residuals of :func:`residual_graph` and their exact Jacobian
     ``J = dr/dz`` ``(T * ny, nz)``.
 
@@ -371,8 +436,13 @@ def residuals(model: NumericModel, forward: ca.Function, dt: float, T: int, *, s
     nz = model.np + model.nx
     if not jit:
         z, U, Y, W, X0, SC, R = residual_graph(model, forward, dt, T, substeps=substeps, refine=refine, locate=locate)
-        return ca.Function("output_error", [z, U, Y, W, X0, SC], [R, ca.jacobian(R, z)],
-                           ["z", "u", "y", "w", "x0", "scale"], ["r", "J"])
+        return ca.Function(
+            "output_error",
+            [z, U, Y, W, X0, SC],
+            [R, ca.jacobian(R, z)],
+            ["z", "u", "y", "w", "x0", "scale"],
+            ["r", "J"],
+        )
     step = model.step(dt, substeps=substeps, refine=refine, locate=locate)
     x, S, phi = ca.MX.sym("x", model.nx), ca.MX.sym("S", model.nx, nz), ca.MX.sym("phi", model.np)
     u0, u1 = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
@@ -384,11 +454,11 @@ def residuals(model: NumericModel, forward: ca.Function, dt: float, T: int, *, s
     advance = jit_compile(ca.Function("sensitivity_step", [x, S, phi, u0, u1], [xn, sens]))
     yh = model.h(x, th, u0)
     dr = (ca.jtimes(yh, x, S) + ca.jtimes(yh, phi, E)) * ca.repmat(w, 1, nz)
-    out = jit_compile(ca.Function("sensitivity_output", [x, S, phi, u0, y, w],
-                                  [(yh - y) * w, dr.T]))
+    out = jit_compile(ca.Function("sensitivity_output", [x, S, phi, u0, y, w], [(yh - y) * w, dr.T]))
     z, ph, x0, U, Y, W, X0, SC = _record_symbols(model, T)
     S0 = ca.horzcat(ca.MX.zeros(model.nx, model.np), ca.diag(SC))
     X, Ss = advance.mapaccum("sensitivity_loop", T - 1, 2)(x0, S0, ph, U[:, :-1], U[:, 1:])
     R, JT = out.map(T)(ca.horzcat(x0, X), ca.horzcat(S0, Ss), ca.repmat(ph, 1, T), U, Y, ca.repmat(W, 1, T))
-    return ca.Function("output_error", [z, U, Y, W, X0, SC], [ca.vec(R), JT.T], ["z", "u", "y", "w", "x0", "scale"],
-                       ["r", "J"])
+    return ca.Function(
+        "output_error", [z, U, Y, W, X0, SC], [ca.vec(R), JT.T], ["z", "u", "y", "w", "x0", "scale"], ["r", "J"]
+    )

@@ -33,12 +33,22 @@ class Estimate:
     def summary(self) -> str:
         """A few lines of plain text: the parameters and states after step ``k``, with their std."""
         sd = np.sqrt(np.clip(np.diag(self.P), 0, None))
-        return block(f"estimate after step {self.k}", f"parameters {numbers(self.theta, 10)}",
-                     f"states {numbers(self.x, 10)}", f"std in filter coordinates {numbers(sd, 10)}")
+        return block(
+            f"estimate after step {self.k}",
+            f"parameters {numbers(self.theta, 10)}",
+            f"states {numbers(self.x, 10)}",
+            f"std in filter coordinates {numbers(sd, 10)}",
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"k": self.k, "z": self.z.tolist(), "P": self.P.tolist(), "x": self.x.tolist(),
-                "theta": self.theta.tolist(), "active": self.active.astype(bool).tolist()}
+        return {
+            "k": self.k,
+            "z": self.z.tolist(),
+            "P": self.P.tolist(),
+            "x": self.x.tolist(),
+            "theta": self.theta.tolist(),
+            "active": self.active.astype(bool).tolist(),
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,23 +104,32 @@ class Trajectory:
 
     def __repr__(self) -> str:
         final = names([f"{p}={number(v)}" for p, v in zip(self.parameters, self.theta[-1])], 6)
-        return one_line("Trajectory", f"samples={len(self.t)}", f"final: {final}",
-                        f"repairs={self.total_repairs}", f"{self.seconds:.3g} s")
+        return one_line(
+            "Trajectory",
+            f"samples={len(self.t)}",
+            f"final: {final}",
+            f"repairs={self.total_repairs}",
+            f"{self.seconds:.3g} s",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the final estimate per parameter (with its std), the repairs."""
         sd = np.sqrt(np.clip(np.diagonal(self.P[-1]), 0, None))
-        coords = [f"{n} {number(v)}" for n, v in list(zip(self.names, sd))[len(self.states):]]
+        coords = [f"{n} {number(v)}" for n, v in list(zip(self.names, sd))[len(self.states) :]]
         rows = [f"{p} = {number(v)}" for p, v in zip(self.parameters, self.theta[-1])]
-        return block(f"filter run over {len(self.t)} samples ({number(self.t[0])} to {number(self.t[-1])} s), "
-                     f"{self.total_repairs} repairs, {self.seconds:.3g} s", *rows[:9],
-                     f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
-                     f"final std of the parameter coordinates: {', '.join(coords[:8])}" if coords else "")
+        return block(
+            f"filter run over {len(self.t)} samples ({number(self.t[0])} to {number(self.t[-1])} s), "
+            f"{self.total_repairs} repairs, {self.seconds:.3g} s",
+            *rows[:9],
+            f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
+            f"final std of the parameter coordinates: {', '.join(coords[:8])}" if coords else "",
+        )
 
     @property
     def final(self) -> Estimate:
-        return Estimate(k=len(self.t) - 1, z=self.z[-1], P=self.P[-1], x=self.x[-1], theta=self.theta[-1],
-                        active=self.active[-1])
+        return Estimate(
+            k=len(self.t) - 1, z=self.z[-1], P=self.P[-1], x=self.x[-1], theta=self.theta[-1], active=self.active[-1]
+        )
 
     @property
     def repairs(self) -> np.ndarray:
@@ -125,9 +144,19 @@ class Trajectory:
         return {k: int(v) for k, v in zip(INTERVENTIONS, self.interventions.sum(axis=0))}
 
     def to_dict(self) -> dict[str, Any]:
-        return {"names": list(self.names), "parameters": list(self.parameters), "states": list(self.states),
-                "t": self.t.tolist(), "theta": self.theta.tolist(), "x": self.x.tolist(),
-                "P_diag": np.diagonal(self.P, axis1=1, axis2=2).tolist(),
-                "innovations": self.innovations.tolist(), "signs": self.signs.tolist(),
-                "repairs": self.repairs.tolist(), "interventions": self.counts(), "implicit": self.implicit.tolist(),
-                "refined": self.refined.tolist(), "seconds": self.seconds}
+        return {
+            "names": list(self.names),
+            "parameters": list(self.parameters),
+            "states": list(self.states),
+            "t": self.t.tolist(),
+            "theta": self.theta.tolist(),
+            "x": self.x.tolist(),
+            "P_diag": np.diagonal(self.P, axis1=1, axis2=2).tolist(),
+            "innovations": self.innovations.tolist(),
+            "signs": self.signs.tolist(),
+            "repairs": self.repairs.tolist(),
+            "interventions": self.counts(),
+            "implicit": self.implicit.tolist(),
+            "refined": self.refined.tolist(),
+            "seconds": self.seconds,
+        }

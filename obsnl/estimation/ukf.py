@@ -34,12 +34,12 @@ import casadi as ca
 import numpy as np
 
 from obsnl.errors import EstimatorError
-from obsnl.estimation.simulate import call
+from obsnl.estimation.accelerogram import check_inputs
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.estimation.numeric import NumericModel, ParameterMap
+from obsnl.estimation.simulate import call
 from obsnl.estimation.trajectory import Estimate, Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS, build_step
-from obsnl.estimation.accelerogram import check_inputs
 
 __all__ = ["UKF", "Estimate", "Trajectory"]
 
@@ -57,8 +57,9 @@ def _record(ys: Any, us: Any, *, ny: int, nu: int) -> tuple[np.ndarray, np.ndarr
 def _identity_map(names: Sequence[str]) -> ParameterMap:
     p = ca.SX.sym("p", len(names))
     f = ca.Function("identity", [p], [p])
-    return ParameterMap(names=tuple(names), parameters=tuple(names), forward=f, inverse=f,
-                        depends=tuple((n,) for n in names))
+    return ParameterMap(
+        names=tuple(names), parameters=tuple(names), forward=f, inverse=f, depends=tuple((n,) for n in names)
+    )
 
 
 def _matrix(value: Any, n: int, what: str) -> np.ndarray:
@@ -68,14 +69,17 @@ def _matrix(value: Any, n: int, what: str) -> np.ndarray:
     elif arr.ndim == 1:
         arr = np.diag(arr)
     if arr.shape != (n, n):
-        raise EstimatorError(f"{what} must be a scalar, a diagonal of length {n} or a {n}x{n} matrix; got shape {arr.shape}")
+        raise EstimatorError(
+            f"{what} must be a scalar, a diagonal of length {n} or a {n}x{n} matrix; got shape {arr.shape}"
+        )
     if not np.all(np.isfinite(arr)):
         raise EstimatorError(f"{what} contains NaN/inf")
     if not np.allclose(arr, arr.T, rtol=1e-10, atol=0.0):
         raise EstimatorError(f"{what} must be symmetric")
     if np.linalg.eigvalsh(arr).min() < -1e-12 * max(1.0, np.abs(arr).max()):
-        raise EstimatorError(f"{what} must be positive semidefinite (smallest eigenvalue "
-                             f"{np.linalg.eigvalsh(arr).min():.3g})")
+        raise EstimatorError(
+            f"{what} must be positive semidefinite (smallest eigenvalue {np.linalg.eigvalsh(arr).min():.3g})"
+        )
     return arr
 
 
@@ -167,8 +171,9 @@ class UKF:
             raise EstimatorError(f"dt must be a positive number, got {self.dt!r}")
         coords = self.coordinates or _identity_map(self.model.parameters)
         if coords.parameters != self.model.parameters:
-            raise EstimatorError(f"coordinates are for parameters {list(coords.parameters)}, the model has "
-                                 f"{list(self.model.parameters)}")
+            raise EstimatorError(
+                f"coordinates are for parameters {list(coords.parameters)}, the model has {list(self.model.parameters)}"
+            )
         set_("coordinates", coords)
         scale = np.ones(self.model.nx) if self.state_scale is None else np.asarray(self.state_scale, float)
         if scale.shape != (self.model.nx,) or not np.all(np.isfinite(scale)) or np.any(scale <= 0):
@@ -240,8 +245,9 @@ class UKF:
             raise EstimatorError(f"x0 needs {self.model.nx} values and theta0 {self.model.np}")
         z = self.to_z(x0, theta0)
         if not np.all(np.isfinite(z)):
-            raise EstimatorError(f"theta0 {theta0.tolist()} is outside the coordinates' domain (e.g. a log of "
-                                 f"a value <= 0)")
+            raise EstimatorError(
+                f"theta0 {theta0.tolist()} is outside the coordinates' domain (e.g. a log of a value <= 0)"
+            )
         P = _matrix(P0, self.size, "P0")
         if np.linalg.eigvalsh(P).min() <= 0:
             raise EstimatorError("P0 must be positive definite")
@@ -250,8 +256,17 @@ class UKF:
 
     # ------------------------------------------------------------------ compiled functions
     def _key(self) -> tuple:
-        return (id(self.model), id(self.coordinates), self.dt, self.method, self.substeps, self.refine, self.locate,
-                self.jit, type(self).__name__) + self._extra_key()
+        return (
+            id(self.model),
+            id(self.coordinates),
+            self.dt,
+            self.method,
+            self.substeps,
+            self.refine,
+            self.locate,
+            self.jit,
+            type(self).__name__,
+        ) + self._extra_key()
 
     def _extra_key(self) -> tuple:
         return ()
@@ -270,8 +285,16 @@ class UKF:
     def _compiled(self) -> ca.Function:
         key = self._key()
         if key not in self.cache:
-            core = build_step(self.model, self._coordinates, self.dt, method=self.method, substeps=self.substeps,
-                              cross=self._cross(), refine=self.refine, locate=self.locate)
+            core = build_step(
+                self.model,
+                self._coordinates,
+                self.dt,
+                method=self.method,
+                substeps=self.substeps,
+                cross=self._cross(),
+                refine=self.refine,
+                locate=self.locate,
+            )
             L, m, nu, ny = self.size, len(self.model.switching), self.model.nu, self.model.ny
             z, P, prev = ca.MX.sym("z", L), ca.MX.sym("P", L, L), ca.MX.sym("prev", L)
             u0, u1, y = ca.MX.sym("u0", nu), ca.MX.sym("u1", nu), ca.MX.sym("y", ny)
@@ -282,8 +305,10 @@ class UKF:
             lo, hi, cap = ca.MX.sym("lo", L), ca.MX.sym("hi", L), ca.MX.sym("cap", L)
             zn, Pn, yp, nuv, S, rep, imp, fine = core(z, P, u0, u1, y, act, Q, R, hyp, lo, hi, cap, sc)
             fn = ca.Function(
-                "filter_step", [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap, sc],
-                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine])
+                "filter_step",
+                [z, P, prev, u0, u1, y, Q, R, hyp, allowed, lo, hi, cap, sc],
+                [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine],
+            )
             self.cache[key] = jit_compile(fn) if self.jit else fn  # compiled once per machine, then from disk
         return self.cache[key]
 
@@ -296,8 +321,9 @@ class UKF:
     def allowed(self) -> np.ndarray:
         """1 for coordinates the filter may estimate, 0 for those held fixed (``fixed``)."""
         held = set(self.fixed)
-        return np.array([0.0 if dep and set(dep) <= held else 1.0
-                         for dep in ((),) * self.model.nx + self._coordinates.depends])
+        return np.array(
+            [0.0 if dep and set(dep) <= held else 1.0 for dep in ((),) * self.model.nx + self._coordinates.depends]
+        )
 
     def _hyp(self) -> np.ndarray:
         return np.array([self.alpha, self.beta, self.kappa, self.gate], float)
@@ -306,14 +332,32 @@ class UKF:
     def step(self, est: Estimate, *, y: Any, u0: Any, u1: Any) -> Estimate:
         """One step: predict from ``u0`` to ``u1`` over ``dt``, update with the measurement ``y`` (NaN: an output
         not measured at this sample; the update uses the others, none: the prediction)."""
-        ys, us = _record(np.vstack([np.reshape(y, (1, -1))] * 2), np.vstack([np.reshape(u0, (1, -1)),
-                         np.reshape(u1, (1, -1))]), ny=self.model.ny, nu=self.model.nu)
-        out = self._compiled()(est.z, est.P, est.active, us[0], us[1], ys[1], self.Q, self.R, self._hyp(),
-                               self.allowed, *self._bounds(), self.cap, self.state_scale)
+        ys, us = _record(
+            np.vstack([np.reshape(y, (1, -1))] * 2),
+            np.vstack([np.reshape(u0, (1, -1)), np.reshape(u1, (1, -1))]),
+            ny=self.model.ny,
+            nu=self.model.nu,
+        )
+        out = self._compiled()(
+            est.z,
+            est.P,
+            est.active,
+            us[0],
+            us[1],
+            ys[1],
+            self.Q,
+            self.R,
+            self._hyp(),
+            self.allowed,
+            *self._bounds(),
+            self.cap,
+            self.state_scale,
+        )
         z, P = np.asarray(out[0]).ravel(), np.asarray(out[1])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(P))):
-            raise EstimatorError(f"the filter produced NaN/inf at step {est.k + 1}; lower P0/Q, use method='ros2' "
-                                 f"or more substeps")
+            raise EstimatorError(
+                f"the filter produced NaN/inf at step {est.k + 1}; lower P0/Q, use method='ros2' or more substeps"
+            )
         x, th = self.split(z)
         return Estimate(k=est.k + 1, z=z, P=P, x=x[0], theta=th[0], active=np.asarray(out[2]).ravel())
 
@@ -338,27 +382,40 @@ class UKF:
         if key not in self.cache:
             step = self._compiled()
             acc = step.mapaccum("run", T - 1, 3, {})
-            ins = [ca.MX.sym(f"i{j}", *(step.size_in(j) if j not in (3, 4, 5) else acc.size_in(j)))
-                   for j in range(step.n_in())]
+            ins = [
+                ca.MX.sym(f"i{j}", *(step.size_in(j) if j not in (3, 4, 5) else acc.size_in(j)))
+                for j in range(step.n_in())
+            ]
             one = ca.Function("one_run", ins, acc.call(ins))
             self.cache[key] = one if n == 1 else one.map(n, "serial")
         return self.cache[key]
 
-    def _evaluate(self, est0s: Sequence[Estimate], data: Sequence[tuple[np.ndarray, np.ndarray]],
-                  filters: Sequence[UKF]) -> list[np.ndarray]:
+    def _evaluate(
+        self, est0s: Sequence[Estimate], data: Sequence[tuple[np.ndarray, np.ndarray]], filters: Sequence[UKF]
+    ) -> list[np.ndarray]:
         """The raw outputs of the runs (checked records of one length), runs side by side in each output."""
         cols = lambda rows: np.hstack(rows)  # noqa: E731 - runs side by side, as casadi's map wants them
-        args = [cols([e.z[:, None] for e in est0s]), cols([e.P for e in est0s]),
-                cols([e.active[:, None] for e in est0s]), cols([u[:-1].T for _, u in data]),
-                cols([u[1:].T for _, u in data]), cols([y[1:].T for y, _ in data]),
-                cols([f.Q for f in filters]), cols([f.R for f in filters]), cols([f._hyp()[:, None] for f in filters]),
-                cols([f.allowed[:, None] for f in filters]), cols([f._bounds()[0][:, None] for f in filters]),
-                cols([f._bounds()[1][:, None] for f in filters]), cols([f.cap[:, None] for f in filters]),
-                cols([f.state_scale[:, None] for f in filters])]
+        args = [
+            cols([e.z[:, None] for e in est0s]),
+            cols([e.P for e in est0s]),
+            cols([e.active[:, None] for e in est0s]),
+            cols([u[:-1].T for _, u in data]),
+            cols([u[1:].T for _, u in data]),
+            cols([y[1:].T for y, _ in data]),
+            cols([f.Q for f in filters]),
+            cols([f.R for f in filters]),
+            cols([f._hyp()[:, None] for f in filters]),
+            cols([f.allowed[:, None] for f in filters]),
+            cols([f._bounds()[0][:, None] for f in filters]),
+            cols([f._bounds()[1][:, None] for f in filters]),
+            cols([f.cap[:, None] for f in filters]),
+            cols([f.state_scale[:, None] for f in filters]),
+        ]
         return call(self._runs(len(data[0][0]), len(data)), args)
 
-    def run_batch(self, est0s: Sequence[Estimate], ys: Sequence[Any], us: Sequence[Any], *,
-                  filters: Sequence[UKF] | None = None) -> list[Trajectory | EstimatorError]:
+    def run_batch(
+        self, est0s: Sequence[Estimate], ys: Sequence[Any], us: Sequence[Any], *, filters: Sequence[UKF] | None = None
+    ) -> list[Trajectory | EstimatorError]:
         """Many runs over records of one length in one compiled call (casadi ``map`` over the runs).
 
         Run ``i`` starts at ``est0s[i]`` on ``ys[i]``, ``us[i]`` with the options (Q, R, gate, fixed,
@@ -376,8 +433,10 @@ class UKF:
         if not (len(filters) == len(est0s) == len(ys) == len(us)) or not est0s:
             raise EstimatorError("run_batch needs one start estimate, record and filter per run (and at least one run)")
         if any(f._key() != self._key() for f in filters):
-            raise EstimatorError("run_batch: every filter must share this filter's compiled step (same model, "
-                                 "coordinates, dt, method and substeps)")
+            raise EstimatorError(
+                "run_batch: every filter must share this filter's compiled step (same model, "
+                "coordinates, dt, method and substeps)"
+            )
         data = [_record(y, u, ny=self.model.ny, nu=self.model.nu) for y, u in zip(ys, us)]
         T, n = len(data[0][0]), len(data)
         if any(len(y) != T for y, _ in data):
@@ -400,19 +459,30 @@ class UKF:
         Ps = np.concatenate([est0.P[None], np.asarray(out[1]).T.reshape(T - 1, L, L).transpose(0, 2, 1)])
         bad = np.flatnonzero(~(np.all(np.isfinite(Z), axis=1) & np.all(np.isfinite(Ps), axis=(1, 2))))
         if bad.size:
-            raise EstimatorError(f"the filter produced NaN/inf at step {bad[0]} of {T}; lower P0/Q, use "
-                                 f"method='ros2' or more substeps")
+            raise EstimatorError(
+                f"the filter produced NaN/inf at step {bad[0]} of {T}; lower P0/Q, use method='ros2' or more substeps"
+            )
         nan_row = lambda a: np.vstack([np.full((1, a.shape[0]), np.nan), a.T])  # noqa: E731
         ny = self.model.ny
         S = np.concatenate([np.full((1, ny, ny), np.nan), np.asarray(out[5]).T.reshape(T - 1, ny, ny)])
         signs = np.asarray(out[8]).T if len(self.model.switching) else np.zeros((T - 1, 0))
         X, TH = self.split(Z)
         return Trajectory(
-            t=np.arange(T) * self.dt if t is None else np.asarray(t, float), z=Z, P=Ps, x=X, theta=TH,
-            y_pred=nan_row(np.asarray(out[3])), innovations=nan_row(np.asarray(out[4])), S=S,
+            t=np.arange(T) * self.dt if t is None else np.asarray(t, float),
+            z=Z,
+            P=Ps,
+            x=X,
+            theta=TH,
+            y_pred=nan_row(np.asarray(out[3])),
+            innovations=nan_row(np.asarray(out[4])),
+            S=S,
             signs=np.vstack([signs, np.full((1, signs.shape[1]), np.nan)]) if signs.size else signs,
             active=np.vstack([est0.active, np.asarray(out[2]).T]),
             interventions=np.vstack([np.zeros((1, len(INTERVENTIONS))), np.asarray(out[6]).T]).astype(int),
             implicit=np.concatenate([[0], np.asarray(out[7]).ravel()]).astype(int),
             refined=np.concatenate([[0], np.asarray(out[9]).ravel()]).astype(int),
-            seconds=seconds, names=self.names, parameters=self.model.parameters, states=self.model.states)
+            seconds=seconds,
+            names=self.names,
+            parameters=self.model.parameters,
+            states=self.model.states,
+        )

@@ -103,8 +103,9 @@ def _lower_solve(L: ca.SX, B: ca.SX, n: int) -> ca.SX:
     return X
 
 
-def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function],
-                 method: str) -> tuple[ca.Function, ca.Function]:
+def _sigma_block(
+    model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], method: str
+) -> tuple[ca.Function, ca.Function]:
     """``(z, P, active, hyp) -> (X, S, pivots)`` (sigma points) and ``(zc, u0, u1, scale) -> (zc+, stiff,
     crossed)`` (RK4 propagation of one sigma point, with the tests of the fallbacks: stiff for RK4,
     a switching function crossed inside the step).
@@ -130,8 +131,9 @@ def _sigma_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Fu
     return sig, prop
 
 
-def _point_block(model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function],
-                 prop: ca.Function) -> tuple[ca.Function, ca.Function]:
+def _point_block(
+    model: NumericModel, coords: ParameterMap, fns: dict[str, ca.Function], prop: ca.Function
+) -> tuple[ca.Function, ca.Function]:
     """``(zc, u0, u1, scale) -> (zc+, stiff, crossed)``: one sigma point through ``prop`` (RK4 and the probe),
     then ROS2 (``refine * substeps``) where RK4 was stiff, or RK4 with the crossing substep refined
     where a watched switching function changed sign; each fallback is evaluated only where needed.
@@ -161,7 +163,7 @@ def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.F
     alpha, beta, kappa, gate = hyp[0], hyp[1], hyp[2], hyp[3]
     A, U = ca.diag(a), ca.diag(1 - a)
     nA = ca.sum1(a)
-    lam = alpha ** 2 * (nA + kappa) - nA
+    lam = alpha**2 * (nA + kappa) - nA
     gam = ca.sqrt(nA + lam)
 
     good = ca.SX.ones(1, npts - 1)
@@ -171,12 +173,12 @@ def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.F
     Xp_ = ca.horzcat(Xp[:, 0], ca.if_else(ca.repmat(good, L, 1), Xp[:, 1:], ca.repmat(Xp[:, 0], 1, npts - 1)))
     w = a / (2 * (nA + lam))
     Wm = ca.vertcat(lam / (nA + lam), w, w)
-    Wc = ca.vertcat(lam / (nA + lam) + 1 - alpha ** 2 + beta, w, w)
+    Wc = ca.vertcat(lam / (nA + lam) + 1 - alpha**2 + beta, w, w)
     m = ca.mtimes(A, ca.mtimes(Xp_, Wm)) + ca.mtimes(U, z)  # frozen means kept exactly
     Psig = _sym_outer(Xp_ - ca.repmat(m, 1, npts), Wc, L)
-    if cross == "regression":   # frozen block regressed on the prior active block (dukf.py)
-        G = _lower_solve(S_, ca.mtimes(P, U), L)                 # S^-1 P_{.,U}
-        PAU = ca.mtimes([A, gam * (Xp_[:, 1:L + 1] - Xp_[:, L + 1:]), ca.diag(w), G])
+    if cross == "regression":  # frozen block regressed on the prior active block (dukf.py)
+        G = _lower_solve(S_, ca.mtimes(P, U), L)  # S^-1 P_{.,U}
+        PAU = ca.mtimes([A, gam * (Xp_[:, 1 : L + 1] - Xp_[:, L + 1 :]), ca.diag(w), G])
     else:
         PAU = ca.SX.zeros(L, L)
     Pp = ca.mtimes([A, Psig + Q, A]) + ca.mtimes([U, P, U]) + PAU + PAU.T
@@ -192,16 +194,16 @@ def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.F
     dY = Y - ca.repmat(yhat, 1, npts)
     Pyy = ca.mtimes([dY, ca.diag(Wc), dY.T]) + R
     Pzy = ca.mtimes([X2 - ca.repmat(m, 1, npts), ca.diag(Wc), dY.T])
-    if cross == "regression":   # P_Uy = P_UA- (P_AA-)^-1 P_A-y through the same sigma points
+    if cross == "regression":  # P_Uy = P_UA- (P_AA-)^-1 P_A-y through the same sigma points
         G2 = _lower_solve(S2, ca.mtimes(Pp, U), L)
-        Pzy_full = Pzy + ca.mtimes([U, gam * G2.T, ca.diag(w), (Y[:, 1:L + 1] - Y[:, L + 1:]).T])
+        Pzy_full = Pzy + ca.mtimes([U, gam * G2.T, ca.diag(w), (Y[:, 1 : L + 1] - Y[:, L + 1 :]).T])
     else:
         Pzy_full = Pzy
     # a missing output sample (y NaN) is no measurement: the update uses the channels present. Their innovation,
     # covariance and cross-covariance are kept, a missing channel's decoupled (P_yy's row and column replaced by
     # the identity's, P_zy's column and the innovation by 0): its gain column is then 0 and the rest is the gain of
     # the present channels alone. The NaN is only ever selected away (if_else), never multiplied by 0.
-    nu_raw = y - yhat   # the innovation reported: NaN where the sample is missing
+    nu_raw = y - yhat  # the innovation reported: NaN where the sample is missing
     present = ca.fabs(y) < _FINITE
     nu = ca.if_else(present, nu_raw, 0.0)
     Pyy_u = ca.if_else(ca.mtimes(present, present.T), Pyy, ca.SX.eye(ny))
@@ -213,7 +215,7 @@ def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.F
     else:
         K = ca.mtimes(A, Pzy_u / Pyy_u)
         d = ca.fabs(nu) / ca.sqrt(Pyy_u)
-    weight = ca.if_else(d > gate, gate / d, 1.0)   # Huber: the step of a gate-sigma innovation at most
+    weight = ca.if_else(d > gate, gate / d, 1.0)  # Huber: the step of a gate-sigma innovation at most
     gated = d > gate
     K = weight * K
     zn = m + ca.mtimes(K, nu)
@@ -236,12 +238,25 @@ def _update_block(model: NumericModel, coords: ParameterMap, cross: str) -> ca.F
     n_capped = ca.sum1(ratio < 1)
     P_out = P_pick * ca.mtimes(shrink, shrink.T)
     counts = ca.vertcat(n_sigma, gated, rejected, held, n_clamped, n_capped)
-    return ca.Function("update", [z, P, a, hyp, S_, Xp, u1, y, Q, R, lo, hi, cap, sc],
-                       [clamped, P_out, yhat, nu_raw, Pyy, n_pivot, counts])
+    return ca.Function(
+        "update",
+        [z, P, a, hyp, S_, Xp, u1, y, Q, R, lo, hi, cap, sc],
+        [clamped, P_out, yhat, nu_raw, Pyy, n_pivot, counts],
+    )
 
 
-def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, method: str, substeps: int,
-               cross: str = "regression", refine: int = 8, skip_frozen: bool = True, locate: bool = False) -> ca.Function:
+def build_step(
+    model: NumericModel,
+    coords: ParameterMap,
+    dt: float,
+    *,
+    method: str,
+    substeps: int,
+    cross: str = "regression",
+    refine: int = 8,
+    skip_frozen: bool = True,
+    locate: bool = False,
+) -> ca.Function:
     """The filter step ``(z, P, u0, u1, y, active, Q, R, hyp, lo, hi, cap, scale)
     -> (z+, P+, y_pred, nu, S, interventions, implicit, refined)``.
 
@@ -312,7 +327,10 @@ def build_step(model: NumericModel, coords: ParameterMap, dt: float, *, method: 
     n_implicit, n_refined = ca.sum2(stiff), ca.sum2(crossed)
     zn, Pn, yp, nu, Syy, n_pivot2, counts = upd(z, P, a, hyp, S, Xp, u1, y, Q, R, lo, hi, cap, sc)
     interventions = ca.vertcat(n_pivot + n_pivot2, counts)
-    return ca.Function("ukf_step", [z, P, u0, u1, y, a, Q, R, hyp, lo, hi, cap, sc],
-                       [zn, Pn, yp, nu, Syy, interventions, n_implicit, n_refined],
-                       ["z", "P", "u0", "u1", "y", "active", "Q", "R", "hyp", "lo", "hi", "cap", "scale"],
-                       ["z_next", "P_next", "y_pred", "innovation", "S", "interventions", "implicit", "refined"])
+    return ca.Function(
+        "ukf_step",
+        [z, P, u0, u1, y, a, Q, R, hyp, lo, hi, cap, sc],
+        [zn, Pn, yp, nu, Syy, interventions, n_implicit, n_refined],
+        ["z", "P", "u0", "u1", "y", "active", "Q", "R", "hyp", "lo", "hi", "cap", "scale"],
+        ["z_next", "P_next", "y_pred", "innovation", "S", "interventions", "implicit", "refined"],
+    )

@@ -22,9 +22,16 @@ from obsnl._exports import lazy_exports
 #: The room's public names, each imported from the module that defines it on first use (so that importing
 #: one module of the room loads nothing else): name -> module.
 _LAZY: dict[str, str] = {
-    "Identification": "results", "Setup": "setup", "Tuning": "setup", "make_data": "setup",
-    "make_filter": "setup", "output_misfit": "setup", "run_passes": "experiments",
-    "monte_carlo": "experiments", "practical_identifiability": "practical", "Practical": "practical",
+    "Identification": "results",
+    "Setup": "setup",
+    "Tuning": "setup",
+    "make_data": "setup",
+    "make_filter": "setup",
+    "output_misfit": "setup",
+    "run_passes": "experiments",
+    "monte_carlo": "experiments",
+    "practical_identifiability": "practical",
+    "Practical": "practical",
     "StructuralCheck": "structural",
 }
 

@@ -88,23 +88,32 @@ INPUT_NOISE_SHARE = 0.1
 #: What a failed adequacy means, said first.
 INADEQUATE = "the model does not explain the data to the noise level"
 #: The reason every parameter is flagged with when the model fails adequacy.
-FLAG_REASON = (f"{INADEQUATE} (adequacy failed): its std and interval assume a right model and do not cover the "
-               "model error")
+FLAG_REASON = (
+    f"{INADEQUATE} (adequacy failed): its std and interval assume a right model and do not cover the model error"
+)
 
 _ASSUMPTIONS = (
-    ("adequacy: the measurement noise is white (its band reaches the Nyquist frequency; noise coloured below it, "
-     "e.g. by a sensor's anti-alias filter, makes a right model fail whiteness), Gaussian, independent of the inputs "
-     "and between channels; the inputs' own noise, passed through the model, small beside it (else it adds a coloured "
-     "error that a right model fails on, on a long record)"),
-    ("adequacy: whiteness by Ljung-Box Q over lags 1..M, M = min(25, N/5), against chi2(M) (Ljung 1999, sec. 16.6), "
-     "on the residual samples present"),
-    ("adequacy: residual-input cross-correlation over lags 0..M per input, the residual prewhitened by an AR model "
-     "(BIC, order <= 10; none with missing samples) and the input filtered alike, the correlations whitened by the "
-     "input's own autocorrelation (Ljung 1999, eq. 16.62): n R^2 of the regression on the lagged input, p-value "
-     "from F(rank, n - rank - 1); no feedback from the residual to the input (negative lags not tested)"),
-    ("adequacy: misfit RSS/dof over the noise variance estimated from the raw record's differences (independent "
-     "of the model); the estimate's own spread counted by calibrating log F on draws of white Gaussian noise of "
-     "the same length and gaps (at most 8192, scaled as 1/sqrt(N) beyond) through the same estimator; one-sided"),
+    (
+        "adequacy: the measurement noise is white (its band reaches the Nyquist frequency; noise coloured below it, "
+        "e.g. by a sensor's anti-alias filter, makes a right model fail whiteness), Gaussian, independent of the inputs "
+        "and between channels; the inputs' own noise, passed through the model, small beside it (else it adds a coloured "
+        "error that a right model fails on, on a long record)"
+    ),
+    (
+        "adequacy: whiteness by Ljung-Box Q over lags 1..M, M = min(25, N/5), against chi2(M) (Ljung 1999, sec. 16.6), "
+        "on the residual samples present"
+    ),
+    (
+        "adequacy: residual-input cross-correlation over lags 0..M per input, the residual prewhitened by an AR model "
+        "(BIC, order <= 10; none with missing samples) and the input filtered alike, the correlations whitened by the "
+        "input's own autocorrelation (Ljung 1999, eq. 16.62): n R^2 of the regression on the lagged input, p-value "
+        "from F(rank, n - rank - 1); no feedback from the residual to the input (negative lags not tested)"
+    ),
+    (
+        "adequacy: misfit RSS/dof over the noise variance estimated from the raw record's differences (independent "
+        "of the model); the estimate's own spread counted by calibrating log F on draws of white Gaussian noise of "
+        "the same length and gaps (at most 8192, scaled as 1/sqrt(N) beyond) through the same estimator; one-sided"
+    ),
     "adequacy: the level is family-wise; each of the k tests is judged at level/k (Bonferroni)",
 )
 
@@ -128,17 +137,29 @@ class AdequacyTest:
     input: str | None = None
 
     def __repr__(self) -> str:
-        return one_line("AdequacyTest", f"{self.name}", f"output={self.output!r}",
-                        f"input={self.input!r}" if self.input else "", f"statistic={number(self.statistic)}",
-                        f"p={number(self.p_value)}", "passed" if self.passed else "FAILED")
+        return one_line(
+            "AdequacyTest",
+            f"{self.name}",
+            f"output={self.output!r}",
+            f"input={self.input!r}" if self.input else "",
+            f"statistic={number(self.statistic)}",
+            f"p={number(self.p_value)}",
+            "passed" if self.passed else "FAILED",
+        )
 
     def label(self) -> str:
         """``whiteness of y``, ``cross-correlation of y with u``, ``misfit of y``."""
         return f"{self.name} of {self.output}" + (f" with {self.input}" if self.input else "")
 
     def to_dict(self) -> dict[str, Any]:
-        d = {"name": self.name, "output": self.output, "statistic": _finite(self.statistic),
-             "p_value": _finite(self.p_value), "passed": self.passed, "detail": self.detail}
+        d = {
+            "name": self.name,
+            "output": self.output,
+            "statistic": _finite(self.statistic),
+            "p_value": _finite(self.p_value),
+            "passed": self.passed,
+            "detail": self.detail,
+        }
         if self.input is not None:
             d["input"] = self.input
         return d
@@ -168,8 +189,13 @@ class Adequacy:
         return tuple(t for t in self.tests if not t.passed)
 
     def __repr__(self) -> str:
-        return one_line("Adequacy", f"passed={self.passed}", f"level={self.level:g}", f"tests={len(self.tests)}",
-                        f"failed={names([t.label() for t in self.failed], 3)!r}" if self.failed else "")
+        return one_line(
+            "Adequacy",
+            f"passed={self.passed}",
+            f"level={self.level:g}",
+            f"tests={len(self.tests)}",
+            f"failed={names([t.label() for t in self.failed], 3)!r}" if self.failed else "",
+        )
 
     def headline(self) -> str:
         """One sentence: adequate or not, what a failure means, the failed tests."""
@@ -178,24 +204,40 @@ class Adequacy:
             kinds = dict.fromkeys(t.name for t in self.tests)
             return f"adequate: the residuals pass {k} tests ({', '.join(kinds)}) at the {100 * self.level:g} % level"
         loud = {o: v for o, v in self.input_noise_share.items() if v >= INPUT_NOISE_SHARE}
-        return (f"NOT adequate: {INADEQUATE}; the std and intervals assume a right model (failed at "
-                f"{100 * self.level:g} %: {names([t.label() for t in self.failed], 2)})" + (
-                    f"; but the inputs' noise makes {names([f'{100 * v:.2g} %' for v in loud.values()], 2)} of the "
-                    f"residual variance of {names(loud, 2)}, which the tests take as absent" if loud else ""))
+        return (
+            f"NOT adequate: {INADEQUATE}; the std and intervals assume a right model (failed at "
+            f"{100 * self.level:g} %: {names([t.label() for t in self.failed], 2)})"
+            + (
+                f"; but the inputs' noise makes {names([f'{100 * v:.2g} %' for v in loud.values()], 2)} of the "
+                f"residual variance of {names(loud, 2)}, which the tests take as absent"
+                if loud
+                else ""
+            )
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the headline, each test, the share of model error per output."""
         share = names([f"{o} {100 * v:.3g} %" for o, v in self.model_error.items()])
-        return block(self.headline(), *(f"{t.label()}: statistic {number(t.statistic)}, p = {t.p_value:.3g}, "
-                                        f"{'passed' if t.passed else 'FAILED'}" for t in self.tests[:9]),
-                     f"share of the residual variance attributed to model error: {share}" if self.model_error else "")
+        return block(
+            self.headline(),
+            *(
+                f"{t.label()}: statistic {number(t.statistic)}, p = {t.p_value:.3g}, "
+                f"{'passed' if t.passed else 'FAILED'}"
+                for t in self.tests[:9]
+            ),
+            f"share of the residual variance attributed to model error: {share}" if self.model_error else "",
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"passed": self.passed, "level": self.level, "per_test_level": self.level / max(len(self.tests), 1),
-                "tests": [t.to_dict() for t in self.tests],
-                "model_error_share": {o: _finite(v) for o, v in self.model_error.items()},
-                "input_noise_share": {o: _finite(v) for o, v in self.input_noise_share.items()},
-                "assumptions": list(self.assumptions)}
+        return {
+            "passed": self.passed,
+            "level": self.level,
+            "per_test_level": self.level / max(len(self.tests), 1),
+            "tests": [t.to_dict() for t in self.tests],
+            "model_error_share": {o: _finite(v) for o, v in self.model_error.items()},
+            "input_noise_share": {o: _finite(v) for o, v in self.input_noise_share.items()},
+            "assumptions": list(self.assumptions),
+        }
 
 
 def _finite(x: float) -> float | None:
@@ -266,8 +308,9 @@ def whiteness(e: Any, *, output: str = "y", lags: int | None = None, level: floa
     e = e[np.isfinite(e)]
     n = len(e)
     if n < MIN_SAMPLES:
-        raise OptionError(f"the residual of {output!r} has {n} samples present; the adequacy tests need at least "
-                          f"{MIN_SAMPLES}")
+        raise OptionError(
+            f"the residual of {output!r} has {n} samples present; the adequacy tests need at least {MIN_SAMPLES}"
+        )
     m = lags_for(n) if lags is None else int(lags)
     if not 1 <= m < n:
         raise OptionError(f"lags={lags!r} must be an integer from 1 to {n - 1}")
@@ -276,12 +319,18 @@ def whiteness(e: Any, *, output: str = "y", lags: int | None = None, level: floa
     if c0 == 0:
         return AdequacyTest("whiteness", output, 0.0, 1.0, True, "the residual is constant: nothing to correlate")
     r = np.array([float(e[k:] @ e[:-k]) / c0 for k in range(1, m + 1)])
-    q = float(n * (n + 2) * np.sum(r ** 2 / (n - np.arange(1, m + 1))))
+    q = float(n * (n + 2) * np.sum(r**2 / (n - np.arange(1, m + 1))))
     p = float(stats.chi2.sf(q, m))
-    return AdequacyTest("whiteness", output, q, p, p > level,
-                        f"Ljung-Box Q over lags 1..{m} on {n} samples, chi2({m}); largest |r_k| "
-                        f"{np.max(np.abs(r)):.3g} at lag {int(np.argmax(np.abs(r))) + 1} (white: within "
-                        f"{1.96 / math.sqrt(n):.3g} at 95 %)")
+    return AdequacyTest(
+        "whiteness",
+        output,
+        q,
+        p,
+        p > level,
+        f"Ljung-Box Q over lags 1..{m} on {n} samples, chi2({m}); largest |r_k| "
+        f"{np.max(np.abs(r)):.3g} at lag {int(np.argmax(np.abs(r))) + 1} (white: within "
+        f"{1.96 / math.sqrt(n):.3g} at 95 %)",
+    )
 
 
 def _ar_order(e: np.ndarray, most: int) -> tuple[int, np.ndarray]:
@@ -304,12 +353,13 @@ def _filtered(x: np.ndarray, a: np.ndarray) -> np.ndarray:
     """``x(t) - sum_i a_i x(t - i)``, NaN for ``t < len(a)``."""
     p = len(a)
     out = np.full(len(x), np.nan)
-    out[p:] = x[p:] - sum((a[i - 1] * x[p - i:len(x) - i] for i in range(1, p + 1)), np.zeros(len(x) - p))
+    out[p:] = x[p:] - sum((a[i - 1] * x[p - i : len(x) - i] for i in range(1, p + 1)), np.zeros(len(x) - p))
     return out
 
 
-def cross_correlation(e: Any, u: Any, *, output: str = "y", input: str = "u", lags: int | None = None,
-                      level: float = LEVEL) -> AdequacyTest:
+def cross_correlation(
+    e: Any, u: Any, *, output: str = "y", input: str = "u", lags: int | None = None, level: float = LEVEL
+) -> AdequacyTest:
     """Test of the residual ``e`` against the input ``u`` over lags ``0..M`` (module docstring); NaN residual
     samples are skipped.
 
@@ -348,13 +398,16 @@ def cross_correlation(e: Any, u: Any, *, output: str = "y", input: str = "u", la
     _check_level(level)
     e, u = _column(e, "the residual"), _column(u, "the input")
     if len(e) != len(u):
-        raise OptionError(f"the residual of {output!r} has {len(e)} samples, the input {input!r} {len(u)}; give "
-                          "them sample by sample")
+        raise OptionError(
+            f"the residual of {output!r} has {len(e)} samples, the input {input!r} {len(u)}; give them sample by sample"
+        )
     present = np.isfinite(e) & np.isfinite(u)
     n_present = int(present.sum())
     if n_present < MIN_SAMPLES:
-        raise OptionError(f"the residual of {output!r} has {n_present} samples present; the adequacy tests need at "
-                          f"least {MIN_SAMPLES}")
+        raise OptionError(
+            f"the residual of {output!r} has {n_present} samples present; the adequacy tests need at "
+            f"least {MIN_SAMPLES}"
+        )
     m = lags_for(n_present) if lags is None else int(lags)
     if not 0 <= m < n_present // 2:
         raise OptionError(f"lags={lags!r} must be an integer from 0 to {n_present // 2 - 1}")
@@ -376,17 +429,31 @@ def cross_correlation(e: Any, u: Any, *, output: str = "y", input: str = "u", la
     rank = int(live.sum())  # the directions the lagged input spans (fewer than the lags for a few sines)
     yy = float(y @ y)
     if rank == 0 or yy == 0 or n - rank - 1 < 1:
-        return AdequacyTest("cross-correlation", output, 0.0, 1.0, True,
-                            "nothing to correlate (a constant input or residual)", input=input)
+        return AdequacyTest(
+            "cross-correlation",
+            output,
+            0.0,
+            1.0,
+            True,
+            "nothing to correlate (a constant input or residual)",
+            input=input,
+        )
     c = V[:, live].T @ (U.T @ y)
-    proj2 = float(np.sum(c ** 2 / lam[live]))  # |P_U y|^2 with P_U the projection on the lagged input
+    proj2 = float(np.sum(c**2 / lam[live]))  # |P_U y|^2 with P_U the projection on the lagged input
     r2 = min(proj2 / yy, 1.0)
     f = (r2 / rank) / (max(1.0 - r2, 1e-300) / (n - rank - 1))
     p = float(stats.f.sf(f, rank, n - rank - 1))
     how = f"the residual prewhitened by AR({order}) (BIC)" if present.all() else "the residual not prewhitened (gaps)"
-    return AdequacyTest("cross-correlation", output, n * r2, p, p > level,
-                        f"n R^2 of the residual on input {input} at lags 0..{m} ({n} samples, rank {rank}), "
-                        f"F({rank}, {n - rank - 1}); {how}", input=input)
+    return AdequacyTest(
+        "cross-correlation",
+        output,
+        n * r2,
+        p,
+        p > level,
+        f"n R^2 of the residual on input {input} at lags 0..{m} ({n} samples, rank {rank}), "
+        f"F({rank}, {n - rank - 1}); {how}",
+        input=input,
+    )
 
 
 def _misfit_null(present: np.ndarray, fitted: float) -> tuple[float, float]:
@@ -415,14 +482,15 @@ def _null_of(packed: bytes, length: int, fitted: float) -> tuple[float, float]:
         w = np.where(present, rng.standard_normal(length), np.nan)
         ratio, _ = estimate_noise(w)
         seen = w[present]
-        s2 = ratio ** 2 * float(np.mean(seen ** 2))
+        s2 = ratio**2 * float(np.mean(seen**2))
         rss = float(seen @ seen) - (float(rng.chisquare(fitted)) if fitted > 0 else 0.0)
         logs[b] = math.log(max(rss, 1e-300) / (n - fitted) / s2)
     return float(np.mean(logs)), float(np.std(logs, ddof=1))
 
 
-def misfit(e: Any, y: Any, *, output: str = "y", dof: float | None = None,
-           level: float = LEVEL) -> tuple[AdequacyTest, float]:
+def misfit(
+    e: Any, y: Any, *, output: str = "y", dof: float | None = None, level: float = LEVEL
+) -> tuple[AdequacyTest, float]:
     """Test of the residual's size against the noise level estimated from the raw record ``y`` (module docstring).
 
     Parameters
@@ -469,13 +537,15 @@ def misfit(e: Any, y: Any, *, output: str = "y", dof: float | None = None,
     _check_level(level)
     e, y = _column(e, "the residual"), _column(y, "the output")
     if len(e) != len(y):
-        raise OptionError(f"the residual of {output!r} has {len(e)} samples, the output {len(y)}; give them sample "
-                          "by sample")
+        raise OptionError(
+            f"the residual of {output!r} has {len(e)} samples, the output {len(y)}; give them sample by sample"
+        )
     ok = np.isfinite(e) & np.isfinite(y)
     n = int(ok.sum())
     if n < MIN_SAMPLES:
-        raise OptionError(f"the residual of {output!r} has {n} samples present; the adequacy tests need at least "
-                          f"{MIN_SAMPLES}")
+        raise OptionError(
+            f"the residual of {output!r} has {n} samples present; the adequacy tests need at least {MIN_SAMPLES}"
+        )
     dof = float(n if dof is None else dof)
     if not 1 <= dof <= n:
         raise OptionError(f"dof={dof!r} must lie in [1, {n}] (the samples present less the fitted coordinates)")
@@ -483,7 +553,7 @@ def misfit(e: Any, y: Any, *, output: str = "y", dof: float | None = None,
         ratio, note = estimate_noise(np.where(ok, y, np.nan))
     except DataError as exc:
         raise OptionError(f"no noise estimate for the misfit of {output!r}: {exc}") from None
-    s2 = ratio ** 2 * float(np.mean(y[ok] ** 2))
+    s2 = ratio**2 * float(np.mean(y[ok] ** 2))
     if not s2 > 0:
         raise OptionError(f"no noise estimate for the misfit of {output!r}: the output is zero throughout")
     var = float(e[ok] @ e[ok]) / dof
@@ -491,17 +561,26 @@ def misfit(e: Any, y: Any, *, output: str = "y", dof: float | None = None,
     mu, sd = _misfit_null(ok, round(n - dof, 3))
     p = float(stats.norm.sf((math.log(max(ratio_f, 1e-300)) - mu) / sd))
     share = max(0.0, 1.0 - s2 / var) if var > 0 else 0.0
-    weak = ("; the noise estimate is only an upper bound (the channel is not oversampled): a misfit below it goes "
-            "unseen" if UPPER_BOUND in note else "")
-    return AdequacyTest("misfit", output, ratio_f, p, p > level,
-                        f"(RSS/dof) / s^2 with dof {dof:.6g} and s = {math.sqrt(s2):.3g} estimated from the raw "
-                        f"record's differences; log F against its spread under a right model (mean {mu:.3g}, std "
-                        f"{sd:.3g}, {DRAWS} draws of white noise); RMS residual / s = {math.sqrt(var / s2):.4g}"
-                        + weak), share
+    weak = (
+        "; the noise estimate is only an upper bound (the channel is not oversampled): a misfit below it goes unseen"
+        if UPPER_BOUND in note
+        else ""
+    )
+    return AdequacyTest(
+        "misfit",
+        output,
+        ratio_f,
+        p,
+        p > level,
+        f"(RSS/dof) / s^2 with dof {dof:.6g} and s = {math.sqrt(s2):.3g} estimated from the raw "
+        f"record's differences; log F against its spread under a right model (mean {mu:.3g}, std "
+        f"{sd:.3g}, {DRAWS} draws of white noise); RMS residual / s = {math.sqrt(var / s2):.4g}" + weak,
+    ), share
 
 
-def periodic_misfit(e: Any, noise: PeriodicNoise, j: int, *, output: str = "y", dof: float | None = None,
-                    level: float = LEVEL) -> tuple[AdequacyTest, float]:
+def periodic_misfit(
+    e: Any, noise: PeriodicNoise, j: int, *, output: str = "y", dof: float | None = None, level: float = LEVEL
+) -> tuple[AdequacyTest, float]:
     """The misfit of one output against the noise measured from the periods of a periodic input.
 
     The residual goes through the noise's whitening filter (``noise.ar[j]``); under a right model it is then white
@@ -560,17 +639,33 @@ def periodic_misfit(e: Any, noise: PeriodicNoise, j: int, *, output: str = "y", 
     f = var / s2 if s2 > 0 else math.inf
     p = float(stats.f.sf(f, dof_w, noise.innovation_dof[j]))
     share = max(0.0, 1.0 - s2 / var) if var > 0 else 0.0
-    return AdequacyTest("misfit", output, f, p, p > level,
-                        f"(RSS/dof) / s^2 through the noise's whitening filter (AR {len(a) - 1}), dof {dof_w:.6g}, s "
-                        f"= {math.sqrt(s2):.3g} the noise innovations' std measured from {noise.periods} periods "
-                        f"({noise.innovation_dof[j]} degrees of freedom); against F({dof_w:.6g}, "
-                        f"{noise.innovation_dof[j]}); RMS residual / noise std = "
-                        f"{float(np.sqrt(np.mean(x ** 2))) / noise.std[j]:.4g}"), share
+    return AdequacyTest(
+        "misfit",
+        output,
+        f,
+        p,
+        p > level,
+        f"(RSS/dof) / s^2 through the noise's whitening filter (AR {len(a) - 1}), dof {dof_w:.6g}, s "
+        f"= {math.sqrt(s2):.3g} the noise innovations' std measured from {noise.periods} periods "
+        f"({noise.innovation_dof[j]} degrees of freedom); against F({dof_w:.6g}, "
+        f"{noise.innovation_dof[j]}); RMS residual / noise std = "
+        f"{float(np.sqrt(np.mean(x**2))) / noise.std[j]:.4g}",
+    ), share
 
 
-def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[str], input_names: Sequence[str] = (),
-             dof: Sequence[float] | None = None, level: float = LEVEL, lags: int | None = None,
-             input_noise_share: Mapping[str, float] | None = None, noise: PeriodicNoise | None = None) -> Adequacy:
+def adequacy(
+    residuals: Any,
+    *,
+    measured: Any,
+    inputs: Any,
+    outputs: Sequence[str],
+    input_names: Sequence[str] = (),
+    dof: Sequence[float] | None = None,
+    level: float = LEVEL,
+    lags: int | None = None,
+    input_noise_share: Mapping[str, float] | None = None,
+    noise: PeriodicNoise | None = None,
+) -> Adequacy:
     """Judge whether a fitted model explains the data to the noise level (module docstring).
 
     Parameters
@@ -624,9 +719,11 @@ def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[st
     u = np.asarray(inputs, float)
     u = u.reshape(len(u), -1) if u.ndim == 1 or u.size else np.zeros((len(r), 0))
     if y is None or r.shape[1] != len(outputs) or len(u) != len(r) or u.shape[1] != len(input_names):
-        raise OptionError(f"adequacy: residuals {r.shape}, measured outputs {np.shape(measured)} and inputs "
-                          f"{np.shape(inputs)} do not match {len(outputs)} output(s) and {len(input_names)} input(s); "
-                          "give them sample by sample, one column per channel")
+        raise OptionError(
+            f"adequacy: residuals {r.shape}, measured outputs {np.shape(measured)} and inputs "
+            f"{np.shape(inputs)} do not match {len(outputs)} output(s) and {len(input_names)} input(s); "
+            "give them sample by sample, one column per channel"
+        )
     if dof is not None and len(dof) != len(outputs):
         raise OptionError(f"dof= has {len(dof)} values for {len(outputs)} outputs; give one per output")
     k = len(outputs) * (2 + len(input_names))
@@ -637,16 +734,26 @@ def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[st
     for j, o in enumerate(outputs):
         if noise is not None:
             white = whiteness(whiten(r[:, j], noise.ar[j]), output=o, lags=lags, level=each)
-            tests.append(dataclasses.replace(white, detail=white.detail + (
-                f"; on the residual through the whitening filter of the noise measured from the periods (AR "
-                f"{len(noise.ar[j]) - 1})")))
+            tests.append(
+                dataclasses.replace(
+                    white,
+                    detail=white.detail
+                    + (
+                        f"; on the residual through the whitening filter of the noise measured from the periods (AR "
+                        f"{len(noise.ar[j]) - 1})"
+                    ),
+                )
+            )
         else:
             tests.append(whiteness(r[:, j], output=o, lags=lags, level=each))
-        tests += [cross_correlation(r[:, j], u[:, i], output=o, input=c, lags=lags, level=each)
-                  for i, c in enumerate(input_names)]
+        tests += [
+            cross_correlation(r[:, j], u[:, i], output=o, input=c, lags=lags, level=each)
+            for i, c in enumerate(input_names)
+        ]
         if noise is not None:
-            test, share[o] = periodic_misfit(r[:, j], noise, j, output=o, dof=None if dof is None else dof[j],
-                                             level=each)
+            test, share[o] = periodic_misfit(
+                r[:, j], noise, j, output=o, dof=None if dof is None else dof[j], level=each
+            )
             tests.append(test)
             continue
         try:
@@ -656,11 +763,18 @@ def adequacy(residuals: Any, *, measured: Any, inputs: Any, outputs: Sequence[st
         else:
             tests.append(test)
     if noise is not None:
-        notes.append(f"adequacy: the noise measured from {noise.periods} periods of {noise.period} samples of the "
-                     f"periodic input{' (the first period left out: a transient)' if noise.first else ''}, independent "
-                     "of the model; the whiteness and misfit tests take its colour (an AR filter fitted to its "
-                     "autocorrelation, Yule-Walker, BIC) as the noise's, so a coloured measurement noise is not blamed "
-                     "on the model")
-    return Adequacy(passed=all(t.passed for t in tests), level=float(level), tests=tuple(tests),
-                    assumptions=_ASSUMPTIONS + tuple(notes), model_error=share,
-                    input_noise_share=dict(input_noise_share or {}))
+        notes.append(
+            f"adequacy: the noise measured from {noise.periods} periods of {noise.period} samples of the "
+            f"periodic input{' (the first period left out: a transient)' if noise.first else ''}, independent "
+            "of the model; the whiteness and misfit tests take its colour (an AR filter fitted to its "
+            "autocorrelation, Yule-Walker, BIC) as the noise's, so a coloured measurement noise is not blamed "
+            "on the model"
+        )
+    return Adequacy(
+        passed=all(t.passed for t in tests),
+        level=float(level),
+        tests=tuple(tests),
+        assumptions=_ASSUMPTIONS + tuple(notes),
+        model_error=share,
+        input_noise_share=dict(input_noise_share or {}),
+    )

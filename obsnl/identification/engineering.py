@@ -57,17 +57,39 @@ def write_figures(result: Any, folder: Any, files: Sequence[str]) -> None:
     u = None if result.u_measured is None else np.asarray(result.u_measured, float).reshape(len(result.t), -1)
     if "residuals.png" in files:
         level = result.adequacy.level if result.adequacy is not None else 0.01
-        plot_residuals(folder.path("residuals.png"), residuals=result.y_measured - result.y_fit, inputs=u,
-                       outputs=result.outputs, input_names=result.inputs, level=level)
+        plot_residuals(
+            folder.path("residuals.png"),
+            residuals=result.y_measured - result.y_fit,
+            inputs=u,
+            outputs=result.outputs,
+            input_names=result.inputs,
+            level=level,
+        )
     if "frf.png" in files and u is not None:
         lin = result.linear_at_rest
-        plot_frf(folder.path("frf.png"), t=result.t, inputs=u, measured=result.y_measured, A=lin.A, B=lin.B, C=lin.C,
-                 D=lin.D, input_names=result.inputs, outputs=result.outputs)
+        plot_frf(
+            folder.path("frf.png"),
+            t=result.t,
+            inputs=u,
+            measured=result.y_measured,
+            A=lin.A,
+            B=lin.B,
+            C=lin.C,
+            D=lin.D,
+            input_names=result.inputs,
+            outputs=result.outputs,
+        )
     if "hysteresis.png" in files:
         loop = restoring_force(result)
         if isinstance(loop, str):
-            plot_hysteresis(folder.path("hysteresis.png"), displacement={}, force={}, xlabel="displacement",
-                            ylabel="restoring force", note=f"no loop drawn: {loop}")
+            plot_hysteresis(
+                folder.path("hysteresis.png"),
+                displacement={},
+                force={},
+                xlabel="displacement",
+                ylabel="restoring force",
+                note=f"no loop drawn: {loop}",
+            )
         else:
             plot_hysteresis(folder.path("hysteresis.png"), **loop)
 
@@ -107,7 +129,7 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
         return f"the loop reads the restoring force from one input; the model has {u.shape[1]}"
     states = list(lin.states)
     found = None
-    for j, out in enumerate(result.outputs):  # an output that is a displacement state, whose derivative is a state
+    for j, _out in enumerate(result.outputs):  # an output that is a displacement state, whose derivative is a state
         hits = np.flatnonzero(lin.C[j] != 0)
         if len(hits) == 1 and lin.C[j, hits[0]] == 1.0 and not np.any(lin.D[j] != 0):
             v = _derivative_state(lin.A, lin.B, int(hits[0]))
@@ -115,8 +137,7 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
                 found = (j, int(hits[0]), v)
                 break
     if found is None:
-        return ("no measured output is a displacement state whose derivative is a velocity state driven by the "
-                "input")
+        return "no measured output is a displacement state whose derivative is a velocity state driven by the input"
     j, d, v = found
     b = float(lin.B[v, 0])
     num = to_casadi(result.fitted_model)
@@ -138,16 +159,23 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
     window = min(window, len(y) - (1 - len(y) % 2))
     acc = savgol_filter(y, window, 3, deriv=2, delta=dt)
     try:
-        sim = result.simulate({"time_s": result.t, result.inputs[0]: u[:, 0],
-                               **{o: result.y_measured[:, k] for k, o in enumerate(result.outputs)}})
+        sim = result.simulate(
+            {
+                "time_s": result.t,
+                result.inputs[0]: u[:, 0],
+                **{o: result.y_measured[:, k] for k, o in enumerate(result.outputs)},
+            }
+        )
     except ObsnlError as exc:  # the figure says why, the run's files are still written
         return f"the model at the estimate could not be simulated from rest: {exc}"
     x = np.asarray(sim.x, float)
     fv = np.array([float(np.asarray(num.f(x[k], theta, u[k]), float).ravel()[v]) for k in range(len(x))])
     name = result.inputs[0]
-    return {"displacement": {"measured": y, "model": x[:, d]},
-            "force": {"measured": u[:, 0] - acc / b, "model": u[:, 0] - fv / b},
-            "xlabel": f"displacement {states[d]} (measured as {result.outputs[j]})",
-            "ylabel": f"restoring force, in the units of {name}: {name} - {states[v]}' / b",
-            "note": f"b = d{states[v]}'/d{name} = {b:.4g} at the estimate; measured {states[v]}': the second "
-                    f"derivative of {result.outputs[j]} (Savitzky-Golay, cubic, {window} samples)"}
+    return {
+        "displacement": {"measured": y, "model": x[:, d]},
+        "force": {"measured": u[:, 0] - acc / b, "model": u[:, 0] - fv / b},
+        "xlabel": f"displacement {states[d]} (measured as {result.outputs[j]})",
+        "ylabel": f"restoring force, in the units of {name}: {name} - {states[v]}' / b",
+        "note": f"b = d{states[v]}'/d{name} = {b:.4g} at the estimate; measured {states[v]}': the second "
+        f"derivative of {result.outputs[j]} (Savitzky-Golay, cubic, {window} samples)",
+    }

@@ -45,12 +45,42 @@ from obsnl.errors import CompileError, EstimatorError, ObsnlError, OptionError
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import UKF, Trajectory
 from obsnl.identification.practical import Practical, Spread, practical_identifiability
-from obsnl.identification.setup import (BOUND, DEFAULT_GRID, DIVERGED, STATE_CAP, Data, Setup, Tuning, coordinates,
-                                    make_data, make_filter, output_misfit)
+from obsnl.identification.setup import (
+    BOUND,
+    DEFAULT_GRID,
+    DIVERGED,
+    STATE_CAP,
+    Data,
+    Setup,
+    Tuning,
+    coordinates,
+    make_data,
+    make_filter,
+    output_misfit,
+)
 
-__all__ = ["Tuning", "DEFAULT_GRID", "Setup", "Data", "Practical", "coordinates", "make_data", "make_filter",
-           "run_passes", "output_misfit", "practical_identifiability", "DIVERGED", "BOUND", "STATE_CAP",
-           "Spread", "monte_carlo", "mc_truth", "mc_replicates", "mc_spread", "tune_one"]
+__all__ = [
+    "Tuning",
+    "DEFAULT_GRID",
+    "Setup",
+    "Data",
+    "Practical",
+    "coordinates",
+    "make_data",
+    "make_filter",
+    "run_passes",
+    "output_misfit",
+    "practical_identifiability",
+    "DIVERGED",
+    "BOUND",
+    "STATE_CAP",
+    "Spread",
+    "monte_carlo",
+    "mc_truth",
+    "mc_replicates",
+    "mc_spread",
+    "tune_one",
+]
 
 
 def _noise(setup: Setup, filt: UKF, data: Data, tuning: Tuning) -> tuple[np.ndarray, np.ndarray]:
@@ -62,22 +92,33 @@ def _noise(setup: Setup, filt: UKF, data: Data, tuning: Tuning) -> tuple[np.ndar
     Qx = np.zeros((m.nx, m.nx))
     for j in range(len(m.inputs)):  # each sample's noise enters the steps before and after it
         e = np.zeros(m.nu)
-        e[j::len(m.inputs)] = 1.0  # a driven model: the sample's whole block (held), which the step reads alone
+        e[j :: len(m.inputs)] = 1.0  # a driven model: the sample's whole block (held), which the step reads alone
         for a, b in ((e, u0), (u0, e)):
             g = (np.asarray(step(x0, th, a, b)[0]).ravel() - base) / filt.state_scale
             with np.errstate(over="ignore", invalid="ignore"):  # overflow: refused below
                 Qx += su[j] ** 2 * np.outer(g, g)
     if not np.all(np.isfinite(Qx)):  # a guess many orders off: the step overflows (it ended in 'Q contains NaN/inf')
-        raise EstimatorError(f"the step of {m.name!r} overflows at the guess: give guesses nearer the structure's values")
+        raise EstimatorError(
+            f"the step of {m.name!r} overflows at the guess: give guesses nearer the structure's values"
+        )
     Q = np.zeros((filt.size, filt.size))
-    Q[:m.nx, :m.nx] = tuning.q_x * Qx
-    Q[m.nx:, m.nx:] = tuning.q_theta * np.eye(filt.size - m.nx)
+    Q[: m.nx, : m.nx] = tuning.q_x * Qx
+    Q[m.nx :, m.nx :] = tuning.q_theta * np.eye(filt.size - m.nx)
     return Q, np.diag(np.maximum(sy, 1e-300) ** 2)
 
 
-def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int = 3, inflate: float = 16.0,
-               fix_flagged: bool = True, progress: Callable[[], None] | None = None, hold_below: float | None = None,
-               ) -> tuple[tuple[Trajectory, ...], tuple[str, ...]]:
+def run_passes(
+    setup: Setup,
+    filt: UKF,
+    data: Data,
+    tuning: Tuning,
+    *,
+    passes: int = 3,
+    inflate: float = 16.0,
+    fix_flagged: bool = True,
+    progress: Callable[[], None] | None = None,
+    hold_below: float | None = None,
+) -> tuple[tuple[Trajectory, ...], tuple[str, ...]]:
     """Run ``filt`` ``passes`` times over the record (protocol in the module docstring).
 
     Returns the trajectories (fewer than ``passes`` when an estimate could not be simulated, which
@@ -118,19 +159,37 @@ def run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: i
     EstimatorError
         A non-positive prior std, or a collapsed parameter covariance.
     """
-    trs, fixed, _ = _run_passes(setup, filt, data, tuning, passes=passes, inflate=inflate, fix_flagged=fix_flagged,
-                                progress=progress, hold_below=hold_below)
+    trs, fixed, _ = _run_passes(
+        setup,
+        filt,
+        data,
+        tuning,
+        passes=passes,
+        inflate=inflate,
+        fix_flagged=fix_flagged,
+        progress=progress,
+        hold_below=hold_below,
+    )
     return trs, fixed
 
 
-def _run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int, inflate: float = 16.0,
-                fix_flagged: bool = True, progress: Callable[[], None] | None = None, hold_below: float | None = None,
-                ) -> tuple[tuple[Trajectory, ...], tuple[str, ...], dict[int, float]]:
+def _run_passes(
+    setup: Setup,
+    filt: UKF,
+    data: Data,
+    tuning: Tuning,
+    *,
+    passes: int,
+    inflate: float = 16.0,
+    fix_flagged: bool = True,
+    progress: Callable[[], None] | None = None,
+    hold_below: float | None = None,
+) -> tuple[tuple[Trajectory, ...], tuple[str, ...], dict[int, float]]:
     """:func:`run_passes`, also returning the output misfits it computed on the way (``{pass index: misfit}``)."""
     Q, R = _noise(setup, filt, data, tuning)
     f = filt.with_options(Q=Q, R=R, gate=tuning.gate)
     nx = setup.model.nx
-    theta, Pth = setup.theta_guess, np.full(filt.size - nx, tuning.s0 ** 2)
+    theta, Pth = setup.theta_guess, np.full(filt.size - nx, tuning.s0**2)
     Px = np.full(nx, 1e-8)  # the record starts at rest
     out: list[Trajectory] = []
     fixed: tuple[str, ...] = ()
@@ -141,12 +200,16 @@ def _run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: 
         if bad and k == 0:
             raise EstimatorError(f"the prior std s0 must be a positive number, got {tuning.s0!r}")
         if bad and not misfits.get(k - 1, np.inf) <= DIVERGED * setup.noise_level:  # a diverged pass, no prior
-            raise EstimatorError(f"pass {k} diverged (output misfit {misfits.get(k - 1, np.inf):.3g} against a noise "
-                                 f"level of {setup.noise_level:.3g}) and left no usable covariance: lower the prior "
-                                 f"std s0 (s0=0.1), gate the innovations (gate=3) or start closer (guess=)")
+            raise EstimatorError(
+                f"pass {k} diverged (output misfit {misfits.get(k - 1, np.inf):.3g} against a noise "
+                f"level of {setup.noise_level:.3g}) and left no usable covariance: lower the prior "
+                f"std s0 (s0=0.1), gate the innovations (gate=3) or start closer (guess=)"
+            )
         if bad:  # the previous pass ended with a collapsed parameter covariance: no prior for this one
-            raise EstimatorError(f"pass {k} ended with a non-positive or non-finite variance of {bad}: the filter's "
-                                 f"covariance collapsed; lower the random walk q_theta or run fewer passes")
+            raise EstimatorError(
+                f"pass {k} ended with a non-positive or non-finite variance of {bad}: the filter's "
+                f"covariance collapsed; lower the random walk q_theta or run fewer passes"
+            )
         est = f.initial(x0=setup.x0, theta0=theta, P0=np.concatenate([Px, Pth]))
         tr = f.run(est, data.y, data.u)
         out.append(tr)
@@ -166,14 +229,25 @@ def _run_passes(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: 
             f = f.with_options(fixed=fixed)
             for p in fixed:  # poorly informed: back to the prior guess, not estimated any more
                 theta[setup.model.parameters.index(p)] = setup.guess[p]
-            Pth = np.where(f.allowed[nx:] > 0, Pth, tuning.s0 ** 2)
+            Pth = np.where(f.allowed[nx:] > 0, Pth, tuning.s0**2)
     return tuple(out), fixed, misfits
 
 
-def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *, passes: int,
-                replicates: int = 32, seed: int = 0, confidence: float = 0.99,
-                progress: Callable[[], None] | None = None, fix_flagged: bool = True,
-                hold_below: float | None = None) -> Spread:
+def monte_carlo(
+    setup: Setup,
+    filt: UKF,
+    theta: np.ndarray,
+    data: Data,
+    tuning: Tuning,
+    *,
+    passes: int,
+    replicates: int = 32,
+    seed: int = 0,
+    confidence: float = 0.99,
+    progress: Callable[[], None] | None = None,
+    fix_flagged: bool = True,
+    hold_below: float | None = None,
+) -> Spread:
     """Spread of the whole identification protocol at the estimate ``theta`` (no true value used).
 
     The linearised Cramér-Rao bound of :func:`practical_identifiability` can be far too optimistic where the
@@ -213,11 +287,26 @@ def monte_carlo(setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: 
     if not 0 < confidence < 1:
         raise OptionError(f"confidence must lie in (0, 1), got {confidence}")
     y_hat = mc_truth(setup, theta, data)
-    outcomes = [] if y_hat is None else mc_replicates(setup, filt, data, y_hat, tuning, passes=passes, seed=seed,
-                                                      indices=range(replicates), progress=progress,
-                                                      fix_flagged=fix_flagged, hold_below=hold_below)
-    return mc_spread(setup, outcomes, replicates=replicates, seed=seed, confidence=confidence,
-                     simulated=y_hat is not None)
+    outcomes = (
+        []
+        if y_hat is None
+        else mc_replicates(
+            setup,
+            filt,
+            data,
+            y_hat,
+            tuning,
+            passes=passes,
+            seed=seed,
+            indices=range(replicates),
+            progress=progress,
+            fix_flagged=fix_flagged,
+            hold_below=hold_below,
+        )
+    )
+    return mc_spread(
+        setup, outcomes, replicates=replicates, seed=seed, confidence=confidence, simulated=y_hat is not None
+    )
 
 
 def mc_truth(setup: Setup, theta: np.ndarray, data: Data) -> np.ndarray | None:
@@ -237,15 +326,34 @@ def mc_truth(setup: Setup, theta: np.ndarray, data: Data) -> np.ndarray | None:
     numpy.ndarray or None
     """
     try:
-        return simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=setup.substeps,
-                        refine=setup.refine, jit=setup.jit).y
+        return simulate(
+            setup.model,
+            theta=theta,
+            x0=setup.x0,
+            u=data.u,
+            dt=setup.record.dt,
+            substeps=setup.substeps,
+            refine=setup.refine,
+            jit=setup.jit,
+        ).y
     except EstimatorError:
         return None
 
 
-def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning: Tuning, *, passes: int, seed: int,
-                  indices: Sequence[int], progress: Callable[[], None] | None = None, fix_flagged: bool = True,
-                  hold_below: float | None = None) -> list[tuple]:
+def mc_replicates(
+    setup: Setup,
+    filt: UKF,
+    data: Data,
+    y_hat: np.ndarray,
+    tuning: Tuning,
+    *,
+    passes: int,
+    seed: int,
+    indices: Sequence[int],
+    progress: Callable[[], None] | None = None,
+    fix_flagged: bool = True,
+    hold_below: float | None = None,
+) -> list[tuple]:
     """Replicates ``indices`` of :func:`monte_carlo` (replicate ``b`` draws its noise from ``[seed, b]``, so
     any split of the indices over workers gives the same outcomes): ``(log|estimate| or None, held)``.
 
@@ -283,11 +391,15 @@ def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning
     out = []
     for b in indices:
         rng = np.random.default_rng([seed, b])
-        rep = Data(seed=seed, u=data.u + su * rng.standard_normal(data.u.shape),
-                   y=np.where(np.isnan(data.y), np.nan, y_hat + sy * rng.standard_normal(y_hat.shape)))  # its gaps
+        rep = Data(
+            seed=seed,
+            u=data.u + su * rng.standard_normal(data.u.shape),
+            y=np.where(np.isnan(data.y), np.nan, y_hat + sy * rng.standard_normal(y_hat.shape)),
+        )  # its gaps
         try:
-            trs, fixed = run_passes(setup, filt, rep, tuning, passes=passes, fix_flagged=fix_flagged,
-                                    hold_below=hold_below)
+            trs, fixed = run_passes(
+                setup, filt, rep, tuning, passes=passes, fix_flagged=fix_flagged, hold_below=hold_below
+            )
             est = trs[-1].theta[-1]
             ok = len(trs) == passes and output_misfit(setup, est, rep) <= DIVERGED * setup.noise_level
         except CompileError:  # the compiler's failure, not this replicate's
@@ -300,8 +412,15 @@ def mc_replicates(setup: Setup, filt: UKF, data: Data, y_hat: np.ndarray, tuning
     return out
 
 
-def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed: int, confidence: float = 0.99,
-              simulated: bool = True) -> Spread:
+def mc_spread(
+    setup: Setup,
+    outcomes: Sequence[tuple],
+    *,
+    replicates: int,
+    seed: int,
+    confidence: float = 0.99,
+    simulated: bool = True,
+) -> Spread:
     """The :class:`Spread` of the replicates' outcomes (in replicate order) from :func:`mc_replicates`.
 
     Parameters
@@ -327,8 +446,16 @@ def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed:
 
     m = setup.model
     nan = (float("nan"),) * m.np
-    blank = Spread(parameters=m.parameters, std=nan, lower=nan, upper=nan, replicates=0, diverged=0,
-                   confidence=confidence, seed=seed)
+    blank = Spread(
+        parameters=m.parameters,
+        std=nan,
+        lower=nan,
+        upper=nan,
+        replicates=0,
+        diverged=0,
+        confidence=confidence,
+        seed=seed,
+    )
     if not simulated:
         return replace(blank, inconclusive="the estimate cannot be simulated")
     logs = [lg for lg, _ in outcomes if lg is not None]
@@ -338,15 +465,27 @@ def mc_spread(setup: Setup, outcomes: Sequence[tuple], *, replicates: int, seed:
             held &= set(fixed)
     n, diverged = len(logs), len(outcomes) - len(logs)
     if n < 3 or diverged * 4 > replicates:
-        return replace(blank, replicates=n, diverged=diverged,
-                       inconclusive=f"the estimator diverged on {diverged} of {replicates} replicates")
+        return replace(
+            blank,
+            replicates=n,
+            diverged=diverged,
+            inconclusive=f"the estimator diverged on {diverged} of {replicates} replicates",
+        )
     std = np.std(np.array(logs), axis=0, ddof=1)
     a = 1.0 - confidence
     lower = std * np.sqrt((n - 1) / chi2.ppf(1 - a / 2, n - 1))
     upper = std * np.sqrt((n - 1) / chi2.ppf(a / 2, n - 1))
-    return Spread(parameters=m.parameters, std=tuple(map(float, std)), lower=tuple(map(float, lower)),
-                  upper=tuple(map(float, upper)), replicates=n, diverged=diverged, confidence=confidence, seed=seed,
-                  held=tuple(p for p in m.parameters if p in held))
+    return Spread(
+        parameters=m.parameters,
+        std=tuple(map(float, std)),
+        lower=tuple(map(float, lower)),
+        upper=tuple(map(float, upper)),
+        replicates=n,
+        diverged=diverged,
+        confidence=confidence,
+        seed=seed,
+        held=tuple(p for p in m.parameters if p in held),
+    )
 
 
 def tune_one(setup: Setup, filt: UKF, data: Data, tuning: Tuning, *, passes: int) -> dict[int, float]:

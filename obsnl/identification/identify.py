@@ -28,23 +28,23 @@ import numpy as np
 
 from obsnl._progress import Progress
 from obsnl.errors import CompileError, DataError, OptionError, OutputError
+from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.codegen import to_casadi
 from obsnl.estimation.intersample import intersample_kinds
 from obsnl.estimation.jitcache import compiler_available
+from obsnl.estimation.measured import MIN_SAMPLES, Measured, is_frame, measured, read_measured
+from obsnl.estimation.records import read_record
+from obsnl.executor import Executor
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.replicates import check_passes, check_replicates
 from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
 from obsnl.identification.simulation import simulation_study
-from obsnl.estimation.measured import MIN_SAMPLES, Measured, is_frame, measured, read_measured
-from obsnl.estimation.records import read_record
-from obsnl.estimation.accelerogram import Record
-from obsnl.executor import Executor
+from obsnl.identification.structural import StructuralCheck, structural_check
 from obsnl.model.core import Model
 from obsnl.model.files import as_model
 from obsnl.observability.analyze import analyze
-from obsnl.observability.contract.table_check import check_table
 from obsnl.observability.contract.branch_table import BranchTable
-from obsnl.identification.structural import StructuralCheck, structural_check
+from obsnl.observability.contract.table_check import check_table
 
 __all__ = ["identify", "study", "write_identification", "IDENTIFY_FILES"]
 
@@ -52,9 +52,14 @@ __all__ = ["identify", "study", "write_identification", "IDENTIFY_FILES"]
 IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png", "profiles.png")
 
 
-def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mapping[str, float] | None,
-             allow_unidentifiable: bool, seed: int, method: str = "ukf"
-             ) -> tuple[Any, dict[str, float], BranchTable | None, StructuralCheck]:
+def _prepare(
+    model: Model,
+    table: BranchTable | str | Path | None,
+    guess: Mapping[str, float] | None,
+    allow_unidentifiable: bool,
+    seed: int,
+    method: str = "ukf",
+) -> tuple[Any, dict[str, float], BranchTable | None, StructuralCheck]:
     """Table check, structural analysis (refusal), compilation, guesses."""
     if isinstance(table, (str, Path)):
         from obsnl.observability.contract.branch_table import read_branch_table
@@ -64,25 +69,40 @@ def _prepare(model: Model, table: BranchTable | str | Path | None, guess: Mappin
     # a table made for another model, or one that contradicts it, is refused first; its check's analysis is the
     # structural check (one analysis per call)
     result = check_table(table, model) if table is not None else analyze(model, seed=seed)
-    structural = structural_check(result, model.name, names, table=table, method=method,
-                                  allow_unidentifiable=allow_unidentifiable)
+    structural = structural_check(
+        result, model.name, names, table=table, method=method, allow_unidentifiable=allow_unidentifiable
+    )
     num = to_casadi(model, switching=table.switching if table else None)
     g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
     unknown = sorted(set(guess or {}) - set(names))
     if unknown:  # a misspelt guess is refused, as the command line refuses --guess kk=3
-        raise OptionError(f"guess= names {unknown[0]!r}, which is not a parameter of {model.name!r} "
-                          f"({', '.join(names)}); check the spelling")
+        raise OptionError(
+            f"guess= names {unknown[0]!r}, which is not a parameter of {model.name!r} "
+            f"({', '.join(names)}); check the spelling"
+        )
     g.update(guess or {})
     for k, v in g.items():  # the filters estimate log|p| with the guess's sign: 0, inf and NaN cannot start
         if not (math.isfinite(v) and 0 < abs(v) < 1e100):
-            raise OptionError(f"the guess of {k} is {v!r} (guess= or the model's [guess]); give a finite nonzero "
-                              f"number below 1e100 in magnitude (the filter estimates log|{k}| from it)")
+            raise OptionError(
+                f"the guess of {k} is {v!r} (guess= or the model's [guess]); give a finite nonzero "
+                f"number below 1e100 in magnitude (the filter estimates log|{k}| from it)"
+            )
     return num, g, table, structural
 
 
-def _check_kinds(guess: Any, noise: Any, *, table: Any = None, tuning: Any = None, executor: Any = None,
-                 jit: Any = None, seed: Any = 0, progress: Any = None, known_initial: Any = None,
-                 **flags: Any) -> None:
+def _check_kinds(
+    guess: Any,
+    noise: Any,
+    *,
+    table: Any = None,
+    tuning: Any = None,
+    executor: Any = None,
+    jit: Any = None,
+    seed: Any = 0,
+    progress: Any = None,
+    known_initial: Any = None,
+    **flags: Any,
+) -> None:
     """Refuse an argument of the wrong kind that Python would read silently (``refine="no"`` is true, ``jit="no"``
     compiles, a guess of ``None`` fails deep inside, ``table=5`` an attribute error): each with one line naming it
     and the kind it takes, as the command line refuses a bad option."""
@@ -94,25 +114,32 @@ def _check_kinds(guess: Any, noise: Any, *, table: Any = None, tuning: Any = Non
     if table is not None and not isinstance(table, (BranchTable, str, Path)):
         raise OptionError(f"table= takes a BranchTable or the path of a branch-table file, got {table!r}")
     if tuning is not None and not isinstance(tuning, Tuning):
-        raise OptionError(f"tuning= takes one Tuning, e.g. tuning=Tuning(s0=0.3, q_theta=0.0, q_x=1.0), or None "
-                          f"(tuned over a grid); got {tuning!r}")
+        raise OptionError(
+            f"tuning= takes one Tuning, e.g. tuning=Tuning(s0=0.3, q_theta=0.0, q_x=1.0), or None "
+            f"(tuned over a grid); got {tuning!r}"
+        )
     if executor is not None and not isinstance(executor, Executor):
-        raise OptionError(f"executor= takes an obsnl.executor.Executor, e.g. Executor(workers=2), or None (this "
-                          f"process); got {executor!r}")
+        raise OptionError(
+            f"executor= takes an obsnl.executor.Executor, e.g. Executor(workers=2), or None (this "
+            f"process); got {executor!r}"
+        )
     if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise OptionError(f"seed= takes an integer >= 0, got {seed!r}")
     if progress is not None and not isinstance(progress, (bool, np.bool_)) and not callable(progress):
         raise OptionError(f"progress= takes True, False or a callable called after each step, got {progress!r}")
     if guess is not None and not isinstance(guess, Mapping):
         raise OptionError(f"guess= takes {{parameter: value}}, e.g. guess={{'k': 30.0}}; got {guess!r}")
-    bad = next((k for k, v in (guess or {}).items() if isinstance(v, (bool, np.bool_)) or not isinstance(v, Real)), None)
+    bad = next(
+        (k for k, v in (guess or {}).items() if isinstance(v, (bool, np.bool_)) or not isinstance(v, Real)), None
+    )
     if bad is not None:
         raise OptionError(f"guess= gives {bad} = {dict(guess or {})[bad]!r}; give a number")
     if noise is not None and not isinstance(noise, Mapping):
         raise OptionError(f"noise= takes {{channel: ratio}}, e.g. noise={{'disp': 0.01}}; got {noise!r}")
     if known_initial is not None and not isinstance(known_initial, Mapping):
-        raise OptionError(f"known_initial= takes {{state: value}}, e.g. known_initial={{'x': 0.01, 'v': 0.0}}; got "
-                          f"{known_initial!r}")
+        raise OptionError(
+            f"known_initial= takes {{state: value}}, e.g. known_initial={{'x': 0.01, 'v': 0.0}}; got {known_initial!r}"
+        )
     for k, v in (known_initial or {}).items():
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, Real) or not math.isfinite(v):
             raise OptionError(f"known_initial= gives {k} = {v!r}; give a finite number")
@@ -124,13 +151,17 @@ def _known_initial(model: Model, given: Mapping[str, float] | None) -> tuple[Mod
     states = [s.name for s in model.states]
     wrong = [k for k in (given or {}) if k not in states]
     if wrong:
-        raise OptionError(f"known_initial= names {wrong[0]!r}, which is not a state of {model.name!r} "
-                          f"({', '.join(states)}); check the spelling")
+        raise OptionError(
+            f"known_initial= names {wrong[0]!r}, which is not a state of {model.name!r} "
+            f"({', '.join(states)}); check the spelling"
+        )
     if given:
         names = [s.name for s in model.known_initial_conditions]
         values = {s.name: v for s, v in model.initial_condition_values.items()}
-        model = model.replace(known_initial_conditions=names + [k for k in given if k not in names],
-                              initial_condition_values={**values, **{k: float(v) for k, v in given.items()}})
+        model = model.replace(
+            known_initial_conditions=names + [k for k in given if k not in names],
+            initial_condition_values={**values, **{k: float(v) for k, v in given.items()}},
+        )
     constants = {sym: model.values[sym.name] for sym in model.known_constants if sym.name in model.values}
     known = {}
     for sym in model.known_initial_conditions:
@@ -140,21 +171,36 @@ def _known_initial(model: Model, given: Mapping[str, float] | None) -> tuple[Mod
         except TypeError:  # a symbol without a value
             value = math.nan
         if not math.isfinite(value):
-            raise OptionError(f"the initial state {sym.name} of {model.name!r} is declared known but has no numeric "
-                              f"value: give initial_condition_values {sym.name} = VALUE in the model, or "
-                              f"known_initial={{'{sym.name}': VALUE}}")
+            raise OptionError(
+                f"the initial state {sym.name} of {model.name!r} is declared known but has no numeric "
+                f"value: give initial_condition_values {sym.name} = VALUE in the model, or "
+                f"known_initial={{'{sym.name}': VALUE}}"
+            )
         known[sym.name] = value
     return model, known
 
 
-def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str | Path, *,
-             guess: Mapping[str, float] | None = None, noise: Mapping[str, float] | None = None, method: str = "ukf",
-             table: BranchTable | str | Path | None = None, passes: int = 3, replicates: int = 0, seed: int = 0,
-             tuning: Tuning | None = None, allow_unidentifiable: bool = False, jit: bool | None = None,
-             hold: bool = False, progress: bool | Callable[[], Any] | None = True,
-             executor: Executor | None = None, refine: bool = True,
-             intersample: str | Mapping[str, str] | Sequence[str] | None = None,
-             known_initial: Mapping[str, float] | None = None) -> Identification:
+def identify(
+    model: Model | str | Path,
+    data: Measured | Mapping[str, Any] | str | Path,
+    *,
+    guess: Mapping[str, float] | None = None,
+    noise: Mapping[str, float] | None = None,
+    method: str = "ukf",
+    table: BranchTable | str | Path | None = None,
+    passes: int = 3,
+    replicates: int = 0,
+    seed: int = 0,
+    tuning: Tuning | None = None,
+    allow_unidentifiable: bool = False,
+    jit: bool | None = None,
+    hold: bool = False,
+    progress: bool | Callable[[], Any] | None = True,
+    executor: Executor | None = None,
+    refine: bool = True,
+    intersample: str | Mapping[str, str] | Sequence[str] | None = None,
+    known_initial: Mapping[str, float] | None = None,
+) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
     Parameters
@@ -229,13 +275,27 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
     """
     check_passes(passes)  # before any work
     check_replicates(replicates)
-    _check_kinds(guess, noise, table=table, tuning=tuning, executor=executor, jit=jit, seed=seed, progress=progress,
-                 known_initial=known_initial, refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
+    _check_kinds(
+        guess,
+        noise,
+        table=table,
+        tuning=tuning,
+        executor=executor,
+        jit=jit,
+        seed=seed,
+        progress=progress,
+        known_initial=known_initial,
+        refine=refine,
+        hold=hold,
+        allow_unidentifiable=allow_unidentifiable,
+    )
     if executor is not None:  # a Dask scheduler that cannot run the work: refused now, not after the filter
         executor.probe()
     if not isinstance(data, (Measured, Mapping, str, Path)) and not is_frame(data):
-        raise DataError(f"data= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
-                        f"Measured; got {type(data).__name__}")
+        raise DataError(
+            f"data= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
+            f"Measured; got {type(data).__name__}"
+        )
     model = as_model(model)
     ins, outs = [s.name for s in model.inputs], list(model.outputs)
     if isinstance(data, (str, Path)):
@@ -249,13 +309,32 @@ def identify(model: Model | str | Path, data: Measured | Mapping[str, Any] | str
 
     def run(compiled: bool) -> Identification:
         with _steps(progress, model, passes, replicates, tuning, refine) as bar:
-            return identify_measured(num, data, guess=g, method=method, table=table, noise=noise,
-                                     grid=MEASURED_GRID if tuning is None else (tuning,), passes=passes,
-                                     replicates=replicates, seed=seed, jit=compiled, hold=hold, progress=bar,
-                                     executor=executor, refined=refine, intersample=kinds, known_initial=known)
+            return identify_measured(
+                num,
+                data,
+                guess=g,
+                method=method,
+                table=table,
+                noise=noise,
+                grid=MEASURED_GRID if tuning is None else (tuning,),
+                passes=passes,
+                replicates=replicates,
+                seed=seed,
+                jit=compiled,
+                hold=hold,
+                progress=bar,
+                executor=executor,
+                refined=refine,
+                intersample=kinds,
+                known_initial=known,
+            )
 
-    return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model,
-                               u_measured=inputs, inputs=tuple(s.name for s in model.inputs))
+    return dataclasses.replace(
+        _cross_check(_compiled_or_not(jit, run), structural),
+        fitted_model=model,
+        u_measured=inputs,
+        inputs=tuple(s.name for s in model.inputs),
+    )
 
 
 def _compiled_or_not(jit: bool | None, run: Callable[[bool], Identification]) -> Identification:
@@ -271,12 +350,22 @@ def _compiled_or_not(jit: bool | None, run: Callable[[bool], Identification]) ->
     return dataclasses.replace(run(bool(jit)), compiled=bool(jit))
 
 
-def _steps(progress: bool | Callable[[], Any] | None, model: Model, passes: int, replicates: int,
-           tuning: Tuning | None, refine: bool) -> Progress:
+def _steps(
+    progress: bool | Callable[[], Any] | None,
+    model: Model,
+    passes: int,
+    replicates: int,
+    tuning: Tuning | None,
+    refine: bool,
+) -> Progress:
     """The progress of one identification: its filter passes (the tuning grid's included), the refinement and
     one profile per parameter, then the Monte-Carlo replicates."""
-    total = (passes + (len(MEASURED_GRID) if tuning is None else 0) + max(replicates, 0)
-             + (1 + len(model.parameters) if refine else 0))
+    total = (
+        passes
+        + (len(MEASURED_GRID) if tuning is None else 0)
+        + max(replicates, 0)
+        + (1 + len(model.parameters) if refine else 0)
+    )
     return Progress(progress, total, "identify", "step")
 
 
@@ -287,21 +376,39 @@ def _cross_check(res: Identification, structural: StructuralCheck) -> Identifica
     for p in res.parameters:
         flat = p.interval_method is not None and p.interval_method.endswith("flat")
         if flat:
-            said = ("as the structural analysis says" if p.name in bad else
-                    "although the structural analysis calls it identifiable: this record does not excite what "
-                    "reveals it")
+            said = (
+                "as the structural analysis says"
+                if p.name in bad
+                else "although the structural analysis calls it identifiable: this record does not excite what "
+                "reveals it"
+            )
             p = dataclasses.replace(p, reason=f"{p.reason}; {said}")
         params.append(p)
-    return dataclasses.replace(res, parameters=tuple(params), structural=structural,
-                               assumptions=res.assumptions + (structural.note(),))
+    return dataclasses.replace(
+        res, parameters=tuple(params), structural=structural, assumptions=res.assumptions + (structural.note(),)
+    )
 
 
-def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapping[str, float] | None = None,
-          noise: float = 1e-3, method: str = "ukf", table: BranchTable | str | Path | None = None, passes: int = 3,
-          replicates: int = 0, seed: int = 0, tuning: Tuning | None = None, samples: int | None = None,
-          allow_unidentifiable: bool = False, jit: bool | None = None, hold: bool = False,
-          progress: bool | Callable[[], Any] | None = True, executor: Executor | None = None,
-          refine: bool = True) -> Identification:
+def study(
+    model: Model | str | Path,
+    record: Record | str | Path,
+    *,
+    guess: Mapping[str, float] | None = None,
+    noise: float = 1e-3,
+    method: str = "ukf",
+    table: BranchTable | str | Path | None = None,
+    passes: int = 3,
+    replicates: int = 0,
+    seed: int = 0,
+    tuning: Tuning | None = None,
+    samples: int | None = None,
+    allow_unidentifiable: bool = False,
+    jit: bool | None = None,
+    hold: bool = False,
+    progress: bool | Callable[[], Any] | None = True,
+    executor: Executor | None = None,
+    refine: bool = True,
+) -> Identification:
     """A simulation study: the model's ``[values]`` driven by ``record``, noise added, identified.
 
     Same structural check as :func:`identify`; see
@@ -361,8 +468,19 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     """
     check_passes(passes)  # before any work
     check_replicates(replicates)
-    _check_kinds(guess, None, table=table, tuning=tuning, executor=executor, jit=jit, seed=seed, progress=progress,
-                 refine=refine, hold=hold, allow_unidentifiable=allow_unidentifiable)
+    _check_kinds(
+        guess,
+        None,
+        table=table,
+        tuning=tuning,
+        executor=executor,
+        jit=jit,
+        seed=seed,
+        progress=progress,
+        refine=refine,
+        hold=hold,
+        allow_unidentifiable=allow_unidentifiable,
+    )
     if executor is not None:  # a Dask scheduler that cannot run the work: refused now, not after the filter
         executor.probe()
     model = as_model(model)
@@ -370,24 +488,46 @@ def study(model: Model | str | Path, record: Record | str | Path, *, guess: Mapp
     if samples is not None:  # 0 is refused by head, never read as "all of them"
         record = record.head(samples)
     if len(record.accel) < MIN_SAMPLES:  # the same floor as measured data: a 5-sample study only says nonsense
-        raise DataError(f"a simulation study needs at least {MIN_SAMPLES} samples of the record, got "
-                        f"{len(record.accel)}: give a longer record or a larger samples=")
+        raise DataError(
+            f"a simulation study needs at least {MIN_SAMPLES} samples of the record, got "
+            f"{len(record.accel)}: give a longer record or a larger samples="
+        )
     if table is not None and len(model.inputs) != 1:  # a contradicting table is named first
         _prepare(model, table, guess, True, seed, method)
     if len(model.inputs) != 1:
-        raise OptionError(f"a simulation study drives one input with record=; {model.name!r} has "
-                          f"{[s.name for s in model.inputs]}: give measured data with data=")
+        raise OptionError(
+            f"a simulation study drives one input with record=; {model.name!r} has "
+            f"{[s.name for s in model.inputs]}: give measured data with data="
+        )
     num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
     inputs = np.asarray(record.accel, float).reshape(len(record.accel), -1)
 
     def run(compiled: bool) -> Identification:
         with _steps(progress, model, passes, replicates, tuning, refine) as bar:
-            return simulation_study(num, record, guess=g, method=method, table=table, seed=seed, noise=noise,
-                                    tuning=tuning, passes=passes, replicates=replicates, jit=compiled, progress=bar,
-                                    executor=executor, hold=hold, refined=refine)
+            return simulation_study(
+                num,
+                record,
+                guess=g,
+                method=method,
+                table=table,
+                seed=seed,
+                noise=noise,
+                tuning=tuning,
+                passes=passes,
+                replicates=replicates,
+                jit=compiled,
+                progress=bar,
+                executor=executor,
+                hold=hold,
+                refined=refine,
+            )
 
-    return dataclasses.replace(_cross_check(_compiled_or_not(jit, run), structural), fitted_model=model,
-                               u_measured=inputs, inputs=tuple(s.name for s in model.inputs))
+    return dataclasses.replace(
+        _cross_check(_compiled_or_not(jit, run), structural),
+        fitted_model=model,
+        u_measured=inputs,
+        inputs=tuple(s.name for s in model.inputs),
+    )
 
 
 def write_identification(result: Identification, out: str | Path, *, force: bool = False) -> list[Path]:
@@ -432,16 +572,20 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
 
     t, measured, simulated = result.t, result.y_measured, result.y_fit
     if t is None or measured is None or simulated is None:
-        raise DataError("write_identification: the result carries no record (t, y_measured, y_fit) to draw; pass "
-                        "the one obsnl.identify returned")
+        raise DataError(
+            "write_identification: the result carries no record (t, y_measured, y_fit) to draw; pass "
+            "the one obsnl.identify returned"
+        )
     truth = {p.name: p.true for p in result.parameters if p.true is not None}
     extra = figure_files(result)
     with OutputFolder(out, IDENTIFY_FILES + extra, force=force) as folder:  # no link followed, all files or none
         folder.write_text("identify.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n")
-        plot_fit_record(folder.path("fit.png"), t=t, measured=measured, simulated=simulated, outputs=result.outputs,
-                        fit=result.fit)
+        plot_fit_record(
+            folder.path("fit.png"), t=t, measured=measured, simulated=simulated, outputs=result.outputs, fit=result.fit
+        )
         write_figures(result, folder, extra)
-        plot_traces(folder.path("traces.png"), traces=result.traces, truth=truth, held=result.held,
-                    flagged=result.flagged)
+        plot_traces(
+            folder.path("traces.png"), traces=result.traces, truth=truth, held=result.held, flagged=result.flagged
+        )
         plot_profiles(folder.path("profiles.png"), profiles=result.profiles, threshold=THRESHOLD, truth=truth)
         return folder.commit()

@@ -72,7 +72,13 @@ from obsnl.estimation.simulate import call, residual_graph, residuals
 from obsnl.identification.setup import Data, Setup
 
 __all__ = [
-    "Objective", "Fit", "objective", "levenberg_marquardt", "covariance", "DECREMENT", "STEP_LIMIT",
+    "Objective",
+    "Fit",
+    "objective",
+    "levenberg_marquardt",
+    "covariance",
+    "DECREMENT",
+    "STEP_LIMIT",
     "NOISE_FLOOR",
 ]
 
@@ -120,11 +126,11 @@ class Objective:
 
     def theta(self, z: np.ndarray) -> np.ndarray:
         """The model parameters at ``z``."""
-        return self.setup.coordinate_map.to_theta(np.asarray(z)[:self.n_parameters])
+        return self.setup.coordinate_map.to_theta(np.asarray(z)[: self.n_parameters])
 
     def x0(self, z: np.ndarray) -> np.ndarray:
         """The initial state at ``z``."""
-        return self.setup.x0 + self.scale * np.asarray(z)[self.n_parameters:]
+        return self.setup.x0 + self.scale * np.asarray(z)[self.n_parameters :]
 
     @property
     def present(self) -> np.ndarray:
@@ -153,8 +159,9 @@ class Objective:
         the simulation overflowed. The residual of a missing output sample and its row of the Jacobian are 0 (weight
         zero: no NaN reaches the fit)."""
         u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
-        r_all, J_all = call(self.function, [np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma,
-                                            self.setup.x0, self.scale])
+        r_all, J_all = call(
+            self.function, [np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma, self.setup.x0, self.scale]
+        )
         r, J = np.asarray(r_all).ravel(), (np.asarray(J_all) if jacobian else None)
         missing = ~self.present.ravel()  # sample-major, as r
         if missing.any():
@@ -170,15 +177,30 @@ class Objective:
         key = self._key() + ("input",)
         if key not in _BUILT:
             m = self.setup.model
-            zs, U, Y, W, X0, SC, R = residual_graph(m, self.setup.coordinate_map.forward, self.setup.record.dt,
-                                                    len(self.data.u), substeps=self.substeps,
-                                                    refine=self.setup.refine, locate=LOCATE)
+            zs, U, Y, W, X0, SC, R = residual_graph(
+                m,
+                self.setup.coordinate_map.forward,
+                self.setup.record.dt,
+                len(self.data.u),
+                substeps=self.substeps,
+                refine=self.setup.refine,
+                locate=LOCATE,
+            )
             V = ca.MX.sym("v", R.shape[0], zs.shape[0])
             _BUILT[key] = ca.Function("input_effect", [zs, U, Y, W, X0, SC, V], [ca.jtimes(R, ca.vec(U), V, True)])
             _trim()
         u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)  # J's rows of missing samples are 0
-        return np.asarray(_BUILT[key](np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma, self.setup.x0,
-                                      self.scale, np.asarray(J, float)))
+        return np.asarray(
+            _BUILT[key](
+                np.asarray(z, float),
+                u.T,
+                self._outputs().T,
+                1.0 / self.sigma,
+                self.setup.x0,
+                self.scale,
+                np.asarray(J, float),
+            )
+        )
 
     def input_covariance(self, z: np.ndarray, J: np.ndarray, C: np.ndarray, sigma_u: np.ndarray) -> np.ndarray:
         """The covariance of the estimate ``z`` added by white noise of std ``sigma_u`` on the measured inputs.
@@ -200,7 +222,7 @@ class Objective:
             A = A.reshape(len(self.data.u), -1, nu, A.shape[1]).sum(axis=1).reshape(-1, A.shape[1])
         CA = np.zeros((len(C), A.shape[0]))
         CA[ok] = C[np.ix_(ok, ok)] @ A[:, ok].T
-        S = np.tile(sigma_u ** 2, len(self.data.u))
+        S = np.tile(sigma_u**2, len(self.data.u))
         out = np.zeros_like(C)
         out[np.ix_(ok, ok)] = ((CA * S) @ CA.T)[np.ix_(ok, ok)]
         return out
@@ -216,8 +238,15 @@ class Objective:
 _BUILT: dict[tuple, ca.Function] = {}
 
 
-def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | None = None,
-              sigma: np.ndarray | None = None, scale: np.ndarray | None = None) -> Objective:
+def objective(
+    setup: Setup,
+    data: Data,
+    *,
+    theta: np.ndarray,
+    substeps: int | None = None,
+    sigma: np.ndarray | None = None,
+    scale: np.ndarray | None = None,
+) -> Objective:
     """The output-error objective of ``setup`` on ``data``.
 
     Parameters
@@ -247,13 +276,21 @@ def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | No
     T = len(data.u)
     if scale is None:
         sim = simulate(m, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt, substeps=n, refine=setup.refine)
-        typical = np.sqrt(np.mean(sim.x ** 2, axis=0))
+        typical = np.sqrt(np.mean(sim.x**2, axis=0))
         scale = np.maximum(typical, 1e-2 * max(float(typical.max()), 1e-300))
     scale = np.asarray(scale, float)
     key = _key(setup, T, n)
     if key not in _BUILT:
-        _BUILT[key] = residuals(m, setup.coordinate_map.forward, setup.record.dt, T, substeps=n, refine=setup.refine,
-                                locate=LOCATE, jit=setup.jit)
+        _BUILT[key] = residuals(
+            m,
+            setup.coordinate_map.forward,
+            setup.record.dt,
+            T,
+            substeps=n,
+            refine=setup.refine,
+            locate=LOCATE,
+            jit=setup.jit,
+        )
         _trim()
     if sigma is None:
         sigma = setup.noise_std(data)[1]
@@ -261,8 +298,16 @@ def objective(setup: Setup, data: Data, *, theta: np.ndarray, substeps: int | No
 
 
 def _key(setup: Setup, T: int, n: int) -> tuple:
-    return (id(setup.model), id(setup.coordinates), float(setup.record.dt), T, n, int(setup.refine), bool(LOCATE),
-            bool(setup.jit))
+    return (
+        id(setup.model),
+        id(setup.coordinates),
+        float(setup.record.dt),
+        T,
+        n,
+        int(setup.refine),
+        bool(LOCATE),
+        bool(setup.jit),
+    )
 
 
 def _trim() -> None:
@@ -326,9 +371,17 @@ class Fit:
     r: np.ndarray = field(repr=False)
 
 
-def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]], z0: np.ndarray,
-                        lower: np.ndarray, upper: np.ndarray, *, free: Sequence[bool] | np.ndarray | None = None,
-                        max_iter: int = 60, max_evals: int = 400, stop: float = STOP) -> Fit:
+def levenberg_marquardt(
+    fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    z0: np.ndarray,
+    lower: np.ndarray,
+    upper: np.ndarray,
+    *,
+    free: Sequence[bool] | np.ndarray | None = None,
+    max_iter: int = 60,
+    max_evals: int = 400,
+    stop: float = STOP,
+) -> Fit:
     """Minimise ``|r(z)|^2`` from ``z0`` within ``[lower, upper]``, moving only the ``free`` coordinates.
 
     Marquardt's damping ``(J'J + lam diag(J'J)) dz = -J'r``; a step is accepted only when it lowers the
@@ -379,8 +432,9 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
     z = np.clip(np.asarray(z0, float), lower, upper)
     r, J = fun(z)
     if not (np.all(np.isfinite(r)) and np.all(np.isfinite(J))):
-        raise EstimatorError("the model cannot be simulated at the start of the likelihood fit (non-finite output "
-                             "or derivatives)")
+        raise EstimatorError(
+            "the model cannot be simulated at the start of the likelihood fit (non-finite output or derivatives)"
+        )
     cost, lam, evals, last, it, stalled = float(r @ r), 1e-3, 1, math.inf, 0, False
     decrement = math.inf
     for it in range(1, max_iter + 1):
@@ -427,5 +481,15 @@ def levenberg_marquardt(fun: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray
             last = 0.0
             break
     at_bound = tuple(int(i) for i in np.flatnonzero(mask & ((z <= lower) | (z >= upper))))
-    return Fit(z=z, chi2=cost, iterations=it, evaluations=evals, decrement=decrement, last_step=last,
-               at_bound=at_bound, stalled=stalled, J=J, r=r)
+    return Fit(
+        z=z,
+        chi2=cost,
+        iterations=it,
+        evaluations=evals,
+        decrement=decrement,
+        last_step=last,
+        at_bound=at_bound,
+        stalled=stalled,
+        J=J,
+        r=r,
+    )

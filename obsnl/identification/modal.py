@@ -80,39 +80,75 @@ class Modal:
 
     def __repr__(self) -> str:
         modes = names([f"{number(f)} Hz, zeta {number(z)}" for f, z in zip(self.frequency_hz, self.damping_ratio)], 4)
-        return one_line("Modal", f"model={self.model!r}", f"modes={len(self.frequency_hz)}", f"'{modes}'" if modes
-                        else "", f"real_poles={len(self.real_poles)}" if self.real_poles else "")
+        return one_line(
+            "Modal",
+            f"model={self.model!r}",
+            f"modes={len(self.frequency_hz)}",
+            f"'{modes}'" if modes else "",
+            f"real_poles={len(self.real_poles)}" if self.real_poles else "",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: each mode's frequency and damping ratio with their std, and its shape."""
+
         def pm(v: float, s: float | None, scale: float = 1.0, unit: str = "") -> str:
             return f"{number(scale * v)}{unit} (std {number(None if s is None else scale * s)}{unit})"
 
-        rows = [f"mode {i + 1}: {pm(f, fs, unit=' Hz')}, damping {pm(z, zs, 100, ' %')}, shape "
-                + names([f"{o} {a:+.3g}" for o, a in sh.items()], 6)
-                for i, (f, fs, z, zs, sh) in enumerate(zip(self.frequency_hz, self.frequency_hz_std,
-                                                           self.damping_ratio, self.damping_ratio_std, self.shapes))]
+        rows = [
+            f"mode {i + 1}: {pm(f, fs, unit=' Hz')}, damping {pm(z, zs, 100, ' %')}, shape "
+            + names([f"{o} {a:+.3g}" for o, a in sh.items()], 6)
+            for i, (f, fs, z, zs, sh) in enumerate(
+                zip(self.frequency_hz, self.frequency_hz_std, self.damping_ratio, self.damping_ratio_std, self.shapes)
+            )
+        ]
         at = names([f"{k}={number(v)}" for k, v in self.state.items()], 6)
-        return block(f"{self.model} linearised at {at} (inputs 0): {len(rows)} mode(s)"
-                     + (f", {len(self.real_poles)} real pole(s)" if self.real_poles else ""), *rows[:9],
-                     f"... and {len(rows) - 9} more modes" if len(rows) > 9 else "")
+        return block(
+            f"{self.model} linearised at {at} (inputs 0): {len(rows)} mode(s)"
+            + (f", {len(self.real_poles)} real pole(s)" if self.real_poles else ""),
+            *rows[:9],
+            f"... and {len(rows) - 9} more modes" if len(rows) > 9 else "",
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready: ``modes`` (each ``frequency_hz``, ``damping_ratio``, their std, ``shape``, ``shape_std``,
         ``complexity``), ``real_poles``, the state, the matrices and the assumptions."""
         fin = lambda v: None if v is None or not math.isfinite(v) else float(v)
-        modes = [{"frequency_hz": fin(f), "frequency_hz_std": fin(fs), "damping_ratio": fin(z),
-                  "damping_ratio_std": fin(zs), "shape": {o: fin(a) for o, a in sh.items()},
-                  "shape_std": {o: fin(a) for o, a in ss.items()}, "complexity": fin(c)}
-                 for f, fs, z, zs, sh, ss, c in zip(self.frequency_hz, self.frequency_hz_std, self.damping_ratio,
-                                                    self.damping_ratio_std, self.shapes, self.shapes_std,
-                                                    self.complexity)]
+        modes = [
+            {
+                "frequency_hz": fin(f),
+                "frequency_hz_std": fin(fs),
+                "damping_ratio": fin(z),
+                "damping_ratio_std": fin(zs),
+                "shape": {o: fin(a) for o, a in sh.items()},
+                "shape_std": {o: fin(a) for o, a in ss.items()},
+                "complexity": fin(c),
+            }
+            for f, fs, z, zs, sh, ss, c in zip(
+                self.frequency_hz,
+                self.frequency_hz_std,
+                self.damping_ratio,
+                self.damping_ratio_std,
+                self.shapes,
+                self.shapes_std,
+                self.complexity,
+            )
+        ]
         matrix = lambda M: [[fin(float(v)) for v in row] for row in np.asarray(M, float)]
-        return {"model": self.model, "state": {k: fin(v) for k, v in self.state.items()}, "inputs_at": 0.0,
-                "modes": modes, "real_poles": [fin(p) for p in self.real_poles], "states": list(self.states),
-                "inputs": list(self.inputs), "outputs": list(self.outputs),
-                "A": matrix(self.A), "B": matrix(self.B), "C": matrix(self.C), "D": matrix(self.D),
-                "assumptions": list(self.assumptions)}
+        return {
+            "model": self.model,
+            "state": {k: fin(v) for k, v in self.state.items()},
+            "inputs_at": 0.0,
+            "modes": modes,
+            "real_poles": [fin(p) for p in self.real_poles],
+            "states": list(self.states),
+            "inputs": list(self.inputs),
+            "outputs": list(self.outputs),
+            "A": matrix(self.A),
+            "B": matrix(self.B),
+            "C": matrix(self.C),
+            "D": matrix(self.D),
+            "assumptions": list(self.assumptions),
+        }
 
     def _repr_html_(self) -> str | None:
         """Notebook display: the modes as a table, drawn by :mod:`obsnl.report` (:mod:`obsnl._display`)."""
@@ -133,10 +169,17 @@ class Modal:
         try:
             import control
         except ImportError:
-            raise OptionError("the export needs python-control: pip install control (or the 'control' extra)") \
-                from None
-        return control.ss(self.A, self.B, self.C, self.D, states=list(self.states), inputs=list(self.inputs),
-                          outputs=list(self.outputs), name=self.model)
+            raise OptionError("the export needs python-control: pip install control (or the 'control' extra)") from None
+        return control.ss(
+            self.A,
+            self.B,
+            self.C,
+            self.D,
+            states=list(self.states),
+            inputs=list(self.inputs),
+            outputs=list(self.outputs),
+            name=self.model,
+        )
 
 
 def linearise(model: Any, theta: Any, state: Any) -> tuple[np.ndarray, ...]:
@@ -169,8 +212,9 @@ def linearise(model: Any, theta: Any, state: Any) -> tuple[np.ndarray, ...]:
     x, u = ca.SX.sym("x", model.nx), ca.SX.sym("u", len(model.inputs))
     p = ca.DM(np.asarray(theta, float))
     fx, hx = model.f(x, p, u), model.h(x, p, u)
-    fn = ca.Function("lin", [x, u], [ca.jacobian(fx, x), ca.jacobian(fx, u), ca.jacobian(hx, x),
-                                     ca.jacobian(hx, u), fx])
+    fn = ca.Function(
+        "lin", [x, u], [ca.jacobian(fx, x), ca.jacobian(fx, u), ca.jacobian(hx, x), ca.jacobian(hx, u), fx]
+    )
     out = fn(np.asarray(state, float), np.zeros(len(model.inputs)))
     return tuple(np.array(ca.DM(m), float).reshape(ca.DM(m).shape) for m in out)
 
@@ -247,10 +291,13 @@ def parameter_covariance(result: Any) -> tuple[np.ndarray, str]:
                 R[i, j] = float(v)
     with np.errstate(invalid="ignore"):
         S = np.where(np.outer(d, d) == 0, 0.0, R * np.outer(d, d))
-    how = ("the covariance of the estimates from their std and the maximum-likelihood correlations (delta method: "
-           "the figures linear in the parameters over their spread)" if corr else
-           "the covariance of the estimates from their std alone, the correlations taken as zero (no maximum-"
-           "likelihood fit: refine=False, or it could not run); the std of the modal figures may be off")
+    how = (
+        "the covariance of the estimates from their std and the maximum-likelihood correlations (delta method: "
+        "the figures linear in the parameters over their spread)"
+        if corr
+        else "the covariance of the estimates from their std alone, the correlations taken as zero (no maximum-"
+        "likelihood fit: refine=False, or it could not run); the std of the modal figures may be off"
+    )
     held = [p.name for p in ps if p.held]
     return S, how + (f"; {names(held)} held at the guess, taken as exact" if held else "")
 
@@ -280,8 +327,10 @@ def modal(result: Any, *, state: Mapping[str, float] | Sequence[float] | None = 
     from obsnl.estimation.codegen import to_casadi
 
     if result.fitted_model is None:
-        raise OptionError(f"this result of {result.model!r} keeps no model (it was not made by obsnl.identify); "
-                          f"the modal summary linearises the model fitted")
+        raise OptionError(
+            f"this result of {result.model!r} keeps no model (it was not made by obsnl.identify); "
+            f"the modal summary linearises the model fitted"
+        )
     num = to_casadi(result.fitted_model)
     values = {p.name: p.guess if p.held else p.estimate for p in result.parameters}
     theta = np.array([values.get(n, num.values.get(n, math.nan)) for n in num.parameters], float)
@@ -290,20 +339,32 @@ def modal(result: Any, *, state: Mapping[str, float] | Sequence[float] | None = 
     x0 = _state(num.states, state)
     A, B, C, D, xdot = linearise(num, theta, x0)
     if not all(np.all(np.isfinite(M)) for M in (A, B, C, D, xdot)):
-        raise ModelError(f"the linearisation of {result.model!r} at the state is not finite (a term without a "
-                         f"derivative there, such as x/|x| at 0); give state= where the model is smooth")
+        raise ModelError(
+            f"the linearisation of {result.model!r} at the state is not finite (a term without a "
+            f"derivative there, such as x/|x| at 0); give state= where the model is smooth"
+        )
     scale = float(np.linalg.norm(A, ord=np.inf)) * max(float(np.linalg.norm(x0, ord=np.inf)), 1.0) + 1.0
     rest = float(np.linalg.norm(xdot, ord=np.inf)) <= AT_REST * scale
     notes = []
     if not rest and state is None:
-        raise ModelError(f"{result.model!r} is not at rest at the zero state under zero inputs (|x'| = "
-                         f"{float(np.linalg.norm(xdot, ord=np.inf)):.3g}); give state=, an equilibrium")
-    notes.append("linearised at rest: every state 0, every input 0" if state is None else
-                 "linearised at the state given, every input 0" + (
-                     "" if rest else f"; it is no equilibrium (|x'| = {float(np.linalg.norm(xdot, ord=np.inf)):.3g}"
-                     f"): the modes are those of the tangent model there"))
-    notes.append("non-smooth terms (sign, abs, ...) linearised by the derivative of the branch at the state "
-                 "(0 for sign)")
+        raise ModelError(
+            f"{result.model!r} is not at rest at the zero state under zero inputs (|x'| = "
+            f"{float(np.linalg.norm(xdot, ord=np.inf)):.3g}); give state=, an equilibrium"
+        )
+    notes.append(
+        "linearised at rest: every state 0, every input 0"
+        if state is None
+        else "linearised at the state given, every input 0"
+        + (
+            ""
+            if rest
+            else f"; it is no equilibrium (|x'| = {float(np.linalg.norm(xdot, ord=np.inf)):.3g}"
+            f"): the modes are those of the tangent model there"
+        )
+    )
+    notes.append(
+        "non-smooth terms (sign, abs, ...) linearised by the derivative of the branch at the state (0 for sign)"
+    )
     lam, shapes, real = eigen_modes(A, C)
     ref = np.array([int(np.argmax(np.abs(s))) for s in shapes], int)
     base = _figures(lam, shapes, ref)
@@ -333,22 +394,37 @@ def modal(result: Any, *, state: Mapping[str, float] | Sequence[float] | None = 
         G[..., i] = (pair[0] - pair[1]) / (2 * h) if pair else math.nan
     with np.errstate(invalid="ignore"):
         finite = np.isfinite(np.diag(Sigma))
-        var = np.einsum("abi,ij,abj->ab", np.where(finite, G, 0.0), np.where(np.outer(finite, finite), Sigma, 0.0),
-                        np.where(finite, G, 0.0))
+        var = np.einsum(
+            "abi,ij,abj->ab",
+            np.where(finite, G, 0.0),
+            np.where(np.outer(finite, finite), Sigma, 0.0),
+            np.where(finite, G, 0.0),
+        )
         touched = np.any((G != 0) & ~finite, axis=2)  # a figure that moves along a parameter of infinite std
         var = np.where(touched, math.inf, var)
     std = np.sqrt(np.clip(var, 0.0, None))
     opt = lambda v: None if not math.isfinite(v) else float(v)
     outs = tuple(num.outputs)
-    return Modal(model=result.model, states=tuple(num.states), inputs=tuple(num.inputs), outputs=outs,
-                 state=dict(zip(num.states, map(float, x0))), frequency_hz=tuple(map(float, base[:, 0])),
-                 frequency_hz_std=tuple(opt(v) for v in std[:, 0]), damping_ratio=tuple(map(float, base[:, 1])),
-                 damping_ratio_std=tuple(opt(v) for v in std[:, 1]),
-                 shapes=tuple(dict(zip(outs, map(float, row[2:]))) for row in base),
-                 shapes_std=tuple({o: opt(v) for o, v in zip(outs, row[2:])} for row in std),
-                 complexity=tuple(float(np.max(np.abs((s / s[r]).imag))) if s.size else 0.0
-                                  for s, r in zip(shapes, ref)),
-                 real_poles=tuple(map(float, real)), assumptions=tuple(notes), A=A, B=B, C=C, D=D)
+    return Modal(
+        model=result.model,
+        states=tuple(num.states),
+        inputs=tuple(num.inputs),
+        outputs=outs,
+        state=dict(zip(num.states, map(float, x0))),
+        frequency_hz=tuple(map(float, base[:, 0])),
+        frequency_hz_std=tuple(opt(v) for v in std[:, 0]),
+        damping_ratio=tuple(map(float, base[:, 1])),
+        damping_ratio_std=tuple(opt(v) for v in std[:, 1]),
+        shapes=tuple(dict(zip(outs, map(float, row[2:]))) for row in base),
+        shapes_std=tuple({o: opt(v) for o, v in zip(outs, row[2:])} for row in std),
+        complexity=tuple(float(np.max(np.abs((s / s[r]).imag))) if s.size else 0.0 for s, r in zip(shapes, ref)),
+        real_poles=tuple(map(float, real)),
+        assumptions=tuple(notes),
+        A=A,
+        B=B,
+        C=C,
+        D=D,
+    )
 
 
 def _state(states: Sequence[str], state: Mapping[str, float] | Sequence[float] | None) -> np.ndarray:
@@ -359,8 +435,10 @@ def _state(states: Sequence[str], state: Mapping[str, float] | Sequence[float] |
         other = [k for k in state if k not in states]
         missing = [s for s in states if s not in state]
         if other or missing:
-            raise OptionError(f"state= names every state of the model ({names(states)}); "
-                              + (f"{names(other)} is not one" if other else f"{names(missing)} missing"))
+            raise OptionError(
+                f"state= names every state of the model ({names(states)}); "
+                + (f"{names(other)} is not one" if other else f"{names(missing)} missing")
+            )
         x = np.array([state[s] for s in states], float)
     else:
         x = np.asarray(state, float).ravel()

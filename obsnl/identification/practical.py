@@ -19,8 +19,16 @@ from obsnl.estimation.ukf import Trajectory
 from obsnl.identification.likelihood import covariance
 from obsnl.identification.setup import DIVERGED, Data, Setup, output_misfit
 
-__all__ = ["Practical", "Spread", "crb", "fisher", "input_noise_crb", "practical_identifiability", "CRB_LIMIT",
-           "POSTERIOR_LIMIT"]
+__all__ = [
+    "Practical",
+    "Spread",
+    "crb",
+    "fisher",
+    "input_noise_crb",
+    "practical_identifiability",
+    "CRB_LIMIT",
+    "POSTERIOR_LIMIT",
+]
 
 #: Threshold on the Cramér-Rao standard deviation of log(theta): a parameter whose 3-sigma bound is
 #: wider than the 5 % goal cannot be pinned to it by any unbiased estimator on this record.
@@ -57,21 +65,29 @@ class Practical:
 
     def __repr__(self) -> str:
         mc = f"monte_carlo={self.spread.replicates} replicates" if self.spread is not None else ""
-        return one_line("Practical", f"parameters={len(self.parameters)}", f"flagged={names(self.flagged, 6)!r}",
-                        f"undecided={names(self.undecided, 4)!r}" if self.undecided else "", mc,
-                        f"inconclusive={self.inconclusive!r}" if self.inconclusive else "")
+        return one_line(
+            "Practical",
+            f"parameters={len(self.parameters)}",
+            f"flagged={names(self.flagged, 6)!r}",
+            f"undecided={names(self.undecided, 4)!r}" if self.undecided else "",
+            mc,
+            f"inconclusive={self.inconclusive!r}" if self.inconclusive else "",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: which parameters these data leave outside the 5 % band, and why."""
         if self.inconclusive:
-            return block(f"practical identifiability of {len(self.parameters)} parameters: not decided "
-                         f"({self.inconclusive})")
+            return block(
+                f"practical identifiability of {len(self.parameters)} parameters: not decided ({self.inconclusive})"
+            )
         n = len(self.flagged)
-        return block(f"practical identifiability of {len(self.parameters)} parameters on these data: {n} flagged"
-                     f" (not pinned within 5 % at 3 sigma){': ' + names(self.flagged, 8) if n else ''}",
-                     *(f"{p}: {self.reasons[p]}" for p in self.flagged[:8]),
-                     *(f"{p} undecided: {why}" for p, why in list(self.undecided.items())[:2]),
-                     self.spread.summary().splitlines()[0] if self.spread is not None else "")
+        return block(
+            f"practical identifiability of {len(self.parameters)} parameters on these data: {n} flagged"
+            f" (not pinned within 5 % at 3 sigma){': ' + names(self.flagged, 8) if n else ''}",
+            *(f"{p}: {self.reasons[p]}" for p in self.flagged[:8]),
+            *(f"{p} undecided: {why}" for p, why in list(self.undecided.items())[:2]),
+            self.spread.summary().splitlines()[0] if self.spread is not None else "",
+        )
 
     @property
     def flagged_linearised(self) -> tuple[str, ...]:
@@ -79,12 +95,18 @@ class Practical:
         return self.flagged if self.linearised is None else self.linearised
 
     def to_dict(self) -> dict[str, Any]:
-        return {"parameters": list(self.parameters), "crb_relative_std": _nums(self.crb),
-                "sensitivity_over_noise": _nums(self.sensitivity), "posterior_over_prior_std": _nums(self.posterior),
-                "flagged": list(self.flagged), "flagged_linearised": list(self.flagged_linearised),
-                "reasons": dict(self.reasons),
-                "inconclusive": self.inconclusive or None, "undecided": dict(self.undecided),
-                "monte_carlo": self.spread.to_dict() if self.spread else None}
+        return {
+            "parameters": list(self.parameters),
+            "crb_relative_std": _nums(self.crb),
+            "sensitivity_over_noise": _nums(self.sensitivity),
+            "posterior_over_prior_std": _nums(self.posterior),
+            "flagged": list(self.flagged),
+            "flagged_linearised": list(self.flagged_linearised),
+            "reasons": dict(self.reasons),
+            "inconclusive": self.inconclusive or None,
+            "undecided": dict(self.undecided),
+            "monte_carlo": self.spread.to_dict() if self.spread else None,
+        }
 
     def with_spread(self, spread: Spread, *, limit: float = CRB_LIMIT) -> Practical:
         """These flags joined with the Monte-Carlo criterion (:class:`Spread`) at the same limit.
@@ -96,20 +118,33 @@ class Practical:
         if self.inconclusive:
             return replace(self, spread=spread)
         if spread.inconclusive:  # the other criteria stand; the 5 % band of the rest is not decided
-            return replace(self, spread=spread, undecided={
-                p: f"no Monte-Carlo spread: {spread.inconclusive}" for p in self.parameters if p not in self.reasons})
+            return replace(
+                self,
+                spread=spread,
+                undecided={
+                    p: f"no Monte-Carlo spread: {spread.inconclusive}" for p in self.parameters if p not in self.reasons
+                },
+            )
         reasons, undecided = dict(self.reasons), {}
         for p, sd, lo, hi in zip(self.parameters, spread.std, spread.lower, spread.upper):
             if p in spread.held:
                 continue
-            band = (f"Monte-Carlo std of the relative error {100 * sd:.2g} % ({100 * spread.confidence:g} % "
-                    f"interval {100 * lo:.2g}-{100 * hi:.2g} %, {spread.replicates} replicates)")
+            band = (
+                f"Monte-Carlo std of the relative error {100 * sd:.2g} % ({100 * spread.confidence:g} % "
+                f"interval {100 * lo:.2g}-{100 * hi:.2g} %, {spread.replicates} replicates)"
+            )
             if lo > limit:
                 reasons[p] = "; ".join(filter(None, [reasons.get(p), f"{band} > {100 * limit:.2g} %"]))
             elif hi > limit and p not in reasons:
                 undecided[p] = f"{band} contains {100 * limit:.2g} %"
-        return replace(self, spread=spread, reasons=reasons, undecided=undecided, linearised=self.flagged_linearised,
-                       flagged=tuple(p for p in self.parameters if p in reasons))
+        return replace(
+            self,
+            spread=spread,
+            reasons=reasons,
+            undecided=undecided,
+            linearised=self.flagged_linearised,
+            flagged=tuple(p for p in self.parameters if p in reasons),
+        )
 
 
 def _nums(v: Sequence[float]) -> list[float | None]:
@@ -141,24 +176,42 @@ class Spread:
 
     def __repr__(self) -> str:
         sd = names([f"{p} {100 * s:.2g} %" for p, s in zip(self.parameters, self.std)], 5)
-        return one_line("Spread", f"replicates={self.replicates}", f"diverged={self.diverged}",
-                        f"relative_std='{sd}'", f"inconclusive={self.inconclusive!r}" if self.inconclusive else "")
+        return one_line(
+            "Spread",
+            f"replicates={self.replicates}",
+            f"diverged={self.diverged}",
+            f"relative_std='{sd}'",
+            f"inconclusive={self.inconclusive!r}" if self.inconclusive else "",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the Monte-Carlo spread of each parameter's relative error."""
         if self.inconclusive:
             return block(f"Monte-Carlo spread over {self.replicates} replicates: not given ({self.inconclusive})")
-        rows = [f"{p}: relative std {100 * s:.2g} % ({100 * self.confidence:g} % interval {100 * lo:.2g}-"
-                f"{100 * hi:.2g} %)" + (" held" if p in self.held else "")
-                for p, s, lo, hi in zip(self.parameters, self.std, self.lower, self.upper)]
-        return block(f"Monte-Carlo spread over {self.replicates} replicates ({self.diverged} diverged, seed "
-                     f"{self.seed})", *rows[:10], f"... and {len(rows) - 10} more" if len(rows) > 10 else "")
+        rows = [
+            f"{p}: relative std {100 * s:.2g} % ({100 * self.confidence:g} % interval {100 * lo:.2g}-"
+            f"{100 * hi:.2g} %)" + (" held" if p in self.held else "")
+            for p, s, lo, hi in zip(self.parameters, self.std, self.lower, self.upper)
+        ]
+        return block(
+            f"Monte-Carlo spread over {self.replicates} replicates ({self.diverged} diverged, seed {self.seed})",
+            *rows[:10],
+            f"... and {len(rows) - 10} more" if len(rows) > 10 else "",
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"parameters": list(self.parameters), "relative_std": _nums(self.std), "lower": _nums(self.lower),
-                "upper": _nums(self.upper), "replicates": self.replicates, "diverged": self.diverged,
-                "confidence": self.confidence, "seed": self.seed, "held": list(self.held),
-                "inconclusive": self.inconclusive or None}
+        return {
+            "parameters": list(self.parameters),
+            "relative_std": _nums(self.std),
+            "lower": _nums(self.lower),
+            "upper": _nums(self.upper),
+            "replicates": self.replicates,
+            "diverged": self.diverged,
+            "confidence": self.confidence,
+            "seed": self.seed,
+            "held": list(self.held),
+            "inconclusive": self.inconclusive or None,
+        }
 
 
 def crb(F: np.ndarray) -> np.ndarray:
@@ -213,8 +266,9 @@ def fisher(setup: Setup, theta: np.ndarray, u: np.ndarray, sigma: Any, *, step: 
             th = np.array(theta, float)
             th[i] *= np.exp(s)
             thetas.append(th)
-    sims = simulate_many(m, thetas=thetas, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, refine=setup.refine,
-                         jit=setup.jit)
+    sims = simulate_many(
+        m, thetas=thetas, x0=setup.x0, u=u, dt=dt, substeps=setup.substeps, refine=setup.refine, jit=setup.jit
+    )
     ys = []
     for got in sims:
         if isinstance(got, EstimatorError):
@@ -253,24 +307,35 @@ def input_noise_crb(setup: Setup, theta: np.ndarray | None = None, *, u: np.ndar
     u = setup.record.accel if u is None else np.asarray(u, float)
     su, sy = setup.noise * rms(u), setup.noise * rms(setup.y_true)
     S = fisher(setup, theta, u, 1.0)  # raw sensitivities dy/dlog|theta|
-    sim = lambda uu: simulate(m, theta=theta, x0=setup.x0, u=uu, dt=dt, substeps=setup.substeps,  # noqa: E731
-                              refine=setup.refine, jit=setup.jit).y.ravel()
+    sim = lambda uu: simulate(
+        m,
+        theta=theta,
+        x0=setup.x0,
+        u=uu,
+        dt=dt,
+        substeps=setup.substeps,  # noqa: E731
+        refine=setup.refine,
+        jit=setup.jit,
+    ).y.ravel()
     Ju = np.zeros((len(S), len(u)))
     for k in range(len(u)):
         e = np.zeros_like(u)
         e[k] = su
         Ju[:, k] = (sim(u + e) - sim(u - e)) / (2 * su)
     out: dict[str, Any] = {}
-    for name, cov in (("crb_output_only", sy ** 2 * np.eye(len(S))), ("crb_with_input_noise",
-                                                                       sy ** 2 * np.eye(len(S)) + su ** 2 * Ju @ Ju.T)):
+    for name, cov in (
+        ("crb_output_only", sy**2 * np.eye(len(S))),
+        ("crb_with_input_noise", sy**2 * np.eye(len(S)) + su**2 * Ju @ Ju.T),
+    ):
         F = S.T @ np.linalg.solve(cov, S)
         out[name] = dict(zip(m.parameters, crb(F).tolist()))
     out["input_noise_output_rms_over_sigma_y"] = float(su * np.sqrt(np.trace(Ju @ Ju.T) / len(S)) / sy)
     return out
 
 
-def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, first: Trajectory,
-                              prior_std: float, misfit: float | None = None) -> Practical:
+def practical_identifiability(
+    setup: Setup, theta: np.ndarray, data: Data, *, first: Trajectory, prior_std: float, misfit: float | None = None
+) -> Practical:
     """Flag the parameters this record cannot pin down (see :class:`Practical`).
 
     Parameters
@@ -296,8 +361,10 @@ def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, fi
     if not np.isfinite(misfit):
         why_not = "the estimate cannot be simulated (the filter diverged)"
     elif misfit > DIVERGED * setup.noise_level:
-        why_not = (f"the estimate's output misfit {misfit:.3g} is above {DIVERGED:g}x the noise level "
-                   f"{setup.noise_level:.3g} (the filter did not converge on these data)")
+        why_not = (
+            f"the estimate's output misfit {misfit:.3g} is above {DIVERGED:g}x the noise level "
+            f"{setup.noise_level:.3g} (the filter did not converge on these data)"
+        )
     if not why_not:
         try:
             S = fisher(setup, theta, data.u, setup.noise_std(data)[1])
@@ -306,10 +373,17 @@ def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, fi
             why_not = "a perturbed estimate cannot be simulated (no sensitivities)"
     if why_not:
         nan = (float("nan"),) * m.np
-        return Practical(parameters=m.parameters, crb=nan, sensitivity=nan, posterior=nan, flagged=(), reasons={},
-                         inconclusive=why_not)
+        return Practical(
+            parameters=m.parameters,
+            crb=nan,
+            sensitivity=nan,
+            posterior=nan,
+            flagged=(),
+            reasons={},
+            inconclusive=why_not,
+        )
     bound = crb(S.T @ S)
-    sens = np.sqrt(np.mean(S ** 2, axis=0))
+    sens = np.sqrt(np.mean(S**2, axis=0))
     nx = m.nx
     post = np.sqrt(np.clip(np.diag(first.P[-1])[nx:], 0, None)) / prior_std
     # posterior ratios are per filter coordinate; with log coordinates they are per parameter
@@ -318,13 +392,21 @@ def practical_identifiability(setup: Setup, theta: np.ndarray, data: Data, *, fi
     for p, c, r in zip(m.parameters, bound, post):
         why = []
         if c > CRB_LIMIT:
-            why.append(f"Cramér-Rao std of the relative error {100 * c:.3g} % > {100 * CRB_LIMIT:.3g} %" if
-                       np.isfinite(c) else "no information in the output sensitivities (a flat direction of the "
-                       "Fisher matrix: the Cramér-Rao bound is infinite)")
+            why.append(
+                f"Cramér-Rao std of the relative error {100 * c:.3g} % > {100 * CRB_LIMIT:.3g} %"
+                if np.isfinite(c)
+                else "no information in the output sensitivities (a flat direction of the "
+                "Fisher matrix: the Cramér-Rao bound is infinite)"
+            )
         if r > POSTERIOR_LIMIT:
             why.append(f"the filter kept {100 * r:.0f} % of its prior std")
         if why:
             reasons[p] = "; ".join(why)
-    return Practical(parameters=m.parameters, crb=tuple(float(c) for c in bound),
-                     sensitivity=tuple(float(s) for s in sens), posterior=tuple(float(r) for r in post),
-                     flagged=tuple(p for p in m.parameters if p in reasons), reasons=reasons)
+    return Practical(
+        parameters=m.parameters,
+        crb=tuple(float(c) for c in bound),
+        sensitivity=tuple(float(s) for s in sens),
+        posterior=tuple(float(r) for r in post),
+        flagged=tuple(p for p in m.parameters if p in reasons),
+        reasons=reasons,
+    )

@@ -47,8 +47,17 @@ from obsnl.identification.likelihood import levenberg_marquardt
 from obsnl.identification.refine import Refinement
 
 __all__ = [
-    "Profile", "profile", "profiles", "judge", "THRESHOLD", "TOLERANCE", "SEARCH", "FLAT", "BAND",
-    "MAX_SECONDS", "PARALLEL_MIN",
+    "Profile",
+    "profile",
+    "profiles",
+    "judge",
+    "THRESHOLD",
+    "TOLERANCE",
+    "SEARCH",
+    "FLAT",
+    "BAND",
+    "MAX_SECONDS",
+    "PARALLEL_MIN",
 ]
 
 #: chi2(1) 0.95 quantile (scipy.stats.chi2.ppf(0.95, 1)).
@@ -99,21 +108,37 @@ class Profile:
 
     def __repr__(self) -> str:
         lo, hi = ("open" if v is None else number(v) for v in self.interval)
-        return one_line("Profile", f"name={self.name!r}", f"estimate={number(self.estimate)}",
-                        f"interval=[{lo}, {hi}]", f"shape={self.shape!r}")
+        return one_line(
+            "Profile",
+            f"name={self.name!r}",
+            f"estimate={number(self.estimate)}",
+            f"interval=[{lo}, {hi}]",
+            f"shape={self.shape!r}",
+        )
 
     def summary(self) -> str:
         """One or two lines of plain text: the estimate, its 95 % interval and the profile's shape."""
         lo, hi = ("open" if v is None else number(v) for v in self.interval)
-        return block(f"{self.name} = {number(self.estimate)}, 95 % profile-likelihood interval [{lo}, {hi}] "
-                     f"({self.shape}; {len(self.points)} points, {self.evaluations} evaluations)",
-                     f"a profile point fits better (chi2 {number(self.better)}): the estimate is not the optimum"
-                     if self.better is not None else "")
+        return block(
+            f"{self.name} = {number(self.estimate)}, 95 % profile-likelihood interval [{lo}, {hi}] "
+            f"({self.shape}; {len(self.points)} points, {self.evaluations} evaluations)",
+            f"a profile point fits better (chi2 {number(self.better)}): the estimate is not the optimum"
+            if self.better is not None
+            else "",
+        )
 
     def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "estimate": self.estimate, "interval": list(self.interval), "shape": self.shape,
-                "points": [list(p) for p in self.points], "evaluations": self.evaluations, "better": self.better,
-                "threshold": self.threshold, "stopped": {"low": self.sides[0], "high": self.sides[1]}}
+        return {
+            "name": self.name,
+            "estimate": self.estimate,
+            "interval": list(self.interval),
+            "shape": self.shape,
+            "points": [list(p) for p in self.points],
+            "evaluations": self.evaluations,
+            "better": self.better,
+            "threshold": self.threshold,
+            "stopped": {"low": self.sides[0], "high": self.sides[1]},
+        }
 
 
 def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray, stop: float) -> tuple[float, np.ndarray, int]:
@@ -127,8 +152,9 @@ def _point(ref: Refinement, i: int, phi_i: float, start: np.ndarray, stop: float
         free[m.parameters.index(h)] = False
     for s in ref.known:  # a known initial state is never fitted
         free[m.np + m.states.index(s)] = False
-    fit = levenberg_marquardt(ref.objective.evaluate, z0, ref.lower, ref.upper, free=free, max_iter=20, max_evals=30,
-                              stop=stop)
+    fit = levenberg_marquardt(
+        ref.objective.evaluate, z0, ref.lower, ref.upper, free=free, max_iter=20, max_evals=30, stop=stop
+    )
     return fit.chi2, fit.z, fit.evaluations
 
 
@@ -180,8 +206,9 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
         start = z_hat.copy()
         for _ in range(POINTS):
             guess = z_hat + slope * side * d
-            c2, z, n = _point(ref, i, z_hat[i] + side * d, np.where(np.isfinite(guess), guess, start),
-                              stop=min(1e-3, tolerance / 10))
+            c2, z, n = _point(
+                ref, i, z_hat[i] + side * d, np.where(np.isfinite(guess), guess, start), stop=min(1e-3, tolerance / 10)
+            )
             evals += n
             delta = c2 - chi2_min
             if delta < -max(tolerance, FLAT) and (better is None or c2 < better):
@@ -218,21 +245,47 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
     stops += [""] * (2 - len(stops))
     if better is not None:  # not the optimum: no interval is claimed on either side
         ends = [None, None]
-    to_theta = lambda phi: float(ref.objective.theta(np.r_[z_hat[:i], phi, z_hat[i + 1:]])[i])  # noqa: E731
+    to_theta = lambda phi: float(ref.objective.theta(np.r_[z_hat[:i], phi, z_hat[i + 1 :]])[i])  # noqa: E731
     lo, hi = (None if e is None else to_theta(z_hat[i] + e) for e in ends)
     if ref.theta[i] < 0:  # theta = -exp(phi): the order flips
         lo, hi = hi, lo
         stops.reverse()
-    shape = ("not-optimal" if better is not None else "closed" if lo is not None and hi is not None else "flat" if peak < FLAT
-             else "open-low" if lo is None and hi is not None else "open-high" if hi is None and lo is not None
-             else "open")
+    shape = (
+        "not-optimal"
+        if better is not None
+        else "closed"
+        if lo is not None and hi is not None
+        else "flat"
+        if peak < FLAT
+        else "open-low"
+        if lo is None and hi is not None
+        else "open-high"
+        if hi is None and lo is not None
+        else "open"
+    )
     pts = tuple(sorted((to_theta(z_hat[i] + d), float(v)) for d, v in points))
-    return Profile(name=name, estimate=float(ref.theta[i]), interval=(lo, hi), shape=shape, points=pts,
-                   evaluations=evals, better=better, threshold=level, sides=(stops[0], stops[1]), better_z=better_z)
+    return Profile(
+        name=name,
+        estimate=float(ref.theta[i]),
+        interval=(lo, hi),
+        shape=shape,
+        points=pts,
+        evaluations=evals,
+        better=better,
+        threshold=level,
+        sides=(stops[0], stops[1]),
+        better_z=better_z,
+    )
 
 
-def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress: Any = None,
-             max_seconds: float | None = MAX_SECONDS, executor: Executor | None = None) -> tuple[Profile, ...]:
+def profiles(
+    ref: Refinement,
+    names: tuple[str, ...] | None = None,
+    *,
+    progress: Any = None,
+    max_seconds: float | None = MAX_SECONDS,
+    executor: Executor | None = None,
+) -> tuple[Profile, ...]:
     """:func:`profile` of every parameter that is not held (or of ``names``), within a time budget.
 
     A parameter whose profile was not started when ``max_seconds`` had passed gets no interval (shape
@@ -279,13 +332,23 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
     'profiles'
     """
     names = names or tuple(p for p in ref.objective.setup.model.parameters if p not in ref.held)
-    if executor is not None and executor.kind != "serial" and len(names) >= PARALLEL_MIN and \
-            ref.objective.setup.model.source is not None:
+    if (
+        executor is not None
+        and executor.kind != "serial"
+        and len(names) >= PARALLEL_MIN
+        and ref.objective.setup.model.source is not None
+    ):
         deadline = None if max_seconds is None else time.time() + max_seconds
         spec = _spec(ref)
         done = (lambda i, _: progress()) if progress else None
-        return tuple(executor.map(_profile_task, [(spec, p, deadline) for p in names], done=done,
-                                  label=lambda task: f"the profile likelihood of {task[1]}"))
+        return tuple(
+            executor.map(
+                _profile_task,
+                [(spec, p, deadline) for p in names],
+                done=done,
+                label=lambda task: f"the profile likelihood of {task[1]}",
+            )
+        )
     out = []
     t0 = time.perf_counter()
     for p in names:
@@ -299,8 +362,13 @@ def profiles(ref: Refinement, names: tuple[str, ...] | None = None, *, progress:
 def _not_computed(ref: Refinement, p: str) -> Profile:
     """The place-holder of a profile the time budget left out."""
     i = ref.objective.setup.model.parameters.index(p)
-    return Profile(name=p, estimate=float(ref.theta[i]), interval=(None, None), shape="not-computed",
-                   points=((float(ref.theta[i]), 0.0),))
+    return Profile(
+        name=p,
+        estimate=float(ref.theta[i]),
+        interval=(None, None),
+        shape="not-computed",
+        points=((float(ref.theta[i]), 0.0),),
+    )
 
 
 def _profile_or_say(ref: Refinement, p: str) -> Profile:
@@ -315,10 +383,25 @@ def _spec(ref: Refinement) -> dict[str, Any]:
     from obsnl.identification.replicates import recipe_of
 
     obj = ref.objective
-    return {"recipe": recipe_of(obj.setup, "ukf", None), "u": np.asarray(obj.data.u), "y": np.asarray(obj.data.y),
-            "substeps": obj.substeps, "scale": obj.scale, "sigma": obj.sigma, "theta": ref.theta, "x0": ref.x0,
-            "std": ref.std, "cov": ref.cov, "chi2": ref.chi2, "z": ref.fit.z, "held": ref.held, "known": ref.known,
-            "lower": ref.lower, "upper": ref.upper, "input_cov": ref.input_cov}
+    return {
+        "recipe": recipe_of(obj.setup, "ukf", None),
+        "u": np.asarray(obj.data.u),
+        "y": np.asarray(obj.data.y),
+        "substeps": obj.substeps,
+        "scale": obj.scale,
+        "sigma": obj.sigma,
+        "theta": ref.theta,
+        "x0": ref.x0,
+        "std": ref.std,
+        "cov": ref.cov,
+        "chi2": ref.chi2,
+        "z": ref.fit.z,
+        "held": ref.held,
+        "known": ref.known,
+        "lower": ref.lower,
+        "upper": ref.upper,
+        "input_cov": ref.input_cov,
+    }
 
 
 def _rebuilt(spec: dict[str, Any]) -> Refinement:
@@ -330,13 +413,41 @@ def _rebuilt(spec: dict[str, Any]) -> Refinement:
     recipe = spec["recipe"]
     num = compiled(recipe)
     setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]), **recipe.setup)
-    obj = objective(setup, Data(seed=None, u=spec["u"], y=spec["y"]), theta=spec["theta"],
-                    substeps=spec["substeps"], sigma=spec["sigma"], scale=spec["scale"])
-    fit = Fit(z=spec["z"], chi2=spec["chi2"], iterations=0, evaluations=0, decrement=0.0, last_step=0.0,
-              at_bound=(), stalled=False, J=None, r=None)  # type: ignore[arg-type]  # a worker's profile reads z alone
-    return Refinement(theta=spec["theta"], x0=spec["x0"], std=spec["std"], cov=spec["cov"], sigma=spec["sigma"],
-                      chi2=spec["chi2"], held=spec["held"], known=spec["known"], lower=spec["lower"],
-                      upper=spec["upper"], fit=fit, objective=obj, input_cov=spec["input_cov"])
+    obj = objective(
+        setup,
+        Data(seed=None, u=spec["u"], y=spec["y"]),
+        theta=spec["theta"],
+        substeps=spec["substeps"],
+        sigma=spec["sigma"],
+        scale=spec["scale"],
+    )
+    fit = Fit(
+        z=spec["z"],
+        chi2=spec["chi2"],
+        iterations=0,
+        evaluations=0,
+        decrement=0.0,
+        last_step=0.0,
+        at_bound=(),
+        stalled=False,
+        J=None,  # type: ignore[arg-type]  # a worker's profile reads z alone
+        r=None,  # type: ignore[arg-type]
+    )
+    return Refinement(
+        theta=spec["theta"],
+        x0=spec["x0"],
+        std=spec["std"],
+        cov=spec["cov"],
+        sigma=spec["sigma"],
+        chi2=spec["chi2"],
+        held=spec["held"],
+        known=spec["known"],
+        lower=spec["lower"],
+        upper=spec["upper"],
+        fit=fit,
+        objective=obj,
+        input_cov=spec["input_cov"],
+    )
 
 
 def _profile_task(task: tuple[dict[str, Any], str, float | None]) -> Profile:
@@ -376,28 +487,41 @@ def judge(prof: Profile, *, band: float = BAND) -> str | None:
     lo, hi = prof.interval
     est = prof.estimate
     if prof.shape == "not-computed":
-        return (f"no interval: the profiles' time budget ({MAX_SECONDS:g} s) ran out before this one; its std is "
-                f"from the Fisher information alone")
+        return (
+            f"no interval: the profiles' time budget ({MAX_SECONDS:g} s) ran out before this one; its std is "
+            f"from the Fisher information alone"
+        )
     if prof.shape == "not-optimal":
-        return ("a point of its profile fits the data better than the estimate: the estimate is not the maximum "
-                "of the likelihood along it, so no interval is claimed")
+        return (
+            "a point of its profile fits the data better than the estimate: the estimate is not the maximum "
+            "of the likelihood along it, so no interval is claimed"
+        )
     reach = (prof.points[0][0], prof.points[-1][0]) if prof.points else (est, est)  # the farthest points followed
-    open_sides = [(s, why, th) for s, why, th, e in (("low", prof.sides[0], reach[0], lo),
-                                                     ("high", prof.sides[1], reach[1], hi)) if e is None]
+    open_sides = [
+        (s, why, th)
+        for s, why, th, e in (("low", prof.sides[0], reach[0], lo), ("high", prof.sides[1], reach[1], hi))
+        if e is None
+    ]
     if lo is not None and hi is not None:  # closed on both sides (no open side)
         if lo < est - band * abs(est) or hi > est + band * abs(est):
-            return (f"its 95 % profile-likelihood interval [{lo:.4g}, {hi:.4g}] is wider than +-{100 * band:g} % of "
-                    f"the estimate {est:.4g}")
+            return (
+                f"its 95 % profile-likelihood interval [{lo:.4g}, {hi:.4g}] is wider than +-{100 * band:g} % of "
+                f"the estimate {est:.4g}"
+            )
         return None
     full = all(why in ("search", "") for _, why, _ in open_sides)  # "": an old profile without the record
     if prof.shape == "flat" and full:
-        return (f"flat profile likelihood (chi2 rises by less than {FLAT:g} within a factor "
-                f"{math.exp(SEARCH):.0f} of the estimate): these data cannot identify it at all (a structural or "
-                f"record-wide non-identifiability)")
+        return (
+            f"flat profile likelihood (chi2 rises by less than {FLAT:g} within a factor "
+            f"{math.exp(SEARCH):.0f} of the estimate): these data cannot identify it at all (a structural or "
+            f"record-wide non-identifiability)"
+        )
     said = "; ".join(_side_said(side, why, th) for side, why, th in open_sides)
     if prof.shape == "flat":
-        return (f"its profile likelihood rises by less than {FLAT:g} as far as it was followed ({said}): the data "
-                f"were not seen to bound it")
+        return (
+            f"its profile likelihood rises by less than {FLAT:g} as far as it was followed ({said}): the data "
+            f"were not seen to bound it"
+        )
     if full:
         return f"{said}: practically non-identifiable from these data"
     return f"{said}: no 95 % interval is claimed on that side"
@@ -410,11 +534,17 @@ def _side_said(side: str, why: str, theta: float) -> str:
     'on the low side the search stopped at the edge of the valid region (25, a factor 100 from the guess) with the profile still below the 95 % threshold: the bound, not the data, ended it; start from a guess nearer the estimate'
     """
     if why == "bound":
-        return (f"on the {side} side the search stopped at the edge of the valid region ({theta:.4g}, a factor 100 "
-                f"from the guess) with the profile still below the 95 % threshold: the bound, not the data, ended "
-                f"it; start from a guess nearer the estimate")
+        return (
+            f"on the {side} side the search stopped at the edge of the valid region ({theta:.4g}, a factor 100 "
+            f"from the guess) with the profile still below the 95 % threshold: the bound, not the data, ended "
+            f"it; start from a guess nearer the estimate"
+        )
     if why == "points":
-        return (f"on the {side} side the profile stays below the 95 % threshold as far as its {POINTS} points "
-                f"followed it ({theta:.4g})")
-    return (f"its profile likelihood stays below the 95 % threshold up to a factor {math.exp(SEARCH):.0f} on the "
-            f"{side} side ({theta:.4g})")
+        return (
+            f"on the {side} side the profile stays below the 95 % threshold as far as its {POINTS} points "
+            f"followed it ({theta:.4g})"
+        )
+    return (
+        f"its profile likelihood stays below the 95 % threshold up to a factor {math.exp(SEARCH):.0f} on the "
+        f"{side} side ({theta:.4g})"
+    )

@@ -12,11 +12,20 @@ import numpy as np
 
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import EstimatorError, OptionError
-from obsnl.identification.adequacy import LEVEL, Adequacy, adequacy
 from obsnl.estimation.periods import periodic_noise
 from obsnl.estimation.simulate import simulate
+from obsnl.identification.adequacy import LEVEL, Adequacy, adequacy
+from obsnl.identification.likelihood import (
+    DECREMENT,
+    NOISE_FLOOR,
+    STEP_LIMIT,
+    Fit,
+    Objective,
+    covariance,
+    levenberg_marquardt,
+    objective,
+)
 from obsnl.identification.setup import BOUND, Data, Setup
-from obsnl.identification.likelihood import DECREMENT, Fit, NOISE_FLOOR, Objective, STEP_LIMIT, covariance, levenberg_marquardt, objective
 
 __all__ = ["Refinement", "refine", "residual_dof", "adequacy_of", "ADVICE"]
 
@@ -78,23 +87,37 @@ class Refinement:
 
     def _parameters(self) -> list[str]:
         """The parameter names (from the objective; ``p0, p1, ...`` without one)."""
-        return list(self.objective.setup.model.parameters) if self.objective is not None else [
-            f"p{i}" for i in range(len(self.theta))]
+        return (
+            list(self.objective.setup.model.parameters)
+            if self.objective is not None
+            else [f"p{i}" for i in range(len(self.theta))]
+        )
 
     def __repr__(self) -> str:
         theta = names([f"{p}={number(v)}" for p, v in zip(self._parameters(), self.theta)], 6)
-        return one_line("Refinement", f"converged={self.converged}", f"chi2={number(self.chi2)}",
-                        f"iterations={self.iterations}", f"theta='{theta}'")
+        return one_line(
+            "Refinement",
+            f"converged={self.converged}",
+            f"chi2={number(self.chi2)}",
+            f"iterations={self.iterations}",
+            f"theta='{theta}'",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: converged or not and why, each parameter with its std, the misfit."""
-        rows = [f"{p} = {number(v)} (std {number(s)})" + (" held" if p in self.held else "") +
-                (" at the edge of the valid region" if p in self.at_edge else "")
-                for p, v, s in zip(self._parameters(), self.theta, self.std)]
-        return block(f"maximum likelihood: {'converged' if self.converged else 'NOT converged'} ({self.reason}), "
-                     f"chi2 {number(self.chi2)}, {self.iterations} iterations, {self.seconds:.3g} s", *rows[:9],
-                     f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
-                     f"RMS residual over the noise level: {names([f'{o} {number(v)}' for o, v in self.misfit.items()])}")
+        rows = [
+            f"{p} = {number(v)} (std {number(s)})"
+            + (" held" if p in self.held else "")
+            + (" at the edge of the valid region" if p in self.at_edge else "")
+            for p, v, s in zip(self._parameters(), self.theta, self.std)
+        ]
+        return block(
+            f"maximum likelihood: {'converged' if self.converged else 'NOT converged'} ({self.reason}), "
+            f"chi2 {number(self.chi2)}, {self.iterations} iterations, {self.seconds:.3g} s",
+            *rows[:9],
+            f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
+            f"RMS residual over the noise level: {names([f'{o} {number(v)}' for o, v in self.misfit.items()])}",
+        )
 
     def correlation(self) -> dict[str, dict[str, float | None]]:
         """The correlations of the estimated parameters (in log|theta|, at the estimate, the initial state
@@ -110,27 +133,46 @@ class Refinement:
         with np.errstate(invalid="ignore", divide="ignore"):
             R = C / np.outer(d, d)
         ps = self._parameters()
-        return {p: {q: (round(float(R[i, j]), 6) if ok[i] and ok[j] else None) for j, q in enumerate(ps)}
-                for i, p in enumerate(ps)}
+        return {
+            p: {q: (round(float(R[i, j]), 6) if ok[i] and ok[j] else None) for j, q in enumerate(ps)}
+            for i, p in enumerate(ps)
+        }
 
     def to_dict(self) -> dict[str, Any]:
         f = self.fit
-        return {"method": "maximum likelihood (output error, single shooting; Levenberg-Marquardt with exact "
-                          f"derivatives through the {self.objective.substeps}-substep integrator)",
-                "converged": self.converged, "reason": self.reason, "iterations": self.iterations,
-                "evaluations": f.evaluations, "newton_decrement": f.decrement, "last_step_in_std": f.last_step,
-                "chi2": self.chi2, "samples": int(np.sum(self.objective.measured)), "seconds": self.seconds,
-                "noise_std": {o: float(s) for o, s in zip(self.objective.setup.model.outputs, self.sigma)},
-                "misfit_over_noise": dict(self.misfit),
-                "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)},
-                "correlation": self.correlation(),
-                "input_noise_widening": {p: round(self.widening(i), 6) for i, p in enumerate(self._parameters())}}
+        return {
+            "method": "maximum likelihood (output error, single shooting; Levenberg-Marquardt with exact "
+            f"derivatives through the {self.objective.substeps}-substep integrator)",
+            "converged": self.converged,
+            "reason": self.reason,
+            "iterations": self.iterations,
+            "evaluations": f.evaluations,
+            "newton_decrement": f.decrement,
+            "last_step_in_std": f.last_step,
+            "chi2": self.chi2,
+            "samples": int(np.sum(self.objective.measured)),
+            "seconds": self.seconds,
+            "noise_std": {o: float(s) for o, s in zip(self.objective.setup.model.outputs, self.sigma)},
+            "misfit_over_noise": dict(self.misfit),
+            "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)},
+            "correlation": self.correlation(),
+            "input_noise_widening": {p: round(self.widening(i), 6) for i, p in enumerate(self._parameters())},
+        }
 
 
-def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] = (),
-           substeps: int | None = None, max_iter: int = 60, advice: str = ADVICE,
-           input_noise: Sequence[float] | np.ndarray | None = None, x0: Sequence[float] | np.ndarray | None = None,
-           known: Sequence[str] | None = None) -> Refinement:
+def refine(
+    setup: Setup,
+    data: Data,
+    theta0: np.ndarray,
+    *,
+    held: Sequence[str] = (),
+    substeps: int | None = None,
+    max_iter: int = 60,
+    advice: str = ADVICE,
+    input_noise: Sequence[float] | np.ndarray | None = None,
+    x0: Sequence[float] | np.ndarray | None = None,
+    known: Sequence[str] | None = None,
+) -> Refinement:
     """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
 
     Parameters
@@ -182,7 +224,7 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         raise OptionError(f"known initial states {unknown} are not states of {m.name!r} ({', '.join(m.states)})")
     free = np.r_[[p not in held for p in m.parameters], [s not in known for s in m.states]]
     start = np.zeros(m.nx) if x0 is None else (np.asarray(x0, float) - setup.x0) / obj.scale
-    z = np.r_[phi0, np.where(free[m.np:], start, 0.0)]
+    z = np.r_[phi0, np.where(free[m.np :], start, 0.0)]
     noise = obj.sigma
     iterations = 0
     factor = 1.0  # the common factor of a re-weighting that changed every weight alike (then no refit)
@@ -194,7 +236,7 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
         floor = NOISE_FLOOR * np.nanstd(np.asarray(data.y, float), axis=0)
         # a missing output sample (a zero row of J, a zero residual) counts in no N: N_c is the samples measured
         dof = np.maximum(residual_dof(fit.J[:, free], m.ny) - (len(data.u) - obj.measured), 1.0)
-        sigma = np.maximum(np.sqrt(np.sum(res ** 2, axis=0) / dof), np.maximum(floor, 1e-300))
+        sigma = np.maximum(np.sqrt(np.sum(res**2, axis=0) / dof), np.maximum(floor, 1e-300))
         z = fit.z
         if np.allclose(sigma, obj.sigma, rtol=1e-3):
             break
@@ -208,9 +250,18 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     r, J = obj.evaluate(z)
     # the first-order measures in the final weights: a common factor c divides the decrement by c^2 and, the
     # std growing by c, the last step (in std) by c
-    fit = Fit(z=z, chi2=float(r @ r), iterations=fit.iterations, evaluations=fit.evaluations,
-              decrement=fit.decrement / factor ** 2, last_step=fit.last_step / factor, at_bound=fit.at_bound,
-              stalled=fit.stalled, J=J, r=r)
+    fit = Fit(
+        z=z,
+        chi2=float(r @ r),
+        iterations=fit.iterations,
+        evaluations=fit.evaluations,
+        decrement=fit.decrement / factor**2,
+        last_step=fit.last_step / factor,
+        at_bound=fit.at_bound,
+        stalled=fit.stalled,
+        J=J,
+        r=r,
+    )
     C_free, _ = covariance(J[:, free])
     C = np.zeros((len(z), len(z)))
     C[np.ix_(free, free)] = C_free
@@ -219,15 +270,34 @@ def refine(setup: Setup, data: Data, theta0: np.ndarray, *, held: Sequence[str] 
     theta = obj.theta(z)
     std = np.array([abs(theta[i]) * math.sqrt(C[i, i] + Cu[i, i]) if free[i] else 0.0 for i in range(m.np)])
     res = r.reshape(-1, m.ny) * obj.sigma
-    misfit = {o: float(np.sqrt(np.sum(res[:, j] ** 2) / obj.measured[j]) / noise[j])  # over the samples measured
-              for j, o in enumerate(m.outputs)}
-    converged, reason = _verdict(fit, m.parameters, advice,
-                                 switched=fit.decrement > DECREMENT and _switched(setup, obj, theta, obj.x0(z), data))
-    return Refinement(theta=theta, x0=obj.x0(z), std=std, cov=C, sigma=obj.sigma, misfit=misfit, chi2=fit.chi2,
-                      converged=converged, reason=reason, iterations=iterations,
-                      at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
-                      seconds=time.perf_counter() - t0, held=tuple(held), known=tuple(known), lower=lower, upper=upper,
-                      fit=fit, objective=obj, input_cov=Cu)
+    misfit = {
+        o: float(np.sqrt(np.sum(res[:, j] ** 2) / obj.measured[j]) / noise[j])  # over the samples measured
+        for j, o in enumerate(m.outputs)
+    }
+    converged, reason = _verdict(
+        fit, m.parameters, advice, switched=fit.decrement > DECREMENT and _switched(setup, obj, theta, obj.x0(z), data)
+    )
+    return Refinement(
+        theta=theta,
+        x0=obj.x0(z),
+        std=std,
+        cov=C,
+        sigma=obj.sigma,
+        misfit=misfit,
+        chi2=fit.chi2,
+        converged=converged,
+        reason=reason,
+        iterations=iterations,
+        at_edge=tuple(m.parameters[i] for i in fit.at_bound if i < m.np),
+        seconds=time.perf_counter() - t0,
+        held=tuple(held),
+        known=tuple(known),
+        lower=lower,
+        upper=upper,
+        fit=fit,
+        objective=obj,
+        input_cov=Cu,
+    )
 
 
 def residual_dof(J: np.ndarray, ny: int) -> np.ndarray:
@@ -264,8 +334,9 @@ def residual_dof(J: np.ndarray, ny: int) -> np.ndarray:
     return np.maximum(n - h.reshape(n, ny).sum(axis=0), 1.0)
 
 
-def adequacy_of(ref: Refinement, data: Data, *, level: float = LEVEL,
-                input_noise: Sequence[float] | np.ndarray | None = None) -> Adequacy | None:
+def adequacy_of(
+    ref: Refinement, data: Data, *, level: float = LEVEL, input_noise: Sequence[float] | np.ndarray | None = None
+) -> Adequacy | None:
     """Whether the refined model explains ``data`` to the noise level: the residual tests of
     :mod:`obsnl.identification.adequacy` on the residual the fit minimised (its own integrator).
 
@@ -294,7 +365,7 @@ def adequacy_of(ref: Refinement, data: Data, *, level: float = LEVEL,
     m = ref.objective.setup.model
     n = len(ref.objective.setup.record)
     y = np.asarray(data.y, float).reshape(n, -1)
-    u = np.asarray(data.u, float).reshape(n, -1)[:, :len(m.inputs)]  # a driven model's row starts with the sample
+    u = np.asarray(data.u, float).reshape(n, -1)[:, : len(m.inputs)]  # a driven model's row starts with the sample
     measured = np.sum(np.isfinite(y), axis=0)
     free = np.r_[[p not in ref.held for p in m.parameters], [s not in ref.known for s in m.states]]
     J, r = ref.fit.J, ref.fit.r
@@ -305,9 +376,17 @@ def adequacy_of(ref: Refinement, data: Data, *, level: float = LEVEL,
     setup = ref.objective.setup
     su = setup.noise_std(data)[0] if input_noise is None else np.asarray(input_noise, float)
     try:
-        return adequacy(e, measured=y, inputs=u, outputs=m.outputs, input_names=m.inputs,
-                        dof=np.clip(dof, 1.0, measured), level=level,
-                        input_noise_share=_input_noise_share(ref, data, su, e), noise=periodic_noise(u, y))
+        return adequacy(
+            e,
+            measured=y,
+            inputs=u,
+            outputs=m.outputs,
+            input_names=m.inputs,
+            dof=np.clip(dof, 1.0, measured),
+            level=level,
+            input_noise_share=_input_noise_share(ref, data, su, e),
+            noise=periodic_noise(u, y),
+        )
     except OptionError:  # fewer samples measured than the tests need
         return None
 
@@ -326,13 +405,23 @@ def _input_noise_share(ref: Refinement, data: Data, su: np.ndarray, e: np.ndarra
     rng = np.random.default_rng(0)
 
     def run(uu: np.ndarray) -> np.ndarray:
-        return simulate(m, theta=ref.theta, x0=ref.x0, u=uu, dt=setup.record.dt, substeps=ref.objective.substeps,
-                        refine=setup.refine, locate=True).y
+        return simulate(
+            m,
+            theta=ref.theta,
+            x0=ref.x0,
+            u=uu,
+            dt=setup.record.dt,
+            substeps=ref.objective.substeps,
+            refine=setup.refine,
+            locate=True,
+        ).y
 
     try:
         y0 = run(u)
-        d2 = np.mean([(run(u + rng.standard_normal(u.shape) * su) - y0) ** 2
-                      for _ in range(max(1, min(8, 20000 // len(u))))], axis=0)
+        d2 = np.mean(
+            [(run(u + rng.standard_normal(u.shape) * su) - y0) ** 2 for _ in range(max(1, min(8, 20000 // len(u))))],
+            axis=0,
+        )
     except EstimatorError:
         return {}
     d2 = np.where(np.isfinite(e), d2, np.nan)
@@ -348,8 +437,7 @@ def _switched(setup: Setup, obj: Objective, theta: np.ndarray, x0: np.ndarray, d
     if not g_size or not jumps.any():
         return False
     try:
-        sim = simulate(m, theta=theta, x0=x0, u=data.u, dt=setup.record.dt, substeps=obj.substeps,
-                       refine=setup.refine)
+        sim = simulate(m, theta=theta, x0=x0, u=data.u, dt=setup.record.dt, substeps=obj.substeps, refine=setup.refine)
     except EstimatorError:
         return False
     u = np.asarray(data.u, float).reshape(len(sim.x), -1)
@@ -357,23 +445,33 @@ def _switched(setup: Setup, obj: Objective, theta: np.ndarray, x0: np.ndarray, d
     return bool(np.any(np.diff(np.sign(G), axis=0) != 0))
 
 
-def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE, *, switched: bool = False
-             ) -> tuple[bool, str]:
+def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE, *, switched: bool = False) -> tuple[bool, str]:
     """Converged or not, and why: the reason names only what happened (a switch of the field inside a step only
     where the fitted trajectory crosses a switching function, ``switched``)."""
     edge = [parameters[i] for i in fit.at_bound if i < len(parameters)]
     if fit.decrement > DECREMENT:
         what = "no step lowers the misfit any more" if fit.stalled else f"stopped after {fit.iterations} iterations"
-        rough = ("; the objective may be rough here (the fitted response crosses a switching function: a switch of "
-                 "the field inside a step)" if switched else "")
-        return False, (f"first-order condition not met: a Gauss-Newton step would still lower chi2 by "
-                       f"{fit.decrement:.3g} ({what}){rough}: {advice}")
+        rough = (
+            "; the objective may be rough here (the fitted response crosses a switching function: a switch of "
+            "the field inside a step)"
+            if switched
+            else ""
+        )
+        return False, (
+            f"first-order condition not met: a Gauss-Newton step would still lower chi2 by "
+            f"{fit.decrement:.3g} ({what}){rough}: {advice}"
+        )
     if fit.last_step > STEP_LIMIT:
-        return False, (f"the last step moved a parameter by {fit.last_step:.2g} of its std (more than {STEP_LIMIT:g}); "
-                       f"{advice}")
+        return False, (
+            f"the last step moved a parameter by {fit.last_step:.2g} of its std (more than {STEP_LIMIT:g}); {advice}"
+        )
     if edge:  # the bounded problem's first-order conditions hold there, but a search bound is no maximum
-        return False, (f"{', '.join(edge)} rests on its search bound (a factor 100 from its guess): the likelihood "
-                       f"would rise further beyond it, so this is not its maximum (a true value of 0, a sign or a "
-                       f"guess far off, or a model that does not fit); check the guess and the model")
-    return True, (f"first-order condition met (Newton decrement {fit.decrement:.2g} <= {DECREMENT:g}) and the last "
-                  f"step moved no parameter by more than {STEP_LIMIT:g} of its std")
+        return False, (
+            f"{', '.join(edge)} rests on its search bound (a factor 100 from its guess): the likelihood "
+            f"would rise further beyond it, so this is not its maximum (a true value of 0, a sign or a "
+            f"guess far off, or a model that does not fit); check the guess and the model"
+        )
+    return True, (
+        f"first-order condition met (Newton decrement {fit.decrement:.2g} <= {DECREMENT:g}) and the last "
+        f"step moved no parameter by more than {STEP_LIMIT:g} of its std"
+    )

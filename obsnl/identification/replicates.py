@@ -20,14 +20,23 @@ import numpy as np
 from obsnl._text import quote
 from obsnl.errors import OptionError
 from obsnl.estimation.numeric import NumericModel
+from obsnl.estimation.ukf import UKF
+from obsnl.executor import Executor, built_once
 from obsnl.identification.experiments import Tuning, mc_replicates, mc_spread, mc_truth, monte_carlo
 from obsnl.identification.practical import Spread
 from obsnl.identification.setup import Data, Setup, coordinates, make_filter
-from obsnl.estimation.ukf import UKF
-from obsnl.executor import Executor, built_once
 
-__all__ = ["Recipe", "recipe_of", "rebuild", "replicates_task", "spread_on", "check_replicates", "check_passes",
-           "MAX_REPLICATES", "MAX_PASSES"]
+__all__ = [
+    "Recipe",
+    "recipe_of",
+    "rebuild",
+    "replicates_task",
+    "spread_on",
+    "check_replicates",
+    "check_passes",
+    "MAX_REPLICATES",
+    "MAX_PASSES",
+]
 
 #: The most Monte-Carlo replicates and filter passes of one run (1e8 replicates: a MemoryError after 13 s).
 MAX_REPLICATES, MAX_PASSES = 10_000, 100
@@ -64,9 +73,11 @@ def check_replicates(replicates: int) -> int:
     if not _count(replicates) or replicates < 0 or 0 < replicates < 3:
         raise OptionError(f"replicates= must be 0 (off) or at least 3, got {quote(replicates, 30)}")
     if replicates > MAX_REPLICATES:
-        raise OptionError(f"replicates= {quote(replicates, 30)} is more than {MAX_REPLICATES}: each replicate is "
-                          "one more filter run whose results are kept in memory; a few hundred give a Monte-Carlo "
-                          "interval")
+        raise OptionError(
+            f"replicates= {quote(replicates, 30)} is more than {MAX_REPLICATES}: each replicate is "
+            "one more filter run whose results are kept in memory; a few hundred give a Monte-Carlo "
+            "interval"
+        )
     return replicates
 
 
@@ -96,16 +107,31 @@ def check_passes(passes: int) -> int:
     if not _count(passes) or passes < 1:
         raise OptionError(f"passes= must be at least 1, got {quote(passes, 30)}")
     if passes > MAX_PASSES:
-        raise OptionError(f"passes= {quote(passes, 30)} is more than {MAX_PASSES}: each pass is one more filter run "
-                          "over the whole record; the estimates settle within a few passes")
+        raise OptionError(
+            f"passes= {quote(passes, 30)} is more than {MAX_PASSES}: each pass is one more filter run "
+            "over the whole record; the estimates settle within a few passes"
+        )
     return passes
 
 
 #: Replicates per task (any split gives the same replicates; ``obsnl reproduce`` uses it too).
 CHUNK = 8
 
-_SETUP_FIELDS = ("record", "truth", "guess", "noise", "substeps", "refine", "jit", "y_true", "channel_noise",
-                 "fit_substeps", "locate", "initial", "known")
+_SETUP_FIELDS = (
+    "record",
+    "truth",
+    "guess",
+    "noise",
+    "substeps",
+    "refine",
+    "jit",
+    "y_true",
+    "channel_noise",
+    "fit_substeps",
+    "locate",
+    "initial",
+    "known",
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,12 +171,20 @@ def recipe_of(setup: Setup, method: str, table: Any) -> Recipe:
     """
     source = setup.model.source
     if source is None:
-        raise OptionError(f"the compiled model {setup.model.name!r} was not made by obsnl.estimation.to_casadi; run its "
-                          f"replicates in this process (workers=1)")
+        raise OptionError(
+            f"the compiled model {setup.model.name!r} was not made by obsnl.estimation.to_casadi; run its "
+            f"replicates in this process (workers=1)"
+        )
     model, switching, constants = source
-    return Recipe(model=model, switching=switching, constants=constants,
-                  setup={k: getattr(setup, k) for k in _SETUP_FIELDS}, method=method,
-                  table_json=None if table is None else table.to_json(), points=setup.model.points)
+    return Recipe(
+        model=model,
+        switching=switching,
+        constants=constants,
+        setup={k: getattr(setup, k) for k in _SETUP_FIELDS},
+        method=method,
+        table_json=None if table is None else table.to_json(),
+        points=setup.model.points,
+    )
 
 
 def compiled(recipe: Recipe) -> NumericModel:
@@ -179,16 +213,28 @@ def rebuild(recipe: Recipe) -> tuple[Setup, UKF]:
         from obsnl.observability.contract.branch_table import BranchTable
 
         num = compiled(recipe)
-        setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]),
-                      **recipe.setup)
+        setup = Setup(model=num, coordinates=coordinates(num, "log", reference=recipe.setup["guess"]), **recipe.setup)
         table = None if recipe.table_json is None else BranchTable.from_dict(json.loads(recipe.table_json))
         return setup, make_filter(setup, recipe.method, table=table)
 
     return built_once(recipe, build)
 
 
-def replicates_task(task: tuple[Recipe, tuple[float, ...], np.ndarray, np.ndarray, np.ndarray, Tuning, int, int,
-                                tuple[int, ...], bool, float | None]) -> list[tuple]:
+def replicates_task(
+    task: tuple[
+        Recipe,
+        tuple[float, ...],
+        np.ndarray,
+        np.ndarray,
+        np.ndarray,
+        Tuning,
+        int,
+        int,
+        tuple[int, ...],
+        bool,
+        float | None,
+    ],
+) -> list[tuple]:
     """Replicates ``indices`` of one Monte-Carlo check: ``(log|estimate| or None, held)`` per replicate.
 
     Parameters
@@ -202,14 +248,37 @@ def replicates_task(task: tuple[Recipe, tuple[float, ...], np.ndarray, np.ndarra
     """
     recipe, theta, u, y, y_hat, tuning, passes, seed, indices, fix_flagged, hold_below = task
     setup, filt = rebuild(recipe)
-    return mc_replicates(setup, filt, Data(seed=None, u=u, y=y), y_hat, tuning, passes=passes, seed=seed,
-                         indices=indices, fix_flagged=fix_flagged, hold_below=hold_below)
+    return mc_replicates(
+        setup,
+        filt,
+        Data(seed=None, u=u, y=y),
+        y_hat,
+        tuning,
+        passes=passes,
+        seed=seed,
+        indices=indices,
+        fix_flagged=fix_flagged,
+        hold_below=hold_below,
+    )
 
 
-def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndarray, data: Data, tuning: Tuning, *,
-              method: str, table: Any, passes: int, replicates: int, seed: int,
-              progress: Callable[[], Any] | None = None, fix_flagged: bool = True,
-              hold_below: float | None = None) -> Spread:
+def spread_on(
+    executor: Executor | None,
+    setup: Setup,
+    filt: UKF,
+    theta: np.ndarray,
+    data: Data,
+    tuning: Tuning,
+    *,
+    method: str,
+    table: Any,
+    passes: int,
+    replicates: int,
+    seed: int,
+    progress: Callable[[], Any] | None = None,
+    fix_flagged: bool = True,
+    hold_below: float | None = None,
+) -> Spread:
     """:func:`obsnl.identification.experiments.monte_carlo` with the replicates on ``executor`` (None or one
     worker: this process); the same spread whatever the executor.
 
@@ -249,8 +318,19 @@ def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndar
     Spread
     """
     if executor is None or executor.kind == "serial":
-        return monte_carlo(setup, filt, theta, data, tuning, passes=passes, replicates=replicates, seed=seed,
-                           progress=progress, fix_flagged=fix_flagged, hold_below=hold_below)
+        return monte_carlo(
+            setup,
+            filt,
+            theta,
+            data,
+            tuning,
+            passes=passes,
+            replicates=replicates,
+            seed=seed,
+            progress=progress,
+            fix_flagged=fix_flagged,
+            hold_below=hold_below,
+        )
     if replicates < 3:
         raise OptionError(f"monte_carlo needs at least 3 replicates, got {replicates}")
     recipe = recipe_of(setup, method, table)
@@ -261,8 +341,22 @@ def spread_on(executor: Executor | None, setup: Setup, filt: UKF, theta: np.ndar
                 progress()
         return mc_spread(setup, [], replicates=replicates, seed=seed, simulated=False)
     th = tuple(float(v) for v in theta)
-    tasks = [(recipe, th, data.u, data.y, y_hat, tuning, passes, seed, tuple(range(lo, min(replicates, lo + CHUNK))),
-              fix_flagged, hold_below) for lo in range(0, replicates, CHUNK)]
+    tasks = [
+        (
+            recipe,
+            th,
+            data.u,
+            data.y,
+            y_hat,
+            tuning,
+            passes,
+            seed,
+            tuple(range(lo, min(replicates, lo + CHUNK))),
+            fix_flagged,
+            hold_below,
+        )
+        for lo in range(0, replicates, CHUNK)
+    ]
     done = (lambda i, chunk: [progress() for _ in chunk]) if progress else None
 
     def named(task: tuple) -> str:  # a task's name in a message (a worker that died while running it)

@@ -72,9 +72,14 @@ class ParameterEstimate:
 
     def __repr__(self) -> str:
         value = f"held at {number(self.guess)}" if self.held else f"{number(self.estimate)} (std {number(self.std)})"
-        return one_line("ParameterEstimate", f"{self.name}={value}", "flagged" if self.flagged else "",
-                        f"error={number(self.error)}{' %' if self.error_kind == 'percent' else ''}"
-                        if self.error is not None else "")
+        return one_line(
+            "ParameterEstimate",
+            f"{self.name}={value}",
+            "flagged" if self.flagged else "",
+            f"error={number(self.error)}{' %' if self.error_kind == 'percent' else ''}"
+            if self.error is not None
+            else "",
+        )
 
     def summary(self) -> str:
         """One line of plain text: the estimate, its std and its 95 % interval (or held), the error in a simulation
@@ -83,18 +88,32 @@ class ParameterEstimate:
         if self.interval is not None and not self.held:
             lo, hi = (("open" if v is None else number(v)) for v in self.interval)
             interval = f", 95 % [{lo}, {hi}]"
-        value = (f"held at its guess {number(self.guess)}" if self.held else
-                 f"= {number(self.estimate)} (std {number(self.std)}{interval})")
-        truth = "" if self.true is None else f"; true {number(self.true)}, error {number(self.error)}" + (
-            " %" if self.error_kind == "percent" else "")
+        value = (
+            f"held at its guess {number(self.guess)}"
+            if self.held
+            else f"= {number(self.estimate)} (std {number(self.std)}{interval})"
+        )
+        truth = (
+            ""
+            if self.true is None
+            else f"; true {number(self.true)}, error {number(self.error)}"
+            + (" %" if self.error_kind == "percent" else "")
+        )
         return block(f"{self.name} {value}{truth}" + (f"; flagged: {self.reason}" if self.flagged else ""))
 
     def to_dict(self) -> dict[str, Any]:
-        d = {"name": self.name, "estimate": self.estimate, "std": self.std,
-             "interval": None if self.interval is None else list(self.interval),
-             "interval_method": self.interval_method, "held": self.held,
-             "held_at": self.guess if self.held else None, "flagged": self.flagged, "reason": self.reason,
-             "guess": self.guess}
+        d = {
+            "name": self.name,
+            "estimate": self.estimate,
+            "std": self.std,
+            "interval": None if self.interval is None else list(self.interval),
+            "interval_method": self.interval_method,
+            "held": self.held,
+            "held_at": self.guess if self.held else None,
+            "flagged": self.flagged,
+            "reason": self.reason,
+            "guess": self.guess,
+        }
         if self.true is not None:
             d.update(true=self.true, error=self.error, error_kind=self.error_kind)
         return clean_json(d)
@@ -154,9 +173,16 @@ class Identification:
 
     def __repr__(self) -> str:
         est = names([f"{p.name}={'held' if p.held else number(p.estimate)}" for p in self.parameters], 6)
-        return one_line("Identification", f"model={self.model!r}", f"mode={self.mode!r}", f"method={self.method!r}",
-                        "" if self.adequacy is None else f"adequate={self.adequacy.passed}",
-                        f"converged={self.converged}", f"flagged={names(self.flagged, 4)!r}", f"estimates='{est}'")
+        return one_line(
+            "Identification",
+            f"model={self.model!r}",
+            f"mode={self.mode!r}",
+            f"method={self.method!r}",
+            "" if self.adequacy is None else f"adequate={self.adequacy.passed}",
+            f"converged={self.converged}",
+            f"flagged={names(self.flagged, 4)!r}",
+            f"estimates='{est}'",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: a failed adequacy first, the run, the structural verdict, each parameter's
@@ -165,16 +191,22 @@ class Identification:
         inadequate = self.adequacy is not None and not self.adequacy.passed
         rows = [p.summary().rstrip("\n") for p in self.parameters]
         most = (8 if self.structural is None else 7) - (self.adequacy is not None)  # a dozen lines in all
-        return block(self.adequacy.headline() if self.adequacy is not None and inadequate else "",
-                     f"{self.model}: {self.mode}, {self.method}, {self.passes_run} of {self.passes} passes, "
-                     f"{'converged' if self.converged else 'NOT converged'}"
-                     f"{f' ({self.converged_reason})' if self.converged_reason else ''}, {self.seconds:.3g} s",
-                     self.structural.note() if self.structural is not None else "", *rows[:most],
-                     f"... and {len(rows) - most} more parameters" if len(rows) > most else "",
-                     f"flagged (poorly informed by these data): {names(self.flagged)}" if self.flagged and not
-                     inadequate else f"flagged, every parameter: {INADEQUATE}" if inadequate else "",
-                     f"fit (NRMSE of the model at the estimate): {fit}",
-                     self.adequacy.headline() if self.adequacy is not None and not inadequate else "")
+        return block(
+            self.adequacy.headline() if self.adequacy is not None and inadequate else "",
+            f"{self.model}: {self.mode}, {self.method}, {self.passes_run} of {self.passes} passes, "
+            f"{'converged' if self.converged else 'NOT converged'}"
+            f"{f' ({self.converged_reason})' if self.converged_reason else ''}, {self.seconds:.3g} s",
+            self.structural.note() if self.structural is not None else "",
+            *rows[:most],
+            f"... and {len(rows) - most} more parameters" if len(rows) > most else "",
+            f"flagged (poorly informed by these data): {names(self.flagged)}"
+            if self.flagged and not inadequate
+            else f"flagged, every parameter: {INADEQUATE}"
+            if inadequate
+            else "",
+            f"fit (NRMSE of the model at the estimate): {fit}",
+            self.adequacy.headline() if self.adequacy is not None and not inadequate else "",
+        )
 
     @property
     def held(self) -> tuple[str, ...]:
@@ -219,8 +251,10 @@ class Identification:
 
         model = self.fitted_model if model is None else model
         if model is None:
-            raise OptionError(f"this result of {self.model!r} keeps no model (it was not made by obsnl.identify); pass "
-                              f"model=, the model identified")
+            raise OptionError(
+                f"this result of {self.model!r} keeps no model (it was not made by obsnl.identify); pass "
+                f"model=, the model identified"
+            )
         # a parameter's estimate is None exactly where it was held at its guess
         values = {p.name: p.guess if p.held or p.estimate is None else p.estimate for p in self.parameters}
         kinds = intersample if intersample is not None else fit_kinds(self.data)
@@ -284,8 +318,18 @@ class Identification:
             interval = d.pop("interval") or [None, None]
             d.pop("held_at")
             rows.append({**d, "interval_low": interval[0], "interval_high": interval[1]})
-        cols = ["name", "estimate", "std", "interval_low", "interval_high", "interval_method", "held", "flagged",
-                "reason", "guess"] + [c for c in ("true", "error", "error_kind") if any(c in r for r in rows)]
+        cols = [
+            "name",
+            "estimate",
+            "std",
+            "interval_low",
+            "interval_high",
+            "interval_method",
+            "held",
+            "flagged",
+            "reason",
+            "guess",
+        ] + [c for c in ("true", "error", "error_kind") if any(c in r for r in rows)]
         frame = pd.DataFrame(rows, columns=cols).set_index("name")
         for c in ("estimate", "std", "interval_low", "interval_high", "guess", "true", "error"):
             if c in frame:
@@ -298,22 +342,38 @@ class Identification:
 
     def to_dict(self) -> dict[str, Any]:
         modal = self.modal_at_rest
-        return clean_json({
-            "schema": "obsnl.identify/1", "model": self.model, "mode": self.mode, "method": self.method,
-            "passes": self.passes, "passes_run": self.passes_run, "seconds": self.seconds, "seed": self.seed,
-            "compiled": self.compiled, "held": len(self.held), "flagged": list(self.flagged),
-            "parameters": [p.to_dict() for p in self.parameters], "fit": dict(self.fit),
-            "converged": self.converged, "converged_reason": self.converged_reason,
-            "refinement": dict(self.refinement), "profiles": [p.to_dict() for p in self.profiles],
-            "output_misfit": self.output_misfit, "noise": dict(self.noise),
-            "tuning": self.tuning.to_dict(),
-            "tuning_scores": [{**t.to_dict(), "output_misfit": s} for t, s in self.tuning_scores],
-            "data": dict(self.data), "structural": {} if self.structural is None else self.structural.to_dict(),
-            "repairs": self.repairs,
-            "practical_identifiability": {} if self.practical is None else self.practical.to_dict(),
-            "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
-            "modal": None if modal is None else modal.to_dict(),
-            "assumptions": list(self.assumptions)})
+        return clean_json(
+            {
+                "schema": "obsnl.identify/1",
+                "model": self.model,
+                "mode": self.mode,
+                "method": self.method,
+                "passes": self.passes,
+                "passes_run": self.passes_run,
+                "seconds": self.seconds,
+                "seed": self.seed,
+                "compiled": self.compiled,
+                "held": len(self.held),
+                "flagged": list(self.flagged),
+                "parameters": [p.to_dict() for p in self.parameters],
+                "fit": dict(self.fit),
+                "converged": self.converged,
+                "converged_reason": self.converged_reason,
+                "refinement": dict(self.refinement),
+                "profiles": [p.to_dict() for p in self.profiles],
+                "output_misfit": self.output_misfit,
+                "noise": dict(self.noise),
+                "tuning": self.tuning.to_dict(),
+                "tuning_scores": [{**t.to_dict(), "output_misfit": s} for t, s in self.tuning_scores],
+                "data": dict(self.data),
+                "structural": {} if self.structural is None else self.structural.to_dict(),
+                "repairs": self.repairs,
+                "practical_identifiability": {} if self.practical is None else self.practical.to_dict(),
+                "adequacy": None if self.adequacy is None else self.adequacy.to_dict(),
+                "modal": None if modal is None else modal.to_dict(),
+                "assumptions": list(self.assumptions),
+            }
+        )
 
 
 def error_of(estimate: float | None, true: float) -> tuple[float | None, str | None]:

@@ -38,19 +38,28 @@ from obsnl.estimation.measured import NOISE_FLOOR, UPPER_BOUND, Measured, estima
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import Trajectory
 from obsnl.executor import Executor
-from obsnl.identification.experiments import Tuning, make_filter, run_passes
 from obsnl.identification.adequacy import FLAG_REASON
-from obsnl.identification.refine import Refinement, adequacy_of, refine
+from obsnl.identification.experiments import Tuning, make_filter, run_passes
 from obsnl.identification.practical import practical_identifiability
 from obsnl.identification.profile import THRESHOLD, Profile, judge, profiles
+from obsnl.identification.refine import Refinement, adequacy_of, refine
 from obsnl.identification.replicates import check_passes, check_replicates, spread_on
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
 from obsnl.identification.setup import MIN_NOISE, Data, Setup, coordinates, free_start, output_misfit
 from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = [
-    "check_replicates", "check_unknowns", "identify_measured", "Identification", "ParameterEstimate", "MEASURED_GRID",
-    "FIT_SUBSTEPS", "HOLD_BELOW", "RANDOM_INPUT", "clean_json", "error_of",
+    "check_replicates",
+    "check_unknowns",
+    "identify_measured",
+    "Identification",
+    "ParameterEstimate",
+    "MEASURED_GRID",
+    "FIT_SUBSTEPS",
+    "HOLD_BELOW",
+    "RANDOM_INPUT",
+    "clean_json",
+    "error_of",
 ]
 
 #: Parameters flagged as poorly informed are held at their guess after the first pass whose output misfit is
@@ -64,25 +73,47 @@ RANDOM_INPUT = 0.5
 FIT_SUBSTEPS = 32
 #: Tuning grid of measured data (prior std of the log-parameters, state noise factor): 4 configurations,
 #: each run for one pass; the smallest free-run output misfit wins (no true value used).
-MEASURED_GRID: tuple[Tuning, ...] = (Tuning(0.3, 0.0, 1.0), Tuning(0.5, 0.0, 1.0), Tuning(0.3, 0.0, 100.0),
-                                     Tuning(0.5, 0.0, 100.0))
+MEASURED_GRID: tuple[Tuning, ...] = (
+    Tuning(0.3, 0.0, 1.0),
+    Tuning(0.5, 0.0, 1.0),
+    Tuning(0.3, 0.0, 100.0),
+    Tuning(0.5, 0.0, 100.0),
+)
 
 
-def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, grid: Sequence[Tuning], passes: int,
-         replicates: int, seed: int, progress: Callable[[], Any] | None, hold: bool = False,
-         executor: Executor | None = None) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
+def _run(
+    setup: Setup,
+    data: Data,
+    *,
+    method: str,
+    table: BranchTable | None,
+    grid: Sequence[Tuning],
+    passes: int,
+    replicates: int,
+    seed: int,
+    progress: Callable[[], Any] | None,
+    hold: bool = False,
+    executor: Executor | None = None,
+) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
     """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner."""
     check_replicates(replicates)
     check_passes(passes)
     if method == "dukf" and table is None:
-        raise OptionError("method='dukf' needs table= (a branch table: write one with "
-                          "`obsnl analyze MODEL --format json-table`)")
+        raise OptionError(
+            "method='dukf' needs table= (a branch table: write one with `obsnl analyze MODEL --format json-table`)"
+        )
     for t in grid:  # NaN fails every comparison, so it is refused too
-        for option, value, ok, rule in (("s0=", t.s0, 1e-6 <= t.s0 <= 10.0, "a number from 1e-6 to 10 (the "
-                                          "prior std of log-parameters: 10 already spans a factor e**10)"),
-                                         ("q_theta=", t.q_theta, 0 <= t.q_theta < np.inf, "a number >= 0"),
-                                         ("q_x=", t.q_x, 0 <= t.q_x < np.inf, "a number >= 0"),
-                                         ("gate=", t.gate, t.gate > 0, "a number > 0 (inf: off)")):
+        for option, value, ok, rule in (
+            (
+                "s0=",
+                t.s0,
+                1e-6 <= t.s0 <= 10.0,
+                "a number from 1e-6 to 10 (the prior std of log-parameters: 10 already spans a factor e**10)",
+            ),
+            ("q_theta=", t.q_theta, 0 <= t.q_theta < np.inf, "a number >= 0"),
+            ("q_x=", t.q_x, 0 <= t.q_x < np.inf, "a number >= 0"),
+            ("gate=", t.gate, t.gate > 0, "a number > 0 (inf: off)"),
+        ):
             if not ok:
                 raise OptionError(f"{option} must be {rule}, got {value!r}")
     filt = make_filter(setup, method, table=table)
@@ -99,24 +130,46 @@ def _run(setup: Setup, data: Data, *, method: str, table: BranchTable | None, gr
             if progress:
                 progress()
     tuning = min(scores, key=lambda s: s[1])[0] if scores else grid[0]
-    trs, held = run_passes(setup, filt, data, tuning, passes=passes, progress=progress, hold_below=HOLD_BELOW,
-                           fix_flagged=hold)
+    trs, held = run_passes(
+        setup, filt, data, tuning, passes=passes, progress=progress, hold_below=HOLD_BELOW, fix_flagged=hold
+    )
     theta = trs[-1].theta[-1]
     misfit = output_misfit(setup, theta, data)
     prac = practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit)
     if replicates and not prac.inconclusive:
-        prac = prac.with_spread(spread_on(executor, setup, filt, theta, data, tuning, method=method, table=table,
-                                          passes=passes, replicates=replicates, seed=seed, progress=progress,
-                                          fix_flagged=hold, hold_below=HOLD_BELOW))
+        prac = prac.with_spread(
+            spread_on(
+                executor,
+                setup,
+                filt,
+                theta,
+                data,
+                tuning,
+                method=method,
+                table=table,
+                passes=passes,
+                replicates=replicates,
+                seed=seed,
+                progress=progress,
+                fix_flagged=hold,
+                hold_below=HOLD_BELOW,
+            )
+        )
     elif replicates and progress:  # not run (the estimate diverged): the count still ends at its total
         for _ in range(replicates):
             progress()
     return tuning, tuple(scores), trs, held, prac, misfit
 
 
-def _refine(setup: Setup, data: Data, theta: np.ndarray, held: Sequence[str],
-            progress: Callable[[], Any] | None, executor: Executor | None = None,
-            input_noise: np.ndarray | None = None) -> tuple[Refinement | None, tuple[Profile, ...], str]:
+def _refine(
+    setup: Setup,
+    data: Data,
+    theta: np.ndarray,
+    held: Sequence[str],
+    progress: Callable[[], Any] | None,
+    executor: Executor | None = None,
+    input_noise: np.ndarray | None = None,
+) -> tuple[Refinement | None, tuple[Profile, ...], str]:
     """The maximum-likelihood refinement and the profiles (on ``executor``); ``(None, (), why)`` where it could
     not run. ``input_noise``: the inputs' noise std propagated into the std (default: the setup's levels).
 
@@ -129,17 +182,24 @@ def _refine(setup: Setup, data: Data, theta: np.ndarray, held: Sequence[str],
             progress()
         profs = profiles(ref, progress=progress, executor=executor)
         # a profile that found a better point gives its chi2 and its coordinates together
-        best = min(((p.better, p.name, p.better_z) for p in profs if p.better is not None and p.better_z is not None),
-                   key=lambda b: b[0], default=None)
+        best = min(
+            ((p.better, p.name, p.better_z) for p in profs if p.better is not None and p.better_z is not None),
+            key=lambda b: b[0],
+            default=None,
+        )
         if best is None:
             return ref, profs, ""
         chi2, name, better_z = best
         z = np.asarray(better_z, float)
-        again = refine(setup, data, ref.objective.theta(z), held=held, input_noise=input_noise,
-                       x0=ref.objective.x0(z))
-        return again, profiles(again, executor=executor), (
-            f"the profile of {name} found a point {ref.chi2 - chi2:.3g} lower in chi2 than the first "
-            f"optimum: the fit restarted from it and the profiles were computed again")
+        again = refine(setup, data, ref.objective.theta(z), held=held, input_noise=input_noise, x0=ref.objective.x0(z))
+        return (
+            again,
+            profiles(again, executor=executor),
+            (
+                f"the profile of {name} found a point {ref.chi2 - chi2:.3g} lower in chi2 than the first "
+                f"optimum: the fit restarted from it and the profiles were computed again"
+            ),
+        )
     except EstimatorError as exc:
         return None, (), f"the likelihood refinement could not run: {exc}"
 
@@ -148,27 +208,49 @@ def _held_bias(ref: Refinement, names: Sequence[str], h: int) -> str:
     """What holding parameter ``h`` 10 % off does to the free estimates (linearised at the estimate)."""
     J = ref.fit.J
     states = ref.objective.setup.model.states
-    free = [i for i in range(J.shape[1]) if i != h and (names[i] not in ref.held if i < len(names) else
-                                                        states[i - len(names)] not in ref.known)]
+    free = [
+        i
+        for i in range(J.shape[1])
+        if i != h and (names[i] not in ref.held if i < len(names) else states[i - len(names)] not in ref.known)
+    ]
     Jf = J[:, free]
     shift = -np.linalg.lstsq(Jf, J[:, h], rcond=None)[0] * math.log(1.1)
-    effects = sorted(((abs(s), names[i], 100 * math.expm1(s)) for i, s in zip(free, shift) if i < len(names)),
-                     reverse=True)[:3]
+    effects = sorted(
+        ((abs(s), names[i], 100 * math.expm1(s)) for i, s in zip(free, shift) if i < len(names)), reverse=True
+    )[:3]
     said = ", ".join(f"{n} by {e:+.2g} %" for _, n, e in effects)
     return f"held 10 % off, it would shift {said} (linearised at the estimate)" if said else ""
 
 
-def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tuning: Tuning, scores: tuple,
-            trs: tuple[Trajectory, ...], held: tuple[str, ...], prac: Any, misfit: float, noise: Mapping,
-            data_dict: Mapping, assumptions: Sequence[str], seed: int | None, refined: bool = True,
-            progress: Callable[[], Any] | None = None, executor: Executor | None = None,
-            input_noise: np.ndarray | None = None) -> Identification:
+def _result(
+    setup: Setup,
+    data: Data,
+    *,
+    mode: str,
+    method: str,
+    passes: int,
+    tuning: Tuning,
+    scores: tuple,
+    trs: tuple[Trajectory, ...],
+    held: tuple[str, ...],
+    prac: Any,
+    misfit: float,
+    noise: Mapping,
+    data_dict: Mapping,
+    assumptions: Sequence[str],
+    seed: int | None,
+    refined: bool = True,
+    progress: Callable[[], Any] | None = None,
+    executor: Executor | None = None,
+    input_noise: np.ndarray | None = None,
+) -> Identification:
     m = setup.model
     theta = trs[-1].theta[-1]
-    var = np.diag(trs[-1].P[-1])[m.nx:]
+    var = np.diag(trs[-1].P[-1])[m.nx :]
     t0 = time.perf_counter()
-    ref, profs, failed = _refine(setup, data, theta, held, progress, executor, input_noise) if refined else (
-        None, (), "")
+    ref, profs, failed = (
+        _refine(setup, data, theta, held, progress, executor, input_noise) if refined else (None, (), "")
+    )
     restarted = failed if ref is not None else ""  # with a refinement, the third element says a restart
     refine_seconds = time.perf_counter() - t0
     by_name = {pr.name: pr for pr in profs}
@@ -184,9 +266,11 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
         if ref is not None:
             flag = judge(prof) if prof is not None else None
             if p in ref.at_edge:
-                flag = ("its estimate rests on the edge of the valid region (a factor 100 from its guess): the "
-                        "likelihood would rise further beyond it (a true value of 0, or a far guess)"
-                        + (f"; {flag}" if flag else ""))
+                flag = (
+                    "its estimate rests on the edge of the valid region (a factor 100 from its guess): the "
+                    "likelihood would rise further beyond it (a true value of 0, or a far guess)"
+                    + (f"; {flag}" if flag else "")
+                )
             if flag:
                 why.append(flag)
             if is_held:
@@ -199,55 +283,104 @@ def _result(setup: Setup, data: Data, *, mode: str, method: str, passes: int, tu
             v = float(var[i]) if len(var) == m.np else math.nan
             std = None if is_held or not 0 < v < math.inf else float(abs(theta[i]) * math.sqrt(v))
             if not is_held and len(var) == m.np and std is None:  # a zero std would claim certainty
-                why.append(f"no std: the filter's posterior variance of log|{p}| is {v:.3g} (its covariance "
-                           f"collapsed after {sum(tr.total_repairs for tr in trs)} repairs)")
+                why.append(
+                    f"no std: the filter's posterior variance of log|{p}| is {v:.3g} (its covariance "
+                    f"collapsed after {sum(tr.total_repairs for tr in trs)} repairs)"
+                )
             flagged = is_held or p in prac.flagged
         est = None if is_held else float(theta[i])
         err = kind = tru = None
         if truth is not None:
             tru = float(truth[i])
             err, kind = error_of(est, tru)
-        params.append(ParameterEstimate(name=p, guess=float(setup.guess[p]), estimate=est, std=std, held=is_held,
-                                        flagged=flagged, reason="; ".join(w for w in why if w) or None,
-                                        true=tru, error=err, error_kind=kind,
-                                        interval=None if prof is None or prof.shape in _NO_INTERVAL else prof.interval,
-                                        interval_method=None if prof is None else
-                                        f"profile likelihood, 95 % (chi2(1) threshold 3.84{_widened(prof)}), {prof.shape}"))
+        params.append(
+            ParameterEstimate(
+                name=p,
+                guess=float(setup.guess[p]),
+                estimate=est,
+                std=std,
+                held=is_held,
+                flagged=flagged,
+                reason="; ".join(w for w in why if w) or None,
+                true=tru,
+                error=err,
+                error_kind=kind,
+                interval=None if prof is None or prof.shape in _NO_INTERVAL else prof.interval,
+                interval_method=None
+                if prof is None
+                else f"profile likelihood, 95 % (chi2(1) threshold 3.84{_widened(prof)}), {prof.shape}",
+            )
+        )
     try:
-        y_fit = simulate(m, theta=theta, x0=x0, u=data.u, dt=setup.record.dt,
-                         substeps=setup.fit_substeps or setup.substeps, refine=setup.refine).y
+        y_fit = simulate(
+            m,
+            theta=theta,
+            x0=x0,
+            u=data.u,
+            dt=setup.record.dt,
+            substeps=setup.fit_substeps or setup.substeps,
+            refine=setup.refine,
+        ).y
         y = np.asarray(data.y, float).reshape(len(y_fit), -1)
-        rms = lambda a: np.sqrt(np.nanmean(a ** 2, axis=0))  # noqa: E731 - over the samples measured
+        rms = lambda a: np.sqrt(np.nanmean(a**2, axis=0))  # noqa: E731 - over the samples measured
         per = rms(y_fit - y) / np.maximum(rms(y), 1e-300)
     except EstimatorError:
         y_fit = np.full(np.shape(setup.y_true), np.nan)
         per = np.full(m.ny, np.inf)
     if ref is not None:
-        misfit = float(np.sqrt(np.mean(per ** 2)))
+        misfit = float(np.sqrt(np.mean(per**2)))
         better = [pr.name for pr in profs if pr.better is not None]
         converged, reason = ref.converged and not better, "; ".join(w for w in (restarted, ref.reason) if w)
         if better:
-            reason = (f"the profile of {better[0]} found a lower chi2 than the estimate" + (
-                " again after the fit restarted from the first better point" if restarted else "") +
-                      ": it is not the maximum of the likelihood; no interval is claimed")
+            reason = (
+                f"the profile of {better[0]} found a lower chi2 than the estimate"
+                + (" again after the fit restarted from the first better point" if restarted else "")
+                + ": it is not the maximum of the likelihood; no interval is claimed"
+            )
     elif refined:
         converged, reason = False, failed
     else:
-        converged, reason = False, ("not checked: the maximum-likelihood refinement was skipped (refine=False), whose "
-                                    "first-order conditions define convergence")
+        converged, reason = (
+            False,
+            (
+                "not checked: the maximum-likelihood refinement was skipped (refine=False), whose "
+                "first-order conditions define convergence"
+            ),
+        )
     adequate = None if ref is None else adequacy_of(ref, data, input_noise=input_noise)
     if adequate is not None and not adequate.passed:  # every std and interval assumes a right model
-        params = [replace_field(p, flagged=True, reason="; ".join(w for w in (FLAG_REASON, p.reason) if w))
-                  for p in params]
+        params = [
+            replace_field(p, flagged=True, reason="; ".join(w for w in (FLAG_REASON, p.reason) if w)) for p in params
+        ]
     return Identification(
-        model=m.name, mode=mode, method=method, parameters=tuple(params), adequacy=adequate,
-        fit={o: float(100 * v) for o, v in zip(m.outputs, per)}, passes=passes, passes_run=len(trs),
-        seconds=float(sum(t.seconds for t in trs)) + refine_seconds, converged=converged,
-        output_misfit=misfit if math.isfinite(misfit) else None, noise=noise, tuning=tuning, tuning_scores=scores,
-        data=data_dict, practical=prac, assumptions=tuple(assumptions),
-        repairs=int(sum(t.total_repairs for t in trs)), seed=seed, traces=trs, t=setup.record.t,
-        y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1), y_fit=y_fit, outputs=m.outputs,
-        converged_reason=reason, refinement={} if ref is None else ref.to_dict(), profiles=profs)
+        model=m.name,
+        mode=mode,
+        method=method,
+        parameters=tuple(params),
+        adequacy=adequate,
+        fit={o: float(100 * v) for o, v in zip(m.outputs, per)},
+        passes=passes,
+        passes_run=len(trs),
+        seconds=float(sum(t.seconds for t in trs)) + refine_seconds,
+        converged=converged,
+        output_misfit=misfit if math.isfinite(misfit) else None,
+        noise=noise,
+        tuning=tuning,
+        tuning_scores=scores,
+        data=data_dict,
+        practical=prac,
+        assumptions=tuple(assumptions),
+        repairs=int(sum(t.total_repairs for t in trs)),
+        seed=seed,
+        traces=trs,
+        t=setup.record.t,
+        y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1),
+        y_fit=y_fit,
+        outputs=m.outputs,
+        converged_reason=reason,
+        refinement={} if ref is None else ref.to_dict(),
+        profiles=profs,
+    )
 
 
 #: Profile shapes that claim no interval (none is printed or written for them).
@@ -260,42 +393,48 @@ def _widened(prof: Profile) -> str:
     return f" x {w:.4g}^2 for the noise of the measured inputs" if round(w, 4) > 1 else ""
 
 
-_COMMON = ("the model is right: its equations describe the structure, its known constants are right",
-           "measurement noise is white, Gaussian and independent between channels; its level per channel is "
-           "given under 'noise'",
-           "parameters are estimated as log|theta| with the sign of the guess; each stays within a factor 100 of "
-           "its guess",
-           f"held: only with hold=True: after the first pass whose output misfit is at most {HOLD_BELOW:g}x the "
-           "noise level, the parameters flagged there are put back to their guess and no longer estimated")
-_FILTER_ONLY = ("std: the filter's posterior std after the last pass (optimistic: the record is reused over passes)",
-                "converged: not checked without the likelihood refinement (refine=False)",
-                "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
-                "posterior against its prior, and the Monte-Carlo spread when replicates= is given)")
-_REFINED = ("the filter's estimate starts a maximum-likelihood fit (output error: the model simulated from an "
-            "estimated initial state under the measured input; Levenberg-Marquardt with exact derivatives); the "
-            "noise std per output is re-estimated from the fit's residuals",
-            "std: from the Fisher information (Gauss-Newton Hessian) at the maximum-likelihood estimate, plus the "
-            "noise of the measured inputs (its level under 'noise') propagated to first order through the exact "
-            "sensitivity of the fit to every input sample",
-            "interval: 95 % profile-likelihood interval (Raue et al. 2009, chi2(1) threshold 3.84, raised by the "
-            "square of the inputs' widening of the std), each other parameter and the initial state re-optimised "
-            "at every profile point",
-            "converged: the first-order condition holds (Newton decrement <= 0.01), the last step moved no "
-            "parameter by more than 0.1 of its std, and no parameter rests on its search bound",
-            "adequacy: the residuals are tested for whiteness, for correlation with each input and for a misfit above "
-            "the noise level estimated from the raw record, at the 1 % level over all tests (under 'adequacy'); when "
-            "they fail, every parameter is flagged: its std and interval assume a right model",
-            "flagged: its 95 % interval is wider than +-5 % of the estimate, or open, or the profile is flat",
-            f"fit: NRMSE of the model simulated at the estimate ({FIT_SUBSTEPS} RK4 substeps per sample) from the "
-            "estimated initial state, against the measurement")
+_COMMON = (
+    "the model is right: its equations describe the structure, its known constants are right",
+    "measurement noise is white, Gaussian and independent between channels; its level per channel is "
+    "given under 'noise'",
+    "parameters are estimated as log|theta| with the sign of the guess; each stays within a factor 100 of its guess",
+    f"held: only with hold=True: after the first pass whose output misfit is at most {HOLD_BELOW:g}x the "
+    "noise level, the parameters flagged there are put back to their guess and no longer estimated",
+)
+_FILTER_ONLY = (
+    "std: the filter's posterior std after the last pass (optimistic: the record is reused over passes)",
+    "converged: not checked without the likelihood refinement (refine=False)",
+    "flagged: these data cannot pin the parameter within 5 % at 3 sigma (Cramér-Rao bound, the filter's "
+    "posterior against its prior, and the Monte-Carlo spread when replicates= is given)",
+)
+_REFINED = (
+    "the filter's estimate starts a maximum-likelihood fit (output error: the model simulated from an "
+    "estimated initial state under the measured input; Levenberg-Marquardt with exact derivatives); the "
+    "noise std per output is re-estimated from the fit's residuals",
+    "std: from the Fisher information (Gauss-Newton Hessian) at the maximum-likelihood estimate, plus the "
+    "noise of the measured inputs (its level under 'noise') propagated to first order through the exact "
+    "sensitivity of the fit to every input sample",
+    "interval: 95 % profile-likelihood interval (Raue et al. 2009, chi2(1) threshold 3.84, raised by the "
+    "square of the inputs' widening of the std), each other parameter and the initial state re-optimised "
+    "at every profile point",
+    "converged: the first-order condition holds (Newton decrement <= 0.01), the last step moved no "
+    "parameter by more than 0.1 of its std, and no parameter rests on its search bound",
+    "adequacy: the residuals are tested for whiteness, for correlation with each input and for a misfit above "
+    "the noise level estimated from the raw record, at the 1 % level over all tests (under 'adequacy'); when "
+    "they fail, every parameter is flagged: its std and interval assume a right model",
+    "flagged: its 95 % interval is wider than +-5 % of the estimate, or open, or the profile is flat",
+    f"fit: NRMSE of the model simulated at the estimate ({FIT_SUBSTEPS} RK4 substeps per sample) from the "
+    "estimated initial state, against the measurement",
+)
 
 
 def _assumptions(refined: bool, *more: str) -> tuple[str, ...]:
     return _COMMON + (_REFINED if refined else _FILTER_ONLY) + more
 
 
-def check_unknowns(parameters: Sequence[str], states: Sequence[str], data: Measured, *,
-                   known: Sequence[str] = ()) -> None:
+def check_unknowns(
+    parameters: Sequence[str], states: Sequence[str], data: Measured, *, known: Sequence[str] = ()
+) -> None:
     """Refuse, before any work, a record with no more output samples measured than the fit's unknowns.
 
     The fit estimates every parameter and every initial state not declared known; with as many unknowns as samples
@@ -329,19 +468,34 @@ def check_unknowns(parameters: Sequence[str], states: Sequence[str], data: Measu
     unknowns = len(parameters) + len(free)
     seen = int(np.sum(data.present))
     if unknowns >= seen:
-        raise DataError(f"{unknowns} unknowns ({len(parameters)} parameters, {len(free)} initial states) against "
-                        f"{seen} output samples measured: the fit could pass through every sample, so nothing could "
-                        f"be said of its precision; give a record of more than {unknowns} output samples (or declare "
-                        f"known initial states, or fewer parameters)")
+        raise DataError(
+            f"{unknowns} unknowns ({len(parameters)} parameters, {len(free)} initial states) against "
+            f"{seen} output samples measured: the fit could pass through every sample, so nothing could "
+            f"be said of its precision; give a record of more than {unknowns} output samples (or declare "
+            f"known initial states, or fewer parameters)"
+        )
 
 
-def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, float], method: str = "ukf",
-                      table: BranchTable | None = None, noise: Mapping[str, float] | None = None,
-                      grid: Sequence[Tuning] = MEASURED_GRID, passes: int = 3, replicates: int = 0, seed: int = 0,
-                      jit: bool = False, hold: bool = False, progress: Callable[[], Any] | None = None,
-                      executor: Executor | None = None, refined: bool = True,
-                      intersample: Mapping[str, str] | None = None,
-                      known_initial: Mapping[str, float] | None = None) -> Identification:
+def identify_measured(
+    num: NumericModel,
+    data: Measured,
+    *,
+    guess: Mapping[str, float],
+    method: str = "ukf",
+    table: BranchTable | None = None,
+    noise: Mapping[str, float] | None = None,
+    grid: Sequence[Tuning] = MEASURED_GRID,
+    passes: int = 3,
+    replicates: int = 0,
+    seed: int = 0,
+    jit: bool = False,
+    hold: bool = False,
+    progress: Callable[[], Any] | None = None,
+    executor: Executor | None = None,
+    refined: bool = True,
+    intersample: Mapping[str, str] | None = None,
+    known_initial: Mapping[str, float] | None = None,
+) -> Identification:
     """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
 
     Parameters
@@ -399,31 +553,44 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
         Data whose channels are not the model's.
     """
     if data.inputs != num.inputs or data.outputs != num.outputs:
-        raise OptionError(f"the data have inputs {list(data.inputs)} and outputs {list(data.outputs)}, model "
-                          f"{num.name!r} has {list(num.inputs)} and {list(num.outputs)}")
+        raise OptionError(
+            f"the data have inputs {list(data.inputs)} and outputs {list(data.outputs)}, model "
+            f"{num.name!r} has {list(num.inputs)} and {list(num.outputs)}"
+        )
     known = dict(known_initial or {})
     data.record()  # fewer samples than MIN_SAMPLES is named first
     check_unknowns(num.parameters, num.states, data, known=tuple(known))  # before the noise levels and the filter
     missing = [q for q in num.parameters if q not in guess]
     if missing:
-        raise OptionError(f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
-                          f"[guess] table in the model file")
+        raise OptionError(
+            f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
+            f"[guess] table in the model file"
+        )
     for j, c in enumerate(data.outputs):
         seen = data.y[data.present[:, j], j]  # the samples measured
         if seen.size and np.all(seen == seen[0]):
-            raise DataError(f"output {c!r} of {data.name!r} is constant ({float(seen[0])!r} throughout): there "
-                            f"is no response to identify from; check the column")
+            raise DataError(
+                f"output {c!r} of {data.name!r} is constant ({float(seen[0])!r} throughout): there "
+                f"is no response to identify from; check the column"
+            )
     given = dict(noise or {})
     unknown = sorted(set(given) - set(num.inputs) - set(num.outputs))
     if unknown:  # a misspelt channel is refused, never ignored
-        raise OptionError(f"noise given for {unknown[0]!r}, which is not an input or output of {num.name!r} "
-                          f"({', '.join(num.inputs + num.outputs)}); check the spelling")
-    bad = [f"{k}={v!r}" for k, v in given.items()
-           if isinstance(v, bool) or not (isinstance(v, (int, float)) and MIN_NOISE <= v < 1)]
+        raise OptionError(
+            f"noise given for {unknown[0]!r}, which is not an input or output of {num.name!r} "
+            f"({', '.join(num.inputs + num.outputs)}); check the spelling"
+        )
+    bad = [
+        f"{k}={v!r}"
+        for k, v in given.items()
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and MIN_NOISE <= v < 1)
+    ]
     if bad:
-        raise OptionError(f"the noise= ratio {bad[0]} must lie in [{MIN_NOISE:g}, 1) (noise to signal RMS; below "
-                          f"{MIN_NOISE:g} double precision cannot resolve it: for noise-free data give the "
-                          f"integrator's accuracy, e.g. 1e-6)")
+        raise OptionError(
+            f"the noise= ratio {bad[0]} must lie in [{MIN_NOISE:g}, 1) (noise to signal RMS; below "
+            f"{MIN_NOISE:g} double precision cannot resolve it: for noise-free data give the "
+            f"integrator's accuracy, e.g. 1e-6)"
+        )
     levels: dict[str, dict[str, Any]] = {}
     for names, arr in ((num.inputs, data.u), (num.outputs, data.y)):
         for j, c in enumerate(names):
@@ -431,68 +598,142 @@ def identify_measured(num: NumericModel, data: Measured, *, guess: Mapping[str, 
                 levels[c] = {"ratio": float(given[c]), "source": "given"}
             else:
                 r, note = estimate_noise(arr[:, j])
-                levels[c] = {"ratio": max(r, NOISE_FLOOR), "estimate": r, "upper_bound": UPPER_BOUND in note,
-                             "source": f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else "")}
+                levels[c] = {
+                    "ratio": max(r, NOISE_FLOOR),
+                    "estimate": r,
+                    "upper_bound": UPPER_BOUND in note,
+                    "source": f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else ""),
+                }
                 if c in num.inputs and r >= RANDOM_INPUT:  # a random excitation: its samples differ as noise does
-                    levels[c] = {"ratio": NOISE_FLOOR, "estimate": r, "upper_bound": True, "source": (
-                        f"estimated {note}; that is {100 * r:.2g} % of the input's RMS: its samples differ as white "
-                        f"noise does (a random excitation, not oversampled), so this is only an upper bound and the "
-                        f"input is taken as exact (the filter gets the floor {NOISE_FLOOR:g}); give its noise level "
-                        f"to count it")}
+                    levels[c] = {
+                        "ratio": NOISE_FLOOR,
+                        "estimate": r,
+                        "upper_bound": True,
+                        "source": (
+                            f"estimated {note}; that is {100 * r:.2g} % of the input's RMS: its samples differ as white "
+                            f"noise does (a random excitation, not oversampled), so this is only an upper bound and the "
+                            f"input is taken as exact (the filter gets the floor {NOISE_FLOOR:g}); give its noise level "
+                            f"to count it"
+                        ),
+                    }
     # the refinement's std counts an input's noise at its given level or its estimate (not the filter's floor); a
     # level that is only an upper bound (the channel is not oversampled) would swamp the std with signal: not counted
     bound = [c for c in num.inputs if levels[c].get("upper_bound")]
-    input_noise = np.array([0.0 if c in bound else levels[c].get("estimate", levels[c]["ratio"])
-                            for c in num.inputs]) * np.sqrt(np.mean(np.asarray(data.u, float) ** 2, axis=0))
+    input_noise = np.array(
+        [0.0 if c in bound else levels[c].get("estimate", levels[c]["ratio"]) for c in num.inputs]
+    ) * np.sqrt(np.mean(np.asarray(data.u, float) ** 2, axis=0))
     kinds = intersample_kinds(intersample, num.inputs)
     between = between_samples(data.u, num.inputs, kinds) if num.inputs else ()
     stepped, U = drive(num, data.u, kinds)
     record = data.record() if stepped is num else dataclasses.replace(data.record(), accel=U)
     said = [_between_said(b) for b in between]
-    setup = Setup(model=stepped, record=record, truth=None, guess=dict(guess), jit=jit, y_true=data.y,
-                  channel_noise={c: v["ratio"] for c, v in levels.items()}, fit_substeps=FIT_SUBSTEPS,
-                  coordinates=coordinates(num, "log", reference=guess), initial=known, known=tuple(known))
+    setup = Setup(
+        model=stepped,
+        record=record,
+        truth=None,
+        guess=dict(guess),
+        jit=jit,
+        y_true=data.y,
+        channel_noise={c: v["ratio"] for c, v in levels.items()},
+        fit_substeps=FIT_SUBSTEPS,
+        coordinates=coordinates(num, "log", reference=guess),
+        initial=known,
+        known=tuple(known),
+    )
     start = free_start(stepped, theta=setup.theta_guess, x0=setup.x0, u=U, y=data.y, dt=data.dt, known=tuple(known))
     if start is not None:  # the record moves where the model at rest would not: it starts in motion
         setup = dataclasses.replace(setup, initial={**dict(zip(num.states, map(float, start))), **known})
-        said.append("the record moves where the model at rest at the guess would not (a free decay, or a start in "
-                    "motion): the unknown initial states start from their fit to the first samples at the guess")
+        said.append(
+            "the record moves where the model at rest at the guess would not (a free decay, or a start in "
+            "motion): the unknown initial states start from their fit to the first samples at the guess"
+        )
     d = Data(seed=None, u=U, y=data.y)
     for b in between:
         if b.matters:
             sys.stderr.write(f"obsnl: warning: {_between_said(b)}\n")
-    tuning, scores, trs, held, prac, misfit = _run(setup, d, method=method, table=table, grid=grid, passes=passes,
-                                                   replicates=replicates, seed=seed, progress=progress, hold=hold,
-                                                   executor=executor)
-    how = ("tuned without any true value: each configuration of the grid ran one pass, the smallest free-run "
-           "output misfit won" if len(grid) > 1 else "one tuning, as given")
-    return _result(setup, d, mode="measured", method=method, passes=passes, tuning=tuning, scores=scores, trs=trs,
-                   held=held, prac=prac, misfit=misfit, noise=levels, seed=seed,
-                   data_dict=data.to_dict() | {"intersample": [b.to_dict() for b in between]},
-                   refined=refined, progress=progress, executor=executor, input_noise=input_noise,
-                   assumptions=_assumptions(refined, how, (
-                       "the initial state is estimated with the parameters" if refined else "the filter starts from "
-                       "the initial states of the model file, else 0") + (
-                       f"; known initial states held: {', '.join(f'{k} = {v:g}' for k, v in known.items())}"
-                       if known else ""), *([
-                                                f"input {', '.join(bound)}: taken as exact by the std and intervals "
-                                                "(its noise level estimated from the data is only an upper bound: "
-                                                "the channel is not oversampled); give its noise level to count it"]
-                                                if bound and refined else []), *said, *data.notes()))
+    tuning, scores, trs, held, prac, misfit = _run(
+        setup,
+        d,
+        method=method,
+        table=table,
+        grid=grid,
+        passes=passes,
+        replicates=replicates,
+        seed=seed,
+        progress=progress,
+        hold=hold,
+        executor=executor,
+    )
+    how = (
+        "tuned without any true value: each configuration of the grid ran one pass, the smallest free-run "
+        "output misfit won"
+        if len(grid) > 1
+        else "one tuning, as given"
+    )
+    return _result(
+        setup,
+        d,
+        mode="measured",
+        method=method,
+        passes=passes,
+        tuning=tuning,
+        scores=scores,
+        trs=trs,
+        held=held,
+        prac=prac,
+        misfit=misfit,
+        noise=levels,
+        seed=seed,
+        data_dict=data.to_dict() | {"intersample": [b.to_dict() for b in between]},
+        refined=refined,
+        progress=progress,
+        executor=executor,
+        input_noise=input_noise,
+        assumptions=_assumptions(
+            refined,
+            how,
+            (
+                "the initial state is estimated with the parameters"
+                if refined
+                else "the filter starts from the initial states of the model file, else 0"
+            )
+            + (f"; known initial states held: {', '.join(f'{k} = {v:g}' for k, v in known.items())}" if known else ""),
+            *(
+                [
+                    f"input {', '.join(bound)}: taken as exact by the std and intervals "
+                    "(its noise level estimated from the data is only an upper bound: "
+                    "the channel is not oversampled); give its noise level to count it"
+                ]
+                if bound and refined
+                else []
+            ),
+            *said,
+            *data.notes(),
+        ),
+    )
 
 
 def _between_said(b: Any) -> str:
     """What a run assumed of an input between samples (:class:`obsnl.estimation.intersample.InputBetween`), and
     whether the choice matters for this record."""
-    how = {"held": "held (zero-order hold)", "linear": "linear between samples",
-           "fft": "band-limited, interpolated by FFT (the record read as periodic)",
-           "sinc": "band-limited, interpolated by a windowed sinc (the record not periodic: its ends reflected)"}
+    how = {
+        "held": "held (zero-order hold)",
+        "linear": "linear between samples",
+        "fft": "band-limited, interpolated by FFT (the record read as periodic)",
+        "sinc": "band-limited, interpolated by a windowed sinc (the record not periodic: its ends reflected)",
+    }
     text = f"input {b.input} {how[b.route]}"
     if b.kind == "bandlimited":
-        return text + (f"; {100 * b.discrepancy:.2g} % of its power lies above 0.45 of the sampling rate: it may "
-                       "not be band-limited (aliased)" if b.matters else "")
+        return text + (
+            f"; {100 * b.discrepancy:.2g} % of its power lies above 0.45 of the sampling rate: it may "
+            "not be band-limited (aliased)"
+            if b.matters
+            else ""
+        )
     if not b.matters:
         return text
-    return text + (f"; if it was band-limited, this kind is off by {100 * b.discrepancy:.2g} % RMS between samples "
-                   f"(judged from its Welch spectrum): the choice matters (intersample {b.input}=bandlimited if it "
-                   f"was band-limited, zoh if it was held by a DAC)")
+    return text + (
+        f"; if it was band-limited, this kind is off by {100 * b.discrepancy:.2g} % RMS between samples "
+        f"(judged from its Welch spectrum): the choice matters (intersample {b.input}=bandlimited if it "
+        f"was band-limited, zoh if it was held by a DAC)"
+    )

@@ -14,16 +14,27 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import DataError, EstimatorError, OptionError
+from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.codegen import NumericModel, ParameterMap, parameter_map
 from obsnl.estimation.dukf import DUKF
 from obsnl.estimation.records import add_noise
-from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.simulate import simulate
 from obsnl.estimation.ukf import UKF
 
-__all__ = ["Tuning", "DEFAULT_GRID", "Setup", "Data", "coordinates", "make_data", "make_filter", "output_misfit",
-           "free_start",
-           "BOUND", "DIVERGED", "STATE_CAP"]
+__all__ = [
+    "Tuning",
+    "DEFAULT_GRID",
+    "Setup",
+    "Data",
+    "coordinates",
+    "make_data",
+    "make_filter",
+    "output_misfit",
+    "free_start",
+    "BOUND",
+    "DIVERGED",
+    "STATE_CAP",
+]
 
 #: Threshold on the Cramér-Rao standard deviation of log(theta): a parameter whose 3-sigma bound is
 #: wider than the 5 % goal cannot be pinned to it by any unbiased estimator on this record.
@@ -56,14 +67,20 @@ class Tuning:
     gate: float = float("inf")
 
     def to_dict(self) -> dict[str, float | None]:
-        return {"s0": self.s0, "q_theta": self.q_theta, "q_x": self.q_x,
-                "gate": self.gate if np.isfinite(self.gate) else None}
+        return {
+            "s0": self.s0,
+            "q_theta": self.q_theta,
+            "q_x": self.q_x,
+            "gate": self.gate if np.isfinite(self.gate) else None,
+        }
 
 
 #: The tuning grid, the same for the UKF and the DUKF: 48 configurations. The gate is off or at the
 #: textbook 3 (Mahalanobis distance of a scalar innovation); decided before any reported seed was run.
-DEFAULT_GRID: tuple[Tuning, ...] = tuple(Tuning(s, q, x, g) for g, s, q, x in itertools.product(
-    (float("inf"), 3.0), (0.1, 0.2, 0.3, 0.5), (0.0, 1e-9, 1e-8), (1.0, 100.0)))
+DEFAULT_GRID: tuple[Tuning, ...] = tuple(
+    Tuning(s, q, x, g)
+    for g, s, q, x in itertools.product((float("inf"), 3.0), (0.1, 0.2, 0.3, 0.5), (0.0, 1e-9, 1e-8), (1.0, 100.0))
+)
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,21 +129,27 @@ class Setup:
                 raise OptionError(f"{what} lacks values for {missing}")
         unknown = sorted(set(self.channel_noise or {}) - set(m.inputs) - set(m.outputs))
         if unknown:
-            raise OptionError(f"noise given for {unknown}, which are not inputs or outputs of {m.name!r} "
-                              f"({', '.join(m.inputs + m.outputs)})")
+            raise OptionError(
+                f"noise given for {unknown}, which are not inputs or outputs of {m.name!r} "
+                f"({', '.join(m.inputs + m.outputs)})"
+            )
         if self.coordinates is None:
             object.__setattr__(self, "coordinates", coordinates(m, "log", reference=self.guess))
         unknown = sorted(set(self.initial or {}).union(self.known) - set(m.states))
         if unknown:
-            raise OptionError(f"initial values given for {unknown}, which are not states of {m.name!r} "
-                              f"({', '.join(m.states)})")
+            raise OptionError(
+                f"initial values given for {unknown}, which are not states of {m.name!r} ({', '.join(m.states)})"
+            )
         start = {**m.values, **(self.initial or {})}
         x0 = np.array([float(start.get(s, 0.0)) for s in m.states])
         object.__setattr__(self, "x0", x0)
         if self.y_true is None:
             # the fit's own step (located crossings, sliding modes) at the fit's substeps: the most exact flow
-            fine = {} if self.fit_substeps is None else {"substeps": self.fit_substeps, "refine": self.refine,
-                                                         "locate": True}
+            fine = (
+                {}
+                if self.fit_substeps is None
+                else {"substeps": self.fit_substeps, "refine": self.refine, "locate": True}
+            )
             sim = simulate(m, theta=self.theta_true, x0=x0, u=self.record.accel, dt=self.record.dt, **fine)
             object.__setattr__(self, "y_true", sim.y)
 
@@ -161,17 +184,24 @@ class Setup:
         # RMS over the samples measured (an output's missing samples are NaN)
         col = lambda a: np.sqrt(np.nanmean(np.asarray(a, float).reshape(len(a), -1) ** 2, axis=0))  # noqa: E731
         nu = len(self.model.inputs)  # a driven model's input rows are blocks: their first nu entries are the samples
-        return (self.ratios(self.model.inputs) * col(data.u)[:nu],
-                self.ratios(self.model.outputs) * col(data.y))
+        return (self.ratios(self.model.inputs) * col(data.u)[:nu], self.ratios(self.model.outputs) * col(data.y))
 
     def to_dict(self) -> dict[str, Any]:
-        return {"model": self.model.name, "record": self.record.to_dict(),
-                "truth": None if self.truth is None else dict(self.truth),
-                "guess": dict(self.guess), "noise_ratio": self.noise, "channel_noise": dict(self.channel_noise or {}),
-                "coordinates": self.coordinate_map.to_dict(),
-                "substeps": self.substeps, "refine": self.refine, "locate": self.locate, "fit_substeps": self.fit_substeps,
-                "integrator": "RK4; a substep in which a switching function across which the field can jump "
-                              "changes sign redone with refine finer ones; ROS2 (refine x the substeps) where stiff"}
+        return {
+            "model": self.model.name,
+            "record": self.record.to_dict(),
+            "truth": None if self.truth is None else dict(self.truth),
+            "guess": dict(self.guess),
+            "noise_ratio": self.noise,
+            "channel_noise": dict(self.channel_noise or {}),
+            "coordinates": self.coordinate_map.to_dict(),
+            "substeps": self.substeps,
+            "refine": self.refine,
+            "locate": self.locate,
+            "fit_substeps": self.fit_substeps,
+            "integrator": "RK4; a substep in which a switching function across which the field can jump "
+            "changes sign redone with refine finer ones; ROS2 (refine x the substeps) where stiff",
+        }
 
 
 def coordinates(model: NumericModel, kind: str = "log", *, reference: Mapping[str, float]) -> ParameterMap:
@@ -271,34 +301,63 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
     """
     m = setup.model
     try:
-        sim = simulate(m, theta=setup.theta_guess, x0=setup.x0, u=setup.record.accel, dt=setup.record.dt,
-                       substeps=setup.substeps, refine=setup.refine)
+        sim = simulate(
+            m,
+            theta=setup.theta_guess,
+            x0=setup.x0,
+            u=setup.record.accel,
+            dt=setup.record.dt,
+            substeps=setup.substeps,
+            refine=setup.refine,
+        )
     except EstimatorError as exc:  # the filter would start from a model that cannot follow the record
-        raise DataError(f"{exc} when simulated at the guess under the measured input: give guesses nearer the "
-                        f"structure's values, or check the input's units") from None
+        raise DataError(
+            f"{exc} when simulated at the guess under the measured input: give guesses nearer the "
+            f"structure's values, or check the input's units"
+        ) from None
     with np.errstate(over="ignore", invalid="ignore"):
-        typical = np.sqrt(np.mean(sim.x ** 2, axis=0))  # typical magnitudes at the guess, floored at 1 %
+        typical = np.sqrt(np.mean(sim.x**2, axis=0))  # typical magnitudes at the guess, floored at 1 %
     if not np.all(np.isfinite(typical)):  # no scale either (it ended in 'Q contains NaN/inf')
         g = setup.theta_guess
         far = int(np.argmax([abs(math.log(abs(v))) for v in g]))
-        raise DataError(f"model {m.name!r} diverges when simulated at the guess under the measured input (state "
-                        f"{m.states[int(np.flatnonzero(~np.isfinite(typical))[0])]!r} overflows): give guesses nearer "
-                        f"the structure's values (the most extreme: {m.parameters[far]} = {g[far]:.3g}), or check "
-                        f"the input's units")
+        raise DataError(
+            f"model {m.name!r} diverges when simulated at the guess under the measured input (state "
+            f"{m.states[int(np.flatnonzero(~np.isfinite(typical))[0])]!r} overflows): give guesses nearer "
+            f"the structure's values (the most extreme: {m.parameters[far]} = {g[far]:.3g}), or check "
+            f"the input's units"
+        )
     if not typical.max() > 0:  # no scale to set the filter's noise by (it ended in 'Q contains NaN/inf')
         u = np.asarray(setup.record.accel, float).reshape(len(setup.record.accel), -1)
         still = [c for j, c in enumerate(m.inputs) if not np.any(u[:, j])]
-        why = ("the model has no input" if not m.inputs else "every input is 0 throughout" if len(still) ==
-               len(m.inputs) and len(still) > 1 else f"input {still[0]!r} is 0 throughout" if len(still) ==
-               len(m.inputs) else f"the inputs move no state (largest |input| {float(np.max(np.abs(u))):.3g})")
-        raise DataError(f"{why}: model {m.name!r} stays at rest at the guess, so there is nothing to identify "
-                        f"from; give data with excitation (or initial values that are not at rest)")
+        why = (
+            "the model has no input"
+            if not m.inputs
+            else "every input is 0 throughout"
+            if len(still) == len(m.inputs) and len(still) > 1
+            else f"input {still[0]!r} is 0 throughout"
+            if len(still) == len(m.inputs)
+            else f"the inputs move no state (largest |input| {float(np.max(np.abs(u))):.3g})"
+        )
+        raise DataError(
+            f"{why}: model {m.name!r} stays at rest at the guess, so there is nothing to identify "
+            f"from; give data with excitation (or initial values that are not at rest)"
+        )
     scale = np.maximum(typical, 1e-2 * max(typical.max(), 1e-300))  # of the largest (a state idle at the guess)
     phi0 = setup.coordinate_map.to_phi(setup.theta_guess)  # valid region: within 100x of the guesses
     bounds = (np.r_[np.full(m.nx, -np.inf), phi0 - BOUND], np.r_[np.full(m.nx, np.inf), phi0 + BOUND])
     cap = np.r_[np.full(m.nx, STATE_CAP), np.full(len(phi0), BOUND)]  # ceilings: sanity, not tuning
-    opts = dict(dt=setup.record.dt, coordinates=setup.coordinates, state_scale=scale, R=1.0,
-                substeps=setup.substeps, refine=setup.refine, locate=setup.locate, jit=setup.jit, bounds=bounds, cap=cap)
+    opts = dict(
+        dt=setup.record.dt,
+        coordinates=setup.coordinates,
+        state_scale=scale,
+        R=1.0,
+        substeps=setup.substeps,
+        refine=setup.refine,
+        locate=setup.locate,
+        jit=setup.jit,
+        bounds=bounds,
+        cap=cap,
+    )
     if kind == "ukf":
         return UKF(m, **opts)
     if kind == "dukf":
@@ -306,8 +365,18 @@ def make_filter(setup: Setup, kind: str, *, table: Any = None, cross: str = "reg
     raise OptionError(f"unknown filter {kind!r}; use 'ukf' or 'dukf'")
 
 
-def free_start(model: NumericModel, *, theta: np.ndarray, x0: np.ndarray, u: np.ndarray, y: np.ndarray, dt: float,
-               known: Sequence[str] = (), samples: int = 20, substeps: int = 4) -> np.ndarray | None:
+def free_start(
+    model: NumericModel,
+    *,
+    theta: np.ndarray,
+    x0: np.ndarray,
+    u: np.ndarray,
+    y: np.ndarray,
+    dt: float,
+    known: Sequence[str] = (),
+    samples: int = 20,
+    substeps: int = 4,
+) -> np.ndarray | None:
     """An initial state for a record whose motion the model at rest cannot make (a free decay, a record that starts
     in motion): ``x0`` with the states not ``known`` fitted to the first ``samples`` output samples at ``theta``.
 
@@ -393,12 +462,20 @@ def output_misfit(setup: Setup, theta: np.ndarray, data: Data, *, per_output: bo
     float or numpy.ndarray
     """
     try:
-        sim = simulate(setup.model, theta=theta, x0=setup.x0, u=data.u, dt=setup.record.dt,
-                       substeps=setup.fit_substeps or setup.substeps, refine=setup.refine, jit=setup.jit)
+        sim = simulate(
+            setup.model,
+            theta=theta,
+            x0=setup.x0,
+            u=data.u,
+            dt=setup.record.dt,
+            substeps=setup.fit_substeps or setup.substeps,
+            refine=setup.refine,
+            jit=setup.jit,
+        )
     except EstimatorError:
         out = np.full(setup.model.ny, np.inf)
     else:
         y = np.asarray(data.y, float).reshape(len(sim.y), -1)
-        rms = lambda a: np.sqrt(np.nanmean(a ** 2, axis=0))  # noqa: E731 - over the samples measured
+        rms = lambda a: np.sqrt(np.nanmean(a**2, axis=0))  # noqa: E731 - over the samples measured
         out = rms(sim.y - y) / np.maximum(rms(y), 1e-300)
-    return out if per_output else float(np.sqrt(np.mean(out ** 2)))
+    return out if per_output else float(np.sqrt(np.mean(out**2)))

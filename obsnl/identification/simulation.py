@@ -6,25 +6,37 @@ import math
 from collections.abc import Callable, Mapping
 from typing import Any
 
-
 from obsnl.errors import OptionError
-from obsnl.estimation.codegen import NumericModel
 from obsnl.estimation.accelerogram import Record
+from obsnl.estimation.codegen import NumericModel
 from obsnl.executor import Executor
 from obsnl.identification.experiments import Tuning, make_data
 from obsnl.identification.results import Identification
+from obsnl.identification.runs import FIT_SUBSTEPS, MEASURED_GRID, _assumptions, _result, _run
 from obsnl.identification.setup import Setup, coordinates
 from obsnl.observability.contract.branch_table import BranchTable
-from obsnl.identification.runs import FIT_SUBSTEPS, MEASURED_GRID, _assumptions, _result, _run
 
 __all__ = ["simulation_study"]
 
 
-def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, float], method: str = "ukf",
-                     table: BranchTable | None = None, seed: int = 0, noise: float = 1e-3,
-                     tuning: Tuning | None = None, passes: int = 3, replicates: int = 0,
-                     jit: bool = False, progress: Callable[[], Any] | None = None,
-                     executor: Executor | None = None, hold: bool = False, refined: bool = True) -> Identification:
+def simulation_study(
+    num: NumericModel,
+    record: Record,
+    *,
+    guess: Mapping[str, float],
+    method: str = "ukf",
+    table: BranchTable | None = None,
+    seed: int = 0,
+    noise: float = 1e-3,
+    tuning: Tuning | None = None,
+    passes: int = 3,
+    replicates: int = 0,
+    jit: bool = False,
+    progress: Callable[[], Any] | None = None,
+    executor: Executor | None = None,
+    hold: bool = False,
+    refined: bool = True,
+) -> Identification:
     """Identify ``num`` from its own simulated response to ``record`` (the truth: ``num.values``).
 
     Parameters
@@ -73,26 +85,65 @@ def simulation_study(num: NumericModel, record: Record, *, guess: Mapping[str, f
     """
     missing = [q for q in num.parameters if q not in guess]
     if missing:
-        raise OptionError(f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
-                          f"[guess] table in the model file")
+        raise OptionError(
+            f"no initial guess for {', '.join(missing)}; give guess= {missing[0]}=VALUE for each, or a "
+            f"[guess] table in the model file"
+        )
     given = {q: num.values.get(q) for q in num.parameters}
     truth = {q: v for q, v in given.items() if v is not None}
     if len(truth) < len(given):
         raise OptionError(f"model {num.name!r} needs [values] for every parameter (the truth of the simulation)")
     if not (math.isfinite(noise) and noise > 0):
         raise OptionError(f"noise= must be a ratio > 0, got {noise!r}")
-    setup = Setup(model=num, record=record, truth=truth, guess=dict(guess), noise=noise, jit=jit,
-                  fit_substeps=FIT_SUBSTEPS, coordinates=coordinates(num, "log", reference=guess))
+    setup = Setup(
+        model=num,
+        record=record,
+        truth=truth,
+        guess=dict(guess),
+        noise=noise,
+        jit=jit,
+        fit_substeps=FIT_SUBSTEPS,
+        coordinates=coordinates(num, "log", reference=guess),
+    )
     data = make_data(setup, seed)
     grid = MEASURED_GRID if tuning is None else (tuning,)
-    tuning_, scores, trs, held, prac, misfit = _run(setup, data, method=method, table=table, grid=grid,
-                                                    passes=passes, replicates=replicates, seed=seed, progress=progress,
-                                                    hold=hold, executor=executor)
+    tuning_, scores, trs, held, prac, misfit = _run(
+        setup,
+        data,
+        method=method,
+        table=table,
+        grid=grid,
+        passes=passes,
+        replicates=replicates,
+        seed=seed,
+        progress=progress,
+        hold=hold,
+        executor=executor,
+    )
     levels = {c: {"ratio": noise, "source": "given (simulated)"} for c in num.inputs + num.outputs}
-    return _result(setup, data, mode="simulation", method=method, passes=passes, tuning=tuning_, scores=scores,
-                   trs=trs, held=held, prac=prac, misfit=misfit, noise=levels, data_dict=record.to_dict(), seed=seed,
-                   refined=refined, progress=progress, executor=executor,
-                   assumptions=_assumptions(refined, f"simulation study: the truth is the model's [values], simulated "
-                                            f"with {FIT_SUBSTEPS} RK4 substeps per sample (crossings of a jump located, sliding "
-                                            f"modes followed), Gaussian noise seed {seed}",
-                                            "errors: per cent of the truth; absolute where the truth is 0"))
+    return _result(
+        setup,
+        data,
+        mode="simulation",
+        method=method,
+        passes=passes,
+        tuning=tuning_,
+        scores=scores,
+        trs=trs,
+        held=held,
+        prac=prac,
+        misfit=misfit,
+        noise=levels,
+        data_dict=record.to_dict(),
+        seed=seed,
+        refined=refined,
+        progress=progress,
+        executor=executor,
+        assumptions=_assumptions(
+            refined,
+            f"simulation study: the truth is the model's [values], simulated "
+            f"with {FIT_SUBSTEPS} RK4 substeps per sample (crossings of a jump located, sliding "
+            f"modes followed), Gaussian noise seed {seed}",
+            "errors: per cent of the truth; absolute where the truth is 0",
+        ),
+    )

@@ -12,13 +12,19 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from obsnl._text import block, names as name_list, one_line, plain_float
+from obsnl._text import block, one_line, plain_float
+from obsnl._text import names as name_list
 from obsnl.errors import AnalysisError, OptionError
 from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.observability.results import AnalysisResult
 
-__all__ = ["StructuralCheck", "structural_check", "structurally_unidentifiable", "frozen_but_jointly_identifiable",
-           "parse_assignments"]
+__all__ = [
+    "StructuralCheck",
+    "structural_check",
+    "structurally_unidentifiable",
+    "frozen_but_jointly_identifiable",
+    "parse_assignments",
+]
 
 
 @dataclass(frozen=True)
@@ -65,33 +71,53 @@ class StructuralCheck:
         head = f"structural analysis ({self.verdict} verdict over {self.branches} branches)"
         if not self.unidentifiable:
             return f"{head}: every parameter identifiable"
-        return (f"{head} calls {', '.join(self.unidentifiable)} unidentifiable; run anyway as asked: "
-                f"their estimates rest on what the data reveal beyond that verdict, judge them by the "
-                f"practical-identifiability flags")
+        return (
+            f"{head} calls {', '.join(self.unidentifiable)} unidentifiable; run anyway as asked: "
+            f"their estimates rest on what the data reveal beyond that verdict, judge them by the "
+            f"practical-identifiability flags"
+        )
 
     def __repr__(self) -> str:
-        return one_line("StructuralCheck", f"verdict={self.verdict!r}", f"branches={self.branches}",
-                        f"unidentifiable={name_list(self.unidentifiable, 6)!r}" if self.unidentifiable else "",
-                        f"frozen_by_the_dukf={name_list(self.frozen_by_the_dukf, 6)!r}"
-                        if self.frozen_by_the_dukf else "",
-                        f"undecided={name_list(self.undecided, 4)!r}" if self.undecided else "")
+        return one_line(
+            "StructuralCheck",
+            f"verdict={self.verdict!r}",
+            f"branches={self.branches}",
+            f"unidentifiable={name_list(self.unidentifiable, 6)!r}" if self.unidentifiable else "",
+            f"frozen_by_the_dukf={name_list(self.frozen_by_the_dukf, 6)!r}" if self.frozen_by_the_dukf else "",
+            f"undecided={name_list(self.undecided, 4)!r}" if self.undecided else "",
+        )
 
     def summary(self) -> str:
         """A line or two of plain text: the verdict read and what it names."""
-        return block(self.note(), f"identifiable only jointly, frozen by the DUKF's branches: "
-                                  f"{', '.join(self.frozen_by_the_dukf)}" if self.frozen_by_the_dukf else "",
-                     f"undecided in some branch: {', '.join(self.undecided)}" if self.undecided else "")
+        return block(
+            self.note(),
+            f"identifiable only jointly, frozen by the DUKF's branches: {', '.join(self.frozen_by_the_dukf)}"
+            if self.frozen_by_the_dukf
+            else "",
+            f"undecided in some branch: {', '.join(self.undecided)}" if self.undecided else "",
+        )
 
     def to_dict(self) -> dict[str, Any]:
         """The ``structural`` object of ``identify.json``."""
-        return {"verdict": self.verdict, "unidentifiable": list(self.unidentifiable), "allowed": self.allowed,
-                "undecided": list(self.undecided), "branches": self.branches,
-                "frozen_by_the_dukf": list(self.frozen_by_the_dukf)}
+        return {
+            "verdict": self.verdict,
+            "unidentifiable": list(self.unidentifiable),
+            "allowed": self.allowed,
+            "undecided": list(self.undecided),
+            "branches": self.branches,
+            "frozen_by_the_dukf": list(self.frozen_by_the_dukf),
+        }
 
 
-def structural_check(result: AnalysisResult, model: str, parameters: Sequence[str], *,
-                     table: BranchTable | None = None, method: str = "ukf",
-                     allow_unidentifiable: bool = False) -> StructuralCheck:
+def structural_check(
+    result: AnalysisResult,
+    model: str,
+    parameters: Sequence[str],
+    *,
+    table: BranchTable | None = None,
+    method: str = "ukf",
+    allow_unidentifiable: bool = False,
+) -> StructuralCheck:
     """The structural check of an identification of ``parameters`` by ``method``, from one analysis.
 
     Parameters
@@ -125,7 +151,8 @@ def structural_check(result: AnalysisResult, model: str, parameters: Sequence[st
         raise AnalysisError(
             f"{', '.join(bad)} of {model!r} {'is' if len(bad) == 1 else 'are'} structurally unidentifiable "
             f"from its outputs ({which}); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` "
-            f"and identify NEW.toml, or pass allow_unidentifiable=True")
+            f"and identify NEW.toml, or pass allow_unidentifiable=True"
+        )
     frozen = frozen_but_jointly_identifiable(table, result) if method == "dukf" else ()
     if frozen and not allow_unidentifiable:
         one = len(frozen) == 1
@@ -133,15 +160,22 @@ def structural_check(result: AnalysisResult, model: str, parameters: Sequence[st
             f"{', '.join(frozen)} of {model!r} {'is' if one else 'are'} identifiable only jointly: "
             f"every branch of the table freezes {'it' if one else 'them'}, so the DUKF would hold "
             f"{'it' if one else 'them'} at the guess; reparametrize with `obsnl reparametrize MODEL -o "
-            f"NEW.toml` (the seed paper's Delta1, Delta2), use method='ukf', or pass allow_unidentifiable=True")
+            f"NEW.toml` (the seed paper's Delta1, Delta2), use method='ukf', or pass allow_unidentifiable=True"
+        )
     undecided = set().union(*(b.undecided for b in result.branches)) & set(parameters)
-    return StructuralCheck(verdict=kind, unidentifiable=bad, allowed=bool(bad and allow_unidentifiable),
-                           undecided=tuple(sorted(undecided)), branches=len(result.branches),
-                           frozen_by_the_dukf=tuple(frozen))
+    return StructuralCheck(
+        verdict=kind,
+        unidentifiable=bad,
+        allowed=bool(bad and allow_unidentifiable),
+        undecided=tuple(sorted(undecided)),
+        branches=len(result.branches),
+        frozen_by_the_dukf=tuple(frozen),
+    )
 
 
-def structurally_unidentifiable(result: AnalysisResult, parameters: Sequence[str]
-                                ) -> tuple[tuple[str, ...], Literal["joint", "union"]]:
+def structurally_unidentifiable(
+    result: AnalysisResult, parameters: Sequence[str]
+) -> tuple[tuple[str, ...], Literal["joint", "union"]]:
     """The ``parameters`` the analysis calls structurally unidentifiable, and which verdict said so.
 
     Parameters
@@ -236,5 +270,4 @@ def frozen_but_jointly_identifiable(table: BranchTable | None, result: AnalysisR
     if table is None:
         return ()
     fresh = result.joint
-    return table.jointly_identifiable_but_frozen(
-        None if table.joint is not None or fresh is None else fresh.observable)
+    return table.jointly_identifiable_but_frozen(None if table.joint is not None or fresh is None else fresh.observable)

@@ -18,8 +18,14 @@ import numpy as np
 from obsnl.errors import OutputError
 from obsnl.report.files import OutputFolder, check_folder
 
-__all__ = ["bank_table_markdown", "bank_file_names", "check_bank_output", "write_bank_report", "bank_written_line",
-           "BANK_FILES"]
+__all__ = [
+    "bank_table_markdown",
+    "bank_file_names",
+    "check_bank_output",
+    "write_bank_report",
+    "bank_written_line",
+    "BANK_FILES",
+]
 
 #: The files of every bank report, besides one force plot per scenario.
 BANK_FILES = ("bank.json", "bank.md")
@@ -86,19 +92,30 @@ def bank_table_markdown(doc: Mapping[str, Any]) -> str:
         n = len(rs)
         row = [name, _bank_num(rs[0]["crack_element"], "d"), f"{rs[0]['truth_rms']:.3f}"]
         row += [f"{np.mean([r['rms_force'][lab] for r in rs]):.3f}" for lab in labels]
-        row += [f"{sum(r['detected'] for r in rs)}/{n}", _bank_span([r["time_to_detection"] for r in rs]),
-                _bank_counts([r["by_magnitude"] for r in rs], n), _bank_counts([r["by_residual"] for r in rs], n),
-                _bank_span([r["margin"] for r in rs], ".2f"), _bank_counts([r["verdict"] for r in rs], n)]
+        row += [
+            f"{sum(r['detected'] for r in rs)}/{n}",
+            _bank_span([r["time_to_detection"] for r in rs]),
+            _bank_counts([r["by_magnitude"] for r in rs], n),
+            _bank_counts([r["by_residual"] for r in rs], n),
+            _bank_span([r["margin"] for r in rs], ".2f"),
+            _bank_counts([r["verdict"] for r in rs], n),
+        ]
         out.append("| " + " | ".join(row) + " |")
     if doc.get("gates"):
-        out += ["", "## Observability gate of the extended system (section 2.6.6)", "",
-                "| sensors | channels | element | p | s | verdict | static-gain singular values | condition | reason |",
-                "|---|---|---|---|---|---|---|---|---|"]
+        out += [
+            "",
+            "## Observability gate of the extended system (section 2.6.6)",
+            "",
+            "| sensors | channels | element | p | s | verdict | static-gain singular values | condition | reason |",
+            "|---|---|---|---|---|---|---|---|---|",
+        ]
         for g in doc["gates"]:
             sv = ", ".join(f"{x:.2e}" for x in g["static_gain_singular_values"])
-            out.append(f"| {g['sensors']} | {'+'.join(g['channels'])} | {g['element']} | {g['n_outputs']} | "
-                       f"{g['n_channels']} | {g['verdict']} | {sv} | {_bank_num(g['condition'], '.3g')} | "
-                       f"{g['reason'] or '–'} |")
+            out.append(
+                f"| {g['sensors']} | {'+'.join(g['channels'])} | {g['element']} | {g['n_outputs']} | "
+                f"{g['n_channels']} | {g['verdict']} | {sv} | {_bank_num(g['condition'], '.3g')} | "
+                f"{g['reason'] or '–'} |"
+            )
     return "\n".join(out) + "\n"
 
 

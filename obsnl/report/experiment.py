@@ -19,8 +19,15 @@ from obsnl.errors import OptionError
 from obsnl.report.figures import _plt, _save
 from obsnl.report.tex import tex_escape
 
-__all__ = ["design_text", "design_markdown", "design_latex", "render_design", "plot_visits", "undecided_line",
-           "DESIGN_FORMATS"]
+__all__ = [
+    "design_text",
+    "design_markdown",
+    "design_latex",
+    "render_design",
+    "plot_visits",
+    "undecided_line",
+    "DESIGN_FORMATS",
+]
 
 #: The formats of :func:`render_design`.
 DESIGN_FORMATS = ("text", "json", "md", "tex")
@@ -44,9 +51,18 @@ def _rows(design: Any) -> list[tuple[str, ...]]:
     rows = []
     for v in design.visits:
         lost = ", ".join(v.missing) + (f" (undecided: {', '.join(v.undecided)})" if v.undecided else "")
-        rows.append((v.scale, (f"{v.scale:.6g}" + ("*" if v.bisection else ""),
-                               "; ".join(_branch(b) for b in v.branches), str(sum(v.crossings.values())),
-                               _VERDICT[v.sufficient], lost or "-")))
+        rows.append(
+            (
+                v.scale,
+                (
+                    f"{v.scale:.6g}" + ("*" if v.bisection else ""),
+                    "; ".join(_branch(b) for b in v.branches),
+                    str(sum(v.crossings.values())),
+                    _VERDICT[v.sufficient],
+                    lost or "-",
+                ),
+            )
+        )
     for b in getattr(design, "blowups", ()):
         rows.append((b.scale, (f"{b.scale:.6g}", f"blew up {_when(b)} (record {b.record})", "-", "no verdict", "-")))
     return [r for _, r in sorted(rows, key=lambda r: r[0])]
@@ -57,11 +73,15 @@ def _blowups(design: Any) -> list[tuple[str, str]]:
     lines = []
     skipped = getattr(design, "skipped", ())
     for i, b in enumerate(getattr(design, "blowups", ())):
-        text = (f"scale {b.scale:g}: the simulation of record {b.record} blew up {_when(b)} (a non-finite state: the "
-                f"fixed-step simulation diverged or left the model's domain); no verdict at that scale")
+        text = (
+            f"scale {b.scale:g}: the simulation of record {b.record} blew up {_when(b)} (a non-finite state: the "
+            f"fixed-step simulation diverged or left the model's domain); no verdict at that scale"
+        )
         if i == 0 and skipped:
-            text += (f"; larger scales not tried ({', '.join(f'{x:g}' for x in skipped)}): a larger excitation of the "
-                     f"same record is no better behaved with the fixed step")
+            text += (
+                f"; larger scales not tried ({', '.join(f'{x:g}' for x in skipped)}): a larger excitation of the "
+                f"same record is no better behaved with the fixed step"
+            )
         lines.append(("blew up", text))
     return lines
 
@@ -76,11 +96,14 @@ def _summary(design: Any) -> list[tuple[str, str]]:
     lo, hi = design.bracket
     first = []
     if getattr(design, "structural", ()):
-        first.append(("structural", f"{design.structural_reason}; min_scale is searched for "
-                                    f"{', '.join(design.searched)} only"))
+        first.append(
+            ("structural", f"{design.structural_reason}; min_scale is searched for {', '.join(design.searched)} only")
+        )
     if design.status == "found":
-        scale = (f"{design.min_scale:.6g} (bracket [{lo:.6g}, {hi:.6g}]: the upper end suffices, the lower does "
-                 f"not; relative width at most {design.tol:g})")
+        scale = (
+            f"{design.min_scale:.6g} (bracket [{lo:.6g}, {hi:.6g}]: the upper end suffices, the lower does "
+            f"not; relative width at most {design.tol:g})"
+        )
     elif design.status == "smallest_suffices":
         scale = f"not estimated: {design.reason}"
     elif design.status == "none_suffices":
@@ -89,22 +112,37 @@ def _summary(design: Any) -> list[tuple[str, str]]:
         scale = f"undecided: {design.reason}"
     left_out = getattr(design, "unjudged_records", ())
     records = _sets(design.sufficient_records) or (
-        "none among the records that ran at scale 1" if left_out else
-        "none: the records together do not suffice at scale 1")
+        "none among the records that ran at scale 1"
+        if left_out
+        else "none: the records together do not suffice at scale 1"
+    )
     if design.undecided_records:
         records += f"; undecided: {_sets(design.undecided_records)}"
     if left_out:
         records += f"; not judged: {', '.join(left_out)} (the simulation blew up at scale 1 or below)"
-    lines = [*first, ("min_scale", scale), *_blowups(design), ("sufficient records (scale 1)", records),
-             ("analyses", f"{design.analyses} joint verdicts for {len(design.visits)} scales (one per visited set)"
-              + (", and one over every branch (the targets no scale makes identifiable)"
-                 if hasattr(design, "structural") else ""))]
+    lines = [
+        *first,
+        ("min_scale", scale),
+        *_blowups(design),
+        ("sufficient records (scale 1)", records),
+        (
+            "analyses",
+            f"{design.analyses} joint verdicts for {len(design.visits)} scales (one per visited set)"
+            + (
+                ", and one over every branch (the targets no scale makes identifiable)"
+                if hasattr(design, "structural")
+                else ""
+            ),
+        ),
+    ]
     return lines + [("note", n) for n in design.notes]
 
 
 def _title(design: Any) -> str:
-    return (f"{design.model}: experiment design (targets {', '.join(design.targets)}; sensors "
-            f"{', '.join(design.sensors)}; records {', '.join(design.records)})")
+    return (
+        f"{design.model}: experiment design (targets {', '.join(design.targets)}; sensors "
+        f"{', '.join(design.sensors)}; records {', '.join(design.records)})"
+    )
 
 
 def design_text(design: Any) -> str:
@@ -122,11 +160,15 @@ def design_text(design: Any) -> str:
 
 def design_markdown(design: Any) -> str:
     """Markdown: a heading, the summary as a list and the table of the scales."""
+
     def cell(text: str) -> str:
         return text.replace("|", "\\|").replace("*", "\\*")
 
-    lines = [f"## {cell(_title(design))}", "",
-             f"- switching functions (sign order): {cell(', '.join(design.switching) or 'none')}"]
+    lines = [
+        f"## {cell(_title(design))}",
+        "",
+        f"- switching functions (sign order): {cell(', '.join(design.switching) or 'none')}",
+    ]
     lines += [f"- {head}: {cell(text)}" for head, text in _summary(design)]
     lines += ["", "| " + " | ".join(_HEAD) + " |", "|" + "---|" * len(_HEAD)]
     lines += ["| " + " | ".join(cell(c) for c in r) + " |" for r in _rows(design)]
@@ -138,11 +180,18 @@ def design_markdown(design: Any) -> str:
 def design_latex(design: Any) -> str:
     """A booktabs LaTeX table of the scales, the summary in the caption (needs ``\\usepackage{booktabs}``)."""
     summary = " ".join(f"{tex_escape(head)}: {tex_escape(text)}." for head, text in _summary(design))
-    lines = ["% generated by obsnl; needs \\usepackage{booktabs}", "\\begin{table}[htbp]", "\\centering",
-             f"\\caption{{{tex_escape(_title(design))}. {summary}"
-             + (" $^*$ a point of the bisection." if any(v.bisection for v in design.visits) else "") + "}",
-             "\\begin{tabular}{@{}rp{0.4\\linewidth}rll@{}}", "\\toprule",
-             " & ".join(tex_escape(h) for h in _HEAD) + " \\\\", "\\midrule"]
+    lines = [
+        "% generated by obsnl; needs \\usepackage{booktabs}",
+        "\\begin{table}[htbp]",
+        "\\centering",
+        f"\\caption{{{tex_escape(_title(design))}. {summary}"
+        + (" $^*$ a point of the bisection." if any(v.bisection for v in design.visits) else "")
+        + "}",
+        "\\begin{tabular}{@{}rp{0.4\\linewidth}rll@{}}",
+        "\\toprule",
+        " & ".join(tex_escape(h) for h in _HEAD) + " \\\\",
+        "\\midrule",
+    ]
     for r in _rows(design):
         scale = tex_escape(r[0].rstrip("*")) + ("$^*$" if r[0].endswith("*") else "")
         lines.append(" & ".join([scale, *(tex_escape(c) for c in r[1:])]) + " \\\\")
@@ -203,8 +252,11 @@ def plot_visits(design: Any, path: str | Path) -> Path:
             names.setdefault(b.signs, _branch(b).rsplit(" ", 1)[0])
     rows = {signs: i for i, signs in enumerate(names)}
     fig, ax = plt.subplots(figsize=(7.5, 1.6 + 0.4 * len(rows)))
-    for verdict, style in ((True, dict(color="C2", marker="o")), (False, dict(color="C3", marker="x")),
-                           (None, dict(color="0.5", marker="s"))):
+    for verdict, style in (
+        (True, dict(color="C2", marker="o")),
+        (False, dict(color="C3", marker="x")),
+        (None, dict(color="0.5", marker="s")),
+    ):
         pts = [(v.scale, rows[b.signs]) for v in design.visits if v.sufficient is verdict for b in v.branches]
         if pts:
             ax.scatter(*zip(*pts), s=22, label=f"sufficient: {_VERDICT[verdict]}", **style)

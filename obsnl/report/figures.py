@@ -26,8 +26,17 @@ __all__ = ["figure2", "figure3", "plot_fit", "plot_traces", "plot_bank_forces", 
 #: Bank figures are written as ``<FIGURE_PREFIX><scenario>.png``.
 FIGURE_PREFIX = "forces_"
 
-_LATEX = {"k_m": r"$k_m$", "c_dm": r"$c_{dm}$", "c_eta_p": r"$c'_\eta$", "w_h": r"$w_h$", "c_p": r"$c'$",
-          "h_p": r"$h'$", "Delta1": r"$\Delta_1$", "Delta2": r"$\Delta_2$", "N": r"$N$"}
+_LATEX = {
+    "k_m": r"$k_m$",
+    "c_dm": r"$c_{dm}$",
+    "c_eta_p": r"$c'_\eta$",
+    "w_h": r"$w_h$",
+    "c_p": r"$c'$",
+    "h_p": r"$h'$",
+    "Delta1": r"$\Delta_1$",
+    "Delta2": r"$\Delta_2$",
+    "N": r"$N$",
+}
 
 
 def _plt() -> ModuleType:
@@ -68,8 +77,15 @@ def _save(plt: ModuleType, fig: Figure, path: str | Path, *, dpi: int = 130, tig
     return out
 
 
-def figure2(path: str | Path, *, t: np.ndarray, accel: np.ndarray, y_measured: np.ndarray,
-            estimates: Mapping[str, np.ndarray], title: str = "") -> Path:
+def figure2(
+    path: str | Path,
+    *,
+    t: np.ndarray,
+    accel: np.ndarray,
+    y_measured: np.ndarray,
+    estimates: Mapping[str, np.ndarray],
+    title: str = "",
+) -> Path:
     """(a) record, (b) measured vs estimated displacement; ``estimates`` maps a label to ``y`` per sample.
 
     Parameters
@@ -106,8 +122,16 @@ def figure2(path: str | Path, *, t: np.ndarray, accel: np.ndarray, y_measured: n
     return _save(plt, fig, path)
 
 
-def figure3(path: str | Path, *, t: np.ndarray, panels: Mapping[str, np.ndarray], truth: np.ndarray,
-            parameters: Sequence[str], flagged: Sequence[str] = (), ylim: tuple[float, float] = (0.0, 4.0)) -> Path:
+def figure3(
+    path: str | Path,
+    *,
+    t: np.ndarray,
+    panels: Mapping[str, np.ndarray],
+    truth: np.ndarray,
+    parameters: Sequence[str],
+    flagged: Sequence[str] = (),
+    ylim: tuple[float, float] = (0.0, 4.0),
+) -> Path:
     """Estimated/true ratio over time; ``panels`` maps a title to ``theta`` ``(T, np)``.
 
     Parameters flagged as practically unidentifiable are drawn dashed and marked in the legend.
@@ -130,8 +154,14 @@ def figure3(path: str | Path, *, t: np.ndarray, panels: Mapping[str, np.ndarray]
 
 
 # ---- identification of a structure (obsnl identify)
-def table2_errors_figure(path: str | Path, *, parameters: Sequence[str], errors: Mapping[str, Sequence[float]],
-                         flagged: Mapping[str, Sequence[bool]], goal: float = 5.0) -> Path:
+def table2_errors_figure(
+    path: str | Path,
+    *,
+    parameters: Sequence[str],
+    errors: Mapping[str, Sequence[float]],
+    flagged: Mapping[str, Sequence[bool]],
+    goal: float = 5.0,
+) -> Path:
     """Table 2 as one figure: the worst-seed error in % of each parameter (groups) for each column (bars, log
     scale), a flagged estimate hatched, the 5 % goal as a line.
 
@@ -170,8 +200,15 @@ def table2_errors_figure(path: str | Path, *, parameters: Sequence[str], errors:
     return _save(plt, fig, path)
 
 
-def plot_fit(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
-             outputs: Sequence[str], fit: Mapping[str, float | None]) -> Path:
+def plot_fit(
+    path: str | Path,
+    *,
+    t: np.ndarray,
+    measured: np.ndarray,
+    simulated: np.ndarray,
+    outputs: Sequence[str],
+    fit: Mapping[str, float | None],
+) -> Path:
     """Measured vs simulated (model at the estimate) output, one panel per output, NRMSE in the title.
 
     Parameters
@@ -195,20 +232,32 @@ def plot_fit(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated
     fig, axes = plt.subplots(len(outputs), 1, figsize=(8, 2.4 * len(outputs) + 0.6), sharex=True, squeeze=False)
     for j, (ax, name) in enumerate(zip(axes[:, 0], outputs)):
         seen = ~np.isnan(measured[:, j])  # an output's missing samples left out (NaN would break the line at each)
-        ax.plot(t[seen], measured[seen, j], lw=1.4, color="0.7", label="measured" if seen.all() else
-                f"measured ({int(seen.sum())} of {len(seen)} samples)")
+        ax.plot(
+            t[seen],
+            measured[seen, j],
+            lw=1.4,
+            color="0.7",
+            label="measured" if seen.all() else f"measured ({int(seen.sum())} of {len(seen)} samples)",
+        )
         ax.plot(t, simulated[:, j], lw=0.8, color="C0", label="simulated at the estimate")
         nrmse = fit.get(name)
-        ax.set_title(f"{name}: NRMSE " + (f"{nrmse:.2f} %" if nrmse is not None and np.isfinite(nrmse) else "-"),
-                     fontsize=10)
+        ax.set_title(
+            f"{name}: NRMSE " + (f"{nrmse:.2f} %" if nrmse is not None and np.isfinite(nrmse) else "-"), fontsize=10
+        )
         ax.set_ylabel(name)
         ax.legend(fontsize=7, loc="upper right")
     axes[-1, 0].set_xlabel("t (s)")
     return _save(plt, fig, path)
 
 
-def plot_traces(path: str | Path, *, traces: Sequence[Any], truth: Mapping[str, float] | None = None,
-                held: Sequence[str] = (), flagged: Sequence[str] = ()) -> Path:
+def plot_traces(
+    path: str | Path,
+    *,
+    traces: Sequence[Any],
+    truth: Mapping[str, float] | None = None,
+    held: Sequence[str] = (),
+    flagged: Sequence[str] = (),
+) -> Path:
     """Each parameter's estimate over the passes (one after the other) with its +-2 sigma band (log
     coordinates: ``theta exp(+-2 sigma)``); true value dotted where known; held parameters marked.
 
@@ -241,8 +290,9 @@ def plot_traces(path: str | Path, *, traces: Sequence[Any], truth: Mapping[str, 
         ax = axes[i // cols, i % cols]
         ax.plot(t, theta[:, i], lw=0.9, color="C0")
         if sd.shape[1] == len(params):
-            ax.fill_between(t, theta[:, i] * np.exp(-2 * sd[:, i]), theta[:, i] * np.exp(2 * sd[:, i]),
-                            color="C0", alpha=0.2, lw=0)
+            ax.fill_between(
+                t, theta[:, i] * np.exp(-2 * sd[:, i]), theta[:, i] * np.exp(2 * sd[:, i]), color="C0", alpha=0.2, lw=0
+            )
         if truth and p in truth:
             ax.axhline(truth[p], color="k", lw=0.7, ls=":")
         for k in range(1, len(traces)):
@@ -285,7 +335,7 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
         ax1.plot(t[sl], n_true[sl], color="0.6", lw=0.8, label="true (dipole projection)")
         for j, lab in enumerate(thr.labels):
             ax1.plot(t[sl], nhat[sl, j], lw=0.8, label=f"n̂ obs {lab}")
-            line, = ax2.plot(t[sl], srms[sl, j], lw=1.0, label=f"obs {lab}")
+            (line,) = ax2.plot(t[sl], srms[sl, j], lw=1.0, label=f"obs {lab}")
             ax2.axhline(thr.tau[j], color=line.get_color(), ls="--", lw=0.8)
         for ax in (ax1, ax2):
             if name != "healthy":
@@ -301,8 +351,9 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
     return paths
 
 
-def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float,
-                  truth: Mapping[str, float] | None = None) -> Path:
+def plot_profiles(
+    path: str | Path, *, profiles: Sequence[Any], threshold: float, truth: Mapping[str, float] | None = None
+) -> Path:
     """The profile likelihood of each parameter, one panel each: ``Delta chi2`` against the parameter, the
     95 % threshold, the estimate and the interval (true value dotted where known).
 
@@ -328,12 +379,18 @@ def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float
     cols = min(n, 3)
     rows = -(-n // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(3.4 * cols, 2.6 * rows + 0.4), squeeze=False)
-    for ax in axes.ravel()[len(profiles):]:
+    for ax in axes.ravel()[len(profiles) :]:
         ax.axis("off")
     if not profiles:  # a run without the refinement (refine=False, or it could not run) has none: said, not blank
-        axes[0, 0].text(0.5, 0.5, "no profile likelihood in this run:\nthe maximum-likelihood refinement\ndid not run "
-                        "(see identify.json)",
-                        ha="center", va="center", fontsize=9, transform=axes[0, 0].transAxes)
+        axes[0, 0].text(
+            0.5,
+            0.5,
+            "no profile likelihood in this run:\nthe maximum-likelihood refinement\ndid not run (see identify.json)",
+            ha="center",
+            va="center",
+            fontsize=9,
+            transform=axes[0, 0].transAxes,
+        )
     for ax, pr in zip(axes.ravel(), profiles):
         pts = np.array(pr.points, float).reshape(-1, 2)
         # between computed points, sqrt(Delta) is interpolated linearly on each side of the estimate (exact for a
@@ -341,7 +398,7 @@ def plot_profiles(path: str | Path, *, profiles: Sequence[Any], threshold: float
         side = np.where(pts[:, 0] < pr.estimate, -1.0, 1.0)
         grid = np.linspace(pts[0, 0], pts[-1, 0], 200) if len(pts) > 1 else pts[:, 0]
         signed = np.interp(grid, pts[:, 0], side * np.sqrt(np.maximum(pts[:, 1], 0.0)))
-        ax.plot(grid, signed ** 2, lw=1, color="C0")
+        ax.plot(grid, signed**2, lw=1, color="C0")
         ax.plot(pts[:, 0], pts[:, 1], "o", ms=3, color="C0")
         ax.axhline(getattr(pr, "threshold", threshold), color="C3", lw=0.8, ls="--")
         ax.axvline(pr.estimate, color="0.3", lw=0.8)

@@ -81,20 +81,24 @@ def check_target(path: str | Path, *, force: bool, root: str | Path | None = Non
     p = Path(path)
     if root is not None:
         base = os.path.realpath(root)
-        if os.path.commonpath([base, os.path.realpath(p.parent) if p.parent != Path("") else base]) != base or \
-                p.name in ("", ".", ".."):
+        if os.path.commonpath(
+            [base, os.path.realpath(p.parent) if p.parent != Path("") else base]
+        ) != base or p.name in ("", ".", ".."):
             raise OutputError(f"{p} would be written outside {root}; name a file inside the folder")
     if p.is_symlink() and not force:
-        raise OutputError(f"{p} is a symlink; obsnl does not write through links (pass force=True to replace the "
-                          f"link by a file)")
+        raise OutputError(
+            f"{p} is a symlink; obsnl does not write through links (pass force=True to replace the link by a file)"
+        )
     if p.is_dir() and not p.is_symlink():
         raise OutputError(f"{p} is a folder; name a file")
     _refuse_special(p)
     if p.exists() and not force:
         raise OutputError(f"{p} exists; pass force=True to overwrite it")
     if root is not None and Path(root).is_symlink():
-        raise OutputError(f"{root} is a symlink; obsnl never writes through links, not even with force=True: name the "
-                          f"real folder ({os.path.realpath(root)}) or remove the link")
+        raise OutputError(
+            f"{root} is a symlink; obsnl never writes through links, not even with force=True: name the "
+            f"real folder ({os.path.realpath(root)}) or remove the link"
+        )
     for parent in p.parents:
         if parent.exists() and not parent.is_dir():
             raise OutputError(f"{parent} is a file, not a folder; choose another output path")
@@ -105,8 +109,12 @@ def check_target(path: str | Path, *, force: bool, root: str | Path | None = Non
 _SEPS = os.sep + (os.altsep or "")
 _FOLDER_END = re.compile(rf"(?:^|[{re.escape(_SEPS)}])\.{{0,2}}\Z")
 #: What a name may be other than a regular file, a symlink or a folder.
-_SPECIAL = ((stat.S_ISFIFO, "a FIFO"), (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-            (stat.S_ISSOCK, "a socket"))
+_SPECIAL = (
+    (stat.S_ISFIFO, "a FIFO"),
+    (stat.S_ISCHR, "a character device"),
+    (stat.S_ISBLK, "a block device"),
+    (stat.S_ISSOCK, "a socket"),
+)
 
 
 def _refuse_special(path: Path, name: str | None = None, dir_fd: int | None = None) -> None:
@@ -119,8 +127,10 @@ def _refuse_special(path: Path, name: str | None = None, dir_fd: int | None = No
     if stat.S_ISREG(mode) or stat.S_ISLNK(mode) or stat.S_ISDIR(mode):
         return
     kind = next((what for test, what in _SPECIAL if test(mode)), "a special file")
-    raise OutputError(f"{path} is {kind}, not a regular file: obsnl writes only regular files (force=True does not "
-                      f"replace it); choose another path")
+    raise OutputError(
+        f"{path} is {kind}, not a regular file: obsnl writes only regular files (force=True does not "
+        f"replace it); choose another path"
+    )
 
 
 def check_folder(out: str | Path, names: Sequence[str], *, force: bool) -> Path:
@@ -169,8 +179,14 @@ def check_folder(out: str | Path, names: Sequence[str], *, force: bool) -> Path:
 
 _NOFOLLOW = getattr(os, "O_NOFOLLOW", 0)
 #: errno values of a file system without hard links (then a name is claimed by an exclusive create).
-_NO_LINKS = {errno.EPERM, errno.EMLINK, errno.ENOSYS, errno.EXDEV, getattr(errno, "ENOTSUP", errno.EPERM),
-             getattr(errno, "EOPNOTSUPP", errno.EPERM)}
+_NO_LINKS = {
+    errno.EPERM,
+    errno.EMLINK,
+    errno.ENOSYS,
+    errno.EXDEV,
+    getattr(errno, "ENOTSUP", errno.EPERM),
+    getattr(errno, "EOPNOTSUPP", errno.EPERM),
+}
 
 
 class OutputFolder:
@@ -246,8 +262,10 @@ class OutputFolder:
         except OSError as exc:
             self._cleanup(committed=False)
             if exc.errno == errno.ELOOP:
-                raise OutputError(f"{self.folder} is a symlink; obsnl never writes through links: name the real "
-                                  f"folder or remove the link") from None
+                raise OutputError(
+                    f"{self.folder} is a symlink; obsnl never writes through links: name the real "
+                    f"folder or remove the link"
+                ) from None
             raise OutputError(f"cannot write into {self.folder}: {exc.strerror or exc}") from None
         return self
 
@@ -279,8 +297,9 @@ class OutputFolder:
             with os.fdopen(fd, "wb") as fh:
                 fh.write(data)
         except OSError as exc:
-            raise OutputError(f"cannot write {self.folder / name}: {exc.strerror or exc}; nothing was written") \
-                from None
+            raise OutputError(
+                f"cannot write {self.folder / name}: {exc.strerror or exc}; nothing was written"
+            ) from None
 
     def write_text(self, name: str, text: str) -> None:
         """:meth:`write_bytes` of UTF-8 text."""
@@ -303,10 +322,11 @@ class OutputFolder:
                 done.append(name)
         except FileExistsError:
             self._undo(done)
-            raise OutputError(f"{self.folder / name} appeared while this run was writing (another run into the same "
-                              f"folder?); nothing was written: pass force=True to replace it or choose another "
-                              f"folder") \
-                from None
+            raise OutputError(
+                f"{self.folder / name} appeared while this run was writing (another run into the same "
+                f"folder?); nothing was written: pass force=True to replace it or choose another "
+                f"folder"
+            ) from None
         except OSError as exc:
             self._undo(done)
             raise OutputError(f"cannot write {self.folder / name}: {exc.strerror or exc}") from None
@@ -391,4 +411,3 @@ def safe_write(path: str | Path, text: str, *, force: bool, root: str | Path | N
         out.write_text(p.name, text)
         out.commit()
     return p
-

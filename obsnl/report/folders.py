@@ -10,8 +10,8 @@ from pathlib import Path
 from obsnl.errors import OutputError
 from obsnl.observability.contract.branch_table import SCHEMA_ID
 from obsnl.observability.results import AnalysisResult
+from obsnl.report.files import _SAFE_NAME, OutputFolder, check_folder
 from obsnl.report.tables import joint_text, to_json, to_latex, to_markdown, union_text
-from obsnl.report.files import OutputFolder, _SAFE_NAME, check_folder
 
 __all__ = ["report_files", "write_tables", "timing_table", "tables_written_line"]
 
@@ -32,14 +32,20 @@ def timing_table(entries: Sequence[tuple[str, str, int, float]]) -> str:
 
 
 def _index(results: Sequence[AnalysisResult]) -> str:
-    lines = ["# obsnl observability reports", "",
-             "| Model | Joint verdict | Branches | Union over branches (each on its own) | Files |",
-             "|---|---|---:|---|---|"]
+    lines = [
+        "# obsnl observability reports",
+        "",
+        "| Model | Joint verdict | Branches | Union over branches (each on its own) | Files |",
+        "|---|---|---:|---|---|",
+    ]
     for r in results:
         files = ", ".join(f"[{ext}]({r.model}.{ext})" for ext in ("md", "tex", "json"))
         lines.append(f"| {r.model} | {joint_text(r)} | {len(r.branches)} | {union_text(r)} | {files} |")
-    lines += ["", "Timings are in [timings.md](timings.md). The `.json` files are branch tables "
-              f"(schema `{SCHEMA_ID}`), read by the DUKF."]
+    lines += [
+        "",
+        "Timings are in [timings.md](timings.md). The `.json` files are branch tables "
+        f"(schema `{SCHEMA_ID}`), read by the DUKF.",
+    ]
     return "\n".join(lines) + "\n"
 
 
@@ -74,8 +80,10 @@ def report_files(names: Sequence[str], out: str | Path) -> list[Path]:
     """
     for n in names:
         if not _SAFE_NAME.match(n) or n in (".", ".."):
-            raise OutputError(f"model name {n!r} cannot be a file name (letters, digits, '_', '-', '.' only, "
-                             f"not starting with '.'); rename the model")
+            raise OutputError(
+                f"model name {n!r} cannot be a file name (letters, digits, '_', '-', '.' only, "
+                f"not starting with '.'); rename the model"
+            )
     if len(set(names)) != len(names):
         raise OutputError(f"two models share a name ({list(names)}); file names come from model names")
     for n in names:  # index.md and timings.md are the report's own

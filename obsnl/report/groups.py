@@ -47,8 +47,13 @@ class BranchGroup:
 
 
 def _key(b: BranchResult) -> tuple:
-    return (b.verdict, frozenset(b.observable), frozenset(b.unobservable), frozenset(b.undecided),
-            b.transcendence_degree)
+    return (
+        b.verdict,
+        frozenset(b.observable),
+        frozenset(b.unobservable),
+        frozenset(b.undecided),
+        b.transcendence_degree,
+    )
 
 
 def _symbols_in(texts: Iterable[str]) -> dict[str, sp.Symbol]:
@@ -80,8 +85,9 @@ def branch_groups(result: AnalysisResult) -> tuple[BranchGroup, ...]:
     return tuple(out)
 
 
-def _group_condition(members: Sequence[BranchResult], sw: Sequence[sp.Expr],
-                     all_patterns: Sequence[tuple[int, ...]]) -> tuple[str, sp.Basic | None, tuple, int]:
+def _group_condition(
+    members: Sequence[BranchResult], sw: Sequence[sp.Expr], all_patterns: Sequence[tuple[int, ...]]
+) -> tuple[str, sp.Basic | None, tuple, int]:
     from obsnl.model.branching.switching import expr_text
 
     if len(members) == len(all_patterns):
@@ -101,10 +107,11 @@ def _group_condition(members: Sequence[BranchResult], sw: Sequence[sp.Expr],
                     factors = [expr_text(sw[i]) for i in subset]
                     if len(factors) > 1:
                         factors = [f"({f})" if isinstance(sw[i], sp.Add) else f for f, i in zip(factors, subset)]
-                    return (f"{'*'.join(factors)} {'>' if s > 0 else '<'} 0", rel,
-                            tuple(sw[i] for i in subset), s)
-    rels = [sp.And(*[sp.StrictGreaterThan(g, 0) if si > 0 else sp.StrictLessThan(g, 0) for g, si in zip(sw, b.signs)])
-            for b in members]
+                    return (f"{'*'.join(factors)} {'>' if s > 0 else '<'} 0", rel, tuple(sw[i] for i in subset), s)
+    rels = [
+        sp.And(*[sp.StrictGreaterThan(g, 0) if si > 0 else sp.StrictLessThan(g, 0) for g, si in zip(sw, b.signs)])
+        for b in members
+    ]
     return " | ".join(f"({b.guard})" for b in members), sp.Or(*rels), (), 0
 
 

@@ -50,60 +50,100 @@ def _analysis(r: Any) -> str:
     from obsnl.report.tables import ROWS, _cells, _header_line
 
     groups = branch_groups(r)
-    rows = [[escape(ROWS[row])] + [escape(_cells(g, row, latex=False, result=r)).replace("`", "") for g in groups]
-            for row in ROWS]
-    return (_head(f"Observability of {r.model}", _header_line(r), *_first_lines(r, suffix="."))
-            + _table(["Branches", *(g.heading for g in groups)], rows))
+    rows = [
+        [escape(ROWS[row])] + [escape(_cells(g, row, latex=False, result=r)).replace("`", "") for g in groups]
+        for row in ROWS
+    ]
+    return _head(f"Observability of {r.model}", _header_line(r), *_first_lines(r, suffix=".")) + _table(
+        ["Branches", *(g.heading for g in groups)], rows
+    )
 
 
 def _modes(m: Any) -> str:
-    rows = [[str(i + 1), _num(f), _num(fs, ".2g"), _num(100 * z), _num(None if zs is None else 100 * zs, ".2g"),
-             escape(", ".join(f"{o} {a:+.3g}" for o, a in sh.items()))]
-            for i, (f, fs, z, zs, sh) in enumerate(zip(m.frequency_hz, m.frequency_hz_std, m.damping_ratio,
-                                                       m.damping_ratio_std, m.shapes))]
+    rows = [
+        [
+            str(i + 1),
+            _num(f),
+            _num(fs, ".2g"),
+            _num(100 * z),
+            _num(None if zs is None else 100 * zs, ".2g"),
+            escape(", ".join(f"{o} {a:+.3g}" for o, a in sh.items())),
+        ]
+        for i, (f, fs, z, zs, sh) in enumerate(
+            zip(m.frequency_hz, m.frequency_hz_std, m.damping_ratio, m.damping_ratio_std, m.shapes)
+        )
+    ]
     return _table(["mode", "frequency (Hz)", "std", "damping (%)", "std", "shape at the outputs"], rows)
 
 
 def _modal(m: Any) -> str:
     at = ", ".join(f"{k}={v:.4g}" for k, v in m.state.items())
     real = ", ".join(f"{p:.4g}" for p in m.real_poles)
-    return (_head(f"Modes of {m.model}", f"linearised at {at} (inputs 0)",
-                  f"real poles (1/s): {real}" if real else "") + _modes(m)
-            + _details("assumed", m.assumptions))
+    return (
+        _head(f"Modes of {m.model}", f"linearised at {at} (inputs 0)", f"real poles (1/s): {real}" if real else "")
+        + _modes(m)
+        + _details("assumed", m.assumptions)
+    )
 
 
 def _identification(r: Any) -> str:
     ad = r.adequacy
     state = "converged" if r.converged else "NOT converged"
-    lines = [ad.headline() if ad is not None and not ad.passed else "",
-             f"{r.mode} data, {r.method}, {r.passes_run} of {r.passes} passes, {state}"
-             + (f" ({r.converged_reason})" if r.converged_reason else "") + f", {r.seconds:.3g} s",
-             r.structural.note() if r.structural is not None else ""]
+    lines = [
+        ad.headline() if ad is not None and not ad.passed else "",
+        f"{r.mode} data, {r.method}, {r.passes_run} of {r.passes} passes, {state}"
+        + (f" ({r.converged_reason})" if r.converged_reason else "")
+        + f", {r.seconds:.3g} s",
+        r.structural.note() if r.structural is not None else "",
+    ]
     rows = []
     for p in r.parameters:
         lo, hi = p.interval if p.interval is not None else (None, None)
-        value = [f"held at {_num(p.guess)}", "", ""] if p.held else [_num(p.estimate), _num(p.std, ".2g"),
-                                                                      f"[{_num(lo)}, {_num(hi)}]"]
+        value = (
+            [f"held at {_num(p.guess)}", "", ""]
+            if p.held
+            else [_num(p.estimate), _num(p.std, ".2g"), f"[{_num(lo)}, {_num(hi)}]"]
+        )
         truth = [_num(p.true), _num(p.error, ".3g")] if any(q.true is not None for q in r.parameters) else []
-        rows.append([escape(p.name), *value, *truth, "flagged: " + escape(p.reason or "") if p.flagged else
-                     escape(p.reason or "")])
-    head = ["parameter", "estimate", "std", "95 % interval"] + (
-        ["true", "error"] if any(q.true is not None for q in r.parameters) else []) + ["flag"]
+        rows.append(
+            [
+                escape(p.name),
+                *value,
+                *truth,
+                "flagged: " + escape(p.reason or "") if p.flagged else escape(p.reason or ""),
+            ]
+        )
+    head = (
+        ["parameter", "estimate", "std", "95 % interval"]
+        + (["true", "error"] if any(q.true is not None for q in r.parameters) else [])
+        + ["flag"]
+    )
     fit = ", ".join(f"{o} {_num(v, '.3g')} %" for o, v in r.fit.items())
     modal = getattr(r, "modal_at_rest", None)
-    return (_head(f"Identification of {r.model}", *lines) + _table(head, rows)
-            + f"<p style='margin:2px 0'>fit (NRMSE of the model at the estimate): {fit}</p>"
-            + (f"<p style='margin:2px 0'>{escape(ad.headline())}</p>" if ad is not None and ad.passed else "")
-            + (_modes(modal) if modal is not None else "") + _details("assumed", r.assumptions))
+    return (
+        _head(f"Identification of {r.model}", *lines)
+        + _table(head, rows)
+        + f"<p style='margin:2px 0'>fit (NRMSE of the model at the estimate): {fit}</p>"
+        + (f"<p style='margin:2px 0'>{escape(ad.headline())}</p>" if ad is not None and ad.passed else "")
+        + (_modes(modal) if modal is not None else "")
+        + _details("assumed", r.assumptions)
+    )
 
 
 def _validation(v: Any) -> str:
-    rows = [[escape(o), _num(s.rmse), _num(s.nrmse), _num(s.fit_percent, ".2f"), _num(s.db, ".2f")]
-            for o, s in v.outputs.items()]
+    rows = [
+        [escape(o), _num(s.rmse), _num(s.nrmse), _num(s.fit_percent, ".2f"), _num(s.db, ".2f")]
+        for o, s in v.outputs.items()
+    ]
     rec = v.record
-    return (_head(f"Validation of {v.model} on {rec.get('name')!r}",
-                  f"{v.scored} samples scored at dt = {rec.get('dt')} s, simulated {v._start_text()}")
-            + _table(["output", "RMSE", "NRMSE", "fit %", "dB"], rows) + _details("assumed", v.assumptions))
+    return (
+        _head(
+            f"Validation of {v.model} on {rec.get('name')!r}",
+            f"{v.scored} samples scored at dt = {rec.get('dt')} s, simulated {v._start_text()}",
+        )
+        + _table(["output", "RMSE", "NRMSE", "fit %", "dB"], rows)
+        + _details("assumed", v.assumptions)
+    )
 
 
 def _sensors(s: Any) -> str:
@@ -113,16 +153,29 @@ def _sensors(s: Any) -> str:
 
 
 def _design(d: Any) -> str:
-    rows = [[_num(v.scale), escape(", ".join(b.label or str(b.pattern) for b in v.branches)),
-             {True: "yes", False: "no", None: "undecided"}[v.sufficient], escape(", ".join(v.missing))]
-            for v in d.visits if not v.bisection]
-    return (_head(f"Experiment design of {d.model}", *d.summary().splitlines())
-            + _table(["scale", "branches visited", "sufficient", "not identifiable"], rows))
+    rows = [
+        [
+            _num(v.scale),
+            escape(", ".join(b.label or str(b.pattern) for b in v.branches)),
+            {True: "yes", False: "no", None: "undecided"}[v.sufficient],
+            escape(", ".join(v.missing)),
+        ]
+        for v in d.visits
+        if not v.bisection
+    ]
+    return _head(f"Experiment design of {d.model}", *d.summary().splitlines()) + _table(
+        ["scale", "branches visited", "sufficient", "not identifiable"], rows
+    )
 
 
 _BY_TYPE: Mapping[str, Callable[[Any], str]] = {
-    "AnalysisResult": _analysis, "Identification": _identification, "Validation": _validation, "Modal": _modal,
-    "SensorSearch": _sensors, "ExperimentDesign": _design}
+    "AnalysisResult": _analysis,
+    "Identification": _identification,
+    "Validation": _validation,
+    "Modal": _modal,
+    "SensorSearch": _sensors,
+    "ExperimentDesign": _design,
+}
 
 
 def to_html(result: Any) -> str | None:

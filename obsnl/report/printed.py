@@ -23,8 +23,9 @@ class Printed(NamedTuple):
     undecided: str | None = None
 
 
-def printed(text: str, output: str | Path | None = None, *, force: bool = False,
-            undecided: str | None = None) -> Printed:
+def printed(
+    text: str, output: str | Path | None = None, *, force: bool = False, undecided: str | None = None
+) -> Printed:
     """A rendering for standard output, or written to the file ``output`` with a final newline.
 
     Parameters

@@ -24,8 +24,18 @@ def _set(names: Any) -> str:
 
 
 def _tex(name: str) -> str:
-    return r"\texttt{" + name.replace("\\", r"\textbackslash{}").replace("_", r"\_").replace("&", r"\&") \
-        .replace("%", r"\%").replace("#", r"\#").replace("$", r"\$").replace("{", r"\{").replace("}", r"\}") + "}"
+    return (
+        r"\texttt{"
+        + name.replace("\\", r"\textbackslash{}")
+        .replace("_", r"\_")
+        .replace("&", r"\&")
+        .replace("%", r"\%")
+        .replace("#", r"\#")
+        .replace("$", r"\$")
+        .replace("{", r"\{")
+        .replace("}", r"\}")
+        + "}"
+    )
 
 
 def _tex_set(names: Any) -> str:
@@ -46,17 +56,23 @@ def _head(search: Any) -> list[str]:
     if search.none_exists:
         lines.append(f"No set of the {len(search.candidates)} candidate sensors suffices: {search.proof}.")
     elif search.minimal_sets:
-        size = ("of any size: every larger set without one of them lies within a set proven insufficient"
-                if getattr(search, "complete", False) and search.max_size < len(search.candidates) else
-                f"at most {search.max_size} sensors")
-        lines.append(f"{len(search.minimal_sets)} minimal sensor set{'s' if len(search.minimal_sets) != 1 else ''} "
-                     f"({size}) make {_targets(search)} jointly identifiable.")
+        size = (
+            "of any size: every larger set without one of them lies within a set proven insufficient"
+            if getattr(search, "complete", False) and search.max_size < len(search.candidates)
+            else f"at most {search.max_size} sensors"
+        )
+        lines.append(
+            f"{len(search.minimal_sets)} minimal sensor set{'s' if len(search.minimal_sets) != 1 else ''} "
+            f"({size}) make {_targets(search)} jointly identifiable."
+        )
     else:
         lines.append(f"No set of at most {search.max_size} sensors makes {_targets(search)} jointly identifiable.")
     if search.undecided_sets:
         lines.append("Undecided (not reported minimal): " + "; ".join(_set(s) for s in search.undecided_sets) + ".")
-    lines.append(f"{search.analyses} joint verdicts for the {search.exhaustive} possible sets of "
-                 f"{len(search.candidates)} candidates ({search.seconds:.1f} s).")
+    lines.append(
+        f"{search.analyses} joint verdicts for the {search.exhaustive} possible sets of "
+        f"{len(search.candidates)} candidates ({search.seconds:.1f} s)."
+    )
     return lines
 
 
@@ -98,8 +114,15 @@ def _ranking_rows(search: Any) -> list[dict[str, Any]]:
     efi = set(getattr(search, "effective_independence", ()) or ())
     rows = []
     for r in ranking.rows:
-        rows.append({"sensors": r.sensors, "worst_relative_std": r.worst_relative_std, "worst": r.worst,
-                     "log_det_fim": r.log_det_fim, "efi": bool(efi) and set(r.sensors) == efi})
+        rows.append(
+            {
+                "sensors": r.sensors,
+                "worst_relative_std": r.worst_relative_std,
+                "worst": r.worst,
+                "log_det_fim": r.log_det_fim,
+                "efi": bool(efi) and set(r.sensors) == efi,
+            }
+        )
     return rows
 
 
@@ -114,9 +137,11 @@ def _num(x: Any) -> str:
 
 
 #: What a null of the JSON ranking means (JSON has no infinities): stated in ``ranking_setup``.
-NULLS = ("worst_relative_std or relative_std null: an infinite bound (the record does not inform that parameter); "
-         "log_det_fim null: an infinite log-determinant, its sign in log_det_fim_infinite "
-         "('-inf': a singular Fisher information)")
+NULLS = (
+    "worst_relative_std or relative_std null: an infinite bound (the record does not inform that parameter); "
+    "log_det_fim null: an infinite log-determinant, its sign in log_det_fim_infinite "
+    "('-inf': a singular Fisher information)"
+)
 
 
 def _json(search: Any) -> str:
@@ -158,43 +183,75 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
             lines.extend(f"      {w}" for w in without)
         if ranked:
             lines.append("ranking along the record (Cramer-Rao bound, best first):")
-            lines.extend(f"  {_set(r['sensors'])}: worst relative std {_num(r['worst_relative_std'])} "
-                         f"({r['worst']}), log det FIM {_num(r['log_det_fim'])}"
-                         + ("  <- effective independence" if r["efi"] else "") for r in ranked)
+            lines.extend(
+                f"  {_set(r['sensors'])}: worst relative std {_num(r['worst_relative_std'])} "
+                f"({r['worst']}), log det FIM {_num(r['log_det_fim'])}"
+                + ("  <- effective independence" if r["efi"] else "")
+                for r in ranked
+            )
         if efi:
             lines.append(f"effective independence (linear modes) chooses {_set(efi)}")
         lines.append("assumes: " + "; ".join(_assumptions(search)))
         return "\n".join(lines)
     if fmt == "md":
-        lines = [f"# Sensor sets of {search.model}", "", *_head(search), "",
-                 "| minimal set | certificate | with one sensor removed |", "|---|---|---|"]
+        lines = [
+            f"# Sensor sets of {search.model}",
+            "",
+            *_head(search),
+            "",
+            "| minimal set | certificate | with one sensor removed |",
+            "|---|---|---|",
+        ]
         lines += [f"| {_set(s)} | {how} | {'; '.join(without)} |" for s, how, without in rows]
         if ranked:
-            lines += ["", "| rank | sensors | worst relative std | worst parameter | log det FIM | effective "
-                      "independence |", "|---:|---|---:|---|---:|---|"]
-            lines += [f"| {i} | {_set(r['sensors'])} | {_num(r['worst_relative_std'])} | {r['worst']} | "
-                      f"{_num(r['log_det_fim'])} | {'chosen' if r['efi'] else ''} |" for i, r in enumerate(ranked, 1)]
+            lines += [
+                "",
+                "| rank | sensors | worst relative std | worst parameter | log det FIM | effective independence |",
+                "|---:|---|---:|---|---:|---|",
+            ]
+            lines += [
+                f"| {i} | {_set(r['sensors'])} | {_num(r['worst_relative_std'])} | {r['worst']} | "
+                f"{_num(r['log_det_fim'])} | {'chosen' if r['efi'] else ''} |"
+                for i, r in enumerate(ranked, 1)
+            ]
         if efi:
             lines += ["", f"Effective independence (linear modes) chooses {_set(efi)}."]
         lines += ["", "Assumes: " + "; ".join(_assumptions(search)) + "."]
         return "\n".join(lines)
     if fmt == "tex":
-        lines = [r"\begin{table}[htbp]", r"\centering",
-                 r"\caption{Minimal sensor sets of \texttt{" + search.model.replace("_", r"\_") + "}: "
-                 + f"{search.analyses} joint verdicts for {search.exhaustive} possible sets" + "}",
-                 r"\begin{tabular}{ll}", r"\toprule", r"minimal set & certificate \\", r"\midrule"]
+        lines = [
+            r"\begin{table}[htbp]",
+            r"\centering",
+            r"\caption{Minimal sensor sets of \texttt{"
+            + search.model.replace("_", r"\_")
+            + "}: "
+            + f"{search.analyses} joint verdicts for {search.exhaustive} possible sets"
+            + "}",
+            r"\begin{tabular}{ll}",
+            r"\toprule",
+            r"minimal set & certificate \\",
+            r"\midrule",
+        ]
         geq = r"$\geq$"
         lines += [_tex_set(s) + " & " + how.replace(">=", geq) + r" \\" for s, how, _ in rows]
         if not rows:
             lines.append(r"\multicolumn{2}{l}{none} \\")
         lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
         if ranked:
-            lines += ["", r"\begin{table}[htbp]", r"\centering",
-                      r"\caption{Sensor sets ranked by the Cram\'er-Rao bound along the record}",
-                      r"\begin{tabular}{rlrr}", r"\toprule", r"rank & sensors & worst rel.\ std & $\log\det F$ \\",
-                      r"\midrule"]
-            lines += [f"{i} & {_tex_set(r['sensors'])} & {_num(r['worst_relative_std'])} & {_num(r['log_det_fim'])} \\\\"
-                      for i, r in enumerate(ranked, 1)]
+            lines += [
+                "",
+                r"\begin{table}[htbp]",
+                r"\centering",
+                r"\caption{Sensor sets ranked by the Cram\'er-Rao bound along the record}",
+                r"\begin{tabular}{rlrr}",
+                r"\toprule",
+                r"rank & sensors & worst rel.\ std & $\log\det F$ \\",
+                r"\midrule",
+            ]
+            lines += [
+                f"{i} & {_tex_set(r['sensors'])} & {_num(r['worst_relative_std'])} & {_num(r['log_det_fim'])} \\\\"
+                for i, r in enumerate(ranked, 1)
+            ]
             lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
         return "\n".join(lines)
     raise ValueError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
@@ -216,5 +273,7 @@ def undecided_line(search: Any) -> str | None:
     if not (undecided := search.undecided_sets):
         return None
     first = search.answer(undecided[0])
-    return (f"{len(undecided)} sensor set(s) undecided, e.g. {{{', '.join(first.sensors)}}}: "
-            f"{first.reason or 'minimality undecided'}; raise max_seconds=")
+    return (
+        f"{len(undecided)} sensor set(s) undecided, e.g. {{{', '.join(first.sensors)}}}: "
+        f"{first.reason or 'minimality undecided'}; raise max_seconds="
+    )

@@ -40,8 +40,11 @@ def assumption_texts(result: AnalysisResult) -> list[str]:
     if ic:
         parts = []
         if ic.get("unknown"):
-            parts.append("unknown and generic" if not (ic.get("known_generic") or ic.get("known_values"))
-                         else f"unknown for {_names(ic['unknown'])}")
+            parts.append(
+                "unknown and generic"
+                if not (ic.get("known_generic") or ic.get("known_values"))
+                else f"unknown for {_names(ic['unknown'])}"
+            )
         if ic.get("known_generic"):
             parts.append(f"known and generic for {_names(ic['known_generic'])}")
         if ic.get("known_values"):
@@ -61,6 +64,7 @@ def bounds_text(bounds: Mapping[str, Sequence[float | str]]) -> str:
     >>> bounds_text({"fy": [0.0, "inf"], "gap": [0, 0.01], "c": ["-inf", 5]})
     'declared bounds fy > 0, gap in [0, 0.01], c < 5'
     """
+
     def one(name: str, lo: float | str, hi: float | str) -> str:
         if hi == "inf":
             return f"{name} > {lo:g}"
@@ -73,12 +77,16 @@ def bounds_text(bounds: Mapping[str, Sequence[float | str]]) -> str:
 
 def _verdict_lines(result: AnalysisResult) -> list[str]:
     """Verdict overall and of the unknown inputs (Markdown/LaTeX captions share it)."""
-    lines = [f"Verdict: {result.verdict.value}." if result.joint is None else
-             f"Verdict: {result.overall_verdict.value} (joint); {result.verdict.value} (union over branches)."]
+    lines = [
+        f"Verdict: {result.verdict.value}."
+        if result.joint is None
+        else f"Verdict: {result.overall_verdict.value} (joint); {result.verdict.value} (union over branches)."
+    ]
     ui = result.unknown_inputs
     if ui:
-        lines.append(f"Unknown inputs observable: {_names(ui['observable'])}; "
-                     f"unobservable: {_names(ui['unobservable'])}.")
+        lines.append(
+            f"Unknown inputs observable: {_names(ui['observable'])}; unobservable: {_names(ui['unobservable'])}."
+        )
     if result.assumptions:
         lines.append("Assumptions: " + "; ".join(assumption_texts(result)) + ".")
     return lines
@@ -107,9 +115,15 @@ JOINT_RULE = "the visited branches and visible switching surfaces together, para
 UNION_RULE = "Union over branches (each branch on its own, the seed paper's rule)"
 
 
-def _first_lines(result: AnalysisResult, *, suffix: str = "", name: Callable[[str], str] = str,
-                 escape: Callable[[str], str] = str, strong: Callable[[str], str] = str,
-                 union: bool = True) -> list[str]:
+def _first_lines(
+    result: AnalysisResult,
+    *,
+    suffix: str = "",
+    name: Callable[[str], str] = str,
+    escape: Callable[[str], str] = str,
+    strong: Callable[[str], str] = str,
+    union: bool = True,
+) -> list[str]:
     """The joint verdict in words, why some of it is undecided, then the union: what a rendering says first."""
     words = strong(result.joint_words(name))
     lines = [f"{words} ({JOINT_RULE}){suffix}" if result.joint is not None else f"{words}{suffix}"]

@@ -13,8 +13,14 @@ import json
 from collections.abc import Iterable, Sequence
 from typing import Any
 
-__all__ = ["render_model", "render_branches", "render_symmetries", "reparametrization_lines",
-           "not_identifiable_line", "inconclusive_line"]
+__all__ = [
+    "render_model",
+    "render_branches",
+    "render_symmetries",
+    "reparametrization_lines",
+    "not_identifiable_line",
+    "inconclusive_line",
+]
 
 _ROLES = ("parameters", "inputs", "unknown_inputs", "known_constants")
 
@@ -67,14 +73,19 @@ def render_branches(model: Any, branches: Sequence[Any], fmt: str = "text", *, e
         The rendering, without a final newline.
     """
     if fmt == "json":
-        doc = {"model": model.name, "branches": [{"label": b.label, "guard": b.guard_text,
-                                                  **({"undecided": b.undecided} if b.undecided else {})}
-                                                 for b in branches]}
+        doc = {
+            "model": model.name,
+            "branches": [
+                {"label": b.label, "guard": b.guard_text, **({"undecided": b.undecided} if b.undecided else {})}
+                for b in branches
+            ],
+        }
         return json.dumps(doc, indent=2)
     lines = [f"{model.name}: {len(branches)} branch{'es' if len(branches) != 1 else ''}"]
     for b in branches:
-        lines.append(f"  ({b.label}) {b.guard_text}"
-                     + (f"  [feasibility undecided: {b.undecided}]" if b.undecided else ""))
+        lines.append(
+            f"  ({b.label}) {b.guard_text}" + (f"  [feasibility undecided: {b.undecided}]" if b.undecided else "")
+        )
         if equations:
             lines.extend(f"      d/dt {s} = {b.model.equations[s]}" for s in b.model.states)
     return "\n".join(lines)
@@ -96,15 +107,32 @@ def render_symmetries(found: Sequence[tuple[Any, Any]], fmt: str = "text") -> st
         The rendering, without a final newline.
     """
     if fmt == "json":
-        return json.dumps([{"label": b.label, "guard": b.guard_text, **(s.to_dict() if s else {
-            "undecided": f"not analysed, its feasibility is undecided: {b.undecided}"})} for b, s in found], indent=2)
+        return json.dumps(
+            [
+                {
+                    "label": b.label,
+                    "guard": b.guard_text,
+                    **(
+                        s.to_dict()
+                        if s
+                        else {"undecided": f"not analysed, its feasibility is undecided: {b.undecided}"}
+                    ),
+                }
+                for b, s in found
+            ],
+            indent=2,
+        )
     lines = []
     for b, s in found:
         if s is None:
-            lines.append(f"branch {b.label} ({b.guard_text}): not analysed, its feasibility is undecided: {b.undecided}")
+            lines.append(
+                f"branch {b.label} ({b.guard_text}): not analysed, its feasibility is undecided: {b.undecided}"
+            )
             continue
-        lines.append(f"branch {b.label} ({b.guard_text}): {s.dimension} unobservable direction(s), "
-                     f"{len(s.generators)} with a closed form, {s.missing} without")
+        lines.append(
+            f"branch {b.label} ({b.guard_text}): {s.dimension} unobservable direction(s), "
+            f"{len(s.generators)} with a closed form, {s.missing} without"
+        )
         lines.extend(f"  {g.kind:<11} {g}" for g in s.generators)
         lines.extend(f"  note: {n}" for n in s.notes)
     return "\n".join(lines)
@@ -131,8 +159,7 @@ def not_identifiable_line(r: Any) -> str | None:
         if r.undecided:
             head += f", {', '.join(r.undecided)} undecided"
     else:
-        head = (f"the new model {r.model.name!r} is not shown identifiable: {', '.join(r.undecided)} undecided "
-                f"{where}")
+        head = f"the new model {r.model.name!r} is not shown identifiable: {', '.join(r.undecided)} undecided {where}"
     return head + (f" ({r.notes[0]})" if r.notes and not r.complete else "")
 
 
@@ -151,9 +178,11 @@ def reparametrization_lines(r: Any, path: str) -> str:
     str
         The summary, one line per item, without a final newline.
     """
-    lines = [f"wrote {path}: {len(r.mapping)} variables ({'complete' if r.complete else 'incomplete'}, "
-             f"{'identifiable' if r.identifiable else 'NOT identifiable'}, method {r.method}, verified "
-             f"{'yes' if r.verified else 'no'})"]
+    lines = [
+        f"wrote {path}: {len(r.mapping)} variables ({'complete' if r.complete else 'incomplete'}, "
+        f"{'identifiable' if r.identifiable else 'NOT identifiable'}, method {r.method}, verified "
+        f"{'yes' if r.verified else 'no'})"
+    ]
     lines += [f"  {k} = {v}" for k, v in r.mapping.items()]
     lines += [f"  divided out: {g}" for g in r.divided]
     lines += [f"  note: {n}" for n in r.notes]

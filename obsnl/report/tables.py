@@ -18,10 +18,11 @@ from typing import TYPE_CHECKING
 import sympy as sp
 
 from obsnl.errors import OptionError
-from obsnl.model.core import Model
 from obsnl.model.branching.signature import ModelSignature
+from obsnl.model.core import Model
 from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import Verdict
+from obsnl.report.groups import BranchGroup, branch_groups
 from obsnl.report.sentences import (
     _first_lines,
     _names,
@@ -32,7 +33,6 @@ from obsnl.report.sentences import (
     union_text,
 )
 from obsnl.report.tex import _latex_expr, _latex_factor, _latex_name, tex_escape
-from obsnl.report.groups import BranchGroup, branch_groups
 
 if TYPE_CHECKING:  # the estimators' contract loads when a branch table is asked for, not with every rendering
     from obsnl.observability.contract.branch_table import BranchTable
@@ -163,7 +163,8 @@ def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult)
             alts = group.condition_expr.args if isinstance(group.condition_expr, sp.Or) else (group.condition_expr,)
             return " or ".join(
                 ", ".join(f"${_latex_expr(r, result)}$" for r in (a.args if isinstance(a, sp.And) else (a,)))
-                for a in alts)
+                for a in alts
+            )
         return f"`{group.condition}`"
     if row == "degree":
         return "not decided" if group.branches[0].verdict is Verdict.INCONCLUSIVE else str(group.degree)
@@ -205,13 +206,20 @@ def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, t
     """
     _check_rows(rows)
     groups = branch_groups(result)
-    lines = [f"### {title or 'Observability of ' + result.model}", "", f"_{_header_line(result)}_", "",
-             *"\n\n".join(_first_lines(result, suffix=".", strong=lambda w: f"**{w}**")).split("\n"), ""]
+    lines = [
+        f"### {title or 'Observability of ' + result.model}",
+        "",
+        f"_{_header_line(result)}_",
+        "",
+        *"\n\n".join(_first_lines(result, suffix=".", strong=lambda w: f"**{w}**")).split("\n"),
+        "",
+    ]
     lines.append("| Branches | " + " | ".join(g.heading for g in groups) + " |")
     lines.append("|---|" + "---|" * len(groups))
     for row in rows:
-        lines.append(f"| {ROWS[row]} | " + " | ".join(_cells(g, row, latex=False, result=result) for g in groups)
-                     + " |")
+        lines.append(
+            f"| {ROWS[row]} | " + " | ".join(_cells(g, row, latex=False, result=result) for g in groups) + " |"
+        )
     lines.append("")
     if result.visited is not None and result.visited.how != "all":
         lines.append(f"Visited branches: {result.visited.note}.")
@@ -224,8 +232,11 @@ def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, t
 
 def to_text(result: AnalysisResult) -> str:
     """A plain-text summary for terminals (``obsnl analyze --format text``)."""
-    prob = (f"P(all verdicts right) >= {probability_text(result.probability)}" if result.probability is not None
-            else "deterministic")
+    prob = (
+        f"P(all verdicts right) >= {probability_text(result.probability)}"
+        if result.probability is not None
+        else "deterministic"
+    )
     if result.verdict is Verdict.INCONCLUSIVE:
         prob = "no probability bound (not every verdict was decided)"
     lines = [f"{result.model}: method {result.method}, seed {result.seed}, {prob}, {result.seconds:.3f} s"]
@@ -235,10 +246,14 @@ def to_text(result: AnalysisResult) -> str:
     for text in assumption_texts(result):
         lines.append(f"  assumes: {text}")
     for b in result.branches:
-        degree = ("transcendence degree not decided" if b.verdict is Verdict.INCONCLUSIVE
-                  else f"rank {b.rank}/{b.size}, transcendence degree {b.transcendence_degree}")
-        lines.append(f"  ({b.label}) {b.guard}  [{b.method or result.method}, {degree}, {b.seconds:.3f} s]  "
-                     f"{b.verdict.value}")
+        degree = (
+            "transcendence degree not decided"
+            if b.verdict is Verdict.INCONCLUSIVE
+            else f"rank {b.rank}/{b.size}, transcendence degree {b.transcendence_degree}"
+        )
+        lines.append(
+            f"  ({b.label}) {b.guard}  [{b.method or result.method}, {degree}, {b.seconds:.3f} s]  {b.verdict.value}"
+        )
         if b.verdict is Verdict.INCONCLUSIVE:
             lines.append(f"      INCONCLUSIVE: {b.reason}")
             if b.undecided:
@@ -255,9 +270,11 @@ def to_text(result: AnalysisResult) -> str:
         j = result.joint
         for k, v in j.unknown_inputs.items():
             lines.append(f"  joint unknown inputs {k}: {_names(v)}")
-        visits = ", ".join(f"{v.kind} {'/'.join(v.labels)}" + (
-            f" (skipped: {v.reason})" if v.reason else "" if v.visible or v.kind == "branch" else " (invisible)")
-            for v in j.visits)
+        visits = ", ".join(
+            f"{v.kind} {'/'.join(v.labels)}"
+            + (f" (skipped: {v.reason})" if v.reason else "" if v.visible or v.kind == "branch" else " (invisible)")
+            for v in j.visits
+        )
         lines.append(f"  joint visits:         {visits}; P(right) >= {probability_text(j.probability)}")
     if result.visited is not None and result.visited.how != "all":
         lines.append(f"  visited branches:     {result.visited.note}")
@@ -267,8 +284,11 @@ def to_text(result: AnalysisResult) -> str:
             lines.append(f"      crossings of {g} = 0: {n}")
     for k, v in result.unknown_inputs.items():
         lines.append(f"  union unknown inputs {k}: {_names(v)}")
-    lines.append(f"  verdict: {result.overall_verdict.value} (joint); {result.verdict.value} (union over branches)"
-                 if result.joint is not None else f"  verdict: {result.verdict.value} (union over branches)")
+    lines.append(
+        f"  verdict: {result.overall_verdict.value} (joint); {result.verdict.value} (union over branches)"
+        if result.joint is not None
+        else f"  verdict: {result.verdict.value} (union over branches)"
+    )
     return "\n".join(lines) + "\n"
 
 
@@ -316,8 +336,14 @@ def render(result: AnalysisResult, fmt: str) -> str:
     raise OptionError(f"unknown format {fmt!r}; formats are {', '.join(FORMATS)}")
 
 
-def to_latex(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, caption: str | None = None,
-             label: str | None = None, environment: bool = True) -> str:
+def to_latex(
+    result: AnalysisResult,
+    *,
+    rows: Sequence[str] = DEFAULT_ROWS,
+    caption: str | None = None,
+    label: str | None = None,
+    environment: bool = True,
+) -> str:
     """A booktabs LaTeX table, ready to ``\\input`` (needs ``\\usepackage{booktabs}``).
 
     Parameters
@@ -339,18 +365,24 @@ def to_latex(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, capt
         "\\midrule",
     ]
     for row in rows:
-        body.append(f"{ROWS[row]} & " + " & ".join(_cells(g, row, latex=True, result=result) for g in groups)
-                    + " \\\\")
+        body.append(f"{ROWS[row]} & " + " & ".join(_cells(g, row, latex=True, result=result) for g in groups) + " \\\\")
     body += ["\\bottomrule", "\\end{tabular}"]
     if not environment:
         return "\n".join(body) + "\n"
     header = tex_escape(_header_line(result)).replace(">=", "$\\geq$")
     first = _first_lines(result, suffix=".", name=lambda n: f"${_latex_name(n, result)}$", escape=tex_escape)
-    cap = caption or (f"Observability of the model {tex_escape(result.model)} by branch ({header}): "
-                      + " ".join(first + [tex_escape(t) for t in _verdict_lines(result)]))
+    cap = caption or (
+        f"Observability of the model {tex_escape(result.model)} by branch ({header}): "
+        + " ".join(first + [tex_escape(t) for t in _verdict_lines(result)])
+    )
     lab = label or f"tab:obsnl-{re.sub(r'[^A-Za-z0-9-]+', '-', result.model)}"
-    head = ["% generated by obsnl; needs \\usepackage{booktabs}", "\\begin{table}[htbp]", "\\centering",
-            f"\\caption{{{cap}}}", f"\\label{{{lab}}}"]
+    head = [
+        "% generated by obsnl; needs \\usepackage{booktabs}",
+        "\\begin{table}[htbp]",
+        "\\centering",
+        f"\\caption{{{cap}}}",
+        f"\\label{{{lab}}}",
+    ]
     return "\n".join(head + body + ["\\end{table}"]) + "\n"
 
 

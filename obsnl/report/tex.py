@@ -4,7 +4,6 @@ switching function in LaTeX.
 
 from __future__ import annotations
 
-
 import sympy as sp
 
 from obsnl.observability.results import AnalysisResult
@@ -13,8 +12,18 @@ __all__ = ["tex_escape"]
 
 
 # --------------------------------------------------------------------------- latex
-_TEX_SPECIAL = {"_": r"\_", "%": r"\%", "&": r"\&", "#": r"\#", "$": r"\$", "{": r"\{", "}": r"\}",
-                "~": r"\textasciitilde{}", "^": r"\textasciicircum{}", "\\": r"\textbackslash{}"}
+_TEX_SPECIAL = {
+    "_": r"\_",
+    "%": r"\%",
+    "&": r"\&",
+    "#": r"\#",
+    "$": r"\$",
+    "{": r"\{",
+    "}": r"\}",
+    "~": r"\textasciitilde{}",
+    "^": r"\textasciicircum{}",
+    "\\": r"\textbackslash{}",
+}
 
 
 def tex_escape(text: str) -> str:

@@ -83,10 +83,17 @@ def bouc_wen_building(n: int, *, masses: Sequence[float] | None = None, measured
         rel = f"(-{force(i)}{above})/{mass[i - 1]!r}"
         eqs[f"x{i}"] = f"v{i}"
         eqs[f"v{i}"] = f"{rel} - ag"
-        eqs[f"z{i}"] = (f"{rate(i)} - beta{i}*Abs({rate(i)})*Abs(z{i})*z{i} - gamma{i}*{rate(i)}*z{i}**2")
+        eqs[f"z{i}"] = f"{rate(i)} - beta{i}*Abs({rate(i)})*Abs(z{i})*z{i} - gamma{i}*{rate(i)}*z{i}**2"
         if i in floors:
             outs[f"a_{i}"] = rel
     params = [f"{p}{i}" for i in range(1, n + 1) for p in ("c", "k", "kh", "beta", "gamma")]
-    return Model(name=f"bouc_wen_building_{n}", description=f"{n}-storey Bouc-Wen shear building, floor "
-                 "accelerations measured", source="obsnl.studies.buildings", states=states, parameters=params,
-                 inputs=["ag"], equations=eqs, outputs=outs)
+    return Model(
+        name=f"bouc_wen_building_{n}",
+        description=f"{n}-storey Bouc-Wen shear building, floor accelerations measured",
+        source="obsnl.studies.buildings",
+        states=states,
+        parameters=params,
+        inputs=["ag"],
+        equations=eqs,
+        outputs=outs,
+    )

@@ -24,13 +24,22 @@ import numpy as np
 import scipy.linalg as sla
 
 from obsnl.errors import DataError, ModelError
-from obsnl.linear.systems import LinearSystem
 from obsnl.linear.simulation import zoh
+from obsnl.linear.systems import LinearSystem
 from obsnl.studies.link_model import _DOF_NAME, DEFAULT_LINK_FILE, LinkSpec, read_link_spec
 
 # DEFAULT_LINK_FILE, LinkSpec and read_link_spec live in obsnl.studies.link_model; named here as before
-__all__ = ["DEFAULT_LINK_FILE", "LinkSpec", "Cantilever", "BreathingCrack", "LinkSimulation", "read_link_spec",
-           "build_cantilever", "element_channels"]
+__all__ = [
+    "DEFAULT_LINK_FILE",
+    "LinkSpec",
+    "Cantilever",
+    "BreathingCrack",
+    "LinkSimulation",
+    "read_link_spec",
+    "build_cantilever",
+    "element_channels",
+]
+
 
 def element_channels(le: float, channels: Sequence[str] = ("moment",)) -> np.ndarray:
     """Unit force patterns on an element's DOFs ``[w1, theta1, w2, theta2]``, one column each.
@@ -233,7 +242,10 @@ class Cantilever:
         Kc = crack.severity * (T @ self.Ke @ T.T)
         phi_o, gam_o = zoh(self.state_matrix(self.K - Kc), sysm.B, dt)
         gu_o = u @ gam_o.T
-        i1, i0 = self.dof(f"theta{crack.element}"), (self.dof(f"theta{crack.element - 1}") if crack.element > 1 else None)
+        i1, i0 = (
+            self.dof(f"theta{crack.element}"),
+            (self.dof(f"theta{crack.element - 1}") if crack.element > 1 else None),
+        )
         h = element_channels(self.element_length)[:, 0]
         proj = -crack.severity * (h @ self.Ke @ T.T)  # true force on the dipole per unit open state
         is_open = np.zeros(t.size, dtype=bool)
@@ -274,13 +286,30 @@ def build_cantilever(spec: LinkSpec | None = None) -> Cantilever:
     try:  # absurd numbers (SI units) overflow or give no positive frequencies: refused below
         with np.errstate(over="raise", divide="raise", invalid="raise"):
             ei, rho_a = spec.bending_stiffness, spec.mass_per_length
-            Ke = ei / le**3 * np.array(
-                [[12, 6 * le, -12, 6 * le], [6 * le, 4 * le**2, -6 * le, 2 * le**2],
-                 [-12, -6 * le, 12, -6 * le], [6 * le, 2 * le**2, -6 * le, 4 * le**2]]
+            Ke = (
+                ei
+                / le**3
+                * np.array(
+                    [
+                        [12, 6 * le, -12, 6 * le],
+                        [6 * le, 4 * le**2, -6 * le, 2 * le**2],
+                        [-12, -6 * le, 12, -6 * le],
+                        [6 * le, 2 * le**2, -6 * le, 4 * le**2],
+                    ]
+                )
             )
-            Me = rho_a * le / 420.0 * np.array(
-                [[156, 22 * le, 54, -13 * le], [22 * le, 4 * le**2, 13 * le, -3 * le**2],
-                 [54, 13 * le, 156, -22 * le], [-13 * le, -3 * le**2, -22 * le, 4 * le**2]]
+            Me = (
+                rho_a
+                * le
+                / 420.0
+                * np.array(
+                    [
+                        [156, 22 * le, 54, -13 * le],
+                        [22 * le, 4 * le**2, 13 * le, -3 * le**2],
+                        [54, 13 * le, 156, -22 * le],
+                        [-13 * le, -3 * le**2, -22 * le, 4 * le**2],
+                    ]
+                )
             )
             nfull = 2 * (ne + 1)
             Mf, Kf = np.zeros((nfull, nfull)), np.zeros((nfull, nfull))
@@ -294,6 +323,8 @@ def build_cantilever(spec: LinkSpec | None = None) -> Cantilever:
     except (ArithmeticError, ValueError, IndexError, np.linalg.LinAlgError):
         alpha = beta = math.nan
     if not (math.isfinite(alpha) and math.isfinite(beta) and np.all(np.isfinite(w)) and w[0] > 0):
-        raise ModelError("the [structure] and [damping] numbers give a link without finite positive natural "
-                         "frequencies; check youngs_modulus, density, the dimensions (SI units) and modes")
+        raise ModelError(
+            "the [structure] and [damping] numbers give a link without finite positive natural "
+            "frequencies; check youngs_modulus, density, the dimensions (SI units) and modes"
+        )
     return Cantilever(spec, M, K, alpha * M + beta * K, Me, Ke, (alpha, beta))

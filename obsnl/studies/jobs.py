@@ -27,9 +27,21 @@ from obsnl._text import quote
 from obsnl.errors import OptionError
 from obsnl.report.printed import Printed, written_line
 
-__all__ = ["identify_job", "reproduce_job", "bank_job", "reparametrize_job", "identify_printed", "reproduce_printed",
-           "bank_printed", "reparametrize_printed", "tuning_from", "noise_ratios", "TUNING_DEFAULTS",
-           "DEFAULT_FOLDER", "QUICK_FOLDER"]
+__all__ = [
+    "identify_job",
+    "reproduce_job",
+    "bank_job",
+    "reparametrize_job",
+    "identify_printed",
+    "reproduce_printed",
+    "bank_printed",
+    "reparametrize_printed",
+    "tuning_from",
+    "noise_ratios",
+    "TUNING_DEFAULTS",
+    "DEFAULT_FOLDER",
+    "QUICK_FOLDER",
+]
 
 #: The tuning of a parameter not given when the others are: prior std of log-parameters, their random
 #: walk, the factor on the state noise, the innovation gate (off).
@@ -42,8 +54,9 @@ QUICK_FOLDER = Path("reproduce-quick")
 STUDY_NOISE = 1e-3
 
 
-def tuning_from(s0: float | None = None, q_theta: float | None = None, q_x: float | None = None,
-                gate: float | None = None) -> Any:
+def tuning_from(
+    s0: float | None = None, q_theta: float | None = None, q_x: float | None = None, gate: float | None = None
+) -> Any:
     """A filter tuning from the values given, :data:`TUNING_DEFAULTS` for the others; None when none is given.
 
     Parameters
@@ -66,18 +79,22 @@ def tuning_from(s0: float | None = None, q_theta: float | None = None, q_x: floa
 
 
 @overload
-def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: Literal[True],
-                 option: str = "noise=") -> float: ...
+def noise_ratios(
+    items: Sequence[str], channels: Sequence[str], *, study: Literal[True], option: str = "noise="
+) -> float: ...
 @overload
-def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: Literal[False],
-                 option: str = "noise=") -> dict[str, float]: ...
+def noise_ratios(
+    items: Sequence[str], channels: Sequence[str], *, study: Literal[False], option: str = "noise="
+) -> dict[str, float]: ...
 @overload
-def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
-                 option: str = "noise=") -> dict[str, float] | float: ...
+def noise_ratios(
+    items: Sequence[str], channels: Sequence[str], *, study: bool, option: str = "noise="
+) -> dict[str, float] | float: ...
 
 
-def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
-                 option: str = "noise=") -> dict[str, float] | float:
+def noise_ratios(
+    items: Sequence[str], channels: Sequence[str], *, study: bool, option: str = "noise="
+) -> dict[str, float] | float:
     """Noise-to-signal RMS ratios from texts: ``RATIO`` for every channel (at most once), ``NAME=RATIO`` (over it).
 
     Parameters
@@ -109,12 +126,15 @@ def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
     plain = [v for v in items if "=" not in v]
     named = [v for v in items if "=" in v]
     if len(plain) > 1:  # two levels for every channel: neither silently wins
-        raise OptionError(f"{option} gives one RATIO for every channel twice ({', '.join(map(repr, plain))}); give it once")
+        raise OptionError(
+            f"{option} gives one RATIO for every channel twice ({', '.join(map(repr, plain))}); give it once"
+        )
     try:
         every = plain_float(plain[0]) if plain else None
     except ValueError:
-        raise OptionError(f"{option} {plain[0]!r} is not a number: give NAME=RATIO or one RATIO for every "
-                          f"channel") from None
+        raise OptionError(
+            f"{option} {plain[0]!r} is not a number: give NAME=RATIO or one RATIO for every channel"
+        ) from None
     ratios = {c: every for c in channels} if every is not None else {}
     ratios.update(parse_assignments(named, channels, option=option, what="model input or output"))
     if study:
@@ -124,10 +144,23 @@ def noise_ratios(items: Sequence[str], channels: Sequence[str], *, study: bool,
     return ratios
 
 
-def identify_job(model: Any, *, data: str | None = None, record: str | None = None, guess: Sequence[str] = (),
-                 noise: Sequence[str] = (), tuning: Any = None, s0: float | None = None, q_theta: float | None = None,
-                 q_x: float | None = None, gate: float | None = None, samples: int | None = None,
-                 out: str | None = None, force: bool = False, **options: Any) -> tuple[Any, list[Path]]:
+def identify_job(
+    model: Any,
+    *,
+    data: str | None = None,
+    record: str | None = None,
+    guess: Sequence[str] = (),
+    noise: Sequence[str] = (),
+    tuning: Any = None,
+    s0: float | None = None,
+    q_theta: float | None = None,
+    q_x: float | None = None,
+    gate: float | None = None,
+    samples: int | None = None,
+    out: str | None = None,
+    force: bool = False,
+    **options: Any,
+) -> tuple[Any, list[Path]]:
     """Identify a model from measured ``data`` or, as a simulation study, from its ``[values]`` under ``record``.
 
     Parameters
@@ -167,14 +200,22 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     if samples is not None and data:  # an option that would be ignored is refused, not dropped silently
         raise OptionError("samples= applies to a record= study; cut the data file instead")
     if options.get("intersample") is not None and not data:
-        raise OptionError("intersample= applies to measured data= (a record= study simulates its input linearly "
-                          "between samples); drop it or identify from data=")
+        raise OptionError(
+            "intersample= applies to measured data= (a record= study simulates its input linearly "
+            "between samples); drop it or identify from data="
+        )
     if "intersample" in options and options["intersample"] is None:
         options.pop("intersample")
-    if (ex := options.get("executor")) is not None and (ex.workers is not None or ex.scheduler is not None) \
-            and not options.get("replicates") and not options.get("refine", True):
-        raise OptionError("workers= or scheduler= applies to the profile likelihoods and the Monte-Carlo replicates: "
-                          "drop refine=False or add replicates=N (nothing else of identify runs in parallel)")
+    if (
+        (ex := options.get("executor")) is not None
+        and (ex.workers is not None or ex.scheduler is not None)
+        and not options.get("replicates")
+        and not options.get("refine", True)
+    ):
+        raise OptionError(
+            "workers= or scheduler= applies to the profile likelihoods and the Monte-Carlo replicates: "
+            "drop refine=False or add replicates=N (nothing else of identify runs in parallel)"
+        )
     if ex is not None:
         ex.probe()
     if tuning is not None and (s0, q_theta, q_x, gate) != (None,) * 4:
@@ -201,9 +242,16 @@ def identify_job(model: Any, *, data: str | None = None, record: str | None = No
     return res, (write_identification(res, out, force=force) if out else [])
 
 
-def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = None, quick: bool = False,
-                  force: bool = False, progress: bool = True, regenerating: Callable[[Path], None] | None = None,
-                  **options: Any) -> tuple[Path, list[Path]]:
+def reproduce_job(
+    *,
+    out: str | Path | None = None,
+    record: str | Path | None = None,
+    quick: bool = False,
+    force: bool = False,
+    progress: bool = True,
+    regenerating: Callable[[Path], None] | None = None,
+    **options: Any,
+) -> tuple[Path, list[Path]]:
     """The main job into a folder: checks, a progress bar, :func:`~obsnl.studies.seed_paper.reproduce`, the files.
 
     Parameters
@@ -252,8 +300,9 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
     if out is not None:  # an empty name is refused, never read as the current folder
         check_folder(out, [], force=force)
     folder = Path(out) if out is not None else (QUICK_FOLDER if quick else DEFAULT_FOLDER) / (rec.name if rec else "")
-    figures = [f.name for f in sorted(folder.glob("fig[23]_*.png"))] if folder.is_dir() and not folder.is_symlink() \
-        else []
+    figures = (
+        [f.name for f in sorted(folder.glob("fig[23]_*.png"))] if folder.is_dir() and not folder.is_symlink() else []
+    )
     check_folder(folder, [*seed_reproduction.REPRODUCTION_FILES, *figures], force=force or regenerate)
     if regenerate and regenerating is not None:
         regenerating(folder)
@@ -272,8 +321,7 @@ def reproduce_job(*, out: str | Path | None = None, record: str | Path | None = 
     return folder, seed_reproduction.write_reproduction(rep, folder, force=force or regenerate)
 
 
-def bank_job(*, out: str | Path, model: str | Path | None = None, seeds: int = 3,
-             force: bool = False) -> list[Path]:
+def bank_job(*, out: str | Path, model: str | Path | None = None, seeds: int = 3, force: bool = False) -> list[Path]:
     """The observer-bank benchmark on the cantilever link into ``out`` (all files or none).
 
     Parameters
@@ -302,8 +350,9 @@ def bank_job(*, out: str | Path, model: str | Path | None = None, seeds: int = 3
     return write_bank_report(run_link_study(seeds=seeds, spec=spec), out, force=force)
 
 
-def reparametrize_job(model: Any, *, names: Sequence[str] = (), output: str | Path | None = None, force: bool = False,
-                      **options: Any) -> Any:
+def reparametrize_job(
+    model: Any, *, names: Sequence[str] = (), output: str | Path | None = None, force: bool = False, **options: Any
+) -> Any:
     """A model (file) written in identifiable combinations (:func:`obsnl.recombination.reparametrize.reparametrize`).
 
     Parameters
@@ -335,8 +384,9 @@ def reparametrize_job(model: Any, *, names: Sequence[str] = (), output: str | Pa
     if output is not None and output != "-":  # refused before any work
         check_target(output, force=force)
     model = read_model(model, check=check_file_limits) if isinstance(model, (str, Path)) else model
-    r = reparametrize(model, names=dict((old.strip(), new.strip()) for old, new in (n.split("=") for n in names)),
-                      **options)
+    r = reparametrize(
+        model, names=dict((old.strip(), new.strip()) for old, new in (n.split("=") for n in names)), **options
+    )
     if output is not None and output != "-":
         safe_write(output, r.to_toml(), force=force)
     return r
@@ -413,5 +463,6 @@ def reparametrize_printed(model: Any, **options: Any) -> Printed:
     from obsnl.report.structure import not_identifiable_line, reparametrization_lines
 
     r, output = reparametrize_job(model, **options), options.get("output")
-    return Printed(r.to_toml() if output in (None, "-") else reparametrization_lines(r, output),
-                   not_identifiable_line(r))
+    return Printed(
+        r.to_toml() if output in (None, "-") else reparametrization_lines(r, output), not_identifiable_line(r)
+    )

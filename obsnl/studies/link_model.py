@@ -74,10 +74,13 @@ MAX_FILE_BYTES = 1_000_000
 #: The crack-opening rules the simulation implements (``[crack] opens_when``).
 OPENS_WHEN = ("negative curvature",)
 _SEE = "see the packaged models/cantilever_link.toml"
-_KEYS = {"": ("name", "description", "source", "structure", "damping", "excitation", "sensors", "crack", "bank"),
-         "structure": ("youngs_modulus", "density", "length", "width", "height", "n_elements"),
-         "damping": ("zeta", "modes"), "crack": ("severity", "opens_when"),
-         "excitation": ("actuator_nodes", "driven_node", "amplitude", "frequency")}
+_KEYS = {
+    "": ("name", "description", "source", "structure", "damping", "excitation", "sensors", "crack", "bank"),
+    "structure": ("youngs_modulus", "density", "length", "width", "height", "n_elements"),
+    "damping": ("zeta", "modes"),
+    "crack": ("severity", "opens_when"),
+    "excitation": ("actuator_nodes", "driven_node", "amplitude", "frequency"),
+}
 
 
 class _Table:
@@ -89,8 +92,10 @@ class _Table:
         self.data, self.name, self.where = doc[name], name, where
         extra = [k for k in self.data if keys is not None and k not in keys]
         if extra:
-            raise ModelError(f"{where}: unknown key {extra[0]!r} in {f'[{name}]' if name else 'the file'}; the keys "
-                             f"there are {', '.join(keys or ())}")
+            raise ModelError(
+                f"{where}: unknown key {extra[0]!r} in {f'[{name}]' if name else 'the file'}; the keys "
+                f"there are {', '.join(keys or ())}"
+            )
 
     def fail(self, key: str, problem: str) -> ModelError:
         s = repr(self.data.get(key)).replace("\n", " ")
@@ -119,15 +124,32 @@ class _Table:
         one = v is None
         v = self.raw(key) if one else v
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not (isinstance(v, int) or v.is_integer()):
-            raise self.fail(key, "is not a whole number; write an integer such as 6" if one else
-                            f"must hold whole numbers; {v!r} is not one")
+            raise self.fail(
+                key,
+                "is not a whole number; write an integer such as 6"
+                if one
+                else f"must hold whole numbers; {v!r} is not one",
+            )
         if (lo is not None and int(v) < lo) or (hi is not None and int(v) > hi):
-            raise self.fail(key, (f"is outside {lo}..{hi}" if one else f"contains {int(v)}, outside {lo}..{hi}")
-                            + what if hi is not None else f"must be at least {lo}")
+            raise self.fail(
+                key,
+                (f"is outside {lo}..{hi}" if one else f"contains {int(v)}, outside {lo}..{hi}") + what
+                if hi is not None
+                else f"must be at least {lo}",
+            )
         return int(v)
 
-    def items(self, key: str, kind: str, *, lo: int = 1, hi: int = 0, what: str = "",
-              choices: Sequence[str] | None = None, empty: bool = False) -> tuple[Any, ...]:
+    def items(
+        self,
+        key: str,
+        kind: str,
+        *,
+        lo: int = 1,
+        hi: int = 0,
+        what: str = "",
+        choices: Sequence[str] | None = None,
+        empty: bool = False,
+    ) -> tuple[Any, ...]:
         """A list of distinct ``kind``: ``"whole numbers"`` (in ``lo..hi``) or ``"strings"``."""
         v = self.raw(key)
         if not isinstance(v, list) or not (v or empty):
@@ -163,12 +185,14 @@ def read_link_spec(path: str | Path | None = None) -> LinkSpec:
         key and value that is missing, of the wrong type or out of range.
     """
     if isinstance(path, str) and path.startswith(PACKAGED):
-        path = catalogue_path(path[len(PACKAGED):])
+        path = catalogue_path(path[len(PACKAGED) :])
     p = Path(path) if path is not None else DEFAULT_LINK_FILE
     if not p.is_file():
         why = "is a folder" if p.is_dir() else "is not a regular file" if p.exists() else "not found"
-        raise ModelError(f"link model file {str(p)!r} {why}; give a .toml file such as the packaged "
-                         f"models/cantilever_link.toml, or obsnl:cantilever_link")
+        raise ModelError(
+            f"link model file {str(p)!r} {why}; give a .toml file such as the packaged "
+            f"models/cantilever_link.toml, or obsnl:cantilever_link"
+        )
     try:
         with p.open("rb") as fh:
             raw = fh.read(MAX_FILE_BYTES + 1)
@@ -186,15 +210,20 @@ def read_link_spec(path: str | Path | None = None) -> LinkSpec:
 def _parse(doc: dict[str, Any], where: str) -> LinkSpec:
     """A checked :class:`LinkSpec` from the tables of a link model file."""
     if "equations" in doc and "structure" not in doc:  # a model file of the analyses (obsnl:bouc_wen, ...)
-        raise ModelError(f"{where} is a model of equations, not a link model; bank reads a link model such as "
-                         f"obsnl:cantilever_link ({_SEE[4:]})")
+        raise ModelError(
+            f"{where} is a model of equations, not a link model; bank reads a link model such as "
+            f"obsnl:cantilever_link ({_SEE[4:]})"
+        )
     _Table({"": doc}, "", where, _KEYS[""])
     st = _Table(doc, "structure", where, _KEYS["structure"])
     dims = {k: st.number(k) for k in _KEYS["structure"][:5]}
     ne = st.whole("n_elements", lo=2)
     if ne > MAX_ELEMENTS:
-        raise st.fail("n_elements", f"is over the limit of {MAX_ELEMENTS} elements (the benchmark has 6; memory grows "
-                                    f"with the square and time with the cube); use at most {MAX_ELEMENTS}")
+        raise st.fail(
+            "n_elements",
+            f"is over the limit of {MAX_ELEMENTS} elements (the benchmark has 6; memory grows "
+            f"with the square and time with the cube); use at most {MAX_ELEMENTS}",
+        )
     nodes = f" (free nodes are 1..{ne}; node 0 is clamped)"
     dm = _Table(doc, "damping", where, _KEYS["damping"])
     zeta, modes = dm.number("zeta", 0.0, 1.0), dm.items("modes", "whole numbers", hi=2 * ne)
@@ -210,14 +239,25 @@ def _parse(doc: dict[str, Any], where: str) -> LinkSpec:
     if bad:
         raise se.fail(bad[0][0], f"contains {bad[0][1]!r}, not a free DOF; use 'w<k>' or 'theta<k>'{nodes}")
     if not sensors:
-        raise ModelError(f"{where}: [sensors] defines no sensor set; add one, e.g. S1 = [\"theta1\", \"w6\"]")
+        raise ModelError(f'{where}: [sensors] defines no sensor set; add one, e.g. S1 = ["theta1", "w6"]')
     cr = _Table(doc, "crack", where, _KEYS["crack"])
     if (opens := cr.data.get("opens_when", OPENS_WHEN[0])) not in OPENS_WHEN:
         raise cr.fail("opens_when", f"is not a crack-opening rule obsnl simulates; use {_choices(OPENS_WHEN)}")
     bank = _Table(doc, "bank", where).data if "bank" in doc else {}
     return LinkSpec(
-        **dims, n_elements=ne, zeta=zeta, damping_modes=modes, actuator_nodes=actuators, driven_node=driven,
-        amplitude=ex.number("amplitude"), frequency=ex.number("frequency"), sensors=MappingProxyType(sensors),
-        noise=se.number("noise", 0, 10), severity=cr.number("severity", 0, 1), bank=MappingProxyType(dict(bank)),
-        source=str(doc.get("source", "")), opens_when=opens, file=where,
+        **dims,
+        n_elements=ne,
+        zeta=zeta,
+        damping_modes=modes,
+        actuator_nodes=actuators,
+        driven_node=driven,
+        amplitude=ex.number("amplitude"),
+        frequency=ex.number("frequency"),
+        sensors=MappingProxyType(sensors),
+        noise=se.number("noise", 0, 10),
+        severity=cr.number("severity", 0, 1),
+        bank=MappingProxyType(dict(bank)),
+        source=str(doc.get("source", "")),
+        opens_when=opens,
+        file=where,
     )

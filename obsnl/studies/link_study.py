@@ -11,18 +11,41 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import AnalysisError, DataError, ModelError
-from obsnl.linear.bank import (BankDecision, Thresholds, build_bank,
-                               calibrate_thresholds, decide, _f)
+from obsnl.linear.bank import BankDecision, Thresholds, _f, build_bank, calibrate_thresholds, decide
 from obsnl.linear.observer import ExtendedObservability, extended_observability, integrator
 from obsnl.studies.cantilever import BreathingCrack, build_cantilever
 from obsnl.studies.link_model import LinkSpec, _Table, read_link_spec
 
-__all__ = ["ScenarioRun", "GateCheck", "LinkStudy", "run_link_study", "check_bank_settings", "study_cost",
-           "BANK_KEYS", "MAX_SAMPLES", "MAX_SEEDS", "MAX_STUDY_BYTES", "MAX_STUDY_WORK"]
+__all__ = [
+    "ScenarioRun",
+    "GateCheck",
+    "LinkStudy",
+    "run_link_study",
+    "check_bank_settings",
+    "study_cost",
+    "BANK_KEYS",
+    "MAX_SAMPLES",
+    "MAX_SEEDS",
+    "MAX_STUDY_BYTES",
+    "MAX_STUDY_WORK",
+]
 
 #: The keys of a link model's ``[bank]`` table (all required).
-BANK_KEYS = ("observer_elements", "channels", "sensor_set", "q_x", "q_v", "dt", "duration", "onset",
-             "evaluation_window", "detection_window", "threshold_factor", "ratio_band", "crack_elements")
+BANK_KEYS = (
+    "observer_elements",
+    "channels",
+    "sensor_set",
+    "q_x",
+    "q_v",
+    "dt",
+    "duration",
+    "onset",
+    "evaluation_window",
+    "detection_window",
+    "threshold_factor",
+    "ratio_band",
+    "crack_elements",
+)
 #: Most time samples (``duration / dt + 1``) of a simulated run (the benchmark has 30 001).
 MAX_SAMPLES = 1_000_000
 
@@ -47,8 +70,13 @@ class ScenarioRun:
     decision: BankDecision
 
     def to_dict(self) -> dict:
-        return {"scenario": self.scenario, "crack_element": self.crack_element, "seed": self.seed,
-                "truth_rms": _f(self.truth_rms), **self.decision.to_dict()}
+        return {
+            "scenario": self.scenario,
+            "crack_element": self.crack_element,
+            "seed": self.seed,
+            "truth_rms": _f(self.truth_rms),
+            **self.decision.to_dict(),
+        }
 
 
 @dataclass(frozen=True)
@@ -62,11 +90,17 @@ class GateCheck:
 
     def to_dict(self) -> dict:
         ch = [c.condition for c in self.check.channels]
-        return {"sensors": self.sensors, "channels": list(self.channels), "element": self.element,
-                "verdict": self.check.verdict.value, "reason": self.check.reason,
-                "n_outputs": self.check.n_outputs, "n_channels": self.check.n_channels,
-                "static_gain_singular_values": list(self.check.channels[0].singular_values),
-                "condition": _f(max(ch)) if ch else None}
+        return {
+            "sensors": self.sensors,
+            "channels": list(self.channels),
+            "element": self.element,
+            "verdict": self.check.verdict.value,
+            "reason": self.check.reason,
+            "n_outputs": self.check.n_outputs,
+            "n_channels": self.check.n_channels,
+            "static_gain_singular_values": list(self.check.channels[0].singular_values),
+            "condition": _f(max(ch)) if ch else None,
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,13 +116,22 @@ class LinkStudy:
     traces: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=dict, repr=False)
 
     def to_dict(self) -> dict:
-        return {"settings": dict(self.settings), "thresholds": self.thresholds.to_dict(),
-                "observers": [dict(o) for o in self.observers], "gates": [g.to_dict() for g in self.gates],
-                "runs": [r.to_dict() for r in self.runs]}
+        return {
+            "settings": dict(self.settings),
+            "thresholds": self.thresholds.to_dict(),
+            "observers": [dict(o) for o in self.observers],
+            "gates": [g.to_dict() for g in self.gates],
+            "runs": [r.to_dict() for r in self.runs],
+        }
 
 
-def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequence[int] | None = None,
-                   spec: LinkSpec | None = None, gates: bool = True) -> LinkStudy:
+def run_link_study(
+    *,
+    seeds: int | Sequence[int] = 3,
+    calibration_seeds: Sequence[int] | None = None,
+    spec: LinkSpec | None = None,
+    gates: bool = True,
+) -> LinkStudy:
     """Run the scenarios of docs/observer_bank.md section 2.5 on the cantilever link.
 
     A healthy link and a breathing crack in each element listed in the model file's
@@ -123,20 +166,28 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
         An observer is not observable, or a simulation or estimate is not finite.
     """
     ev = _seed_list(seeds, "evaluation")
-    cal = [1000 + i for i in range(len(ev))] if calibration_seeds is None else _seed_list(calibration_seeds,
-                                                                                          "calibration")
+    cal = (
+        [1000 + i for i in range(len(ev))]
+        if calibration_seeds is None
+        else _seed_list(calibration_seeds, "calibration")
+    )
     if set(cal) & set(ev):
         raise DataError(f"calibration seeds {cal} must be non-empty and differ from the evaluation seeds {ev}")
     spec = read_link_spec() if spec is None else spec
     cfg = check_bank_settings(spec)
     size, work = study_cost(spec, n_seeds=len(ev), n_calibration=len(cal))
     if size > MAX_STUDY_BYTES or work > MAX_STUDY_WORK:
-        what = (f"about {size / 1024**3:.3g} GiB of memory, over the limit of {MAX_STUDY_BYTES / 1024**3:g} GiB"
-                if size > MAX_STUDY_BYTES else f"about {work:.2g} multiply-adds, over the limit of {MAX_STUDY_WORK:g}")
-        raise ModelError(f"this study ({spec.n_elements} elements, {len(cfg['observer_elements'])} observers, "
-                         f"{len(cfg['crack_elements'])} crack scenarios, {len(ev)} evaluation and {len(cal)} "
-                         f"calibration seeds, {_samples(cfg):,} time samples) needs {what}; use fewer elements, "
-                         f"observers, scenarios, seeds or time samples (duration / dt)")
+        what = (
+            f"about {size / 1024**3:.3g} GiB of memory, over the limit of {MAX_STUDY_BYTES / 1024**3:g} GiB"
+            if size > MAX_STUDY_BYTES
+            else f"about {work:.2g} multiply-adds, over the limit of {MAX_STUDY_WORK:g}"
+        )
+        raise ModelError(
+            f"this study ({spec.n_elements} elements, {len(cfg['observer_elements'])} observers, "
+            f"{len(cfg['crack_elements'])} crack scenarios, {len(ev)} evaluation and {len(cal)} "
+            f"calibration seeds, {_samples(cfg):,} time samples) needs {what}; use fewer elements, "
+            f"observers, scenarios, seeds or time samples (duration / dt)"
+        )
     beam = build_cantilever(spec)
     dt, T, onset = cfg["dt"], cfg["duration"], cfg["onset"]
     elements, chans = list(cfg["observer_elements"]), tuple(cfg["channels"])
@@ -145,16 +196,26 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
     factor, band, q_x, q_v = (cfg[k] for k in ("threshold_factor", "ratio_band", "q_x", "q_v"))
     f1 = float(beam.modal_frequencies()[0])
     if not f1 < 0.5 / dt:
-        raise ModelError(f"the link's first natural frequency {f1:.3g} Hz is above the Nyquist frequency "
-                         f"1 / (2 dt) = {0.5 / dt:g} Hz; check the [structure] numbers (SI units) or lower dt")
+        raise ModelError(
+            f"the link's first natural frequency {f1:.3g} Hz is above the Nyquist frequency "
+            f"1 / (2 dt) = {0.5 / dt:g} Hz; check the [structure] numbers (SI units) or lower dt"
+        )
     plant = beam.system(sensors)
     healthy = beam.simulate(dt=dt, duration=T)
     _finite(healthy.x, "the simulation of the healthy link")
     y0 = healthy.x @ plant.C.T
     rms = np.sqrt(np.mean(y0**2, axis=0))
     sigma = beam.spec.noise * rms
-    bank = build_bank(plant, {str(e): beam.crack_distribution(e, chans) for e in elements}, integrator(len(chans)),
-                      dt=dt, R=np.var(y0, axis=0), q_x=q_x, q_v=q_v, output_scale=sigma)
+    bank = build_bank(
+        plant,
+        {str(e): beam.crack_distribution(e, chans) for e in elements},
+        integrator(len(chans)),
+        dt=dt,
+        R=np.var(y0, axis=0),
+        q_x=q_x,
+        q_v=q_v,
+        output_scale=sigma,
+    )
 
     def noisy(x: np.ndarray, seed_list: Sequence[int]) -> list[np.ndarray]:
         y = x @ plant.C.T
@@ -185,12 +246,29 @@ def run_link_study(*, seeds: int | Sequence[int] = 3, calibration_seeds: Sequenc
             for e in elements:
                 chk = extended_observability(beam.system(sset), beam.crack_distribution(e, ch), integrator(len(ch)))
                 gate_list.append(GateCheck(sset, ch, e, chk))
-    settings = {"model": beam.spec.source, "sensors": sensors, "channels": list(chans), "severity": beam.spec.severity,
-                "noise": beam.spec.noise, "dt": dt, "duration": T, "onset": onset, "detection_window": win_det,
-                "evaluation_window": win_ev, "threshold_factor": factor, "ratio_band": band, "q_x": q_x, "q_v": q_v,
-                "fictitious_model": "integrator", "evaluation_seeds": ev, "calibration_seeds": cal}
-    observers = tuple({"label": lab, "element": int(lab), "check": chk.verdict.value, "design": d.to_dict()}
-                      for lab, chk, d in zip(bank.labels, bank.checks, bank.designs))
+    settings = {
+        "model": beam.spec.source,
+        "sensors": sensors,
+        "channels": list(chans),
+        "severity": beam.spec.severity,
+        "noise": beam.spec.noise,
+        "dt": dt,
+        "duration": T,
+        "onset": onset,
+        "detection_window": win_det,
+        "evaluation_window": win_ev,
+        "threshold_factor": factor,
+        "ratio_band": band,
+        "q_x": q_x,
+        "q_v": q_v,
+        "fictitious_model": "integrator",
+        "evaluation_seeds": ev,
+        "calibration_seeds": cal,
+    }
+    observers = tuple(
+        {"label": lab, "element": int(lab), "check": chk.verdict.value, "design": d.to_dict()}
+        for lab, chk, d in zip(bank.labels, bank.checks, bank.designs)
+    )
     return LinkStudy(settings, thr, tuple(gate_list), tuple(runs), observers, traces)
 
 
@@ -220,8 +298,10 @@ def _samples(cfg: Mapping[str, Any]) -> int:
 
 def _finite(x: np.ndarray, what: str) -> None:
     if not np.all(np.isfinite(x)):
-        raise AnalysisError(f"{what} is not finite (overflow); check the model's [structure], [excitation] and "
-                            f"[bank] numbers (SI units)")
+        raise AnalysisError(
+            f"{what} is not finite (overflow); check the model's [structure], [excitation] and "
+            f"[bank] numbers (SI units)"
+        )
 
 
 def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
@@ -266,26 +346,38 @@ def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
         raise bk.fail("sensor_set", f"is not a sensor set of [sensors]; use one of {', '.join(spec.sensors)}")
     dt, duration = out["dt"], out["duration"]
     if duration / dt > MAX_SAMPLES - 1:
-        raise bk.fail("duration", f"s with dt = {dt:g} s gives {duration / dt + 1:.3g} time samples, over the limit "
-                                  f"of {MAX_SAMPLES:,} (the benchmark has 30,001); shorten the record or raise dt")
+        raise bk.fail(
+            "duration",
+            f"s with dt = {dt:g} s gives {duration / dt + 1:.3g} time samples, over the limit "
+            f"of {MAX_SAMPLES:,} (the benchmark has 30,001); shorten the record or raise dt",
+        )
     if duration < 2 * dt:
         raise bk.fail("duration", f"s must span at least two time steps (dt = {dt:g} s)")
     if spec.frequency >= 0.5 / dt:
-        raise bk.fail("dt", f"s samples the {spec.frequency:g}-Hz excitation at or below its Nyquist rate; "
-                            f"use dt < {0.5 / spec.frequency:g} s")
+        raise bk.fail(
+            "dt",
+            f"s samples the {spec.frequency:g}-Hz excitation at or below its Nyquist rate; "
+            f"use dt < {0.5 / spec.frequency:g} s",
+        )
     onset = out["onset"] = bk.number("onset", closed=True)
     if onset >= duration:
-        raise bk.fail("onset", f"s is not before the end of the record (duration = {duration:g} s); a crack must "
-                               f"start inside the record")
+        raise bk.fail(
+            "onset",
+            f"s is not before the end of the record (duration = {duration:g} s); a crack must start inside the record",
+        )
     ev = out["evaluation_window"] = bk.number("evaluation_window", closed=True)
     if not dt <= ev <= duration - onset + 0.5 * dt:
-        raise bk.fail("evaluation_window", f"s must lie between one time step (dt = {dt:g} s) and the "
-                                           f"{duration - onset:g} s after the crack onset; the location is "
-                                           f"judged over the last evaluation_window seconds")
+        raise bk.fail(
+            "evaluation_window",
+            f"s must lie between one time step (dt = {dt:g} s) and the "
+            f"{duration - onset:g} s after the crack onset; the location is "
+            f"judged over the last evaluation_window seconds",
+        )
     det = out["detection_window"] = bk.number("detection_window", closed=True)
     if not dt <= det <= duration:
-        raise bk.fail("detection_window", f"s must lie between one time step (dt = {dt:g} s) and the duration "
-                                          f"({duration:g} s)")
+        raise bk.fail(
+            "detection_window", f"s must lie between one time step (dt = {dt:g} s) and the duration ({duration:g} s)"
+        )
     return {k: out[k] for k in BANK_KEYS}
 
 
@@ -324,9 +416,14 @@ def study_cost(spec: LinkSpec, *, n_seeds: int, n_calibration: int) -> tuple[flo
     R = n_calibration + S * n_seeds  # records through the bank
     ntot = J * (n + s)  # states of the whole bank
     chunk = min(N, _CHUNK)
-    floats = (S * N * (n + m + 2) + 2 * N * n  # kept simulations, their input terms
-              + 2 * R * N * p  # noisy records and their stacked copy
-              + 2 * N * R * J + N * ntot  # force estimates and residuals, input terms of the bank
-              + 2 * chunk * R * ntot + 2 * ntot**2)  # one block of bank states, the transition matrix
+    floats = (
+        S * N * (n + m + 2)
+        + 2 * N * n  # kept simulations, their input terms
+        + 2 * R * N * p  # noisy records and their stacked copy
+        + 2 * N * R * J
+        + N * ntot  # force estimates and residuals, input terms of the bank
+        + 2 * chunk * R * ntot
+        + 2 * ntot**2
+    )  # one block of bank states, the transition matrix
     work = N * (S * (n * n + _STEP_COST) + R * ntot * (ntot + p) + _STEP_COST)
     return 1.5 * 8.0 * floats, float(work)  # 1.5: temporaries

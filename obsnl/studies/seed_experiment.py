@@ -12,15 +12,24 @@ from collections.abc import Mapping
 from typing import Any
 
 from obsnl.errors import OutputError
-from obsnl.identification.experiments import Setup, coordinates
 from obsnl.estimation.records import Record
+from obsnl.identification.experiments import Setup, coordinates
 from obsnl.model.files import catalogue_path
 
 __all__ = ["SEED_GUESS", "seed_model_path", "check_record_name", "seed_record", "seed_setup", "seed_branch_table"]
 
 #: Initial guesses of Table 2 of the seed paper (000_d24855f97fc8bdd4.txt).
-SEED_GUESS: Mapping[str, float] = {"k_m": 5e3, "c_dm": 50.0, "c_eta_p": 3e3, "c_p": 4.0, "h_p": 4e-3, "N": 3.0,
-                                   "w_h": 0.3, "Delta1": 3e10, "Delta2": -6e9}
+SEED_GUESS: Mapping[str, float] = {
+    "k_m": 5e3,
+    "c_dm": 50.0,
+    "c_eta_p": 3e3,
+    "c_p": 4.0,
+    "h_p": 4e-3,
+    "N": 3.0,
+    "w_h": 0.3,
+    "Delta1": 3e10,
+    "Delta2": -6e9,
+}
 
 
 def seed_model_path() -> str:
@@ -56,8 +65,10 @@ def check_record_name(name: str) -> str:
     obsnl.errors.OutputError: the record's name '..' (its file name without the extension) cannot name a folder below reports/identification; rename the record file
     """
     if name in ("", ".", "..") or any(c and c in name for c in ("/", "\0", os.sep, os.altsep)):
-        raise OutputError(f"the record's name {name!r} (its file name without the extension) cannot name a folder "
-                          f"below reports/identification; rename the record file")
+        raise OutputError(
+            f"the record's name {name!r} (its file name without the extension) cannot name a folder "
+            f"below reports/identification; rename the record file"
+        )
     return name
 
 
@@ -94,7 +105,9 @@ def seed_record(record: Record | None = None, samples: int | None = None) -> Rec
     from obsnl.estimation.records import read_record
 
     if record is None:
-        record = read_record(str(resources.files("obsnl").joinpath("studies/data/northridge1994_LOS270_ngawest2_accel.csv")))
+        record = read_record(
+            str(resources.files("obsnl").joinpath("studies/data/northridge1994_LOS270_ngawest2_accel.csv"))
+        )
     else:
         check_record_name(record.name)
         record = record.resampled(0.01)
@@ -102,8 +115,9 @@ def seed_record(record: Record | None = None, samples: int | None = None) -> Rec
     return record if samples is None else record.head(samples)
 
 
-def seed_setup(*, record: Record | None = None, samples: int | None = None, jit: bool = False,
-               kind: str = "log") -> Setup:
+def seed_setup(
+    *, record: Record | None = None, samples: int | None = None, jit: bool = False, kind: str = "log"
+) -> Setup:
     """The seed paper's experiment (on another record when given: resampled to 100 Hz, first 2000 samples).
 
     Parameters
@@ -128,20 +142,28 @@ def seed_setup(*, record: Record | None = None, samples: int | None = None, jit:
     record = seed_record(record, samples)
     num = to_casadi(model)
     truth = {p: float(model.values[p]) for p in num.parameters}
-    return Setup(model=num, record=record, truth=truth, guess=dict(SEED_GUESS), jit=jit,
-                 coordinates=coordinates(num, kind, reference=SEED_GUESS))
+    return Setup(
+        model=num,
+        record=record,
+        truth=truth,
+        guess=dict(SEED_GUESS),
+        jit=jit,
+        coordinates=coordinates(num, kind, reference=SEED_GUESS),
+    )
 
 
 def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
     """The branch table of the seed model from obsnl's analysis, checked against the paper's Table 1."""
-    from obsnl.observability.analyze import analyze
     from obsnl.model.files import read_model
+    from obsnl.observability.analyze import analyze
     from obsnl.observability.contract.branch_table import BranchTable
 
     model = read_model(seed_model_path())
     table = BranchTable.from_result(analyze(model, seed=seed))
     paper = {1: {"Delta2"}, -1: {"Delta1", "w_h"}}  # Table 1: by the sign of (r - eta') x2
     agrees = all(set(b.unidentifiable_parameters) == paper[b.signs[0] * b.signs[1]] for b in table.branches)
-    source = (f"obsnl analysis ({table.method}, seed {seed}); "
-              f"{'agrees with' if agrees else 'DIFFERS from'} the seed paper's Table 1")
+    source = (
+        f"obsnl analysis ({table.method}, seed {seed}); "
+        f"{'agrees with' if agrees else 'DIFFERS from'} the seed paper's Table 1"
+    )
     return table, source

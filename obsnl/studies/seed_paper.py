@@ -24,10 +24,10 @@ import numpy as np
 
 from obsnl.estimation.jitcache import compiler_available
 from obsnl.estimation.records import Record
+from obsnl.executor import Executor
 from obsnl.identification.experiments import DEFAULT_GRID, Tuning, mc_spread
 from obsnl.identification.replicates import CHUNK
 from obsnl.identification.runs import check_replicates
-from obsnl.executor import Executor
 from obsnl.studies.seed_experiment import seed_branch_table
 from obsnl.studies.seed_reproduction import Reproduction
 from obsnl.studies.seed_runs import FALLBACKS
@@ -83,10 +83,22 @@ def rate_from_here(progress: Any) -> None:
     if progress is not None and hasattr(progress, "last_print_t") and callable(getattr(progress, "_time", None)):
         progress.last_print_t, progress.last_print_n = progress._time(), progress.n
 
-def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int = 5, passes: int = 3,
-              grid: Sequence[Tuning] = DEFAULT_GRID, jit: bool | None = None, samples: int | None = None,
-              replicates: int = REPLICATES, progress: Any = None, executor: Executor | None = None,
-              keep: int | None = HALVING_KEEP, refine: bool = True) -> Reproduction:
+
+def reproduce(
+    *,
+    record: Record | None = None,
+    seeds: int = 5,
+    tuning_seeds: int = 5,
+    passes: int = 3,
+    grid: Sequence[Tuning] = DEFAULT_GRID,
+    jit: bool | None = None,
+    samples: int | None = None,
+    replicates: int = REPLICATES,
+    progress: Any = None,
+    executor: Executor | None = None,
+    keep: int | None = HALVING_KEEP,
+    refine: bool = True,
+) -> Reproduction:
     """Table 2 of the seed paper with obsnl's UKF and DUKF and the maximum-likelihood refinement (module
     docstring for the protocol).
 
@@ -128,18 +140,26 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
     if jit is None:
         jit = compiler_available()
         if not jit:
-            sys.stderr.write("obsnl: warning: no C compiler (gcc, cc or clang) on PATH: the filters and fits run "
-                             "uncompiled, several times slower (the same numbers)\n")
+            sys.stderr.write(
+                "obsnl: warning: no C compiler (gcc, cc or clang) on PATH: the filters and fits run "
+                "uncompiled, several times slower (the same numbers)\n"
+            )
     executor = executor or Executor(workers=1)
     t_seeds = tuple(range(TUNING_SEEDS, TUNING_SEEDS + tuning_seeds))
     protocols = sorted({1, passes})
     names = ("ukf", "dukf")
     n_tuning = len(names) * (len(grid) + (tuning_seeds - 1) * min(len(grid), len(protocols) * (keep or len(grid))))
     if progress is not None:  # known before anything is built (the tuning at most): the bar shows from the start
-        progress.total = (n_tuning + seeds * (len(names) + 1) * len(protocols) + (seeds if refine else 0)
-                          + replicates * seeds * len(names) * len(protocols))
+        progress.total = (
+            n_tuning
+            + seeds * (len(names) + 1) * len(protocols)
+            + (seeds if refine else 0)
+            + replicates * seeds * len(names) * len(protocols)
+        )
         progress.refresh() if hasattr(progress, "refresh") else None
-    stage = (lambda text: progress.set_postfix_str(text)) if hasattr(progress, "set_postfix_str") else (lambda text: None)
+    stage = (
+        (lambda text: progress.set_postfix_str(text)) if hasattr(progress, "set_postfix_str") else (lambda text: None)
+    )
     stage("analysis")
     table, source = seed_branch_table()
     spec = Spec(record=record, samples=samples, jit=jit, table_json=table.to_json())
@@ -155,8 +175,13 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
         stage(f"tuning ({executor.kind})")
         rate_from_here(progress)  # the estimate of the time left counts from the first run, not the build
         ranked, tuning_runs = successive_halving(
-            names, grid, t_seeds, lambda tasks: session.map(tuning_task, [(spec, *task) for task in tasks], done=tick),
-            keep=keep, protocols=protocols)
+            names,
+            grid,
+            t_seeds,
+            lambda tasks: session.map(tuning_task, [(spec, *task) for task in tasks], done=tick),
+            keep=keep,
+            protocols=protocols,
+        )
         if progress is not None:  # the survivors are known: the bar's total is exact now
             progress.total -= n_tuning - sum(v for (_, _, k), v in tuning_runs.items() if k == protocols[0])
             progress.refresh() if hasattr(progress, "refresh") else None
@@ -168,10 +193,16 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
                 ranking = ranked[("dukf" if name == "dukf-zero" else name, k)][0]
                 rtasks += [(spec, name, k, seed, tuple(ranking), FALLBACKS) for seed in range(seeds)]
         reported = session.map(reported_task, rtasks, done=tick)
-        stage(f"maximum likelihood and Monte-Carlo replicates ({executor.kind})" if refine
-              else f"Monte-Carlo replicates ({executor.kind})")
-        ltasks: list[tuple[str, tuple]] = [("refine", _refine_task(spec, seed, rtasks, reported, names, passes))
-                                           for seed in range(seeds)] if refine else []
+        stage(
+            f"maximum likelihood and Monte-Carlo replicates ({executor.kind})"
+            if refine
+            else f"Monte-Carlo replicates ({executor.kind})"
+        )
+        ltasks: list[tuple[str, tuple]] = (
+            [("refine", _refine_task(spec, seed, rtasks, reported, names, passes)) for seed in range(seeds)]
+            if refine
+            else []
+        )
         owners = [-1] * len(ltasks)
         for j, ((_, name, k, seed, _, _), (result, _)) in enumerate(zip(rtasks, reported)):
             if not (replicates and name in names):
@@ -181,11 +212,29 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
                     progress.update(replicates)
                 continue
             for lo in range(0, replicates, MC_CHUNK):
-                ltasks.append(("replicates", (spec, name, seed, result.theta, result.tuning, k, MC_SEEDS + seed,
-                                              tuple(range(lo, min(replicates, lo + MC_CHUNK))))))
+                ltasks.append(
+                    (
+                        "replicates",
+                        (
+                            spec,
+                            name,
+                            seed,
+                            result.theta,
+                            result.tuning,
+                            k,
+                            MC_SEEDS + seed,
+                            tuple(range(lo, min(replicates, lo + MC_CHUNK))),
+                        ),
+                    )
+                )
                 owners.append(j)
-        late = session.map(late_task, ltasks, done=(lambda i, r: progress.update(
-            1 if ltasks[i][0] == "refine" else len(ltasks[i][1][-1]))) if progress is not None else None)
+        late = session.map(
+            late_task,
+            ltasks,
+            done=(lambda i, r: progress.update(1 if ltasks[i][0] == "refine" else len(ltasks[i][1][-1])))
+            if progress is not None
+            else None,
+        )
     refinements = tuple(r for (kind, _), r in zip(ltasks, late) if kind == "refine")
     mc = [r for (kind, _), r in zip(ltasks, late) if kind == "replicates"]
     owners = [j for j in owners if j >= 0]
@@ -200,18 +249,37 @@ def reproduce(*, record: Record | None = None, seeds: int = 5, tuning_seeds: int
         if seed == 0 and trs is not None:
             trajs[(name, k)] = trs
     stage("done")
-    return Reproduction(setup=setup, table=table, table_source=source, tuning=chosen, runs=tuple(runs),
-                        trajectories=trajs, tuning_seeds=t_seeds, compile_seconds=compile_seconds,
-                        refinements=refinements, tuning_runs=tuning_runs, halving_keep=keep)
+    return Reproduction(
+        setup=setup,
+        table=table,
+        table_source=source,
+        tuning=chosen,
+        runs=tuple(runs),
+        trajectories=trajs,
+        tuning_seeds=t_seeds,
+        compile_seconds=compile_seconds,
+        refinements=refinements,
+        tuning_runs=tuning_runs,
+        halving_keep=keep,
+    )
 
 
-def _refine_task(spec: Spec, seed: int, rtasks: Sequence[tuple], reported: Sequence[tuple], names: Sequence[str],
-                 passes: int) -> tuple[Spec, int, tuple[float, ...], dict[str, Any]]:
+def _refine_task(
+    spec: Spec, seed: int, rtasks: Sequence[tuple], reported: Sequence[tuple], names: Sequence[str], passes: int
+) -> tuple[Spec, int, tuple[float, ...], dict[str, Any]]:
     """The refinement of reported seed ``seed``: from the estimate of the filter (``names``, ``passes`` passes)
     whose free-run output misfit on that seed is the smaller (data only; a run that stopped is not a start)."""
-    cands = [(result.misfit, names.index(name), result) for (_, name, k, s, _, _), (result, _) in zip(rtasks, reported)
-             if s == seed and k == passes and name in names and not result.failed and np.isfinite(result.misfit)]
+    cands = [
+        (result.misfit, names.index(name), result)
+        for (_, name, k, s, _, _), (result, _) in zip(rtasks, reported)
+        if s == seed and k == passes and name in names and not result.failed and np.isfinite(result.misfit)
+    ]
     if not cands:  # no estimate that can be simulated: start from the guesses (said in ``start``)
-        return spec, seed, tuple(map(float, context(spec)["setup"].theta_guess)), {"method": "guess", "passes": 0, "output_misfit": None}
+        return (
+            spec,
+            seed,
+            tuple(map(float, context(spec)["setup"].theta_guess)),
+            {"method": "guess", "passes": 0, "output_misfit": None},
+        )
     misfit, _, best = min(cands, key=lambda c: (c[0], c[1]))
     return spec, seed, best.theta, {"method": best.method, "passes": best.passes, "output_misfit": float(misfit)}

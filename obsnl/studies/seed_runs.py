@@ -15,10 +15,18 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import ObsnlError, OptionError
-from obsnl.identification.experiments import (DIVERGED, Practical, Setup, Tuning, make_data, output_misfit,
-                                              practical_identifiability, run_passes)
 from obsnl.estimation.ukf import Trajectory
 from obsnl.estimation.ukf_step import INTERVENTIONS
+from obsnl.identification.experiments import (
+    DIVERGED,
+    Practical,
+    Setup,
+    Tuning,
+    make_data,
+    output_misfit,
+    practical_identifiability,
+    run_passes,
+)
 
 __all__ = ["FALLBACKS", "RunResult", "Refined", "reported_with_fallbacks"]
 
@@ -59,18 +67,29 @@ class RunResult:
 
     def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
         err = self.errors(truth)
-        return {"method": self.method, "passes": self.passes, "seed": self.seed, "tuning": self.tuning.to_dict(),
-                "parameters": {p: {"true": float(t), "estimate": _num(e), "error_percent": _num(r)}
-                               for p, t, e, r in zip(parameters, truth, self.theta, err)},
-                "seconds": _num(self.seconds), "repairs": self.repairs, "interventions": dict(self.interventions),
-                "implicit_sigma_point_steps": self.implicit,
-                "output_misfit": _num(self.misfit), "error": self.error,
-                "passes_run": self.passes if self.passes_run is None else self.passes_run,
-                # None: not decided (the run stopped, or its estimate diverged: see practical_identifiability)
-                "practically_unidentifiable": (list(self.practical.flagged)
-                                               if self.practical and not self.practical.inconclusive else None),
-                "practical_identifiability": self.practical.to_dict() if self.practical else None,
-                "redone": [dict(a) for a in self.redone]}
+        return {
+            "method": self.method,
+            "passes": self.passes,
+            "seed": self.seed,
+            "tuning": self.tuning.to_dict(),
+            "parameters": {
+                p: {"true": float(t), "estimate": _num(e), "error_percent": _num(r)}
+                for p, t, e, r in zip(parameters, truth, self.theta, err)
+            },
+            "seconds": _num(self.seconds),
+            "repairs": self.repairs,
+            "interventions": dict(self.interventions),
+            "implicit_sigma_point_steps": self.implicit,
+            "output_misfit": _num(self.misfit),
+            "error": self.error,
+            "passes_run": self.passes if self.passes_run is None else self.passes_run,
+            # None: not decided (the run stopped, or its estimate diverged: see practical_identifiability)
+            "practically_unidentifiable": (
+                list(self.practical.flagged) if self.practical and not self.practical.inconclusive else None
+            ),
+            "practical_identifiability": self.practical.to_dict() if self.practical else None,
+            "redone": [dict(a) for a in self.redone],
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,15 +120,30 @@ class Refined:
     def to_dict(self, parameters: Sequence[str], truth: np.ndarray) -> dict[str, Any]:
         err = 100.0 * (np.asarray(self.theta) - truth) / np.abs(truth)
         rel = 100.0 * np.asarray(self.std) / np.abs(np.asarray(self.theta))
-        return {"seed": self.seed, "start": dict(self.start),
-                "parameters": {p: {"true": float(t), "estimate": _num(e), "error_percent": _num(r), "std": _num(s),
-                                   "std_percent": _num(q)}
-                               for p, t, e, r, s, q in zip(parameters, truth, self.theta, err, self.std, rel)},
-                "converged": self.converged, "reason": self.reason, "error": self.error,
-                "seconds": _num(self.seconds), "iterations": self.iterations,
-                "newton_decrement": _num(self.newton_decrement), "last_step_in_std": _num(self.last_step_in_std),
-                "misfit_over_noise": {k: _num(v) for k, v in self.misfit_over_noise.items()},
-                "at_edge": list(self.at_edge), "adequacy": None if self.adequacy is None else dict(self.adequacy)}
+        return {
+            "seed": self.seed,
+            "start": dict(self.start),
+            "parameters": {
+                p: {
+                    "true": float(t),
+                    "estimate": _num(e),
+                    "error_percent": _num(r),
+                    "std": _num(s),
+                    "std_percent": _num(q),
+                }
+                for p, t, e, r, s, q in zip(parameters, truth, self.theta, err, self.std, rel)
+            },
+            "converged": self.converged,
+            "reason": self.reason,
+            "error": self.error,
+            "seconds": _num(self.seconds),
+            "iterations": self.iterations,
+            "newton_decrement": _num(self.newton_decrement),
+            "last_step_in_std": _num(self.last_step_in_std),
+            "misfit_over_noise": {k: _num(v) for k, v in self.misfit_over_noise.items()},
+            "at_edge": list(self.at_edge),
+            "adequacy": None if self.adequacy is None else dict(self.adequacy),
+        }
 
 
 def _interventions(trs: Sequence[Trajectory]) -> dict[str, int]:
@@ -126,28 +160,47 @@ def _diverged(run: RunResult, setup: Setup) -> bool:
     return run.failed or not (run.misfit <= DIVERGED * setup.noise)
 
 
-def _reported_run(setup: Setup, f: Any, data: Any, name: str, k: int, seed: int,
-                  tuning: Tuning) -> tuple[RunResult, tuple[Trajectory, ...] | None]:
+def _reported_run(
+    setup: Setup, f: Any, data: Any, name: str, k: int, seed: int, tuning: Tuning
+) -> tuple[RunResult, tuple[Trajectory, ...] | None]:
     """One reported run (``k`` passes) with its misfit and practical identifiability; a stop is a failed run."""
     try:
         trs, _ = run_passes(setup, f, data, tuning, passes=k)
     except ObsnlError as exc:  # reported as a failed run, never dropped
-        return RunResult(method=name, passes=k, seed=seed, tuning=tuning, theta=(float("nan"),) * setup.model.np,
-                         seconds=float("nan"), repairs=0, implicit=0, misfit=float("nan"), practical=None,
-                         error=str(exc)), None
+        return RunResult(
+            method=name,
+            passes=k,
+            seed=seed,
+            tuning=tuning,
+            theta=(float("nan"),) * setup.model.np,
+            seconds=float("nan"),
+            repairs=0,
+            implicit=0,
+            misfit=float("nan"),
+            practical=None,
+            error=str(exc),
+        ), None
     theta = trs[-1].theta[-1]
     misfit = output_misfit(setup, theta, data)
     return RunResult(
-        method=name, passes=k, seed=seed, tuning=tuning, theta=tuple(float(v) for v in theta),
-        seconds=float(sum(t.seconds for t in trs)), repairs=sum(t.total_repairs for t in trs),
-        implicit=int(sum(t.implicit.sum() for t in trs)), misfit=misfit, interventions=_interventions(trs),
+        method=name,
+        passes=k,
+        seed=seed,
+        tuning=tuning,
+        theta=tuple(float(v) for v in theta),
+        seconds=float(sum(t.seconds for t in trs)),
+        repairs=sum(t.total_repairs for t in trs),
+        implicit=int(sum(t.implicit.sum() for t in trs)),
+        misfit=misfit,
+        interventions=_interventions(trs),
         passes_run=len(trs),
-        practical=practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0,
-                                            misfit=misfit)), trs
+        practical=practical_identifiability(setup, theta, data, first=trs[0], prior_std=tuning.s0, misfit=misfit),
+    ), trs
 
 
-def reported_with_fallbacks(setup: Setup, f: Any, name: str, k: int, seed: int, ranking: Sequence[Tuning],
-                            fallbacks: int = FALLBACKS) -> tuple[RunResult, tuple[Trajectory, ...] | None]:
+def reported_with_fallbacks(
+    setup: Setup, f: Any, name: str, k: int, seed: int, ranking: Sequence[Tuning], fallbacks: int = FALLBACKS
+) -> tuple[RunResult, tuple[Trajectory, ...] | None]:
     """A reported run on noise seed ``seed``; a diverged attempt is recorded and redone with the next
     configuration of ``ranking``, at most ``fallbacks`` times (if all diverge, the last is reported).
 
@@ -180,16 +233,19 @@ def reported_with_fallbacks(setup: Setup, f: Any, name: str, k: int, seed: int, 
     """
     data = make_data(setup, seed)
     result, trs, redone = None, None, []
-    for tuning in ranking[:1 + fallbacks]:
+    for tuning in ranking[: 1 + fallbacks]:
         if result is not None:  # the previous attempt diverged: recorded, then redone
-            redone.append({"tuning": result.tuning.to_dict(), "output_misfit": _num(result.misfit),
-                           "error": result.error})
+            redone.append(
+                {"tuning": result.tuning.to_dict(), "output_misfit": _num(result.misfit), "error": result.error}
+            )
         result, trs = _reported_run(setup, f, data, name, k, seed, tuning)
         if not _diverged(result, setup):
             break
     if result is None:  # nothing was run: never a run reported as None
-        raise OptionError(f"no tuning to run: the ranking has {len(ranking)} configurations and fallbacks={fallbacks}; "
-                          f"give at least one Tuning and fallbacks >= 0")
+        raise OptionError(
+            f"no tuning to run: the ranking has {len(ranking)} configurations and fallbacks={fallbacks}; "
+            f"give at least one Tuning and fallbacks >= 0"
+        )
     if redone:
         result = replace(result, redone=tuple(redone))
     return result, trs

@@ -17,14 +17,23 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import ObsnlError
-from obsnl.identification.experiments import Tuning, make_data, make_filter, mc_replicates, mc_truth, tune_one
 from obsnl.estimation.records import Record
 from obsnl.executor import built_once
+from obsnl.identification.experiments import Tuning, make_data, make_filter, mc_replicates, mc_truth, tune_one
 from obsnl.studies.seed_experiment import seed_setup
 from obsnl.studies.seed_runs import Refined, reported_with_fallbacks
 
-__all__ = ["Spec", "context", "compile_task", "tuning_task", "reported_task", "replicates_task", "refine_task", "late_task",
-           "ML_MAX_ITER"]
+__all__ = [
+    "Spec",
+    "context",
+    "compile_task",
+    "tuning_task",
+    "reported_task",
+    "replicates_task",
+    "refine_task",
+    "late_task",
+    "ML_MAX_ITER",
+]
 
 #: Levenberg-Marquardt iterations at most per weighting of the maximum-likelihood refinement of a reported
 #: seed (:func:`obsnl.identification.refine.refine` fits with the stated noise level, then again with the
@@ -51,10 +60,14 @@ def context(spec: Spec) -> dict[str, Any]:
 
     def build() -> dict[str, Any]:
         from obsnl.observability.contract.branch_table import BranchTable
+
         setup = seed_setup(record=spec.record, samples=spec.samples, jit=spec.jit)
         table = BranchTable.from_dict(json.loads(spec.table_json))
-        filters = {"ukf": make_filter(setup, "ukf"), "dukf": make_filter(setup, "dukf", table=table),
-                   "dukf-zero": make_filter(setup, "dukf", table=table, cross="zero")}
+        filters = {
+            "ukf": make_filter(setup, "ukf"),
+            "dukf": make_filter(setup, "dukf", table=table),
+            "dukf-zero": make_filter(setup, "dukf", table=table, cross="zero"),
+        }
         return {"setup": setup, "table": table, "filters": filters}
 
     return built_once((spec.record, spec.samples, spec.jit, spec.table_json), build)
@@ -94,8 +107,7 @@ def replicates_task(task: tuple[Spec, str, int, tuple[float, ...], Tuning, int, 
     y_hat = mc_truth(setup, np.asarray(theta), data)
     if y_hat is None:
         return []
-    return mc_replicates(setup, ctx["filters"][name], data, y_hat, tuning, passes=passes, seed=mc_seed,
-                         indices=indices)
+    return mc_replicates(setup, ctx["filters"][name], data, y_hat, tuning, passes=passes, seed=mc_seed, indices=indices)
 
 
 def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) -> Refined:
@@ -113,18 +125,41 @@ def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) ->
     tic = time.perf_counter()
     data = make_data(setup, seed)
     try:
-        ref = refine(setup, data, np.asarray(theta, float), max_iter=ML_MAX_ITER,
-                     advice="the seed paper's guesses are fixed here: try more filter passes (passes=)")
+        ref = refine(
+            setup,
+            data,
+            np.asarray(theta, float),
+            max_iter=ML_MAX_ITER,
+            advice="the seed paper's guesses are fixed here: try more filter passes (passes=)",
+        )
     except ObsnlError as exc:  # reported with its reason, never dropped
-        return Refined(seed=seed, start=start, theta=nan, std=nan, converged=False, reason="", error=str(exc),
-                       seconds=time.perf_counter() - tic)
+        return Refined(
+            seed=seed,
+            start=start,
+            theta=nan,
+            std=nan,
+            converged=False,
+            reason="",
+            error=str(exc),
+            seconds=time.perf_counter() - tic,
+        )
     f = ref.fit
     adequate = adequacy_of(ref, data)  # no goal is met by a model that does not explain the data
-    return Refined(seed=seed, start=start, theta=tuple(map(float, ref.theta)), std=tuple(map(float, ref.std)),
-                   adequacy=None if adequate is None else adequate.to_dict(),
-                   converged=bool(ref.converged), reason=ref.reason, seconds=ref.seconds, iterations=ref.iterations,
-                   misfit_over_noise=dict(ref.misfit), at_edge=ref.at_edge,
-                   newton_decrement=float(f.decrement), last_step_in_std=float(f.last_step))
+    return Refined(
+        seed=seed,
+        start=start,
+        theta=tuple(map(float, ref.theta)),
+        std=tuple(map(float, ref.std)),
+        adequacy=None if adequate is None else adequate.to_dict(),
+        converged=bool(ref.converged),
+        reason=ref.reason,
+        seconds=ref.seconds,
+        iterations=ref.iterations,
+        misfit_over_noise=dict(ref.misfit),
+        at_edge=ref.at_edge,
+        newton_decrement=float(f.decrement),
+        last_step_in_std=float(f.last_step),
+    )
 
 
 def late_task(task: tuple[str, tuple]) -> Any:

@@ -50,18 +50,27 @@ def tuning_protocol(keep: int | None, n_grid: int, n_seeds: int, n_runs: int) ->
     'full grid: 48 configurations x 5 tuning seed(s) per filter (480 runs); the smallest mean free-run output misfit wins'
     """
     if keep is None or keep >= n_grid or n_seeds < 2:
-        return (f"full grid: {n_grid} configurations x {n_seeds} tuning seed(s) per filter ({n_runs} runs); the smallest "
-                f"mean free-run output misfit wins")
-    return (f"successive halving: {n_grid} configurations on the first tuning seed, the best {keep} of each protocol "
-            f"(one pass, refined) on the other {n_seeds - 1}, each as far as the protocols it was kept for ({n_runs} "
-            f"runs for both filters); per protocol, the smallest mean free-run output misfit over the tuning seeds "
-            f"wins among the configurations that ran on all of them")
+        return (
+            f"full grid: {n_grid} configurations x {n_seeds} tuning seed(s) per filter ({n_runs} runs); the smallest "
+            f"mean free-run output misfit wins"
+        )
+    return (
+        f"successive halving: {n_grid} configurations on the first tuning seed, the best {keep} of each protocol "
+        f"(one pass, refined) on the other {n_seeds - 1}, each as far as the protocols it was kept for ({n_runs} "
+        f"runs for both filters); per protocol, the smallest mean free-run output misfit over the tuning seeds "
+        f"wins among the configurations that ran on all of them"
+    )
 
 
-def successive_halving(names: Sequence[str], grid: Sequence[Tuning], seeds: Sequence[int],
-                       run: Any, *, keep: int | None, protocols: Sequence[int]
-                       ) -> tuple[dict[tuple[str, int], tuple[list[Tuning], dict[Tuning, float]]],
-                                  dict[tuple[str, Tuning, int], int]]:
+def successive_halving(
+    names: Sequence[str],
+    grid: Sequence[Tuning],
+    seeds: Sequence[int],
+    run: Any,
+    *,
+    keep: int | None,
+    protocols: Sequence[int],
+) -> tuple[dict[tuple[str, int], tuple[list[Tuning], dict[Tuning, float]]], dict[tuple[str, Tuning, int], int]]:
     """Tune each filter by one rung of successive halving: every configuration on ``seeds[0]`` scored for every
     protocol, then the best ``keep`` of each protocol on the other seeds, each run only as far as the protocols it
     goes on for (a configuration kept for the one-pass protocol alone runs one pass there).

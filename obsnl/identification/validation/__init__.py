@@ -18,8 +18,12 @@ from obsnl._exports import lazy_exports
 
 #: The room's public names, each imported from the module that defines it on first use: name -> module.
 _LAZY: dict[str, str] = {
-    "simulate": "run", "read_parameters": "run", "Validation": "merit", "OutputScore": "merit",
-    "figures_of_merit": "merit", "write_validation": "job",
+    "simulate": "run",
+    "read_parameters": "run",
+    "Validation": "merit",
+    "OutputScore": "merit",
+    "figures_of_merit": "merit",
+    "write_validation": "job",
 }
 
 if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)

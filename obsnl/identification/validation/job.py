@@ -18,8 +18,15 @@ from obsnl.model.core import Model
 from obsnl.model.files import as_model
 from obsnl.report.printed import Printed, written_line
 
-__all__ = ["validate_job", "validate_printed", "write_validation", "validation_files", "HYSTERETIC_STATE",
-           "DISPLACEMENT_STATE", "VALIDATE_FILES"]
+__all__ = [
+    "validate_job",
+    "validate_printed",
+    "write_validation",
+    "validation_files",
+    "HYSTERETIC_STATE",
+    "DISPLACEMENT_STATE",
+    "VALIDATE_FILES",
+]
 
 #: What :func:`write_validation` writes, besides ``loop.png`` for a model with a hysteretic state.
 VALIDATE_FILES = ("validate.json", "validation.png")
@@ -69,25 +76,50 @@ def write_validation(result: Validation, out: str | Path, *, force: bool = False
 
     t, measured, simulated, x = result.t, result.y_measured, result.y_simulated, result.x
     if t is None or measured is None or simulated is None or x is None:
-        raise DataError("write_validation: the validation carries no arrays (t, y_measured, y_simulated, x) to draw; "
-                        "pass the one obsnl.simulate returned")
+        raise DataError(
+            "write_validation: the validation carries no arrays (t, y_measured, y_simulated, x) to draw; "
+            "pass the one obsnl.simulate returned"
+        )
     names = validation_files(result.states)
     outputs = tuple(result.outputs)
     with OutputFolder(out, names, force=force) as folder:
         folder.write_text("validate.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n")
-        plot_validation(folder.path("validation.png"), t=t, measured=measured, simulated=simulated, outputs=outputs,
-                        warmup=result.warmup, scores=result.outputs)
+        plot_validation(
+            folder.path("validation.png"),
+            t=t,
+            measured=measured,
+            simulated=simulated,
+            outputs=outputs,
+            warmup=result.warmup,
+            scores=result.outputs,
+        )
         if "loop.png" in names:  # against the displacement state x where the model has one, else the first output
-            across, values = ((DISPLACEMENT_STATE, x[:, result.states.index(DISPLACEMENT_STATE)])
-                              if DISPLACEMENT_STATE in result.states else (outputs[0], simulated[:, 0]))
-            plot_loop(folder.path("loop.png"), displacement=values, state=x[:, result.states.index(HYSTERETIC_STATE)],
-                      output=across, name=HYSTERETIC_STATE, warmup=result.warmup)
+            across, values = (
+                (DISPLACEMENT_STATE, x[:, result.states.index(DISPLACEMENT_STATE)])
+                if DISPLACEMENT_STATE in result.states
+                else (outputs[0], simulated[:, 0])
+            )
+            plot_loop(
+                folder.path("loop.png"),
+                displacement=values,
+                state=x[:, result.states.index(HYSTERETIC_STATE)],
+                output=across,
+                name=HYSTERETIC_STATE,
+                warmup=result.warmup,
+            )
         return folder.commit()
 
 
-def validate_job(model: Model | str | Path, *, params: str | Path, data: str | Path, warmup: int = 0,
-                 intersample: Sequence[str] | str | None = None, out: str | Path,
-                 force: bool = False) -> tuple[Validation, list[Path]]:
+def validate_job(
+    model: Model | str | Path,
+    *,
+    params: str | Path,
+    data: str | Path,
+    warmup: int = 0,
+    intersample: Sequence[str] | str | None = None,
+    out: str | Path,
+    force: bool = False,
+) -> tuple[Validation, list[Path]]:
     """Validate a fit on a test record into a folder (checked before any work).
 
     Parameters

@@ -58,7 +58,7 @@ def figures_of_merit(measured: Any, simulated: Any) -> tuple[float, float | None
         raise ValueError(f"{y.size} measured samples to score; at least 2 are needed")
     rmse = float(np.sqrt(np.mean((y - s) ** 2)))
     spread = float(np.sqrt(np.mean((y - np.mean(y)) ** 2)))
-    level = float(np.sqrt(np.mean(y ** 2)))
+    level = float(np.sqrt(np.mean(y**2)))
     nrmse = rmse / spread if spread > 0 else None
     db = (20 * math.log10(rmse / level) if rmse > 0 else -math.inf) if level > 0 else None
     return rmse, nrmse, None if nrmse is None else 100 * (1 - nrmse), db
@@ -75,19 +75,31 @@ class OutputScore:
     db: float | None
 
     def __repr__(self) -> str:
-        return one_line("OutputScore", f"{self.name}", f"rmse={number(self.rmse)}", f"nrmse={number(self.nrmse)}",
-                        f"fit={number(self.fit_percent)} %", f"db={number(self.db)}")
+        return one_line(
+            "OutputScore",
+            f"{self.name}",
+            f"rmse={number(self.rmse)}",
+            f"nrmse={number(self.nrmse)}",
+            f"fit={number(self.fit_percent)} %",
+            f"db={number(self.db)}",
+        )
 
     def summary(self) -> str:
         """One line of plain text: the four figures, and why one is missing."""
         why = "" if self.nrmse is not None else " (the measured output is constant: no NRMSE or fit %)"
-        return block(f"{self.name}: RMSE {number(self.rmse)}, NRMSE {number(self.nrmse)}, fit "
-                     f"{number(self.fit_percent)} %, {number(self.db)} dB{why}")
+        return block(
+            f"{self.name}: RMSE {number(self.rmse)}, NRMSE {number(self.nrmse)}, fit "
+            f"{number(self.fit_percent)} %, {number(self.db)} dB{why}"
+        )
 
     def to_dict(self) -> dict[str, Any]:
         clean = lambda v: None if v is None or not math.isfinite(v) else float(v)  # JSON: no inf
-        return {"rmse": clean(self.rmse), "nrmse": clean(self.nrmse), "fit_percent": clean(self.fit_percent),
-                "db": clean(self.db)}
+        return {
+            "rmse": clean(self.rmse),
+            "nrmse": clean(self.nrmse),
+            "fit_percent": clean(self.fit_percent),
+            "db": clean(self.db),
+        }
 
 
 #: How the simulation started: from the model's initial state (or zeros), from a state given, or from a state
@@ -135,19 +147,29 @@ class Validation:
         return "from rest (the model's initial state, else zero)" if self.start == "rest" else "from the state given"
 
     def __repr__(self) -> str:
-        scores = names([f"{o}: rmse {number(s.rmse)}, fit {number(s.fit_percent)} %" for o, s in self.outputs.items()],
-                       3)
-        return one_line("Validation", f"model={self.model!r}", f"record={self.record.get('name')!r}",
-                        f"scored={self.scored}", f"start={self.start!r}", f"'{scores}'")
+        scores = names(
+            [f"{o}: rmse {number(s.rmse)}, fit {number(s.fit_percent)} %" for o, s in self.outputs.items()], 3
+        )
+        return one_line(
+            "Validation",
+            f"model={self.model!r}",
+            f"record={self.record.get('name')!r}",
+            f"scored={self.scored}",
+            f"start={self.start!r}",
+            f"'{scores}'",
+        )
 
     def summary(self) -> str:
         """A few lines of plain text: the model, the record and the start, then the figures of each output."""
         rows = [s.summary().rstrip("\n") for s in self.outputs.values()]
         kinds = names([f"{u} {k}" for u, k in self.intersample.items()], 6)
-        return block(f"{self.model} on {self.record.get('name')!r}: {self.scored} samples scored at dt = "
-                     f"{number(self.record.get('dt'))} s, simulated {self._start_text()}",
-                     *rows[:9], f"... and {len(rows) - 9} more outputs" if len(rows) > 9 else "",
-                     f"inputs between samples: {kinds}" if kinds else "")
+        return block(
+            f"{self.model} on {self.record.get('name')!r}: {self.scored} samples scored at dt = "
+            f"{number(self.record.get('dt'))} s, simulated {self._start_text()}",
+            *rows[:9],
+            f"... and {len(rows) - 9} more outputs" if len(rows) > 9 else "",
+            f"inputs between samples: {kinds}" if kinds else "",
+        )
 
     def to_frame(self) -> Any:
         """The figures of merit as a pandas DataFrame, one row per output (indexed by name): ``rmse``, ``nrmse``,
@@ -160,8 +182,9 @@ class Validation:
         import pandas as pd
 
         rows = {o: s.to_dict() for o, s in self.outputs.items()}
-        frame = pd.DataFrame.from_dict(rows, orient="index", columns=["rmse", "nrmse", "fit_percent", "db"],
-                                       dtype=float)
+        frame = pd.DataFrame.from_dict(
+            rows, orient="index", columns=["rmse", "nrmse", "fit_percent", "db"], dtype=float
+        )
         frame.index.name = "output"
         return frame
 
@@ -171,11 +194,19 @@ class Validation:
 
     def to_dict(self) -> dict[str, Any]:
         finite = lambda v: float(v) if math.isfinite(v) else None
-        return {"schema": "obsnl.validate/1", "model": self.model, "record": dict(self.record),
-                "outputs": {o: s.to_dict() for o, s in self.outputs.items()},
-                "start": self.start, "start_note": self.start_note, "warmup": self.warmup,
-                "scored_samples": self.scored,
-                "x0": {k: finite(v) for k, v in self.x0.items()}, "intersample": dict(self.intersample),
-                "parameters": {k: finite(v) for k, v in self.parameters.items()},
-                "parameters_from": self.parameters_from, "seconds": self.seconds,
-                "assumptions": list(self.assumptions)}
+        return {
+            "schema": "obsnl.validate/1",
+            "model": self.model,
+            "record": dict(self.record),
+            "outputs": {o: s.to_dict() for o, s in self.outputs.items()},
+            "start": self.start,
+            "start_note": self.start_note,
+            "warmup": self.warmup,
+            "scored_samples": self.scored,
+            "x0": {k: finite(v) for k, v in self.x0.items()},
+            "intersample": dict(self.intersample),
+            "parameters": {k: finite(v) for k, v in self.parameters.items()},
+            "parameters_from": self.parameters_from,
+            "seconds": self.seconds,
+            "assumptions": list(self.assumptions),
+        }

@@ -46,7 +46,7 @@ REFINE = 8
 #: The schema an ``identify.json`` carries (:meth:`obsnl.identification.results.Identification.to_dict`).
 IDENTIFY_SCHEMA = "obsnl.identify/1"
 #: The largest parameters file read (an ``identify.json`` holds a few hundred kB at most).
-MAX_PARAMS_BYTES = 32 * 2 ** 20
+MAX_PARAMS_BYTES = 32 * 2**20
 _IDENTIFY_FIX = "give the identify.json that `obsnl identify --out DIR` wrote, or a mapping {parameter: value}"
 
 
@@ -60,7 +60,7 @@ def _identify_json(path: Path) -> dict[str, Any]:
         with path.open("rb") as fh:
             raw = fh.read(MAX_PARAMS_BYTES + 1)
         if len(raw) > MAX_PARAMS_BYTES:
-            raise DataError(f"{where} is over {MAX_PARAMS_BYTES // 2 ** 20} MB, not an identify.json; {_IDENTIFY_FIX}")
+            raise DataError(f"{where} is over {MAX_PARAMS_BYTES // 2**20} MB, not an identify.json; {_IDENTIFY_FIX}")
         doc = json.loads(raw.decode("utf-8"))
     except DataError:
         raise
@@ -71,8 +71,9 @@ def _identify_json(path: Path) -> dict[str, Any]:
     except (UnicodeDecodeError, ValueError, RecursionError):
         raise DataError(f"{where} is not JSON, so not an identify.json; {_IDENTIFY_FIX}") from None
     if not isinstance(doc, dict) or doc.get("schema") != IDENTIFY_SCHEMA or not isinstance(doc.get("parameters"), list):
-        raise DataError(f"{where} is not an identify.json (no schema {IDENTIFY_SCHEMA!r} with its parameters); "
-                        f"{_IDENTIFY_FIX}")
+        raise DataError(
+            f"{where} is not an identify.json (no schema {IDENTIFY_SCHEMA!r} with its parameters); {_IDENTIFY_FIX}"
+        )
     return doc
 
 
@@ -88,16 +89,21 @@ def fit_kinds(data: Any) -> dict[str, str] | None:
     entries = data.get("intersample") if isinstance(data, Mapping) else None
     if not isinstance(entries, list):
         return None
-    kinds = {e["input"]: e["kind"] for e in entries
-             if isinstance(e, Mapping) and isinstance(e.get("input"), str) and isinstance(e.get("kind"), str)}
+    kinds = {
+        e["input"]: e["kind"]
+        for e in entries
+        if isinstance(e, Mapping) and isinstance(e.get("input"), str) and isinstance(e.get("kind"), str)
+    }
     return kinds or None
 
 
 def _from_identify(doc: Mapping[str, Any], model_name: str, where: str) -> dict[str, Any]:
     """``{parameter: value}`` of an identify.json: the estimate, or the guess a parameter was held at."""
     if doc.get("model") != model_name:
-        raise DataError(f"{where} holds the parameters of model {quote(doc.get('model'))}, not of {model_name!r}; "
-                        f"give the identify.json of this model")
+        raise DataError(
+            f"{where} holds the parameters of model {quote(doc.get('model'))}, not of {model_name!r}; "
+            f"give the identify.json of this model"
+        )
     values = {}
     for p in doc["parameters"]:
         if not isinstance(p, dict) or not isinstance(p.get("name"), str):
@@ -157,12 +163,15 @@ def _parameters(parameters: Any, model: Model) -> tuple[dict[str, float], str, d
     elif isinstance(parameters, Mapping):
         source, values = "given", dict(parameters)
     else:
-        raise OptionError(f"parameters= takes {{parameter: value}} or an identify.json; got "
-                          f"{type(parameters).__name__}")
+        raise OptionError(
+            f"parameters= takes {{parameter: value}} or an identify.json; got {type(parameters).__name__}"
+        )
     unknown = [k for k in values if k not in names]
     if unknown:
-        raise OptionError(f"{where} names {quote(unknown[0])}, which is not a parameter of {model.name!r} "
-                          f"({', '.join(names)}); check the spelling")
+        raise OptionError(
+            f"{where} names {quote(unknown[0])}, which is not a parameter of {model.name!r} "
+            f"({', '.join(names)}); check the spelling"
+        )
     missing = [k for k in names if k not in values]
     if missing:
         raise OptionError(f"{where} has no value for {', '.join(missing)} of {model.name!r}; give every parameter")
@@ -181,21 +190,28 @@ def _as_measured(record: Measured | Mapping[str, Any] | str | Path, num: Numeric
     if isinstance(record, Mapping) or is_frame(record):
         return measured(record, inputs=ins, outputs=outs)
     if not isinstance(record, Measured):
-        raise DataError(f"record= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
-                        f"Measured; got {type(record).__name__}")
+        raise DataError(
+            f"record= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
+            f"Measured; got {type(record).__name__}"
+        )
     if record.inputs != tuple(ins) or record.outputs != tuple(outs):
-        raise DataError(f"the record has inputs {list(record.inputs)} and outputs {list(record.outputs)}; model "
-                        f"{num.name!r} has {ins} and {outs}")
+        raise DataError(
+            f"the record has inputs {list(record.inputs)} and outputs {list(record.outputs)}; model "
+            f"{num.name!r} has {ins} and {outs}"
+        )
     return record
 
 
 def _drive(num: NumericModel, u: np.ndarray, kinds: Mapping[str, str]) -> tuple[NumericModel, np.ndarray, list[str]]:
     """The model to step, the input rows it takes, and how each input is taken between samples (a sentence each)."""
     stepped, rows = drive(num, u, kinds)
-    how = {"held": "held (zero-order hold)", "linear": "linear between samples",
-           "fft": "band-limited, interpolated by FFT (the record read as periodic)",
-           "sinc": "band-limited, interpolated by a windowed sinc (the record not periodic: its ends reflected, their "
-                   "first and last samples' in-between values approximate)"}
+    how = {
+        "held": "held (zero-order hold)",
+        "linear": "linear between samples",
+        "fft": "band-limited, interpolated by FFT (the record read as periodic)",
+        "sinc": "band-limited, interpolated by a windowed sinc (the record not periodic: its ends reflected, their "
+        "first and last samples' in-between values approximate)",
+    }
     return stepped, rows, [f"input {b.input} {how[b.route]}" for b in between_samples(u, num.inputs, kinds)]
 
 
@@ -206,9 +222,11 @@ def _start(num: NumericModel, x0: Mapping[str, float] | Sequence[float] | None) 
     if isinstance(x0, Mapping):
         unknown = [k for k in x0 if k not in num.states]
         if unknown or len(x0) != num.nx:
-            raise OptionError(f"x0= names {quote(unknown[0])}, which is not a state of {num.name!r} "
-                              f"({', '.join(num.states)})" if unknown else
-                              f"x0= needs a value for every state of {num.name!r} ({', '.join(num.states)})")
+            raise OptionError(
+                f"x0= names {quote(unknown[0])}, which is not a state of {num.name!r} ({', '.join(num.states)})"
+                if unknown
+                else f"x0= needs a value for every state of {num.name!r} ({', '.join(num.states)})"
+            )
         x0 = [x0[s] for s in num.states]
     try:
         x = np.asarray(x0, float)
@@ -223,44 +241,58 @@ def _check_warmup(warmup: Any, samples: int, nx: int, ny: int) -> int:
     if isinstance(warmup, bool) or not isinstance(warmup, (int, np.integer)) or warmup < 0:
         raise OptionError(f"warmup= takes a whole number of samples >= 0, got {quote(warmup)}")
     if warmup and warmup > samples - 2:
-        raise OptionError(f"warmup= {int(warmup)} samples leaves fewer than 2 of the record's {samples} to score; "
-                          f"give a warm-up shorter than the record")
+        raise OptionError(
+            f"warmup= {int(warmup)} samples leaves fewer than 2 of the record's {samples} to score; "
+            f"give a warm-up shorter than the record"
+        )
     if warmup and warmup * ny < max(nx, 2):
-        raise OptionError(f"warmup= {int(warmup)}: {warmup * ny} output samples cannot fix {nx} initial states; give "
-                          f"at least {max(-(-nx // ny), 2)} samples")
+        raise OptionError(
+            f"warmup= {int(warmup)}: {warmup * ny} output samples cannot fix {nx} initial states; give "
+            f"at least {max(-(-nx // ny), 2)} samples"
+        )
     return int(warmup)
 
 
-def _estimated_start(num: NumericModel, theta: np.ndarray, x_ref: np.ndarray, u: np.ndarray, y: np.ndarray,
-                     dt: float, scale: np.ndarray) -> tuple[np.ndarray, str]:
+def _estimated_start(
+    num: NumericModel, theta: np.ndarray, x_ref: np.ndarray, u: np.ndarray, y: np.ndarray, dt: float, scale: np.ndarray
+) -> tuple[np.ndarray, str]:
     """The initial state that fits the outputs ``y`` of the first samples best (parameters fixed), and a note."""
     from scipy.optimize import least_squares
 
     n, seen = len(y), ~np.isnan(y)
-    rms = np.sqrt(np.nanmean(y ** 2, axis=0))
+    rms = np.sqrt(np.nanmean(y**2, axis=0))
     w = 1.0 / np.where(rms > 0, rms, 1.0)
     far, runs = np.full(int(seen.sum()), 1e6), [0]
 
     def residual(s: np.ndarray) -> np.ndarray:
         runs[0] += 1
         try:
-            sim = simulate_numeric(num, theta=theta, x0=x_ref + scale * s, u=u[:n], dt=dt, substeps=SUBSTEPS,
-                                   refine=REFINE, locate=LOCATE)
+            sim = simulate_numeric(
+                num, theta=theta, x0=x_ref + scale * s, u=u[:n], dt=dt, substeps=SUBSTEPS, refine=REFINE, locate=LOCATE
+            )
         except EstimatorError:  # a trial state that makes the model blow up: far from the data
             return far
         return ((sim.y - np.nan_to_num(y)) * w)[seen]
 
     fit = least_squares(residual, np.zeros(num.nx), method="lm" if seen.sum() >= num.nx else "trf")
-    misfit = float(np.sqrt(np.mean(fit.fun ** 2)))
+    misfit = float(np.sqrt(np.mean(fit.fun**2)))
     said = "met its tolerances" if fit.success else f"stopped without meeting its tolerances ({fit.message})"
-    return x_ref + scale * fit.x, (f"estimated by least squares on the first {n} samples (parameters fixed): "
-                                   f"residual RMS {misfit:.3g} of the outputs' RMS there, {runs[0]} simulations; "
-                                   f"the fit {said}")
+    return x_ref + scale * fit.x, (
+        f"estimated by least squares on the first {n} samples (parameters fixed): "
+        f"residual RMS {misfit:.3g} of the outputs' RMS there, {runs[0]} simulations; "
+        f"the fit {said}"
+    )
 
 
-def simulate(model: Model | str | Path, parameters: Mapping[str, float] | str | Path,
-             record: Measured | Mapping[str, Any] | str | Path, *, intersample: Any = None,
-             x0: Mapping[str, float] | Sequence[float] | None = None, warmup: int = 0) -> Validation:
+def simulate(
+    model: Model | str | Path,
+    parameters: Mapping[str, float] | str | Path,
+    record: Measured | Mapping[str, Any] | str | Path,
+    *,
+    intersample: Any = None,
+    x0: Mapping[str, float] | Sequence[float] | None = None,
+    warmup: int = 0,
+) -> Validation:
     """Run a fitted model on a new record and score its outputs: RMSE, NRMSE, fit % and dB per output.
 
     Parameters
@@ -316,45 +348,73 @@ def simulate(model: Model | str | Path, parameters: Mapping[str, float] | str | 
     warmup = _check_warmup(warmup, len(data.y), num.nx, num.ny)
     for j, c in enumerate(num.outputs):
         if np.sum(~np.isnan(data.y[warmup:, j])) < 2:
-            raise DataError(f"output {c!r} of the record has fewer than 2 samples measured after the warm-up; "
-                            f"give a record that measures it")
+            raise DataError(
+                f"output {c!r} of the record has fewer than 2 samples measured after the warm-up; "
+                f"give a record that measures it"
+            )
     kinds = intersample_kinds(intersample, num.inputs, table=fitted or model.intersample)
-    kinds_from = ("as intersample= says" if intersample is not None else "as the fit took them (identify.json)"
-                  if fitted else "the model's [intersample] table, else linear")
+    kinds_from = (
+        "as intersample= says"
+        if intersample is not None
+        else "as the fit took them (identify.json)"
+        if fitted
+        else "the model's [intersample] table, else linear"
+    )
     stepped, u, routes = _drive(num, data.u, kinds)
     theta = np.array([values[p] for p in num.parameters])
     x_start = _start(num, x0)
     start, note = ("given" if x0 is not None else "rest"), ""
-    sim = simulate_numeric(stepped, theta=theta, x0=x_start, u=u, dt=data.dt, substeps=SUBSTEPS, refine=REFINE,
-                           locate=LOCATE)
+    sim = simulate_numeric(
+        stepped, theta=theta, x0=x_start, u=u, dt=data.dt, substeps=SUBSTEPS, refine=REFINE, locate=LOCATE
+    )
     if warmup:
-        scale = np.sqrt(np.mean(sim.x ** 2, axis=0))
+        scale = np.sqrt(np.mean(sim.x**2, axis=0))
         scale = np.where(scale > 0, scale, max(float(np.max(scale)), 1.0))
         x_start, note = _estimated_start(stepped, theta, x_start, u, data.y[:warmup], data.dt, scale)
         start = "estimated"
-        sim = simulate_numeric(stepped, theta=theta, x0=x_start, u=u, dt=data.dt, substeps=SUBSTEPS, refine=REFINE,
-                               locate=LOCATE)
-    scores = {c: OutputScore(c, *figures_of_merit(data.y[warmup:, j], sim.y[warmup:, j]))
-              for j, c in enumerate(num.outputs)}
-    return Validation(model=model.name, record=data.to_dict(), parameters=values, parameters_from=source, start=start,
-                      x0=dict(zip(num.states, map(float, x_start))), warmup=warmup, intersample=kinds, outputs=scores,
-                      assumptions=_assumptions(start, warmup, f"{kinds_from}: {'; '.join(routes)}", data, source),
-                      seconds=time.perf_counter() - t0, start_note=note, states=num.states, t=data.t,
-                      y_measured=data.y, y_simulated=sim.y, x=sim.x)
+        sim = simulate_numeric(
+            stepped, theta=theta, x0=x_start, u=u, dt=data.dt, substeps=SUBSTEPS, refine=REFINE, locate=LOCATE
+        )
+    scores = {
+        c: OutputScore(c, *figures_of_merit(data.y[warmup:, j], sim.y[warmup:, j])) for j, c in enumerate(num.outputs)
+    }
+    return Validation(
+        model=model.name,
+        record=data.to_dict(),
+        parameters=values,
+        parameters_from=source,
+        start=start,
+        x0=dict(zip(num.states, map(float, x_start))),
+        warmup=warmup,
+        intersample=kinds,
+        outputs=scores,
+        assumptions=_assumptions(start, warmup, f"{kinds_from}: {'; '.join(routes)}", data, source),
+        seconds=time.perf_counter() - t0,
+        start_note=note,
+        states=num.states,
+        t=data.t,
+        y_measured=data.y,
+        y_simulated=sim.y,
+        x=sim.x,
+    )
 
 
 def _assumptions(start: str, warmup: int, between: str, data: Measured, source: str) -> tuple[str, ...]:
-    begin = {"rest": "the simulation starts from rest: the model's initial states under [values], else 0",
-             "given": "the simulation starts from the initial state given (x0=)",
-             "estimated": f"the initial state is estimated on the first {warmup} samples (least squares on their "
-                          "outputs, each weighted by 1/its RMS there, the parameters fixed); those samples are not "
-                          "scored"}[start]
-    return (f"the parameters are fixed at {'the values given' if source == 'given' else 'the estimates of ' + source}"
-            f"; {'only the initial state is' if warmup else 'nothing is'} fitted on this record",
-            begin,
-            f"integrator: RK4, {SUBSTEPS} substeps per sample (the fit's), a substep where the field jumps split at "
-            "the located crossing",
-            f"inputs between samples, {between}",
-            "figures of merit per output over the scored samples measured: RMSE; NRMSE = RMSE / RMS(y - mean y); "
-            "fit % = 100 (1 - ||e|| / ||y - mean y||) (MATLAB compare); dB = 20 log10(RMSE / RMS(y))",
-            *data.notes())
+    begin = {
+        "rest": "the simulation starts from rest: the model's initial states under [values], else 0",
+        "given": "the simulation starts from the initial state given (x0=)",
+        "estimated": f"the initial state is estimated on the first {warmup} samples (least squares on their "
+        "outputs, each weighted by 1/its RMS there, the parameters fixed); those samples are not "
+        "scored",
+    }[start]
+    return (
+        f"the parameters are fixed at {'the values given' if source == 'given' else 'the estimates of ' + source}"
+        f"; {'only the initial state is' if warmup else 'nothing is'} fitted on this record",
+        begin,
+        f"integrator: RK4, {SUBSTEPS} substeps per sample (the fit's), a substep where the field jumps split at "
+        "the located crossing",
+        f"inputs between samples, {between}",
+        "figures of merit per output over the scored samples measured: RMSE; NRMSE = RMSE / RMS(y - mean y); "
+        "fit % = 100 (1 - ||e|| / ||y - mean y||) (MATLAB compare); dB = 20 log10(RMSE / RMS(y))",
+        *data.notes(),
+    )

@@ -15,5 +15,11 @@ read, never imported), nor run an analysis or a filter.
 from obsnl.report.identification.run import IdentificationRun, identify_text
 from obsnl.report.identification.table2 import table2_latex, table2_markdown, table2_ml_summary, table2_summary
 
-__all__ = ["identify_text", "IdentificationRun", "table2_summary", "table2_ml_summary", "table2_markdown",
-           "table2_latex"]
+__all__ = [
+    "identify_text",
+    "IdentificationRun",
+    "table2_summary",
+    "table2_ml_summary",
+    "table2_markdown",
+    "table2_latex",
+]

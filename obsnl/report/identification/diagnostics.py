@@ -21,8 +21,8 @@ zoomed window around the largest residual (:func:`~obsnl.report.identification.v
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence
 import textwrap
+from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
@@ -32,8 +32,21 @@ import numpy as np
 from obsnl.report.figures import _plt, _save
 from obsnl.report.identification.validation import _longest_run, zoom_window
 
-__all__ = ["plot_fit_record", "plot_residuals", "plot_frf", "plot_hysteresis", "model_frf", "h1_estimate",
-           "correlation_bounds", "segment_length", "MEASURED", "MODEL", "RESIDUAL", "COHERENT", "SEGMENT"]
+__all__ = [
+    "plot_fit_record",
+    "plot_residuals",
+    "plot_frf",
+    "plot_hysteresis",
+    "model_frf",
+    "h1_estimate",
+    "correlation_bounds",
+    "segment_length",
+    "MEASURED",
+    "MODEL",
+    "RESIDUAL",
+    "COHERENT",
+    "SEGMENT",
+]
 
 #: The colours of the style: the measurement, the model, the residual.
 MEASURED, MODEL, RESIDUAL = "0.6", "C0", "C3"
@@ -47,13 +60,30 @@ COHERENT = 0.5
 @contextmanager
 def _style(plt: Any) -> Iterator[None]:
     """The figures' common look: small titles and labels, a light grid."""
-    with plt.rc_context({"axes.titlesize": 9, "axes.labelsize": 8, "xtick.labelsize": 7, "ytick.labelsize": 7,
-                         "legend.fontsize": 7, "axes.grid": True, "grid.alpha": 0.3, "lines.linewidth": 0.8}):
+    with plt.rc_context(
+        {
+            "axes.titlesize": 9,
+            "axes.labelsize": 8,
+            "xtick.labelsize": 7,
+            "ytick.labelsize": 7,
+            "legend.fontsize": 7,
+            "axes.grid": True,
+            "grid.alpha": 0.3,
+            "lines.linewidth": 0.8,
+        }
+    ):
         yield
 
 
-def plot_fit_record(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
-                    outputs: Sequence[str], fit: Mapping[str, float | None]) -> Path:
+def plot_fit_record(
+    path: str | Path,
+    *,
+    t: np.ndarray,
+    measured: np.ndarray,
+    simulated: np.ndarray,
+    outputs: Sequence[str],
+    fit: Mapping[str, float | None],
+) -> Path:
     """Per output: the measured and simulated output over the whole record, a zoomed window around the largest
     residual, and the residual against time.
 
@@ -77,8 +107,9 @@ def plot_fit_record(path: str | Path, *, t: np.ndarray, measured: np.ndarray, si
     plt = _plt()
     ny = len(outputs)
     with _style(plt):
-        fig, axes = plt.subplots(2 * ny, 2, figsize=(10, 4.6 * ny + 0.4), squeeze=False,
-                                 gridspec_kw={"height_ratios": [1.4, 1.0] * ny})
+        fig, axes = plt.subplots(
+            2 * ny, 2, figsize=(10, 4.6 * ny + 0.4), squeeze=False, gridspec_kw={"height_ratios": [1.4, 1.0] * ny}
+        )
         for j, name in enumerate(outputs):
             y, s = measured[:, j], simulated[:, j]
             e = y - s
@@ -92,8 +123,11 @@ def plot_fit_record(path: str | Path, *, t: np.ndarray, measured: np.ndarray, si
                 ax.plot(t[sl], s[sl], color=MODEL, label="model at the estimate")
                 ax.set_ylabel(name)
             full.axvspan(t[win.start], t[win.stop - 1], color="C1", alpha=0.15, lw=0, label="zoomed window")
-            full.set_title(f"{name}: NRMSE " + (f"{nrmse:.2f} %" if nrmse is not None and np.isfinite(nrmse)
-                                                else "-") + " (whole record)")
+            full.set_title(
+                f"{name}: NRMSE "
+                + (f"{nrmse:.2f} %" if nrmse is not None and np.isfinite(nrmse) else "-")
+                + " (whole record)"
+            )
             full.legend(loc="upper right")
             zoom.set_title(f"zoom: {win.stop - win.start} samples around the largest residual")
             res = plt.subplot2grid((2 * ny, 2), (2 * j + 1, 0), colspan=2, fig=fig)
@@ -101,7 +135,7 @@ def plot_fit_record(path: str | Path, *, t: np.ndarray, measured: np.ndarray, si
             axes[2 * j + 1, 1].remove()
             res.plot(t, e, lw=0.6, color=RESIDUAL)
             res.axvspan(t[win.start], t[win.stop - 1], color="C1", alpha=0.15, lw=0)
-            res.set_title(f"residual: measured - model (RMS {np.sqrt(np.nanmean(e ** 2)):.3g})")
+            res.set_title(f"residual: measured - model (RMS {np.sqrt(np.nanmean(e**2)):.3g})")
             res.set_ylabel(f"residual of {name}")
             res.set_xlabel("t (s)")
             zoom.set_xlabel("t (s)")
@@ -140,12 +174,22 @@ def _correlation(a: np.ndarray, b: np.ndarray, lags: np.ndarray) -> np.ndarray:
     n, scale = len(a), len(a) * a.std() * b.std()
     if scale == 0:
         return np.zeros(len(lags))
-    return np.array([np.dot(a[tau:], b[:n - tau]) if tau >= 0 else np.dot(a[:n + tau], b[-tau:]) for tau in lags]) \
+    return (
+        np.array([np.dot(a[tau:], b[: n - tau]) if tau >= 0 else np.dot(a[: n + tau], b[-tau:]) for tau in lags])
         / scale
+    )
 
 
-def plot_residuals(path: str | Path, *, residuals: np.ndarray, inputs: np.ndarray | None, outputs: Sequence[str],
-                   input_names: Sequence[str] = (), lags: int = 25, level: float = 0.01) -> Path:
+def plot_residuals(
+    path: str | Path,
+    *,
+    residuals: np.ndarray,
+    inputs: np.ndarray | None,
+    outputs: Sequence[str],
+    input_names: Sequence[str] = (),
+    lags: int = 25,
+    level: float = 0.01,
+) -> Path:
     """Per output: the residual's autocorrelation and its cross-correlation with each input, with their bounds.
 
     Parameters
@@ -172,8 +216,9 @@ def plot_residuals(path: str | Path, *, residuals: np.ndarray, inputs: np.ndarra
     u_all = np.zeros((len(e_all), 0)) if inputs is None else np.asarray(inputs, float).reshape(len(e_all), -1)
     nu = u_all.shape[1]
     with _style(plt):
-        fig, axes = plt.subplots(len(outputs), 1 + nu, figsize=(4.2 * (1 + nu), 2.8 * len(outputs) + 0.5),
-                                 squeeze=False)
+        fig, axes = plt.subplots(
+            len(outputs), 1 + nu, figsize=(4.2 * (1 + nu), 2.8 * len(outputs) + 0.5), squeeze=False
+        )
         for j, name in enumerate(outputs):
             run = _longest_run(~np.isnan(e_all[:, j]))
             e = e_all[run, j]
@@ -208,8 +253,10 @@ def plot_residuals(path: str | Path, *, residuals: np.ndarray, inputs: np.ndarra
                 label = input_names[i] if i < len(input_names) else f"input {i + 1}"
                 ax.set_title(f"cross-correlation of the residual of {name} with {label}")
                 ax.set_xlabel("lag (samples; positive: the input leads)")
-        fig.suptitle(f"residual analysis; dashed: {100 * (1 - level):g} % bounds of a white residual independent of "
-                     f"the input", fontsize=9)
+        fig.suptitle(
+            f"residual analysis; dashed: {100 * (1 - level):g} % bounds of a white residual independent of the input",
+            fontsize=9,
+        )
         return _save(plt, fig, path)
 
 
@@ -298,8 +345,20 @@ def h1_estimate(u: Any, y: Any, fs: float, *, segment: int = SEGMENT) -> tuple[n
         return f, puy / puu, coh
 
 
-def plot_frf(path: str | Path, *, t: np.ndarray, inputs: np.ndarray, measured: np.ndarray, A: Any, B: Any, C: Any,
-             D: Any, input_names: Sequence[str], outputs: Sequence[str], segment: int = SEGMENT) -> Path:
+def plot_frf(
+    path: str | Path,
+    *,
+    t: np.ndarray,
+    inputs: np.ndarray,
+    measured: np.ndarray,
+    A: Any,
+    B: Any,
+    C: Any,
+    D: Any,
+    input_names: Sequence[str],
+    outputs: Sequence[str],
+    segment: int = SEGMENT,
+) -> Path:
     """Per input and output: the model's frequency response against the measured H1 estimate (magnitude and phase),
     and the coherence.
 
@@ -338,8 +397,10 @@ def plot_frf(path: str | Path, *, t: np.ndarray, inputs: np.ndarray, measured: n
             Hm = model_frf(A, B, C, D, fm)[:, j, i]
             mag, phase, co = axes[row]
             weak = coh < COHERENT
-            for part, shade, label in ((~weak, MEASURED, "measured (H1)"),
-                                       (weak, "0.88", f"measured, coherence below {COHERENT:g}")):
+            for part, shade, label in (
+                (~weak, MEASURED, "measured (H1)"),
+                (weak, "0.88", f"measured, coherence below {COHERENT:g}"),
+            ):
                 shown = np.where(part, H1, np.nan)
                 mag.loglog(f, np.abs(shown), lw=1.4, color=shade, label=label)
                 phase.semilogx(f, np.degrees(np.angle(shown)), lw=1.4, color=shade)
@@ -358,13 +419,23 @@ def plot_frf(path: str | Path, *, t: np.ndarray, inputs: np.ndarray, measured: n
             for ax in axes[row]:
                 ax.set_xlabel("frequency (Hz)")
         seg = segment_length(len(t), segment)
-        fig.suptitle(f"frequency response: the model against the measured H1 estimate (Welch, {seg}-sample Hann "
-                     f"segments, half overlap)", fontsize=9)
+        fig.suptitle(
+            f"frequency response: the model against the measured H1 estimate (Welch, {seg}-sample Hann "
+            f"segments, half overlap)",
+            fontsize=9,
+        )
         return _save(plt, fig, path)
 
 
-def plot_hysteresis(path: str | Path, *, displacement: Mapping[str, np.ndarray], force: Mapping[str, np.ndarray],
-                    xlabel: str, ylabel: str, note: str = "") -> Path:
+def plot_hysteresis(
+    path: str | Path,
+    *,
+    displacement: Mapping[str, np.ndarray],
+    force: Mapping[str, np.ndarray],
+    xlabel: str,
+    ylabel: str,
+    note: str = "",
+) -> Path:
     """The hysteresis loop: the restoring force against the displacement, measured and the model's.
 
     Parameters

@@ -59,11 +59,14 @@ def modal_lines(modal: ModalSummary, *, indent: str = "  ") -> list[str]:
         mode 1   1.879 Hz (std 4.2e-06)   damping 1.181 % (std 0.00024)   shape y1 +0.535, y2 +1
     """
     lines = [f"{indent}modes of the model linearised at rest (std from the estimates' covariance):"]
-    for i, (f, fs, z, zs, sh) in enumerate(zip(modal.frequency_hz, modal.frequency_hz_std, modal.damping_ratio,
-                                               modal.damping_ratio_std, modal.shapes)):
+    for i, (f, fs, z, zs, sh) in enumerate(
+        zip(modal.frequency_hz, modal.frequency_hz_std, modal.damping_ratio, modal.damping_ratio_std, modal.shapes)
+    ):
         shape = ", ".join(f"{o} {a:+.3g}" for o, a in sh.items())
-        lines.append(f"{indent}  mode {i + 1:<3d} {f:.4g} Hz (std {_std(fs)})   damping {100 * z:.4g} % "
-                     f"(std {_std(zs, 100)})   shape {shape}")
+        lines.append(
+            f"{indent}  mode {i + 1:<3d} {f:.4g} Hz (std {_std(fs)})   damping {100 * z:.4g} % "
+            f"(std {_std(zs, 100)})   shape {shape}"
+        )
     if modal.real_poles:
         lines.append(f"{indent}  real poles (1/s, no oscillation): " + ", ".join(f"{p:.4g}" for p in modal.real_poles))
     return lines

@@ -155,16 +155,19 @@ def identify_text(result: IdentificationRun) -> str:
       tuning: s0 0.3, q_theta 0, q_x 100, gate off (the smallest output misfit after one pass of 2 configurations)
     """
     if isinstance(result, Mapping):
-        raise TypeError("identify_text renders the Identification value (obsnl.identify's result), not the "
-                        "content of identify.json")
+        raise TypeError(
+            "identify_text renders the Identification value (obsnl.identify's result), not the content of identify.json"
+        )
     run = result
     prac, ref = run.practical, run.refinement or {}
     why = run.converged_reason
     state = "converged" if run.converged else "NOT converged" + (f": {why}" if why else "")
     compiled: bool | None = getattr(run, "compiled", None)  # None or absent: not said
     how = "" if compiled is None else " (compiled)" if compiled else " (not compiled)"
-    lines = [f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
-             f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s{how}: {state}"]
+    lines = [
+        f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
+        f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s{how}: {state}"
+    ]
     adequacy: _Adequacy | None = getattr(run, "adequacy", None)  # None or absent: no fit was made
     inadequate = False
     if adequacy is not None and not adequacy.passed:
@@ -176,16 +179,19 @@ def identify_text(result: IdentificationRun) -> str:
         lines.append(f"  data: {said}")
     if len(run.tuning_scores) > 1:
         t = run.tuning
-        lines.append(f"  tuning: s0 {t.s0:g}, q_theta {t.q_theta:g}, q_x {t.q_x:g}, gate "
-                     f"{format(t.gate, 'g') if _given(t.gate) else 'off'} (the smallest output misfit after "
-                     f"one pass of {len(run.tuning_scores)} configurations)")
+        lines.append(
+            f"  tuning: s0 {t.s0:g}, q_theta {t.q_theta:g}, q_x {t.q_x:g}, gate "
+            f"{format(t.gate, 'g') if _given(t.gate) else 'off'} (the smallest output misfit after "
+            f"one pass of {len(run.tuning_scores)} configurations)"
+        )
     if run.passes_run < run.passes:
         lines.append(f"  stopped after pass {run.passes_run}: its estimate cannot be simulated (the filter diverged)")
     if prac is not None and not ref:  # with the refinement the profiles judge each parameter
         if prac.inconclusive:
             lines.append(f"  practical identifiability not decided: {prac.inconclusive}")
-        lines += [f"  {q}: not decided whether the record pins it within 5 %: {why}"
-                  for q, why in prac.undecided.items()]
+        lines += [
+            f"  {q}: not decided whether the record pins it within 5 %: {why}" for q, why in prac.undecided.items()
+        ]
     lines += [_parameter(p, inadequate) for p in run.parameters]
     held = sum(p.held for p in run.parameters)
     if held:
@@ -196,17 +202,26 @@ def identify_text(result: IdentificationRun) -> str:
         # over the noise level the fit was given; a level raised to the filter's floor is said, since the ratio then
         # understates a misfit (the adequacy tests judge against the independent estimate)
         floored = {k for k, v in (run.noise or {}).items() if "floored" in str(v.get("source", ""))}
-        lines.append("  residual RMS / the noise level the fit was given: " + ", ".join(
-            f"{k} {v:.2f}" + (" (that level floored: a smaller misfit is not seen)" if k in floored else "")
-            for k, v in ref["misfit_over_noise"].items()))
+        lines.append(
+            "  residual RMS / the noise level the fit was given: "
+            + ", ".join(
+                f"{k} {v:.2f}" + (" (that level floored: a smaller misfit is not seen)" if k in floored else "")
+                for k, v in ref["misfit_over_noise"].items()
+            )
+        )
     modal = getattr(run, "modal_at_rest", None)  # an oscillatory model's modes (None: none, or not linearisable)
     if modal is not None:
         lines += modal_lines(modal)
     if adequacy is not None:
         share = ", ".join(f"{k} {100 * v:.3g} %" for k, v in adequacy.model_error.items())
-        lines.append(f"  {adequacy.headline()}" if adequacy.passed else "  adequacy failed: " + ", ".join(
-            f"{t.label()} p = {t.p_value:.2g}" for t in adequacy.failed) + f"; share of the residual variance "
-            f"attributed to model error: {share}")
+        lines.append(
+            f"  {adequacy.headline()}"
+            if adequacy.passed
+            else "  adequacy failed: "
+            + ", ".join(f"{t.label()} p = {t.p_value:.2g}" for t in adequacy.failed)
+            + f"; share of the residual variance "
+            f"attributed to model error: {share}"
+        )
     return "\n".join(lines)
 
 
@@ -220,11 +235,17 @@ def _data_said(data: Mapping[str, Any]) -> str:
     'clock read as regular (within 3e-05 of a step); missing output samples: y 150 of 300; columns ignored: note'
     """
     missing = [f"{k} {v} of {data.get('samples')}" for k, v in (data.get("missing") or {}).items() if v]
-    return "; ".join(x for x in (
-        f"clock read as regular (within {data['clock_deviation']:.2g} of a step)"
-        if (data.get("clock_deviation") or 0) > 1e-9 else "",
-        f"missing output samples: {', '.join(missing)}" if missing else "",
-        f"columns ignored: {', '.join(data['ignored'])}" if data.get("ignored") else "") if x)
+    return "; ".join(
+        x
+        for x in (
+            f"clock read as regular (within {data['clock_deviation']:.2g} of a step)"
+            if (data.get("clock_deviation") or 0) > 1e-9
+            else "",
+            f"missing output samples: {', '.join(missing)}" if missing else "",
+            f"columns ignored: {', '.join(data['ignored'])}" if data.get("ignored") else "",
+        )
+        if x
+    )
 
 
 def _digits(interval: tuple[float | None, float | None] | None, true: float | None) -> int:
@@ -265,4 +286,3 @@ def _parameter(p: _Estimate, inadequate: bool = False) -> str:
         head += f" error {p.error:.2f} %" if p.error_kind == "percent" else f" error {p.error:.3g} (absolute)"
     flag = "flagged" if inadequate else "poorly informed"
     return head.rstrip() + (f"  {flag}: {p.reason}" if p.flagged else f"  {p.reason}" if p.reason else "")
-

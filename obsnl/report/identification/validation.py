@@ -97,20 +97,34 @@ def validate_text(v: ValidationRun) -> str:
     rec = v.record
     x0 = ", ".join(f"{s} = {number(x)}" for s, x in v.x0.items())
     if v.start == "estimated":
-        start = (f"simulated from the state estimated on the first {v.warmup} samples: {x0}; {v.scored} samples "
-                 f"scored after them\n  ({v.start_note})")
+        start = (
+            f"simulated from the state estimated on the first {v.warmup} samples: {x0}; {v.scored} samples "
+            f"scored after them\n  ({v.start_note})"
+        )
     else:
-        start = ("simulated from rest (the model's initial states, else 0)" if v.start == "rest" else
-                 "simulated from the initial state given") + f": {x0}; all {v.scored} samples scored"
+        start = (
+            "simulated from rest (the model's initial states, else 0)"
+            if v.start == "rest"
+            else "simulated from the initial state given"
+        ) + f": {x0}; all {v.scored} samples scored"
     width = max(6, *(len(o) for o in v.outputs))
     rows = [f"{'output':<{width}}  {'RMSE':<10} {'NRMSE':<10} {'fit %':<8} dB"]
-    rows += [f"{o:<{width}}  {_cell(s.rmse):<10} {_cell(s.nrmse):<10} {_cell(s.fit_percent, '.2f'):<8} "
-             f"{_cell(s.db, '.2f')}" for o, s in v.outputs.items()]
+    rows += [
+        f"{o:<{width}}  {_cell(s.rmse):<10} {_cell(s.nrmse):<10} {_cell(s.fit_percent, '.2f'):<8} {_cell(s.db, '.2f')}"
+        for o, s in v.outputs.items()
+    ]
     src = "given" if v.parameters_from == "given" else f"from {v.parameters_from}"
-    return "\n".join([f"validate {v.model} on {rec.get('name')!r}: {rec.get('samples')} samples at dt = "
-                      f"{number(rec.get('dt'))} s, parameters {src}", start, *rows,
-                      "inputs between samples: " + ", ".join(f"{u} {k}" for u, k in v.intersample.items()),
-                      "assumed:", *(f"  - {a}" for a in v.assumptions)])
+    return "\n".join(
+        [
+            f"validate {v.model} on {rec.get('name')!r}: {rec.get('samples')} samples at dt = "
+            f"{number(rec.get('dt'))} s, parameters {src}",
+            start,
+            *rows,
+            "inputs between samples: " + ", ".join(f"{u} {k}" for u, k in v.intersample.items()),
+            "assumed:",
+            *(f"  - {a}" for a in v.assumptions),
+        ]
+    )
 
 
 def zoom_window(error: Any, first: int) -> slice:
@@ -151,8 +165,16 @@ def _longest_run(ok: np.ndarray) -> slice:
     return slice(int(starts[k]), int(ends[k])) if len(starts) else slice(0, 0)
 
 
-def plot_validation(path: str | Path, *, t: np.ndarray, measured: np.ndarray, simulated: np.ndarray,
-                    outputs: Sequence[str], warmup: int, scores: Mapping[str, Any]) -> Path:
+def plot_validation(
+    path: str | Path,
+    *,
+    t: np.ndarray,
+    measured: np.ndarray,
+    simulated: np.ndarray,
+    outputs: Sequence[str],
+    warmup: int,
+    scores: Mapping[str, Any],
+) -> Path:
     """Per output: the overlay over the whole record, the zoomed window, the error and its spectrum.
 
     Parameters
@@ -222,8 +244,9 @@ def plot_validation(path: str | Path, *, t: np.ndarray, measured: np.ndarray, si
     return _save(plt, fig, path)
 
 
-def plot_loop(path: str | Path, *, displacement: np.ndarray, state: np.ndarray, output: str, name: str,
-              warmup: int = 0) -> Path:
+def plot_loop(
+    path: str | Path, *, displacement: np.ndarray, state: np.ndarray, output: str, name: str, warmup: int = 0
+) -> Path:
     """The restoring-force loop: a hysteretic state against the displacement (a state or an output), both simulated,
     over the scored samples.
 
