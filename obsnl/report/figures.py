@@ -393,6 +393,23 @@ def plot_profiles(
         )
     for ax, pr in zip(axes.ravel(), profiles):
         pts = np.array(pr.points, float).reshape(-1, 2)
+        if len(pts) < 2:  # a profile that was not computed or failed is said, not drawn as a dot
+            why = "; ".join(s for s in pr.sides if s) or pr.shape
+            import textwrap
+
+            ax.text(
+                0.5,
+                0.5,
+                textwrap.fill(f"no profile: {why}", 34),
+                ha="center",
+                va="center",
+                fontsize=8,
+                transform=ax.transAxes,
+            )
+            ax.set_title(f"{pr.name} ({pr.shape})", fontsize=9)
+            ax.set_xticks([])
+            ax.set_yticks([])
+            continue
         # between computed points, sqrt(Delta) is interpolated linearly on each side of the estimate (exact for a
         # quadratic profile), so the drawn curve bends as a profile does instead of joining points by chords
         side = np.where(pts[:, 0] < pr.estimate, -1.0, 1.0)
@@ -409,6 +426,8 @@ def plot_profiles(
             ax.axvline(truth[pr.name], color="k", lw=1, ls=":")
         ax.set_title(f"{pr.name} ({pr.shape})", fontsize=9)
         ax.set_ylabel(r"$\Delta\chi^2$", fontsize=8)
+        ax.set_xlabel(pr.name, fontsize=8)
+        ax.ticklabel_format(axis="x", useOffset=False)  # values as they are, not as an offset plus small numbers
         ax.tick_params(labelsize=7)
     fig.suptitle("profile likelihood; dashed: 95 % threshold", fontsize=9)
     return _save(plt, fig, path)

@@ -1,0 +1,25 @@
+"""The profile figure: a profile that was not computed is said in its panel, never drawn as a lone dot (issue 43,
+the first hour)."""
+
+from __future__ import annotations
+
+from obsnl.identification.profile import Profile
+from obsnl.report import figures
+
+
+def test_a_profile_without_points_is_said_not_drawn(tmp_path, monkeypatch):
+    said: list[str] = []
+    plt = figures._plt()
+    real = plt.Axes.text
+
+    def spy(self, x, y, s, *a, **k):
+        said.append(s)
+        return real(self, x, y, s, *a, **k)
+
+    monkeypatch.setattr(plt.Axes, "text", spy)
+    closed = Profile("k", 5.0e4, (49960.0, 50040.0), "closed", ((49950.0, 5.0), (50000.0, 0.0), (50050.0, 4.5)))
+    missing = Profile("c", 10.0, (None, None), "not-computed", ((10.0, 0.0),), sides=("the time budget ran out", ""))
+    out = figures.plot_profiles(tmp_path / "p.png", profiles=[closed, missing], threshold=3.84)
+    assert out.exists()
+    assert any("no profile" in s and "time budget ran out" in s.replace("\n", " ") for s in said)
+    assert not any("no profile" in s and "k" == s for s in said)
