@@ -227,7 +227,7 @@ def cli_case(tmp_path):
     ({"params": "other json"}, "is not an identify.json"),
     ({"params": "missing"}, "does not exist"),
     ({"params": "fifo"}, "is not a regular file"),  # read as a file it would never end
-    ({"params": "text value"}, "identify.json' gives c = '0.3'; give a finite number"),
+    ({"params": "text value"}, "gives c = '0.3'; give a finite number"),  # the file's path may be shortened
 ])
 def test_command_line_refusals_are_one_line_with_exit_code_2(cli_case, change, message, capsys):
     tmp, model, params, data = cli_case
