@@ -23,3 +23,19 @@ def test_a_profile_without_points_is_said_not_drawn(tmp_path, monkeypatch):
     assert out.exists()
     assert any("no profile" in s and "time budget ran out" in s.replace("\n", " ") for s in said)
     assert not any("no profile" in s and "k" == s for s in said)
+
+
+def test_the_fit_figure_writes_the_units_of_an_output_where_the_model_gives_them(tmp_path, monkeypatch):
+    import numpy as np
+
+    from obsnl.report.identification import diagnostics
+
+    labels: list[str] = []
+    plt = figures._plt()
+    real = plt.Axes.set_ylabel
+    monkeypatch.setattr(plt.Axes, "set_ylabel", lambda self, s, *a, **k: labels.append(s) or real(self, s, *a, **k))
+    t = np.arange(200) * 0.01
+    y = np.sin(t)[:, None]
+    diagnostics.plot_fit_record(tmp_path / "fit.png", t=t, measured=y, simulated=0.99 * y, outputs=["disp"],
+                                fit={"disp": 1.0}, units={"disp": "m"})
+    assert "disp (m)" in labels and "residual of disp (m)" in labels

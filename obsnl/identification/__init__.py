@@ -33,11 +33,17 @@ _LAZY: dict[str, str] = {
     "practical_identifiability": "practical",
     "Practical": "practical",
     "StructuralCheck": "structural",
+    "Modal": "modal",
+    "Adequacy": "adequacy",
+    "AdequacyTest": "adequacy",
 }
 
 if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.identification.adequacy import Adequacy as Adequacy
+    from obsnl.identification.adequacy import AdequacyTest as AdequacyTest
     from obsnl.identification.experiments import monte_carlo as monte_carlo
     from obsnl.identification.experiments import run_passes as run_passes
+    from obsnl.identification.modal import Modal as Modal
     from obsnl.identification.practical import Practical as Practical
     from obsnl.identification.practical import practical_identifiability as practical_identifiability
     from obsnl.identification.results import Identification as Identification

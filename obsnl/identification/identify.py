@@ -580,8 +580,15 @@ def write_identification(result: Identification, out: str | Path, *, force: bool
     extra = figure_files(result)
     with OutputFolder(out, IDENTIFY_FILES + extra, force=force) as folder:  # no link followed, all files or none
         folder.write_text("identify.json", json.dumps(result.to_dict(), indent=1, allow_nan=False) + "\n")
+        units = getattr(result.fitted_model, "metadata", {}).get("units")  # a model file's units table, if any
         plot_fit_record(
-            folder.path("fit.png"), t=t, measured=measured, simulated=simulated, outputs=result.outputs, fit=result.fit
+            folder.path("fit.png"),
+            t=t,
+            measured=measured,
+            simulated=simulated,
+            outputs=result.outputs,
+            fit=result.fit,
+            units=units if isinstance(units, dict) else None,
         )
         write_figures(result, folder, extra)
         plot_traces(

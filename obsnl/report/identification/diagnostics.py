@@ -83,6 +83,7 @@ def plot_fit_record(
     simulated: np.ndarray,
     outputs: Sequence[str],
     fit: Mapping[str, float | None],
+    units: Mapping[str, str] | None = None,
 ) -> Path:
     """Per output: the measured and simulated output over the whole record, a zoomed window around the largest
     residual, and the residual against time.
@@ -99,6 +100,8 @@ def plot_fit_record(
         Output names.
     fit : mapping of str to float or None
         NRMSE (%) per output, for the titles.
+    units : mapping of str to str or None
+        The unit of each output (a model file's ``units`` table), written on its axes where given.
 
     Returns
     -------
@@ -113,6 +116,7 @@ def plot_fit_record(
         for j, name in enumerate(outputs):
             y, s = measured[:, j], simulated[:, j]
             e = y - s
+            label = f"{name} ({(units or {})[name]})" if (units or {}).get(name) else name
             win = zoom_window(e, 0)
             full, zoom = axes[2 * j, 0], axes[2 * j, 1]
             nrmse = fit.get(name)
@@ -121,7 +125,7 @@ def plot_fit_record(
                 seen = ~np.isnan(y[sl])
                 ax.plot(t[sl][seen], y[sl][seen], lw=1.4, color=MEASURED, label="measured")
                 ax.plot(t[sl], s[sl], color=MODEL, label="model at the estimate")
-                ax.set_ylabel(name)
+                ax.set_ylabel(label)
             full.axvspan(t[win.start], t[win.stop - 1], color="C1", alpha=0.15, lw=0, label="zoomed window")
             full.set_title(
                 f"{name}: NRMSE "
@@ -136,7 +140,7 @@ def plot_fit_record(
             res.plot(t, e, lw=0.6, color=RESIDUAL)
             res.axvspan(t[win.start], t[win.stop - 1], color="C1", alpha=0.15, lw=0)
             res.set_title(f"residual: measured - model (RMS {np.sqrt(np.nanmean(e**2)):.3g})")
-            res.set_ylabel(f"residual of {name}")
+            res.set_ylabel(f"residual of {label}")
             res.set_xlabel("t (s)")
             zoom.set_xlabel("t (s)")
         return _save(plt, fig, path)
