@@ -191,13 +191,14 @@ def test_5_identify_refuses_a_folder_under_a_file_or_a_linked_folder_before_the_
 
 
 def test_5_figures_replace_a_link_and_keep_its_target(tmp_path):
-    from obsnl.report.figures import plot_fit
+    from obsnl.report.identification.diagnostics import plot_fit_record
 
     kept = tmp_path / "kept.png"
     kept.write_bytes(b"mine")
     (tmp_path / "fit.png").symlink_to(kept)
     t = np.linspace(0.0, 1.0, 11)
-    plot_fit(tmp_path / "fit.png", t=t, measured=t[:, None], simulated=t[:, None], outputs=["y"], fit={"y": 0.0})
+    plot_fit_record(tmp_path / "fit.png", t=t, measured=t[:, None], simulated=t[:, None], outputs=["y"],
+                    fit={"y": 0.0})
     assert kept.read_bytes() == b"mine" and not (tmp_path / "fit.png").is_symlink()
     assert (tmp_path / "fit.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["fit.png", "kept.png"]  # no temporary file left

@@ -21,7 +21,7 @@ from obsnl.report.files import check_target
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["figure2", "figure3", "plot_fit", "plot_traces", "plot_bank_forces", "FIGURE_PREFIX"]
+__all__ = ["figure2", "figure3", "plot_traces", "plot_bank_forces", "FIGURE_PREFIX"]
 
 #: Bank figures are written as ``<FIGURE_PREFIX><scenario>.png``.
 FIGURE_PREFIX = "forces_"
@@ -197,56 +197,6 @@ def table2_errors_figure(
     ax.set_ylabel("worst error over the seeds (%)")
     ax.set_title("Table 2: errors per parameter and filter (hatched: flagged, not held to the goal)")
     ax.legend(fontsize=7, ncol=2)
-    return _save(plt, fig, path)
-
-
-def plot_fit(
-    path: str | Path,
-    *,
-    t: np.ndarray,
-    measured: np.ndarray,
-    simulated: np.ndarray,
-    outputs: Sequence[str],
-    fit: Mapping[str, float | None],
-) -> Path:
-    """Measured vs simulated (model at the estimate) output, one panel per output, NRMSE in the title.
-
-    Parameters
-    ----------
-    path : str or Path
-        The PNG file to write.
-    t : numpy.ndarray
-        Sample times (s).
-    measured, simulated : numpy.ndarray
-        Outputs ``(T, ny)``.
-    outputs : sequence of str
-        Output names.
-    fit : mapping of str to float or None
-        NRMSE (%) per output.
-
-    Returns
-    -------
-    Path
-    """
-    plt = _plt()
-    fig, axes = plt.subplots(len(outputs), 1, figsize=(8, 2.4 * len(outputs) + 0.6), sharex=True, squeeze=False)
-    for j, (ax, name) in enumerate(zip(axes[:, 0], outputs)):
-        seen = ~np.isnan(measured[:, j])  # an output's missing samples left out (NaN would break the line at each)
-        ax.plot(
-            t[seen],
-            measured[seen, j],
-            lw=1.4,
-            color="0.7",
-            label="measured" if seen.all() else f"measured ({int(seen.sum())} of {len(seen)} samples)",
-        )
-        ax.plot(t, simulated[:, j], lw=0.8, color="C0", label="simulated at the estimate")
-        nrmse = fit.get(name)
-        ax.set_title(
-            f"{name}: NRMSE " + (f"{nrmse:.2f} %" if nrmse is not None and np.isfinite(nrmse) else "-"), fontsize=10
-        )
-        ax.set_ylabel(name)
-        ax.legend(fontsize=7, loc="upper right")
-    axes[-1, 0].set_xlabel("t (s)")
     return _save(plt, fig, path)
 
 
