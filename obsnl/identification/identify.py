@@ -90,6 +90,17 @@ def _prepare(
     return num, g, table, structural
 
 
+def _at_the_door(passes: int, replicates: int, guess: Any, noise: Any, **kinds: Any) -> None:
+    """What identify and study check before any work, in this order: the counts, every argument's kind
+    (:func:`_check_kinds`), then the executor's scheduler (one that cannot run the work is refused now, not after the
+    filter)."""
+    check_passes(passes)
+    check_replicates(replicates)
+    _check_kinds(guess, noise, **kinds)
+    if kinds.get("executor") is not None:
+        kinds["executor"].probe()
+
+
 def _check_kinds(
     guess: Any,
     noise: Any,
@@ -273,9 +284,9 @@ def identify(
     ...
     obsnl.errors.AnalysisError: a, b of 'drift' are structurally unidentifiable from its outputs (the joint verdict); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` and identify NEW.toml, or pass allow_unidentifiable=True
     """
-    check_passes(passes)  # before any work
-    check_replicates(replicates)
-    _check_kinds(
+    _at_the_door(
+        passes,
+        replicates,
         guess,
         noise,
         table=table,
@@ -289,8 +300,6 @@ def identify(
         hold=hold,
         allow_unidentifiable=allow_unidentifiable,
     )
-    if executor is not None:  # a Dask scheduler that cannot run the work: refused now, not after the filter
-        executor.probe()
     if not isinstance(data, (Measured, Mapping, str, Path)) and not is_frame(data):
         raise DataError(
             f"data= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
@@ -466,9 +475,9 @@ def study(
     >>> callable(study)
     True
     """
-    check_passes(passes)  # before any work
-    check_replicates(replicates)
-    _check_kinds(
+    _at_the_door(
+        passes,
+        replicates,
         guess,
         None,
         table=table,
@@ -481,8 +490,6 @@ def study(
         hold=hold,
         allow_unidentifiable=allow_unidentifiable,
     )
-    if executor is not None:  # a Dask scheduler that cannot run the work: refused now, not after the filter
-        executor.probe()
     model = as_model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"
