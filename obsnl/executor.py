@@ -424,6 +424,8 @@ class _Session:
             pending = set(futures)
             while pending:
                 ready, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+                # the pool starts its processes as tasks come: each is remembered, to read its exit code if it dies
+                self.procs.update(getattr(pool, "_processes", None) or {})
                 drain()
                 for fut in ready:
                     finished(futures[fut], fut.result())
@@ -450,7 +452,10 @@ class _Session:
                 for pid, code in sorted(dead.items())
             )
         elif running:
-            said = "a worker process died while running one of " + ", ".join(named(i) for i in sorted(running.values()))
+            tasks = [named(i) for i in sorted(running.values())]
+            said = "a worker process died while running " + (
+                tasks[0] if len(tasks) == 1 else "one of: " + ", ".join(tasks)
+            )
         else:
             said = "a worker process died before its task began"
         return (
