@@ -263,6 +263,28 @@ def _column(x: Any, what: str) -> np.ndarray:
     return a
 
 
+def _enough(n: int, output: str) -> None:
+    """Refuse a residual with fewer samples present than the tests need."""
+    if n < MIN_SAMPLES:
+        raise OptionError(
+            f"the residual of {output!r} has {n} samples present; the adequacy tests need at least {MIN_SAMPLES}"
+        )
+
+
+def _paired(e: Any, x: Any, output: str, what: str) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """The residual and a series beside it (``what``: "the output", "the input 'u'") sample by sample: both as
+    columns, the mask of the samples where both are present, and their count (refused below the tests' need)."""
+    e, x = _column(e, "the residual"), _column(x, what)
+    if len(e) != len(x):
+        raise OptionError(
+            f"the residual of {output!r} has {len(e)} samples, {what} {len(x)}; give them sample by sample"
+        )
+    present = np.isfinite(e) & np.isfinite(x)
+    n = int(present.sum())
+    _enough(n, output)
+    return e, x, present, n
+
+
 def _check_level(level: float) -> None:
     if isinstance(level, bool) or not (isinstance(level, (int, float)) and 0 < level < 0.5):
         raise OptionError(f"level={level!r} must be a number in (0, 0.5), e.g. 0.01 (the chance a right model fails)")
@@ -307,10 +329,7 @@ def whiteness(e: Any, *, output: str = "y", lags: int | None = None, level: floa
     e = _column(e, "the residual")
     e = e[np.isfinite(e)]
     n = len(e)
-    if n < MIN_SAMPLES:
-        raise OptionError(
-            f"the residual of {output!r} has {n} samples present; the adequacy tests need at least {MIN_SAMPLES}"
-        )
+    _enough(n, output)
     m = lags_for(n) if lags is None else int(lags)
     if not 1 <= m < n:
         raise OptionError(f"lags={lags!r} must be an integer from 1 to {n - 1}")
@@ -396,18 +415,7 @@ def cross_correlation(
     from scipy import stats
 
     _check_level(level)
-    e, u = _column(e, "the residual"), _column(u, "the input")
-    if len(e) != len(u):
-        raise OptionError(
-            f"the residual of {output!r} has {len(e)} samples, the input {input!r} {len(u)}; give them sample by sample"
-        )
-    present = np.isfinite(e) & np.isfinite(u)
-    n_present = int(present.sum())
-    if n_present < MIN_SAMPLES:
-        raise OptionError(
-            f"the residual of {output!r} has {n_present} samples present; the adequacy tests need at "
-            f"least {MIN_SAMPLES}"
-        )
+    e, u, present, n_present = _paired(e, u, output, f"the input {input!r}")
     m = lags_for(n_present) if lags is None else int(lags)
     if not 0 <= m < n_present // 2:
         raise OptionError(f"lags={lags!r} must be an integer from 0 to {n_present // 2 - 1}")
@@ -535,17 +543,7 @@ def misfit(
     from scipy import stats
 
     _check_level(level)
-    e, y = _column(e, "the residual"), _column(y, "the output")
-    if len(e) != len(y):
-        raise OptionError(
-            f"the residual of {output!r} has {len(e)} samples, the output {len(y)}; give them sample by sample"
-        )
-    ok = np.isfinite(e) & np.isfinite(y)
-    n = int(ok.sum())
-    if n < MIN_SAMPLES:
-        raise OptionError(
-            f"the residual of {output!r} has {n} samples present; the adequacy tests need at least {MIN_SAMPLES}"
-        )
+    e, y, ok, n = _paired(e, y, output, "the output")
     dof = float(n if dof is None else dof)
     if not 1 <= dof <= n:
         raise OptionError(f"dof={dof!r} must lie in [1, {n}] (the samples present less the fitted coordinates)")
