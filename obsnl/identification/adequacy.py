@@ -370,9 +370,8 @@ def _ar_order(e: np.ndarray, most: int) -> tuple[int, np.ndarray]:
 
 def _filtered(x: np.ndarray, a: np.ndarray) -> np.ndarray:
     """``x(t) - sum_i a_i x(t - i)``, NaN for ``t < len(a)``."""
-    p = len(a)
     out = np.full(len(x), np.nan)
-    out[p:] = x[p:] - sum((a[i - 1] * x[p - i : len(x) - i] for i in range(1, p + 1)), np.zeros(len(x) - p))
+    out[len(a) :] = whiten(x, np.r_[1.0, -np.asarray(a, float)])  # the one AR filter (obsnl.estimation.periods)
     return out
 
 
