@@ -47,6 +47,7 @@ from obsnl.identification.replicates import check_passes, check_replicates, spre
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
 from obsnl.identification.setup import MIN_NOISE, Data, Setup, coordinates, free_start, output_misfit
 from obsnl.observability.contract.branch_table import BranchTable
+from obsnl.report.identification.run import between_said
 
 __all__ = [
     "check_replicates",
@@ -626,7 +627,7 @@ def identify_measured(
     between = between_samples(data.u, num.inputs, kinds) if num.inputs else ()
     stepped, U = drive(num, data.u, kinds)
     record = data.record() if stepped is num else dataclasses.replace(data.record(), accel=U)
-    said = [_between_said(b) for b in between]
+    said = [between_said(b) for b in between]
     setup = Setup(
         model=stepped,
         record=record,
@@ -650,7 +651,7 @@ def identify_measured(
     d = Data(seed=None, u=U, y=data.y)
     for b in between:
         if b.matters:
-            sys.stderr.write(f"obsnl: warning: {_between_said(b)}\n")
+            sys.stderr.write(f"obsnl: warning: {between_said(b)}\n")
     tuning, scores, trs, held, prac, misfit = _run(
         setup,
         d,
@@ -710,30 +711,4 @@ def identify_measured(
             *said,
             *data.notes(),
         ),
-    )
-
-
-def _between_said(b: Any) -> str:
-    """What a run assumed of an input between samples (:class:`obsnl.estimation.intersample.InputBetween`), and
-    whether the choice matters for this record."""
-    how = {
-        "held": "held (zero-order hold)",
-        "linear": "linear between samples",
-        "fft": "band-limited, interpolated by FFT (the record read as periodic)",
-        "sinc": "band-limited, interpolated by a windowed sinc (the record not periodic: its ends reflected)",
-    }
-    text = f"input {b.input} {how[b.route]}"
-    if b.kind == "bandlimited":
-        return text + (
-            f"; {100 * b.discrepancy:.2g} % of its power lies above 0.45 of the sampling rate: it may "
-            "not be band-limited (aliased)"
-            if b.matters
-            else ""
-        )
-    if not b.matters:
-        return text
-    return text + (
-        f"; if it was band-limited, this kind is off by {100 * b.discrepancy:.2g} % RMS between samples "
-        f"(judged from its Welch spectrum): the choice matters (intersample {b.input}=bandlimited if it "
-        f"was band-limited, zoh if it was held by a DAC)"
     )

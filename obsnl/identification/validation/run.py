@@ -204,15 +204,10 @@ def _as_measured(record: Measured | Mapping[str, Any] | str | Path, num: Numeric
 
 def _drive(num: NumericModel, u: np.ndarray, kinds: Mapping[str, str]) -> tuple[NumericModel, np.ndarray, list[str]]:
     """The model to step, the input rows it takes, and how each input is taken between samples (a sentence each)."""
+    from obsnl.report.identification.run import between_said
+
     stepped, rows = drive(num, u, kinds)
-    how = {
-        "held": "held (zero-order hold)",
-        "linear": "linear between samples",
-        "fft": "band-limited, interpolated by FFT (the record read as periodic)",
-        "sinc": "band-limited, interpolated by a windowed sinc (the record not periodic: its ends reflected, their "
-        "first and last samples' in-between values approximate)",
-    }
-    return stepped, rows, [f"input {b.input} {how[b.route]}" for b in between_samples(u, num.inputs, kinds)]
+    return stepped, rows, [between_said(b) for b in between_samples(u, num.inputs, kinds)]
 
 
 def _start(num: NumericModel, x0: Mapping[str, float] | Sequence[float] | None) -> np.ndarray:

@@ -14,7 +14,7 @@ from typing import Any, Protocol, TypeGuard
 
 from obsnl.report.identification.modal import modal_lines
 
-__all__ = ["IdentificationRun", "identify_text"]
+__all__ = ["IdentificationRun", "identify_text", "between_said"]
 
 
 # the members are read-only properties: the values read are frozen dataclasses
@@ -286,3 +286,30 @@ def _parameter(p: _Estimate, inadequate: bool = False) -> str:
         head += f" error {p.error:.2f} %" if p.error_kind == "percent" else f" error {p.error:.3g} (absolute)"
     flag = "flagged" if inadequate else "poorly informed"
     return head.rstrip() + (f"  {flag}: {p.reason}" if p.flagged else f"  {p.reason}" if p.reason else "")
+
+
+def between_said(b: Any) -> str:
+    """What a run assumed of an input between samples (:class:`obsnl.estimation.intersample.InputBetween`), and
+    whether the choice matters for this record."""
+    how = {
+        "held": "held (zero-order hold)",
+        "linear": "linear between samples",
+        "fft": "band-limited, interpolated by FFT (the record read as periodic)",
+        "sinc": "band-limited, interpolated by a windowed sinc (the record not periodic: its ends reflected, the "
+        "first and last samples' in-between values approximate)",
+    }
+    text = f"input {b.input} {how[b.route]}"
+    if b.kind == "bandlimited":
+        return text + (
+            f"; {100 * b.discrepancy:.2g} % of its power lies above 0.45 of the sampling rate: it may "
+            "not be band-limited (aliased)"
+            if b.matters
+            else ""
+        )
+    if not b.matters:
+        return text
+    return text + (
+        f"; if it was band-limited, this kind is off by {100 * b.discrepancy:.2g} % RMS between samples "
+        f"(judged from its Welch spectrum): the choice matters (intersample {b.input}=bandlimited if it "
+        f"was band-limited, zoh if it was held by a DAC)"
+    )
