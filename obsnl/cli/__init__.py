@@ -148,6 +148,13 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
             ),
             _o("--replicates", type=_whole(), default=0, help="Monte-Carlo replicates (0: off, else >= 3)"),
             INTERSAMPLE,
+            _o(
+                "--objective",
+                choices=("output", "prediction"),
+                default="output",
+                help="what the likelihood fit minimises: output error of the free simulation (default) or the "
+                "prediction error of a fitted constant-gain predictor (a plant that drifts, or runs in closed loop)",
+            ),
             *EXECUTOR,
             _o("--out", metavar="DIR", help="write identify.json and the figures here"),
             FORCE,

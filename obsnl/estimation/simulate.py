@@ -332,13 +332,29 @@ def simulate_many(
 
 
 def residual_graph(
-    model: NumericModel, forward: ca.Function, dt: float, T: int, *, substeps: int, refine: int, locate: bool = False
+    model: NumericModel,
+    forward: ca.Function,
+    dt: float,
+    T: int,
+    *,
+    substeps: int,
+    refine: int,
+    locate: bool = False,
+    predictor: bool = False,
 ) -> tuple[ca.MX, ...]:
-    """``(z, u, y, w, x0, scale, r)``: the whitened output residuals ``r`` of ``T`` samples as a casadi graph.
+    """``(z, u, y, w, x0, scale, [present, yscale,] r)``: the whitened output residuals ``r`` of ``T`` samples as
+    a casadi graph.
 
     ``z = (phi, s)``: the coordinates ``phi`` of the parameters (``theta = forward(phi)``) and the scaled
     initial state (``x0 + scale * s``); ``u`` ``(nu, T)``, ``y`` ``(ny, T)``, ``w`` the weight of each output
     (``1 / sigma``); ``r = vec((y_hat - y) * w)``, sample-major.
+
+    With ``predictor``, ``y_hat`` is the one-step prediction of a constant-gain predictor (the innovations form of
+    the prediction-error method): ``z = (phi, s, kappa)``, and before each step the state is corrected by the
+    sample's innovation, ``x <- x + K (y_k - h(x))`` with ``K = diag(scale) kappa diag(1 / yscale)`` (``kappa``
+    ``(nx, ny)`` column-major in ``z``: dimensionless, each state's scale per output scale). ``present`` ``(ny, T)``
+    is 1 where the output sample was measured and 0 at a gap (no correction); ``yscale`` ``(ny,)`` the outputs'
+    scales. ``kappa = 0`` is the output-error simulation.
 
     Parameters
     ----------
@@ -354,27 +370,53 @@ def residual_graph(
         RK4 substeps per sample and the factor of a crossing substep (:meth:`NumericModel.step`).
     locate : bool
         Split a substep in which the field jumps at the located crossing (:meth:`NumericModel.step`).
+    predictor : bool
+        The constant-gain predictor's residuals (the innovations) instead of the simulation's.
 
     Returns
     -------
     tuple of casadi.MX
-        The symbols ``z, u, y, w, x0, scale`` and the expression ``r``.
+        The symbols ``z, u, y, w, x0, scale`` (then ``present, yscale`` with ``predictor``) and the expression ``r``.
     """
     step = model.step(dt, substeps=substeps, refine=refine, locate=locate)
-    z, phi, x0, U, Y, W, X0, SC = _record_symbols(model, T)
+    gains = model.nx * model.ny if predictor else 0
+    z, phi, x0, U, Y, W, X0, SC = _record_symbols(model, T, gains)
     th = forward(phi)
-    X = ca.horzcat(x0, step.mapaccum(T - 1)(x0, th, U[:, :-1], U[:, 1:])[0])
+    if not predictor:
+        X = ca.horzcat(x0, step.mapaccum(T - 1)(x0, th, U[:, :-1], U[:, 1:])[0])
+        Yhat = model.h.map(T)(X, ca.repmat(th, 1, T), U)
+        return z, U, Y, W, X0, SC, ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
+    M, YS = ca.MX.sym("present", model.ny, T), ca.MX.sym("yscale", model.ny)
+    corrected = _corrected_step(model, step)
+    kappa = z[model.np + model.nx :]
+    X = ca.horzcat(
+        x0,
+        corrected.mapaccum(T - 1)(x0, th, kappa, U[:, :-1], U[:, 1:], Y[:, :-1], M[:, :-1], SC, YS),
+    )
     Yhat = model.h.map(T)(X, ca.repmat(th, 1, T), U)
-    return z, U, Y, W, X0, SC, ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
+    return z, U, Y, W, X0, SC, M, YS, ca.vec((Yhat - Y) * ca.repmat(W, 1, T))
 
 
-def _record_symbols(model: NumericModel, T: int) -> tuple[ca.MX, ...]:
+def _corrected_step(model: NumericModel, step: ca.Function) -> ca.Function:
+    """``(x, theta, kappa, u0, u1, y0, present0, scale, yscale) -> x_next``: the predictor's step, the state first
+    corrected by the sample's innovation (:func:`residual_graph`)."""
+    x, th = ca.MX.sym("x", model.nx), ca.MX.sym("theta", model.np)
+    kappa = ca.MX.sym("kappa", model.nx * model.ny)
+    u0, u1 = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
+    y0, m0 = ca.MX.sym("y0", model.ny), ca.MX.sym("present0", model.ny)
+    sc, ys = ca.MX.sym("scale", model.nx), ca.MX.sym("yscale", model.ny)
+    innovation = m0 * (y0 - model.h(x, th, u0)) / ys
+    corrected = x + sc * ca.mtimes(ca.reshape(kappa, model.nx, model.ny), innovation)
+    return ca.Function("predictor_step", [x, th, kappa, u0, u1, y0, m0, sc, ys], [step(corrected, th, u0, u1)[0]])
+
+
+def _record_symbols(model: NumericModel, T: int, gains: int = 0) -> tuple[ca.MX, ...]:
     """``(z, phi, x0, u, y, w, x0_ref, scale)``: the arguments of the residuals of ``T`` samples, ``z = (phi, s)``
-    with the initial state ``x0 = x0_ref + scale * s``."""
-    z = ca.MX.sym("z", model.np + model.nx)
+    (then ``gains`` predictor gains) with the initial state ``x0 = x0_ref + scale * s``."""
+    z = ca.MX.sym("z", model.np + model.nx + gains)
     U, Y, W = ca.MX.sym("u", model.nu, T), ca.MX.sym("y", model.ny, T), ca.MX.sym("w", model.ny)
     X0, SC = ca.MX.sym("x0", model.nx), ca.MX.sym("scale", model.nx)
-    return z, z[: model.np], X0 + SC * z[model.np :], U, Y, W, X0, SC
+    return z, z[: model.np], X0 + SC * z[model.np : model.np + model.nx], U, Y, W, X0, SC
 
 
 def residuals(
@@ -387,6 +429,7 @@ def residuals(
     refine: int,
     locate: bool = False,
     jit: bool = False,
+    predictor: bool = False,
 ) -> ca.Function:
     """``(z, u, y, w, x0, scale) -> (r, J)``: the residuals of :func:`residual_graph` and their exact Jacobian
     ``J = dr/dz`` ``(T * ny, nz)``.
@@ -414,11 +457,15 @@ def residuals(
         Locate the crossings of a jump (as :func:`residual_graph`).
     jit : bool
         Forward sensitivities compiled to C (cached on disk: :mod:`obsnl.estimation.jitcache`).
+    predictor : bool
+        The constant-gain predictor's residuals (:func:`residual_graph`): ``z`` then ends with the gains
+        ``kappa``, and the function takes ``present`` and ``yscale`` after ``scale``.
 
     Returns
     -------
     casadi.Function
-        ``output_error``: inputs ``z, u, y, w, x0, scale``, outputs ``r`` ``(T * ny,)`` and ``J`` ``(T * ny, nz)``.
+        ``output_error`` (``prediction_error`` with ``predictor``): inputs ``z, u, y, w, x0, scale`` (then
+        ``present, yscale``), outputs ``r`` ``(T * ny,)`` and ``J`` ``(T * ny, nz)``.
 
     Examples
     --------
@@ -433,32 +480,45 @@ def residuals(
     >>> np.round(r.ravel(), 6).tolist(), round(float(J[2, 0]), 6)
     ([1.0, 0.904837, 0.818731], -0.163746)
     """
-    nz = model.np + model.nx
+    gains = model.nx * model.ny if predictor else 0
+    nz = model.np + model.nx + gains
+    names = ["z", "u", "y", "w", "x0", "scale"] + (["present", "yscale"] if predictor else [])
+    label = "prediction_error" if predictor else "output_error"
     if not jit:
-        z, U, Y, W, X0, SC, R = residual_graph(model, forward, dt, T, substeps=substeps, refine=refine, locate=locate)
-        return ca.Function(
-            "output_error",
-            [z, U, Y, W, X0, SC],
-            [R, ca.jacobian(R, z)],
-            ["z", "u", "y", "w", "x0", "scale"],
-            ["r", "J"],
+        *args, R = residual_graph(
+            model, forward, dt, T, substeps=substeps, refine=refine, locate=locate, predictor=predictor
         )
+        return ca.Function(label, args, [R, ca.jacobian(R, args[0])], names, ["r", "J"])
     step = model.step(dt, substeps=substeps, refine=refine, locate=locate)
     x, S, phi = ca.MX.sym("x", model.nx), ca.MX.sym("S", model.nx, nz), ca.MX.sym("phi", model.np)
     u0, u1 = ca.MX.sym("u0", model.nu), ca.MX.sym("u1", model.nu)
     y, w = ca.MX.sym("y", model.ny), ca.MX.sym("w", model.ny)
     th = forward(phi)
-    E = ca.horzcat(ca.MX.eye(model.np), ca.MX.zeros(model.np, model.nx))  # d phi / d z
-    xn = step(x, th, u0, u1)[0]
-    sens = ca.jtimes(xn, x, S) + ca.jtimes(xn, phi, E)
-    advance = jit_compile(ca.Function("sensitivity_step", [x, S, phi, u0, u1], [xn, sens]))
+    E = ca.horzcat(ca.MX.eye(model.np), ca.MX.zeros(model.np, model.nx + gains))  # d phi / d z
     yh = model.h(x, th, u0)
     dr = (ca.jtimes(yh, x, S) + ca.jtimes(yh, phi, E)) * ca.repmat(w, 1, nz)
     out = jit_compile(ca.Function("sensitivity_output", [x, S, phi, u0, y, w], [(yh - y) * w, dr.T]))
-    z, ph, x0, U, Y, W, X0, SC = _record_symbols(model, T)
-    S0 = ca.horzcat(ca.MX.zeros(model.nx, model.np), ca.diag(SC))
-    X, Ss = advance.mapaccum("sensitivity_loop", T - 1, 2)(x0, S0, ph, U[:, :-1], U[:, 1:])
+    z, ph, x0, U, Y, W, X0, SC = _record_symbols(model, T, gains)
+    S0 = ca.horzcat(ca.MX.zeros(model.nx, model.np), ca.diag(SC), ca.MX.zeros(model.nx, gains))
+    if not predictor:
+        xn = step(x, th, u0, u1)[0]
+        sens = ca.jtimes(xn, x, S) + ca.jtimes(xn, phi, E)
+        advance = jit_compile(ca.Function("sensitivity_step", [x, S, phi, u0, u1], [xn, sens]))
+        X, Ss = advance.mapaccum("sensitivity_loop", T - 1, 2)(x0, S0, ph, U[:, :-1], U[:, 1:])
+        extra: list[ca.MX] = []
+    else:
+        kappa, m0 = ca.MX.sym("kappa", gains), ca.MX.sym("present0", model.ny)
+        sc, ys = ca.MX.sym("scale", model.nx), ca.MX.sym("yscale", model.ny)
+        Ek = ca.horzcat(ca.MX.zeros(gains, model.np + model.nx), ca.MX.eye(gains))  # d kappa / d z
+        xn = _corrected_step(model, step)(x, th, kappa, u0, u1, y, m0, sc, ys)
+        sens = ca.jtimes(xn, x, S) + ca.jtimes(xn, phi, E) + ca.jtimes(xn, kappa, Ek)
+        advance = jit_compile(
+            ca.Function("predictor_sensitivity_step", [x, S, phi, kappa, u0, u1, y, m0, sc, ys], [xn, sens])
+        )
+        M, YS = ca.MX.sym("present", model.ny, T), ca.MX.sym("yscale", model.ny)
+        X, Ss = advance.mapaccum("predictor_loop", T - 1, 2)(
+            x0, S0, ph, z[model.np + model.nx :], U[:, :-1], U[:, 1:], Y[:, :-1], M[:, :-1], SC, YS
+        )
+        extra = [M, YS]
     R, JT = out.map(T)(ca.horzcat(x0, X), ca.horzcat(S0, Ss), ca.repmat(ph, 1, T), U, Y, ca.repmat(W, 1, T))
-    return ca.Function(
-        "output_error", [z, U, Y, W, X0, SC], [ca.vec(R), JT.T], ["z", "u", "y", "w", "x0", "scale"], ["r", "J"]
-    )
+    return ca.Function(label, [z, U, Y, W, X0, SC, *extra], [ca.vec(R), JT.T], names, ["r", "J"])

@@ -662,6 +662,7 @@ def adequacy(
     lags: int | None = None,
     input_noise_share: Mapping[str, float] | None = None,
     noise: PeriodicNoise | None = None,
+    innovations: bool = False,
 ) -> Adequacy:
     """Judge whether a fitted model explains the data to the noise level (module docstring).
 
@@ -689,6 +690,10 @@ def adequacy(
         independent of the model: then its colour is the noise's, not the model's. The whiteness test runs on the
         residual through the noise's whitening filter, and the misfit compares the filtered residual's variance with
         the filtered noise's (:func:`periodic_misfit`).
+    innovations : bool
+        The residuals are a predictor's innovations (the prediction-error objective): they carry the unmeasured
+        disturbances by design, so their level is no test of the model and the misfit is not judged; whiteness and
+        the cross-correlation with the inputs are the tests of a prediction-error model (Ljung 1999, section 16.6).
 
     Returns
     -------
@@ -723,11 +728,13 @@ def adequacy(
         )
     if dof is not None and len(dof) != len(outputs):
         raise OptionError(f"dof= has {len(dof)} values for {len(outputs)} outputs; give one per output")
-    k = len(outputs) * (2 + len(input_names))
+    k = len(outputs) * ((1 if innovations else 2) + len(input_names))
     each = level / k
     tests: list[AdequacyTest] = []
     share: dict[str, float] = {}
     notes: list[str] = []
+    if innovations:
+        noise = None  # a predictor's innovations are white themselves: the measured noise's colour is not theirs
     for j, o in enumerate(outputs):
         if noise is not None:
             white = whiteness(whiten(r[:, j], noise.ar[j]), output=o, lags=lags, level=each)
@@ -747,6 +754,8 @@ def adequacy(
             cross_correlation(r[:, j], u[:, i], output=o, input=c, lags=lags, level=each)
             for i, c in enumerate(input_names)
         ]
+        if innovations:
+            continue
         if noise is not None:
             test, share[o] = periodic_misfit(
                 r[:, j], noise, j, output=o, dof=None if dof is None else dof[j], level=each
@@ -766,6 +775,12 @@ def adequacy(
             "of the model; the whiteness and misfit tests take its colour (an AR filter fitted to its "
             "autocorrelation, Yule-Walker, BIC) as the noise's, so a coloured measurement noise is not blamed "
             "on the model"
+        )
+    if innovations:
+        notes.append(
+            "adequacy: the residuals are the predictor's innovations, which carry the unmeasured disturbances by "
+            "design: their level against the measurement noise is not judged, only their whiteness and their "
+            "independence of the inputs"
         )
     return Adequacy(
         passed=all(t.passed for t in tests),

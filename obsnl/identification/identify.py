@@ -38,6 +38,7 @@ from obsnl.executor import Executor
 from obsnl.identification.experiments import Tuning
 from obsnl.identification.replicates import check_passes, check_replicates
 from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
+from obsnl.identification.setup import OBJECTIVES
 from obsnl.identification.simulation import simulation_study
 from obsnl.identification.structural import StructuralCheck, structural_check
 from obsnl.model.core import Model
@@ -112,6 +113,7 @@ def _check_kinds(
     seed: Any = 0,
     progress: Any = None,
     known_initial: Any = None,
+    objective: Any = "output",
     **flags: Any,
 ) -> None:
     """Refuse an argument of the wrong kind that Python would read silently (``refine="no"`` is true, ``jit="no"``
@@ -154,6 +156,11 @@ def _check_kinds(
     for k, v in (known_initial or {}).items():
         if isinstance(v, (bool, np.bool_)) or not isinstance(v, Real) or not math.isfinite(v):
             raise OptionError(f"known_initial= gives {k} = {v!r}; give a finite number")
+    if not isinstance(objective, str) or objective not in OBJECTIVES:
+        raise OptionError(
+            f"objective= takes one of {', '.join(repr(o) for o in OBJECTIVES)} (what the likelihood fit "
+            f"minimises), got {objective!r}"
+        )
 
 
 def _known_initial(model: Model, given: Mapping[str, float] | None) -> tuple[Model, dict[str, float]]:
@@ -211,6 +218,7 @@ def identify(
     refine: bool = True,
     intersample: str | Mapping[str, str] | Sequence[str] | None = None,
     known_initial: Mapping[str, float] | None = None,
+    objective: str = "output",
 ) -> Identification:
     """Identify a structure's parameters from its measured inputs and outputs.
 
@@ -262,6 +270,12 @@ def identify(
         Initial states known, ``{state: value}`` (a free decay from a measured displacement), over the model's
         ``known_initial_conditions`` with ``initial_condition_values``: the structural analysis counts them known,
         the filter starts from them, the fit holds them. The other initial states are estimated.
+    objective : {"output", "prediction"}
+        What the maximum-likelihood fit minimises. ``"output"`` (default): the output error of the model simulated
+        from its fitted initial state, the likelihood when measurement noise is the only disturbance.
+        ``"prediction"``: the prediction error of a constant-gain predictor whose gain is fitted with the
+        parameters (the innovations form), for a plant that drifts under unmeasured disturbances or runs in closed
+        loop; its residuals are the innovations, and adequacy judges their whiteness, not their level.
 
     Returns
     -------
@@ -296,6 +310,7 @@ def identify(
         seed=seed,
         progress=progress,
         known_initial=known_initial,
+        objective=objective,
         refine=refine,
         hold=hold,
         allow_unidentifiable=allow_unidentifiable,
@@ -336,6 +351,7 @@ def identify(
                 refined=refine,
                 intersample=kinds,
                 known_initial=known,
+                objective=objective,
             )
 
     return dataclasses.replace(

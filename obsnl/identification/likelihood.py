@@ -37,6 +37,19 @@ away (:mod:`obsnl.estimation.crossing`); its entry is a located crossing and its
 field, so the map stays continuous there too. Where the number of stick phases changes with the parameters
 (a grazing reversal) the objective keeps a kink; the acceptance test keeps the iteration monotone there.
 
+Prediction error (``Setup.objective == "prediction"``, ``--objective prediction``). Output error assumes that
+measurement noise is the only disturbance: a plant that drifts under unmeasured forces (a slowly varying load, a
+temperature drift, the unmodelled friction of a real drive) or runs in closed loop leaves a residual that is not
+noise, and its output-error estimate is biased with intervals that miss. The innovations form of the
+prediction-error method (L. Ljung, System Identification: Theory for the User, 2nd ed., 1999, sections 4.3 and
+7.2) fits a predictor instead: before each step the state is corrected by a constant gain times the sample's
+innovation, ``x <- x + K (y_k - h(x))``, and the residuals are the one-step prediction errors. The gain ``K``
+(``nx * ny`` coordinates ``kappa`` appended to ``z``, dimensionless in the states' and outputs' scales,
+:meth:`Objective.gain`) is fitted with the parameters, so the same Gauss-Newton machinery, Fisher information and
+profiles apply, the gain integrated out as a nuisance. For a linear plant with white process and measurement noise
+the best such gain is the steady-state Kalman gain; for a nonlinear one the predictor is an observer with a
+constant gain. ``K = 0`` is the output error. A missing output sample corrects nothing.
+
 Missing output samples (NaN in the data: an output sampled more slowly than the inputs, or with gaps) are not
 measured: their residuals and rows of ``J`` are 0 (weight zero), and they count in no ``N`` below. The model is
 still simulated through them, under the complete input.
@@ -59,6 +72,7 @@ more than ``sqrt(DECREMENT)`` of its std), the last accepted step moved no param
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -109,8 +123,10 @@ class Objective:
     """The whitened output-error residuals of one record and their exact Jacobian.
 
     ``evaluate(z) -> (r, J)``: ``r`` of length ``T * ny`` (sample-major), ``J`` ``(T * ny, nz)``; ``z`` is
-    ``phi`` (``np`` parameter coordinates) followed by the scaled initial state ``s`` (``nx``).
-    ``sigma``: the noise std per output used as weights (:meth:`reweighted` changes them).
+    ``phi`` (``np`` parameter coordinates) followed by the scaled initial state ``s`` (``nx``), then, for the
+    prediction-error objective (``predictor``), the predictor's gains ``kappa`` (``nx * ny``, :meth:`gain`).
+    ``sigma``: the noise std per output used as weights (:meth:`reweighted` changes them); ``yscale``: each
+    output's scale, the unit of the gains' innovations.
     """
 
     setup: Setup
@@ -119,6 +135,8 @@ class Objective:
     scale: np.ndarray
     sigma: np.ndarray
     function: ca.Function = field(repr=False)
+    predictor: bool = False
+    yscale: np.ndarray | None = field(default=None, repr=False)
 
     @property
     def n_parameters(self) -> int:
@@ -128,9 +146,25 @@ class Objective:
         """The model parameters at ``z``."""
         return self.setup.coordinate_map.to_theta(np.asarray(z)[: self.n_parameters])
 
+    @property
+    def n_gains(self) -> int:
+        """The predictor's gains in ``z`` (``nx * ny`` for the prediction-error objective, else 0)."""
+        m = self.setup.model
+        return m.nx * m.ny if self.predictor else 0
+
     def x0(self, z: np.ndarray) -> np.ndarray:
         """The initial state at ``z``."""
-        return self.setup.x0 + self.scale * np.asarray(z)[self.n_parameters :]
+        n = self.n_parameters
+        return self.setup.x0 + self.scale * np.asarray(z)[n : n + self.setup.model.nx]
+
+    def gain(self, z: np.ndarray) -> np.ndarray:
+        """The predictor's gain ``K`` ``(nx, ny)`` at ``z`` in the model's units (state per output): the correction
+        ``x <- x + K (y - h(x))`` before each step; zeros for the output-error objective."""
+        m = self.setup.model
+        if not self.predictor:
+            return np.zeros((m.nx, m.ny))
+        kappa = np.asarray(z, float)[m.np + m.nx :].reshape(m.ny, m.nx).T  # column-major, as the graph's reshape
+        return self.scale[:, None] * kappa / np.asarray(self.yscale, float)[None, :]
 
     @property
     def present(self) -> np.ndarray:
@@ -158,10 +192,7 @@ class Objective:
         """Residuals (and their Jacobian, unless ``jacobian`` is False: then None) at ``z``; non-finite entries where
         the simulation overflowed. The residual of a missing output sample and its row of the Jacobian are 0 (weight
         zero: no NaN reaches the fit)."""
-        u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
-        r_all, J_all = call(
-            self.function, [np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma, self.setup.x0, self.scale]
-        )
+        r_all, J_all = call(self.function, self._arguments(z))
         r, J = np.asarray(r_all).ravel(), (np.asarray(J_all) if jacobian else None)
         missing = ~self.present.ravel()  # sample-major, as r
         if missing.any():
@@ -170,6 +201,14 @@ class Objective:
                 J[missing] = 0.0
         return r, J
 
+    def _arguments(self, z: np.ndarray) -> list[np.ndarray]:
+        """The residual function's arguments at ``z`` (:func:`obsnl.estimation.simulate.residuals`)."""
+        u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)
+        args = [np.asarray(z, float), u.T, self._outputs().T, 1.0 / self.sigma, self.setup.x0, self.scale]
+        if self.predictor:
+            args += [self.present.T.astype(float), np.asarray(self.yscale, float)]
+        return args
+
     def input_effect(self, z: np.ndarray, J: np.ndarray) -> np.ndarray:
         """``A = G' J``, ``(T * nu, nz)``: ``G = dr/du`` the exact sensitivity of the whitened residuals to every
         input sample (``vec(u)`` sample by sample: input ``j`` of sample ``k`` at ``k * nu + j``), through the
@@ -177,7 +216,7 @@ class Objective:
         key = self._key() + ("input",)
         if key not in _BUILT:
             m = self.setup.model
-            zs, U, Y, W, X0, SC, R = residual_graph(
+            *args, R = residual_graph(
                 m,
                 self.setup.coordinate_map.forward,
                 self.setup.record.dt,
@@ -185,22 +224,13 @@ class Objective:
                 substeps=self.substeps,
                 refine=self.setup.refine,
                 locate=LOCATE,
+                predictor=self.predictor,
             )
-            V = ca.MX.sym("v", R.shape[0], zs.shape[0])
-            _BUILT[key] = ca.Function("input_effect", [zs, U, Y, W, X0, SC, V], [ca.jtimes(R, ca.vec(U), V, True)])
+            V = ca.MX.sym("v", R.shape[0], args[0].shape[0])
+            _BUILT[key] = ca.Function("input_effect", [*args, V], [ca.jtimes(R, ca.vec(args[1]), V, True)])
             _trim()
-        u = np.asarray(self.data.u, float).reshape(len(self.data.u), -1)  # J's rows of missing samples are 0
-        return np.asarray(
-            _BUILT[key](
-                np.asarray(z, float),
-                u.T,
-                self._outputs().T,
-                1.0 / self.sigma,
-                self.setup.x0,
-                self.scale,
-                np.asarray(J, float),
-            )
-        )
+        # J's rows of missing samples are 0
+        return np.asarray(_BUILT[key](*self._arguments(z), np.asarray(J, float)))
 
     def input_covariance(self, z: np.ndarray, J: np.ndarray, C: np.ndarray, sigma_u: np.ndarray) -> np.ndarray:
         """The covariance of the estimate ``z`` added by white noise of std ``sigma_u`` on the measured inputs.
@@ -228,11 +258,11 @@ class Objective:
         return out
 
     def _key(self) -> tuple:
-        return _key(self.setup, len(self.data.u), self.substeps)
+        return _key(self.setup, len(self.data.u), self.substeps, self.predictor)
 
     def reweighted(self, sigma: np.ndarray) -> Objective:
         """The same objective with other noise levels (the function takes them as an argument)."""
-        return Objective(self.setup, self.data, self.substeps, self.scale, np.asarray(sigma, float), self.function)
+        return dataclasses.replace(self, sigma=np.asarray(sigma, float))
 
 
 _BUILT: dict[tuple, ca.Function] = {}
@@ -279,7 +309,8 @@ def objective(
         typical = np.sqrt(np.mean(sim.x**2, axis=0))
         scale = np.maximum(typical, 1e-2 * max(float(typical.max()), 1e-300))
     scale = np.asarray(scale, float)
-    key = _key(setup, T, n)
+    predictor = setup.objective == "prediction"
+    key = _key(setup, T, n, predictor)
     if key not in _BUILT:
         _BUILT[key] = residuals(
             m,
@@ -290,15 +321,29 @@ def objective(
             refine=setup.refine,
             locate=LOCATE,
             jit=setup.jit,
+            predictor=predictor,
         )
         _trim()
     if sigma is None:
         sigma = setup.noise_std(data)[1]
-    return Objective(setup, data, n, scale, np.maximum(np.asarray(sigma, float), 1e-300), _BUILT[key])
+    y = np.asarray(data.y, float).reshape(T, -1)
+    spread = np.nanstd(y, axis=0) if np.isfinite(y).any() else np.zeros(m.ny)
+    yscale = np.maximum(np.nan_to_num(spread), 1e-300)
+    return Objective(
+        setup,
+        data,
+        n,
+        scale,
+        np.maximum(np.asarray(sigma, float), 1e-300),
+        _BUILT[key],
+        predictor=predictor,
+        yscale=yscale,
+    )
 
 
-def _key(setup: Setup, T: int, n: int) -> tuple:
+def _key(setup: Setup, T: int, n: int, predictor: bool = False) -> tuple:
     return (
+        bool(predictor),
         id(setup.model),
         id(setup.coordinates),
         float(setup.record.dt),

@@ -138,11 +138,29 @@ class Refinement:
             for i, p in enumerate(ps)
         }
 
+    @property
+    def gain(self) -> np.ndarray:
+        """The prediction-error objective's fitted predictor gain ``K`` ``(nx, ny)`` (state per output); zeros for
+        the output-error objective (:meth:`~obsnl.identification.likelihood.Objective.gain`)."""
+        return self.objective.gain(self.fit.z)
+
     def to_dict(self) -> dict[str, Any]:
-        f = self.fit
+        f, obj = self.fit, self.objective
+        m = obj.setup.model
+        kind = (
+            "prediction error, a constant-gain predictor whose gain is fitted with the parameters"
+            if obj.predictor
+            else "output error, single shooting"
+        )
         return {
-            "method": "maximum likelihood (output error, single shooting; Levenberg-Marquardt with exact "
-            f"derivatives through the {self.objective.substeps}-substep integrator)",
+            "method": f"maximum likelihood ({kind}; Levenberg-Marquardt with exact "
+            f"derivatives through the {obj.substeps}-substep integrator)",
+            "objective": "prediction" if obj.predictor else "output",
+            "predictor_gain": (
+                {s: {o: float(k) for o, k in zip(m.outputs, row)} for s, row in zip(m.states, self.gain)}
+                if obj.predictor
+                else None
+            ),
             "converged": self.converged,
             "reason": self.reason,
             "iterations": self.iterations,
@@ -172,6 +190,7 @@ def refine(
     input_noise: Sequence[float] | np.ndarray | None = None,
     x0: Sequence[float] | np.ndarray | None = None,
     known: Sequence[str] | None = None,
+    gain: Sequence[float] | np.ndarray | None = None,
 ) -> Refinement:
     """Maximum-likelihood refinement of the filter's estimate ``theta0`` (module docstring).
 
@@ -201,6 +220,9 @@ def refine(
     known : sequence of str or None
         States whose initial value is known (``setup.x0``'s): those coordinates are held, never fitted, and carry
         no std (default: ``setup.known``).
+    gain : sequence of float, numpy.ndarray or None
+        The prediction-error objective's gain coordinates to start from (``z``'s tail: a restart from a better
+        point); default: the gains fitted first with the parameters held.
 
     Returns
     -------
@@ -216,17 +238,27 @@ def refine(
     obj = objective(setup, data, theta=theta0, substeps=substeps or 2 * setup.substeps)
     phi0 = setup.coordinate_map.to_phi(theta0)
     guess = setup.coordinate_map.to_phi(setup.theta_guess)
-    lower = np.r_[guess - BOUND, np.full(m.nx, -np.inf)]
-    upper = np.r_[guess + BOUND, np.full(m.nx, np.inf)]
+    g = obj.n_gains
+    lower = np.r_[guess - BOUND, np.full(m.nx + g, -np.inf)]
+    upper = np.r_[guess + BOUND, np.full(m.nx + g, np.inf)]
     known = tuple(setup.known if known is None else known)
     unknown = sorted(set(known) - set(m.states))
     if unknown:
         raise OptionError(f"known initial states {unknown} are not states of {m.name!r} ({', '.join(m.states)})")
-    free = np.r_[[p not in held for p in m.parameters], [s not in known for s in m.states]]
+    free = np.r_[[p not in held for p in m.parameters], [s not in known for s in m.states], np.ones(g, bool)]
     start = np.zeros(m.nx) if x0 is None else (np.asarray(x0, float) - setup.x0) / obj.scale
-    z = np.r_[phi0, np.where(free[m.np :], start, 0.0)]
+    kappa = np.zeros(g) if gain is None else np.asarray(gain, float).ravel()
+    z = np.r_[phi0, np.where(free[m.np : m.np + m.nx], start, 0.0), kappa]
     noise = obj.sigma
     iterations = 0
+    if g and gain is None:
+        # the predictor's gains and the initial state first, the parameters held at the filter's estimate, from the
+        # best of a few gains that feed back a share of each innovation (_gain_start): from a zero gain (the free
+        # simulation) a drifting record's misfit is the drift, and Gauss-Newton crawls there
+        z[m.np + m.nx :] = _gain_start(obj, z)
+        first = free.copy()
+        first[: m.np] = False
+        z = levenberg_marquardt(obj.evaluate, z, lower, upper, free=first, max_iter=max_iter).z
     factor = 1.0  # the common factor of a re-weighting that changed every weight alike (then no refit)
     for _ in range(2):  # the given noise levels, then the ML levels of the fit (concentrated likelihood)
         fit = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter)
@@ -300,6 +332,45 @@ def refine(
     )
 
 
+#: The shares of the innovation a starting gain feeds back (:func:`_gain_start`).
+GAIN_SHARES = (0.0, 0.01, 0.03, 0.1, 0.3, 0.6, 1.0)
+
+
+def _gain_start(obj: Objective, z: np.ndarray) -> np.ndarray:
+    """The prediction-error fit's starting gains: ``kappa = a * pinv(H)``, ``H`` the outputs' mean sensitivity to
+    the states along the simulated response (in the states' and outputs' scales), so that the correction puts back
+    the share ``a`` of each innovation; the ``a`` of :data:`GAIN_SHARES` whose chi2 is least (0, the free simulation,
+    among them)."""
+    setup = obj.setup
+    m = setup.model
+    theta, x0 = obj.theta(z), obj.x0(z)
+    u = np.asarray(obj.data.u, float).reshape(len(obj.data.u), -1)
+    try:
+        sim = simulate(m, theta=theta, x0=x0, u=u, dt=setup.record.dt, substeps=obj.substeps, refine=setup.refine)
+    except EstimatorError:
+        return np.zeros(obj.n_gains)
+    rows = np.unique(np.linspace(0, len(u) - 1, 20).astype(int))
+    H = np.zeros((m.ny, m.nx))
+    for k in rows:
+        for j in range(m.nx):
+            e = np.zeros(m.nx)
+            e[j] = 1e-6 * obj.scale[j]
+            up = np.asarray(m.h(sim.x[k] + e, theta, u[k]), float).ravel()
+            down = np.asarray(m.h(sim.x[k] - e, theta, u[k]), float).ravel()
+            H[:, j] += (up - down) / (2e-6 * obj.scale[j]) / len(rows)
+    Hs = H * obj.scale[None, :] / np.asarray(obj.yscale, float)[:, None]
+    unit = np.linalg.pinv(Hs).ravel(order="F")  # kappa (nx, ny), column-major as in z
+    best, chi2 = np.zeros(obj.n_gains), math.inf
+    for a in GAIN_SHARES:
+        zz = z.copy()
+        zz[m.np + m.nx :] = a * unit
+        r, _ = obj.evaluate(zz, jacobian=False)
+        c = float(r @ r) if np.all(np.isfinite(r)) else math.inf
+        if c < chi2:
+            best, chi2 = a * unit, c
+    return best
+
+
 def residual_dof(J: np.ndarray, ny: int) -> np.ndarray:
     """Each output's residual degrees of freedom at a least-squares fit: ``N_c - h_c``.
 
@@ -367,7 +438,11 @@ def adequacy_of(
     y = np.asarray(data.y, float).reshape(n, -1)
     u = np.asarray(data.u, float).reshape(n, -1)[:, : len(m.inputs)]  # a driven model's row starts with the sample
     measured = np.sum(np.isfinite(y), axis=0)
-    free = np.r_[[p not in ref.held for p in m.parameters], [s not in ref.known for s in m.states]]
+    free = np.r_[
+        [p not in ref.held for p in m.parameters],
+        [s not in ref.known for s in m.states],
+        np.ones(ref.objective.n_gains, bool),
+    ]
     J, r = ref.fit.J, ref.fit.r
     if not J.shape[0] == r.size == n * m.ny:
         return None
@@ -384,8 +459,9 @@ def adequacy_of(
             input_names=m.inputs,
             dof=np.clip(dof, 1.0, measured),
             level=level,
-            input_noise_share=_input_noise_share(ref, data, su, e),
+            input_noise_share={} if ref.objective.predictor else _input_noise_share(ref, data, su, e),
             noise=periodic_noise(u, y),
+            innovations=ref.objective.predictor,
         )
     except OptionError:  # fewer samples measured than the tests need
         return None

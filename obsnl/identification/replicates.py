@@ -131,6 +131,7 @@ _SETUP_FIELDS = (
     "locate",
     "initial",
     "known",
+    "objective",
 )
 
 

@@ -192,7 +192,16 @@ def _refine(
             return ref, profs, ""
         chi2, name, better_z = best
         z = np.asarray(better_z, float)
-        again = refine(setup, data, ref.objective.theta(z), held=held, input_noise=input_noise, x0=ref.objective.x0(z))
+        obj = ref.objective
+        again = refine(
+            setup,
+            data,
+            obj.theta(z),
+            held=held,
+            input_noise=input_noise,
+            x0=obj.x0(z),
+            gain=z[len(z) - obj.n_gains :] if obj.n_gains else None,
+        )
         return (
             again,
             profiles(again, executor=executor),
@@ -212,7 +221,12 @@ def _held_bias(ref: Refinement, names: Sequence[str], h: int) -> str:
     free = [
         i
         for i in range(J.shape[1])
-        if i != h and (names[i] not in ref.held if i < len(names) else states[i - len(names)] not in ref.known)
+        if i != h
+        and (
+            names[i] not in ref.held
+            if i < len(names)
+            else i >= len(names) + len(states) or states[i - len(names)] not in ref.known  # a predictor gain: free
+        )
     ]
     Jf = J[:, free]
     shift = -np.linalg.lstsq(Jf, J[:, h], rcond=None)[0] * math.log(1.1)
@@ -379,7 +393,7 @@ def _result(
         y_fit=y_fit,
         outputs=m.outputs,
         converged_reason=reason,
-        refinement={} if ref is None else ref.to_dict(),
+        refinement=None if ref is None else RefinementSummary.from_refinement(ref),
         profiles=profs,
     )
 
@@ -426,6 +440,15 @@ _REFINED = (
     "flagged: its 95 % interval is wider than +-5 % of the estimate, or open, or the profile is flat",
     f"fit: NRMSE of the model simulated at the estimate ({FIT_SUBSTEPS} RK4 substeps per sample) from the "
     "estimated initial state, against the measurement",
+)
+
+
+_PREDICTION = (
+    "objective prediction: the fit minimises the one-step prediction errors of a predictor that corrects the state "
+    "by a constant gain times each innovation, the gain fitted with the parameters (the innovations form of the "
+    "prediction-error method, Ljung 1999, section 4.3): the residuals are the innovations, the plant may drift "
+    "under unmeasured disturbances; adequacy tests their whiteness and their independence of the inputs, not their "
+    "level; a validation (the model simulated on another record) runs without the gain"
 )
 
 
@@ -496,6 +519,7 @@ def identify_measured(
     refined: bool = True,
     intersample: Mapping[str, str] | None = None,
     known_initial: Mapping[str, float] | None = None,
+    objective: str = "output",
 ) -> Identification:
     """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
 
@@ -541,6 +565,8 @@ def identify_measured(
         and the fit holds it; the fit estimates the other initial states (for a record whose motion the model at
         rest at the guess cannot make, the filter and the fit start from them fitted to its first samples,
         :func:`obsnl.identification.setup.free_start`).
+    objective : {"output", "prediction"}
+        What the maximum-likelihood fit minimises (:data:`obsnl.identification.setup.OBJECTIVES`).
 
     Returns
     -------
@@ -640,6 +666,7 @@ def identify_measured(
         coordinates=coordinates(num, "log", reference=guess),
         initial=known,
         known=tuple(known),
+        objective=objective,
     )
     start = free_start(stepped, theta=setup.theta_guess, x0=setup.x0, u=U, y=data.y, dt=data.dt, known=tuple(known))
     if start is not None:  # the record moves where the model at rest would not: it starts in motion
@@ -708,6 +735,7 @@ def identify_measured(
                 if bound and refined
                 else []
             ),
+            *([_PREDICTION] if refined and objective == "prediction" else []),
             *said,
             *data.notes(),
         ),

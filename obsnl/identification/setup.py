@@ -34,6 +34,7 @@ __all__ = [
     "BOUND",
     "DIVERGED",
     "STATE_CAP",
+    "OBJECTIVES",
 ]
 
 #: Threshold on the Cramér-Rao standard deviation of log(theta): a parameter whose 3-sigma bound is
@@ -51,6 +52,11 @@ DIVERGED = 10.0
 
 #: Covariance ceiling (standard deviation) of the scaled states: 100 typical magnitudes at the guess.
 STATE_CAP = 100.0
+#: What the maximum-likelihood fit minimises: ``"output"``, the output error of the model simulated from its
+#: initial state (the right likelihood when the outputs' noise is the only disturbance); ``"prediction"``, the
+#: prediction error of a constant-gain predictor whose gain is fitted with the parameters (the innovations form:
+#: the plant may drift under unmeasured disturbances, or run in closed loop).
+OBJECTIVES = ("output", "prediction")
 #: The smallest noise-to-signal RMS ratio a channel may be given: below it double precision cannot resolve the noise
 #: (its weight ``1 / sigma^2`` overflows the filter and the fit); for noise-free data give the integrator's accuracy.
 MIN_NOISE = 1e-12
@@ -98,7 +104,9 @@ class Setup:
     else 0): where the filter and the fit start; ``known``: the states whose initial value is known (held by the
     fit, :func:`obsnl.identification.refine.refine`). ``locate``: the filters' step splits a crossing substep at
     the located crossing and follows sliding modes, as the fit's does (off by default; on a mass that sticks, the
-    stages of the refined step chatter across ``v = 0`` and bias the filter's estimate).
+    stages of the refined step chatter across ``v = 0`` and bias the filter's estimate). ``objective``: what the
+    maximum-likelihood fit minimises (:data:`OBJECTIVES`): the output error of the free simulation, or the
+    prediction error of a constant-gain predictor (:mod:`obsnl.identification.likelihood`).
     """
 
     model: NumericModel
@@ -118,6 +126,7 @@ class Setup:
     locate: bool = False
     initial: Mapping[str, float] | None = None
     known: tuple[str, ...] = ()
+    objective: str = "output"
 
     def __post_init__(self) -> None:
         m = self.model
@@ -133,6 +142,8 @@ class Setup:
                 f"noise given for {unknown}, which are not inputs or outputs of {m.name!r} "
                 f"({', '.join(m.inputs + m.outputs)})"
             )
+        if self.objective not in OBJECTIVES:
+            raise OptionError(f"unknown objective {self.objective!r}; use one of {', '.join(OBJECTIVES)}")
         if self.coordinates is None:
             object.__setattr__(self, "coordinates", coordinates(m, "log", reference=self.guess))
         unknown = sorted(set(self.initial or {}).union(self.known) - set(m.states))

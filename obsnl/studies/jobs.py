@@ -183,7 +183,8 @@ def identify_job(
         Overwrite those files.
     **options : Any
         Passed to :func:`obsnl.identification.identify.identify` or ``study`` (method, table, passes,
-        replicates, seed, allow_unidentifiable, jit, hold, refine, progress, executor). An executor that
+        replicates, seed, allow_unidentifiable, jit, hold, refine, progress, executor, intersample, objective).
+        An executor that
         names its workers or a scheduler is refused when nothing runs in parallel (``refine=False`` and no
         replicates); its scheduler is probed before any work (:meth:`obsnl.executor.Executor.probe`).
 
@@ -206,6 +207,13 @@ def identify_job(
         )
     if "intersample" in options and options["intersample"] is None:
         options.pop("intersample")
+    if options.get("objective", "output") != "output" and not data:
+        raise OptionError(
+            "objective= applies to measured data= (a record= study's outputs carry measurement noise only, "
+            "which the output error fits); drop it or identify from data="
+        )
+    if not data:
+        options.pop("objective", None)  # a study fits the output error, the default above
     if (
         (ex := options.get("executor")) is not None
         and (ex.workers is not None or ex.scheduler is not None)
