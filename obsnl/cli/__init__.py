@@ -226,6 +226,14 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
             SECONDS,
             _o("--scales", metavar="S1,S2,..."),
             SEED,
+            _o(
+                "--intersample",
+                action="append",
+                default=[],
+                metavar="[NAME=]KIND",
+                help="an input between samples: zoh, linear or bandlimited (repeatable; a bare KIND: every input; "
+                "default: the model's [intersample], else linear)",
+            ),
         ],
     ),
     "validate": (

@@ -1,9 +1,11 @@
 """Which experiment makes a model identifiable: the branches a record visits as its amplitude grows, the
 smallest amplitude that makes every target jointly identifiable, and which of several records suffice.
 
-The model's ``[values]`` are simulated under ``s * record`` (:func:`obsnl.observability.joint.visited.visited_patterns`,
-initial states unscaled); the sign patterns at the record's sample times are the branches the experiment
-at scale ``s`` visits, and the set suffices when :func:`obsnl.design.sufficiency.check_sensors` with
+The model's ``[values]`` are simulated under ``s * record`` (:class:`obsnl.design.continuous.TrajectoryVisits`: the
+fit's located, sliding step; the input between samples as the model's ``[intersample]`` table or ``intersample=``
+says; from the known initial state, which is not scaled); the sign patterns along the continuous trajectory (a
+contact that opens and closes between two samples included, a mass that friction holds on no branch) are the
+branches the experiment at scale ``s`` visits, and the set suffices when :func:`obsnl.design.sufficiency.check_sensors` with
 ``visited=`` that set finds every target jointly identifiable. The verdict depends on the visited *set*
 only (seconds and crossings are reported, not analysed): it is cached by the frozenset of patterns.
 
@@ -41,6 +43,7 @@ import numpy as np
 from obsnl._display import render
 from obsnl._text import block, one_line
 from obsnl.design.arguments import design_arguments, record_run
+from obsnl.design.continuous import Drive, TrajectoryVisits
 from obsnl.design.experiment_search import (
     NOT_NOISE,
     BlowUp,
@@ -60,7 +63,7 @@ from obsnl.model.bounds.budget import check_time, remaining, time_budget
 from obsnl.model.branching.branches import split_branches
 from obsnl.model.core import Model
 from obsnl.observability.analyze import assumptions as analysis_assumptions
-from obsnl.observability.joint.visited import Visits, visited_patterns
+from obsnl.observability.joint.visited import Visits
 
 __all__ = ["VisitedBranch", "ScaleVisit", "ExperimentDesign", "BlowUp", "design", "DEFAULT_SCALES", "MAX_RECORDS"]
 
@@ -77,7 +80,9 @@ RecordLike = Union[Record, "tuple[str, Any, Mapping[str, Any]]"]
 
 #: What a design assumes besides the analysis' own assumptions.
 _ASSUMED = {
-    "visited": "sign patterns of the model's [values] simulated under each scaled record, at its sample times",
+    "visited": "sign patterns of the model's [values] simulated under each scaled record along the continuous "
+    "trajectory (crossings located between samples; a state resting on a switching surface, as a mass that friction "
+    "holds, visits no branch)",
     "scale": "the visited set grows with the scale; if not, the bisection ends on a sufficient boundary (the bracket)",
     "records": "experiments sharing the parameters, each with its own states; the joint verdict pairs switching "
     "surfaces between visited branches, which may come from different records",
@@ -272,8 +277,18 @@ class ExperimentDesign:
 class _Runs:
     """The simulations and joint verdicts of one design, each computed once."""
 
-    def __init__(self, model: Model, sub: Model, runs: Sequence[tuple], targets: Sequence[str], seed: int) -> None:
+    def __init__(
+        self,
+        model: Model,
+        sub: Model,
+        runs: Sequence[tuple],
+        targets: Sequence[str],
+        seed: int,
+        trajectory: TrajectoryVisits | None = None,
+    ) -> None:
         self.model, self.sub, self.runs, self.targets, self.seed = model, sub, list(runs), tuple(targets), seed
+        self.trajectory = trajectory or TrajectoryVisits(sub)
+        self.drives: dict[int, Drive] = {}
         self.sims: dict[tuple[int, float], Visits] = {}
         self.verdicts: dict[frozenset, Sufficiency] = {}
         self.analyses = 0
@@ -287,6 +302,8 @@ class _Runs:
         if (i, scale) not in self.sims:
             name, t, inputs = self.runs[i]
             check_time(f"simulating record {name!r} at scale {scale:g}", "raise max_seconds=, or give fewer scales")
+            if i not in self.drives:  # checked once: the inputs, the numbers, a regular clock
+                self.drives[i] = self.trajectory.drive(t, inputs, where=f"record {name!r}")
             with np.errstate(over="ignore"):
                 scaled = {k: scale * v for k, v in inputs.items()}
             blow = None
@@ -296,7 +313,7 @@ class _Runs:
                 blow = BlowUp(scale, name, None, f"the record scaled by {scale:g} overflows")
             else:
                 try:
-                    self.sims[i, scale] = visited_patterns(self.sub, t, scaled)
+                    self.sims[i, scale] = self.trajectory.visits(self.drives[i], scale=scale)
                 except AnalysisError as err:
                     blow = blow_up(err, scale, name)
                     if blow is None:  # not the scale's fault (a missing number, the time limit): raised as it is
@@ -378,6 +395,7 @@ def design(
     tol: float = 1e-3,
     seed: int = 0,
     max_seconds: float | None = None,
+    intersample: str | Mapping[str, str] | Sequence[str] | None = None,
 ) -> ExperimentDesign:
     """The branches the records visit per scale, the smallest sufficient scale and the sufficient records.
 
@@ -402,6 +420,10 @@ def design(
         Seed of every analysis.
     max_seconds : float or None
         Time limit of the whole design (simulations and verdicts); past it an ``AnalysisError`` says what ran.
+    intersample : str or mapping or sequence of str or None
+        How the inputs behave between samples (:func:`obsnl.estimation.intersample.intersample_kinds`: ``"zoh"``,
+        ``"linear"`` or ``"bandlimited"`` for every input, ``"NAME=KIND"`` strings or ``{NAME: KIND}``). Default:
+        the model's ``[intersample]`` table, else linear; what is given here overrides it per input.
 
     Returns
     -------
@@ -410,7 +432,9 @@ def design(
     Raises
     ------
     OptionError
-        Bad records, scales, tolerance, target or sensors.
+        Bad records, scales, tolerance, target, sensors or input kinds.
+    DataError
+        A record whose clock is not regular (the input between samples needs one).
     AnalysisError
         A missing number in ``[values]``, a missing input, the time limit; every target structurally unidentifiable
         (with these sensors, even when every branch is visited); a simulation that blows up at the smallest scale.
@@ -452,6 +476,7 @@ def design(
             else ([s.strip() for s in sensors.split(",") if s.strip()] if isinstance(sensors, str) else list(sensors))
         )
         sub = restrict(model, chosen)
+        trajectory = TrajectoryVisits(sub, intersample=intersample)  # an unknown kind is refused before any work
         runs = [record_run(model, r, name=f"record {i + 1}") for i, r in enumerate(records)]
         names = [r[0] for r in runs]
         if not runs or len(runs) > MAX_RECORDS or len(set(names)) < len(names):
@@ -460,7 +485,7 @@ def design(
                 f"{', '.join(map(repr, names[: MAX_RECORDS + 1]))}"
             )
         structural, why, reachable = structural_targets(model, sub, targets, seed=seed, max_seconds=remaining())
-        state = _Runs(model, sub, runs, tuple(n for n in targets if n not in structural), seed)
+        state = _Runs(model, sub, runs, tuple(n for n in targets if n not in structural), seed, trajectory)
         on_grid: list[ScaleVisit] = []
         cut = None
         for s in grid:  # increasing; a scale that blows up stops the grid (a larger one is no better behaved)
@@ -473,7 +498,12 @@ def design(
             raise no_scale_ran(cut)
         min_scale, bracket, status, reason, points = _search(state, on_grid, tol, cut, reachable)
         suff, undecided, left_out = minimal_records(state)
-    how = {**analysis_assumptions(sub, "arbitrary", None), **_ASSUMED}
+    how = {
+        **analysis_assumptions(sub, "arbitrary", None),
+        **_ASSUMED,
+        "between samples": dict(trajectory.kinds),
+        "initial state": dict(trajectory.initial),
+    }
     return ExperimentDesign(
         model.name,
         targets,

@@ -88,7 +88,10 @@ def one_input_record(model: Model, path: str | Path, *, option: str = "a record"
 
 
 def record_visits(model: Model, record: Record) -> Visits:
-    """The sign patterns and crossings a simulation of the model's ``[values]`` under ``record`` visits.
+    """The sign patterns and crossings a simulation of the model's ``[values]`` under ``record`` visits along its
+    continuous trajectory (:func:`obsnl.design.continuous.continuous_visits`: crossings located between samples, a
+    state resting on a switching surface on no branch, the input between samples as the model's ``[intersample]``
+    table says, from the known initial state).
 
     Parameters
     ----------
@@ -102,10 +105,10 @@ def record_visits(model: Model, record: Record) -> Visits:
     Visits
         The visited patterns and the crossings of each switching function.
     """
-    from obsnl.observability.joint.visited import visited_patterns
+    from obsnl.design.continuous import continuous_visits
 
     t = record.dt * np.arange(len(record.accel))
-    return visited_patterns(model, t, {model.inputs[0].name: record.accel})
+    return continuous_visits(model, t, {model.inputs[0].name: record.accel})
 
 
 def analyze_file(
@@ -278,8 +281,8 @@ def design_file(
     force : bool
         Overwrite ``figure`` (and ``output``).
     **options : Any
-        Passed to :func:`obsnl.design.experiment.design` (target, sensors, scales, seed); ``scales`` may
-        be comma-separated text (``"0.1,1,10"``).
+        Passed to :func:`obsnl.design.experiment.design` (target, sensors, scales, seed, intersample); ``scales``
+        may be comma-separated text (``"0.1,1,10"``).
 
     Returns
     -------

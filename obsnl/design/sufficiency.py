@@ -242,7 +242,8 @@ def check_sensors(
         Passed to :func:`obsnl.analyze`.
     visited : mapping of tuple of int to float or None
         Sign patterns an experiment visits (of the restricted model's switching functions, see
-        :func:`obsnl.observability.joint.visited.visited_patterns`); None: every feasible branch.
+        :class:`obsnl.design.continuous.TrajectoryVisits`); None: every feasible branch; empty: none (insufficient
+        for every target: the verdict reads branches only).
     crossings : mapping of str to int or None
         ``{switching function: number of sign changes}`` along the same experiment (passed to
         :func:`obsnl.analyze`).
@@ -268,6 +269,18 @@ def check_sensors(
     lost = tuple(n for n in targets if n not in reach)
     if lost:
         return unreached(names, lost, time.perf_counter() - t0)
+    if visited is not None and not visited:  # the experiment reveals no branch's dynamics: nothing to analyse
+        return Sufficiency(
+            names,
+            False,
+            missing=tuple(targets),
+            how="analysis",
+            reason="the experiment visits no branch (the state rests on a switching surface throughout, as a mass "
+            "that friction holds): no target is revealed by a branch",
+            probability=1.0,
+            seconds=time.perf_counter() - t0,
+            visited="no branch visited",
+        )
     res = analyze(
         sub, seed=seed, prob=prob, max_seconds=max_seconds, visited=visited, crossings=crossings, per_branch=False
     )

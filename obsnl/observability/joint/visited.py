@@ -6,8 +6,13 @@ The simulation is the classical Runge-Kutta scheme with ``substeps`` fixed steps
 adaptive step) on the model's right-hand side
 (``sympy.lambdify``), the record's input held linear between samples; the switching functions are
 evaluated at the record's sample times. A sample at which some switching function is zero (a state at
-rest on a surface) belongs to no branch and is not counted. What this tells is the experiment's own
-visit list: ``obsnl analyze --record`` analyses those branches only, and the answer lists them.
+rest on a surface) belongs to no branch and is not counted.
+
+This is the reading at the samples only: a contact that opens and closes between two samples is no visit here, and
+a mass that dry friction holds chatters across ``v = 0`` (the fixed steps have no sliding mode). ``obsnl design``
+and ``obsnl analyze --record`` read the visits along the continuous trajectory instead
+(:mod:`obsnl.design.continuous`, which sits above the estimation room whose located, sliding step it uses); this
+module keeps the :class:`Visits` they return and the record checks they share (:func:`checked_record`).
 """
 
 from __future__ import annotations
@@ -23,7 +28,7 @@ from obsnl.model.bounds.budget import check_time
 from obsnl.model.branching.switching import expr_text, switching_of
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 
-__all__ = ["Visits", "visited_patterns", "BlewUp"]
+__all__ = ["Visits", "visited_patterns", "checked_record", "BlewUp"]
 
 
 class BlewUp(AnalysisError):
@@ -53,6 +58,55 @@ class Visits:
     switching: tuple[str, ...]
     patterns: Mapping[tuple[int, ...], float]
     crossings: Mapping[str, int]
+
+
+def checked_record(
+    model: Model, t: np.ndarray, inputs: Mapping[str, np.ndarray], values: Mapping[str, float] | None = None
+) -> tuple[dict[str, float], np.ndarray, list[np.ndarray]]:
+    """The numbers, the times and the input samples (in the model's input order) of a simulation under a record,
+    checked: increasing times, a number for every parameter and known constant, every input known, finite and as
+    long as the times.
+
+    Parameters
+    ----------
+    model : Model
+        The model simulated.
+    t : ndarray
+        Sample times.
+    inputs : mapping of str to ndarray
+        One array per model input, sampled at ``t``.
+    values : mapping of str to float or None
+        Numbers to use instead of the model's ``[values]``.
+
+    Returns
+    -------
+    tuple
+        ``(values, t, signals)``.
+
+    Raises
+    ------
+    AnalysisError
+        What is missing or wrong, in one line.
+    """
+    vals = dict(model.values if values is None else values)
+    t = np.asarray(t, float)
+    if t.ndim != 1 or len(t) < 2 or not np.all(np.diff(t) > 0):
+        raise AnalysisError("the record's times must increase; fix the record")
+    missing = [s.name for s in list(model.parameters) + list(model.known_constants) if s.name not in vals]
+    if missing:
+        raise AnalysisError(f"record= simulates the model's [values]: give a number for {', '.join(missing)}")
+    lacking = [u.name for u in model.inputs if u.name not in inputs]
+    if lacking or model.unknown_inputs:
+        raise AnalysisError(
+            f"record= needs every input of the model as a known signal (missing: "
+            f"{', '.join(lacking + [w.name for w in model.unknown_inputs])})"
+        )
+    signals = [
+        np.asarray(inputs[u.name], float) for u in model.inputs
+    ]  # checked first, even where nothing is simulated
+    if any(u.shape != t.shape for u in signals) or not all(np.all(np.isfinite(u)) for u in signals):
+        raise AnalysisError("the record's input must be finite and as long as its time column")
+    return vals, t, signals
 
 
 def visited_patterns(
@@ -100,23 +154,8 @@ def visited_patterns(
     >>> sorted(vis.patterns), vis.switching
     ([(-1,), (1,)], ('v',))
     """
-    vals = dict(model.values if values is None else values)
-    t = np.asarray(t, float)
-    if t.ndim != 1 or len(t) < 2 or not np.all(np.diff(t) > 0):
-        raise AnalysisError("the record's times must increase; fix the record")
-    missing = [s.name for s in list(model.parameters) + list(model.known_constants) if s.name not in vals]
-    if missing:
-        raise AnalysisError(f"record= simulates the model's [values]: give a number for {', '.join(missing)}")
-    lacking = [u.name for u in model.inputs if u.name not in inputs]
-    if lacking or model.unknown_inputs:
-        raise AnalysisError(
-            f"record= needs every input of the model as a known signal (missing: "
-            f"{', '.join(lacking + [w.name for w in model.unknown_inputs])})"
-        )
+    vals, t, signals = checked_record(model, t, inputs, values)
     xs, us = list(model.states), list(model.inputs)
-    signals = [np.asarray(inputs[u.name], float) for u in us]  # checked first, even where nothing is simulated
-    if any(u.shape != t.shape for u in signals) or not all(np.all(np.isfinite(u)) for u in signals):
-        raise AnalysisError("the record's input must be finite and as long as its time column")
     exprs = list(model.rhs) + list(model.output_exprs)
     if not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs):
         return Visits((), {(): float(t[-1] - t[0])}, {})
