@@ -39,6 +39,7 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import quote, shorten
 from obsnl.errors import DataError, OptionError
 from obsnl.estimation.numeric import NumericModel
 from obsnl.model.reading.fields import INTERSAMPLE_KINDS
@@ -127,14 +128,14 @@ def intersample_kinds(spec: Any, inputs: Sequence[str], *, table: Mapping[str, s
     for name, kind in items:
         if not isinstance(kind, str) or kind not in KINDS:
             raise OptionError(
-                f"intersample kind {kind!r}{'' if name is None else ' for ' + str(name)} is unknown; "
+                f"intersample kind {quote(kind)}{'' if name is None else ' for ' + shorten(str(name))} is unknown; "
                 f"use {', '.join(KINDS[:-1])} or {KINDS[-1]}"
             )
         if name is None:
             default = kind
         elif name not in names:
             raise OptionError(
-                f"intersample names {name!r}, which is not an input of the model "
+                f"intersample names {quote(name)}, which is not an input of the model "
                 f"({', '.join(names) or 'it has none'}); check the spelling"
             )
         else:
@@ -144,7 +145,7 @@ def intersample_kinds(spec: Any, inputs: Sequence[str], *, table: Mapping[str, s
 
 def _item(text: Any) -> tuple[str | None, Any]:
     if not isinstance(text, str):
-        raise OptionError(f"intersample entries are 'NAME=KIND' or 'KIND' strings, not {text!r}")
+        raise OptionError(f"intersample entries are 'NAME=KIND' or 'KIND' strings, not {quote(text)}")
     if "=" in text:
         name, kind = text.split("=", 1)
         return name.strip(), kind.strip()
