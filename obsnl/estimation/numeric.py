@@ -70,6 +70,9 @@ class NumericModel:
     slides
         For each switching function, whether a trajectory may slide along it, which the located substep then
         follows (:func:`obsnl.model.branching.jumps.field_slides`; empty: every jump may).
+    output_jumps
+        For each output, whether it may jump where the field does (:func:`obsnl.model.branching.jumps.output_jumps`;
+        empty: none is known to).
     source
         ``(model, switching, constants)`` as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
         otherwise): the specification a worker compiles again (:mod:`obsnl.identification.replicates`).
@@ -93,6 +96,7 @@ class NumericModel:
     jac_g: ca.Function = field(repr=False)
     jumps: tuple[bool, ...] = ()
     slides: tuple[bool, ...] = ()
+    output_jumps: tuple[bool, ...] = ()
     source: Any = field(default=None, repr=False, compare=False)
     points: int = 0
     base: NumericModel | None = field(default=None, repr=False, compare=False)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from collections.abc import Sequence
@@ -47,7 +48,8 @@ class Refinement:
     ``cov``); ``misfit``: per output, the RMS residual
     over the noise level given or estimated before the fit (1: at the noise floor); ``converged`` with
     ``reason``; ``known``: the states whose initial value was held (declared known); ``objective`` and ``fit`` feed
-    the profiles (:mod:`obsnl.identification.profile`).
+    the profiles (:mod:`obsnl.identification.profile`); ``left_out``: per output that jumps with the field, the
+    samples next to a jump the fit left out (:func:`near_jumps`; the objective's data hold them as missing).
     """
 
     theta: np.ndarray
@@ -72,6 +74,7 @@ class Refinement:
     fit: Fit = field(default=None, repr=False)  # type: ignore[assignment]
     objective: Objective = field(default=None, repr=False)  # type: ignore[assignment]
     input_cov: np.ndarray | None = field(default=None, repr=False)
+    left_out: dict[str, int] = field(default_factory=dict)
 
     def total_cov(self) -> np.ndarray:
         """The covariance of ``z`` under the noise of the outputs and of the measured inputs."""
@@ -117,6 +120,12 @@ class Refinement:
             *rows[:9],
             f"... and {len(rows) - 9} more parameters" if len(rows) > 9 else "",
             f"RMS residual over the noise level: {names([f'{o} {number(v)}' for o, v in self.misfit.items()])}",
+            (
+                "left out next to a jump of the field: "
+                + names([f"{n} samples of {o}" for o, n in self.left_out.items()])
+                if self.left_out
+                else ""
+            ),
         )
 
     def correlation(self) -> dict[str, dict[str, float | None]]:
@@ -175,6 +184,7 @@ class Refinement:
             "x0": {s: float(v) for s, v in zip(self.objective.setup.model.states, self.x0)},
             "correlation": self.correlation(),
             "input_noise_widening": {p: round(self.widening(i), 6) for i, p in enumerate(self._parameters())},
+            "left_out_near_jumps": dict(self.left_out),
         }
 
 
@@ -259,6 +269,18 @@ def refine(
         first = free.copy()
         first[: m.np] = False
         z = levenberg_marquardt(obj.evaluate, z, lower, upper, free=first, max_iter=max_iter).z
+    left_out, measured_y = np.zeros((len(data.u), m.ny), bool), data.y
+    for _ in range(JUMP_ROUNDS if any(m.output_jumps) else 0):
+        # an output that jumps with the field (an accelerometer under Coulomb friction): its samples next to a jump
+        # hang on the crossing's time to within a sample, and chi2 jumps wherever a crossing passes a sample; they
+        # are left out, as where they are at the current point, and the fit goes on without them
+        near = near_jumps(obj, z)
+        if np.array_equal(near, left_out):
+            break
+        left_out = near
+        data = Data(seed=data.seed, u=data.u, y=_left_out(measured_y, left_out))
+        obj = dataclasses.replace(obj, data=data)
+        z = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter).z
     factor = 1.0  # the common factor of a re-weighting that changed every weight alike (then no refit)
     for _ in range(2):  # the given noise levels, then the ML levels of the fit (concentrated likelihood)
         fit = levenberg_marquardt(obj.evaluate, z, lower, upper, free=free, max_iter=max_iter)
@@ -329,7 +351,59 @@ def refine(
         fit=fit,
         objective=obj,
         input_cov=Cu,
+        left_out={o: int(n) for o, n in zip(m.outputs, left_out.sum(axis=0)) if n},
     )
+
+
+#: Rounds at most of leaving out the samples of a jumping output next to a jump (:func:`near_jumps`), each at the
+#: point the last round's fit reached.
+JUMP_ROUNDS = 3
+
+
+def near_jumps(obj: Objective, z: np.ndarray) -> np.ndarray:
+    """``(T, ny)``: True at the samples of an output that jumps with the field
+    (:attr:`~obsnl.estimation.numeric.NumericModel.output_jumps`) next to a crossing of a switching function across
+    which the field jumps, along the model simulated at ``z``: both samples around a sign change between two
+    samples, and a sample on the surface (a sliding mode: the output there is Filippov's combination, not the
+    branch's). Nothing for a model whose outputs do not jump.
+
+    Parameters
+    ----------
+    obj : Objective
+        The objective (its model, record and step).
+    z : numpy.ndarray
+        The point (parameters and initial state) at which the model is simulated.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean ``(T, ny)``.
+    """
+    setup = obj.setup
+    m = setup.model
+    T = len(obj.data.u)
+    jumping_outputs = np.asarray(m.output_jumps or [False] * m.ny, bool)
+    g_size = m.g.size1_out(0) if m.switching else 0
+    if not jumping_outputs.any() or not g_size:
+        return np.zeros((T, m.ny), bool)
+    u = np.asarray(obj.data.u, float).reshape(T, -1)
+    theta = obj.theta(z)
+    sim = simulate(
+        m, theta=theta, x0=obj.x0(z), u=u, dt=setup.record.dt, substeps=obj.substeps, refine=setup.refine, locate=True
+    )
+    G = np.asarray(m.g.map(T)(sim.x.T, np.tile(theta, (T, 1)).T, u.T), float).T
+    G = G[:, np.asarray(m.jumps or [True] * g_size, bool)]
+    sign = np.sign(G)
+    change = np.any(sign[1:] != sign[:-1], axis=1)
+    near = np.any(sign == 0, axis=1)
+    near[:-1] |= change
+    near[1:] |= change
+    return near[:, None] & jumping_outputs[None, :]
+
+
+def _left_out(y: Any, left_out: np.ndarray) -> np.ndarray:
+    """The outputs with the samples ``left_out`` missing (NaN)."""
+    return np.where(left_out, np.nan, np.asarray(y, float).reshape(left_out.shape))
 
 
 #: The shares of the innovation a starting gain feeds back (:func:`_gain_start`).
@@ -435,6 +509,8 @@ def adequacy_of(
     """
     m = ref.objective.setup.model
     n = len(ref.objective.setup.record)
+    if ref.left_out:  # the samples the fit left out next to a jump are missing to the tests too
+        data = ref.objective.data
     y = np.asarray(data.y, float).reshape(n, -1)
     u = np.asarray(data.u, float).reshape(n, -1)[:, : len(m.inputs)]  # a driven model's row starts with the sample
     measured = np.sum(np.isfinite(y), axis=0)

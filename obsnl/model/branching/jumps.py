@@ -16,10 +16,11 @@ from obsnl.model.bounds.work import can_expand, can_factor, same_up_to_sign
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 
-__all__ = ["field_jumps", "field_slides"]
+__all__ = ["field_jumps", "field_slides", "output_jumps"]
 
-#: ``differences(g, fa, fb, states)``: the expressions to prove zero on ``g = 0`` between two neighbouring fields.
-_Differences = Callable[[sp.Expr, Sequence[sp.Expr], Sequence[sp.Expr], Sequence[sp.Symbol]], list[sp.Expr]]
+#: ``differences(g, a, b, states)``: the expressions to prove zero on ``g = 0`` between two neighbouring branches'
+#: models ``a`` and ``b``.
+_Differences = Callable[[sp.Expr, Model, Model, Sequence[sp.Symbol]], list[sp.Expr]]
 
 #: Above this many switching functions :func:`field_jumps` does not split the model (all may jump).
 _MAX_JUMP_CHECK = 6
@@ -93,16 +94,56 @@ def field_slides(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]
     return _across(model, switching, _normal_jump)
 
 
-def _jump(g: sp.Expr, fa: Sequence[sp.Expr], fb: Sequence[sp.Expr], states: Sequence[sp.Symbol]) -> list[sp.Expr]:
+def output_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
+    """For each output: may it jump where a switching function across which the field jumps crosses 0?
+
+    As :func:`field_jumps`, with the outputs in place of the field: an output is continuous across ``g = 0`` when
+    the outputs of every two branches that differ in ``g`` alone agree on the surface. An accelerometer on a mass
+    with Coulomb friction jumps with the friction force; a displacement sensor does not. The likelihood fit leaves
+    out the samples of a jumping output next to such a crossing (:func:`obsnl.identification.refine.refine`): its
+    value there hangs on the crossing's time to within a sample.
+
+    Parameters
+    ----------
+    model : Model
+        The non-smooth model.
+    switching : sequence of sympy.Expr
+        Switching functions, in any orientation.
+
+    Returns
+    -------
+    tuple of bool
+        One per output (in ``model.outputs`` order): True where it may jump.
+
+    Examples
+    --------
+    >>> from obsnl.model.core import Model
+    >>> from obsnl.model.branching.switching import switching_functions
+    >>> m = Model(name="dry", states=["x", "v"], parameters=["k", "F"], inputs=["u"],
+    ...           equations={"x": "v", "v": "u - k*x - F*sign(v)"}, outputs={"y": "x", "a": "u - k*x - F*sign(v)"})
+    >>> output_jumps(m, switching_functions(m))
+    (False, True)
+    """
+    jumping = field_jumps(model, switching)
+    out = []
+    for o in model.outputs:
+
+        def differences(g: sp.Expr, a: Model, b: Model, states: Sequence[sp.Symbol], o: str = o) -> list[sp.Expr]:
+            return [a.outputs[o] - b.outputs[o]]
+
+        across = _across(model, switching, differences)
+        out.append(any(j and c for j, c in zip(jumping, across)))
+    return tuple(out)
+
+
+def _jump(g: sp.Expr, a: Model, b: Model, states: Sequence[sp.Symbol]) -> list[sp.Expr]:
     """The differences to prove zero on ``g = 0`` for a continuous field: every component's."""
-    return [a - b for a, b in zip(fa, fb)]
+    return [fa - fb for fa, fb in zip(a.rhs, b.rhs)]
 
 
-def _normal_jump(
-    g: sp.Expr, fa: Sequence[sp.Expr], fb: Sequence[sp.Expr], states: Sequence[sp.Symbol]
-) -> list[sp.Expr]:
+def _normal_jump(g: sp.Expr, a: Model, b: Model, states: Sequence[sp.Symbol]) -> list[sp.Expr]:
     """The difference to prove zero on ``g = 0`` for a jump along the surface only: ``grad g . (fa - fb)``."""
-    return [sum((sp.diff(g, s) * (a - b) for s, a, b in zip(states, fa, fb)), sp.Integer(0))]
+    return [sum((sp.diff(g, s) * (fa - fb) for s, fa, fb in zip(states, a.rhs, b.rhs)), sp.Integer(0))]
 
 
 def _across(model: Model, switching: Sequence[sp.Expr], differences: _Differences) -> tuple[bool, ...]:
@@ -150,7 +191,7 @@ def _vanish_across(
         if other is None:
             continue
         pairs += 1
-        for d in differences(g, b.model.rhs, other.model.rhs, list(model.states)):
+        for d in differences(g, b.model, other.model, list(model.states)):
             if not can_expand(d) or sp.cancel(sp.together(d.subs(*sol))) != 0:
                 return False
     return pairs > 0
