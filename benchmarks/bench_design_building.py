@@ -166,12 +166,13 @@ def part_identify(folder: Path, samples: int, layout: tuple[str, ...], seed: int
                      "std": p.std, "relative_std_pct": None if not p.std or p.estimate is None else
                      100 * p.std / abs(p.estimate), "interval": [lo, hi], "covers": covers, "flagged": p.flagged,
                      "reason": p.reason})
-    misfit = dict(res.refinement.get("misfit_over_noise", {}))
+    ref = res.refinement  # None: no maximum-likelihood fit
+    misfit = {} if ref is None else dict(ref.misfit_over_noise)
     out = {"layout": list(layout), "noise_seed": seed, "revision": revision(), "samples": samples, "seconds": wall,
            "load_at_start": load,
            "progress_stamps": stamps, "converged": res.converged, "converged_reason": res.converged_reason,
            "misfit_over_noise": misfit, "fit_nrmse_pct": dict(res.fit), "flagged": list(res.flagged),
-           "tuning": res.tuning.to_dict(), "refinement": {k: res.refinement.get(k) for k in
+           "tuning": res.tuning.to_dict(), "refinement": {k: None if ref is None else getattr(ref, k) for k in
                                                           ("iterations", "evaluations", "newton_decrement", "seconds")},
            "parameters": rows}
     _write(folder / f"identify_{'+'.join(layout)}{'' if seed == NOISE_SEED else f'_seed{seed}'}.json", out)

@@ -49,7 +49,7 @@ def main(argv: list[str] | None = None) -> int:
         tic = time.perf_counter()
         res = obsnl.identify(case.model, data, guess=case.guess, noise=noise, progress=False)
         wall = time.perf_counter() - tic
-        w = res.refinement["input_noise_widening"]
+        w = res.refinement.input_noise_widening
         z = np.array([(p.estimate - case.truth[p.name]) / p.std for p in res.parameters])
         zo = z * np.array([w[p.name] for p in res.parameters])
         Z.append(z), Zout.append(zo), Ws.append(wald(res, case.truth)[0]), widen.append([w[n] for n in names])

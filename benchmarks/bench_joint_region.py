@@ -31,7 +31,7 @@ import bench_likelihood as B  # noqa: E402  (the cases and their scipy data)
 def wald(res, truth: dict[str, float]) -> tuple[float, int, dict[str, float]]:
     """``W``, the number of parameters in it, and each parameter's error in reported std."""
     est = [p for p in res.parameters if p.std and np.isfinite(p.std) and p.std > 0]  # held or flat: left out
-    names, corr = [p.name for p in est], res.refinement["correlation"]
+    names, corr = [p.name for p in est], res.refinement.correlation
     e = np.array([p.estimate - truth[p.name] for p in est])
     d = np.array([p.std for p in est])
     R = np.array([[corr[a][b] for b in names] for a in names], float)

@@ -399,7 +399,7 @@ def phases(res, wall: float, stamps: list[float], refined: bool) -> str:
     if refined and len(stamps) > k:
         parts.append(f"the filter's practical-identifiability check and the maximum-likelihood fit "
                      f"{stamps[k] - last:.1f} s (the fit itself, objective built and Levenberg-Marquardt: "
-                     f"{res.refinement.get('seconds', float('nan')):.1f} s)")
+                     f"{res.refinement.seconds if res.refinement else float('nan'):.1f} s)")
         parts.append(f"{len(stamps) - k - 1} profiles {stamps[-1] - stamps[k]:.1f} s")
         last = stamps[-1]
         parts.append(f"the rest (fit simulation, result) {wall - last:.1f} s")
@@ -503,7 +503,8 @@ def run_case(case: Case, out: Path, seeds: int = 0, command: str = CMD) -> tuple
         for k, tru in case.derived_truth.items():
             rows.append(f"| {k} (derived) | {fmt(tru)} | - | {fmt(du[k])} | {pct(100 * (du[k] - tru) / abs(tru))} | "
                         f"{fmt(dm[k])} | {pct(100 * (dm[k] - tru) / abs(tru))} | - | - | - | - | - |")
-    misfit = dict(ml.refinement.get("misfit_over_noise", {}))
+    ref = ml.refinement  # None: no maximum-likelihood fit
+    misfit = {} if ref is None else dict(ref.misfit_over_noise)
     rr_ml, rr_ukf = residual_ratio(ml, case), residual_ratio(ukf, case)
     flagged = list(ml.flagged)
     ukf_bad = [p.name for p in ukf.parameters if not p.flagged and not all(within(p, case.truth[p.name]))]
@@ -539,10 +540,10 @@ def run_case(case: Case, out: Path, seeds: int = 0, command: str = CMD) -> tuple
               "(an open side counts as covering the truth). The UKF-alone std (the filter's posterior) is not in the "
               "table: " + ", ".join(f"{p.name} {fmt(p.std, 3)}" for p in ukf.parameters) + ".", "",
               f"**Converged** (refined run): {ml.converged}: {ml.converged_reason}. "
-              f"Iterations {ml.refinement.get('iterations')}, evaluations {ml.refinement.get('evaluations')}, "
-              f"Newton decrement {fmt(ml.refinement.get('newton_decrement'), 3)}, "
-              f"chi2 {fmt(ml.refinement.get('chi2'), 6)} "
-              f"over {ml.refinement.get('samples')} residuals.", "",
+              f"Iterations {ref and ref.iterations}, evaluations {ref and ref.evaluations}, "
+              f"Newton decrement {fmt(ref and ref.newton_decrement, 3)}, "
+              f"chi2 {fmt(ref and ref.chi2, 6)} "
+              f"over {ref and ref.samples} residuals.", "",
               "| output | noise (true std) | fit NRMSE % UKF alone | fit NRMSE % refined | misfit_over_noise (tool) | "
               "RMS residual / true noise std, UKF alone | refined |", "|---|---:|---:|---:|---:|---:|---:|"]
     for o in ml.outputs:

@@ -43,7 +43,7 @@ def _check_kc(res):
     assert res.converged, res.converged_reason
     assert est["k"].estimate == pytest.approx(K, rel=5e-3) and abs(est["k"].estimate - K) < 4 * est["k"].std
     assert est["c"].estimate == pytest.approx(C, rel=2e-2) and abs(est["c"].estimate - C) < 4 * est["c"].std
-    x0 = res.refinement["x0"]
+    x0 = res.refinement.x0
     assert x0["x"] == pytest.approx(0.1, rel=2e-3)  # the initial displacement, estimated
 
 
@@ -81,7 +81,7 @@ def test_known_initial_conditions_are_held_by_the_filter_and_the_fit(how):
     res = obsnl.identify(model, _scaled_record(), progress=False, jit=False, **kw)
     est = {p.name: p for p in res.parameters}
     assert res.converged, res.converged_reason
-    assert res.refinement["x0"]["x"] == 1.0  # held, not fitted
+    assert res.refinement.x0["x"] == 1.0  # held, not fitted
     for name, true in (("a", A), ("c", RATE)):
         p = est[name]
         assert p.estimate == pytest.approx(true, rel=5e-3) and abs(p.estimate - true) < 4 * p.std, (name, p)

@@ -105,12 +105,12 @@ def test_identify_counts_an_inputs_noise_given_or_estimated_but_not_an_upper_bou
     for name, inp, noise in (("given", measured, {"u": 0.02}), ("estimated", measured, None), ("clean", u, None)):
         runs[name] = obsnl.identify(MSD, {"time_s": t, "u": inp, "y": y}, guess={"k": 18.0, "c": 1.2}, noise=noise,
                                     passes=1, progress=False)
-    widen = {n: r.refinement["input_noise_widening"] for n, r in runs.items()}
+    widen = {n: r.refinement.input_noise_widening for n, r in runs.items()}
     assert widen["given"]["k"] > 1.5 and widen["given"]["c"] > 1.5, widen
     # the input covariance is proportional to the input's noise variance (the same data, the same estimate): the
     # widening's excess follows the estimated level (this draw: 1.55 % where 2 % was added)
-    r = runs["estimated"].noise["u"]["estimate"]
-    assert not runs["estimated"].noise["u"]["upper_bound"] and 0.01 < r < 0.03
+    r = runs["estimated"].noise["u"].estimate
+    assert not runs["estimated"].noise["u"].upper_bound and 0.01 < r < 0.03
     for p in ("k", "c"):
         assert (widen["estimated"][p] ** 2 - 1) / (widen["given"][p] ** 2 - 1) == pytest.approx((r / 0.02) ** 2,
                                                                                                 rel=0.02)

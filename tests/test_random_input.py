@@ -34,8 +34,8 @@ def _white_noise_record(n: int = 600, dt: float = 0.02, seed: int = 3) -> dict[s
 def test_a_white_noise_force_is_taken_as_exact_not_as_noise():
     res = obsnl.identify(MSD, _white_noise_record(), guess={"k": 20.0, "c": 1.0}, progress=False, jit=False)
     u = res.noise["u"]
-    assert u["estimate"] > 0.5  # RANDOM_INPUT: the differences see the excitation itself (about 1 for white noise)
-    assert u["upper_bound"] and "taken as exact" in u["source"]
+    assert u.estimate > 0.5  # RANDOM_INPUT: the differences see the excitation itself (about 1 for white noise)
+    assert u.upper_bound and u.origin == "upper bound" and "taken as exact" in u.source
     assert any("input u: taken as exact" in a for a in res.assumptions)
     est = {p.name: p for p in res.parameters}
     assert est["k"].estimate == pytest.approx(K, rel=0.01) and est["c"].estimate == pytest.approx(C, rel=0.05)

@@ -69,7 +69,7 @@ def test_measured_identification_example_runs(tmp_path, monkeypatch, capsys):
         # the refinement's promise: an unflagged estimate lies within 4 reported std (or 1 %) of the truth
         assert p.flagged or abs(p.estimate - truth[p.name]) <= max(4 * p.std, 0.01 * truth[p.name]), p
     assert res.fit["disp"] < 5.0 and "fit NRMSE" in capsys.readouterr().out
-    assert res.converged and res.refinement["misfit_over_noise"]["disp"] <= 1.3, res.converged_reason
+    assert res.converged and res.refinement.misfit_over_noise["disp"] <= 1.3, res.converged_reason
 
 
 def test_sensors_and_design_example_runs(monkeypatch, capsys):

@@ -204,8 +204,8 @@ def every_other(record):
 def test_every_other_output_sample_missing_recovers_the_parameters(every_other):
     # 4 std: a correct std misses by more with probability 6e-5 per parameter
     _within(every_other, 4.0)
-    assert every_other.data["missing"] == {"y": T // 2}
-    assert every_other.refinement["samples"] == T // 2
+    assert every_other.data.missing == {"y": T // 2}
+    assert every_other.refinement.samples == T // 2
 
 
 def test_every_other_sample_missing_is_the_fit_of_the_record_decimated(record, every_other):
@@ -214,11 +214,11 @@ def test_every_other_sample_missing_is_the_fit_of_the_record_decimated(record, e
     # so does the noise re-estimated over the samples measured (N = T / 2 in both; counting the gaps in N would
     # make the gappy one sqrt(2) smaller).
     decimated = obsnl.identify(OSC, {c: v[::2] for c, v in record.items()}, **RUN)
-    assert decimated.refinement["samples"] == T // 2
+    assert decimated.refinement.samples == T // 2
     for a, b in zip(every_other.parameters, decimated.parameters):
         assert abs(a.estimate - b.estimate) <= 0.02 * b.std, (a.name, a.estimate, b.estimate, b.std)
         assert a.std == pytest.approx(b.std, rel=0.02)
-    assert every_other.refinement["noise_std"]["y"] == pytest.approx(decimated.refinement["noise_std"]["y"], rel=0.01)
+    assert every_other.refinement.noise_std["y"] == pytest.approx(decimated.refinement.noise_std["y"], rel=0.01)
 
 
 def test_random_gaps_recover_the_parameters_and_the_ignored_columns_are_named(record):
@@ -229,13 +229,13 @@ def test_random_gaps_recover_the_parameters_and_the_ignored_columns_are_named(re
     cols = dict(record, y=np.where(gaps, np.nan, record["y"]), vir_V=np.ones(T), qref_m=np.zeros(T))
     res = obsnl.identify(OSC, cols, **RUN)
     _within(res, 4.0)
-    assert res.refinement["samples"] == T - gaps.sum()
+    assert res.refinement.samples == T - gaps.sum()
     # the noise std re-estimated over the samples measured: the true one (2 % of the RMS) within 20 % (its
     # relative sampling error is about 1 / sqrt(2 N) = 5.5 % for N = 280: over 3.5 of its std; error probability
     # below 1e-3). Counting the gaps in N would make it sqrt(0.7) = 0.84 of it.
     x_rms = np.sqrt(np.mean((record["y"]) ** 2))
-    assert res.refinement["noise_std"]["y"] == pytest.approx(NOISE * x_rms, rel=0.2)
-    assert res.data["ignored"] == ["vir_V", "qref_m"]
+    assert res.refinement.noise_std["y"] == pytest.approx(NOISE * x_rms, rel=0.2)
+    assert res.data.ignored == ("vir_V", "qref_m")
     text = identify_text(res)
     assert "columns ignored: vir_V, qref_m" in text and f"missing output samples: y {gaps.sum()} of {T}" in text
     assert any("columns ignored" in a for a in res.assumptions)

@@ -23,7 +23,7 @@ from obsnl.estimation.ukf_step import INTERVENTIONS
 from obsnl.identification.refine import Refinement
 from obsnl.identification.practical import Practical, Spread
 from obsnl.identification.profile import Profile
-from obsnl.identification.results import Identification, ParameterEstimate
+from obsnl.identification.results import Identification, ParameterEstimate, RecordSummary
 from obsnl.identification.setup import Tuning
 from obsnl.linear.bank import BankDecision, Detection
 from obsnl.linear.systems import LinearSystem, claim
@@ -148,7 +148,8 @@ def test_identification_values():
     _check(p[2], "flagged", "flagged: Cramer-Rao std 9 %")
     run = Identification(model="storey", mode="simulation", method="dukf", parameters=p, fit={"a": 1.2}, passes=3,
                          passes_run=3, seconds=12.0, converged=True, output_misfit=1.1, noise={}, tuning=Tuning(0.3, 0.0, 1.0),
-                         tuning_scores=(), data={}, practical=None, assumptions=())
+                         tuning_scores=(), data=RecordSummary(name="d", dt=0.01, samples=100), practical=None,
+                         assumptions=())
     _check(run, "model='storey'", "storey: simulation, dukf, 3 of 3 passes, converged")
     assert "flagged (poorly informed by these data): p2" in run.summary()
     n = len(MANY)

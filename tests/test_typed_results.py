@@ -20,7 +20,13 @@ import pytest
 import obsnl
 from obsnl.errors import AnalysisError
 from obsnl.identification.practical import Practical, Spread
-from obsnl.identification.results import Identification, ParameterEstimate
+from obsnl.identification.results import (
+    Identification,
+    NoiseLevel,
+    ParameterEstimate,
+    RecordSummary,
+    RefinementSummary,
+)
 from obsnl.identification.setup import Tuning
 from obsnl.identification.structural import StructuralCheck, structural_check
 from obsnl.observability import limits
@@ -77,6 +83,14 @@ def test_the_structural_check_names_what_the_dukf_would_freeze():
 
 
 # --------------------------------------------------------------------------- Identification holds values
+def _refinement(**changes) -> RefinementSummary:
+    base = dict(method="maximum likelihood", converged=False, reason="stopped after 60 iterations", iterations=60,
+                evaluations=75, newton_decrement=0.5, last_step_in_std=0.3, chi2=310.0, samples=300, seconds=2.0,
+                noise_std={"y": 0.011}, misfit_over_noise={"y": 1.02}, x0={"x": 0.0, "v": 0.1},
+                correlation={"k": {"k": 1.0, "c": None, "m": -0.5}}, input_noise_widening={"k": 1.0, "c": 1.0, "m": 1.2})
+    return RefinementSummary(**{**base, **changes})
+
+
 def _identification(**changes) -> Identification:
     params = (ParameterEstimate("k", 3.0, 2.0, 0.01, False, False, interval=(1.98, 2.02),
                                 interval_method="profile likelihood"),
@@ -90,11 +104,11 @@ def _identification(**changes) -> Identification:
                     upper=(0.02, float("nan"), 0.5), replicates=8, diverged=0, confidence=0.95, seed=0, held=("c",))
     base = dict(model="storey", mode="measured", method="ukf", parameters=params, fit={"y": 1.234, "z": None},
                 passes=3, passes_run=2, seconds=1.5, converged=False, output_misfit=0.9,
-                noise={"y": {"ratio": 0.01, "source": "given"}}, tuning=Tuning(0.3, 0.0, 100.0),
+                noise={"y": NoiseLevel(0.01, "given")}, tuning=Tuning(0.3, 0.0, 100.0),
                 tuning_scores=((Tuning(0.3, 0.0, 100.0), 0.9), (Tuning(0.5, 0.0, 100.0), 1.2)),
-                data={"name": "run1"}, practical=practical.with_spread(spread), assumptions=("white noise",),
-                structural=StructuralCheck("joint", (), False, ("m",), 2), converged_reason="the profile of m moved",
-                refinement={"misfit_over_noise": {"y": 1.02}})
+                data=RecordSummary(name="run1", dt=0.01, samples=300), practical=practical.with_spread(spread),
+                assumptions=("white noise",), structural=StructuralCheck("joint", (), False, ("m",), 2),
+                converged_reason="the profile of m moved", refinement=_refinement(misfit_over_noise={"y": 1.02}))
     return Identification(**{**base, **changes})
 
 
@@ -154,7 +168,7 @@ def test_identify_text_renders_the_value_as_the_json_renderer_did():
     run = _identification()
     assert identify_text(run) == TEXT
     # without the refinement the practical check's undecided parameters are named, before the parameters
-    lines = identify_text(_identification(refinement={})).splitlines()
+    lines = identify_text(_identification(refinement=None)).splitlines()
     assert lines[0] == "UKF on storey, measured data run1, 3 pass(es), 1.50 s: NOT converged: the profile of m moved"
     assert lines[3] == ("  k: not decided whether the record pins it within 5 %: Monte-Carlo std of the relative "
                         "error 1 % (95 % interval 0.5-2 %, 8 replicates) contains 1.7 %")
@@ -167,7 +181,7 @@ def test_identify_text_renders_the_value_as_the_json_renderer_did():
 def test_identify_text_takes_a_run_without_practical_check_nor_tuning_choice():
     from obsnl.report.identification import identify_text
 
-    text = identify_text(_identification(practical=None, refinement={}, tuning_scores=()))
+    text = identify_text(_identification(practical=None, refinement=None, tuning_scores=()))
     assert text.splitlines()[0] == "UKF on storey, measured data run1, 3 pass(es), 1.50 s: NOT converged: " \
         "the profile of m moved"
     assert "tuning:" not in text and "not decided" not in text and "  fit (NRMSE): y 1.23 %, z -" in text
@@ -223,3 +237,121 @@ def test_a_model_too_large_is_still_refused_before_any_work():
                       equations={"x": " + ".join(f"k{i}" for i in range(n)) + " - x + u"}, outputs={"y": "x"})
     with pytest.raises(AnalysisError, match=f"has {n + 1} unknowns .* more than the {n}"):
         analyze(big, seed=0)
+
+
+# --------------------------------------------------------------------------- issue 42: the fit, noise and record
+#: identify.json's "refinement" object as Refinement.to_dict wrote it before issue 42 (the fifteen keys, in order),
+#: with the objective and the predictor's gain that the prediction-error objective added after "method", and the
+#: samples left out next to a jump of a jumping output, last.
+REFINEMENT_JSON_KEYS = ["method", "objective", "predictor_gain", "converged", "reason", "iterations", "evaluations",
+                        "newton_decrement", "last_step_in_std", "chi2", "samples", "seconds", "noise_std",
+                        "misfit_over_noise", "x0", "correlation", "input_noise_widening", "left_out_near_jumps"]
+#: identify.json's "data" object of measured data: Measured.to_dict's keys and the inputs' intersample entries.
+MEASURED_JSON_KEYS = ["name", "source", "dt", "samples", "inputs", "outputs", "clock_deviation", "clock_tolerance",
+                      "missing", "ignored", "intersample"]
+FORCED = obsnl.Model(name="forced", states=["x", "v"], parameters=["k", "c"], inputs=["u"],
+                     equations={"x": "v", "v": "u - k*x - c*v"}, outputs={"y": "x"})
+
+
+def _forced_record():
+    """A mass-spring-damper (k 25, c 0.8) under a two-sine force, integrated by scipy's DOP853; 1 % output noise and
+    0.5 % input noise (seed 5), output sample 10 missing, and a column the model does not use."""
+    import numpy as np
+    from scipy.integrate import solve_ivp
+
+    t = np.arange(400) * 0.02
+    u = np.sin(5.0 * t) + 0.5 * np.sin(11.0 * t + 0.3)
+    sol = solve_ivp(lambda tt, s: [s[1], np.interp(tt, t, u) - 25.0 * s[0] - 0.8 * s[1]], (0, t[-1]), [0.0, 0.0],
+                    method="DOP853", t_eval=t, rtol=1e-11, atol=1e-13, max_step=0.005)
+    x = sol.y[0]
+    rng = np.random.default_rng(5)
+    y = x + 0.01 * np.sqrt(np.mean(x ** 2)) * rng.standard_normal(t.size)
+    y[10] = np.nan
+    u_measured = u + 0.005 * np.sqrt(np.mean(u ** 2)) * rng.standard_normal(t.size)
+    return {"t": t, "u": u_measured, "y": y, "note": np.zeros(t.size)}
+
+
+@pytest.fixture(scope="module")
+def forced_run():
+    """One identification with the fits it made (each Refinement refine() returned, the last the one kept)."""
+    import obsnl.identification.runs as runs
+
+    fits = []
+    real = runs.refine
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(runs, "refine", lambda *a, **k: fits.append(real(*a, **k)) or fits[-1])
+        res = obsnl.identify(FORCED, _forced_record(), guess={"k": 20.0, "c": 1.0}, noise={"y": 0.01},
+                             passes=1, progress=False, jit=False)
+    return res, fits
+
+
+def test_the_fit_noise_and_record_of_a_run_are_frozen_values(forced_run):
+    res, _ = forced_run
+    assert isinstance(res.refinement, RefinementSummary) and isinstance(res.data, RecordSummary)
+    assert all(isinstance(level, NoiseLevel) for level in res.noise.values()) and set(res.noise) == {"u", "y"}
+    for value, name in ((res.refinement, "converged"), (res.data, "name"), (res.noise["y"], "ratio")):
+        with pytest.raises(dataclasses.FrozenInstanceError):
+            setattr(value, name, None)
+    # read as attributes: the noise given for y, estimated for u (0.5 % was added; the differences estimate it, an
+    # upper bound where their orders disagree)
+    assert res.noise["y"].origin == "given" and res.noise["y"].ratio == 0.01 and res.noise["y"].estimate is None
+    u = res.noise["u"]
+    assert u.origin == ("upper bound" if u.upper_bound else "estimated") and 0.002 < u.estimate < 0.01
+    assert res.refinement.objective == "output" and res.refinement.predictor_gain is None
+    assert set(res.refinement.x0) == {"x", "v"} and res.refinement.samples == 399  # sample 10 missing
+    assert res.data.missing == {"y": 1} and res.data.ignored == ("note",) and res.data.inputs == ("u",)
+    assert [b.input for b in res.data.intersample] == ["u"]
+
+
+def test_the_json_of_the_values_has_the_keys_identify_json_had(forced_run):
+    from obsnl.identification.results import clean_json
+
+    res, fits = forced_run
+    doc = json.loads(json.dumps(res.to_dict(), allow_nan=False))
+    assert list(doc["refinement"]) == REFINEMENT_JSON_KEYS
+    assert list(doc["data"]) == MEASURED_JSON_KEYS
+    assert list(doc["noise"]["y"]) == ["ratio", "source"] and doc["noise"]["y"]["source"] == "given"
+    assert list(doc["noise"]["u"]) == ["ratio", "estimate", "upper_bound", "source"]
+    # the fit kept is the one refine() returned last: its own to_dict is what identify.json held before the value
+    # (a fit that does not name its objective is an output-error one)
+    own = json.loads(json.dumps(clean_json(fits[-1].to_dict()), allow_nan=False))
+    assert {k: doc["refinement"][k] for k in own} == own
+    assert set(doc["refinement"]) - set(own) <= {"objective", "predictor_gain", "left_out_near_jumps"}
+    # identify.json's objects read back into the same values
+    assert RefinementSummary.from_dict(doc["refinement"]).to_dict() == doc["refinement"]
+    assert RecordSummary.from_dict(doc["data"]) == res.data
+    assert {c: NoiseLevel.from_dict(v) for c, v in doc["noise"].items()} == dict(res.noise)
+
+
+def test_a_simulation_records_json_is_the_records_own():
+    import numpy as np
+
+    from obsnl.estimation.accelerogram import Record
+
+    for channels in ((), ("a", "b")):
+        record = Record(name="r", accel=np.ones((5, 2)) if channels else np.arange(5.0), dt=0.01, source="made here",
+                        notes=("scaled",), channels=channels)
+        summary = RecordSummary.from_dict(record.to_dict())
+        assert summary.kind == "simulated" and summary.to_dict() == record.to_dict()
+        assert list(summary.to_dict()) == list(record.to_dict())
+
+
+def test_a_refinement_or_record_object_without_its_keys_is_refused():
+    from obsnl.errors import DataError
+
+    with pytest.raises(DataError, match="the refinement object lacks 'chi2'"):
+        RefinementSummary.from_dict({k: 0 for k in REFINEMENT_JSON_KEYS if k != "chi2"})
+    with pytest.raises(DataError, match="the data object lacks 'dt', 'samples'"):
+        RecordSummary.from_dict({"name": "run1"})
+
+
+def test_a_floored_noise_level_is_said_beside_the_misfit():
+    from obsnl.report.identification import identify_text
+
+    # an estimate of 2e-5 raised to the filter's floor 1e-4: the misfit over it understates a misfit
+    floored = NoiseLevel(1e-4, "estimated from the differences; floored at 0.0001", estimate=2e-5)
+    assert floored.floored and floored.origin == "estimated" and not NoiseLevel(0.01, "given").floored
+    assert not NoiseLevel(1e-4, "taken as exact", estimate=0.9, upper_bound=True).floored  # an input at the floor
+    last = identify_text(_identification(noise={"y": floored})).splitlines()[-1]
+    assert last == "  residual RMS / the noise level the fit was given: y 1.02 (that level floored: a smaller " \
+        "misfit is not seen)"

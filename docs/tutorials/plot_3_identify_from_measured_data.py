@@ -72,7 +72,7 @@ for p in result.parameters:
 # band-limited, not white: the Fisher std and the intervals assume white noise, so they are too narrow here, and
 # obsnl does not claim them. The fit itself is at the noise floor:
 print(result.adequacy)
-print("residual RMS / the noise level the fit was given:", result.refinement["misfit_over_noise"])
+print("residual RMS / the noise level the fit was given:", result.refinement.misfit_over_noise)
 
 # %%
 # The fit on the training record:

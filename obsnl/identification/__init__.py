@@ -4,9 +4,9 @@ Owns the identification workflow on top of the filter core: the experiment set-u
 (``setup``), the filter protocol and tuning (``experiments``), practical identifiability at an estimate
 (``practical``, with Monte-Carlo replicates on an executor: ``replicates``), the maximum-likelihood
 refinement after the filter (``likelihood``) and its profile-likelihood intervals (``profile``), one
-identification run as a result value (``runs``, ``results``) with its structural check as a value
-(``structural``: ``StructuralCheck``), and the public entry points that check the
-model's structure first (``identify``: :func:`obsnl.identify`, the simulation study, the result folder).
+identification run as a result value (``runs``, ``results``; its fit, noise levels and record as values:
+``summaries``) with its structural check as a value (``structural``: ``StructuralCheck``), and the public entry
+points that check the model's structure first (``identify``: :func:`obsnl.identify`, the simulation study, the result folder).
 
 May import: ``errors``, ``executor``, ``model``, ``observability`` (the structural verdict comes first:
 ``analyze``, the branch-table check), ``estimation`` (the filter core: codegen, numeric steps, simulation,
@@ -23,6 +23,9 @@ from obsnl._exports import lazy_exports
 #: one module of the room loads nothing else): name -> module.
 _LAZY: dict[str, str] = {
     "Identification": "results",
+    "RefinementSummary": "summaries",
+    "NoiseLevel": "summaries",
+    "RecordSummary": "summaries",
     "Setup": "setup",
     "Tuning": "setup",
     "make_data": "setup",
@@ -53,6 +56,9 @@ if TYPE_CHECKING:  # the public names as type checkers see them; at run time eac
     from obsnl.identification.setup import make_filter as make_filter
     from obsnl.identification.setup import output_misfit as output_misfit
     from obsnl.identification.structural import StructuralCheck as StructuralCheck
+    from obsnl.identification.summaries import NoiseLevel as NoiseLevel
+    from obsnl.identification.summaries import RecordSummary as RecordSummary
+    from obsnl.identification.summaries import RefinementSummary as RefinementSummary
 
 __all__ = list(_LAZY)
 

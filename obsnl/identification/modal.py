@@ -282,7 +282,7 @@ def parameter_covariance(result: Any) -> tuple[np.ndarray, str]:
     """
     ps = result.parameters
     d = np.array([0.0 if p.held else (math.inf if p.std is None else float(p.std)) for p in ps])
-    corr = (result.refinement or {}).get("correlation") or {}
+    corr = {} if result.refinement is None else result.refinement.correlation
     R = np.eye(len(ps))
     for i, p in enumerate(ps):
         for j, q in enumerate(ps):

@@ -12,7 +12,7 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,8 +25,22 @@ from obsnl.identification.practical import Practical
 from obsnl.identification.profile import Profile
 from obsnl.identification.setup import Tuning
 from obsnl.identification.structural import StructuralCheck
+from obsnl.identification.summaries import NoiseLevel, RecordSummary, RefinementSummary
 
-__all__ = ["Identification", "ParameterEstimate", "clean_json", "error_of"]
+if TYPE_CHECKING:
+    from obsnl.identification.modal import Modal
+    from obsnl.identification.validation.merit import Validation
+    from obsnl.model.core import Model
+
+__all__ = [
+    "Identification",
+    "ParameterEstimate",
+    "RefinementSummary",
+    "NoiseLevel",
+    "RecordSummary",
+    "clean_json",
+    "error_of",
+]
 
 
 def clean_json(x: Any) -> Any:
@@ -136,6 +150,10 @@ class Identification:
     recorded). ``adequacy``: whether the fitted model explains the data to the noise level
     (:class:`~obsnl.identification.adequacy.Adequacy`, residual tests after the maximum-likelihood fit; None where no
     fit was made); when it failed every parameter is flagged, and :meth:`summary` says so first.
+    ``refinement``: what the run keeps of the maximum-likelihood fit
+    (:class:`~obsnl.identification.summaries.RefinementSummary`; None without one: ``{}`` in the JSON);
+    ``noise``: each channel's :class:`~obsnl.identification.summaries.NoiseLevel` and where it came from;
+    ``data``: the record fitted (:class:`~obsnl.identification.summaries.RecordSummary`).
     """
 
     model: str
@@ -148,14 +166,14 @@ class Identification:
     seconds: float
     converged: bool
     output_misfit: float | None
-    noise: Mapping[str, Mapping[str, Any]]
+    noise: Mapping[str, NoiseLevel]
     tuning: Tuning
     tuning_scores: tuple[tuple[Tuning, float], ...]
-    data: Mapping[str, Any]
+    data: RecordSummary
     practical: Practical | None
     assumptions: tuple[str, ...]
     repairs: int = 0
-    fitted_model: Any = field(default=None, repr=False)  # the Model identified (identify, study): simulate() runs it
+    fitted_model: Model | None = field(default=None, repr=False)  # the Model identified (identify, study): simulate()
     structural: StructuralCheck | None = None
     seed: int | None = None
     traces: tuple[Trajectory, ...] = field(default=(), repr=False)
@@ -164,7 +182,7 @@ class Identification:
     y_fit: np.ndarray | None = field(default=None, repr=False)
     outputs: tuple[str, ...] = ()
     converged_reason: str = ""
-    refinement: Mapping[str, Any] = field(default_factory=dict)
+    refinement: RefinementSummary | None = None
     profiles: tuple[Profile, ...] = field(default=(), repr=False)
     compiled: bool | None = None
     adequacy: Adequacy | None = None
@@ -220,7 +238,7 @@ class Identification:
         """``{name: estimate}`` (``None`` for a held parameter)."""
         return {p.name: p.estimate for p in self.parameters}
 
-    def simulate(self, record: Any, *, warmup: int = 0, intersample: Any = None, model: Any = None) -> Any:
+    def simulate(self, record: Any, *, warmup: int = 0, intersample: Any = None, model: Any = None) -> Validation:
         """The fitted model run on a new record and scored (:func:`obsnl.simulate`): RMSE, NRMSE, fit % and dB per
         output, at the estimates (a held parameter at its guess).
 
@@ -247,7 +265,7 @@ class Identification:
             This result keeps no model and ``model`` is not given.
         """
         from obsnl.errors import OptionError
-        from obsnl.identification.validation.run import fit_kinds, simulate
+        from obsnl.identification.validation.run import simulate
 
         model = self.fitted_model if model is None else model
         if model is None:
@@ -257,10 +275,10 @@ class Identification:
             )
         # a parameter's estimate is None exactly where it was held at its guess
         values = {p.name: p.guess if p.held or p.estimate is None else p.estimate for p in self.parameters}
-        kinds = intersample if intersample is not None else fit_kinds(self.data)
+        kinds = intersample if intersample is not None else {b.input: b.kind for b in self.data.intersample} or None
         return simulate(model, values, record, warmup=warmup, intersample=kinds)
 
-    def modal(self, *, state: Mapping[str, float] | Sequence[float] | None = None) -> Any:
+    def modal(self, *, state: Mapping[str, float] | Sequence[float] | None = None) -> Modal:
         """The fitted model linearised at rest (or at ``state``): natural frequencies, damping ratios and mode shapes
         at the measured outputs, each with its std from the estimates' covariance
         (:func:`obsnl.identification.modal.modal`).
@@ -284,7 +302,7 @@ class Identification:
         return self.modal(state=state).to_control()
 
     @cached_property
-    def linear_at_rest(self) -> Any:
+    def linear_at_rest(self) -> Modal | None:
         """The fitted model linearised at rest with its modes (:meth:`modal`), or None where it cannot be: no model
         kept, or the zero state is not at rest under zero inputs."""
         if self.fitted_model is None:
@@ -295,7 +313,7 @@ class Identification:
             return None
 
     @property
-    def modal_at_rest(self) -> Any:
+    def modal_at_rest(self) -> Modal | None:
         """:attr:`linear_at_rest` where it has modes (a complex pair of eigenvalues: an oscillatory model), else
         None; ``identify.json`` holds it as ``"modal"``."""
         lin = self.linear_at_rest
@@ -359,13 +377,13 @@ class Identification:
                 "fit": dict(self.fit),
                 "converged": self.converged,
                 "converged_reason": self.converged_reason,
-                "refinement": dict(self.refinement),
+                "refinement": {} if self.refinement is None else self.refinement.to_dict(),
                 "profiles": [p.to_dict() for p in self.profiles],
                 "output_misfit": self.output_misfit,
-                "noise": dict(self.noise),
+                "noise": {c: level.to_dict() for c, level in self.noise.items()},
                 "tuning": self.tuning.to_dict(),
                 "tuning_scores": [{**t.to_dict(), "output_misfit": s} for t, s in self.tuning_scores],
-                "data": dict(self.data),
+                "data": self.data.to_dict(),
                 "structural": {} if self.structural is None else self.structural.to_dict(),
                 "repairs": self.repairs,
                 "practical_identifiability": {} if self.practical is None else self.practical.to_dict(),

@@ -77,6 +77,29 @@ class _Adequacy(Protocol):
     def headline(self) -> str: ...
 
 
+class _Refinement(Protocol):
+    @property
+    def misfit_over_noise(self) -> Mapping[str, float]: ...
+
+
+class _NoiseLevel(Protocol):
+    @property
+    def floored(self) -> bool: ...
+
+
+class _Record(Protocol):
+    @property
+    def name(self) -> str: ...
+    @property
+    def samples(self) -> int: ...
+    @property
+    def clock_deviation(self) -> float: ...
+    @property
+    def missing(self) -> Mapping[str, int]: ...
+    @property
+    def ignored(self) -> Sequence[str]: ...
+
+
 class IdentificationRun(Protocol):
     """What :func:`identify_text` reads of a run (:class:`obsnl.identification.results.Identification`)."""
 
@@ -105,13 +128,13 @@ class IdentificationRun(Protocol):
     @property
     def tuning_scores(self) -> Sequence[tuple[_Tuning, float]]: ...
     @property
-    def data(self) -> Mapping[str, Any]: ...
+    def data(self) -> _Record: ...
     @property
-    def noise(self) -> Mapping[str, Mapping[str, Any]]: ...  # read only beside the refinement's misfit_over_noise
+    def noise(self) -> Mapping[str, _NoiseLevel]: ...  # read only beside the refinement's misfit_over_noise
     @property
     def practical(self) -> _Practical | None: ...
     @property
-    def refinement(self) -> Mapping[str, Any]: ...
+    def refinement(self) -> _Refinement | None: ...  # None: no maximum-likelihood fit
     @property
     def adequacy(self) -> _Adequacy | None: ...  # read with getattr: None or absent, no fit was made
 
@@ -144,7 +167,8 @@ def identify_text(result: IdentificationRun) -> str:
     ...         error=None, error_kind=None, interval=None)
     >>> run = Run(model="m", mode="measured", method="ukf", parameters=[k], fit={"y": 1.234}, passes=1,
     ...           passes_run=1, seconds=0.5, converged=True, converged_reason="", tuning=None, tuning_scores=(),
-    ...           data={"name": "d"}, practical=None, refinement={})
+    ...           data=Run(name="d", samples=100, clock_deviation=0.0, missing={}, ignored=()), practical=None,
+    ...           refinement=None)
     >>> print(identify_text(run))
     UKF on m, measured data d, 1 pass(es), 0.50 s: converged
       k          estimate 2          std 0.01
@@ -159,14 +183,14 @@ def identify_text(result: IdentificationRun) -> str:
             "identify_text renders the Identification value (obsnl.identify's result), not the content of identify.json"
         )
     run = result
-    prac, ref = run.practical, run.refinement or {}
+    prac, ref = run.practical, run.refinement
     why = run.converged_reason
     state = "converged" if run.converged else "NOT converged" + (f": {why}" if why else "")
     compiled: bool | None = getattr(run, "compiled", None)  # None or absent: not said
     how = "" if compiled is None else " (compiled)" if compiled else " (not compiled)"
     lines = [
-        f"{run.method.upper()}{' + maximum likelihood' if ref else ''} on {run.model}, {run.mode} data "
-        f"{run.data.get('name', '')}, {run.passes} pass(es), {run.seconds:.2f} s{how}: {state}"
+        f"{run.method.upper()}{' + maximum likelihood' if ref is not None else ''} on {run.model}, {run.mode} data "
+        f"{run.data.name}, {run.passes} pass(es), {run.seconds:.2f} s{how}: {state}"
     ]
     adequacy: _Adequacy | None = getattr(run, "adequacy", None)  # None or absent: no fit was made
     inadequate = False
@@ -186,7 +210,7 @@ def identify_text(result: IdentificationRun) -> str:
         )
     if run.passes_run < run.passes:
         lines.append(f"  stopped after pass {run.passes_run}: its estimate cannot be simulated (the filter diverged)")
-    if prac is not None and not ref:  # with the refinement the profiles judge each parameter
+    if prac is not None and ref is None:  # with the refinement the profiles judge each parameter
         if prac.inconclusive:
             lines.append(f"  practical identifiability not decided: {prac.inconclusive}")
         lines += [
@@ -198,15 +222,15 @@ def identify_text(result: IdentificationRun) -> str:
         lines.append(f"  {held} parameter(s) held at their guess")
     fit = ", ".join(f"{k} {v:.2f} %" if _given(v) else f"{k} -" for k, v in run.fit.items())
     lines.append(f"  fit (NRMSE): {fit}")
-    if ref.get("misfit_over_noise"):
+    if ref is not None and ref.misfit_over_noise:
         # over the noise level the fit was given; a level raised to the filter's floor is said, since the ratio then
         # understates a misfit (the adequacy tests judge against the independent estimate)
-        floored = {k for k, v in (run.noise or {}).items() if "floored" in str(v.get("source", ""))}
+        floored = {k for k, level in run.noise.items() if level.floored}
         lines.append(
             "  residual RMS / the noise level the fit was given: "
             + ", ".join(
                 f"{k} {v:.2f}" + (" (that level floored: a smaller misfit is not seen)" if k in floored else "")
-                for k, v in ref["misfit_over_noise"].items()
+                for k, v in ref.misfit_over_noise.items()
             )
         )
     modal = getattr(run, "modal_at_rest", None)  # an oscillatory model's modes (None: none, or not linearisable)
@@ -225,24 +249,25 @@ def identify_text(result: IdentificationRun) -> str:
     return "\n".join(lines)
 
 
-def _data_said(data: Mapping[str, Any]) -> str:
+def _data_said(data: _Record) -> str:
     """How the record was read, where it was not as given: a jittered clock read as regular, missing output
     samples, columns the model does not use ('' for none).
 
     Examples
     --------
-    >>> _data_said({"samples": 300, "clock_deviation": 3e-5, "missing": {"y": 150}, "ignored": ["note"]})
+    >>> from types import SimpleNamespace as Record
+    >>> _data_said(Record(samples=300, clock_deviation=3e-5, missing={"y": 150}, ignored=["note"]))
     'clock read as regular (within 3e-05 of a step); missing output samples: y 150 of 300; columns ignored: note'
     """
-    missing = [f"{k} {v} of {data.get('samples')}" for k, v in (data.get("missing") or {}).items() if v]
+    missing = [f"{k} {v} of {data.samples}" for k, v in data.missing.items() if v]
     return "; ".join(
         x
         for x in (
-            f"clock read as regular (within {data['clock_deviation']:.2g} of a step)"
-            if (data.get("clock_deviation") or 0) > 1e-9
+            f"clock read as regular (within {data.clock_deviation:.2g} of a step)"
+            if data.clock_deviation > 1e-9
             else "",
             f"missing output samples: {', '.join(missing)}" if missing else "",
-            f"columns ignored: {', '.join(data['ignored'])}" if data.get("ignored") else "",
+            f"columns ignored: {', '.join(data.ignored)}" if data.ignored else "",
         )
         if x
     )
