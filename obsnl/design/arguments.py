@@ -169,7 +169,7 @@ def record_run(model: Model, rec: Any, *, name: str = "data") -> tuple[str, np.n
     -------
     tuple
         The name, the times and the samples of each input, as float arrays (their values are checked by the
-        simulation, :func:`obsnl.observability.joint.visited.visited_patterns`).
+        simulation, :meth:`obsnl.design.continuous.TrajectoryVisits.drive`).
 
     Raises
     ------

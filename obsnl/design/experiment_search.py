@@ -7,9 +7,9 @@ joint verdict: a target that is not jointly identifiable with the chosen sensors
 verdict :func:`obsnl.sensors` starts from) is not identifiable at any scale (:func:`structural_targets`). The design
 names those targets up front, with the symmetries that move them, and searches the scale for the others only.
 
-**Blow-ups.** The visits come from a fixed-step Runge-Kutta simulation (:mod:`obsnl.observability.joint.visited`);
-a large scale can make it diverge, or carry the state where the model is not defined (a non-finite state either
-way). Such a scale is a :class:`BlowUp` (the scale, the record, the time), never a verdict: the grid stops there (a
+**Blow-ups.** The visits come from a simulation with fixed steps (:mod:`obsnl.design.continuous`: RK4 substeps,
+split at located crossings, ROS2 where a step is stiff); a large scale can make it diverge, or carry the state where
+the model is not defined (a non-finite state either way). Such a scale is a :class:`BlowUp` (the scale, the record, the time), never a verdict: the grid stops there (a
 larger excitation of the same record is no better behaved with the same step), the answer is given from the scales
 that ran, and a search the blow-up cut short is inconclusive above the last scale that ran, never "none suffices".
 A bisection point that blows up ends the bisection on its bracket, which is not narrowed past it.
@@ -93,7 +93,7 @@ def blow_up(err: AnalysisError, scale: float, record: str) -> BlowUp | None:
     Parameters
     ----------
     err : AnalysisError
-        What :func:`~obsnl.observability.joint.visited.visited_patterns` raised.
+        What the simulation (:meth:`obsnl.design.continuous.TrajectoryVisits.visits`) raised.
     scale : float
         The factor on the record.
     record : str
