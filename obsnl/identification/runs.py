@@ -46,6 +46,7 @@ from obsnl.identification.refine import Refinement, adequacy_of, refine
 from obsnl.identification.replicates import check_passes, check_replicates, spread_on
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
 from obsnl.identification.setup import MIN_NOISE, Data, Setup, coordinates, free_start, output_misfit
+from obsnl.identification.summaries import NoiseLevel, RecordSummary, RefinementSummary, noise_levels
 from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.report.identification.run import between_said
 
@@ -250,8 +251,8 @@ def _result(
     held: tuple[str, ...],
     prac: Any,
     misfit: float,
-    noise: Mapping,
-    data_dict: Mapping,
+    noise: Mapping[str, NoiseLevel | Mapping[str, Any]],
+    data_dict: RecordSummary | Mapping[str, Any],
     assumptions: Sequence[str],
     seed: int | None,
     refined: bool = True,
@@ -379,10 +380,10 @@ def _result(
         seconds=float(sum(t.seconds for t in trs)) + refine_seconds,
         converged=converged,
         output_misfit=misfit if math.isfinite(misfit) else None,
-        noise=noise,
+        noise=noise_levels(noise),
         tuning=tuning,
         tuning_scores=scores,
-        data=data_dict,
+        data=data_dict if isinstance(data_dict, RecordSummary) else RecordSummary.from_dict(data_dict),
         practical=prac,
         assumptions=tuple(assumptions),
         repairs=int(sum(t.total_repairs for t in trs)),
