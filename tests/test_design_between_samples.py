@@ -223,6 +223,9 @@ def test_the_command_takes_intersample(tmp_path, capsys) -> None:
         seen[kind] = {p["pattern"] for p in doc["visited"][0]["patterns"]}
         assert doc["assumptions"]["between samples"] == {"u": kind}
     assert seen == {"zoh": {"+", "-"}, "linear": {"+"}}
+    main(["design", str(model), "--record", str(rec), "--scales", "1", "--intersample", "u=zoh"])
+    out = capsys.readouterr().out
+    assert "simulated: along the continuous trajectory; input between samples: u zoh; from x = 0" in out
     assert main(["design", str(model), "--record", str(rec), "--intersample", "cubic"]) == 2
     out, err = capsys.readouterr()
     assert out == "" and err.count("\n") == 1 and "'cubic'" in err and "zoh, linear or bandlimited" in err
