@@ -271,8 +271,8 @@ class TrajectoryVisits:
         gb, rb = self._rates(X[1:], ub, du)  # its end (left limit)
 
         def side(g: np.ndarray, r: np.ndarray) -> np.ndarray:
-            on = (g == 0) | (np.abs(g) <= 1e-6 * h * np.abs(r))
-            return np.where(on, 0, np.sign(g)).astype(int)
+            on = (g == 0) | (np.abs(g) <= 1e-6 * h * np.abs(r)) | ~np.isfinite(g)  # not a number: on no branch
+            return np.where(on, 0, np.sign(np.nan_to_num(g))).astype(int)
 
         sa, sb = side(ga, ra), side(gb, rb)
         signs = np.vstack([sa, sb[-1:]])
