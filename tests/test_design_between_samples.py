@@ -248,13 +248,28 @@ def _bad_kind(text: str) -> bool:
     return kind.strip() not in KINDS or (bool(name) and name.strip() != "u") or "=" in name
 
 
+@pytest.fixture(scope="module")
+def pulse_files(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("pulse")
+    (folder / "pulse.toml").write_text('name = "pulse"\nstates = ["x"]\nparameters = ["kc", "g"]\ninputs = ["u"]\n'
+                                       '[equations]\nx = "u - kc*Max(x - g, 0)"\n[outputs]\ny = "x"\n'
+                                       f'[values]\nkc = 5.0\ng = {GAP!r}\n')
+    (folder / "pulse.csv").write_text("time_s,accel_m_s2\n" + "\n".join(f"{a:.17g},{b:g}" for a, b in
+                                                                        zip(PULSE_T, PULSE_U)) + "\n")
+    return folder
+
+
 # derandomized: the same examples on every run (no error probability); each example is refused before any simulation
 @settings(max_examples=60, deadline=None, derandomize=True, database=None, suppress_health_check=_HEALTH)
 @given(st.one_of(st.text(max_size=40), st.sampled_from(["", "=", "u=", "=zoh", "v=zoh", "ZOH", "zoh ", "u==zoh",
                                                          "u=cubic", "x" * 10_000, "bandlimited,zoh"])))
-def test_a_bad_intersample_value_is_one_line_error(text: str) -> None:
+def test_a_bad_intersample_value_is_one_line_error(pulse_files, capsys, text: str) -> None:
     if not _bad_kind(text):
         return
     with pytest.raises(OptionError) as err:
         design(pulse_model(), [("pulse", PULSE_T, {"u": PULSE_U})], scales=[1.0], intersample=text)
     assert "\n" not in str(err.value) and len(str(err.value)) < 400
+    code = main(["design", str(pulse_files / "pulse.toml"), "--record", str(pulse_files / "pulse.csv"),
+                 f"--intersample={text}"])
+    out, err_text = capsys.readouterr()
+    assert code == 2 and out == "" and err_text.count("\n") == 1 and len(err_text) < 500, err_text
