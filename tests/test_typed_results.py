@@ -355,3 +355,13 @@ def test_a_floored_noise_level_is_said_beside_the_misfit():
     last = identify_text(_identification(noise={"y": floored})).splitlines()[-1]
     assert last == "  residual RMS / the noise level the fit was given: y 1.02 (that level floored: a smaller " \
         "misfit is not seen)"
+
+
+def test_a_validations_record_is_a_value_with_the_keys_validate_json_had():
+    v = obsnl.simulate(FORCED, {"k": 25.0, "c": 0.8}, _forced_record())
+    assert isinstance(v.record, RecordSummary) and v.record.samples == 400 and v.record.ignored == ("note",)
+    assert v.record.intersample is None  # said beside the record, in v.intersample
+    doc = json.loads(json.dumps(v.to_dict(), allow_nan=False))
+    # Measured.to_dict's keys, as validate.json's "record" held them
+    assert list(doc["record"]) == MEASURED_JSON_KEYS[:-1] and doc["record"]["missing"] == {"y": 1}
+    assert v.scored == 400 and "forced on 'data': 400 samples scored" in v.summary()

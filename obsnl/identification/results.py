@@ -275,7 +275,9 @@ class Identification:
             )
         # a parameter's estimate is None exactly where it was held at its guess
         values = {p.name: p.guess if p.held or p.estimate is None else p.estimate for p in self.parameters}
-        kinds = intersample if intersample is not None else {b.input: b.kind for b in self.data.intersample} or None
+        kinds = (
+            intersample if intersample is not None else {b.input: b.kind for b in self.data.intersample or ()} or None
+        )
         return simulate(model, values, record, warmup=warmup, intersample=kinds)
 
     def modal(self, *, state: Mapping[str, float] | Sequence[float] | None = None) -> Modal:

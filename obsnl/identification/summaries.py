@@ -257,8 +257,9 @@ def noise_levels(levels: Mapping[str, NoiseLevel | Mapping[str, Any]]) -> dict[s
     return {str(c): v if isinstance(v, NoiseLevel) else NoiseLevel.from_dict(v) for c, v in levels.items()}
 
 
-#: The keys of ``identify.json``'s ``data`` object, in their order: of measured data, and of a simulation study's
-#: record (``channels`` only where the record names them).
+#: The keys of ``identify.json``'s ``data`` object, in their order: of measured data (``intersample`` only where it
+#: is said: not in ``validate.json``'s ``record``), and of a simulation study's record (``channels`` only where the
+#: record names them).
 MEASURED_KEYS: tuple[str, ...] = (
     "name",
     "source",
@@ -280,7 +281,8 @@ class RecordSummary:
     """The record a run was fitted to (``identify.json``'s ``data``).
 
     ``kind``: ``"measured"`` (:func:`obsnl.identification.runs.identify_measured`: its channels, how the clock was
-    read, the output samples missing, the columns ignored, how each input is taken between samples) or
+    read, the output samples missing, the columns ignored, how each input is taken between samples, ``intersample``:
+    None where the record does not say, as in a validation, which says it beside the record) or
     ``"simulated"`` (a simulation study's driving record: its notes, its peak ground acceleration, its channels).
     The fields of the other kind keep their empty defaults.
 
@@ -304,7 +306,7 @@ class RecordSummary:
     clock_tolerance: float | None = None
     missing: Mapping[str, int] = field(default_factory=dict)
     ignored: tuple[str, ...] = ()
-    intersample: tuple[InputBetween, ...] = ()
+    intersample: tuple[InputBetween, ...] | None = None
     notes: tuple[str, ...] = ()
     pga_m_s2: float | None = None
     channels: tuple[str, ...] = ()
@@ -350,9 +352,9 @@ class RecordSummary:
             clock_tolerance=None if tol is None else float(tol),
             missing={str(k): int(v) for k, v in (d.get("missing") or {}).items()},
             ignored=tuple(d.get("ignored") or ()),
-            intersample=tuple(
-                b if isinstance(b, InputBetween) else InputBetween(**dict(b)) for b in d.get("intersample") or ()
-            ),
+            intersample=None
+            if d.get("intersample") is None
+            else tuple(b if isinstance(b, InputBetween) else InputBetween(**dict(b)) for b in d["intersample"]),
         )
 
     def to_dict(self) -> dict[str, Any]:
@@ -378,5 +380,5 @@ class RecordSummary:
             "clock_tolerance": self.clock_tolerance,
             "missing": dict(self.missing),
             "ignored": list(self.ignored),
-            "intersample": [b.to_dict() for b in self.intersample],
+            **({} if self.intersample is None else {"intersample": [b.to_dict() for b in self.intersample]}),
         }

@@ -25,6 +25,7 @@ import numpy as np
 
 from obsnl._display import render
 from obsnl._text import block, names, number, one_line
+from obsnl.identification.summaries import RecordSummary
 
 __all__ = ["figures_of_merit", "OutputScore", "Validation"]
 
@@ -119,7 +120,7 @@ class Validation:
     """
 
     model: str
-    record: Mapping[str, Any]
+    record: RecordSummary
     parameters: Mapping[str, float]
     parameters_from: str
     start: str
@@ -139,7 +140,7 @@ class Validation:
     @property
     def scored(self) -> int:
         """Samples scored: the record without its warm-up."""
-        return int(self.record.get("samples", 0)) - self.warmup
+        return self.record.samples - self.warmup
 
     def _start_text(self) -> str:
         if self.start == "estimated":
@@ -153,7 +154,7 @@ class Validation:
         return one_line(
             "Validation",
             f"model={self.model!r}",
-            f"record={self.record.get('name')!r}",
+            f"record={self.record.name!r}",
             f"scored={self.scored}",
             f"start={self.start!r}",
             f"'{scores}'",
@@ -164,8 +165,8 @@ class Validation:
         rows = [s.summary().rstrip("\n") for s in self.outputs.values()]
         kinds = names([f"{u} {k}" for u, k in self.intersample.items()], 6)
         return block(
-            f"{self.model} on {self.record.get('name')!r}: {self.scored} samples scored at dt = "
-            f"{number(self.record.get('dt'))} s, simulated {self._start_text()}",
+            f"{self.model} on {self.record.name!r}: {self.scored} samples scored at dt = "
+            f"{number(self.record.dt)} s, simulated {self._start_text()}",
             *rows[:9],
             f"... and {len(rows) - 9} more outputs" if len(rows) > 9 else "",
             f"inputs between samples: {kinds}" if kinds else "",
@@ -197,7 +198,7 @@ class Validation:
         return {
             "schema": "obsnl.validate/1",
             "model": self.model,
-            "record": dict(self.record),
+            "record": self.record.to_dict(),
             "outputs": {o: s.to_dict() for o, s in self.outputs.items()},
             "start": self.start,
             "start_note": self.start_note,

@@ -33,6 +33,7 @@ from obsnl.estimation.measured import Measured, is_frame, measured, read_measure
 from obsnl.estimation.numeric import NumericModel
 from obsnl.estimation.simulate import simulate as simulate_numeric
 from obsnl.identification.likelihood import LOCATE
+from obsnl.identification.summaries import RecordSummary
 from obsnl.identification.validation.merit import OutputScore, Validation, figures_of_merit
 from obsnl.model.core import Model
 from obsnl.model.files import as_model
@@ -375,7 +376,7 @@ def simulate(
     }
     return Validation(
         model=model.name,
-        record=data.to_dict(),
+        record=RecordSummary.from_dict(data.to_dict()),
         parameters=values,
         parameters_from=source,
         start=start,

@@ -36,13 +36,22 @@ class _Score(Protocol):
     def db(self) -> float | None: ...
 
 
+class _Record(Protocol):
+    @property
+    def name(self) -> str: ...
+    @property
+    def samples(self) -> int: ...
+    @property
+    def dt(self) -> float: ...
+
+
 class ValidationRun(Protocol):
     """What :func:`validate_text` reads of a validation (:class:`obsnl.identification.validation.merit.Validation`)."""
 
     @property
     def model(self) -> str: ...
     @property
-    def record(self) -> Mapping[str, Any]: ...
+    def record(self) -> _Record: ...
     @property
     def parameters_from(self) -> str: ...
     @property
@@ -83,7 +92,7 @@ def validate_text(v: ValidationRun) -> str:
     --------
     >>> from types import SimpleNamespace as V
     >>> s = V(rmse=0.01, nrmse=0.1, fit_percent=90.0, db=-20.0)
-    >>> print(validate_text(V(model="m", record={"name": "test", "samples": 100, "dt": 0.01}, parameters_from="given",
+    >>> print(validate_text(V(model="m", record=V(name="test", samples=100, dt=0.01), parameters_from="given",
     ...       start="rest", start_note="", warmup=0, scored=100, x0={"x": 0.0}, intersample={"u": "linear"},
     ...       outputs={"y": s}, assumptions=["the parameters are fixed"])))
     validate m on 'test': 100 samples at dt = 0.01 s, parameters given
@@ -116,8 +125,7 @@ def validate_text(v: ValidationRun) -> str:
     src = "given" if v.parameters_from == "given" else f"from {v.parameters_from}"
     return "\n".join(
         [
-            f"validate {v.model} on {rec.get('name')!r}: {rec.get('samples')} samples at dt = "
-            f"{number(rec.get('dt'))} s, parameters {src}",
+            f"validate {v.model} on {rec.name!r}: {rec.samples} samples at dt = {number(rec.dt)} s, parameters {src}",
             start,
             *rows,
             "inputs between samples: " + ", ".join(f"{u} {k}" for u, k in v.intersample.items()),
