@@ -3,7 +3,9 @@
 Analysis -> branch table (:mod:`~obsnl.studies.seed_experiment`) -> UKF and DUKF tuned on unreported noise
 seeds by successive halving (:func:`~obsnl.studies.seed_tuning.successive_halving`: every configuration of the
 grid on the first tuning seed, the best ``HALVING_KEEP`` of each protocol on the others; the same procedure for
-both filters) -> reported runs on noise seeds ``0..seeds-1`` (:mod:`~obsnl.studies.seed_runs`) -> the
+both filters; every tuning seed is a noise seed of the record at hand) -> reported runs on noise seeds
+``0..seeds-1``, the tuning's choice confirmed on each one's own data or, where it leaves the output misfit above
+the noise floor, replaced by the next configurations of the ranking (:mod:`~obsnl.studies.seed_runs`) -> the
 maximum-likelihood refinement of each reported seed, started from the estimate of the filter (UKF or DUKF,
 refined protocol) whose free-run output misfit on that seed is the smaller -> the Table 2 analog
 (:class:`~obsnl.studies.seed_reproduction.Reproduction`, ``table2.json``; text in
@@ -108,9 +110,11 @@ def reproduce(
         Another ground motion (default: Northridge 1994, the paper's record).
     seeds, tuning_seeds : int
         Reported noise seeds ``0..seeds-1``; tuning seeds ``1000..`` (never reported; five by default,
-        decided before any reported seed was looked at). A reported run that diverged (it stopped, or
-        its free-run output misfit is above ``DIVERGED`` times the output noise level) is redone with
-        the next configuration of the tuning ranking, at most ``FALLBACKS`` times; the discarded
+        decided before any reported seed was looked at). The tuning's choice is confirmed on each
+        reported seed's own data: a run whose free-run output misfit is above ``FLOOR`` times the output
+        noise level (it has not reached the noise floor, or it stopped) is followed by the next
+        configurations of the tuning ranking on the same data, at most ``FALLBACKS`` more, and the
+        smallest misfit is reported (:func:`~obsnl.studies.seed_runs.reported_with_fallbacks`); the other
         attempts are kept in the run's ``redone`` list.
     passes : int
         Passes of the refined protocol (the paper's protocol is one pass).

@@ -17,7 +17,7 @@ import numpy as np
 
 from obsnl.estimation.ukf import Trajectory
 from obsnl.identification.experiments import DIVERGED, Setup, Tuning, make_data
-from obsnl.studies.seed_runs import FALLBACKS, Refined, RunResult
+from obsnl.studies.seed_runs import FALLBACKS, FLOOR, Refined, RunResult
 from obsnl.studies.seed_tasks import ML_MAX_ITER
 from obsnl.studies.seed_tuning import tuning_protocol
 
@@ -87,6 +87,8 @@ class Reproduction:
                 n_grid,
                 len(self.tuning_seeds),
                 sum(v for (_, _, k), v in self.tuning_runs.items() if k == 1),
+                floor=FLOOR,
+                candidates=FALLBACKS + 1,
             ),
             "tuning": [
                 {
@@ -102,6 +104,7 @@ class Reproduction:
             "compile_seconds": dict(self.compile_seconds),
             "diverged_factor": DIVERGED,
             "fallbacks": FALLBACKS,
+            "noise_floor_factor": FLOOR,
             "paper_errors_percent": {k: dict(v) for k, v in PAPER_ERRORS.items()},
             "runs": [r.to_dict(s.model.parameters, s.theta_true) for r in self.runs],
             "refinement_protocol": ML_PROTOCOL if self.refinements else None,

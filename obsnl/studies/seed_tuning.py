@@ -1,5 +1,9 @@
 """The tuning of the seed experiment's filters: one rung of successive halving on unreported noise seeds.
 
+The tuning seeds are noise seeds of the record at hand (the experiment's own ground motion, never another's):
+``obsnl reproduce --record`` tunes on that record. Each reported run then confirms the choice on its own data
+(:func:`obsnl.studies.seed_runs.reported_with_fallbacks`).
+
 Every configuration of the grid runs on the first tuning seed; the best :data:`HALVING_KEEP` of each protocol
 (one pass, and the refined protocol's passes) go on to the other tuning seeds (:func:`successive_halving`); the
 same procedure for both filters. :func:`tuning_protocol` says in one sentence how the configurations were chosen
@@ -26,7 +30,9 @@ TUNING_SEEDS = 1000
 HALVING_KEEP = 12
 
 
-def tuning_protocol(keep: int | None, n_grid: int, n_seeds: int, n_runs: int) -> str:
+def tuning_protocol(
+    keep: int | None, n_grid: int, n_seeds: int, n_runs: int, *, floor: float | None = None, candidates: int = 1
+) -> str:
     """One sentence on how the configurations were chosen.
 
     Parameters
@@ -39,6 +45,10 @@ def tuning_protocol(keep: int | None, n_grid: int, n_seeds: int, n_runs: int) ->
         Tuning seeds.
     n_runs : int
         Runs of the tuning, both filters together.
+    floor : float or None
+        The reported runs' noise floor in times the output noise level (None: not said).
+    candidates : int
+        Configurations of the ranking a reported run may try on its own data.
 
     Returns
     -------
@@ -49,16 +59,23 @@ def tuning_protocol(keep: int | None, n_grid: int, n_seeds: int, n_runs: int) ->
     >>> tuning_protocol(None, 48, 5, 480)
     'full grid: 48 configurations x 5 tuning seed(s) per filter (480 runs); the smallest mean free-run output misfit wins'
     """
+    on_record = (
+        ""
+        if floor is None
+        else f"; each reported seed confirms the choice on its own data (free-run output misfit at most {floor:g}x "
+        f"the noise level), else the next configurations of the ranking run on those data, at most {candidates} in "
+        f"all, and the smallest misfit there is reported"
+    )
     if keep is None or keep >= n_grid or n_seeds < 2:
         return (
             f"full grid: {n_grid} configurations x {n_seeds} tuning seed(s) per filter ({n_runs} runs); the smallest "
-            f"mean free-run output misfit wins"
+            f"mean free-run output misfit wins{on_record}"
         )
     return (
         f"successive halving: {n_grid} configurations on the first tuning seed, the best {keep} of each protocol "
         f"(one pass, refined) on the other {n_seeds - 1}, each as far as the protocols it was kept for ({n_runs} "
         f"runs for both filters); per protocol, the smallest mean free-run output misfit over the tuning seeds "
-        f"wins among the configurations that ran on all of them"
+        f"wins among the configurations that ran on all of them{on_record}"
     )
 
 
@@ -96,7 +113,8 @@ def successive_halving(
     tuple
         ``({(name, protocol): (ranking, scores)}, {(name, tuning, protocol): seeds run})``: per protocol, the
         configurations that ran on the most seeds first, each group by its mean misfit (ties: grid order); the
-        first of the ranking is the chosen one, the next ones are the fallbacks of a diverged reported run.
+        first of the ranking is the chosen one, the next ones the candidates of a reported run whose data it does not
+        fit to the noise floor.
 
     Examples
     --------

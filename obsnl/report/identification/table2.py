@@ -424,10 +424,15 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
         redone = [(m, r) for m in methods for r in summ[(m, passes)]["redone"]]
         if redone:
             factor = doc.get("diverged_factor", 10)
+            floor = doc.get("noise_floor_factor")  # absent: a document of the former rule (redone when diverged)
             lines += [
                 "",
                 f"Redone (the run diverged: it stopped or its output misfit was above {factor:g}x the "
-                "noise level; the next configuration of the tuning ranking was run instead):",
+                "noise level; the next configuration of the tuning ranking was run instead):"
+                if floor is None
+                else f"Chosen on the seed's own data (the tuning's first choice left an output misfit above "
+                f"{floor:g}x the noise level or stopped: the next configurations of the tuning ranking ran on "
+                f"the same data, at most {doc.get('fallbacks')} more, and the smallest misfit is reported):",
                 "",
             ]
             for m, (seed, attempts, final) in redone:
