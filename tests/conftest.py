@@ -1,4 +1,4 @@
-"""Shared fixtures: paths of the model catalogue and of the published peer cases."""
+"""Shared fixtures: paths of the model catalogue and of the published peer cases, the Coulomb model's table."""
 
 from __future__ import annotations
 
@@ -6,6 +6,8 @@ import shutil
 from pathlib import Path
 
 import pytest
+
+import obsnl
 
 ROOT = Path(__file__).resolve().parents[1]
 MODELS = ROOT / "models"
@@ -35,3 +37,13 @@ def models_dir() -> Path:
 @pytest.fixture
 def peer_dir() -> Path:
     return PEER_CASES
+
+
+@pytest.fixture(scope="module")
+def coulomb_table():
+    """The Coulomb-friction model and its branch table (a dictionary), analysed with seed 0."""
+    from obsnl.observability.analyze import analyze
+    from obsnl.observability.contract.branch_table import BranchTable
+
+    model = obsnl.read_model("obsnl:coulomb_friction")
+    return model, BranchTable.from_result(analyze(model, seed=0)).to_dict()

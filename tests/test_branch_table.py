@@ -2,20 +2,25 @@
 
 The table used here is the seed paper's Table 1 written by hand (000_d24855f97fc8bdd4.txt), so
 the test does not depend on the analysis engines.
+
+Tables that lie (hostile-input reviews): tables contradicting a fresh analysis or themselves, a ``joint`` key that
+hides jointly identifiable parameters, an unknown method, a table of another model, huge integers; each is refused
+in one line before any run.
 """
 
 from __future__ import annotations
 
-import copy
 import json
 
 import pytest
 
 import obsnl
-from obsnl.observability.contract.branch_table import BranchTable, read_branch_table
+from obsnl import Model
 from obsnl.errors import TableError
+from obsnl.observability.contract.branch_table import BranchTable, read_branch_table
 
 from .conftest import MODELS
+from .helpers import BASE, REC, model_file, one_line_refusal, refused_in_one_line, run, sine_record
 
 STATES = ["x1", "x2", "r", "eta_p", "Eh_p"]
 PARAMS = ["k_m", "c_dm", "c_eta_p", "w_h", "c_p", "h_p", "Delta1", "Delta2", "N"]
@@ -124,3 +129,210 @@ def test_identify_with_a_table_analyses_the_model_once(monkeypatch):
     monkeypatch.setattr(ident, "analyze", counted)
     num, g, tab, structural = ident._prepare(m, table, None, False, 0, "dukf")
     assert len(calls) == 1 and tab is table and structural.unidentifiable == ()
+
+
+# ----------------------------------------------------------------------------- 9 contradictory tables
+def _damage_table():
+    from obsnl.observability.analyze import analyze
+    from obsnl.observability.contract.branch_table import BranchTable
+
+    m = obsnl.read_model("obsnl:coulomb_friction")
+    return m, BranchTable.from_result(analyze(m, seed=0)).to_dict()
+
+
+def _swap_first_two(d):
+    b = d["branches"]
+    for key in ("observable", "unobservable", "verdict", "transcendence_degree", "identifiable_parameters",
+                "unidentifiable_parameters", "absent"):
+        b[0][key], b[1][key] = b[1][key], b[0][key]
+
+
+def _variant(kind):
+    from obsnl.observability.analyze import analyze
+    from obsnl.observability.contract.branch_table import BranchTable
+
+    # a model whose two branches differ: k is visible only while v > 0
+    m = Model.from_dict({**BASE, "equations": {"x": "v", "v": "-k*x*Heaviside(v) - x"}})
+    d = BranchTable.from_result(analyze(m, seed=0)).to_dict()
+    if kind == "swap":
+        _swap_first_two(d)
+    elif kind == "flip":
+        d["switching"] = ["-v"]
+    elif kind == "guard":
+        d["branches"][0]["guard"], d["branches"][1]["guard"] = d["branches"][1]["guard"], d["branches"][0]["guard"]
+    elif kind == "missing":
+        d["branches"] = d["branches"][:1]
+        d["overall"] = {"observable": d["branches"][0]["observable"], "unobservable": d["branches"][0]["unobservable"]}
+    return m, d
+
+
+@pytest.mark.parametrize("kind, words", [("swap", "in the table but"), ("flip", "opposite orientation"),
+                                         ("guard", "contradicts its signs"), ("missing", "lacks the branch")])
+def test_9_tables_contradicting_a_fresh_analysis_are_refused(kind, words):
+    from obsnl.observability.contract.branch_table import BranchTable
+    from obsnl.observability.contract.table_check import check_table
+
+    m, d = _variant(kind)
+    if kind != "swap":
+        assert d != _variant("none")[1]
+    with pytest.raises(TableError, match=words):
+        check_table(BranchTable.from_dict(d), m)
+
+
+@pytest.mark.parametrize("edit, words", [
+    (lambda d: d["branches"][0].update(transcendence_degree=99), "transcendence degree 99"),
+    (lambda d: d.update(probability=float("nan")), "probability"),
+    (lambda d: d["overall"].update(observable=["x", "v", "k"], unobservable=["k"]), "overall"),
+    (lambda d: d["branches"][0].update(observable=["x", "v", "k"], unobservable=["k"], verdict="unobservable",
+                                       identifiable_parameters=[], unidentifiable_parameters=["k"]), "both"),
+])
+def test_9_self_contradicting_tables_are_refused_by_the_reader(edit, words):
+    from obsnl.observability.contract.branch_table import BranchTable
+
+    _, d = _damage_table()
+    edit(d)
+    with pytest.raises(TableError, match=words):
+        BranchTable.from_dict(d)
+
+
+def test_9_identify_refuses_a_swapped_table(tmp_path, capsys):
+    from obsnl.observability.analyze import analyze
+    from obsnl.observability.contract.branch_table import BranchTable
+
+    p = model_file(tmp_path, equations={"x": "v", "v": "-k*x*Heaviside(v) - x"})
+    d = BranchTable.from_result(analyze(obsnl.read_model(p), seed=0)).to_dict()
+    _swap_first_two(d)
+    (tmp_path / "t.json").write_text(json.dumps(d))
+    rec = tmp_path / "r.csv"
+    rec.write_text("time_s,accel\n" + "\n".join(f"{i / 100},{(-1) ** i}" for i in range(50)))
+    code, err = run(capsys, "identify", str(p), "--table", str(tmp_path / "t.json"), "--record", str(rec),
+                    "--method", "dukf")
+    one_line_refusal(code, err, "in the table but")
+
+
+def test_9_a_folder_given_as_a_branch_table_is_named(tmp_path):
+    from obsnl.observability.contract.branch_table import read_branch_table
+
+    with pytest.raises(TableError, match="is a folder"):  # used to say "does not exist"
+        read_branch_table(tmp_path)
+
+
+def test_2_a_huge_integer_in_a_branch_table_is_refused(tmp_path, coulomb_table):
+    from obsnl.observability.contract.branch_table import read_branch_table
+
+    _, data = coulomb_table
+    p = tmp_path / "t.json"
+    p.write_text(json.dumps({**data, "seed": 0}).replace('"seed": 0', '"seed": ' + "7" * 5000), encoding="utf-8")
+    with pytest.raises(TableError, match="a number with more than 100 digits in branch table") as exc:
+        read_branch_table(p)
+    assert "set_int_max_str_digits" not in str(exc.value) and "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize("method", ["rm -rf", "AUTO", "", "ukf"])
+def test_4_an_unknown_method_in_a_table_is_refused(tmp_path, coulomb_table, method):
+    # used to: accepted, and the table's check ran the analysis as "auto"
+    from obsnl.observability.contract.branch_table import read_branch_table
+
+    _, data = coulomb_table
+    p = tmp_path / "t.json"
+    p.write_text(json.dumps({**data, "method": method}), encoding="utf-8")
+    with pytest.raises(TableError, match="auto, orc, sedoglavic") as exc:
+        read_branch_table(p)
+    assert "method" in str(exc.value) and "regenerate" in str(exc.value) and "\n" not in str(exc.value)
+
+
+@pytest.mark.parametrize("method", ["auto", "orc", "sedoglavic"])
+def test_4_the_known_methods_still_read(coulomb_table, method):
+    from obsnl.observability.contract.branch_table import BranchTable
+
+    _, data = coulomb_table
+    assert BranchTable.from_dict({**data, "method": method}).method == method
+
+
+def test_4_a_table_for_a_model_of_another_name_is_refused(coulomb_table):
+    # used to: accepted, the fingerprint (which leaves the name out) matching
+    from obsnl.observability.contract.branch_table import BranchTable
+    from obsnl.observability.contract.table_check import check_table
+
+    model, data = coulomb_table
+    with pytest.raises(TableError, match="the branch table is for model 'bouc_wen', not 'coulomb_friction'; "
+                                         "regenerate"):
+        check_table(BranchTable.from_dict({**data, "model": "bouc_wen"}), model)
+    assert check_table(BranchTable.from_dict(data), model).model == "coulomb_friction"  # its own: accepted
+
+
+@pytest.mark.parametrize("change, words", [({"method": "rm -rf"}, ["'rm -rf'", "auto, orc, sedoglavic"]),
+                                           ({"model": "bouc_wen"}, ["is for model 'bouc_wen', not 'coulomb_friction'"])])
+def test_4_identify_refuses_those_tables_in_one_line(tmp_path, capsys, coulomb_table, change, words):
+    _, data = coulomb_table
+    p = tmp_path / "t.json"
+    p.write_text(json.dumps({**data, **change}), encoding="utf-8")
+    code, err = run(capsys, "identify", "obsnl:coulomb_friction", "--record", str(sine_record(tmp_path / "r.csv")),
+                    "--method", "dukf", "--table", str(p), "--no-refine", "--passes", "1")
+    refused_in_one_line(code, err, *words, "regenerate")
+
+
+#: Bouc-Wen with A = 1: beta and gamma are frozen in every branch but identifiable jointly.
+BOUC_WEN_A1 = {
+    "name": "bw1", "states": ["x", "v", "z"], "parameters": ["c_m", "k1", "k2", "beta", "gamma", "n"],
+    "inputs": ["xg_dd"], "switching": ["v", "z"], "outputs": {"y": "x"},
+    "equations": {"x": "v", "v": "-c_m*v - k1*x - k2*z - xg_dd", "z": "v*(1 - (beta*sign(v*z) + gamma)*Abs(z)**n)"},
+    "values": {"c_m": 0.5, "k1": 5.0, "k2": 15.0, "beta": 0.5, "gamma": 0.5, "n": 2.0, "x": 0.0, "v": 0.0, "z": 0.0},
+    "guess": {"c_m": 0.6, "k1": 4.0, "k2": 12.0, "beta": 0.4, "gamma": 0.6, "n": 2.2},
+}
+
+
+# ----------------------------------------------------------------------------- 1 the table's joint key
+@pytest.fixture(scope="module")
+def bouc_wen_a1(tmp_path_factory):
+    from obsnl.observability.analyze import analyze
+    from obsnl.observability.contract.branch_table import BranchTable
+
+    folder = tmp_path_factory.mktemp("bw1")
+    path = folder / "bw1.json"
+    path.write_text(json.dumps(BOUC_WEN_A1), encoding="utf-8")
+    model = obsnl.read_model(path)
+    table = BranchTable.from_result(analyze(model, seed=0))
+    assert set(table.frozen_everywhere) >= {"beta", "gamma"} and {"beta", "gamma"} <= set(table.joint["observable"])
+    return path, model, table
+
+
+def _moved(table, names=("beta", "gamma")):
+    from obsnl.observability.contract.branch_table import BranchTable
+
+    d = table.to_dict()
+    d["joint"]["observable"] = [v for v in d["joint"]["observable"] if v not in names]
+    d["joint"]["unobservable"] += list(names)
+    return BranchTable.from_dict(d)  # consistent in itself: only the fresh analysis can tell
+
+
+def test_1_a_joint_key_that_hides_jointly_identifiable_parameters_is_refused(bouc_wen_a1):
+    from obsnl.observability.contract.table_check import check_table
+
+    _, model, table = bouc_wen_a1
+    check_table(table, model)  # the table obsnl wrote passes
+    with pytest.raises(TableError, match=r"joint verdict contradicts.*lacks \['beta', 'gamma'\].*regenerate"):
+        check_table(_moved(table), model)
+
+
+def test_1_a_joint_key_with_an_invented_inconclusive_entry_is_refused(bouc_wen_a1):
+    from obsnl.observability.contract.branch_table import BranchTable
+    from obsnl.observability.contract.table_check import check_table
+
+    _, model, table = bouc_wen_a1
+    d = table.to_dict()
+    d["joint"]["observable"].remove("n")
+    d["joint"]["inconclusive"].append("n")
+    with pytest.raises(TableError, match="joint"):
+        check_table(BranchTable.from_dict(d), model)
+
+
+def test_1_the_dukf_refuses_such_a_table_before_any_run(bouc_wen_a1, tmp_path, capsys):
+    path, _, table = bouc_wen_a1
+    bad = tmp_path / "bad.json"
+    bad.write_text(_moved(table).to_json(), encoding="utf-8")
+    # it used to run, printing beta and gamma as estimates equal to their guesses
+    code, err = run(capsys, "identify", str(path), "--record", str(REC), "--samples", "100", "--passes", "1",
+                    "--s0", "0.2", "--method", "dukf", "--table", str(bad))
+    one_line_refusal(code, err, "joint", "beta", "regenerate")
+    assert "step/s" not in err

@@ -3,7 +3,8 @@
 An argument of the wrong kind (``table=5``, ``executor="local"``, ``tuning=(...)``, ``jit="no"``) is refused in one
 line naming the argument and the kind it takes, in Python terms, before any work; a text cell of a Python mapping is
 read with the CSV reader's rule (``"1_0"`` is refused, where ``float`` reads 10). The hypothesis property extends
-the profile of ``tests/test_hostile_properties.py`` (derandomized, per-example CPU bound) to these arguments.
+the profile of ``tests/test_input_properties.py`` (in ``tests/helpers.py``: derandomized, per-example CPU bound) to
+these arguments.
 
 Data: the steady response of a mass-spring-damper, in closed form (no obsnl simulation).
 """
@@ -18,7 +19,7 @@ from hypothesis import strategies as st
 import obsnl
 from obsnl.errors import DataError, OptionError
 
-from .test_hostile_properties import SETTINGS, _check_message, cpu_bounded
+from .helpers import SETTINGS, _check_message, cpu_bounded
 
 MSD = obsnl.Model(name="msd", states=["x", "v"], parameters=["k", "c"], inputs=["u"],
                   equations={"x": "v", "v": "u - k*x - c*v"}, outputs={"y": "x"}, guess={"k": 20.0, "c": 1.0})

@@ -38,74 +38,19 @@ The properties (each asserts the error type and the one-line message, so each ca
 
 from __future__ import annotations
 
-import functools
 import json
 import math
-import os
-import time
-from datetime import timedelta
 
 import pytest
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import event, given
 from hypothesis import strategies as st
 
-from obsnl import ObsnlError
 from obsnl.cli import main
 from obsnl.estimation.measured import read_measured
 from obsnl.estimation.records import read_record
 from obsnl.observability.contract.branch_table import BranchTable, read_branch_table
 
-#: Examples per property (the ``ci`` profile); ``OBSNL_HYPOTHESIS_EXAMPLES`` overrides it.
-EXAMPLES = int(os.environ.get("OBSNL_HYPOTHESIS_EXAMPLES", "60"))
-#: Longest an example may take: a refusal is a fraction of a second, heavy work is not.
-DEADLINE = timedelta(seconds=8)
-#: Longest refusal message: echoed user text is cut to 80 characters, so a message stays short.
-MAX_MESSAGE = 1000
-
-_HEALTH = [HealthCheck.too_slow, HealthCheck.function_scoped_fixture, HealthCheck.filter_too_much,
-           HealthCheck.data_too_large]
-settings.register_profile("hostile-ci", max_examples=EXAMPLES, deadline=None, derandomize=True, database=None,
-                          suppress_health_check=_HEALTH)
-settings.register_profile("hostile-random", max_examples=EXAMPLES, deadline=None, derandomize=False,
-                          database=None, suppress_health_check=_HEALTH)
-SETTINGS = settings(settings.get_profile(
-    "hostile-random" if os.environ.get("OBSNL_HYPOTHESIS_PROFILE") == "random" else "hostile-ci"))
-
-
-def cpu_bounded(test):
-    """``test`` failing when one example takes more than :data:`DEADLINE` of this process's CPU time (other
-    processes on the machine do not count, unlike hypothesis's wall-clock deadline)."""
-    @functools.wraps(test)
-    def bounded(*args, **kwargs):
-        t0 = time.process_time()
-        test(*args, **kwargs)
-        took = time.process_time() - t0
-        assert took < DEADLINE.total_seconds(), f"one example took {took:.1f} s of CPU: heavy work before a refusal"
-    return bounded
-
-
-def _check_message(exc: BaseException) -> None:
-    """An obsnl refusal: its own error type, one line, bounded."""
-    assert isinstance(exc, ObsnlError), f"{type(exc).__name__}: {exc}"
-    text = str(exc)
-    assert text.strip(), "an empty message"
-    assert "\n" not in text and "\r" not in text, f"a message of several lines: {text[:300]!r}"
-    assert len(text) <= MAX_MESSAGE, f"a message of {len(text)} characters: {text[:200]!r}..."
-
-
-def _error_lines(err: str) -> list[str]:
-    """The lines of stderr that are not argparse's usage (``usage: ...`` and its indented continuation)."""
-    return [line for line in err.splitlines() if not (line.startswith("usage:") or line.startswith(" "))]
-
-
-def _check_cli_refusal(code: int, out: str, err: str) -> None:
-    assert "Traceback" not in err, err[-2000:]
-    assert code == 2, f"exit {code}; stderr: {err[-500:]!r}; stdout: {out[-300:]!r}"
-    lines = _error_lines(err)
-    assert len(lines) == 1, f"{len(lines)} error lines: {lines[:5]!r}"
-    assert lines[0].startswith("obsnl") and "error:" in lines[0], lines[0][:300]
-    assert len(lines[0]) <= MAX_MESSAGE, f"an error line of {len(lines[0])} characters: {lines[0][:200]!r}..."
-
+from .helpers import SETTINGS, _check_cli_refusal, _check_message, _digits, bad_float, bad_int, cpu_bounded
 
 # --------------------------------------------------------------------------- fixtures
 TINY_MODEL = """\
@@ -143,13 +88,19 @@ def files(tmp_path_factory):
 # --------------------------------------------------------------------------- (a) branch tables
 NAMES = ["x", "v", "z", "c_m", "k1", "k2", "A", "beta", "gamma", "n", "q", "\u0430", "Integer", "_pexp0", "", " ",
          "x\ny", "\x1b[31m"]
+
+
 json_scalar = (st.none() | st.booleans() | st.integers(-(2 ** 70), 2 ** 70) | st.floats(allow_nan=True)
                | st.sampled_from([float("nan"), float("inf"), -float("inf"), 10 ** 400, -1, 0, 1, 2, 1.5])
                | st.sampled_from(NAMES) | st.text(max_size=20) | st.just("s" * 10_000))
+
+
 json_value = st.recursive(json_scalar, lambda inner: st.lists(inner, max_size=5)
                           | st.dictionaries(st.sampled_from(NAMES + ["observable", "unobservable", "inconclusive",
                                                                      "label", "signs", "bogus"]), inner, max_size=4),
                           max_leaves=10)
+
+
 huge_list = st.builds(lambda item, n: [item] * n, json_scalar | st.sampled_from(NAMES),
                       st.sampled_from([5, 100, 4000, 4096, 4097, 5000])) | st.builds(
     lambda n: [f"p{i}" for i in range(n)], st.sampled_from([50, 3000, 4096, 4097]))
@@ -240,8 +191,12 @@ def test_mutated_branch_table_is_refused_in_one_line_or_valid(files, data, capsy
 # --------------------------------------------------------------------------- (b) records and measured data
 HEADERS = ["time_s", "t", "time", "time_ms", "Time_s", "accel_m_s2", "acc", "f", "y", "u", "x", "note", "", " y ",
            "time_s\ufeff"]
+
+
 number = st.floats(allow_nan=True, allow_infinity=True) | st.floats(-10, 10) | st.sampled_from(
     [0.0, 1e308, -1e308, 1e-320, 1e101, 5e-324])
+
+
 cell = (number.map(repr) | number.map(lambda v: f"{v:.6g}") | st.sampled_from(
     ["nan", "NaN", "inf", "-inf", "1e999", "-1e999", "0,01", "1,5e3", "", " ", "abc", "1_000", "0x10", "\u0661",
      "1e-999", "+.5", "--1", "\x00"]) | st.text(st.characters(codec="utf-8"), max_size=6))
@@ -331,25 +286,7 @@ def test_random_csv_gives_a_valid_record_or_one_line(files, case):
             assert math.isfinite(m.dt) and m.dt > 0, f"step {m.dt!r}"
 
 
-# --------------------------------------------------------------------------- (c) options
-def _digits(n: int) -> str:
-    return "9" * n
-
-
-junk = st.text(max_size=12).filter(lambda s: s.strip() not in ("",)) | st.sampled_from(
-    ["abc", "1.5", "1e3", "0x10", "1_0", "\u0661", " ", "", "--", "3 4", "nan", "inf", "-inf", "1,5", "\x00"])
-bad_int = st.integers(-(10 ** 6), -1).map(str) | junk.filter(lambda s: not s.strip().isdigit()) | st.sampled_from(
-    ["-" + _digits(30), "1.0", "2.", "1e2"])
 too_big = st.integers(10 ** 4 + 1, 10 ** 30).map(str) | st.sampled_from([_digits(25), _digits(5000), "100000000"])
-bad_float = junk.filter(lambda s: _not_float(s)) | st.sampled_from(["1e", "e3", "1..2", "++1"])
-
-
-def _not_float(s: str) -> bool:
-    try:
-        float(s)
-    except ValueError:
-        return True
-    return False
 
 
 @st.composite

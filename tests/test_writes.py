@@ -1,102 +1,116 @@
-"""Hostile input, second round (issue 26): tables whose ``joint`` key lies, writes outside the named
-folder, overwrites that were not atomic (the compiled-filter cache: ``test_hostile_cache.py``; orphaned
-workers and the scheduler probe: ``test_hostile_processes.py``).
+"""Output-folder safety: every command writes only inside the file or folder the user named.
 
-Each test excludes the old behaviour: it failed before the fix.
+No file is written through a symbolic link, a hard link keeps its content (``--force`` replaces the file, it
+never truncates it), a FIFO or socket is refused, names that leave the folder are refused, and a run writes
+all of its files or none (``obsnl/report/folders.py``, ``obsnl/report/files.py``). Each test excludes a
+behaviour the hostile-input reviews (issues 18 and 26) found; its comment or name says which.
 """
 
 from __future__ import annotations
 
-import json
 import os
 import stat
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import obsnl
-from obsnl.cli import main
-from obsnl.errors import TableError
 
-REC = Path(obsnl.__file__).parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
-
-#: Bouc-Wen with A = 1: beta and gamma are frozen in every branch but identifiable jointly.
-BOUC_WEN_A1 = {
-    "name": "bw1", "states": ["x", "v", "z"], "parameters": ["c_m", "k1", "k2", "beta", "gamma", "n"],
-    "inputs": ["xg_dd"], "switching": ["v", "z"], "outputs": {"y": "x"},
-    "equations": {"x": "v", "v": "-c_m*v - k1*x - k2*z - xg_dd", "z": "v*(1 - (beta*sign(v*z) + gamma)*Abs(z)**n)"},
-    "values": {"c_m": 0.5, "k1": 5.0, "k2": 15.0, "beta": 0.5, "gamma": 0.5, "n": 2.0, "x": 0.0, "v": 0.0, "z": 0.0},
-    "guess": {"c_m": 0.6, "k1": 4.0, "k2": 12.0, "beta": 0.4, "gamma": 0.6, "n": 2.2},
-}
+from .helpers import FAST_STUDY, REC, model_file, one_line_refusal, run
 
 
-def run(capsys, *argv: str) -> tuple[int, str]:
-    code = main(list(argv))
-    return code, capsys.readouterr().err.strip()
+# ----------------------------------------------------------------------------- 1 path traversal
+@pytest.mark.parametrize("name", ["../../x", "/tmp/abs", "..", ".hidden", "a/b"])
+def test_1_report_refuses_model_names_that_leave_the_folder(tmp_path, capsys, name):
+    out = tmp_path / "deep" / "out"
+    code, err = run(capsys, "report", str(model_file(tmp_path, name=name)),
+                    "--out", str(out), "--force")
+    one_line_refusal(code, err, "cannot be a file name")
+    assert sorted(p.name for p in tmp_path.rglob("*") if p.is_file()) == ["m.json"]
 
 
-def one_line_refusal(code: int, err: str, *words: str) -> None:
-    assert code == 2, err
-    assert "Traceback" not in err
-    last = err.splitlines()[-1]
-    for w in words:
-        assert w in last, last
+@pytest.mark.parametrize("name", ["index", "timings", "Index"])
+def test_1_report_refuses_a_model_whose_table_would_overwrite_the_index(tmp_path, capsys, name):
+    # a model named "index" used to have its table index.md overwritten by the report's index, exit 0
+    code, err = run(capsys, "report", str(model_file(tmp_path, name=name)), "--out", str(tmp_path / "out"))
+    one_line_refusal(code, err, name, "rename the model")
+    assert not (tmp_path / "out").exists()
 
 
-# ----------------------------------------------------------------------------- 1 the table's joint key
-@pytest.fixture(scope="module")
-def bouc_wen_a1(tmp_path_factory):
-    from obsnl.observability.analyze import analyze
-    from obsnl.observability.contract.branch_table import BranchTable
-
-    folder = tmp_path_factory.mktemp("bw1")
-    path = folder / "bw1.json"
-    path.write_text(json.dumps(BOUC_WEN_A1), encoding="utf-8")
-    model = obsnl.read_model(path)
-    table = BranchTable.from_result(analyze(model, seed=0))
-    assert set(table.frozen_everywhere) >= {"beta", "gamma"} and {"beta", "gamma"} <= set(table.joint["observable"])
-    return path, model, table
+# ----------------------------------------------------------------------------- 5 symlinks
+def test_5_output_symlinks_are_not_followed_without_force(tmp_path, capsys):
+    link = tmp_path / "link.md"
+    target = tmp_path / "elsewhere" / "created.md"
+    link.symlink_to(target)  # dangling
+    code, err = run(capsys, "analyze", "obsnl:coulomb_friction", "--format", "md", "-o", str(link))
+    one_line_refusal(code, err, "symlink")
+    assert not target.exists()
+    code, err = run(capsys, "analyze", "obsnl:coulomb_friction", "--format", "md", "-o", str(link), "--force")
+    assert code == 0 and not link.is_symlink() and link.is_file() and not target.exists()
 
 
-def _moved(table, names=("beta", "gamma")):
-    from obsnl.observability.contract.branch_table import BranchTable
-
-    d = table.to_dict()
-    d["joint"]["observable"] = [v for v in d["joint"]["observable"] if v not in names]
-    d["joint"]["unobservable"] += list(names)
-    return BranchTable.from_dict(d)  # consistent in itself: only the fresh analysis can tell
-
-
-def test_1_a_joint_key_that_hides_jointly_identifiable_parameters_is_refused(bouc_wen_a1):
-    from obsnl.observability.contract.table_check import check_table
-
-    _, model, table = bouc_wen_a1
-    check_table(table, model)  # the table obsnl wrote passes
-    with pytest.raises(TableError, match=r"joint verdict contradicts.*lacks \['beta', 'gamma'\].*regenerate"):
-        check_table(_moved(table), model)
+def test_5_report_folder_that_is_a_symlink_needs_force(tmp_path, capsys):
+    real = tmp_path / "real"
+    real.mkdir()
+    (tmp_path / "out").symlink_to(real)
+    code, err = run(capsys, "report", "obsnl:coulomb_friction", "--out", str(tmp_path / "out"))
+    one_line_refusal(code, err, "symlink")
+    assert list(real.iterdir()) == []
 
 
-def test_1_a_joint_key_with_an_invented_inconclusive_entry_is_refused(bouc_wen_a1):
-    from obsnl.observability.contract.branch_table import BranchTable
-    from obsnl.observability.contract.table_check import check_table
+@pytest.mark.parametrize("name", ["identify.json", "fit.png", "traces.png"])
+def test_5_identify_never_writes_through_a_link_in_its_folder(tmp_path, capsys, name):
+    out = tmp_path / "out"
+    out.mkdir()
+    target = tmp_path / "elsewhere" / "victim"
+    (out / name).symlink_to(target)  # dangling: it used to create the target outside the folder
+    code, err = run(capsys, *FAST_STUDY, "--out", str(out))
+    one_line_refusal(code, err, "symlink", "--force")
+    assert "step/s" not in err and not target.exists()  # refused before the run
+    kept = tmp_path / "kept"
+    kept.write_text("mine")
+    (out / name).unlink()
+    (out / name).symlink_to(kept)
+    code, err = run(capsys, *FAST_STUDY, "--out", str(out), "--force")  # --force replaces the link itself
+    assert code == 0, err
+    assert kept.read_text() == "mine" and not (out / name).is_symlink() and (out / name).stat().st_size > 0
 
-    _, model, table = bouc_wen_a1
-    d = table.to_dict()
-    d["joint"]["observable"].remove("n")
-    d["joint"]["inconclusive"].append("n")
-    with pytest.raises(TableError, match="joint"):
-        check_table(BranchTable.from_dict(d), model)
 
-
-def test_1_the_dukf_refuses_such_a_table_before_any_run(bouc_wen_a1, tmp_path, capsys):
-    path, _, table = bouc_wen_a1
-    bad = tmp_path / "bad.json"
-    bad.write_text(_moved(table).to_json(), encoding="utf-8")
-    # it used to run, printing beta and gamma as estimates equal to their guesses
-    code, err = run(capsys, "identify", str(path), "--record", str(REC), "--samples", "100", "--passes", "1",
-                    "--s0", "0.2", "--method", "dukf", "--table", str(bad))
-    one_line_refusal(code, err, "joint", "beta", "regenerate")
+def test_5_identify_refuses_a_folder_under_a_file_or_a_linked_folder_before_the_run(tmp_path, capsys):
+    (tmp_path / "afile").write_text("x")
+    code, err = run(capsys, *FAST_STUDY, "--out", str(tmp_path / "afile" / "sub"))
+    one_line_refusal(code, err, "afile", "not a folder")
     assert "step/s" not in err
+    real = tmp_path / "real"
+    real.mkdir()
+    (tmp_path / "lnk").symlink_to(real)
+    code, err = run(capsys, *FAST_STUDY, "--out", str(tmp_path / "lnk"))
+    one_line_refusal(code, err, "symlink")
+    assert list(real.iterdir()) == []
+
+
+def test_5_figures_replace_a_link_and_keep_its_target(tmp_path):
+    from obsnl.report.identification.diagnostics import plot_fit_record
+
+    kept = tmp_path / "kept.png"
+    kept.write_bytes(b"mine")
+    (tmp_path / "fit.png").symlink_to(kept)
+    t = np.linspace(0.0, 1.0, 11)
+    plot_fit_record(tmp_path / "fit.png", t=t, measured=t[:, None], simulated=t[:, None], outputs=["y"],
+                    fit={"y": 0.0})
+    assert kept.read_bytes() == b"mine" and not (tmp_path / "fit.png").is_symlink()
+    assert (tmp_path / "fit.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["fit.png", "kept.png"]  # no temporary file left
+
+
+# ----------------------------------------------------------------------------- 11 reproduce overwrites
+@pytest.mark.parametrize("existing", ["table2.md", "fig2_1pass.png", "branch_table.json"])
+def test_11_reproduce_out_checks_every_file(tmp_path, capsys, existing):
+    (tmp_path / existing).write_text("mine")
+    code, err = run(capsys, "reproduce", "--out", str(tmp_path), "--seeds", "1", "--samples", "50")
+    one_line_refusal(code, err, existing, "--force")
+    assert (tmp_path / existing).read_text() == "mine"
 
 
 # ----------------------------------------------------------------------------- 2 writes outside the named folder
