@@ -19,12 +19,13 @@ The properties (each asserts the exit code or the error type and the one-line me
     (argparse's usage lines aside), no traceback, nothing on stdout, and write no output file.
 (e) ``test_invalid_design_option_exits_2_in_one_line``: the same for ``obsnl design`` and ``--record``
     (missing, absent, a folder, not a record, empty, the same twice, more than 12), ``--target``,
-    ``--sensors``, ``--format``, ``--figure``, ``--max-seconds``, ``--scales``, ``--seed`` and ``-o``.
+    ``--sensors``, ``--format``, ``--figure``, ``--max-seconds``, ``--scales``, ``--seed``, ``-o`` and
+    ``--intersample`` (an unknown kind, an input the model lacks, a malformed or 10 kB entry).
 (f) ``test_bad_argument_of_the_design_functions_raises_an_obsnl_error``: :func:`obsnl.sensors` and
     :func:`obsnl.design.experiment.design` with one bad argument value of the right kind (a negative or
     fractional seed, a probability outside (0, 1), a non-positive time limit, an empty or unknown target or
-    sensor, records with a missing input, a short, non-finite or non-increasing time column, bad scales or
-    tolerance), or of the wrong type (a number as target, sensors, scales or records, a string as executor or
+    sensor, records with a missing input, a short, non-finite or non-increasing time column, bad scales,
+    tolerance or input kinds between samples), or of the wrong type (a number as target, sensors, scales or records, a string as executor or
     as the model of ``design``). It must raise an :class:`~obsnl.errors.ObsnlError` of one line. ``design``
     is given a gap spring (one switching function), which it simulates, and for the key ``smooth_records``
     a model without switching functions, whose records are checked all the same.
@@ -293,7 +294,10 @@ def test_invalid_sensors_option_exits_2_in_one_line(files, data, capsys):
 
 # --------------------------------------------------------------------------- (e) obsnl design
 DESIGN_OPTIONS = ["--record", "--target", "--sensors", "--format", "--figure", "--max-seconds", "--scales", "--seed",
-                  "-o"]
+                  "-o", "--intersample"]
+#: Kinds of input between samples that design refuses (unknown kinds, inputs the model lacks, malformed entries).
+bad_intersample = st.sampled_from(["cubic", "u=cubic", "v=zoh", "=zoh", "ZOH", "u==zoh", "", " ", "zoh,linear",
+                                   "x" * 10_000, "u=" + "z" * 10_000])
 
 
 @st.composite
@@ -346,6 +350,8 @@ def invalid_design_options(draw, files):
         value = draw(bad_scales())
     elif option == "--seed":
         value = draw(bad_int)
+    elif option == "--intersample":
+        value = draw(bad_intersample)
     else:
         value = _out_value(files, draw(st.sampled_from(OUT_KINDS)))
     return option, rec + [f"{option}={value}"]
@@ -413,6 +419,7 @@ DESIGN_BAD = {
     "target": bad_target() | st.sampled_from([[], ["zz"], 5]),
     "sensors": bad_sensors() | st.sampled_from([[], ["zz"], ["y", "zz"], [5], 5]),
     "model": st.sampled_from([5, None, "tiny.toml"]),
+    "intersample": bad_intersample | st.sampled_from([5, 1.5, ["zoh", 5], {"u": 5}, {"zz": "zoh"}]),
 }
 
 
