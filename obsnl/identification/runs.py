@@ -46,7 +46,7 @@ from obsnl.identification.refine import Refinement, adequacy_of, refine
 from obsnl.identification.replicates import check_passes, check_replicates, spread_on
 from obsnl.identification.results import Identification, ParameterEstimate, clean_json, error_of
 from obsnl.identification.setup import MIN_NOISE, Data, Setup, coordinates, free_start, output_misfit
-from obsnl.identification.summaries import NoiseLevel, RecordSummary, RefinementSummary, noise_levels
+from obsnl.identification.summaries import NoiseLevel, RecordSummary, RefinementSummary
 from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.report.identification.run import between_said
 
@@ -251,8 +251,8 @@ def _result(
     held: tuple[str, ...],
     prac: Any,
     misfit: float,
-    noise: Mapping[str, NoiseLevel | Mapping[str, Any]],
-    data_dict: RecordSummary | Mapping[str, Any],
+    noise: Mapping[str, NoiseLevel],
+    record: RecordSummary,
     assumptions: Sequence[str],
     seed: int | None,
     refined: bool = True,
@@ -380,10 +380,10 @@ def _result(
         seconds=float(sum(t.seconds for t in trs)) + refine_seconds,
         converged=converged,
         output_misfit=misfit if math.isfinite(misfit) else None,
-        noise=noise_levels(noise),
+        noise=dict(noise),
         tuning=tuning,
         tuning_scores=scores,
-        data=data_dict if isinstance(data_dict, RecordSummary) else RecordSummary.from_dict(data_dict),
+        data=record,
         practical=prac,
         assumptions=tuple(assumptions),
         repairs=int(sum(t.total_repairs for t in trs)),
@@ -619,36 +619,37 @@ def identify_measured(
             f"{MIN_NOISE:g} double precision cannot resolve it: for noise-free data give the "
             f"integrator's accuracy, e.g. 1e-6)"
         )
-    levels: dict[str, dict[str, Any]] = {}
+    levels: dict[str, NoiseLevel] = {}
     for names, arr in ((num.inputs, data.u), (num.outputs, data.y)):
         for j, c in enumerate(names):
             if c in given:
-                levels[c] = {"ratio": float(given[c]), "source": "given"}
+                levels[c] = NoiseLevel(float(given[c]), "given")
             else:
                 r, note = estimate_noise(arr[:, j])
-                levels[c] = {
-                    "ratio": max(r, NOISE_FLOOR),
-                    "estimate": r,
-                    "upper_bound": UPPER_BOUND in note,
-                    "source": f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else ""),
-                }
+                levels[c] = NoiseLevel(
+                    max(r, NOISE_FLOOR),
+                    f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else ""),
+                    estimate=r,
+                    upper_bound=UPPER_BOUND in note,
+                )
                 if c in num.inputs and r >= RANDOM_INPUT:  # a random excitation: its samples differ as noise does
-                    levels[c] = {
-                        "ratio": NOISE_FLOOR,
-                        "estimate": r,
-                        "upper_bound": True,
-                        "source": (
-                            f"estimated {note}; that is {100 * r:.2g} % of the input's RMS: its samples differ as white "
-                            f"noise does (a random excitation, not oversampled), so this is only an upper bound and the "
-                            f"input is taken as exact (the filter gets the floor {NOISE_FLOOR:g}); give its noise level "
-                            f"to count it"
-                        ),
-                    }
+                    levels[c] = NoiseLevel(
+                        NOISE_FLOOR,
+                        f"estimated {note}; that is {100 * r:.2g} % of the input's RMS: its samples differ as white "
+                        f"noise does (a random excitation, not oversampled), so this is only an upper bound and the "
+                        f"input is taken as exact (the filter gets the floor {NOISE_FLOOR:g}); give its noise level "
+                        f"to count it",
+                        estimate=r,
+                        upper_bound=True,
+                    )
     # the refinement's std counts an input's noise at its given level or its estimate (not the filter's floor); a
     # level that is only an upper bound (the channel is not oversampled) would swamp the std with signal: not counted
-    bound = [c for c in num.inputs if levels[c].get("upper_bound")]
+    bound = [c for c in num.inputs if levels[c].upper_bound]
     input_noise = np.array(
-        [0.0 if c in bound else levels[c].get("estimate", levels[c]["ratio"]) for c in num.inputs]
+        [
+            0.0 if c in bound else levels[c].ratio if levels[c].estimate is None else levels[c].estimate
+            for c in num.inputs
+        ]
     ) * np.sqrt(np.mean(np.asarray(data.u, float) ** 2, axis=0))
     kinds = intersample_kinds(intersample, num.inputs)
     between = between_samples(data.u, num.inputs, kinds) if num.inputs else ()
@@ -662,7 +663,7 @@ def identify_measured(
         guess=dict(guess),
         jit=jit,
         y_true=data.y,
-        channel_noise={c: v["ratio"] for c, v in levels.items()},
+        channel_noise={c: v.ratio for c, v in levels.items()},
         fit_substeps=FIT_SUBSTEPS,
         coordinates=coordinates(num, "log", reference=guess),
         initial=known,
@@ -713,7 +714,7 @@ def identify_measured(
         misfit=misfit,
         noise=levels,
         seed=seed,
-        data_dict=data.to_dict() | {"intersample": [b.to_dict() for b in between]},
+        record=dataclasses.replace(RecordSummary.from_dict(data.to_dict()), intersample=tuple(between)),
         refined=refined,
         progress=progress,
         executor=executor,

@@ -14,6 +14,7 @@ from obsnl.identification.experiments import Tuning, make_data
 from obsnl.identification.results import Identification
 from obsnl.identification.runs import FIT_SUBSTEPS, MEASURED_GRID, _assumptions, _result, _run
 from obsnl.identification.setup import Setup, coordinates
+from obsnl.identification.summaries import NoiseLevel, RecordSummary
 from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = ["simulation_study"]
@@ -120,7 +121,7 @@ def simulation_study(
         hold=hold,
         executor=executor,
     )
-    levels = {c: {"ratio": noise, "source": "given (simulated)"} for c in num.inputs + num.outputs}
+    levels = {c: NoiseLevel(noise, "given (simulated)") for c in num.inputs + num.outputs}
     return _result(
         setup,
         data,
@@ -134,7 +135,7 @@ def simulation_study(
         prac=prac,
         misfit=misfit,
         noise=levels,
-        data_dict=record.to_dict(),
+        record=RecordSummary.from_dict(record.to_dict()),
         seed=seed,
         refined=refined,
         progress=progress,

@@ -21,7 +21,7 @@ from obsnl.estimation.intersample import InputBetween
 if TYPE_CHECKING:
     from obsnl.identification.refine import Refinement
 
-__all__ = ["RefinementSummary", "NoiseLevel", "RecordSummary", "noise_levels", "REFINEMENT_KEYS"]
+__all__ = ["RefinementSummary", "NoiseLevel", "RecordSummary", "REFINEMENT_KEYS", "MEASURED_KEYS", "SIMULATED_KEYS"]
 
 #: The keys every ``refinement`` object of ``identify.json`` holds, in their order (a fit's ``to_dict`` also names its
 #: objective and its predictor's gain, after ``method``; read as ``"output"`` and None where they are absent).
@@ -244,17 +244,6 @@ class NoiseLevel:
         if self.estimate is None:
             return {"ratio": self.ratio, "source": self.source}
         return {"ratio": self.ratio, "estimate": self.estimate, "upper_bound": self.upper_bound, "source": self.source}
-
-
-def noise_levels(levels: Mapping[str, NoiseLevel | Mapping[str, Any]]) -> dict[str, NoiseLevel]:
-    """Each channel's :class:`NoiseLevel`, from the level or from its ``identify.json`` object.
-
-    Examples
-    --------
-    >>> noise_levels({"u": {"ratio": 0.01, "source": "given"}})["u"]
-    NoiseLevel(ratio=0.01, source='given', estimate=None, upper_bound=False)
-    """
-    return {str(c): v if isinstance(v, NoiseLevel) else NoiseLevel.from_dict(v) for c, v in levels.items()}
 
 
 #: The keys of ``identify.json``'s ``data`` object, in their order: of measured data (``intersample`` only where it
