@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["PeriodicNoise", "input_period", "periodic_noise", "whiten", "REPEAT_TOLERANCE", "AR_MAX"]
+__all__ = ["PeriodicNoise", "input_period", "periodic_noise", "whiten", "levinson_bic", "REPEAT_TOLERANCE", "AR_MAX"]
 
 #: An input repeats with period ``L`` when the RMS of ``u(k + L) - u(k)`` is at most this fraction of its RMS.
 REPEAT_TOLERANCE = 1e-6
@@ -115,9 +115,15 @@ def input_period(u: Any, *, min_periods: int = 2) -> int | None:
     return int(hits[0]) if hits.size else None
 
 
-def _levinson_bic(r: np.ndarray, n: int, most: int) -> np.ndarray:
-    """AR coefficients ``[1, a_1, ..., a_p]`` from the autocorrelation ``r`` (``r[0] = 1``) of ``n`` samples, the
-    order chosen by BIC up to ``most``."""
+def levinson_bic(r: np.ndarray, n: int, most: int) -> np.ndarray:
+    """The whitening filter ``[1, a_1, ..., a_p]`` (for :func:`whiten`) of the AR model of the autocorrelation ``r``
+    (``r[0] = 1``) of ``n`` samples, the order chosen by BIC up to ``most`` (Levinson-Durbin).
+
+    Examples
+    --------
+    >>> levinson_bic(np.array([1.0, 0.5, 0.25, 0.125]), 10000, 3).round(12).tolist()  # AR(1), phi = 0.5
+    [1.0, -0.5]
+    """
     best, best_bic = np.array([1.0]), np.log(max(r[0], 1e-300))
     from scipy.linalg import solve_toeplitz
 
@@ -211,7 +217,7 @@ def periodic_noise(u: Any, y: Any, *, min_periods: int = 2) -> PeriodicNoise | N
         a = np.array([1.0])
         if ss > 0:
             r = np.array([np.sum(e[:, : L - k] * e[:, k:]) / ss for k in range(AR_MAX + 1)])
-            a = _levinson_bic(r, used * L, AR_MAX)
+            a = levinson_bic(r, used * L, AR_MAX)
         ar.append(tuple(float(c) for c in a))
         w = np.concatenate([whiten(e[p], a) for p in range(used)])  # each period's deviations, filtered
         idof.append((used - 1) * (L - len(a) + 1))

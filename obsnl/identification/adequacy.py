@@ -50,7 +50,7 @@ import numpy as np
 from obsnl._text import block, names, number, one_line
 from obsnl.errors import DataError, OptionError
 from obsnl.estimation.measured import MIN_SAMPLES, UPPER_BOUND, estimate_noise
-from obsnl.estimation.periods import PeriodicNoise, whiten
+from obsnl.estimation.periods import PeriodicNoise, levinson_bic, whiten
 
 __all__ = [
     "AR_MAX",
@@ -77,6 +77,8 @@ LEVEL = 0.01
 MAX_LAGS = 25
 #: The highest order of the AR model that prewhitens the residual in the cross-correlation test.
 AR_MAX = 10
+#: The highest order of the AR model that whitens a right model's residual under noisy inputs (:func:`adequacy`).
+NULL_AR_MAX = 40
 #: Draws of white noise that calibrate the misfit test's null distribution.
 DRAWS = 400
 #: The longest record the calibration draws: beyond it the mean and std of ``log F`` are scaled by
@@ -172,8 +174,9 @@ class Adequacy:
     ``tests``: one :class:`AdequacyTest` per output and test; ``model_error``: per output, the share of the
     residual variance attributed to model error, ``1 - s^2 / (RSS / dof)`` floored at 0 (``s``: the independent
     noise estimate); ``input_noise_share``: per output, the share of the residual variance that the inputs' noise
-    passed through the model would make (where it was gauged): the tests take it as absent, so where it is large a
-    right model can fail them, and the headline says so; ``assumptions``: what the verdict rests on.
+    passed through the model would make (where it was gauged); ``input_noise_counted``: the tests count it in a
+    right model's residual (draws of it were given, ``input_effect`` of :func:`adequacy`); where it was only gauged
+    and is large, a right model can fail them, and the headline says so; ``assumptions``: what the verdict rests on.
     """
 
     passed: bool
@@ -182,6 +185,7 @@ class Adequacy:
     assumptions: tuple[str, ...]
     model_error: Mapping[str, float] = field(default_factory=dict)
     input_noise_share: Mapping[str, float] = field(default_factory=dict)
+    input_noise_counted: bool = False
 
     @property
     def failed(self) -> tuple[AdequacyTest, ...]:
@@ -203,7 +207,9 @@ class Adequacy:
         if self.passed:
             kinds = dict.fromkeys(t.name for t in self.tests)
             return f"adequate: the residuals pass {k} tests ({', '.join(kinds)}) at the {100 * self.level:g} % level"
-        loud = {o: v for o, v in self.input_noise_share.items() if v >= INPUT_NOISE_SHARE}
+        loud = {
+            o: v for o, v in self.input_noise_share.items() if v >= INPUT_NOISE_SHARE and not self.input_noise_counted
+        }
         return (
             f"NOT adequate: {INADEQUATE}; the std and intervals assume a right model (failed at "
             f"{100 * self.level:g} %: {names([t.label() for t in self.failed], 2)})"
@@ -236,6 +242,7 @@ class Adequacy:
             "tests": [t.to_dict() for t in self.tests],
             "model_error_share": {o: _finite(v) for o, v in self.model_error.items()},
             "input_noise_share": {o: _finite(v) for o, v in self.input_noise_share.items()},
+            "input_noise_counted": self.input_noise_counted,
             "assumptions": list(self.assumptions),
         }
 
@@ -350,6 +357,35 @@ def whiteness(e: Any, *, output: str = "y", lags: int | None = None, level: floa
         f"{np.max(np.abs(r)):.3g} at lag {int(np.argmax(np.abs(r))) + 1} (white: within "
         f"{1.96 / math.sqrt(n):.3g} at 95 %)",
     )
+
+
+def _input_noise_null(
+    e: np.ndarray, y: np.ndarray, draws: Sequence[np.ndarray]
+) -> tuple[np.ndarray, tuple[float, float]] | None:
+    """A right model's residual when the measured inputs are noisy: ``(ar, (mean, std))``, the whitening filter
+    ``[1, a_1, ..., a_p]`` of the output noise plus the inputs' noise through the model (Levinson-Durbin on their
+    autocovariance, the order by BIC up to :data:`NULL_AR_MAX`), and the mean and std over the draws of the variance
+    that noise adds; None where the draws move nothing or the output's noise cannot be
+    estimated. The output noise's level is the raw record's (:func:`~obsnl.estimation.measured.estimate_noise`),
+    the draws' seed fixed by the record."""
+    ok = np.isfinite(e) & np.isfinite(y)
+    moved = [np.where(ok, np.asarray(d, float), 0.0) for d in draws]
+    variances = np.array([float(np.mean(d[ok] ** 2)) for d in moved]) if ok.any() else np.zeros(0)
+    if not variances.size or not np.all(np.isfinite(variances)) or not variances.max() > 0:
+        return None
+    try:
+        ratio, _ = estimate_noise(np.where(ok, y, np.nan))
+    except DataError:
+        return None
+    s = ratio * math.sqrt(float(np.mean(y[ok] ** 2)))
+    n = int(ok.sum())
+    lags = min(NULL_AR_MAX, n // 5)
+    # the sum's autocovariance: the draws' (averaged) plus the white output noise's at lag 0
+    gamma = np.mean([np.array([float(d[ok][k:] @ d[ok][: n - k]) / n for k in range(lags + 1)]) for d in moved], axis=0)
+    gamma[0] += s * s
+    ar = levinson_bic(gamma / gamma[0], n * len(draws), lags)
+    spread = float(np.std(variances, ddof=1)) if len(variances) > 1 else float(variances[0])
+    return ar, (float(np.mean(variances)), spread)
 
 
 def _ar_order(e: np.ndarray, most: int) -> tuple[int, np.ndarray]:
@@ -496,7 +532,13 @@ def _null_of(packed: bytes, length: int, fitted: float) -> tuple[float, float]:
 
 
 def misfit(
-    e: Any, y: Any, *, output: str = "y", dof: float | None = None, level: float = LEVEL
+    e: Any,
+    y: Any,
+    *,
+    output: str = "y",
+    dof: float | None = None,
+    level: float = LEVEL,
+    input_variance: tuple[float, float] = (0.0, 0.0),
 ) -> tuple[AdequacyTest, float]:
     """Test of the residual's size against the noise level estimated from the raw record ``y`` (module docstring).
 
@@ -514,12 +556,16 @@ def misfit(
         (default: the samples present).
     level : float
         The level the test is judged at.
+    input_variance : tuple of float
+        ``(mean, std)`` of the variance the measured inputs' noise adds to a right model's residual (its draws
+        through the model at the estimate, :func:`adequacy`): the null is then ``s^2 + mean``, its spread widened by
+        ``std``. The fit absorbs part of that drift, so the test is conservative there.
 
     Returns
     -------
     tuple
         ``(AdequacyTest, share)``: the test, and the share of the residual variance attributed to model error
-        (``1 - s^2 / (RSS / dof)``, floored at 0).
+        (``1 - (s^2 + mean) / (RSS / dof)``, floored at 0).
 
     Raises
     ------
@@ -554,10 +600,13 @@ def misfit(
     if not s2 > 0:
         raise OptionError(f"no noise estimate for the misfit of {output!r}: the output is zero throughout")
     var = float(e[ok] @ e[ok]) / dof
-    ratio_f = var / s2
+    extra, extra_sd = (float(v) for v in input_variance)
+    null = s2 + max(extra, 0.0)
+    ratio_f = var / null
     mu, sd = _misfit_null(ok, round(n - dof, 3))
+    sd = math.hypot(sd, extra_sd / null)  # the input noise's drift over one record is few-dof: its variance spreads
     p = float(stats.norm.sf((math.log(max(ratio_f, 1e-300)) - mu) / sd))
-    share = max(0.0, 1.0 - s2 / var) if var > 0 else 0.0
+    share = max(0.0, 1.0 - null / var) if var > 0 else 0.0
     weak = (
         "; the noise estimate is only an upper bound (the channel is not oversampled): a misfit below it goes unseen"
         if UPPER_BOUND in note
@@ -571,7 +620,14 @@ def misfit(
         p > level,
         f"(RSS/dof) / s^2 with dof {dof:.6g} and s = {math.sqrt(s2):.3g} estimated from the raw "
         f"record's differences; log F against its spread under a right model (mean {mu:.3g}, std "
-        f"{sd:.3g}, {DRAWS} draws of white noise); RMS residual / s = {math.sqrt(var / s2):.4g}" + weak,
+        f"{sd:.3g}, {DRAWS} draws of white noise); RMS residual / s = {math.sqrt(var / s2):.4g}"
+        + (
+            f"; the null adds the inputs' noise through the model at the estimate, variance {extra:.3g} "
+            f"(std {extra_sd:.2g} over its draws): {math.sqrt(null / s2):.4g} s"
+            if extra > 0
+            else ""
+        )
+        + weak,
     ), share
 
 
@@ -663,6 +719,7 @@ def adequacy(
     input_noise_share: Mapping[str, float] | None = None,
     noise: PeriodicNoise | None = None,
     innovations: bool = False,
+    input_effect: Sequence[Any] = (),
 ) -> Adequacy:
     """Judge whether a fitted model explains the data to the noise level (module docstring).
 
@@ -690,6 +747,13 @@ def adequacy(
         independent of the model: then its colour is the noise's, not the model's. The whiteness test runs on the
         residual through the noise's whitening filter, and the misfit compares the filtered residual's variance with
         the filtered noise's (:func:`periodic_misfit`).
+    input_effect : sequence of array_like
+        Draws ``(N, ny)`` of what the measured inputs' noise moves the model's output by (the model simulated at
+        the estimate under the measured input plus a draw of its noise, less under the measured input:
+        :func:`obsnl.identification.refine.adequacy_of`). A right model's residual is then the output noise plus that
+        coloured part: the whiteness test runs on the residual through the whitening filter of that sum (an AR model
+        fitted to draws of it, BIC, at most :data:`AR_MAX`), and the misfit's null adds its variance. Empty: the
+        inputs are exact, or their noise is negligible.
     innovations : bool
         The residuals are a predictor's innovations (the prediction-error objective): they carry the unmeasured
         disturbances by design, so their level is no test of the model and the misfit is not judged; whiteness and
@@ -735,8 +799,23 @@ def adequacy(
     notes: list[str] = []
     if innovations:
         noise = None  # a predictor's innovations are white themselves: the measured noise's colour is not theirs
+    effect = [np.asarray(d, float).reshape(len(r), -1) for d in input_effect] if noise is None else []
     for j, o in enumerate(outputs):
-        if noise is not None:
+        null = _input_noise_null(r[:, j], y[:, j], [d[:, j] for d in effect]) if effect and not innovations else None
+        if null is not None:
+            ar, variance = null
+            white = whiteness(np.r_[np.full(len(ar) - 1, np.nan), whiten(r[:, j], ar)], output=o, lags=lags, level=each)
+            tests.append(
+                dataclasses.replace(
+                    white,
+                    detail=white.detail
+                    + (
+                        f"; on the residual through the whitening filter (AR {len(ar) - 1}) of the output noise plus "
+                        "the inputs' noise through the model at the estimate"
+                    ),
+                )
+            )
+        elif noise is not None:
             white = whiteness(whiten(r[:, j], noise.ar[j]), output=o, lags=lags, level=each)
             tests.append(
                 dataclasses.replace(
@@ -763,7 +842,14 @@ def adequacy(
             tests.append(test)
             continue
         try:
-            test, share[o] = misfit(r[:, j], y[:, j], output=o, dof=None if dof is None else dof[j], level=each)
+            test, share[o] = misfit(
+                r[:, j],
+                y[:, j],
+                output=o,
+                dof=None if dof is None else dof[j],
+                level=each,
+                input_variance=(0.0, 0.0) if null is None else null[1],
+            )
         except OptionError as exc:  # the other tests stand; this one is said not judged
             notes.append(f"adequacy: misfit of {o} not judged ({exc})")
         else:
@@ -775,6 +861,13 @@ def adequacy(
             "of the model; the whiteness and misfit tests take its colour (an AR filter fitted to its "
             "autocorrelation, Yule-Walker, BIC) as the noise's, so a coloured measurement noise is not blamed "
             "on the model"
+        )
+    if effect and not innovations:
+        notes.append(
+            f"adequacy: a right model's residual is taken as the output noise plus the measured inputs' noise passed "
+            f"through the model at the estimate ({len(effect)} seeded draws of it): the whiteness test runs on the "
+            "residual through that sum's whitening filter and the misfit's null adds its variance; the fit absorbs "
+            "part of that drift, so these two tests are conservative"
         )
     if innovations:
         notes.append(
@@ -789,4 +882,5 @@ def adequacy(
         assumptions=_ASSUMPTIONS + tuple(notes),
         model_error=share,
         input_noise_share=dict(input_noise_share or {}),
+        input_noise_counted=bool(effect) and not innovations,
     )

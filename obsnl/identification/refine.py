@@ -526,6 +526,7 @@ def adequacy_of(
     e = np.where(np.isfinite(y), r.reshape(n, m.ny) * ref.sigma, np.nan)
     setup = ref.objective.setup
     su = setup.noise_std(data)[0] if input_noise is None else np.asarray(input_noise, float)
+    draws = [] if ref.objective.predictor else _input_noise_draws(ref, data, su)
     try:
         return adequacy(
             e,
@@ -535,25 +536,28 @@ def adequacy_of(
             input_names=m.inputs,
             dof=np.clip(dof, 1.0, measured),
             level=level,
-            input_noise_share={} if ref.objective.predictor else _input_noise_share(ref, data, su, e),
+            input_noise_share=_share(draws, e, m.outputs),
             noise=periodic_noise(u, y),
             innovations=ref.objective.predictor,
+            input_effect=_left_in_residual(ref, draws),
         )
     except OptionError:  # fewer samples measured than the tests need
         return None
 
 
-def _input_noise_share(ref: Refinement, data: Data, su: np.ndarray, e: np.ndarray) -> dict[str, float]:
-    """Per output, the variance the inputs' noise ``su`` makes through the model at the estimate over the
-    residual's; {} without input noise, for a model driven by input blocks, or where it cannot be simulated.
+def _input_noise_draws(ref: Refinement, data: Data, su: np.ndarray) -> list[np.ndarray]:
+    """Seeded draws ``(T, ny)`` of what the inputs' noise ``su`` moves the model's output by at the estimate: the
+    model simulated under the measured input plus a draw of the noise, less under the measured input (NaN where
+    the output is missing); [] without input noise, for a model driven by input blocks, or where it cannot be
+    simulated.
 
-    Seeded draws of the noise, as many as keep about 20 000 samples in all (a short record's output is narrow-band:
-    one draw of it is far from its mean), 8 at most."""
+    As many draws as keep about 20 000 samples in all (a short record's output is narrow-band: one draw of it is
+    far from its mean), 8 at most."""
     setup = ref.objective.setup
     m = setup.model
     u = np.asarray(data.u, float).reshape(len(data.u), -1)
     if not np.any(su > 0) or u.shape[1] != len(m.inputs):
-        return {}
+        return []
     rng = np.random.default_rng(0)
 
     def run(uu: np.ndarray) -> np.ndarray:
@@ -568,16 +572,44 @@ def _input_noise_share(ref: Refinement, data: Data, su: np.ndarray, e: np.ndarra
             locate=True,
         ).y
 
+    y = np.asarray(data.y, float).reshape(len(u), -1)
     try:
         y0 = run(u)
-        d2 = np.mean(
-            [(run(u + rng.standard_normal(u.shape) * su) - y0) ** 2 for _ in range(max(1, min(8, 20000 // len(u))))],
-            axis=0,
-        )
+        draws = [run(u + rng.standard_normal(u.shape) * su) - y0 for _ in range(max(1, min(8, 20000 // len(u))))]
     except EstimatorError:
+        return []
+    return [np.where(np.isfinite(y), d, np.nan) for d in draws]
+
+
+def _left_in_residual(ref: Refinement, draws: Sequence[np.ndarray]) -> list[np.ndarray]:
+    """What of each draw of the inputs' noise stays in the residual: the fit absorbs what lies in the span of its
+    sensitivities (to first order, the projection on the columns of ``J`` it moved), the rest stays."""
+    m = ref.objective.setup.model
+    J = ref.fit.J
+    free = np.r_[
+        [p not in ref.held for p in m.parameters],
+        [s not in ref.known for s in m.states],
+        np.ones(ref.objective.n_gains, bool),
+    ]
+    out = []
+    for d in draws:
+        missing = ~np.isfinite(d)
+        Jf = J[:, free] if J is not None and J.shape == (d.size, len(free)) else None
+        d = np.where(missing, 0.0, d)
+        if Jf is not None and Jf.size:
+            w = (d / ref.sigma).ravel()  # whitened, sample-major as the residuals
+            w = w - Jf @ np.linalg.lstsq(Jf, w, rcond=None)[0]
+            d = w.reshape(d.shape) * ref.sigma
+        out.append(np.where(missing, np.nan, d))
+    return out
+
+
+def _share(draws: Sequence[np.ndarray], e: np.ndarray, outputs: Sequence[str]) -> dict[str, float]:
+    """Per output, the variance the draws of the inputs' noise make over the residual's; {} without draws."""
+    if not draws:
         return {}
-    d2 = np.where(np.isfinite(e), d2, np.nan)
-    return {o: float(np.nanmean(d2[:, j]) / max(np.nanmean(e[:, j] ** 2), 1e-300)) for j, o in enumerate(m.outputs)}
+    d2 = np.mean([d**2 for d in draws], axis=0)
+    return {o: float(np.nanmean(d2[:, j]) / max(np.nanmean(e[:, j] ** 2), 1e-300)) for j, o in enumerate(outputs)}
 
 
 def _switched(setup: Setup, obj: Objective, theta: np.ndarray, x0: np.ndarray, data: Data) -> bool:
