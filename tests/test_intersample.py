@@ -159,3 +159,14 @@ def test_driven_model_refuses_misuse():
         num.driven(0)
     with pytest.raises(ModelError, match="already driven"):
         num.driven(2).driven(2)
+
+
+def test_identify_takes_intersample_repeated_and_a_study_is_not_refused_without_it():
+    """``--intersample`` given twice keeps both (it kept only the last); not given, a record study runs as before."""
+    from obsnl.cli import build_parser
+
+    args = build_parser().parse_args(
+        ["identify", "m.toml", "--data", "d.csv", "--intersample", "u=zoh", "--intersample", "w=linear"]
+    )
+    assert args.intersample == ["u=zoh", "w=linear"]
+    assert build_parser().parse_args(["identify", "m.toml", "--record", "r.csv"]).intersample == []

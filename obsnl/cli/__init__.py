@@ -39,6 +39,7 @@ RECORD = "(.csv or .AT2) driving the model's one input"
 INTERSAMPLE = _o(
     "--intersample",
     action="append",
+    default=[],
     metavar="[NAME=]KIND",
     help="an input between samples: zoh, "
     "linear or bandlimited (repeatable; a bare KIND: every input; default: the model's [intersample], "

@@ -200,6 +200,8 @@ def identify_job(
     # messages name the options as Python keywords (``guess=``); the command line prints its flags for them
     if samples is not None and data:  # an option that would be ignored is refused, not dropped silently
         raise OptionError("samples= applies to a record= study; cut the data file instead")
+    if not options.get("intersample", True):  # the command line's empty list: not given
+        options.pop("intersample")
     if options.get("intersample") is not None and not data:
         raise OptionError(
             "intersample= applies to measured data= (a record= study simulates its input linearly "
