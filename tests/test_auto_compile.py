@@ -64,6 +64,7 @@ def _broken_compiler(tmp_path, monkeypatch) -> None:
     monkeypatch.setenv("PATH", str(bin_))
 
 
+@pytest.mark.slow
 @needs_cc
 def test_the_default_compiles_and_gives_the_uncompiled_numbers(tmp_path, monkeypatch, capsys):
     _fresh_cache(tmp_path, monkeypatch)

@@ -34,6 +34,7 @@ from .test_dukf import NUM, SCALE, _dukf
 FIELDS = ("z", "P", "active", "innovations", "interventions", "implicit", "refined")
 
 
+@pytest.mark.slow
 @needs_cc
 @pytest.mark.parametrize("kind", ["ukf", "dukf"])
 def test_compiled_filter_runs_equal_uncompiled_runs_bit_for_bit(kind, tmp_path, monkeypatch):

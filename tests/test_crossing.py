@@ -152,6 +152,7 @@ def fits_over_seeds(u: np.ndarray, x: np.ndarray, seeds) -> tuple[int, dict[str,
     return converged, covered, reasons
 
 
+@pytest.mark.slow
 def test_friction_fits_converge_and_their_intervals_cover_the_truth_over_40_seeds():
     """Over 40 noise seeds (0..39; 1 % noise on the displacement, 6 s of record) the maximum-likelihood fit of m,
     c, k, F_c, started 3 % off as the filter leaves it, converges (first-order condition and last step, as

@@ -98,6 +98,7 @@ def test_qy_is_a_case_of_over_12000_nodes_that_loads_within_the_bounds() -> None
     assert [s.name for s in model.states] == raw["states"] and [p.name for p in model.parameters] == raw["parameters"]
 
 
+@pytest.mark.slow
 def test_orc_stops_on_qy_at_the_swell_bound_with_its_reason_and_no_classes() -> None:
     t0 = time.perf_counter()
     result = analyze(read_model(QY), method="orc", seed=0, max_seconds=120)

@@ -102,6 +102,7 @@ def _leaky_identification(executor):
     return res.to_dict()["practical_identifiability"]["monte_carlo"]
 
 
+@pytest.mark.slow
 def test_identify_replicates_in_processes_and_on_dask_equal_the_serial_run():
     serial = _leaky_identification(Executor(workers=1))
     assert serial["replicates"] == 4 and serial["relative_std"][0] > 0  # four replicates that converged

@@ -55,6 +55,7 @@ def test_short_experiment(setup, kind):
     assert set(prac.to_dict()) >= {"crb_relative_std", "flagged", "reasons"}
 
 
+@pytest.mark.slow
 def test_a_divergent_configuration_ends_without_nan_and_counts_its_repairs(setup):
     # a prior spread of e^(+-3.7 x 3) on every log-parameter: sigma points far outside any sensible
     # model (stiff, overflowing); the filter must end finite, with its interventions counted
@@ -68,6 +69,7 @@ def test_a_divergent_configuration_ends_without_nan_and_counts_its_repairs(setup
     assert np.all(np.linalg.eigvalsh(tr.P[-1]) > -1e-9 * np.abs(tr.P[-1]).max())
 
 
+@pytest.mark.slow
 def test_reproduce_pipeline_end_to_end(tmp_path):
     rep = reproduce(seeds=1, tuning_seeds=1, passes=2, grid=(TUNING,), jit=False, samples=600, replicates=3)
     doc = json.loads(json.dumps(rep.to_dict()))
@@ -228,6 +230,7 @@ def test_a_diverged_reported_run_is_redone_with_the_next_tuning(monkeypatch):
     assert "- UKF, seed 0: (" in table2_markdown(doc) and "misfit 1 ->" in table2_markdown(doc)
 
 
+@pytest.mark.slow
 def test_a_study_without_a_tuning_is_tuned_like_measured_data():
     # With one fixed configuration (s0 0.2, no gate) this study diverged in its first pass; without a
     # tuning the study now picks, as identify does on measured data, the configuration of MEASURED_GRID
@@ -258,6 +261,7 @@ def test_a_collapsed_filter_covariance_gives_no_std_never_a_zero_one():
     assert "no std" in identify_text(res)
 
 
+@pytest.mark.slow
 def test_identify_command(tmp_path, capsys):
     table = tmp_path / "t.json"
     table.write_text(BranchTable.from_dict(paper_table1()).to_json())

@@ -27,6 +27,7 @@ def bouc_wen():
     return obsnl.identify(SDOF, data, jit=False, progress=False), X, F
 
 
+@pytest.mark.slow
 def test_the_folder_holds_the_residual_frf_and_hysteresis_figures(bouc_wen, tmp_path):
     res, _, _ = bouc_wen
     assert figure_files(res) == ("residuals.png", "frf.png", "hysteresis.png")
@@ -35,6 +36,7 @@ def test_the_folder_holds_the_residual_frf_and_hysteresis_figures(bouc_wen, tmp_
     assert all((tmp_path / "run" / n).stat().st_size > 10_000 for n in written if n.endswith(".png"))
 
 
+@pytest.mark.slow
 def test_the_measured_and_model_restoring_force_follow_the_true_one(bouc_wen):
     res, X, F = bouc_wen
     loop = restoring_force(res)

@@ -30,6 +30,7 @@ def sdof_csv(tmp_path_factory):
                             "comment": np.zeros_like(t)})
 
 
+@pytest.mark.slow
 def test_sdof_bouc_wen_from_measured_force_and_displacement(sdof_csv, tmp_path, capsys):
     # 1 % noise on force and displacement; noise levels NOT given: estimated from the data; guesses 30-50 % off
     # ([guess] of the model file). The per-branch union calls beta, gamma unobservable (each branch sees
@@ -120,6 +121,7 @@ def test_a_poorly_informed_parameter_is_reported_held_not_estimated():
     assert "held at its guess 0.3 (not estimated)" in identify_text(res)  # rendered from the value
 
 
+@pytest.mark.slow
 def test_a_zero_truth_gives_an_absolute_error_and_the_json_has_no_infinity(tmp_path):
     # simulation study: y = x + d u with d = 0 in truth; a converged run on the filter-independent
     # integrator is called converged (the Duffing-Coulomb report of issue 15)

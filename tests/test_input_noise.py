@@ -60,6 +60,7 @@ def test_the_input_sensitivity_predicts_how_the_estimate_moves_with_the_inputs_n
     assert np.max(np.abs(observed) / np.sqrt(np.diag(ref.cov)[:2])) > 2.0
 
 
+@pytest.mark.slow
 def test_with_two_percent_noise_on_the_input_the_intervals_cover_the_truth_over_20_seeds():
     """Coverage with a noisy measured input: over 20 seeds (0..19) the 95 % profile intervals of k and c each
     contain the truth at least 17 times. For calibrated intervals the count is Binomial(20, 0.95): P(<= 16) =

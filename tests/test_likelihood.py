@@ -146,6 +146,7 @@ def test_profile_interval_of_a_model_linear_in_its_parameters_is_the_analytic_in
         assert judge(pr) is None  # both within +-5 %
 
 
+@pytest.mark.slow
 def test_the_noise_estimate_is_unbiased_per_output_on_a_short_record():
     """Two outputs of a model linear in its coordinates, 25 samples each, two fitted coordinates per output
     (x1' = a u1, y1 = x1; x2' = b u2, y2 = x2; a, b and the initial state): ``RSS_c / (N - h_c)`` is unbiased
@@ -176,6 +177,7 @@ def test_the_noise_estimate_is_unbiased_per_output_on_a_short_record():
     assert np.all(np.abs(mean * (T - 2) / T - 1) > 3 * se)  # RSS_c / N: biased low, caught
 
 
+@pytest.mark.slow
 def test_95_percent_intervals_cover_the_truth_over_20_noise_seeds():
     """Coverage: over 20 noise seeds the 95 % profile intervals of k and c each contain the truth at least 17
     times. For calibrated intervals the count is Binomial(20, 0.95): P(count <= 16) = 0.016 per parameter,

@@ -543,6 +543,7 @@ PROBES = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("probe", PROBES)
 def test_a_heavy_probe_ends_within_10_s_of_cpu_and_1_gib(tmp_path, probe):
     make, words = PROBES[probe]

@@ -80,6 +80,7 @@ garbage_value = json_values | garbage_text | st.sampled_from(HOSTILE) | st.lists
 OPTIONAL_KEYS = [k for k in MODEL_KEYS if k not in ("name", "states", "equations")]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key", OPTIONAL_KEYS)
 @SETTINGS
 @given(value=garbage_value)

@@ -67,6 +67,7 @@ def covariance_of(res):
     return names, np.array([p["estimate"] for p in doc["parameters"]]), R * np.outer(d, d)
 
 
+@pytest.mark.slow
 def test_frequencies_and_damping_against_the_true_frame(run):
     assert run.adequacy is not None and run.adequacy.passed and run.converged
     m = run.modal()
@@ -85,6 +86,7 @@ def test_frequencies_and_damping_against_the_true_frame(run):
         assert [shape["y1"], shape["y2"]] == pytest.approx(v.tolist(), abs=0.01)
 
 
+@pytest.mark.slow
 def test_reported_std_matches_a_monte_carlo_spread(run):
     # 4000 draws: the sample std has a relative error of about 1/sqrt(2 * 4000) = 1.1 %, so a 20 % miss by chance
     # is beyond 15 sigma (probability below 1e-40); the seed fixes the draws anyway
@@ -97,6 +99,7 @@ def test_reported_std_matches_a_monte_carlo_spread(run):
     assert reported == pytest.approx(spread, rel=0.2)
 
 
+@pytest.mark.slow
 def test_python_control_export_has_the_linearisation_poles(run):
     sys = run.state_space()
     est = {p.name: p.estimate for p in run.parameters}
@@ -107,6 +110,7 @@ def test_python_control_export_has_the_linearisation_poles(run):
     assert np.real(sys.dcgain())[0, 0] == pytest.approx(1 / est["k1"], rel=1e-9)
 
 
+@pytest.mark.slow
 def test_identify_json_and_the_printed_summary_hold_the_modes(run, tmp_path):
     from obsnl.report.identification import identify_text
 
@@ -119,6 +123,7 @@ def test_identify_json_and_the_printed_summary_hold_the_modes(run, tmp_path):
     assert "mode 1" in text and "mode 2" in text and "Hz" in text
 
 
+@pytest.mark.slow
 def test_a_state_that_does_not_name_the_states_is_refused(run):
     with pytest.raises(OptionError, match="x1"):
         run.modal(state={"x": 0.0})

@@ -63,6 +63,7 @@ def test_whiten_inverts_an_ar_filter():
     assert np.allclose(whiten(x, [1.0, -0.5]), w[1:])
 
 
+@pytest.mark.slow
 def test_a_right_model_under_coloured_noise_passes_with_the_periodic_noise():
     # the residual of a right model is the noise itself. Its colour fails the plain whiteness test on every seed;
     # with the noise measured from the periods, adequacy passes. Family-wise level 1 %: 40 seeds, the chance of

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import re
 
+import pytest
+
 from .conftest import ROOT
 
 
@@ -42,6 +44,7 @@ def test_ci_runs_the_readme_test_command():
     assert 'pip install -e ".[test]" && python -m pytest' in ci
 
 
+@pytest.mark.slow
 def test_identification_example_runs(monkeypatch, capsys):
     # the script example of identification, from the checkout root as the README says; an independent filterpy baseline of the seed experiment:
     # c' is not informed by this response (the backstress stays tiny), k_m is
@@ -72,6 +75,7 @@ def test_measured_identification_example_runs(tmp_path, monkeypatch, capsys):
     assert res.converged and res.refinement.misfit_over_noise["disp"] <= 1.3, res.converged_reason
 
 
+@pytest.mark.slow
 def test_sensors_and_design_example_runs(monkeypatch, capsys):
     # the README's design example: each candidate alone suffices (derived in the test: disp = x and vel = v
     # each give x, v by integration/differentiation with the input known, and the contact branch, reached when

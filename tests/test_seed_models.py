@@ -10,6 +10,7 @@ also checks those definitions.
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
@@ -75,6 +76,7 @@ def test_reparametrized_model_reproduces_original_x1():
     np.testing.assert_allclose(xr[4], xo[4] * L**2 / E, atol=1e-6 * np.max(np.abs(xr[4])))
 
 
+@pytest.mark.slow
 def test_simulate_default_and_filter_steps_against_lsoda():
     # the truth of the identification experiment (RK4, 100 substeps, crossing substeps refined 8x)
     # and the filters' step (4 substeps, refined 8x) against scipy's LSODA at tight tolerances on

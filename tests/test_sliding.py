@@ -91,6 +91,7 @@ def test_the_record_sticks_and_the_fits_step_follows_scipys_stick_slip_solution(
     assert np.max(np.abs(plain[:, 0] - X[:, 0])) > 100 * np.max(np.abs(located[:, 0] - X[:, 0]))
 
 
+@pytest.mark.slow
 def test_stick_slip_fits_converge_and_their_intervals_cover_the_truth_over_20_seeds():
     """Over 20 noise seeds (1 % noise on the displacement, 6 s of stick-slip record) the maximum-likelihood fit of
     m, c, k, F_c, started 3 % off as the filter leaves it, converges at least 18 times (a run that does not says

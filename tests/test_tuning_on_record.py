@@ -138,3 +138,29 @@ def test_the_tuning_runs_on_the_record_the_job_is_given(monkeypatch):
     # the data's input is the record's own samples with 0.1 % noise (RMS): within 1 % of the record's RMS
     rms = np.sqrt(np.mean(record.accel**2))
     assert np.sqrt(np.mean((seen["u"] - record.accel) ** 2)) < 0.01 * rms
+
+
+def test_table2_names_the_runs_left_above_the_noise_floor_and_points_to_the_ml_column():
+    # Made-up runs at a noise ratio of 1e-3 and a floor of 2x: misfits 0.0015 (1.5x, at the floor), 0.0031 (3.1x),
+    # None (stopped), and an ablation run at 9x (never named: it is not a column one reads for the result).
+    from obsnl.report.identification.table2 import _above_floor
+
+    def run(method, passes, seed, misfit):
+        return {"method": method, "passes": passes, "seed": seed, "output_misfit": misfit}
+
+    doc = {
+        "noise_floor_factor": 2.0,
+        "experiment": {"noise_ratio": 1e-3},
+        "runs": [
+            run("ukf", 3, 0, 0.0015),
+            run("dukf", 3, 0, 0.0031),
+            run("dukf", 3, 1, None),
+            run("ukf", 1, 1, 0.0019),
+            run("dukf-zero", 3, 0, 0.009),
+        ],
+    }
+    (text, blank) = _above_floor(doc, with_ml=True)
+    assert "DUKF, 3 pass(es): seed(s) 0, 1." in text and "UKF, 1" not in text and "UKF, 3" not in text
+    assert "maximum-likelihood column" in text and blank == ""
+    assert _above_floor({**doc, "runs": doc["runs"][:1]}, with_ml=True) == []
+    assert _above_floor({k: v for k, v in doc.items() if k != "noise_floor_factor"}, with_ml=True) == []

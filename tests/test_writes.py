@@ -59,6 +59,7 @@ def test_5_report_folder_that_is_a_symlink_needs_force(tmp_path, capsys):
     assert list(real.iterdir()) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", ["identify.json", "fit.png", "traces.png"])
 def test_5_identify_never_writes_through_a_link_in_its_folder(tmp_path, capsys, name):
     out = tmp_path / "out"
@@ -140,6 +141,7 @@ def test_2_reproduce_never_writes_through_a_symlinked_default_folder(tmp_path, c
     assert list(victim.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_2_write_reproduction_refuses_a_linked_folder_even_with_force(tmp_path, small_reproduction):
     from obsnl.errors import OutputError
     from obsnl.studies.seed_reproduction import write_reproduction
@@ -269,6 +271,7 @@ def test_6_an_error_while_writing_leaves_no_file_no_staging_and_no_new_folder(tm
     assert sorted(p.name for p in out.iterdir()) == ["a.md", "b.png"]
 
 
+@pytest.mark.slow
 def test_6_a_full_disk_leaves_nothing_that_blocks_the_rerun(tmp_path):
     import resource
     import signal
