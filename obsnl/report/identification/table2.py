@@ -324,6 +324,36 @@ def table2_errors(doc: Mapping[str, Any]) -> tuple[list[str], dict[str, list[flo
     return [_T2_MD.get(p, p) for p in params], errors, flags
 
 
+def _above_floor(doc: Mapping[str, Any], *, with_ml: bool) -> list[str]:
+    """A paragraph naming the filters' reported runs that stayed above the noise floor with every configuration
+    they tried (a document that states its floor only; none: nothing)."""
+    floor = doc.get("noise_floor_factor")
+    if floor is None:
+        return []
+    line = floor * doc["experiment"]["noise_ratio"]
+    seeds: dict[tuple[str, int], list[int]] = {}
+    for r in doc["runs"]:
+        if r["method"] != "dukf-zero" and (r["output_misfit"] is None or r["output_misfit"] > line):
+            seeds.setdefault((r["method"], r["passes"]), []).append(r["seed"])
+    if not seeds:
+        return []
+    named = "; ".join(
+        f"{_T2_METHODS[m]}, {k} pass(es): seed(s) {', '.join(map(str, s))}" for (m, k), s in sorted(seeds.items())
+    )
+    return [
+        f"Above the noise floor (the reported run's output misfit over {floor:g}x the noise level with every "
+        f"configuration it tried): {named}. Such an estimate does not reproduce its data and is not the likelihood's "
+        "optimum"
+        + (
+            "; the maximum-likelihood column (refined protocol), started on each seed from the better filter's "
+            "estimate, is the result to read for these data."
+            if with_ml
+            else "."
+        ),
+        "",
+    ]
+
+
 def table2_markdown(doc: Mapping[str, Any]) -> str:
     """The Table 2 analog as Markdown: a compact summary first (per protocol and filter: the worst error on the
     unflagged parameters, the flags, the goal), then one table per protocol (the refined one with the
@@ -343,6 +373,7 @@ def table2_markdown(doc: Mapping[str, Any]) -> str:
         "",
         *_summary_rows(summ, ml, ml_passes),
         "",
+        *_above_floor(doc, with_ml=bool(ml)),
     ]
     protocol = [
         "## Protocol",
