@@ -88,6 +88,12 @@ def _prepare(
                 f"the guess of {k} is {v!r} (guess= or the model's [guess]); give a finite nonzero "
                 f"number below 1e100 in magnitude (the filter estimates log|{k}| from it)"
             )
+        lo, hi = (model.bounds or {}).get(k, (-math.inf, math.inf))
+        if not lo <= v <= hi:  # the fit searches inside the declared bounds: a guess outside cannot start it
+            raise OptionError(
+                f"the guess of {k} is {v:g}, outside its declared bounds [{lo:g}, {hi:g}] (the model's [bounds]); "
+                f"give a guess inside them"
+            )
     return num, g, table, structural
 
 
@@ -352,6 +358,7 @@ def identify(
                 intersample=kinds,
                 known_initial=known,
                 objective=objective,
+                bounds={k: v for k, v in (model.bounds or {}).items() if k in g},
             )
 
     return dataclasses.replace(

@@ -28,7 +28,8 @@ side as far as the profile was followed; ``flat``: open on both sides with ``Del
 anywhere (cross-checked with the structural analysis by the caller). How far a side was followed, and why it
 stopped, is kept per side (:attr:`Profile.sides`): the interval's end (``end``), the full ``SEARCH`` (a factor
 10 of the estimate: the data do not bound the parameter there, a practical non-identifiability), the edge of
-the valid region (``bound``: the search stopped there, not the data; a guess far off), the points' budget
+the valid region (``bound``: the search stopped there, not the data; a guess far off), a bound the model file
+declares (``declared``: the data do not bound it inside what the model allows), the points' budget
 (``points``), or a point that fits better than the estimate (``better``). :func:`judge` says which.
 """
 
@@ -45,7 +46,7 @@ from obsnl._text import block, number, one_line
 from obsnl.errors import EstimatorError
 from obsnl.executor import Executor, built_once
 from obsnl.identification.likelihood import covariance, levenberg_marquardt
-from obsnl.identification.refine import Refinement
+from obsnl.identification.refine import Refinement, declared_bounds
 
 __all__ = [
     "Profile",
@@ -213,6 +214,7 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
     slope = np.where(np.isfinite(C[:, i]), C[:, i], 0.0) / C[i, i] if math.isfinite(sd) else np.zeros(len(z_hat))
     slope[i] = 1.0
     lo_edge, hi_edge = ref.lower[i], ref.upper[i]
+    declared = declared_bounds(ref.objective.setup)
     points = [(0.0, 0.0)]
     ends: list[float | None] = []
     stops: list[str] = []
@@ -245,7 +247,8 @@ def profile(ref: Refinement, name: str, *, search: float = SEARCH, tolerance: fl
             if delta < level:
                 inner, start = (d, math.sqrt(delta)), z
                 if d >= limit - 1e-12:  # open on this side: followed to the full search, or stopped by the bound
-                    stop = "search" if limit >= search - 1e-12 else "bound"
+                    declared_edge = (lo_edge if side < 0 else hi_edge) == declared[0 if side < 0 else 1][i]
+                    stop = "search" if limit >= search - 1e-12 else "declared" if declared_edge else "bound"
                     break
                 if outer is None:
                     grow = math.sqrt(level / delta) if delta > 1e-12 else 3.0
@@ -560,6 +563,11 @@ def _side_said(side: str, why: str, theta: float) -> str:
             f"on the {side} side the search stopped at the edge of the valid region ({theta:.4g}, a factor 100 "
             f"from the guess) with the profile still below the 95 % threshold: the bound, not the data, ended "
             f"it; start from a guess nearer the estimate"
+        )
+    if why == "declared":
+        return (
+            f"on the {side} side the search stopped at the bound the model file declares ({theta:.4g}, its [bounds]) "
+            f"with the profile still below the 95 % threshold: the data do not bound it inside what the model allows"
         )
     if why == "points":
         return (

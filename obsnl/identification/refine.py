@@ -249,8 +249,9 @@ def refine(
     phi0 = setup.coordinate_map.to_phi(theta0)
     guess = setup.coordinate_map.to_phi(setup.theta_guess)
     g = obj.n_gains
-    lower = np.r_[guess - BOUND, np.full(m.nx + g, -np.inf)]
-    upper = np.r_[guess + BOUND, np.full(m.nx + g, np.inf)]
+    declared_lower, declared_upper = declared_bounds(setup)
+    lower = np.r_[np.maximum(guess - BOUND, declared_lower), np.full(m.nx + g, -np.inf)]
+    upper = np.r_[np.minimum(guess + BOUND, declared_upper), np.full(m.nx + g, np.inf)]
     known = tuple(setup.known if known is None else known)
     unknown = sorted(set(known) - set(m.states))
     if unknown:
@@ -329,7 +330,19 @@ def refine(
         for j, o in enumerate(m.outputs)
     }
     converged, reason = _verdict(
-        fit, m.parameters, advice, switched=fit.decrement > DECREMENT and _switched(setup, obj, theta, obj.x0(z), data)
+        fit,
+        m.parameters,
+        advice,
+        switched=fit.decrement > DECREMENT and _switched(setup, obj, theta, obj.x0(z), data),
+        declared=tuple(
+            m.parameters[i]
+            for i in fit.at_bound
+            if i < m.np
+            and (
+                (fit.z[i] <= lower[i] and lower[i] == declared_lower[i])
+                or (fit.z[i] >= upper[i] and upper[i] == declared_upper[i])
+            )
+        ),
     )
     return Refinement(
         theta=theta,
@@ -443,6 +456,36 @@ def _gain_start(obj: Objective, z: np.ndarray) -> np.ndarray:
         if c < chi2:
             best, chi2 = a * unit, c
     return best
+
+
+def declared_bounds(setup: Setup) -> tuple[np.ndarray, np.ndarray]:
+    """The declared bounds of the parameters (``setup.bounds``, the model's ``[bounds]``) in the fit's coordinates
+    ``phi = log(s theta)``, ``s`` the sign of the guess: ``-inf``/``inf`` where none binds (an end of the other sign
+    than the guess, or none declared; the coordinates keep the guess's sign anyway).
+
+    Examples
+    --------
+    >>> import obsnl
+    >>> from types import SimpleNamespace
+    >>> from obsnl.estimation.codegen import to_casadi
+    >>> num = to_casadi(obsnl.Model(name="d", states=["x"], parameters=["k", "F"], inputs=["u"],
+    ...                             equations={"x": "u - k*x - F"}, outputs={"y": "x"}))
+    >>> lo, hi = declared_bounds(SimpleNamespace(model=num, bounds={"k": (1.0, 100.0)},
+    ...                                          theta_guess=np.array([10.0, -1.0])))
+    >>> np.round(np.exp(lo), 6).tolist(), np.round(np.exp(hi), 6).tolist()
+    ([1.0, 0.0], [100.0, inf])
+    """
+    m = setup.model
+    lower, upper = np.full(m.np, -np.inf), np.full(m.np, np.inf)
+    guess = np.asarray(setup.theta_guess, float)
+    with np.errstate(divide="ignore"):
+        for i, p in enumerate(m.parameters):
+            lo, hi = (setup.bounds or {}).get(p, (-math.inf, math.inf))
+            s = 1.0 if guess[i] > 0 else -1.0
+            a, b = sorted((s * lo, s * hi))  # the bounds of |theta| = s theta
+            lower[i] = math.log(a) if a > 0 else -math.inf
+            upper[i] = math.log(b) if b > 0 else -math.inf
+    return lower, upper
 
 
 def residual_dof(J: np.ndarray, ny: int) -> np.ndarray:
@@ -629,10 +672,13 @@ def _switched(setup: Setup, obj: Objective, theta: np.ndarray, x0: np.ndarray, d
     return bool(np.any(np.diff(np.sign(G), axis=0) != 0))
 
 
-def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE, *, switched: bool = False) -> tuple[bool, str]:
+def _verdict(
+    fit: Fit, parameters: Sequence[str], advice: str = ADVICE, *, switched: bool = False, declared: Sequence[str] = ()
+) -> tuple[bool, str]:
     """Converged or not, and why: the reason names only what happened (a switch of the field inside a step only
-    where the fitted trajectory crosses a switching function, ``switched``)."""
-    edge = [parameters[i] for i in fit.at_bound if i < len(parameters)]
+    where the fitted trajectory crosses a switching function, ``switched``; a parameter on a bound the model file
+    declared, ``declared``, as such)."""
+    edge = [parameters[i] for i in fit.at_bound if i < len(parameters) and parameters[i] not in declared]
     if fit.decrement > DECREMENT:
         what = "no step lowers the misfit any more" if fit.stalled else f"stopped after {fit.iterations} iterations"
         rough = (
@@ -648,6 +694,12 @@ def _verdict(fit: Fit, parameters: Sequence[str], advice: str = ADVICE, *, switc
     if fit.last_step > STEP_LIMIT:
         return False, (
             f"the last step moved a parameter by {fit.last_step:.2g} of its std (more than {STEP_LIMIT:g}); {advice}"
+        )
+    if declared:  # the model file's bound holds the estimate: the data pull it past what the model allows
+        return False, (
+            f"{', '.join(declared)} rests on its declared bound (the model's [bounds]): the likelihood would rise "
+            f"beyond it, so the data pull it past what the model file allows (a bound too tight, or a model that does "
+            f"not fit); check the bound and the model"
         )
     if edge:  # the bounded problem's first-order conditions hold there, but a search bound is no maximum
         return False, (

@@ -132,6 +132,7 @@ _SETUP_FIELDS = (
     "initial",
     "known",
     "objective",
+    "bounds",
 )
 
 

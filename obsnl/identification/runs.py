@@ -521,6 +521,7 @@ def identify_measured(
     intersample: Mapping[str, str] | None = None,
     known_initial: Mapping[str, float] | None = None,
     objective: str = "output",
+    bounds: Mapping[str, tuple[float, float]] | None = None,
 ) -> Identification:
     """Identify ``num``'s parameters from measured inputs and outputs (no true value used).
 
@@ -568,6 +569,8 @@ def identify_measured(
         :func:`obsnl.identification.setup.free_start`).
     objective : {"output", "prediction"}
         What the maximum-likelihood fit minimises (:data:`obsnl.identification.setup.OBJECTIVES`).
+    bounds : mapping of str to (float, float) or None
+        Declared bounds of parameters (the model's ``[bounds]``): the fit searches inside them.
 
     Returns
     -------
@@ -669,6 +672,7 @@ def identify_measured(
         initial=known,
         known=tuple(known),
         objective=objective,
+        bounds=dict(bounds or {}),
     )
     start = free_start(stepped, theta=setup.theta_guess, x0=setup.x0, u=U, y=data.y, dt=data.dt, known=tuple(known))
     if start is not None:  # the record moves where the model at rest would not: it starts in motion

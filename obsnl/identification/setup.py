@@ -106,7 +106,9 @@ class Setup:
     the located crossing and follows sliding modes, as the fit's does (off by default; on a mass that sticks, the
     stages of the refined step chatter across ``v = 0`` and bias the filter's estimate). ``objective``: what the
     maximum-likelihood fit minimises (:data:`OBJECTIVES`): the output error of the free simulation, or the
-    prediction error of a constant-gain predictor (:mod:`obsnl.identification.likelihood`).
+    prediction error of a constant-gain predictor (:mod:`obsnl.identification.likelihood`). ``bounds``: declared
+    bounds of parameters, ``{name: (lo, hi)}`` (the model's ``[bounds]``): the fit searches inside them as well as
+    within ``BOUND`` of the guesses.
     """
 
     model: NumericModel
@@ -127,6 +129,7 @@ class Setup:
     initial: Mapping[str, float] | None = None
     known: tuple[str, ...] = ()
     objective: str = "output"
+    bounds: Mapping[str, tuple[float, float]] | None = None
 
     def __post_init__(self) -> None:
         m = self.model
