@@ -165,3 +165,11 @@ def test_table2_names_the_runs_left_above_the_noise_floor_and_points_to_the_ml_c
     assert "maximum-likelihood column" in text and blank == ""
     assert _above_floor({**doc, "runs": doc["runs"][:1]}, with_ml=True) == []
     assert _above_floor({k: v for k, v in doc.items() if k != "noise_floor_factor"}, with_ml=True) == []
+
+
+def test_no_configuration_to_run_is_refused_in_one_line():
+    from obsnl.errors import OptionError
+
+    for ranking, fallbacks in (((), 2), ((FREE, FROZEN), -2)):
+        with pytest.raises(OptionError, match="no tuning to run"):
+            reported_with_fallbacks(None, None, "ukf", 1, 0, ranking, fallbacks=fallbacks)
