@@ -269,7 +269,7 @@ def refine(
         z[m.np + m.nx :] = _gain_start(obj, z)
         first = free.copy()
         first[: m.np] = False
-        z = levenberg_marquardt(obj.evaluate, z, lower, upper, free=first, max_iter=max_iter).z
+        z = levenberg_marquardt(obj.evaluate, z, lower, upper, free=first, max_iter=GAIN_ITERATIONS).z
     left_out, measured_y = np.zeros((len(data.u), m.ny), bool), data.y
     for _ in range(JUMP_ROUNDS if any(m.output_jumps) else 0):
         # an output that jumps with the field (an accelerometer under Coulomb friction): its samples next to a jump
@@ -419,6 +419,9 @@ def _left_out(y: Any, left_out: np.ndarray) -> np.ndarray:
     return np.where(left_out, np.nan, np.asarray(y, float).reshape(left_out.shape))
 
 
+#: Iterations at most of the prediction-error fit's first stage (the gains and the initial state, the parameters
+#: held): it only brings the gains near their optimum, which the full fit then reaches.
+GAIN_ITERATIONS = 8
 #: The shares of the innovation a starting gain feeds back (:func:`_gain_start`).
 GAIN_SHARES = (0.0, 0.01, 0.03, 0.1, 0.3, 0.6, 1.0)
 
