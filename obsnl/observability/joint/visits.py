@@ -313,6 +313,8 @@ def surface_visit(
 
 
 def replace_visit(v: JointVisit, **kw: Any) -> JointVisit:
+    """``v`` with the fields ``kw`` replaced (:func:`dataclasses.replace`: the keywords are the fields of
+    :class:`JointVisit`, so a bag of keywords is the call's own contract, checked by the dataclass)."""
     return replace(v, **kw)
 
 
