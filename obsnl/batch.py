@@ -17,15 +17,13 @@ from obsnl.observability.analyze import analyze
 from obsnl.observability.limits import check_analysis_limits, check_file_limits
 from obsnl.observability.results import AnalysisResult
 from obsnl.report.files import check_target
-from obsnl.report.folders import report_files, tables_written_line, write_tables
-from obsnl.report.printed import Printed
-from obsnl.report.structure import inconclusive_line
+from obsnl.report.folders import report_files, write_tables
 
-__all__ = ["report_models", "report_paths", "report_printed"]
+__all__ = ["report_models", "report_paths"]
 
 
 class _ReportOptions(TypedDict, total=False):
-    """The options of :func:`report_models` that :func:`report_paths` and :func:`report_printed` pass on."""
+    """The options of :func:`report_models` that :func:`report_paths` passes on."""
 
     method: str
     seed: int
@@ -126,32 +124,3 @@ def report_paths(
         for m in models:
             check_analysis_limits(m)
         return report_models(models, out, max_seconds=max_seconds, **options)
-
-
-def report_printed(
-    models: Sequence[str | Path],
-    out: str | Path,
-    *,
-    max_seconds: float | None = None,
-    **options: Unpack[_ReportOptions],
-) -> Printed:
-    """What ``obsnl report`` prints: :func:`report_paths`, the tables written, and the line that names the
-    first inconclusive branch (with its model's name).
-
-    Parameters
-    ----------
-    models : sequence of str or Path
-        Model files (or ``obsnl:NAME``).
-    out : str or Path
-        The report folder.
-    max_seconds : float or None
-        As for :func:`report_paths`.
-    **options : str, int, bool or Executor
-        As for :func:`report_paths`.
-
-    Returns
-    -------
-    Printed
-    """
-    results = report_paths(models, out, max_seconds=max_seconds, **options)
-    return Printed(tables_written_line(len(results), out), inconclusive_line(results, named=True))

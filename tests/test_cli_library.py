@@ -1,10 +1,11 @@
 """Issue 25, item 4: the checks, file workflows and lines the thin command line left to the library.
 
 (1) A bound is the library's: Python and ``obsnl`` refuse the same value with the same message, the command
-line's only in its flags (``cli_terms``); (2) the file jobs refuse an output file that cannot be written
-before any work (a tripwire on the work); (3) the renamings of ``reparametrize_job`` are ``OLD=NEW``; (4) the
-undecided sensor sets make one line; (5) identify's refusal of workers nothing would use, and the probe of a
-scheduler, are the jobs' own; (6) a command prints (or writes to ``-o``) what its library job returns. Every
+line's only in its flags (``cli_terms``); (2) the file workflows and requests refuse an output file that cannot be
+written before any work (a tripwire on the work); (3) the renamings of a ``ReparametrizeRequest`` are ``OLD=NEW``;
+(4) the undecided sensor sets make one line; (5) identify's refusal of workers nothing would use, and the probe of a
+scheduler, are the requests' own; (6) a command prints (or writes to ``-o``) what its module of ``obsnl.commands``
+returns. Every
 check is exact, so no error probability to state.
 """
 
@@ -57,11 +58,11 @@ def test_the_switches_read_the_value_they_set():
     assert in_terms("joint=False", {"joint": ("--no-joint", False)}) == "--no-joint"
 
 
-@pytest.mark.parametrize("job", ["analyze_file", "sensors_file", "design_file", "reparametrize_job"])
+@pytest.mark.parametrize("job", ["analyze_file", "sensors_file", "design_file", "ReparametrizeRequest"])
 def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, monkeypatch, job):
     import obsnl.design.records as records
     import obsnl.model.files as files
-    from obsnl.studies import jobs
+    from obsnl.commands.reparametrize import ReparametrizeRequest
 
     def tripwire(*a, **k):  # noqa: ANN002, ANN003
         raise AssertionError("the model was read before the output was checked")
@@ -72,18 +73,18 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, m
     call = {"analyze_file": lambda: records.analyze_file(MODELS / "bouc_wen.toml", output=str(out)),
             "sensors_file": lambda: records.sensors_file(MODELS / "bouc_wen.toml", output=str(out)),
             "design_file": lambda: records.design_file(MODELS / "bouc_wen.toml", ["r.csv"], output=str(out)),
-            "reparametrize_job": lambda: jobs.reparametrize_job(MODELS / "bouc_wen.toml", output=str(out))}[job]
+            "ReparametrizeRequest": lambda: ReparametrizeRequest(model=MODELS / "bouc_wen.toml", output=str(out))}[job]
     with pytest.raises(OutputError, match="exists; pass force=True"):
         call()
     assert out.read_text(encoding="utf-8") == "keep me"
 
 
 @pytest.mark.parametrize("names", [["x"], ["a=b=c"], ["=b"], ["a="]])
-def test_reparametrize_job_takes_old_equals_new(names):
-    from obsnl.studies.jobs import reparametrize_job
+def test_the_reparametrize_request_takes_old_equals_new(names):
+    from obsnl.commands.reparametrize import ReparametrizeRequest
 
     with pytest.raises(OptionError, match="names= takes OLD=NEW"):
-        reparametrize_job(MODELS / "bouc_wen.toml", names=names)
+        ReparametrizeRequest(model=MODELS / "bouc_wen.toml", names=names)
 
 
 def test_the_undecided_sensor_sets_make_one_line():
@@ -96,19 +97,19 @@ def test_the_undecided_sensor_sets_make_one_line():
     assert undecided_line(SimpleNamespace(undecided_sets=())) is None
 
 
-def test_identify_job_refuses_an_executor_nothing_would_use(tmp_path, capsys, monkeypatch):
+def test_the_identify_request_refuses_an_executor_nothing_would_use(tmp_path, capsys, monkeypatch):
     """Without the refinement and without replicates nothing of identify runs in parallel: workers or a scheduler
     named there are refused, not dropped, from Python and from ``obsnl identify`` alike (before the model is read)."""
     import obsnl.model.files as files
-    from obsnl.studies.jobs import identify_job
+    from obsnl.commands.identify import IdentifyRequest
 
     def tripwire(*a, **k):  # noqa: ANN002, ANN003
         raise AssertionError("the model was read before the options were checked")
 
     monkeypatch.setattr(files, "read_model", tripwire)
     with pytest.raises(OptionError) as info:
-        identify_job(MODELS / "bouc_wen.toml", record="r.csv", refine=False, replicates=0,
-                     executor=Executor(workers=2))
+        IdentifyRequest(model=MODELS / "bouc_wen.toml", record="r.csv", refine=False, replicates=0,
+                        executor=Executor(workers=2))
     assert "workers= or scheduler=" in str(info.value) and "refine=False" in str(info.value)
     assert main(["identify", str(MODELS / "bouc_wen.toml"), "--record", "r.csv", "--no-refine", "--workers", "2"]) == 2
     err = capsys.readouterr().err
@@ -118,17 +119,18 @@ def test_identify_job_refuses_an_executor_nothing_would_use(tmp_path, capsys, mo
     for options in ({"refine": False, "executor": Executor()}, {"refine": False, "replicates": 3,
                                                                   "executor": Executor(workers=2)}):
         with pytest.raises(AssertionError, match="the model was read"):
-            identify_job(MODELS / "bouc_wen.toml", record="r.csv", **options)
+            IdentifyRequest(model=MODELS / "bouc_wen.toml", record="r.csv", **options)
 
 
-@pytest.mark.parametrize("job", ["identify_job", "reproduce_job", "report_paths", "sensors_file"])
+@pytest.mark.parametrize("job", ["IdentifyRequest", "ReproduceRequest", "report_paths", "sensors_file"])
 def test_the_jobs_refuse_a_dead_scheduler_before_any_work(tmp_path, monkeypatch, job):
     """A scheduler address where nothing listens (port 1 of the loopback: refused at once) is refused by the job
     itself, from Python too, before a model or a record is read."""
     import obsnl.batch as batch
     import obsnl.design.records as records
     import obsnl.model.files as files
-    from obsnl.studies import jobs
+    from obsnl.commands.identify import IdentifyRequest
+    from obsnl.commands.reproduce import ReproduceRequest
 
     def tripwire(*a, **k):  # noqa: ANN002, ANN003
         raise AssertionError("work started before the scheduler was probed")
@@ -136,8 +138,8 @@ def test_the_jobs_refuse_a_dead_scheduler_before_any_work(tmp_path, monkeypatch,
     for module in (batch, files):
         monkeypatch.setattr(module, "read_model", tripwire)
     dead = Executor(scheduler="tcp://127.0.0.1:1")
-    call = {"identify_job": lambda: jobs.identify_job(MODELS / "bouc_wen.toml", record="r.csv", executor=dead),
-            "reproduce_job": lambda: jobs.reproduce_job(out=tmp_path / "o", record="r.csv", executor=dead),
+    call = {"IdentifyRequest": lambda: IdentifyRequest(model=MODELS / "bouc_wen.toml", record="r.csv", executor=dead),
+            "ReproduceRequest": lambda: ReproduceRequest(out=tmp_path / "o", record="r.csv", executor=dead),
             "report_paths": lambda: batch.report_paths([MODELS / "bouc_wen.toml"], tmp_path / "o", executor=dead),
             "sensors_file": lambda: records.sensors_file(MODELS / "bouc_wen.toml", executor=dead)}[job]
     with pytest.raises(OptionError, match="cannot reach the Dask scheduler"):
@@ -158,19 +160,23 @@ def test_a_printed_rendering_goes_to_standard_output_or_to_its_file(tmp_path):
     assert printed("other\n", str(out), force=True).text is None and out.read_text(encoding="utf-8") == "other\n"
 
 
-def test_the_jobs_the_command_line_runs_print_what_it_prints(tmp_path, capsys):
-    """A command's text is its job's text: ``obsnl branches`` prints what ``branches_printed`` returns, ``obsnl
-    analyze -o`` writes what ``analyze_printed`` returns (the analysis seeded, its timings set aside)."""
+def test_a_command_prints_what_its_module_returns(tmp_path, capsys):
+    """A command's text is its module's text: ``obsnl branches`` prints what ``obsnl.commands.branches`` returns,
+    ``obsnl analyze -o`` writes what ``obsnl.commands.analyze`` renders (the analysis seeded, its timings set
+    aside)."""
     import json
 
-    from obsnl.design.jobs import analyze_printed, branches_printed
+    from obsnl.commands import analyze, branches
 
     assert main(["branches", str(MODELS / "coulomb_friction.toml"), "--equations"]) == 0
-    assert capsys.readouterr().out == branches_printed(MODELS / "coulomb_friction.toml", equations=True).text + "\n"
+    shown = branches.branches_printed(branches.run_branches(branches.BranchesRequest(model=MODELS / "coulomb_friction.toml",
+                                                                   equations=True)))
+    assert capsys.readouterr().out == shown.text + "\n"
     out = tmp_path / "a.json"
     assert main(["analyze", str(MODELS / "coulomb_friction.toml"), "--seed", "3", "--format", "json", "-o",
                  str(out)]) == 0
-    printed = analyze_printed(MODELS / "coulomb_friction.toml", seed=3, fmt="json")
+    printed = analyze.analyze_printed(analyze.run_analyze(analyze.AnalyzeRequest(model=MODELS / "coulomb_friction.toml", seed=3,
+                                                                 fmt="json")))
 
     def untimed(doc):  # the document without its wall-clock fields
         if isinstance(doc, dict):

@@ -473,12 +473,12 @@ def test_d1_any_os_error_of_a_command_is_one_line_with_the_path_and_the_reason(f
     """The one place (main) that turns the operating system's refusals into a line: here a full disk."""
     import errno
 
-    import obsnl.design.jobs
+    import obsnl.commands.sensors
 
-    def full(model, **options):
+    def full(request):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(files["dir"] / f"{TEN_KB}.txt"))
 
-    monkeypatch.setattr(obsnl.design.jobs, "sensors_printed", full)  # the job the command runs
+    monkeypatch.setattr(obsnl.commands.sensors, "run_sensors", full)  # the command's run
     code, out, err = _cli(files, capsys, "sensors", str(files["model"]))
     _check_cli_refusal(code, out, err)
     assert os.strerror(errno.ENOSPC) in err and "free some space" in err and len(err) < 400, err
@@ -776,13 +776,13 @@ def test_an_empty_out_folder_is_refused_by_the_library(tiny_files):
     """The check is the library's (the jobs behind the commands, and every writer of a folder), not the CLI's."""
     from obsnl.errors import OutputError
     from obsnl.report.files import check_folder
-    from obsnl.studies.jobs import identify_job
+    from obsnl.commands.identify import IdentifyRequest
 
     for out in ("", "  "):
         with pytest.raises(OutputError, match="out= is empty"):
             check_folder(out, ["a.json"], force=True)
     with pytest.raises(OutputError, match="out= is empty"):
-        identify_job(tiny_files["model"], record=tiny_files["record"], out="")
+        IdentifyRequest(model=tiny_files["model"], record=tiny_files["record"], out="")
 
 
 # ----------------------------------------------------------------------------- an option that would be ignored

@@ -18,8 +18,8 @@ def test_guess_takes_several_assignments_at_once():
     assert a.guess == [["k=3", "c=0.5"], ["m=2"]]
 
 
-def test_identify_job_reads_the_guesses_given_at_once(monkeypatch, tmp_path):
-    from obsnl.studies import jobs
+def test_identify_reads_the_guesses_given_at_once(monkeypatch, tmp_path):
+    from obsnl.commands import identify
 
     seen = {}
 
@@ -31,7 +31,7 @@ def test_identify_job_reads_the_guesses_given_at_once(monkeypatch, tmp_path):
     model = obsnl.Model(name="m", states=["x"], parameters=["k", "c"], inputs=["u"],
                         equations={"x": "-k*x - c*x + u"}, outputs={"y": "x"})
     try:
-        jobs.identify_job(model, data="d.csv", guess=[["k=3", "c=0.5"]])
+        identify.run_identify(identify.IdentifyRequest(model=model, data="d.csv", guess=[["k=3", "c=0.5"]]))
     except SystemExit:
         pass
     assert seen == {"k": 3.0, "c": 0.5}
@@ -40,11 +40,10 @@ def test_identify_job_reads_the_guesses_given_at_once(monkeypatch, tmp_path):
 def test_the_quick_form_says_what_it_found(monkeypatch, tmp_path):
     # the reproduction's table2.json (here the committed one) read back: one line per filter and protocol, the ML
     # column among them, before the files
-    from obsnl.studies import jobs
+    from obsnl.commands import reproduce
 
     shutil.copy(ROOT / "reports" / "identification" / "table2.json", tmp_path / "table2.json")
-    monkeypatch.setattr(jobs, "reproduce_job", lambda **o: (tmp_path, [tmp_path / "table2.json"]))
-    text, _ = jobs.reproduce_printed(quick=True)
+    text, _ = reproduce.reproduce_printed(reproduce.ReproduceResult(tmp_path, (tmp_path / "table2.json",)))
     doc = json.loads((tmp_path / "table2.json").read_text())
     first = text.splitlines()[0]
     assert first.startswith("UKF, one pass") and "5 % goal" in first

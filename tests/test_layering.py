@@ -27,7 +27,8 @@ LAYERS = {
     "identification": 6,
     "studies": 7, "design": 7,
     "batch": 8,
-    "cli": 9, "__init__": 9, "__main__": 10,
+    "commands": 9,
+    "cli": 10, "__init__": 10, "__main__": 11,
 }
 #: The inner order of a room that has sub-rooms (each subpackage ``__init__`` states it): a module imports
 #: only a lower rank of its own room, or its own sub-room. A top-level module of the room is its own unit.
@@ -142,11 +143,26 @@ def test_the_graph_sees_a_circle_made_by_import_module(tmp_path):
     assert sorted(map(sorted, cycles)) == [["planted.a", "planted.b"]]
 
 
-def test_every_command_reaches_its_job_by_a_plain_import():
-    from obsnl.cli import COMMANDS
-    from obsnl.cli.commands import job_of
+def test_every_command_reaches_its_door_by_a_plain_import():
+    # each command has its module in the commands room, imported plainly by the command line's runner; the module
+    # holds the command's frozen request, its run and what it prints
+    import dataclasses
+    import importlib
 
-    assert {c: job_of(c).__name__ for c in COMMANDS} == {c: f"{c}_printed" for c in COMMANDS}
+    from obsnl.cli import COMMANDS
+
+    assert {f"obsnl.commands.{c}" for c in COMMANDS} <= set(MODULES)
+    assert {f"obsnl.commands.{c}" for c in COMMANDS} <= _imports("obsnl.cli.commands")
+    for c in COMMANDS:
+        module = importlib.import_module(f"obsnl.commands.{c}")
+        request = getattr(module, f"{c.capitalize()}Request")
+        assert dataclasses.is_dataclass(request) and request.__dataclass_params__.frozen
+        assert callable(getattr(module, f"run_{c}")) and callable(getattr(module, f"{c}_printed"))
+
+
+def test_the_libraries_hold_no_command_line_job():
+    # design/ and studies/ are libraries: no module of theirs is the command line's job
+    assert {m for m in MODULES if m.split(".")[-1] == "jobs"} == set()
 
 
 def test_no_import_by_a_computed_name():

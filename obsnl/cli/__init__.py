@@ -1,6 +1,6 @@
-"""The ``obsnl`` command line: each subcommand parses its options, calls its library job and prints what the job
-returns (:func:`obsnl.cli.commands.run`; the jobs are imported plainly in :func:`obsnl.cli.commands.job_of`). The
-parser is the table :data:`COMMANDS`.
+"""The ``obsnl`` command line: each subcommand parses its options into its request and prints what its module of
+:mod:`obsnl.commands` returns (:func:`obsnl.cli.commands.run`; the modules are imported plainly in
+:func:`obsnl.cli.commands.printed`). The parser is the table :data:`COMMANDS`.
 
 Exit codes: 0 success, 2 bad input (one line on stderr, no traceback), 1 an internal error. Nothing
 numeric is imported before a command runs: ``obsnl --help`` loads argparse and the package only.
@@ -47,9 +47,9 @@ INTERSAMPLE = _o(
 )
 BIG = f"A model with more than {MAX_UNKNOWNS} unknowns (states + parameters + unknown inputs) is refused first."
 
-#: Each subcommand: its one-line help, its description and its options, in the order --help lists them. Its library
-#: job (which takes the options as keywords and returns what the command prints) is imported plainly by
-#: :func:`obsnl.cli.commands.job_of`.
+#: Each subcommand: its one-line help, its description and its options, in the order --help lists them. Its module of
+#: :mod:`obsnl.commands` (the request built from the options, run, and what the command prints) is imported plainly
+#: by :func:`obsnl.cli.commands.printed`.
 COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
     "show": ("print a model's equations", None, [MODEL, FMT]),
     "branches": (

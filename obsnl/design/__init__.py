@@ -7,15 +7,13 @@ response, compared with effective independence on the linear part's modes (``ran
 experiment: the branches a record visits as its scale grows, the smallest scale that makes every target
 identifiable and which of several records suffice (``experiment``; its searches, the targets no scale makes
 identifiable and the scales whose simulation blew up, in ``experiment_search``). The workflows on a model file and
-its records that the command line runs (``records``: one time budget, the visits of a record, the design
-figure), the analysis side's jobs as the command line runs them, each returning what it prints (``jobs``),
-and the checks of the public entries' arguments (``arguments``) live here too.
+its records (``records``: one time budget, the visits of a record, the design figure) and the checks of the
+public entries' arguments (``arguments``) live here too; the commands that run them live in :mod:`obsnl.commands`.
 
 May import: ``errors``, ``executor``, ``model``, ``observability`` (the joint verdict of each candidate
 set), ``estimation`` (simulation and the numeric model), ``identification`` (the output sensitivities
-along a record) and ``report`` (to write the design figure in ``records`` and to render the results the
-``jobs`` return; the renderings themselves live in :mod:`obsnl.report`). Must never import ``studies``,
-``batch`` or ``cli``.
+along a record) and ``report`` (to write the design figure in ``records``). Must never import ``studies``,
+``batch``, ``commands`` or ``cli``.
 """
 
 from typing import TYPE_CHECKING

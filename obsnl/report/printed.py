@@ -1,9 +1,9 @@
-"""What a job prints: its rendering (or the file it went to instead), the one line that names an undecided
+"""What a command prints: its rendering (or the file it went to instead), the one line that names an undecided
 answer, and the line that says which files it wrote.
 
-The jobs the command line runs (:mod:`obsnl.design.jobs`, :mod:`obsnl.studies.jobs`, :func:`obsnl.batch.report_job`)
-return a :class:`Printed`; ``obsnl`` prints its text and, when there is one, says its undecided line on
-standard error with exit code 2: an undecided answer is never passed over.
+Each command (:mod:`obsnl.commands`) says what it prints of its result as a :class:`Printed`; ``obsnl`` prints its
+text and, when there is one, says its undecided line on standard error with exit code 2: an undecided answer is never
+passed over.
 """
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-__all__ = ["Printed", "printed", "written_line"]
+__all__ = ["Printed", "printed", "write_rendering", "written_line"]
 
 
 class Printed(NamedTuple):
@@ -49,12 +49,37 @@ def printed(
     >>> printed("2 branches", "-", undecided="branch (b) is inconclusive: timeout")
     Printed(text='2 branches', undecided='branch (b) is inconclusive: timeout')
     """
+    written = write_rendering(text, output, force=force)
+    return Printed(text if written is None else None, undecided)
+
+
+def write_rendering(text: str, output: str | Path | None, *, force: bool = False) -> Path | None:
+    """Write a rendering to the file ``output`` with a final newline; None or ``"-"``: nothing is written.
+
+    Parameters
+    ----------
+    text : str
+        The rendering.
+    output : str, Path or None
+        A file, written through :func:`obsnl.report.files.safe_write`; None or ``"-"``: standard output.
+    force : bool
+        Overwrite ``output``.
+
+    Returns
+    -------
+    Path or None
+        The file written, None when the text goes to standard output.
+
+    Examples
+    --------
+    >>> write_rendering("2 branches", "-") is None
+    True
+    """
     if output is None or output == "-":
-        return Printed(text, undecided)
+        return None
     from obsnl.report.files import safe_write
 
-    safe_write(output, text if text.endswith("\n") else text + "\n", force=force)
-    return Printed(None, undecided)
+    return safe_write(output, text if text.endswith("\n") else text + "\n", force=force)
 
 
 def written_line(files: Sequence[Path], folder: str | Path | None = None) -> str:

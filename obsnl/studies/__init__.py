@@ -6,12 +6,12 @@ configurations), ``seed_runs`` (a reported run with its fallbacks, a refinement,
 (each run as a task an executor maps), ``seed_paper`` (:func:`reproduce`, the pipeline) and
 ``seed_reproduction`` (its result, the Table 2 document, the files written). The observer-bank benchmark
 on a cracked cantilever link: ``link_model`` (its checked model file), ``cantilever`` (the link) and
-``link_study`` (the scenarios and the bank's scoring); ``buildings`` writes shear-building models; ``jobs``
-runs the estimation side's jobs as the command line gives them.
+``link_study`` (the scenarios and the bank's scoring); ``buildings`` writes shear-building models. The commands
+that run them (``obsnl reproduce``, ``obsnl bank``) live in :mod:`obsnl.commands`.
 
 May import: ``errors``, ``_exports``, ``executor``, ``model``, ``observability``, ``recombination``,
 ``estimation``, ``linear``, ``report``, ``identification``.
-Must never import: ``design``, ``batch``, ``cli``.
+Must never import: ``design``, ``batch``, ``commands``, ``cli``.
 """
 
 from typing import TYPE_CHECKING

@@ -1,0 +1,136 @@
+"""``obsnl sensors``: which sensors make every target identifiable, as one request.
+
+:class:`SensorsRequest` holds the options, typed; :func:`run_sensors` runs :func:`obsnl.design.records.sensors_file` (a Dask
+scheduler probed, the output file, the time limit and the ranking's options checked before any work, the model and
+the record read once), renders the search (:func:`obsnl.report.sensors.render_sensors`) and writes it to the output
+file when one is named; :func:`sensors_printed` is what the command prints, with the line that names the sets left
+undecided.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from obsnl.report.printed import Printed, write_rendering
+
+if TYPE_CHECKING:
+    from obsnl.design.sensor_search import SensorSearch
+    from obsnl.executor import Executor
+    from obsnl.model.core import Model
+
+__all__ = ["SensorsRequest", "SensorsResult", "run_sensors", "sensors_printed"]
+
+
+@dataclass(frozen=True, kw_only=True)
+class SensorsRequest:
+    """One search of the minimal sensor sets of a model (file).
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file; its outputs are the candidate sensors.
+    target : str or sequence of str
+        ``"parameters"``, ``"all"`` (states too) or names.
+    max_size : int or None
+        The largest set tried.
+    seed : int
+        The analyses' seed.
+    max_seconds : float or None
+        The time limit of each analysis.
+    progress : bool
+        A progress bar.
+    record : str, Path or None
+        Rank the sufficient sets by the Cramer-Rao bound along the response to this record.
+    rank_size : int or None
+        Size of the sets ranked (with ``record``).
+    noise : float or None
+        Relative noise of every output for the ranking (with ``record``; None: 0.01).
+    executor : Executor or None
+        Where the analyses run (its scheduler probed before any work).
+    fmt : {"text", "json", "md", "tex"}
+        The format of the rendering.
+    output : str, Path or None
+        A file that takes the rendering instead of standard output (checked before any work).
+    force : bool
+        Overwrite ``output``.
+    """
+
+    model: Model | str | Path
+    target: str | Sequence[str] = "parameters"
+    max_size: int | None = None
+    seed: int = 0
+    max_seconds: float | None = None
+    progress: bool = False
+    record: str | Path | None = None
+    rank_size: int | None = None
+    noise: float | None = None
+    executor: Executor | None = None
+    fmt: str = "text"
+    output: str | Path | None = None
+    force: bool = False
+
+
+@dataclass(frozen=True)
+class SensorsResult:
+    """What :func:`run_sensors` returns: the search, its rendering and the file it was written to (None: not written)."""
+
+    search: SensorSearch
+    rendering: str
+    written: Path | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        """The search's document and the file written."""
+        return {"search": self.search.to_dict(), "written": None if self.written is None else str(self.written)}
+
+
+def run_sensors(request: SensorsRequest) -> SensorsResult:
+    """Search the request's model's minimal sensor sets (ranked along the record when one is given), render the
+    search and write it to ``request.output`` when one is named.
+
+    Parameters
+    ----------
+    request : SensorsRequest
+
+    Returns
+    -------
+    SensorsResult
+    """
+    from obsnl.design.records import sensors_file
+    from obsnl.report.sensors import render_sensors
+
+    search = sensors_file(
+        request.model,
+        record=request.record,
+        rank_size=request.rank_size,
+        noise=request.noise,
+        output=request.output,
+        force=request.force,
+        target=request.target,
+        max_size=request.max_size,
+        seed=request.seed,
+        max_seconds=request.max_seconds,
+        executor=request.executor,
+        progress=request.progress,
+    )
+    text = render_sensors(search, request.fmt)
+    return SensorsResult(search, text, write_rendering(text, request.output, force=request.force))
+
+
+def sensors_printed(result: SensorsResult) -> Printed:
+    """What ``obsnl sensors`` prints: the rendering (nothing when it went to a file), and the line that names the
+    sets left undecided (:func:`obsnl.report.sensors.undecided_line`).
+
+    Parameters
+    ----------
+    result : SensorsResult
+
+    Returns
+    -------
+    Printed
+    """
+    from obsnl.report.sensors import undecided_line
+
+    return Printed(result.rendering if result.written is None else None, undecided_line(result.search))
