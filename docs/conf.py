@@ -103,6 +103,7 @@ ROOMS: list[tuple[str, str]] = [
     ("obsnl.errors", "Errors"),
     ("obsnl.executor", "Executors: local processes or a Dask cluster"),
     ("obsnl.batch", "Many models at once"),
+    ("obsnl.commands", "Commands: one request, run and printed result per command"),
     ("obsnl.cli", "The command line"),
 ]
 
