@@ -58,10 +58,17 @@ def _suite(pytest_args: list[str], json_path: Path) -> tuple[int, float, str]:
             *pytest_args,
         ]
         t0 = time.perf_counter()
-        proc = subprocess.run(cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        out: list[str] = []
+        with subprocess.Popen(
+            cmd, cwd=ROOT, env=env, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+        ) as proc:
+            assert proc.stdout is not None
+            for line in proc.stdout:  # pytest's progress as it comes
+                sys.stdout.write(line)
+                sys.stdout.flush()
+                out.append(line.rstrip("\n"))
         took = time.perf_counter() - t0
-    sys.stdout.write(proc.stdout)
-    lines = [ln for ln in proc.stdout.splitlines() if ln.startswith("=") and (" passed" in ln or " failed" in ln)]
+    lines = [ln for ln in out if ln.startswith("=") and any(w in ln for w in (" passed", " failed", " error"))]
     return proc.returncode, took, lines[-1].strip("= ") if lines else "(no summary line)"
 
 
@@ -77,7 +84,8 @@ def _pct(covered: int, statements: int) -> float:
 
 def _row(path: str, s: dict) -> str:
     """A table row of one module: statements, not run, coverage."""
-    return f"| `{path}` | {s['num_statements']} | {s['missing_lines']} | {_pct(s['covered_lines'], s['num_statements']):.1f} % |"
+    pct = _pct(s["covered_lines"], s["num_statements"])
+    return f"| `{path}` | {s['num_statements']} | {s['missing_lines']} | {pct:.1f} % |"
 
 
 def render(data: dict, *, took: float, summary: str, code: int, pytest_args: list[str]) -> str:
@@ -156,8 +164,10 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp:
         json_path = Path(tmp) / "coverage.json"
         code, took, summary = _suite(extra, json_path)
-        if not json_path.exists():
-            sys.exit(f"coverage.py: error: the suite wrote no coverage data (pytest exit code {code})")
+        if not json_path.exists() or " passed" not in summary:
+            sys.exit(
+                f"coverage.py: error: the suite did not run (pytest exit code {code}: {summary}); no report written"
+            )
         data = json.loads(json_path.read_text(encoding="utf-8"))
     text = render(data, took=took, summary=summary, code=code, pytest_args=extra)
     Path(args.out).write_text(text, encoding="utf-8")
