@@ -22,6 +22,7 @@ import platform
 import subprocess
 import sys
 import tempfile
+import textwrap
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -151,7 +152,8 @@ def render(data: dict, *, took: float, summary: str, code: int, pytest_args: lis
     )[:LEAST]
     out += [_row(p, s) for p, s in least]
     out.append("")
-    return "\n".join(out)
+    # prose within 118 characters a line; table rows stay whole
+    return "\n".join(ln if ln.startswith("|") else textwrap.fill(ln, 118, break_on_hyphens=False) for ln in out)
 
 
 def main() -> None:
