@@ -7,7 +7,6 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TypedDict, Unpack
 
 from obsnl.executor import Executor
 from obsnl.model.bounds.budget import time_budget
@@ -20,15 +19,6 @@ from obsnl.report.files import check_target
 from obsnl.report.folders import report_files, write_tables
 
 __all__ = ["report_models", "report_paths"]
-
-
-class _ReportOptions(TypedDict, total=False):
-    """The options of :func:`report_models` that :func:`report_paths` passes on."""
-
-    method: str
-    seed: int
-    force: bool
-    executor: Executor | None
 
 
 def _analyze_task(task: tuple[dict, str, int, float | None]) -> AnalysisResult:
@@ -96,7 +86,14 @@ def report_models(
 
 
 def report_paths(
-    paths: Sequence[str | Path], out: str | Path, *, max_seconds: float | None = None, **options: Unpack[_ReportOptions]
+    paths: Sequence[str | Path],
+    out: str | Path,
+    *,
+    max_seconds: float | None = None,
+    method: str = "auto",
+    seed: int = 0,
+    force: bool = False,
+    executor: Executor | None = None,
 ) -> tuple[AnalysisResult, ...]:
     """:func:`report_models` of model files, within one time budget (reading, splitting, analysing).
 
@@ -109,18 +106,26 @@ def report_paths(
         The report folder.
     max_seconds : float or None
         Time limit of the whole job (each model on a worker gets the same limit).
-    **options : str, int, bool or Executor
-        Passed to :func:`report_models` (method, seed, force, executor: its scheduler probed before any work).
+    method : str
+        As for :func:`report_models`.
+    seed : int
+        As for :func:`report_models`.
+    force : bool
+        Overwrite existing files.
+    executor : Executor or None
+        As for :func:`report_models`; its scheduler is probed before any work.
 
     Returns
     -------
     tuple of AnalysisResult
         One per model, in order.
     """
-    if isinstance(ex := options.get("executor"), Executor):  # a scheduler that does not answer: refused at once
-        ex.probe()
+    if isinstance(executor, Executor):  # a scheduler that does not answer: refused at once
+        executor.probe()
     with time_budget(max_seconds):
         models = [read_model(p, check=check_file_limits) for p in paths]
         for m in models:
             check_analysis_limits(m)
-        return report_models(models, out, max_seconds=max_seconds, **options)
+        return report_models(
+            models, out, method=method, seed=seed, force=force, max_seconds=max_seconds, executor=executor
+        )

@@ -12,7 +12,7 @@ can reveal.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -28,7 +28,10 @@ from obsnl.observability.limits import check_analysis_limits, check_file_limits,
 from obsnl.observability.results import AnalysisResult
 
 if TYPE_CHECKING:  # the record readers and the simulation load when a record is given
+    from obsnl.design.experiment import ExperimentDesign
+    from obsnl.design.sensor_search import SensorSearch
     from obsnl.estimation.accelerogram import Record
+    from obsnl.executor import Executor
     from obsnl.observability.joint.visited import Visits
 
 __all__ = ["one_input_record", "record_visits", "analyze_file", "sensors_file", "design_file"]
@@ -194,8 +197,13 @@ def sensors_file(
     noise: float | None = None,
     output: str | Path | None = None,
     force: bool = False,
-    **search: Any,
-) -> Any:
+    target: str | Sequence[str] = "parameters",
+    max_size: int | None = None,
+    seed: int = 0,
+    max_seconds: float | None = None,
+    executor: Executor | None = None,
+    progress: bool | Callable[[int], Any] = False,
+) -> SensorSearch:
     """The minimal sensor sets of a model file, ranked along one record's response when one is given.
 
     Parameters
@@ -214,9 +222,18 @@ def sensors_file(
         The file the rendering will be written to, checked before any work (as for :func:`analyze_file`).
     force : bool
         Replace that file.
-    **search : Any
-        Passed to :func:`obsnl.design.sensors.sensors` (target, max_size, seed, max_seconds, executor: its
-        scheduler probed before any work, progress).
+    target : str or sequence of str
+        ``"parameters"``, ``"all"`` (states too) or names, as for :func:`obsnl.design.sensors.sensors`.
+    max_size : int or None
+        The largest set tried.
+    seed : int
+        The analyses' seed.
+    max_seconds : float or None
+        The time limit of each analysis (checked before the search starts).
+    executor : Executor or None
+        Where the analyses run; its scheduler is probed before any work.
+    progress : bool or callable
+        A progress bar, or a callable given the sets tried.
 
     Returns
     -------
@@ -225,10 +242,10 @@ def sensors_file(
     """
     from obsnl.design.sensors import rank_sufficient_sets, sensors
 
-    if search.get("executor") is not None:  # a Dask scheduler that does not answer is refused before any work
-        search["executor"].probe()
+    if executor is not None:  # a Dask scheduler that does not answer is refused before any work
+        executor.probe()
     _check_output(output, force)
-    check_seconds(search.get("max_seconds"))  # of each analysis: refused before the search starts
+    check_seconds(max_seconds)  # of each analysis: refused before the search starts
     if record is None and (rank_size is not None or noise is not None):  # would be ignored: refused, not dropped
         raise OptionError(f"the rank size and the noise level rank the sensor sets along a record: add {_RECORD}")
     if noise is not None and not (isinstance(noise, (int, float)) and 0.0 < noise < 10.0):
@@ -243,7 +260,15 @@ def sensors_file(
                 f"model's outputs), got {quote(rank_size, 30)}"
             )
         rec = one_input_record(model, record, option=_RECORD)
-    result = sensors(model, **search)
+    result = sensors(
+        model,
+        target=target,
+        max_size=max_size,
+        seed=seed,
+        max_seconds=max_seconds,
+        executor=executor,
+        progress=progress,
+    )
     if rec is None:
         return result
     t = rec.dt * np.arange(len(rec.accel))
@@ -260,8 +285,12 @@ def design_file(
     figure: str | Path | None = None,
     output: str | Path | None = None,
     force: bool = False,
-    **options: Any,
-) -> Any:
+    target: str | Sequence[str] = "all",
+    sensors: str | Sequence[str] | None = None,
+    scales: str | Sequence[float] | None = None,
+    seed: int = 0,
+    intersample: str | Mapping[str, str] | Sequence[str] | None = None,
+) -> ExperimentDesign:
     """The experiment design of a model file under records, within one time budget.
 
     Parameters
@@ -280,9 +309,16 @@ def design_file(
         written, or when it is ``figure``.
     force : bool
         Overwrite ``figure`` (and ``output``).
-    **options : Any
-        Passed to :func:`obsnl.design.experiment.design` (target, sensors, scales, seed, intersample); ``scales``
-        may be comma-separated text (``"0.1,1,10"``).
+    target : str or sequence of str
+        What must be identifiable, as for :func:`obsnl.design.experiment.design`.
+    sensors : str, sequence of str or None
+        The outputs measured (None: every output).
+    scales : str, sequence of float or None
+        The record scales tried, or comma-separated text (``"0.1,1,10"``; None: the default ladder).
+    seed : int
+        The analyses' seed.
+    intersample : str, mapping, sequence of str or None
+        How the inputs run between samples, as for :func:`obsnl.design.experiment.design`.
 
     Returns
     -------
@@ -296,9 +332,10 @@ def design_file(
     _check_output(output, force)
     if not records:
         raise OptionError(f"give at least one {_RECORD} (.csv or .AT2)")
-    if isinstance(options.get("scales"), str):  # "0.1,1,10"; what is not a positive number design refuses, quoted
+    ladder: Any = scales  # what is not a positive number design refuses, quoted as given
+    if isinstance(scales, str):  # "0.1,1,10"
         try:  # "1_0" is refused as written (Python's float would read it as 10, a record cell refuses it)
-            options["scales"] = [float(x) if "_" not in x else x for x in options["scales"].split(",") if x.strip()]
+            ladder = [float(x) if "_" not in x else x for x in scales.split(",") if x.strip()]
         except ValueError:
             pass
     if figure is not None:  # refused before any work (an empty name too: never ignored)
@@ -314,7 +351,16 @@ def design_file(
         stems = [r.name for r in read]
         if len(set(stems)) < len(stems):  # same file names in different folders: name them by their paths
             read = [dataclasses.replace(r, name=str(path)) for r, path in zip(read, records)]
-        result = design(model, read, max_seconds=max_seconds, **options)
+        result = design(
+            model,
+            read,
+            target=target,
+            sensors=sensors,
+            scales=ladder,
+            seed=seed,
+            max_seconds=max_seconds,
+            intersample=intersample,
+        )
     if figure:
         fig = Path(figure)
         with OutputFolder(fig.parent, [fig.name], force=force, folder_link_ok=True) as out:
