@@ -119,6 +119,20 @@ def levinson_bic(r: np.ndarray, n: int, most: int) -> np.ndarray:
     """The whitening filter ``[1, a_1, ..., a_p]`` (for :func:`whiten`) of the AR model of the autocorrelation ``r``
     (``r[0] = 1``) of ``n`` samples, the order chosen by BIC up to ``most`` (Levinson-Durbin).
 
+    Parameters
+    ----------
+    r : numpy.ndarray
+        The autocorrelation at lags ``0..most`` at least, ``r[0] = 1``.
+    n : int
+        The samples it was estimated from (the BIC's penalty).
+    most : int
+        The highest order tried.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``[1, a_1, ..., a_p]``; ``[1]`` where no order lowers the BIC.
+
     Examples
     --------
     >>> levinson_bic(np.array([1.0, 0.5, 0.25, 0.125]), 10000, 3).round(12).tolist()  # AR(1), phi = 0.5

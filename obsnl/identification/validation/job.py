@@ -1,7 +1,7 @@
 """``obsnl validate``: a fitted model run on a test record, its figures of merit printed and written to a folder.
 
 :func:`validate_job` checks the output folder before any work, runs :func:`obsnl.simulate` and writes
-:func:`write_validation`'s files; :func:`validate_printed` is what the command prints.
+:func:`write_validation`'s files; what the command prints is :func:`obsnl.commands.validate.validate_printed`.
 """
 
 from __future__ import annotations
@@ -9,18 +9,15 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
 
 from obsnl.errors import DataError
 from obsnl.identification.validation.merit import Validation
 from obsnl.identification.validation.run import simulate
 from obsnl.model.core import Model
 from obsnl.model.files import as_model
-from obsnl.report.printed import Printed, written_line
 
 __all__ = [
     "validate_job",
-    "validate_printed",
     "write_validation",
     "validation_files",
     "HYSTERETIC_STATE",
@@ -150,17 +147,3 @@ def validate_job(
     check_folder(out, validation_files([s.name for s in model.states]), force=force)
     result = simulate(model, params, data, warmup=warmup, intersample=intersample or None)
     return result, write_validation(result, out, force=force)
-
-
-def validate_printed(model: Model | str | Path, **options: Any) -> Printed:
-    """What ``obsnl validate`` prints: the validation's text, then the files written (``options`` as for
-    :func:`validate_job`).
-
-    Returns
-    -------
-    Printed
-    """
-    from obsnl.report.identification.validation import validate_text
-
-    result, files = validate_job(model, **options)
-    return Printed(validate_text(result) + "\n" + written_line(files, options["out"]))
