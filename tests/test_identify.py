@@ -245,18 +245,33 @@ def test_a_study_without_a_tuning_is_tuned_like_measured_data():
     assert res.to_dict()["tuning"] == best[0].to_dict()
 
 
-def test_a_collapsed_filter_covariance_gives_no_std_never_a_zero_one():
-    # the filter alone (no refinement) from the seed paper's guesses, two passes, noise seed 7: the passes
-    # diverge and the filter's repairs drive the parameter variances to 0. A std of 0 would claim certainty of
-    # an estimate 2-7900 % off; the result gives none, says why, and the verdict is "not decided".
+def test_a_collapsed_filter_covariance_gives_no_std_never_a_zero_one(monkeypatch):
+    # the filter alone (no refinement) from the seed paper's guesses, two passes, noise seed 7, and the parameter
+    # variances of its last covariance set to 0, as the filter's repairs once left them on these data (before the
+    # step's stiffness test was corrected the passes diverged here): a std of 0 would claim certainty of an estimate
+    # far off; the result gives none and says why
+    import dataclasses
+
+    from obsnl.identification import runs
     from obsnl.identification.identify import study
     from obsnl.report.identification.run import identify_text
 
+    passes = runs.run_passes
+
+    def collapsed(setup, *args, **kwargs):
+        trs, held = passes(setup, *args, **kwargs)
+        P = np.array(trs[-1].P, float)
+        nx = setup.model.nx
+        P[-1, nx:, :] = 0.0
+        P[-1, :, nx:] = 0.0
+        return (*trs[:-1], dataclasses.replace(trs[-1], P=P)), held
+
+    monkeypatch.setattr(runs, "run_passes", collapsed)
     res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=800, seed=7, guess=dict(SEED_GUESS), noise=1e-3,
                 tuning=Tuning(0.2, 0.0, 1.0), passes=2, refine=False, progress=False)
-    assert not res.converged and res.practical.inconclusive
+    assert not res.converged
     assert all(p.std is None or p.std > 0 for p in res.parameters)
-    gone = [p for p in res.parameters if p.std is None]
+    gone = [p for p in res.parameters if p.std is None and p.estimate is not None]
     assert gone and all("no std: the filter's posterior variance" in p.reason for p in gone)
     assert "no std" in identify_text(res)
 
