@@ -138,8 +138,8 @@ def _validation(v: Any) -> str:
     rec = v.record
     return (
         _head(
-            f"Validation of {v.model} on {rec.get('name')!r}",
-            f"{v.scored} samples scored at dt = {rec.get('dt')} s, simulated {v._start_text()}",
+            f"Validation of {v.model} on {rec.name!r}",
+            f"{v.scored} samples scored at dt = {rec.dt} s, simulated {v._start_text()}",
         )
         + _table(["output", "RMSE", "NRMSE", "fit %", "dB"], rows)
         + _details("assumed", v.assumptions)
