@@ -329,47 +329,27 @@ def run_identify(request: IdentifyRequest) -> IdentifyResult:
     from obsnl.identification.identify import identify, study, write_identification
 
     r = request.resolved
+    # what a measured identification and a simulation study take alike
+    common: dict[str, Any] = {
+        "guess": r.guesses,
+        "noise": r.noise,
+        "method": request.method,
+        "table": request.table,
+        "passes": request.passes,
+        "replicates": request.replicates,
+        "seed": request.seed,
+        "tuning": r.tuning,
+        "allow_unidentifiable": request.allow_unidentifiable,
+        "jit": request.jit,
+        "hold": request.hold,
+        "progress": request.progress,
+        "executor": request.executor,
+        "refine": request.refine,
+    }
     if isinstance(r.noise, dict):  # measured data: a level per channel named, the others estimated
-        res = identify(
-            r.model,
-            r.source,
-            guess=r.guesses,
-            noise=r.noise,
-            method=request.method,
-            table=request.table,
-            passes=request.passes,
-            replicates=request.replicates,
-            seed=request.seed,
-            tuning=r.tuning,
-            allow_unidentifiable=request.allow_unidentifiable,
-            jit=request.jit,
-            hold=request.hold,
-            progress=request.progress,
-            executor=request.executor,
-            refine=request.refine,
-            intersample=r.intersample,
-            objective=request.objective,
-        )
+        res = identify(r.model, r.source, intersample=r.intersample, objective=request.objective, **common)
     else:  # a simulation study: one level for every channel
-        res = study(
-            r.model,
-            r.source,
-            guess=r.guesses,
-            noise=r.noise,
-            method=request.method,
-            table=request.table,
-            passes=request.passes,
-            replicates=request.replicates,
-            seed=request.seed,
-            tuning=r.tuning,
-            samples=request.samples,
-            allow_unidentifiable=request.allow_unidentifiable,
-            jit=request.jit,
-            hold=request.hold,
-            progress=request.progress,
-            executor=request.executor,
-            refine=request.refine,
-        )
+        res = study(r.model, r.source, samples=request.samples, **common)
     files = write_identification(res, request.out, force=request.force) if request.out else []
     return IdentifyResult(res, tuple(files))
 
