@@ -381,7 +381,8 @@ def _input_noise_null(
     n = int(ok.sum())
     lags = min(NULL_AR_MAX, n // 5)
     # the sum's autocovariance: the draws' (averaged) plus the white output noise's at lag 0
-    gamma = np.mean([np.array([float(d[ok][k:] @ d[ok][: n - k]) / n for k in range(lags + 1)]) for d in moved], axis=0)
+    seen = [d[ok] for d in moved]
+    gamma = np.mean([[float(x[k:] @ x[: n - k]) / n for k in range(lags + 1)] for x in seen], axis=0)
     gamma[0] += s * s
     ar = levinson_bic(gamma / gamma[0], n * len(draws), lags)
     spread = float(np.std(variances, ddof=1)) if len(variances) > 1 else float(variances[0])

@@ -392,26 +392,40 @@ def near_jumps(obj: Objective, z: np.ndarray) -> np.ndarray:
     numpy.ndarray
         Boolean ``(T, ny)``.
     """
-    setup = obj.setup
-    m = setup.model
+    m = obj.setup.model
     T = len(obj.data.u)
     jumping_outputs = np.asarray(m.output_jumps or [False] * m.ny, bool)
-    g_size = m.g.size1_out(0) if m.switching else 0
-    if not jumping_outputs.any() or not g_size:
-        return np.zeros((T, m.ny), bool)
-    u = np.asarray(obj.data.u, float).reshape(T, -1)
-    theta = obj.theta(z)
-    sim = simulate(
-        m, theta=theta, x0=obj.x0(z), u=u, dt=setup.record.dt, substeps=obj.substeps, refine=setup.refine, locate=True
+    sign = (
+        _jump_signs(obj.setup, obj.theta(z), obj.x0(z), obj.data.u, obj.substeps, locate=True)
+        if jumping_outputs.any()
+        else None
     )
-    G = np.asarray(m.g.map(T)(sim.x.T, np.tile(theta, (T, 1)).T, u.T), float).T
-    G = G[:, np.asarray(m.jumps or [True] * g_size, bool)]
-    sign = np.sign(G)
+    if sign is None:
+        return np.zeros((T, m.ny), bool)
     change = np.any(sign[1:] != sign[:-1], axis=1)
     near = np.any(sign == 0, axis=1)
     near[:-1] |= change
     near[1:] |= change
     return near[:, None] & jumping_outputs[None, :]
+
+
+def _jump_signs(
+    setup: Setup, theta: np.ndarray, x0: np.ndarray, u: Any, substeps: int, *, locate: bool
+) -> np.ndarray | None:
+    """``(T, k)``: the signs at the samples of the ``k`` switching functions across which the field may jump, along
+    the model simulated at ``theta`` from ``x0`` (``locate``: the fit's step); None for a model without them."""
+    m = setup.model
+    g_size = m.g.size1_out(0) if m.switching else 0
+    jumps = np.asarray(m.jumps if m.jumps else [True] * g_size, bool)
+    if not g_size or not jumps.any():
+        return None
+    u = np.asarray(u, float).reshape(len(u), -1)
+    sim = simulate(
+        m, theta=theta, x0=x0, u=u, dt=setup.record.dt, substeps=substeps, refine=setup.refine, locate=locate
+    )
+    T = len(sim.x)
+    G = np.asarray(m.g.map(T)(sim.x.T, np.tile(theta, (T, 1)).T, u.T), float).T
+    return np.sign(G[:, jumps])
 
 
 def _left_out(y: Any, left_out: np.ndarray) -> np.ndarray:
@@ -661,18 +675,11 @@ def _share(draws: Sequence[np.ndarray], e: np.ndarray, outputs: Sequence[str]) -
 def _switched(setup: Setup, obj: Objective, theta: np.ndarray, x0: np.ndarray, data: Data) -> bool:
     """Whether the model simulated at the estimate crosses a switching function across which its field may jump
     (between two samples): only then can a switch inside a step make the objective rough."""
-    m = setup.model
-    g_size = m.g.size1_out(0) if m.switching else 0
-    jumps = np.asarray(m.jumps if m.jumps else [True] * g_size, bool)
-    if not g_size or not jumps.any():
-        return False
     try:
-        sim = simulate(m, theta=theta, x0=x0, u=data.u, dt=setup.record.dt, substeps=obj.substeps, refine=setup.refine)
+        sign = _jump_signs(setup, theta, x0, data.u, obj.substeps, locate=False)
     except EstimatorError:
         return False
-    u = np.asarray(data.u, float).reshape(len(sim.x), -1)
-    G = np.array([np.asarray(m.g(x, theta, uk), float).ravel() for x, uk in zip(sim.x, u)])[:, jumps]
-    return bool(np.any(np.diff(np.sign(G), axis=0) != 0))
+    return sign is not None and bool(np.any(np.diff(sign, axis=0) != 0))
 
 
 def _verdict(
