@@ -9,12 +9,13 @@ cannot change: transformations return a new model.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Iterable, Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import sympy as sp
 
+from obsnl._types import FileValue
 from obsnl.errors import ModelError, ParseError
 from obsnl.model.reading.fields import ROLE_NAMES, ROLES, read_fields
 from obsnl.model.reading.names import close_name as _close
@@ -111,8 +112,10 @@ class Model:
     definitions : mapping of str to str
         ``{name: expression}`` defining symbols of this model in terms of another model's
         symbols (written by :func:`obsnl.reparametrize`).
-    metadata : mapping of str to Any
-        Anything else a file carried (published answers of a peer case, notes).
+    metadata : mapping of str to FileValue
+        Anything else a file carried (published answers of a peer case, notes): free data as the file held it,
+        hence the recursive :data:`~obsnl._types.FileValue` (text, numbers, booleans, TOML dates, lists and
+        tables of them); a model built in Python is expected to pass such plain data too (it is not checked).
     unknown_input_derivatives : int or str or None
         What the unknown inputs are assumed to be: ``"arbitrary"`` (any analytic function of time) or
         ``K``, a polynomial in t with K non-zero derivatives (STRIKE-GOLDD's ``nnzDerW``; 0 = a
@@ -121,10 +124,11 @@ class Model:
         How each input behaves between its samples, ``{input: kind}`` with kind ``zoh``, ``linear`` or
         ``bandlimited`` (:mod:`obsnl.estimation.intersample`; the ``[intersample]`` table of a model file); an
         input not named is linear. ``--intersample`` (``intersample=``) overrides it.
-    bounds : mapping of str to (float, float) or str
+    bounds : mapping of str to (float, float)
         Declared bounds of parameters and known constants, ``{name: (lo, hi)}`` with ``lo < hi`` and either end
-        possibly infinite (``"-inf"``/``"inf"`` in a file), or the words ``"positive"`` (``(0, inf)``) and
-        ``"negative"``; the ``[bounds]`` table of a model file (``fy = "positive"``, ``gap = [0, 0.01]``).
+        possibly infinite (``"-inf"``/``"inf"`` in a file, a float infinity once read), or the words
+        ``"positive"`` (``(0, inf)``) and ``"negative"``; the ``[bounds]`` table of a model file
+        (``fy = "positive"``, ``gap = [0, 0.01]``). The field holds the read pairs of floats.
         ``[values]`` and ``[guess]`` must lie within them. Whether an end is included does not matter: the
         branch split keeps a sign pattern only where it holds inside the bounds (``sign(fy)`` with ``fy``
         positive has one branch, :func:`obsnl.model.split_branches`), and the fit keeps every parameter on the
@@ -159,10 +163,10 @@ class Model:
     values: Mapping[str, float] = field(default_factory=dict)
     guess: Mapping[str, float] = field(default_factory=dict)
     definitions: Mapping[str, str] = field(default_factory=dict)
-    metadata: Mapping[str, Any] = field(default_factory=dict)
+    metadata: Mapping[str, FileValue] = field(default_factory=dict)
     unknown_input_derivatives: int | str | None = None
     intersample: Mapping[str, str] = field(default_factory=dict)
-    bounds: Mapping[str, Any] = field(default_factory=dict)
+    bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
     if TYPE_CHECKING:
         # What the constructor takes, for type checkers: names and expressions as text or sympy objects, in any
@@ -187,10 +191,10 @@ class Model:
             values: Mapping[str, float] = ...,
             guess: Mapping[str, float] = ...,
             definitions: Mapping[str, str] = ...,
-            metadata: Mapping[str, Any] = ...,
+            metadata: Mapping[str, FileValue] = ...,
             unknown_input_derivatives: int | str | None = None,
             intersample: Mapping[str, str] = ...,
-            bounds: Mapping[str, Any] = ...,
+            bounds: Mapping[str, Sequence[float | str] | str] = ...,
         ) -> None: ...
 
     # ------------------------------------------------------------------ validation
