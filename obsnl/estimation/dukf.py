@@ -37,6 +37,7 @@ from typing import Any
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from obsnl.errors import EstimatorError, TableError
 from obsnl.estimation.ukf import UKF
@@ -57,7 +58,7 @@ class DUKF(UKF):
     cross : str
         ``"regression"`` (default) or ``"zero"``: the rule for the frozen-active covariance
         (module docstring).
-    band : Any
+    band : array_like
         A switching function counts as signed only beyond ``band`` (scalar or one per switching
         function); inside the band the previous mask is kept (against chattering). Default 0.
     **options : Any
@@ -71,7 +72,7 @@ class DUKF(UKF):
 
     table: BranchTable | None = None
     cross: str = "regression"
-    band: Any = 0.0
+    band: npt.ArrayLike = 0.0
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -99,19 +100,19 @@ class DUKF(UKF):
         return (False,) * self.model.nx + coords
 
     def _extra_key(self) -> tuple:
-        return (id(self.table), self.cross, tuple(self.band))
+        return (id(self.table), self.cross, tuple(np.asarray(self.band)))
 
     def _cross(self) -> str:
         return self.cross
 
     def _active_and_signs(self, z: ca.MX, u: ca.MX, prev: ca.MX, scale: ca.MX) -> tuple[ca.MX, ca.MX]:
-        g = self._switching_at(z, u, scale)
+        g, band = self._switching_at(z, u, scale), np.asarray(self.band)
         matched: Any = 0  # casadi expressions once the first branch is added
         active: Any = 0
         for b in self._table.branches:
             hit = 1
             for j, s in enumerate(b.signs):
-                hit = ca.logic_and(hit, s * g[j] > self.band[j])
+                hit = ca.logic_and(hit, s * g[j] > band[j])
             mask = 1.0 - np.asarray(self.frozen_coordinates(b.signs), float)
             active = active + hit * ca.DM(mask)
             matched = matched + hit

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import casadi as ca
 import numpy as np
@@ -41,6 +41,9 @@ from obsnl.errors import ModelError
 from obsnl.estimation.crossing import heun3, located_substep, surface_start
 from obsnl.estimation.jitcache import jit_compile
 from obsnl.model.branching.signature import ModelSignature
+
+if TYPE_CHECKING:  # the symbolic model is named, not imported: sympy stays out of the estimators
+    from obsnl.model.core import Model
 
 __all__ = ["NumericModel", "ParameterMap", "GAMMA_ROS2"]
 
@@ -74,7 +77,8 @@ class NumericModel:
         For each output, whether it may jump where the field does (:func:`obsnl.model.branching.jumps.output_jumps`;
         empty: none is known to).
     source
-        ``(model, switching, constants)`` as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
+        ``(model, switching, constants)`` (a :class:`~obsnl.model.core.Model`, the switching functions as text or
+        None, the known constants' numbers or None) as given to :func:`obsnl.estimation.codegen.to_casadi` (None when built
         otherwise): the specification a worker compiles again (:mod:`obsnl.identification.replicates`).
     points
         0: the input of a step is the pair of samples ``(u0, u1)``, linear in between (the classic form). ``m > 0``:
@@ -97,7 +101,9 @@ class NumericModel:
     jumps: tuple[bool, ...] = ()
     slides: tuple[bool, ...] = ()
     output_jumps: tuple[bool, ...] = ()
-    source: Any = field(default=None, repr=False, compare=False)
+    source: tuple[Model, tuple[str, ...] | None, Mapping[str, float] | None] | None = field(
+        default=None, repr=False, compare=False
+    )
     points: int = 0
     base: NumericModel | None = field(default=None, repr=False, compare=False)
     _steps: dict = field(default_factory=dict, init=False, repr=False, compare=False)  # built steps, by options

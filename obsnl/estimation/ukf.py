@@ -26,12 +26,13 @@ checks and raises :class:`~obsnl.errors.EstimatorError` if one ever did.
 from __future__ import annotations
 
 import time
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
 import casadi as ca
 import numpy as np
+import numpy.typing as npt
 
 from obsnl.errors import EstimatorError
 from obsnl.estimation.accelerogram import check_inputs
@@ -96,9 +97,9 @@ class UKF:
     coordinates : ParameterMap or None
         Parameter coordinates (:func:`obsnl.estimation.codegen.log_map`, :func:`obsnl.estimation.codegen.parameter_map`);
         default: the parameters themselves.
-    state_scale : Any
+    state_scale : array_like or None
         Filter states are ``x / state_scale`` (default 1).
-    Q, R : Any
+    Q, R : array_like
         Process noise per step (``L x L`` in filter coordinates, or its diagonal) and measurement
         noise covariance (``ny x ny``). Changing them with :meth:`with_options` does not recompile.
     alpha, beta, kappa : float
@@ -119,13 +120,19 @@ class UKF:
     gate : float
         Innovation gate: beyond this Mahalanobis distance the gain is scaled down (Huber-type,
         :mod:`obsnl.estimation.ukf_step`); default ``inf`` (off). Changing it does not recompile.
-    cap : Any
+    cap : array_like
         Ceiling of the standard deviations in filter coordinates (scalar or one per coordinate;
         default ``inf``, off); larger ones are scaled down by a congruence (PSD kept) and counted.
-    bounds : Any
+    bounds : (array_like, array_like) or None
         ``(lo, hi)`` in filter coordinates (``-inf``/``inf`` allowed): the valid region. A mean that an
         update takes outside is put back on the edge and counted as a repair (a filter diverging
         along a direction the data do not yet inform otherwise runs to ``exp`` overflow).
+    cache : dict
+        The compiled Functions (and coordinate maps) of this filter, by options; filled as it runs.
+
+    The array options are typed as given (``numpy.typing.ArrayLike``); once built the filter holds them as
+    float arrays (``Q`` and ``R`` as full matrices, ``state_scale`` and ``cap`` as one entry per state or
+    coordinate, ``bounds`` as a pair of arrays).
 
     References
     ----------
@@ -148,9 +155,9 @@ class UKF:
     model: NumericModel
     dt: float
     coordinates: ParameterMap | None = None
-    state_scale: Any = None
-    Q: Any = 0.0
-    R: Any = None
+    state_scale: npt.ArrayLike | None = None
+    Q: npt.ArrayLike = 0.0
+    R: npt.ArrayLike | None = None
     alpha: float = 1.0
     beta: float = 2.0
     kappa: float = 0.0
@@ -160,10 +167,12 @@ class UKF:
     locate: bool = False
     jit: bool = False
     fixed: tuple[str, ...] = ()
-    bounds: Any = None
+    bounds: tuple[npt.ArrayLike, npt.ArrayLike] | None = None
     gate: float = float("inf")
-    cap: Any = float("inf")
-    cache: dict = field(default_factory=dict, repr=False, compare=False)
+    cap: npt.ArrayLike = float("inf")
+    cache: dict[tuple[Hashable, ...], ca.Function | tuple[ParameterMap, ca.Function]] = field(
+        default_factory=dict, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731
@@ -182,8 +191,9 @@ class UKF:
         set_("Q", _matrix(self.Q, self.size, "Q"))
         if self.R is None:
             raise EstimatorError("give the measurement noise covariance R (ny x ny, or a scalar)")
-        set_("R", _matrix(self.R, self.model.ny, "R"))
-        if np.linalg.eigvalsh(self.R).min() <= 0:
+        R = _matrix(self.R, self.model.ny, "R")
+        set_("R", R)
+        if np.linalg.eigvalsh(R).min() <= 0:
             raise EstimatorError("R must be positive definite")
         unknown = set(self.fixed) - set(self.model.parameters)
         if unknown:
@@ -200,8 +210,9 @@ class UKF:
                 raise EstimatorError(f"{k} must be a whole number >= 1, got {v!r}")
         if not self.gate > 0:
             raise EstimatorError(f"gate must be > 0 (inf: off), got {self.gate!r}")
-        set_("cap", np.broadcast_to(np.asarray(self.cap, float), (self.size,)).copy())
-        if np.any(np.isnan(self.cap)) or np.any(self.cap <= 0):
+        cap = np.broadcast_to(np.asarray(self.cap, float), (self.size,)).copy()
+        set_("cap", cap)
+        if np.any(np.isnan(cap)) or np.any(cap <= 0):
             raise EstimatorError("cap must be > 0 (inf: off) for every filter coordinate")
         if not (self.alpha > 0 and self.size + self.kappa > 0):
             raise EstimatorError(f"need alpha > 0 and L + kappa > 0 (alpha={self.alpha}, kappa={self.kappa})")
@@ -235,8 +246,10 @@ class UKF:
         key = ("forward", id(self._coordinates), len(z))
         if key not in self.cache:  # keeps the coordinates alive with it: their id stays unique
             self.cache[key] = (self._coordinates, self._coordinates.forward.map(len(z)))
-        th = call(self.cache[key][1], [z[:, nx:].T])[0].T
-        return z[:, :nx] * self.state_scale, th
+        kept = self.cache[key]
+        forward = kept[1] if isinstance(kept, tuple) else kept
+        th = call(forward, [z[:, nx:].T])[0].T
+        return z[:, :nx] * np.asarray(self.state_scale), th
 
     def initial(self, *, x0: Any, theta0: Any, P0: Any) -> Estimate:
         """The starting estimate from model states, model parameters and ``P0`` in filter coordinates."""
@@ -310,12 +323,20 @@ class UKF:
                 [zn, Pn, act, yp, nuv, S, rep, imp, signs if m else ca.MX.zeros(0), fine],
             )
             self.cache[key] = jit_compile(fn) if self.jit else fn  # compiled once per machine, then from disk
-        return self.cache[key]
+        return self._function(key)
+
+    def _function(self, key: tuple[Hashable, ...]) -> ca.Function:
+        """The compiled Function kept under ``key`` (the cache also keeps coordinate maps, as pairs)."""
+        fn = self.cache[key]
+        if not isinstance(fn, ca.Function):
+            raise TypeError(f"the filter's cache holds no Function under {key!r}")  # a bug, never the user's
+        return fn
 
     def _bounds(self) -> tuple[np.ndarray, np.ndarray]:
         if self.bounds is None:
             return np.full(self.size, -np.inf), np.full(self.size, np.inf)
-        return self.bounds
+        lo, hi = self.bounds
+        return np.asarray(lo), np.asarray(hi)
 
     @property
     def allowed(self) -> np.ndarray:
@@ -345,13 +366,13 @@ class UKF:
             us[0],
             us[1],
             ys[1],
-            self.Q,
-            self.R,
+            np.asarray(self.Q),
+            np.asarray(self.R),
             self._hyp(),
             self.allowed,
             *self._bounds(),
-            self.cap,
-            self.state_scale,
+            np.asarray(self.cap),
+            np.asarray(self.state_scale),
         )
         z, P = np.asarray(out[0]).ravel(), np.asarray(out[1])
         if not (np.all(np.isfinite(z)) and np.all(np.isfinite(P))):
@@ -388,7 +409,7 @@ class UKF:
             ]
             one = ca.Function("one_run", ins, acc.call(ins))
             self.cache[key] = one if n == 1 else one.map(n, "serial")
-        return self.cache[key]
+        return self._function(key)
 
     def _evaluate(
         self, est0s: Sequence[Estimate], data: Sequence[tuple[np.ndarray, np.ndarray]], filters: Sequence[UKF]
@@ -402,14 +423,14 @@ class UKF:
             cols([u[:-1].T for _, u in data]),
             cols([u[1:].T for _, u in data]),
             cols([y[1:].T for y, _ in data]),
-            cols([f.Q for f in filters]),
-            cols([f.R for f in filters]),
+            cols([np.asarray(f.Q) for f in filters]),
+            cols([np.asarray(f.R) for f in filters]),
             cols([f._hyp()[:, None] for f in filters]),
             cols([f.allowed[:, None] for f in filters]),
             cols([f._bounds()[0][:, None] for f in filters]),
             cols([f._bounds()[1][:, None] for f in filters]),
-            cols([f.cap[:, None] for f in filters]),
-            cols([f.state_scale[:, None] for f in filters]),
+            cols([np.asarray(f.cap)[:, None] for f in filters]),
+            cols([np.asarray(f.state_scale)[:, None] for f in filters]),
         ]
         return call(self._runs(len(data[0][0]), len(data)), args)
 

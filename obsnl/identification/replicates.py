@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -25,6 +25,9 @@ from obsnl.executor import Executor, built_once
 from obsnl.identification.experiments import Tuning, mc_replicates, mc_spread, mc_truth, monte_carlo
 from obsnl.identification.practical import Spread
 from obsnl.identification.setup import Data, Setup, coordinates, make_filter
+
+if TYPE_CHECKING:  # the symbolic model is named, not imported: sympy stays out of the identification
+    from obsnl.model.core import Model
 
 __all__ = [
     "Recipe",
@@ -140,7 +143,7 @@ _SETUP_FIELDS = (
 class Recipe:
     """What a worker needs to rebuild an identification experiment: plain data only."""
 
-    model: Any
+    model: Model
     switching: tuple[str, ...] | None
     constants: Mapping[str, float] | None
     setup: Mapping[str, Any]
