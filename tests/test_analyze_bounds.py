@@ -108,7 +108,7 @@ def test_api_and_model_key_refuse_it_too(tmp_path, capsys, tripwire) -> None:
     _one_line(capsys, code, "unknown_input_derivatives key = 5000", "at most 20")
     tripwire.undo()  # the bound itself is still analysed
     r = analyze(_ui_model(), seed=0, unknown_input_derivatives=20)
-    assert r.assumptions["unknown_input_derivatives"] == 20 and r.verdict.value == "observable"
+    assert r.assumptions.unknown_input_derivatives == 20 and r.verdict.value == "observable"
 
 
 # ----------------------------------------------------------------------------- 2 model size

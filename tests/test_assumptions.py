@@ -112,7 +112,7 @@ def test_one_state_constant_versus_arbitrary_unknown_input() -> None:
 def test_default_is_arbitrary_and_the_model_key_overrides_it(tmp_path) -> None:
     m = Model(name="decay_w", states=["x"], parameters=["a"], unknown_inputs=["w"],
               equations={"x": "-a*x + w"}, outputs={"y": "x"})
-    assert analyze(m, seed=1).assumptions["unknown_input_derivatives"] == "arbitrary"
+    assert analyze(m, seed=1).assumptions.unknown_input_derivatives == "arbitrary"
     assert analyze(m, seed=1).overall_unobservable == ("a",)  # as derived above for arbitrary w
     m0 = m.replace(unknown_input_derivatives=0)
     assert analyze(m0, seed=1).overall_unobservable == ()

@@ -85,7 +85,7 @@ def test_the_smallest_scale_does_not_move_with_the_sampling_rate() -> None:
         lo, hi = d.bracket
         assert (hi - lo) / hi <= d.tol
         assert lo <= threshold * (1 + 1e-5) and threshold * (1 - 1e-5) <= hi, (per, threshold, d.bracket)
-        assert d.assumptions["between samples"] == {"u": "bandlimited"}
+        assert d.assumptions.between_samples == {"u": "bandlimited"}
         found.append(d.min_scale)
     assert abs(found[0] - found[1]) <= 1e-3 * max(found)  # within the relative width design claims
 
@@ -174,7 +174,7 @@ def test_a_free_decay_from_a_known_displacement_visits_branches() -> None:
     assert list(vis.patterns)[:2] == [(-1,), (1,)] and vis.crossings == {"v": len(slips) - 1}
     assert continuous_visits(f, t, {"u": zero}).patterns == {}  # from the [values]' rest, nothing moves
     d = design(known, [("rest", t, {"u": zero})], target="parameters", scales=[0.5, 1.0])
-    assert d.assumptions["initial state"] == {"x": "0.05 (known initial condition)", "v": "0 (known initial condition)"}
+    assert d.assumptions.initial_state == {"x": "0.05 (known initial condition)", "v": "0 (known initial condition)"}
     assert all({b.signs for b in v.branches} == {(-1,), (1,)} for v in d.visits)  # the input's scale changes nothing
     assert d.status == "smallest_suffices"
 

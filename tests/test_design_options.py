@@ -795,7 +795,7 @@ def test_unknown_input_derivatives_without_unknown_inputs_is_refused(tiny_files,
         obsnl.analyze(GAP, unknown_input_derivatives=0)
     ui = Model(name="ui", states=["x"], parameters=["a"], unknown_inputs=["w"], equations={"x": "-a*x + w"},
                outputs={"y": "x"})
-    assert obsnl.analyze(ui, seed=1, unknown_input_derivatives=0).assumptions["unknown_input_derivatives"] == 0
+    assert obsnl.analyze(ui, seed=1, unknown_input_derivatives=0).assumptions.unknown_input_derivatives == 0
 
 
 def test_a_scale_with_an_underscore_is_refused_not_read_as_another_number(tiny_files, capsys):

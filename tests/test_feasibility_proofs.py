@@ -132,11 +132,11 @@ def test_every_answer_states_the_bounds_it_assumed(capsys, tmp_path):
 
     m = _friction(bounds={"fy": "positive"})
     res = analyze(m, seed=1)
-    assert res.assumptions["bounds"] == {"fy": [0.0, "inf"]}
+    assert res.assumptions.to_dict()["bounds"] == {"fy": [0.0, "inf"]}
     assert {b.label for b in res.branches} == {"a", "b"}  # the two sides of v, fy > 0 in both
     path = tmp_path / "relay.toml"
     path.write_text(model_to_toml(m), encoding="utf-8")
     assert main(["analyze", str(path), "--seed", "1"]) == 0
     assert "assumes: declared bounds fy > 0" in capsys.readouterr().out
     assert "declared bounds fy > 0" in render_sensors(sensors(m, target="k"))
-    assert "bounds" not in analyze(_friction(), seed=1).assumptions  # nothing declared, nothing said
+    assert "bounds" not in analyze(_friction(), seed=1).to_dict()["assumptions"]  # nothing declared, nothing said

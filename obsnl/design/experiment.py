@@ -42,6 +42,7 @@ import numpy as np
 
 from obsnl._display import render
 from obsnl._text import block, one_line
+from obsnl._types import JSONValue
 from obsnl.design.arguments import design_arguments, record_run
 from obsnl.design.continuous import Drive, TrajectoryVisits
 from obsnl.design.experiment_search import (
@@ -63,9 +64,19 @@ from obsnl.model.bounds.budget import check_time, remaining, time_budget
 from obsnl.model.branching.branches import split_branches
 from obsnl.model.core import Model
 from obsnl.observability.analyze import assumptions as analysis_assumptions
+from obsnl.observability.assumptions import Assumptions
 from obsnl.observability.joint.visited import Visits
 
-__all__ = ["VisitedBranch", "ScaleVisit", "ExperimentDesign", "BlowUp", "design", "DEFAULT_SCALES", "MAX_RECORDS"]
+__all__ = [
+    "VisitedBranch",
+    "ScaleVisit",
+    "DesignAssumptions",
+    "ExperimentDesign",
+    "BlowUp",
+    "design",
+    "DEFAULT_SCALES",
+    "MAX_RECORDS",
+]
 
 #: The default scales: powers of 2 from 2**-10 (about 1e-3) to 2**10 (about 1e3), 21 of them, 1 among them.
 DEFAULT_SCALES = tuple(2.0**k for k in range(-10, 11))
@@ -92,6 +103,37 @@ _ASSUMED = {
     "blow-ups": "a scale whose fixed-step simulation blows up gives no verdict; the larger grid scales are not tried",
     "min_scale": NOT_NOISE,
 }
+
+
+@dataclass(frozen=True)
+class DesignAssumptions:
+    """What every verdict of a design assumes: the analysis' own, how the records were simulated, and the rules of
+    the search (written by :meth:`to_dict` after the analysis' keys, from a table of fixed sentences).
+
+    Attributes
+    ----------
+    analysis
+        The assumptions of the joint verdicts (:class:`~obsnl.observability.assumptions.Assumptions`, unknown inputs
+        arbitrary, known inputs generic).
+    between_samples
+        ``{input: kind}``: how each input was simulated between its samples (``zoh``, ``linear``, ``bandlimited``).
+    initial_state
+        ``{state: value as text}``: where the simulations started (the model's values or known initial conditions).
+    """
+
+    analysis: Assumptions
+    between_samples: Mapping[str, str]
+    initial_state: Mapping[str, str]
+
+    def to_dict(self) -> dict[str, JSONValue]:
+        """JSON-ready: the analysis' keys, the search's rules (``visited``, ``scale``, ``records``, ...), then
+        ``between samples`` and ``initial state``."""
+        return {
+            **self.analysis.to_dict(),
+            **_ASSUMED,
+            "between samples": dict(self.between_samples),
+            "initial state": dict(self.initial_state),
+        }
 
 
 def _pattern(signs: Sequence[int]) -> str:
@@ -181,8 +223,8 @@ class ExperimentDesign:
     analyses
         Joint verdicts run (one per distinct visited set; reachability answers are not counted).
     seed, assumptions, notes, seconds
-        Seed of the analyses, what every verdict assumes, observations (a visited set that does not grow
-        with the scale), wall time.
+        Seed of the analyses, what every verdict assumes (:class:`DesignAssumptions`; None when not stated),
+        observations (a visited set that does not grow with the scale), wall time.
     structural, structural_reason
         Targets not jointly identifiable with the sensors even when every branch is visited (no scale makes them
         identifiable: the scale is searched for the others, :attr:`searched`), and why (the symmetries).
@@ -208,7 +250,7 @@ class ExperimentDesign:
     undecided_records: tuple[tuple[str, ...], ...] = ()
     analyses: int = 0
     seed: int = 0
-    assumptions: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    assumptions: DesignAssumptions | None = field(default=None, repr=False)
     notes: tuple[str, ...] = ()
     seconds: float = 0.0
     structural: tuple[str, ...] = ()
@@ -242,7 +284,7 @@ class ExperimentDesign:
             "notes": list(self.notes),
             "undecided_records": [list(s) for s in self.undecided_records],
             "seconds": round(self.seconds, 3),
-            "assumptions": dict(self.assumptions),
+            "assumptions": {} if self.assumptions is None else self.assumptions.to_dict(),
             "structural": list(self.structural),
             "structural_reason": self.structural_reason,
             "searched": list(self.searched),
@@ -498,12 +540,11 @@ def design(
             raise no_scale_ran(cut)
         min_scale, bracket, status, reason, points = _search(state, on_grid, tol, cut, reachable)
         suff, undecided, left_out = minimal_records(state)
-    how = {
-        **analysis_assumptions(sub, "arbitrary", None),
-        **_ASSUMED,
-        "between samples": dict(trajectory.kinds),
-        "initial state": dict(trajectory.initial),
-    }
+    how = DesignAssumptions(
+        analysis_assumptions(sub, "arbitrary", None),
+        between_samples=dict(trajectory.kinds),
+        initial_state=dict(trajectory.initial),
+    )
     return ExperimentDesign(
         model.name,
         targets,

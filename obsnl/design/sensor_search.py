@@ -5,12 +5,43 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from obsnl._display import render
+from obsnl._types import JSONValue
 from obsnl.design.sufficiency import Sufficiency
+from obsnl.observability.assumptions import Assumptions
 
-__all__ = ["SensorSearch"]
+if TYPE_CHECKING:  # the ranking simulates (casadi): named here, imported by rank_sufficient_sets only
+    from obsnl.design.ranking import Ranking
+
+__all__ = ["SearchAssumptions", "SensorSearch"]
+
+#: What every verdict of a sensor search assumes besides the analysis and the branches visited.
+MONOTONICITY = "a superset of a sufficient set is sufficient; a subset of an insufficient set is not"
+
+
+@dataclass(frozen=True)
+class SearchAssumptions:
+    """What every verdict of a sensor search assumes: the analysis' own, the branches visited, monotonicity.
+
+    Attributes
+    ----------
+    analysis
+        The assumptions of the joint verdicts (:class:`~obsnl.observability.assumptions.Assumptions`).
+    visited
+        The branches visited, in words (``"every feasible branch"``, or those a record visits).
+    monotonicity
+        The rule that spares analyses (:data:`MONOTONICITY`).
+    """
+
+    analysis: Assumptions
+    visited: str = "every feasible branch"
+    monotonicity: str = MONOTONICITY
+
+    def to_dict(self) -> dict[str, JSONValue]:
+        """JSON-ready: the analysis' keys, then ``visited`` and ``monotonicity``."""
+        return {**self.analysis.to_dict(), "visited": self.visited, "monotonicity": self.monotonicity}
 
 
 @dataclass(frozen=True)
@@ -45,7 +76,11 @@ class SensorSearch:
     seed
         Seed of every analysis.
     assumptions
-        What the verdicts assume: the unknown-input assumption and the visited branches.
+        What the verdicts assume (:class:`SearchAssumptions`: the analysis' assumptions and the visited branches);
+        None when not stated.
+    ranking
+        The sufficient sets of one size ranked along a record (:class:`~obsnl.design.ranking.Ranking`), when
+        :func:`~obsnl.design.sensors.rank_sufficient_sets` made it; else None.
     seconds
         Wall time.
     complete
@@ -65,9 +100,9 @@ class SensorSearch:
     checked: tuple[Sufficiency, ...] = field(default=(), repr=False)
     analyses: int = 0
     seed: int = 0
-    assumptions: dict[str, Any] = field(default_factory=dict, repr=False)
+    assumptions: SearchAssumptions | None = field(default=None, repr=False)
     seconds: float = 0.0
-    ranking: Any = field(default=None, repr=False, compare=False)
+    ranking: Ranking | None = field(default=None, repr=False, compare=False)
     effective_independence: tuple[str, ...] = ()
     complete: bool = False
 
@@ -137,7 +172,7 @@ class SensorSearch:
             "certificates": self.certificates(),
             "checked": [c.to_dict() for c in self.checked],
             "seed": self.seed,
-            "assumptions": self.assumptions,
+            "assumptions": {} if self.assumptions is None else self.assumptions.to_dict(),
             "seconds": round(self.seconds, 3),
             "complete": self.complete,
         }

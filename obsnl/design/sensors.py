@@ -51,7 +51,7 @@ from typing import Any
 from obsnl._progress import Progress
 from obsnl._text import quote
 from obsnl.design.arguments import model_argument
-from obsnl.design.sensor_search import SensorSearch
+from obsnl.design.sensor_search import SearchAssumptions, SensorSearch
 from obsnl.design.sufficiency import Sufficiency, check_sensors, resolve_targets, restrict, unreached
 from obsnl.errors import OptionError
 from obsnl.executor import Executor
@@ -406,12 +406,10 @@ def _without_minimal(
     return [answers.get(x) for x in largest]
 
 
-def _assumptions(model: Model, full: Sufficiency) -> dict[str, Any]:
+def _assumptions(model: Model, full: Sufficiency) -> SearchAssumptions:
     """What every verdict of the search assumes."""
-    out = assumptions(model, resolve_unknown_input_derivatives(model, None), None)
-    out["visited"] = full.visited or "every feasible branch"
-    out["monotonicity"] = "a superset of a sufficient set is sufficient; a subset of an insufficient set is not"
-    return out
+    analysis = assumptions(model, resolve_unknown_input_derivatives(model, None), None)
+    return SearchAssumptions(analysis, visited=full.visited or "every feasible branch")
 
 
 def rank_sufficient_sets(

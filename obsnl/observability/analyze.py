@@ -29,6 +29,7 @@ from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text
 from obsnl.model.core import Model
 from obsnl.model.files import read_model
+from obsnl.observability.assumptions import Assumptions, InitialConditions
 from obsnl.observability.certificates.certify import (
     certify_by_symmetry,
     undecided_beyond_visits,
@@ -184,7 +185,7 @@ def analyze(
 def _analyze(
     model: Model,
     variables: tuple[str, ...],
-    assumed: dict,
+    assumed: Assumptions,
     *,
     method: str,
     seed: int | None,
@@ -275,8 +276,8 @@ def _analyze(
     )
 
 
-def assumptions(model: Model, unknown_input_derivatives: int | str, input_derivatives: int | None) -> dict:
-    """What an analysis of ``model`` assumes, as JSON-ready data (:attr:`AnalysisResult.assumptions`).
+def assumptions(model: Model, unknown_input_derivatives: int | str, input_derivatives: int | None) -> Assumptions:
+    """What an analysis of ``model`` assumes (:attr:`AnalysisResult.assumptions`; ``to_dict()`` is its JSON).
 
     Parameters
     ----------
@@ -289,9 +290,9 @@ def assumptions(model: Model, unknown_input_derivatives: int | str, input_deriva
 
     Returns
     -------
-    dict
-        ``unknown_input_derivatives``, ``known_inputs`` and ``initial_conditions``; ``bounds`` too when the model
-        declares some (``{name: [lo, hi]}``, an infinite end as ``"inf"``/``"-inf"``: only the sign patterns that
+    Assumptions
+        ``unknown_input_derivatives``, ``known_inputs`` and ``initial_conditions``; the ``bounds`` the model
+        declares (``{name: (lo, hi)}``, an infinite end as ``"inf"``/``"-inf"``: only the sign patterns that
         can hold within them are branches).
 
     Examples
@@ -299,21 +300,20 @@ def assumptions(model: Model, unknown_input_derivatives: int | str, input_deriva
     >>> from obsnl import Model
     >>> m = Model(name="m", states=["x"], parameters=["a"], unknown_inputs=["w"],
     ...           equations={"x": "-a*x + w"}, outputs={"y": "x"})
-    >>> assumptions(m, "arbitrary", None)["unknown_input_derivatives"]
+    >>> assumptions(m, "arbitrary", None).unknown_input_derivatives
     'arbitrary'
     """
     known = model.known_initial_conditions
-    out = {
-        "unknown_input_derivatives": unknown_input_derivatives if model.unknown_inputs else None,
-        "known_inputs": None
+    return Assumptions(
+        unknown_input_derivatives=unknown_input_derivatives if model.unknown_inputs else None,
+        known_inputs=None
         if not model.inputs
         else ("generic" if input_derivatives is None else f"polynomial of degree {input_derivatives}"),
-        "initial_conditions": {
-            "unknown": [s.name for s in model.states if s not in known],
-            "known_generic": [s.name for s in known if s not in model.initial_condition_values],
-            "known_values": {s.name: str(v) for s, v in model.initial_condition_values.items()},
-        },
-    }
-    if model.bounds:
-        out["bounds"] = model.to_dict()["bounds"]
-    return out
+        initial_conditions=InitialConditions(
+            unknown=tuple(s.name for s in model.states if s not in known),
+            known_generic=tuple(s.name for s in known if s not in model.initial_condition_values),
+            known_values={s.name: str(v) for s, v in model.initial_condition_values.items()},
+        ),
+        # as a model file writes them (an infinite end as text): the JSON of the analysis carries them so
+        bounds={k: (lo, hi) for k, (lo, hi) in model.to_dict()["bounds"].items()} if model.bounds else {},
+    )

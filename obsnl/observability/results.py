@@ -14,6 +14,7 @@ from typing import Any
 from obsnl._display import render
 from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
 from obsnl.model.branching.signature import ModelSignature
+from obsnl.observability.assumptions import Assumptions
 from obsnl.observability.joint.result import JointResult
 from obsnl.observability.joint.selection import Visited
 from obsnl.observability.verdicts import BranchResult, Verdict
@@ -63,10 +64,11 @@ class AnalysisResult:
     :attr:`joint`. In ``obsnl analyze --format json``, ``overall`` is the joint verdict and ``union``
     the per-branch union.
     assumptions
-        What the verdicts assume (JSON-ready): ``unknown_input_derivatives`` (``"arbitrary"``, a
-        number ``K`` or None without unknown inputs), ``known_inputs`` (``"generic"``, ``"polynomial
-        of degree d"`` or None without known inputs), ``initial_conditions`` (``{"unknown": [...],
-        "known_generic": [...], "known_values": {state: value}}``).
+        What the verdicts assume (:class:`~obsnl.observability.assumptions.Assumptions`):
+        ``unknown_input_derivatives`` (``"arbitrary"``, a number ``K`` or None without unknown inputs),
+        ``known_inputs`` (``"generic"``, ``"polynomial of degree d"`` or None without known inputs),
+        ``initial_conditions`` (unknown, known and generic, known with a value) and the declared ``bounds``;
+        None when not stated (``to_dict`` then writes ``{}``).
     """
 
     model: str
@@ -93,7 +95,7 @@ class AnalysisResult:
         """Unobservable in every visited branch, in model order."""
         return self.overall_unobservable
 
-    assumptions: Mapping[str, Any] = field(default_factory=dict)
+    assumptions: Assumptions | None = None
 
     @property
     def overall_observable(self) -> tuple[str, ...]:
@@ -311,7 +313,7 @@ class AnalysisResult:
             "branches": [b.to_dict(extended=extended) for b in self.branches],
             "union": union,
             "verdict": verdict.value,
-            "assumptions": dict(self.assumptions),
+            "assumptions": {} if self.assumptions is None else self.assumptions.to_dict(),
         }
         j = self.joint
         if j is None:

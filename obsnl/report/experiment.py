@@ -135,10 +135,10 @@ def _summary(design: Any) -> list[tuple[str, str]]:
             ),
         ),
     ]
-    how = getattr(design, "assumptions", {}) or {}
-    if "between samples" in how:  # what the simulation assumed: the input between samples, the initial state
-        kinds = ", ".join(f"{k} {v}" for k, v in how["between samples"].items()) or "no input"
-        start = ", ".join(f"{k} = {v}" for k, v in how.get("initial state", {}).items())
+    how = getattr(design, "assumptions", None)  # a DesignAssumptions, or None when the design states none
+    if how is not None:  # what the simulation assumed: the input between samples, the initial state
+        kinds = ", ".join(f"{k} {v}" for k, v in how.between_samples.items()) or "no input"
+        start = ", ".join(f"{k} = {v}" for k, v in how.initial_state.items())
         lines.append(("simulated", f"along the continuous trajectory; input between samples: {kinds}; from {start}"))
     return lines + [("note", n) for n in design.notes]
 

@@ -81,17 +81,19 @@ def _targets(search: Any) -> str:
 
 
 def _assumptions(search: Any) -> list[str]:
-    a = search.assumptions
-    out = [f"visited branches: {a.get('visited', 'every feasible branch')}"]
-    ui = a.get("unknown_input_derivatives")
+    a = search.assumptions  # a SearchAssumptions, or None when the search states none
+    if a is None:
+        return ["visited branches: every feasible branch"]
+    out = [f"visited branches: {a.visited}"]
+    ui = a.analysis.unknown_input_derivatives
     if ui is not None:
         out.append(f"unknown inputs: {ui}")
-    known = a.get("known_inputs")
+    known = a.analysis.known_inputs
     if known:
         out.append(f"known inputs: {known}")
-    if a.get("bounds"):
-        out.append(bounds_text(a["bounds"]))
-    out.append(a.get("monotonicity", ""))
+    if a.analysis.bounds:
+        out.append(bounds_text(a.analysis.bounds))
+    out.append(a.monotonicity)
     return [x for x in out if x]
 
 

@@ -28,30 +28,29 @@ def assumption_texts(result: AnalysisResult) -> list[str]:
     """
     a = result.assumptions
     out: list[str] = []
-    k = a.get("unknown_input_derivatives")
+    if a is None:
+        return out
+    k = a.unknown_input_derivatives
     if k == "arbitrary":
         out.append("unknown inputs arbitrary functions of time")
     elif k is not None:
         shape = "constant" if k == 0 else f"polynomials in t with {k} non-zero derivative(s)"
         out.append(f"unknown inputs {shape} (K = {k}, STRIKE-GOLDD nnzDerW)")
-    if a.get("known_inputs"):
-        out.append(f"known inputs {a['known_inputs']}")
-    ic = a.get("initial_conditions")
-    if ic:
-        parts = []
-        if ic.get("unknown"):
-            parts.append(
-                "unknown and generic"
-                if not (ic.get("known_generic") or ic.get("known_values"))
-                else f"unknown for {_names(ic['unknown'])}"
-            )
-        if ic.get("known_generic"):
-            parts.append(f"known and generic for {_names(ic['known_generic'])}")
-        if ic.get("known_values"):
-            parts.append("given: " + ", ".join(f"{k}(0) = {v}" for k, v in ic["known_values"].items()))
-        out.append("initial conditions " + "; ".join(parts))
-    if a.get("bounds"):
-        out.append(bounds_text(a["bounds"]))
+    if a.known_inputs:
+        out.append(f"known inputs {a.known_inputs}")
+    ic = a.initial_conditions
+    parts = []
+    if ic.unknown:
+        parts.append(
+            "unknown and generic" if not (ic.known_generic or ic.known_values) else f"unknown for {_names(ic.unknown)}"
+        )
+    if ic.known_generic:
+        parts.append(f"known and generic for {_names(ic.known_generic)}")
+    if ic.known_values:
+        parts.append("given: " + ", ".join(f"{k}(0) = {v}" for k, v in ic.known_values.items()))
+    out.append("initial conditions " + "; ".join(parts))
+    if a.bounds:
+        out.append(bounds_text(a.bounds))
     return out
 
 

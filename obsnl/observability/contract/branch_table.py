@@ -18,9 +18,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from obsnl._text import quoted
-from obsnl.errors import TableError
+from obsnl.errors import DataError, TableError
 from obsnl.model.bounds.textsize import quote, shorten
 from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
+from obsnl.observability.assumptions import Assumptions
 
 if TYPE_CHECKING:  # the estimators read this module: the result class is named, not imported
     from obsnl.observability.results import AnalysisResult
@@ -57,6 +58,16 @@ def _check_sizes(data: Mapping[str, Any]) -> None:
                 f"the branch table lists {len(value)} {key}, more than the {cap} a table of an obsnl "
                 f"analysis can have; {TABLE_FIX}"
             )
+
+
+def _assumptions(data: Any) -> Assumptions | None:
+    """The table's ``assumptions`` read (None when absent or empty), a wrong one refused naming the key."""
+    if not data:
+        return None
+    try:
+        return Assumptions.from_dict(data)
+    except DataError as exc:
+        raise TableError(f"the branch table's {exc}; {TABLE_FIX}") from None
 
 
 @dataclass(frozen=True)
@@ -107,7 +118,7 @@ class BranchTable:
     overall_observable: tuple[str, ...]
     overall_unobservable: tuple[str, ...]
     joint: Mapping[str, tuple[str, ...]] | None = None
-    assumptions: Mapping[str, Any] | None = None
+    assumptions: Assumptions | None = None
 
     # ------------------------------------------------------------------ io
     @classmethod
@@ -164,7 +175,7 @@ class BranchTable:
             overall_observable=tuple(data["overall"]["observable"]),
             overall_unobservable=tuple(data["overall"]["unobservable"]),
             joint=({k: tuple(v) for k, v in data["joint"].items()} if data.get("joint") is not None else None),
-            assumptions=data.get("assumptions"),
+            assumptions=_assumptions(data.get("assumptions")),
         )
         table._check_consistency()
         return table
@@ -189,7 +200,7 @@ class BranchTable:
                 if self.joint is not None
                 else {}
             ),
-            **({"assumptions": dict(self.assumptions)} if self.assumptions else {}),
+            **({"assumptions": self.assumptions.to_dict()} if self.assumptions is not None else {}),
         }
 
     @property
@@ -391,7 +402,7 @@ class BranchTable:
                     "inconclusive": joint.inconclusive,
                 }
             ),
-            assumptions=dict(getattr(result, "assumptions", None) or {}) or None,
+            assumptions=result.assumptions,
         )
         return cls.from_dict(table.to_dict())
 
