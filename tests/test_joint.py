@@ -104,7 +104,7 @@ def test_switch_that_never_reaches_the_output_reveals_nothing():
     assert r.inconclusive == () and r.reason == ""
     surf = [v for v in r.visits if v.kind == "surface"]
     assert len(surf) == 1 and surf[0].visible is False
-    assert r.assumptions["surfaces_invisible"] and not r.assumptions["surfaces_used"]
+    assert r.assumptions.surfaces_invisible and not r.assumptions.surfaces_used
     assert r.runs == 2  # unobservable verdicts are confirmed by a second independent run
     assert r.probability >= 0.99
 
@@ -208,7 +208,7 @@ def test_branch_selection_by_label_and_by_object():
     r = joint_verdict(m, branches=[a_label], seed=0)
     assert r.observable == ("x", "v", "c")
     assert r.unobservable == ("k", "alpha", "x_y")
-    assert r.assumptions["visited_branches"] == (a_label,)
+    assert r.assumptions.visited_branches == (a_label,)
     r_obj = joint_verdict(m, branches=list(br), seed=0)
     assert r_obj.observable == ALL_BILINEAR
 
@@ -229,7 +229,7 @@ def test_unplaceable_surface_makes_unobservable_verdicts_inconclusive():
     r = joint_verdict(m, seed=0)
     assert r.observable == ("x", "v", "k", "s")
     assert r.unobservable == () and r.inconclusive == ("d",)
-    assert "surface" in r.reason and r.assumptions["surfaces_skipped"]
+    assert "surface" in r.reason and r.assumptions.surfaces_skipped
 
 
 def test_unknown_input_and_known_initial_condition():
@@ -246,4 +246,4 @@ def test_unknown_input_and_known_initial_condition():
     assert r.unobservable == () and r.inconclusive == ()
     assert r.unknown_inputs == {"observable": ("w",), "unobservable": ()}
     assert "q" not in r.union_observable
-    assert "surface visits have free states" in r.assumptions["known_initial_conditions"]
+    assert "surface visits have free states" in r.assumptions.known_initial_conditions

@@ -35,7 +35,7 @@ def test_seed_models_joint_verdicts():
     twelve = {"sigma", "eta", "E_h", "A_m", "L", "E", "sigma_y", "c_eta", "c", "h", "beta", "gamma"}
     assert set(r.joint.unobservable) == twelve and not r.joint.inconclusive
     assert set(r.union_unobservable) == twelve  # w_h is observable in (a), (c): union and joint agree here
-    assert r.joint.assumptions["symmetry_certificates"]
+    assert r.joint.assumptions.symmetry_certificates
     # the reparametrized model (16) is observable per branch union (Table 1) and jointly
     rep = obsnl.analyze(obsnl.read_model(MODELS / "damage_healing_reparam.toml"), seed=0)
     assert rep.union_unobservable == () and rep.joint.unobservable == () and rep.joint.inconclusive == ()

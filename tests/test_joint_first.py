@@ -100,7 +100,7 @@ def _undecided() -> AnalysisResult:
     """A hand-built result whose joint verdict leaves w undecided and calls b unidentifiable."""
     joint = JointResult(model="m", observable=("x", "a"), unobservable=("b",), inconclusive=("w",),
                         unknown_inputs={}, visits=(), union_observable=("x",), parameter_rank=1, probability=0.99,
-                        seed=0, runs=2, early_stop=False, reason="time limit of 1 s reached", assumptions={},
+                        seed=0, runs=2, early_stop=False, reason="time limit of 1 s reached", assumptions=None,
                         seconds=1.0)
     branch = BranchResult(label="smooth", guard="true", observable=("x",), unobservable=("a", "b", "w"), absent=(),
                           rank=1, size=4, transcendence_degree=3, seconds=0.1)

@@ -14,7 +14,7 @@ from obsnl._text import quote
 from obsnl._types import JSONValue
 from obsnl.errors import DataError
 
-__all__ = ["Assumptions", "InitialConditions"]
+__all__ = ["Assumptions", "InitialConditions", "JointAssumptions"]
 
 #: An end of a declared bound as JSON writes it: a number, or ``"inf"``/``"-inf"`` (JSON has no infinity).
 BoundEnd = float | str
@@ -129,6 +129,65 @@ class Assumptions:
             ),
             bounds={str(name): _bound(name, pair) for name, pair in bounds.items()},
         )
+
+
+@dataclass(frozen=True)
+class JointAssumptions:
+    """What a joint verdict assumes (:attr:`~obsnl.observability.joint.result.JointResult.assumptions`).
+
+    Attributes
+    ----------
+    unknown_input_derivatives
+        The unknown-input assumption in force (``"arbitrary"`` or ``K``).
+    visited_branches
+        Labels of the branches visited.
+    surfaces_used, surfaces_invisible, surfaces_skipped
+        The switching surfaces visited and visible (``"g (a/b)"``), visited but invisible, and skipped (with why).
+    known_initial_conditions
+        How known initial conditions were applied, in words (``"none"`` without any).
+    union_over
+        The branch visits the per-branch union is taken over.
+    symmetry_certificates
+        The symmetries that certified variables unobservable, as text, when some did
+        (:func:`~obsnl.observability.certificates.certify.certify_by_symmetry`); else None (not written).
+    known_inputs, parameters
+        The fixed sentences on the known inputs (a generic random series per visit) and on the parameters (shared
+        by every visit).
+
+    Examples
+    --------
+    >>> a = JointAssumptions("arbitrary", ("a",), (), (), (), "none", ("a",))
+    >>> a.to_dict()["visited_branches"], "symmetry_certificates" in a.to_dict()
+    (['a'], False)
+    """
+
+    unknown_input_derivatives: int | str
+    visited_branches: tuple[str, ...]
+    surfaces_used: tuple[str, ...]
+    surfaces_invisible: tuple[str, ...]
+    surfaces_skipped: tuple[str, ...]
+    known_initial_conditions: str
+    union_over: tuple[str, ...]
+    symmetry_certificates: tuple[str, ...] | None = None
+    known_inputs: str = "generic (random series, independent per visit; shared by both sides of a surface)"
+    parameters: str = "shared by every visit, at one generic value per run"
+
+    def to_dict(self) -> dict[str, JSONValue]:
+        """JSON-ready (lists for tuples), in the order ``obsnl analyze --format json`` writes ``joint.assumptions``."""
+        out: dict[str, JSONValue] = {
+            "unknown_input_derivatives": self.unknown_input_derivatives,
+            "known_inputs": self.known_inputs,
+            "visited_branches": list(self.visited_branches),
+            "surfaces_used": list(self.surfaces_used),
+            "surfaces_invisible": list(self.surfaces_invisible),
+            "surfaces_skipped": list(self.surfaces_skipped),
+            "known_initial_conditions": self.known_initial_conditions,
+            "union_over": list(self.union_over),
+            "parameters": self.parameters,
+        }
+        if self.symmetry_certificates is not None:
+            out["symmetry_certificates"] = list(self.symmetry_certificates)
+        return out
 
 
 def _keys(data: Mapping[str, JSONValue], known: tuple[str, ...], *, required: tuple[str, ...] = (), where: str) -> None:

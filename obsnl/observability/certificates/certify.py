@@ -141,8 +141,10 @@ def certify_by_symmetry(
     order = list(result.observable) + list(result.unobservable) + list(result.inconclusive)
     unobs = set(result.unobservable) | set(certified)
     names = [s.name for s in model.states] + [p.name for p in model.parameters]
-    assumptions = dict(result.assumptions)
-    assumptions["symmetry_certificates"] = [str(g) for g in gens]
+    certificates = tuple(str(g) for g in gens)
+    assumptions = (
+        None if result.assumptions is None else replace(result.assumptions, symmetry_certificates=certificates)
+    )
     reason = result.reason if left else ""
     return replace(
         result,

@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from obsnl._text import block, bound, names, one_line, probability_text, verdict_words
+from obsnl.observability.assumptions import JointAssumptions
 
 __all__ = ["JointResult", "JointVisit"]
 
@@ -77,7 +78,7 @@ class JointResult:
         The visits used, in order (:class:`JointVisit`).
     union_observable
         Variables observable within a single branch visit on its own (the per-branch union,
-        over the branch visits made; see ``assumptions["union_over"]``).
+        over the branch visits made; see ``assumptions.union_over``).
     parameter_rank
         Rank of the joint parameter row space (first run).
     probability
@@ -91,8 +92,9 @@ class JointResult:
     reason
         Why some verdicts are inconclusive (empty otherwise).
     assumptions
-        What the verdict assumes: unknown-input derivatives, known inputs generic, the visited
-        branches, the surfaces used (visible), invisible and skipped, known initial conditions.
+        What the verdict assumes (:class:`~obsnl.observability.assumptions.JointAssumptions`): unknown-input
+        derivatives, known inputs generic, the visited branches, the surfaces used (visible), invisible and
+        skipped, known initial conditions; None when not stated (``to_dict`` then writes ``{}``).
     seconds
         Wall time.
     """
@@ -110,7 +112,7 @@ class JointResult:
     runs: int
     early_stop: bool
     reason: str
-    assumptions: Mapping[str, Any]
+    assumptions: JointAssumptions | None
     seconds: float
 
     def __repr__(self) -> str:
@@ -152,6 +154,6 @@ class JointResult:
             "runs": self.runs,
             "early_stop": self.early_stop,
             "reason": self.reason,
-            "assumptions": plain(self.assumptions),
+            "assumptions": {} if self.assumptions is None else self.assumptions.to_dict(),
             "seconds": self.seconds,
         }

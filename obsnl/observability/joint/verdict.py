@@ -58,6 +58,7 @@ from obsnl.algebra.series import TimeUp, draw_prime
 from obsnl.errors import AnalysisError
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
+from obsnl.observability.assumptions import JointAssumptions
 from obsnl.observability.joint.modular import kernel_rows
 from obsnl.observability.joint.result import JointResult, JointVisit
 from obsnl.observability.joint.visits import (
@@ -342,19 +343,17 @@ def joint_verdict_of(
     visits = tuple(v.record for v in first.visits) if first else ()
     used_surfaces = [f"{v.switching} ({'/'.join(v.labels)})" for v in visits if v.kind == "surface" and v.visible]
     invisible = [f"{v.switching} ({'/'.join(v.labels)})" for v in visits if v.kind == "surface" and v.visible is False]
-    assumptions = {
-        "unknown_input_derivatives": unknown_input_derivatives,
-        "known_inputs": "generic (random series, independent per visit; shared by both sides of a surface)",
-        "visited_branches": tuple(b.label for b in chosen),
-        "surfaces_used": tuple(used_surfaces),
-        "surfaces_invisible": tuple(invisible),
-        "surfaces_skipped": tuple(f"{v.switching} ({'/'.join(v.labels)}): {v.reason}" for v in skipped),
-        "known_initial_conditions": (
+    assumptions = JointAssumptions(
+        unknown_input_derivatives=unknown_input_derivatives,
+        visited_branches=tuple(b.label for b in chosen),
+        surfaces_used=tuple(used_surfaces),
+        surfaces_invisible=tuple(invisible),
+        surfaces_skipped=tuple(f"{v.switching} ({'/'.join(v.labels)}): {v.reason}" for v in skipped),
+        known_initial_conditions=(
             "applied in branch visits; surface visits have free states" if model.known_initial_conditions else "none"
         ),
-        "union_over": tuple(v.labels[0] for v in visits if v.kind == "branch"),
-        "parameters": "shared by every visit, at one generic value per run",
-    }
+        union_over=tuple(v.labels[0] for v in visits if v.kind == "branch"),
+    )
     return JointResult(
         model=model.name,
         observable=tuple(c for c in variables if verdict.get(c) is True),
