@@ -153,6 +153,19 @@ class AdequacyTest:
         """``whiteness of y``, ``cross-correlation of y with u``, ``misfit of y``."""
         return f"{self.name} of {self.output}" + (f" with {self.input}" if self.input else "")
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> AdequacyTest:
+        """The test :meth:`to_dict` wrote (a number it wrote as None read as NaN)."""
+        return cls(
+            name=str(d["name"]),
+            output=str(d["output"]),
+            statistic=_nan(d["statistic"]),
+            p_value=_nan(d["p_value"]),
+            passed=bool(d["passed"]),
+            detail=str(d.get("detail") or ""),
+            input=None if d.get("input") is None else str(d["input"]),
+        )
+
     def to_dict(self) -> dict[str, Any]:
         d = {
             "name": self.name,
@@ -234,6 +247,28 @@ class Adequacy:
             f"share of the residual variance attributed to model error: {share}" if self.model_error else "",
         )
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Adequacy:
+        """The verdict :meth:`to_dict` wrote (``per_test_level`` follows from ``level`` and the tests; a number
+        written as None read as NaN).
+
+        Examples
+        --------
+        >>> a = Adequacy(passed=False, level=0.01, tests=(AdequacyTest("misfit", "y", 3.0, 1e-4, False, "F"),),
+        ...              assumptions=("white noise",), model_error={"y": 0.5})
+        >>> Adequacy.from_dict(a.to_dict()) == a
+        True
+        """
+        return cls(
+            passed=bool(d["passed"]),
+            level=float(d["level"]),
+            tests=tuple(AdequacyTest.from_dict(t) for t in d["tests"]),
+            assumptions=tuple(map(str, d.get("assumptions") or ())),
+            model_error={str(o): _nan(v) for o, v in (d.get("model_error_share") or {}).items()},
+            input_noise_share={str(o): _nan(v) for o, v in (d.get("input_noise_share") or {}).items()},
+            input_noise_counted=bool(d.get("input_noise_counted", False)),
+        )
+
     def to_dict(self) -> dict[str, Any]:
         return {
             "passed": self.passed,
@@ -249,6 +284,11 @@ class Adequacy:
 
 def _finite(x: float) -> float | None:
     return float(x) if math.isfinite(x) else None
+
+
+def _nan(x: float | None) -> float:
+    """A number :func:`_finite` wrote, None read as NaN."""
+    return float("nan") if x is None else float(x)
 
 
 def lags_for(n: int) -> int:

@@ -108,6 +108,26 @@ class Practical:
             "monte_carlo": self.spread.to_dict() if self.spread else None,
         }
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Practical:
+        """The verdict :meth:`to_dict` wrote (a number it wrote as None read as NaN; ``flagged_linearised`` kept
+        where it differs from ``flagged``)."""
+        flagged = tuple(map(str, d["flagged"]))
+        linearised = tuple(map(str, d.get("flagged_linearised") or ()))
+        mc = d.get("monte_carlo")
+        return cls(
+            parameters=tuple(map(str, d["parameters"])),
+            crb=_floats(d["crb_relative_std"]),
+            sensitivity=_floats(d["sensitivity_over_noise"]),
+            posterior=_floats(d["posterior_over_prior_std"]),
+            flagged=flagged,
+            reasons={str(p): str(why) for p, why in (d.get("reasons") or {}).items()},
+            inconclusive=str(d.get("inconclusive") or ""),
+            spread=None if mc is None else Spread.from_dict(mc),
+            undecided={str(p): str(why) for p, why in (d.get("undecided") or {}).items()},
+            linearised=None if "flagged_linearised" not in d or linearised == flagged else linearised,
+        )
+
     def with_spread(self, spread: Spread, *, limit: float = CRB_LIMIT) -> Practical:
         """These flags joined with the Monte-Carlo criterion (:class:`Spread`) at the same limit.
 
@@ -150,6 +170,11 @@ class Practical:
 def _nums(v: Sequence[float]) -> list[float | None]:
     """Finite numbers, None for NaN/inf (JSON has no NaN)."""
     return [float(x) if np.isfinite(x) else None for x in v]
+
+
+def _floats(v: Sequence[float | None]) -> tuple[float, ...]:
+    """The numbers :func:`_nums` wrote, None read as NaN."""
+    return tuple(float("nan") if x is None else float(x) for x in v)
 
 
 @dataclass(frozen=True)
@@ -197,6 +222,22 @@ class Spread:
             f"Monte-Carlo spread over {self.replicates} replicates ({self.diverged} diverged, seed {self.seed})",
             *rows[:10],
             f"... and {len(rows) - 10} more" if len(rows) > 10 else "",
+        )
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Spread:
+        """The spread :meth:`to_dict` wrote (a number it wrote as None read as NaN)."""
+        return cls(
+            parameters=tuple(map(str, d["parameters"])),
+            std=_floats(d["relative_std"]),
+            lower=_floats(d["lower"]),
+            upper=_floats(d["upper"]),
+            replicates=int(d["replicates"]),
+            diverged=int(d["diverged"]),
+            confidence=float(d["confidence"]),
+            seed=int(d["seed"]),
+            held=tuple(map(str, d.get("held") or ())),
+            inconclusive=str(d.get("inconclusive") or ""),
         )
 
     def to_dict(self) -> dict[str, Any]:

@@ -72,6 +72,18 @@ class Tuning:
     q_x: float
     gate: float = float("inf")
 
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Tuning:
+        """The configuration :meth:`to_dict` wrote (``gate`` None: off, ``inf``).
+
+        Examples
+        --------
+        >>> Tuning.from_dict(Tuning(0.1, 0.0, 1.0).to_dict())
+        Tuning(s0=0.1, q_theta=0.0, q_x=1.0, gate=inf)
+        """
+        gate = d.get("gate")
+        return cls(float(d["s0"]), float(d["q_theta"]), float(d["q_x"]), float("inf") if gate is None else float(gate))
+
     def to_dict(self) -> dict[str, float | None]:
         return {
             "s0": self.s0,
