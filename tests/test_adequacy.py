@@ -326,20 +326,21 @@ def test_no_goal_of_table2_is_met_where_the_model_failed_adequacy():
     import copy
 
     from obsnl.report.identification import table2_markdown
+    from obsnl.studies.seed_reproduction import Reproduction
 
     from .conftest import ROOT
 
     doc = json.loads((ROOT / "reports" / "identification" / "table2.json").read_text())
     goal = "5 % goal (worst seed, unflagged): "
-    assert goal + "met;" in table2_markdown(doc)
+    assert goal + "met;" in table2_markdown(Reproduction.from_dict(doc))
     bad = copy.deepcopy(doc)
     seed = bad["refinements"][0]["seed"]
     bad["refinements"][0]["adequacy"] = {"passed": False, "level": 0.01, "tests": []}
-    text = table2_markdown(bad)
+    text = table2_markdown(Reproduction.from_dict(bad))
     assert goal + "met;" not in text and f"{goal}not met (the model does not explain the data to the noise level " \
         f"on seed(s) {seed}: adequacy failed)" in text
     bad["refinements"][0]["adequacy"]["passed"] = True
-    assert goal + "met;" in table2_markdown(bad)
+    assert goal + "met;" in table2_markdown(Reproduction.from_dict(bad))
 
 
 def test_the_command_line_says_a_failed_adequacy_first_and_writes_it_to_identify_json(records, tmp_path, capsys):

@@ -86,15 +86,17 @@ def _goal_cells(markdown: str, filter_name: str) -> list[str]:
 
 def test_the_goal_is_not_called_met_when_most_parameters_are_flagged():
     from obsnl.report.identification import table2_markdown
+    from obsnl.studies.seed_reproduction import Reproduction
 
     doc = json.loads((ROOT / "reports" / "identification" / "table2.json").read_text())
-    assert _goal_cells(table2_markdown(doc), "UKF")[0] == "met"  # the committed table: 3 of 9 flagged
+    assert _goal_cells(table2_markdown(Reproduction.from_dict(doc)), "UKF")[0] == "met"  # 3 of 9 flagged
     params = list(doc["experiment"]["truth"])
     flagged = copy.deepcopy(doc)
     for r in flagged["runs"]:
         if r["method"] == "ukf" and r["passes"] == 1:  # most flagged, the others as committed (within 5 %)
-            r["practically_unidentifiable"] = sorted(set(r["practically_unidentifiable"] or ()) | set(params[:6]))
-    cell = _goal_cells(table2_markdown(flagged), "UKF")[0]
+            prac = r["practical_identifiability"]
+            prac["flagged"] = r["practically_unidentifiable"] = sorted(set(prac["flagged"]) | set(params[:6]))
+    cell = _goal_cells(table2_markdown(Reproduction.from_dict(flagged)), "UKF")[0]
     assert cell.startswith("not judged (") and not re.search(r"\bmet\b", cell), cell
     assert int(re.search(r"(\d) of 9 parameters flagged", cell)[1]) > 4
 

@@ -17,7 +17,7 @@ from obsnl.identification.experiments import (DIVERGED, Tuning, coordinates, mak
 from obsnl.report.identification import table2_markdown
 from obsnl.studies.seed_experiment import SEED_GUESS, seed_setup
 from obsnl.studies.seed_paper import reproduce
-from obsnl.studies.seed_reproduction import write_reproduction
+from obsnl.studies.seed_reproduction import Reproduction, write_reproduction
 
 from .conftest import HAVE_CC, MODELS, ROOT
 from .test_branch_table import paper_table1
@@ -84,22 +84,22 @@ def test_reproduce_pipeline_end_to_end(tmp_path):
     run = doc["runs"][0]
     assert set(run) >= {"parameters", "seconds", "practically_unidentifiable"}
     assert set(run["parameters"]["k_m"]) == {"true", "estimate", "error_percent"}
-    assert "Table 2 analog" in table2_markdown(doc)
+    assert "Table 2 analog" in table2_markdown(rep)
     broken = json.loads(json.dumps(doc))  # a run that stopped is reported, not dropped
     broken["runs"][0].update(error="the filter produced NaN/inf at step 7", output_misfit=None,
                              practically_unidentifiable=[], practical_identifiability=None)
     for v in broken["runs"][0]["parameters"].values():
         v.update(estimate=None, error_percent=None)
-    text = table2_markdown(broken)
+    text = table2_markdown(Reproduction.from_dict(broken))
     assert "1 run(s) stopped: seed 0" in text and "NaN/inf at step 7" in text
     unsim = json.loads(json.dumps(doc))  # ran to the end, but its estimate cannot be simulated
     unsim["runs"][0]["output_misfit"] = None
-    assert "| - (seed 0: the estimate cannot be simulated) |" in table2_markdown(unsim)
+    assert "| - (seed 0: the estimate cannot be simulated) |" in table2_markdown(Reproduction.from_dict(unsim))
     assert all(r["passes_run"] == r["passes"] for r in doc["runs"])
     undecided = json.loads(json.dumps(doc))  # a diverged estimate: flags not decided, and said so
     undecided["runs"][0].update(practically_unidentifiable=None)
     undecided["runs"][0]["practical_identifiability"]["inconclusive"] = "the filter diverged"
-    assert "not decided on seed 0: the filter diverged" in table2_markdown(undecided)
+    assert "not decided on seed 0: the filter diverged" in table2_markdown(Reproduction.from_dict(undecided))
     files = write_reproduction(rep, tmp_path)
     names = {f.name for f in files}
     assert {"table2.json", "table2.md", "table2.tex", "fig2_1pass.png", "fig3_2passes.png"} <= names
@@ -137,16 +137,17 @@ def test_table2_ml_column_renders_the_refinement_against_the_truth():
 
     rep_doc = json.loads((ROOT / "reports" / "identification" / "table2.json").read_text())
     truth = rep_doc["experiment"]["truth"]
-    std = {p: 0.1 for p in truth} | {"h_p": 10.0, "c_p": None}
+    std = {p: 0.1 for p in truth} | {"h_p": 10.0, "c_p": None}  # in % of the estimate; None: a flat direction
     ref = {"seed": 0, "start": {"method": "ukf", "passes": 3, "output_misfit": 0.001}, "converged": False,
            "reason": "first-order condition not met: rough", "error": "", "seconds": 20.0, "iterations": 12,
            "newton_decrement": 3.0, "last_step_in_std": 0.0, "misfit_over_noise": {"y": 1.0}, "at_edge": [],
-           "parameters": {p: {"true": t, "estimate": t, "error_percent": 0.0, "std": None, "std_percent": std[p]}
+           "parameters": {p: {"true": t, "estimate": t, "error_percent": 0.0,
+                              "std": None if std[p] is None else std[p] * abs(t) / 100, "std_percent": std[p]}
                           for p, t in truth.items()}}
-    doc = {**rep_doc, "refinements": [ref], "refinement_protocol": "maximum likelihood"}
+    doc = Reproduction.from_dict({**rep_doc, "refinements": [ref], "refinement_protocol": "maximum likelihood"})
     ml = table2_ml_summary(doc)
-    assert ml["flag_counts"] == {p: int(p in ("h_p", "c_p")) for p in truth} and ml["converged"] == []
-    assert ml["within_4_std"] == (len(truth) - 2, len(truth) - 2)
+    assert ml.flag_counts == {p: int(p in ("h_p", "c_p")) for p in truth} and ml.converged == ()
+    assert ml.within_4_std == (len(truth) - 2, len(truth) - 2)
     md = table2_markdown(doc)
     row = next(ln for ln in md.splitlines() if ln.startswith("| h' |") and "ML" not in ln and ln.count("|") > 16)
     head = next(ln for ln in md.splitlines() if "ML mean est." in ln)
@@ -227,7 +228,7 @@ def test_a_diverged_reported_run_is_redone_with_the_next_tuning(monkeypatch):
         if r["redone"]:
             first_try = r if r["tuning"] == chosen[(r["method"].replace("-zero", ""), 1)] else r["redone"][0]
             assert first_try["output_misfit"] is None or first_try["output_misfit"] > floor
-    assert "- UKF, seed 0: (" in table2_markdown(doc) and "misfit 1 ->" in table2_markdown(doc)
+    assert "- UKF, seed 0: (" in table2_markdown(rep) and "misfit 1 ->" in table2_markdown(rep)
 
 
 @pytest.mark.slow

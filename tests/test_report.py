@@ -145,6 +145,8 @@ def test_table2_shows_the_yield_displacements_the_ridge_leaves_informed():
     # for Delta1 while Delta1 itself is 10 % off; c' etc. untouched
     from pathlib import Path
 
+    from obsnl.studies.seed_reproduction import Reproduction
+
     doc = json.loads((Path(__file__).parents[1] / "reports" / "identification" / "table2.json").read_text())
     truth = doc["experiment"]["truth"]
     runs = [r for r in doc["runs"] if r["method"] == "ukf" and r["passes"] == 1]
@@ -156,7 +158,7 @@ def test_table2_shows_the_yield_displacements_the_ridge_leaves_informed():
         p["N"].update(estimate=n, error_percent=100 * (n / truth["N"] - 1))
         p["Delta2"].update(estimate=truth["Delta2"], error_percent=0.0)
     doc["runs"] = runs
-    rows = [ln for ln in report.table2_markdown(doc).splitlines() if "yield displ." in ln]
+    rows = [ln for ln in report.table2_markdown(Reproduction.from_dict(doc)).splitlines() if "yield displ." in ln]
     assert len(rows) == 2
     cells = [c.strip() for c in rows[0].split("|")]
     assert cells[1].startswith("abs(Δ1)") and float(cells[5]) == 0.0 and float(cells[6]) == 0.0

@@ -23,6 +23,7 @@ import obsnl.batch
 from obsnl import report
 from obsnl.observability.analyze import analyze
 from obsnl.observability.contract.branch_table import BranchTable, read_branch_table, schema
+from obsnl.studies.seed_reproduction import read_reproduction
 
 from .conftest import MODEL_FILES, MODELS, PEER_CASE_FILES, ROOT
 from .test_report import latex_structure_ok
@@ -130,7 +131,7 @@ def test_committed_table2_latex_compiles(folder, tmp_path):
     here = ROOT / "reports" / "identification" / folder
     tex = (here / "table2.tex").read_text()
     assert tex.count(r"\begin{tabular}") == 1 and r"|\Delta_1|^{-1/2N}" in tex
-    doc = json.loads((here / "table2.json").read_text())  # the committed renderings are today's
+    doc = read_reproduction(here / "table2.json")  # the committed renderings are today's
     assert tex == report.table2_latex(doc) and (here / "table2.md").read_text() == report.table2_markdown(doc)
     _pdflatex(tex, tmp_path)
 

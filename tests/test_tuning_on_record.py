@@ -50,9 +50,9 @@ def test_two_records_favour_different_configurations_and_each_run_takes_its_own(
     np.testing.assert_allclose(on_guess.theta, at_guess.theta_guess, rtol=1e-4)
 
     assert on_truth.tuning == FREE
-    assert [a["tuning"] for a in on_truth.redone] == [FROZEN.to_dict()]
-    assert on_truth.redone[0]["output_misfit"] > FLOOR * short.noise  # the guesses do not explain record 1
-    assert on_truth.misfit < on_truth.redone[0]["output_misfit"]
+    assert [a.tuning for a in on_truth.redone] == [FROZEN]
+    assert on_truth.redone[0].misfit > FLOOR * short.noise  # the guesses do not explain record 1
+    assert on_truth.misfit < on_truth.redone[0].misfit
     assert on_truth.practical is not None and on_guess.practical is not None  # the reported runs are judged
 
 
@@ -112,7 +112,7 @@ def test_the_choice_on_each_seed_follows_that_seed_s_misfits(monkeypatch):
     assert [j for s, j in ran if s == 2] == [0, 1, 2]
     assert chosen[3].failed and len(chosen[3].redone) == 3
     assert chosen[1].misfit == pytest.approx(2.5 * noise)
-    assert [a["output_misfit"] for a in chosen[1].redone] == pytest.approx([9 * noise, 4 * noise, 700 * noise])
+    assert [a.misfit for a in chosen[1].redone] == pytest.approx([9 * noise, 4 * noise, 700 * noise])
     assert chosen[0].redone == () and chosen[4].misfit == pytest.approx(3 * noise)
 
 
@@ -142,29 +142,31 @@ def test_the_tuning_runs_on_the_record_the_job_is_given(monkeypatch):
 
 def test_table2_names_the_runs_left_above_the_noise_floor_and_points_to_the_ml_column():
     # Made-up runs at a noise ratio of 1e-3 and a floor of 2x: misfits 0.0015 (1.5x, at the floor), 0.0031 (3.1x),
-    # None (stopped), and an ablation run at 9x (never named: it is not a column one reads for the result).
+    # NaN (stopped), and an ablation run at 9x (never named: it is not a column one reads for the result).
+    from types import SimpleNamespace as Values  # the fields _above_floor reads of a reproduction and its runs
+
     from obsnl.report.identification.table2 import _above_floor
 
     def run(method, passes, seed, misfit):
-        return {"method": method, "passes": passes, "seed": seed, "output_misfit": misfit}
+        return Values(method=method, passes=passes, seed=seed, misfit=misfit)
 
-    doc = {
-        "noise_floor_factor": 2.0,
-        "experiment": {"noise_ratio": 1e-3},
-        "runs": [
+    doc = Values(
+        noise_floor_factor=2.0,
+        experiment=Values(noise_ratio=1e-3),
+        runs=[
             run("ukf", 3, 0, 0.0015),
             run("dukf", 3, 0, 0.0031),
-            run("dukf", 3, 1, None),
+            run("dukf", 3, 1, float("nan")),
             run("ukf", 1, 1, 0.0019),
             run("dukf-zero", 3, 0, 0.009),
         ],
-    }
+    )
     (text, blank) = _above_floor(doc, with_ml=True)
     named = text.split("configuration it tried): ")[1].split(". Such")[0]
     assert named == "DUKF, 3 pass(es): seed(s) 0, 1"  # the UKF's runs are at or under the floor
     assert "maximum-likelihood column" in text and blank == ""
-    assert _above_floor({**doc, "runs": doc["runs"][:1]}, with_ml=True) == []
-    assert _above_floor({k: v for k, v in doc.items() if k != "noise_floor_factor"}, with_ml=True) == []
+    assert _above_floor(Values(**{**vars(doc), "runs": doc.runs[:1]}), with_ml=True) == []
+    assert _above_floor(Values(**{**vars(doc), "noise_floor_factor": None}), with_ml=True) == []
 
 
 def test_no_configuration_to_run_is_refused_in_one_line():

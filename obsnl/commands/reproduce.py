@@ -200,11 +200,16 @@ def reproduce_printed(result: ReproduceResult) -> Printed:
     Returns
     -------
     Printed
-    """
-    import json
 
+    Raises
+    ------
+    DataError
+        The folder's ``table2.json`` is not a Table 2 document
+        (:func:`~obsnl.studies.seed_reproduction.read_reproduction`).
+    """
     from obsnl.report.identification.table2 import table2_found
+    from obsnl.studies.seed_reproduction import read_reproduction
 
     table = result.folder / "table2.json"
-    found = table2_found(json.loads(table.read_text(encoding="utf-8"))) if table.is_file() else ""
+    found = table2_found(read_reproduction(table)) if table.is_file() else ""
     return Printed((found + "\n" if found else "") + written_line(list(result.files), result.folder))

@@ -32,7 +32,7 @@ from obsnl.identification.replicates import CHUNK
 from obsnl.identification.runs import check_replicates
 from obsnl.studies.seed_experiment import seed_branch_table
 from obsnl.studies.seed_reproduction import Reproduction
-from obsnl.studies.seed_runs import FALLBACKS
+from obsnl.studies.seed_runs import FALLBACKS, Start
 from obsnl.studies.seed_tasks import Spec, compile_task, context, late_task, reported_task, tuning_task
 from obsnl.studies.seed_tuning import HALVING_KEEP, TUNING_SEEDS, successive_halving
 
@@ -253,7 +253,7 @@ def reproduce(
         if seed == 0 and trs is not None:
             trajs[(name, k)] = trs
     stage("done")
-    return Reproduction(
+    return Reproduction.of_run(
         setup=setup,
         table=table,
         table_source=source,
@@ -270,7 +270,7 @@ def reproduce(
 
 def _refine_task(
     spec: Spec, seed: int, rtasks: Sequence[tuple], reported: Sequence[tuple], names: Sequence[str], passes: int
-) -> tuple[Spec, int, tuple[float, ...], dict[str, Any]]:
+) -> tuple[Spec, int, tuple[float, ...], Start]:
     """The refinement of reported seed ``seed``: from the estimate of the filter (``names``, ``passes`` passes)
     whose free-run output misfit on that seed is the smaller (data only; a run that stopped is not a start)."""
     cands = [
@@ -283,7 +283,7 @@ def _refine_task(
             spec,
             seed,
             tuple(map(float, context(spec)["setup"].theta_guess)),
-            {"method": "guess", "passes": 0, "output_misfit": None},
+            Start("guess", 0, float("nan")),
         )
     misfit, _, best = min(cands, key=lambda c: (c[0], c[1]))
-    return spec, seed, best.theta, {"method": best.method, "passes": best.passes, "output_misfit": float(misfit)}
+    return spec, seed, best.theta, Start(best.method, best.passes, float(misfit))

@@ -10,7 +10,6 @@ task's own seeds, so the results do not depend on where or in which order the ta
 from __future__ import annotations
 
 import json
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 from typing import Any
 
@@ -21,7 +20,7 @@ from obsnl.estimation.records import Record
 from obsnl.executor import built_once
 from obsnl.identification.experiments import Tuning, make_data, make_filter, mc_replicates, mc_truth, tune_one
 from obsnl.studies.seed_experiment import seed_setup
-from obsnl.studies.seed_runs import Refined, reported_with_fallbacks
+from obsnl.studies.seed_runs import Refined, Start, reported_with_fallbacks
 
 __all__ = [
     "Spec",
@@ -110,7 +109,7 @@ def replicates_task(task: tuple[Spec, str, int, tuple[float, ...], Tuning, int, 
     return mc_replicates(setup, ctx["filters"][name], data, y_hat, tuning, passes=passes, seed=mc_seed, indices=indices)
 
 
-def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) -> Refined:
+def refine_task(task: tuple[Spec, int, tuple[float, ...], Start]) -> Refined:
     """The maximum-likelihood refinement of reported seed ``seed``, started from ``theta`` (a filter's estimate,
     described by ``start``); every parameter free, the initial state estimated, Fisher std at the estimate."""
     import time
@@ -150,7 +149,7 @@ def refine_task(task: tuple[Spec, int, tuple[float, ...], Mapping[str, Any]]) ->
         start=start,
         theta=tuple(map(float, ref.theta)),
         std=tuple(map(float, ref.std)),
-        adequacy=None if adequate is None else adequate.to_dict(),
+        adequacy=adequate,
         converged=bool(ref.converged),
         reason=ref.reason,
         seconds=ref.seconds,
