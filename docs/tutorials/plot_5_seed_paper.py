@@ -17,7 +17,6 @@ results and runs a short piece of it live.
 # The analysis of both models takes well under a second each. The original model (eq. 10 of the paper) has twelve
 # quantities no branch reveals; its reparametrization (eq. 16) is jointly identifiable, while in each branch one of
 # the Deltas (and in two branches ``w_h``) is not: the paper's Table 1.
-import json
 from pathlib import Path
 
 import matplotlib.pyplot as plt
@@ -26,8 +25,9 @@ import numpy as np
 import obsnl
 from obsnl import report
 from obsnl.estimation import to_casadi
-from obsnl.identification import Setup, Tuning, make_data, make_filter, run_passes
+from obsnl.identification import Setup, make_data, make_filter, run_passes
 from obsnl.observability import read_branch_table
+from obsnl.studies.seed_reproduction import read_reproduction
 
 # the repository, above this script (sphinx-gallery runs it in docs/tutorials, without __file__)
 HERE = Path(globals().get("__file__", "script.py")).resolve().parent
@@ -44,12 +44,13 @@ print(report.to_markdown(reparam))
 # the output, the filters tuned on 5 other seeds by their output misfit (never by the truth), one pass and three
 # passes over the record, and a maximum-likelihood refinement of each seed. A compact view first: per filter, the
 # worst error over the seeds on the parameters that are not flagged as practically unidentifiable, and the flags.
-doc = json.loads((ROOT / "reports" / "identification" / "table2.json").read_text())
-summary = report.table2_summary(doc)
+# ``read_reproduction`` gives the reproduction back as typed values (the runs, the refinements, the experiment).
+rep = read_reproduction(ROOT / "reports" / "identification" / "table2.json")
+summary = report.table2_summary(rep)
 names = {"ukf": "UKF", "dukf": "DUKF", "dukf-zero": "DUKF, P_AU = 0"}
 for (method, passes), s in summary.items():
-    flagged = [p for p in s["parameters"] if s["flag_counts"][p] * 2 >= len(s["seeds"])]
-    worst = [(e, p) for p, e in zip(s["parameters"], s["worst_abs_error"]) if p not in flagged]
+    flagged = [p for p in s.parameters if s.flagged(p)]
+    worst = [(e, p) for p, e in zip(s.parameters, s.worst_abs_error) if p not in flagged]
     e, p = max(worst)
     print(f"{names[method]:15s} {passes} pass(es): worst unflagged error {e:5.2f} % ({p}); "
           f"flagged: {', '.join(flagged)}")
@@ -57,15 +58,15 @@ for (method, passes), s in summary.items():
 # %%
 # The errors per parameter and filter (three passes; mean over the seeds, the bar, and the worst seed, the dot),
 # with the paper's one-pass errors for scale. ``c'`` is held at its guess when flagged, hence its constant error.
-params = summary[("ukf", 3)]["parameters"]
+params = summary[("ukf", 3)].parameters
 fig, ax = plt.subplots(figsize=(10, 4))
 width = 0.26
 for i, method in enumerate(("ukf", "dukf", "dukf-zero")):
     s = summary[(method, 3)]
     x = np.arange(len(params)) + (i - 1) * width
-    ax.bar(x, s["mean_abs_error"], width, label=names[method], color=f"C{i}")
-    ax.plot(x, s["worst_abs_error"], "k.", ms=4)
-paper = doc["paper_errors_percent"]["dukf"]
+    ax.bar(x, s.mean_abs_error, width, label=names[method], color=f"C{i}")
+    ax.plot(x, s.worst_abs_error, "k.", ms=4)
+paper = rep.paper_errors["dukf"]
 ax.plot(np.arange(len(params)), [paper[p] for p in params], "r_", ms=14, mew=2, label="paper, DUKF (one pass)")
 ax.axhline(5, color="0.5", ls=":", lw=1)
 ax.set_yscale("log")
@@ -76,8 +77,8 @@ fig.tight_layout()
 
 # %%
 # The full tables, with the protocol and the flags per seed, are ``reports/identification/table2.md``
-# (:func:`obsnl.report.table2_markdown` renders them from the JSON). Its first lines:
-print("\n".join(report.table2_markdown(doc).splitlines()[:3]))
+# (:func:`obsnl.report.table2_markdown` renders them from the reproduction read back). Its first lines:
+print("\n".join(report.table2_markdown(rep).splitlines()[:3]))
 
 # %%
 # The DUKF, live
@@ -92,13 +93,12 @@ for b in table.to_dict()["branches"]:
 model = obsnl.read_model(ROOT / "models" / "damage_healing_reparam.toml")
 num = to_casadi(model)
 record = obsnl.read_record(ROOT / "obsnl" / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv").head(1000)
-setup = Setup(model=num, record=record, truth=dict(num.values), guess=doc["experiment"]["guess"], noise=1e-3)
+setup = Setup(model=num, record=record, truth=dict(num.values), guess=rep.experiment.guess, noise=1e-3)
 data = make_data(setup, seed=0)
-chosen = {(e["method"], e["passes"]): e["chosen"] for e in doc["tuning"]}
+chosen = {(e.method, e.passes): e.chosen for e in rep.tuning}
 traces = {}
 for method in ("ukf", "dukf"):
-    c = chosen[(method, 1)]
-    tuning = Tuning(s0=c["s0"], q_theta=c["q_theta"], q_x=c["q_x"], gate=np.inf if c["gate"] is None else c["gate"])
+    tuning = chosen[(method, 1)]
     filt = make_filter(setup, method, table=table if method == "dukf" else None)
     runs, _ = run_passes(setup, filt, data, tuning, passes=1, fix_flagged=False)
     traces[method] = runs[-1]
