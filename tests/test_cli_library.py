@@ -58,10 +58,11 @@ def test_the_switches_read_the_value_they_set():
     assert in_terms("joint=False", {"joint": ("--no-joint", False)}) == "--no-joint"
 
 
-@pytest.mark.parametrize("job", ["analyze_file", "sensors_file", "design_file", "ReparametrizeRequest"])
+@pytest.mark.parametrize("job", ["AnalyzeRequest", "SensorsRequest", "DesignRequest", "ReparametrizeRequest"])
 def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, monkeypatch, job):
-    import obsnl.design.records as records
     import obsnl.model.files as files
+    from obsnl.commands import (AnalyzeRequest, DesignRequest, SensorsRequest, run_analyze, run_design,
+                                run_sensors)
     from obsnl.commands.reparametrize import ReparametrizeRequest
 
     def tripwire(*a, **k):  # noqa: ANN002, ANN003
@@ -70,9 +71,10 @@ def test_an_output_that_cannot_be_written_is_refused_before_any_work(tmp_path, m
     monkeypatch.setattr(files, "read_model", tripwire)  # every job reads a model file through it (as_model)
     out = tmp_path / "taken.md"
     out.write_text("keep me", encoding="utf-8")
-    call = {"analyze_file": lambda: records.analyze_file(MODELS / "bouc_wen.toml", output=str(out)),
-            "sensors_file": lambda: records.sensors_file(MODELS / "bouc_wen.toml", output=str(out)),
-            "design_file": lambda: records.design_file(MODELS / "bouc_wen.toml", ["r.csv"], output=str(out)),
+    model = MODELS / "bouc_wen.toml"
+    call = {"AnalyzeRequest": lambda: run_analyze(AnalyzeRequest(model=model, output=str(out))),
+            "SensorsRequest": lambda: run_sensors(SensorsRequest(model=model, output=str(out))),
+            "DesignRequest": lambda: run_design(DesignRequest(model=model, records=["r.csv"], output=str(out))),
             "ReparametrizeRequest": lambda: ReparametrizeRequest(model=MODELS / "bouc_wen.toml", output=str(out))}[job]
     with pytest.raises(OutputError, match="exists; pass force=True"):
         call()
@@ -122,13 +124,13 @@ def test_the_identify_request_refuses_an_executor_nothing_would_use(tmp_path, ca
             IdentifyRequest(model=MODELS / "bouc_wen.toml", record="r.csv", **options)
 
 
-@pytest.mark.parametrize("job", ["IdentifyRequest", "ReproduceRequest", "report_paths", "sensors_file"])
+@pytest.mark.parametrize("job", ["IdentifyRequest", "ReproduceRequest", "report_paths", "SensorsRequest"])
 def test_the_jobs_refuse_a_dead_scheduler_before_any_work(tmp_path, monkeypatch, job):
     """A scheduler address where nothing listens (port 1 of the loopback: refused at once) is refused by the job
     itself, from Python too, before a model or a record is read."""
     import obsnl.batch as batch
-    import obsnl.design.records as records
     import obsnl.model.files as files
+    from obsnl.commands import SensorsRequest, run_sensors
     from obsnl.commands.identify import IdentifyRequest
     from obsnl.commands.reproduce import ReproduceRequest
 
@@ -141,7 +143,7 @@ def test_the_jobs_refuse_a_dead_scheduler_before_any_work(tmp_path, monkeypatch,
     call = {"IdentifyRequest": lambda: IdentifyRequest(model=MODELS / "bouc_wen.toml", record="r.csv", executor=dead),
             "ReproduceRequest": lambda: ReproduceRequest(out=tmp_path / "o", record="r.csv", executor=dead),
             "report_paths": lambda: batch.report_paths([MODELS / "bouc_wen.toml"], tmp_path / "o", executor=dead),
-            "sensors_file": lambda: records.sensors_file(MODELS / "bouc_wen.toml", executor=dead)}[job]
+            "SensorsRequest": lambda: run_sensors(SensorsRequest(model=MODELS / "bouc_wen.toml", executor=dead))}[job]
     with pytest.raises(OptionError, match="cannot reach the Dask scheduler"):
         call()
     assert not (tmp_path / "o").exists()

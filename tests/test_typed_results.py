@@ -217,6 +217,34 @@ def test_one_analyze_checks_its_limits_once(monkeypatch):
     assert searched and sum(calls.values()) == 1
 
 
+def test_the_analyze_command_checks_once_and_before_the_record_is_simulated(tmp_path, monkeypatch):
+    """``obsnl analyze --record`` checked the limits twice (its own check, then analyze's) and a bad method only after
+    the record's simulation: now the options and the limits are checked once, before the record is read."""
+    import math
+
+    import obsnl.design.continuous as continuous
+    from obsnl.commands.analyze import AnalyzeRequest, run_analyze
+
+    record = tmp_path / "rec.csv"
+    record.write_text("time_s,u\n" + "".join(f"{i * 0.01:.2f},{math.sin(i * 0.05):.6f}\n" for i in range(200)),
+                      encoding="utf-8")
+    calls = _count_limit_checks(monkeypatch)
+    checks_when_simulated = []
+    real = continuous.continuous_visits
+
+    def simulate(*a, **k):
+        checks_when_simulated.append(sum(calls.values()))
+        return real(*a, **k)
+
+    monkeypatch.setattr(continuous, "continuous_visits", simulate)
+    result = run_analyze(AnalyzeRequest(model="obsnl:coulomb_friction", record=record, seed=0))
+    assert checks_when_simulated == [1] and sum(calls.values()) == 1
+    assert result.analysis.visited.how == "record"  # the record chose the branches
+    with pytest.raises(AnalysisError, match="unknown method 'newton'"):
+        run_analyze(AnalyzeRequest(model="obsnl:coulomb_friction", record=record, method="newton"))
+    assert checks_when_simulated == [1]  # refused before the simulation
+
+
 def test_the_inner_entries_still_check_when_called_on_their_own(monkeypatch):
     from obsnl.observability.certificates.symmetry import symmetries
     from obsnl.observability.joint.verdict import joint_verdict

@@ -1,10 +1,11 @@
 """``obsnl analyze``: the observability and identifiability of every branch of a model, as one request.
 
-:class:`AnalyzeRequest` holds the options, typed; :func:`run_analyze` runs :func:`obsnl.design.records.analyze_file` (the
-output file checked before any work, the model read once with its size checked, the limits checked once, all
-within one time budget), renders the result (:func:`obsnl.report.tables.render`) and writes it to the output
-file when one is named; :func:`analyze_printed` is what the command prints, with the line that names the first
-inconclusive branch.
+:class:`AnalyzeRequest` holds the options, typed; :func:`run_analyze` checks the output file before any work,
+reads the model once with its size checked, checks the options and the limits once
+(:func:`obsnl.observability.analyze.check_analysis`), simulates the record when one is given, and runs the checked
+analysis (:func:`obsnl.observability.analyze.run_analysis`), all within one time budget; it renders the result
+(:func:`obsnl.report.tables.render`) and writes it to the output file when one is named. :func:`analyze_printed` is
+what the command prints, with the line that names the first inconclusive branch.
 """
 
 from __future__ import annotations
@@ -14,10 +15,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from obsnl.report.printed import Printed, write_rendering
+from obsnl.commands.inputs import RECORD_OPTION, one_input_record
+from obsnl.report.printed import Printed, check_rendering_target, write_rendering
 
 if TYPE_CHECKING:
     from obsnl.model.core import Model
+    from obsnl.observability.joint.visited import Visits
     from obsnl.observability.results import AnalysisResult
 
 __all__ = ["AnalyzeRequest", "AnalyzeResult", "run_analyze", "analyze_printed"]
@@ -90,21 +93,40 @@ def run_analyze(request: AnalyzeRequest) -> AnalyzeResult:
     -------
     AnalyzeResult
     """
-    from obsnl.design.records import analyze_file
+    from obsnl.model.bounds.budget import time_budget
+    from obsnl.model.files import as_model
+    from obsnl.observability.analyze import check_analysis, run_analysis
+    from obsnl.observability.limits import check_file_limits, out_of_memory
     from obsnl.report.tables import render
 
-    result = analyze_file(
-        request.model,
-        record=request.record,
-        method=request.method,
-        seed=request.seed,
-        max_seconds=request.max_seconds,
-        branches=request.branches or None,
-        joint=request.joint,
-        unknown_input_derivatives=request.unknown_input_derivatives,
-        output=request.output,
-        force=request.force,
-    )
+    check_rendering_target(request.output, force=request.force)
+    with time_budget(request.max_seconds):  # reading, the checks, the record's simulation and the analysis
+        model = as_model(request.model, check=check_file_limits)
+        checked = check_analysis(  # before the record's simulation
+            model,
+            method=request.method,
+            seed=request.seed,
+            max_seconds=request.max_seconds,
+            branches=request.branches or None,
+            joint=request.joint,
+            unknown_input_derivatives=request.unknown_input_derivatives,
+            option="unknown_input_derivatives=",
+        )
+        visits: Visits | None = None
+        if request.record:  # what the model's [values] visit under it along the continuous trajectory (crossings
+            # located between samples, the input between samples as the model's [intersample] table says)
+            from obsnl.design.continuous import continuous_visits  # casadi: loaded only with a record
+
+            record = one_input_record(model, request.record, option=RECORD_OPTION)
+            try:
+                visits = continuous_visits(model, record.t, {model.inputs[0].name: record.accel})
+            except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the simulation's arrays are freed
+                pass
+            if visits is None:
+                raise out_of_memory(model, checked.unknown_input_derivatives)
+        result = run_analysis(
+            checked, visited=visits.patterns if visits else None, crossings=visits.crossings if visits else None
+        )
     text = render(result, request.fmt)
     return AnalyzeResult(result, text, write_rendering(text, request.output, force=request.force))
 

@@ -1,20 +1,25 @@
 """``obsnl design``: the smallest record scale and the records that make a model identifiable, as one request.
 
-:class:`DesignRequest` holds the options, typed; :func:`run_design` runs :func:`obsnl.design.records.design_file` (the
-output file and the figure checked before any work, the model read once with its limits checked once, the records
-read, all within one time budget), renders the design (:func:`obsnl.report.experiment.render_design`) and writes
-it to the output file when one is named; :func:`design_printed` is what the command prints, with the line that says the
-design is inconclusive.
+:class:`DesignRequest` holds the options, typed; :func:`run_design` checks the output file and the figure before
+any work, reads the model once with its limits checked once and the records as its one input, and designs the
+experiment (:func:`obsnl.design.experiment.design`), all within one time budget; it renders the design
+(:func:`obsnl.report.experiment.render_design`), draws the figure when one is named and writes the rendering to the
+output file when one is named. :func:`design_printed` is what the command prints, with the line that says the design
+is inconclusive.
 """
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from obsnl.report.printed import Printed, write_rendering
+from obsnl._text import quote
+from obsnl.commands.inputs import RECORD_OPTION, one_input_record
+from obsnl.errors import OptionError
+from obsnl.report.printed import Printed, check_rendering_target, write_rendering
 
 if TYPE_CHECKING:
     from obsnl.design.experiment import ExperimentDesign
@@ -94,24 +99,59 @@ def run_design(request: DesignRequest) -> DesignResult:
     -------
     DesignResult
     """
-    from obsnl.design.records import design_file
-    from obsnl.report.experiment import render_design
+    from obsnl.design.experiment import design
+    from obsnl.model.bounds.budget import time_budget
+    from obsnl.model.files import as_model
+    from obsnl.observability.limits import check_analysis_limits, check_file_limits
+    from obsnl.report.experiment import plot_visits, render_design
+    from obsnl.report.files import OutputFolder, check_target
 
-    found = design_file(
-        request.model,
-        request.records,
-        max_seconds=request.max_seconds,
-        figure=request.figure,
-        output=request.output,
-        force=request.force,
-        target=request.target,
-        sensors=request.sensors,
-        scales=request.scales,
-        seed=request.seed,
-        intersample=request.intersample,
-    )
+    output, figure, records = request.output, request.figure, request.records
+    check_rendering_target(output, force=request.force)
+    if not records:
+        raise OptionError(f"give at least one {RECORD_OPTION} (.csv or .AT2)")
+    if figure is not None:  # refused before any work (an empty name too: never ignored)
+        if Path(figure).suffix.lower() != ".png":
+            raise OptionError(f"the figure is a PNG; name a .png file, not {quote(str(figure))}")
+        if output and output != "-" and Path(output).resolve() == Path(figure).resolve():
+            raise OptionError("the figure and the output name the same file; give two files")
+        check_target(figure, force=request.force)
+    with time_budget(request.max_seconds):  # reading, the simulations and the verdicts
+        model = as_model(request.model, check=check_file_limits)
+        check_analysis_limits(model)
+        read = [one_input_record(model, path, option=RECORD_OPTION) for path in records]
+        stems = [r.name for r in read]
+        if len(set(stems)) < len(stems):  # same file names in different folders: name them by their paths
+            read = [dataclasses.replace(r, name=str(path)) for r, path in zip(read, records)]
+        found = design(
+            model,
+            read,
+            target=request.target,
+            sensors=request.sensors,
+            scales=_ladder(request.scales),
+            seed=request.seed,
+            max_seconds=request.max_seconds,
+            intersample=request.intersample,
+        )
+    if figure:
+        fig = Path(figure)
+        with OutputFolder(fig.parent, [fig.name], force=request.force, folder_link_ok=True) as out:
+            plot_visits(found, out.path(fig.name))
+            out.commit()
     text = render_design(found, request.fmt)
     return DesignResult(found, text, write_rendering(text, request.output, force=request.force))
+
+
+def _ladder(scales: str | Sequence[float] | None) -> Any:
+    """The record scales as :func:`obsnl.design.experiment.design` takes them: comma-separated text
+    (``"0.1,1,10"``) read as numbers; what is not a positive number design refuses, quoted as given (``"1_0"`` is
+    kept as written: Python's float would read it as 10, a record cell refuses it)."""
+    if not isinstance(scales, str):
+        return scales
+    try:
+        return [float(x) if "_" not in x else x for x in scales.split(",") if x.strip()]
+    except ValueError:
+        return scales
 
 
 def design_printed(result: DesignResult) -> Printed:

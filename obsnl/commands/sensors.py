@@ -1,10 +1,11 @@
 """``obsnl sensors``: which sensors make every target identifiable, as one request.
 
-:class:`SensorsRequest` holds the options, typed; :func:`run_sensors` runs :func:`obsnl.design.records.sensors_file` (a Dask
-scheduler probed, the output file, the time limit and the ranking's options checked before any work, the model and
-the record read once), renders the search (:func:`obsnl.report.sensors.render_sensors`) and writes it to the output
-file when one is named; :func:`sensors_printed` is what the command prints, with the line that names the sets left
-undecided.
+:class:`SensorsRequest` holds the options, typed; :func:`run_sensors` probes a Dask scheduler and checks the output
+file, the time limit and the ranking's options before any work, reads the model and the record once, searches the
+minimal sensor sets (:func:`obsnl.design.sensors.sensors`) and ranks the sufficient ones along the record when one is
+given (:func:`obsnl.design.sensors.rank_sufficient_sets`); it renders the search
+(:func:`obsnl.report.sensors.render_sensors`) and writes it to the output file when one is named.
+:func:`sensors_printed` is what the command prints, with the line that names the sets left undecided.
 """
 
 from __future__ import annotations
@@ -14,7 +15,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from obsnl.report.printed import Printed, write_rendering
+from obsnl._text import quote
+from obsnl.commands.inputs import RECORD_OPTION, one_input_record
+from obsnl.errors import OptionError
+from obsnl.report.printed import Printed, check_rendering_target, write_rendering
 
 if TYPE_CHECKING:
     from obsnl.design.sensor_search import SensorSearch
@@ -98,16 +102,33 @@ def run_sensors(request: SensorsRequest) -> SensorsResult:
     -------
     SensorsResult
     """
-    from obsnl.design.records import sensors_file
+    from obsnl.design.sensors import rank_sufficient_sets, sensors
+    from obsnl.model.bounds.budget import check_seconds, time_budget
+    from obsnl.model.files import as_model
+    from obsnl.observability.limits import check_file_limits
     from obsnl.report.sensors import render_sensors
 
-    search = sensors_file(
-        request.model,
-        record=request.record,
-        rank_size=request.rank_size,
-        noise=request.noise,
-        output=request.output,
-        force=request.force,
+    record, rank_size, noise = request.record, request.rank_size, request.noise
+    if request.executor is not None:  # a Dask scheduler that does not answer is refused before any work
+        request.executor.probe()
+    check_rendering_target(request.output, force=request.force)
+    check_seconds(request.max_seconds)  # of each analysis: refused before the search starts
+    if record is None and (rank_size is not None or noise is not None):  # would be ignored: refused, not dropped
+        raise OptionError(f"the rank size and the noise level rank the sensor sets along a record: add {RECORD_OPTION}")
+    if noise is not None and not (isinstance(noise, (int, float)) and 0.0 < noise < 10.0):
+        raise OptionError(f"noise {quote(noise, 30)} is not a relative level between 0 and 10 (0.01 is 1 %)")
+    with time_budget(None):
+        model = as_model(request.model, check=check_file_limits)
+    rec = None
+    if record is not None:  # read before the search: a bad record is refused before any work
+        if rank_size is not None and not (isinstance(rank_size, int) and 1 <= rank_size <= len(model.output_names)):
+            raise OptionError(
+                f"the rank size is a number of sensors from 1 to {len(model.output_names)} (the "
+                f"model's outputs), got {quote(rank_size, 30)}"
+            )
+        rec = one_input_record(model, record, option=RECORD_OPTION)
+    search = sensors(
+        model,
         target=request.target,
         max_size=request.max_size,
         seed=request.seed,
@@ -115,6 +136,15 @@ def run_sensors(request: SensorsRequest) -> SensorsResult:
         executor=request.executor,
         progress=request.progress,
     )
+    if rec is not None:
+        search = rank_sufficient_sets(
+            search,
+            model,
+            t=rec.t,
+            inputs=rec.accel,
+            size=rank_size,
+            noise=0.01 if noise is None else noise,
+        )
     text = render_sensors(search, request.fmt)
     return SensorsResult(search, text, write_rendering(text, request.output, force=request.force))
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import os
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 from obsnl.model.bounds.budget import deadline as budget_deadline
 from obsnl.model.branching.signature import ModelSignature
@@ -42,7 +43,7 @@ from obsnl.observability.limits import limits_checked, out_of_memory
 from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import BranchResult
 
-__all__ = ["analyze", "assumptions", "METHODS"]
+__all__ = ["analyze", "check_analysis", "run_analysis", "CheckedAnalysis", "assumptions", "METHODS"]
 
 
 def analyze(
@@ -150,58 +151,162 @@ def analyze(
     >>> res.joint.unobservable
     ()
     """
+    checked = check_analysis(
+        model,
+        method=method,
+        seed=seed,
+        max_seconds=max_seconds,
+        prob=prob,
+        unknown_input_derivatives=unknown_input_derivatives,
+        input_derivatives=input_derivatives,
+        decompose=decompose,
+        branches=branches,
+        joint=joint,
+        per_branch=per_branch,
+    )
+    return run_analysis(checked, visited=visited, crossings=crossings)
+
+
+@dataclass(frozen=True, kw_only=True)
+class CheckedAnalysis:
+    """An analysis of one model, its options checked and what they settle resolved once
+    (:func:`check_analysis`): what :func:`run_analysis` runs.
+
+    Attributes
+    ----------
+    model : Model
+        The model.
+    variables : tuple of str
+        The reported variables: every state, then every parameter.
+    unknown_input_derivatives : int or str
+        The unknown-input assumption in force (the option, else the model's key, else ``"arbitrary"``).
+    method, seed, max_seconds, prob, input_derivatives, decompose, branches, joint, per_branch
+        The options of :func:`analyze`, checked.
+    """
+
+    model: Model
+    variables: tuple[str, ...]
+    unknown_input_derivatives: int | str
+    method: str
+    seed: int | None
+    max_seconds: float | None
+    prob: float
+    input_derivatives: int | None
+    decompose: bool
+    branches: Sequence[str] | None
+    joint: bool
+    per_branch: bool
+
+
+def check_analysis(
+    model: Model | str | os.PathLike,
+    *,
+    method: str = "auto",
+    seed: int | None = 0,
+    max_seconds: float | None = None,
+    prob: float = 0.99,
+    unknown_input_derivatives: int | str | None = None,
+    input_derivatives: int | None = None,
+    decompose: bool = True,
+    branches: Sequence[str] | None = None,
+    joint: bool = True,
+    per_branch: bool = True,
+    option: str = "unknown_input_derivatives",
+) -> CheckedAnalysis:
+    """Check an analysis's options and the model's size once, before any work, and resolve what they settle.
+
+    A command that reads a record between the checks and the analysis (``obsnl analyze --record``) calls this
+    first and :func:`run_analysis` after; :func:`analyze` calls both.
+
+    Parameters
+    ----------
+    model : Model, str or os.PathLike
+        The model, or its file (read with :func:`obsnl.read_model`).
+    method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives, decompose, branches, joint, per_branch
+        As for :func:`analyze`.
+    option : str
+        How messages name the caller's unknown-input option (``"unknown_input_derivatives="``: the command line
+        prints its flag).
+
+    Returns
+    -------
+    CheckedAnalysis
+
+    Raises
+    ------
+    AnalysisError, OptionError, ModelError
+        As :func:`analyze`, before any work.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="m", states=["x"], parameters=["a"], equations={"x": "-a*x"}, outputs={"y": "x"})
+    >>> check_analysis(m).variables
+    ('x', 'a')
+    """
     if isinstance(model, (str, os.PathLike)):  # a path is accepted wherever a model is, as identify does
         model = read_model(model)
-    # the options and the limits are checked, the unknown-input assumption resolved and the variables named here
-    # once: the joint verdict and the symmetry certificates below do not check again (limits_checked)
-    unknown_input_derivatives, variables = _check(
-        model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives
+    k, variables = _check(
+        model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives, option=option
     )
-    assumed = assumptions(model, unknown_input_derivatives, input_derivatives)
+    return CheckedAnalysis(
+        model=model,
+        variables=variables,
+        unknown_input_derivatives=k,
+        method=method,
+        seed=seed,
+        max_seconds=max_seconds,
+        prob=prob,
+        input_derivatives=input_derivatives,
+        decompose=decompose,
+        branches=branches,
+        joint=joint,
+        per_branch=per_branch,
+    )
+
+
+def run_analysis(
+    checked: CheckedAnalysis,
+    *,
+    visited: Mapping[tuple[int, ...], float] | None = None,
+    crossings: Mapping[str, int] | None = None,
+) -> AnalysisResult:
+    """Run a checked analysis (:func:`check_analysis`): the checks are not made again, inside or below.
+
+    Parameters
+    ----------
+    checked : CheckedAnalysis
+        The model and its options, checked.
+    visited, crossings
+        As for :func:`analyze`.
+
+    Returns
+    -------
+    AnalysisResult
+        As for :func:`analyze`.
+
+    Raises
+    ------
+    AnalysisError
+        Running out of memory.
+    """
     try:
-        with limits_checked():
-            return _analyze(
-                model,
-                variables,
-                assumed,
-                method=method,
-                seed=seed,
-                max_seconds=max_seconds,
-                prob=prob,
-                unknown_input_derivatives=unknown_input_derivatives,
-                input_derivatives=input_derivatives,
-                decompose=decompose,
-                branches=branches,
-                visited=visited,
-                crossings=crossings,
-                joint=joint,
-                per_branch=per_branch,
-            )
+        with limits_checked():  # the joint verdict and the symmetry certificates below do not check again
+            return _analyze(checked, visited, crossings)
     except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the arrays are freed
         pass
-    raise out_of_memory(model, unknown_input_derivatives)
+    raise out_of_memory(checked.model, checked.unknown_input_derivatives)
 
 
 def _analyze(
-    model: Model,
-    variables: tuple[str, ...],
-    assumed: Assumptions,
-    *,
-    method: str,
-    seed: int | None,
-    max_seconds: float | None,
-    prob: float,
-    unknown_input_derivatives: int | str,
-    input_derivatives: int | None,
-    decompose: bool,
-    branches: Sequence[str] | None,
+    checked: CheckedAnalysis,
     visited: Mapping[tuple[int, ...], float] | None,
     crossings: Mapping[str, int] | None,
-    joint: bool,
-    per_branch: bool = True,
 ) -> AnalysisResult:
-    """The body of :func:`analyze`, its arguments checked (:func:`~obsnl.observability.engines.inputs._check`) and
-    what it assumes settled: the branches chosen once and handed down."""
+    """The body of :func:`run_analysis`: the branches chosen once and handed down."""
+    model, variables, method, seed = checked.model, checked.variables, checked.method, checked.seed
+    max_seconds, prob, per_branch = checked.max_seconds, checked.prob, checked.per_branch
+    unknown_input_derivatives = checked.unknown_input_derivatives
     t0 = time.perf_counter()
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     outer = budget_deadline()  # a command's budget (obsnl.model.bounds.budget.time_budget), started before reading
@@ -210,7 +315,7 @@ def _analyze(
     # the split is bounded too, with a floor: a tiny limit still yields branches (each then inconclusive)
     chosen, how = select_branches(
         model,
-        labels=branches,
+        labels=checked.branches,
         patterns=visited,
         crossings=crossings,
         seed=seed,
@@ -229,16 +334,16 @@ def _analyze(
                 seed=seed,
                 deadline=deadline,
                 target=target,
-                decompose=decompose,
+                decompose=checked.decompose,
                 unknown_input_derivatives=unknown_input_derivatives,
-                input_derivatives=input_derivatives,
+                input_derivatives=checked.input_derivatives,
                 factor_cache=factor_cache,
             )
             results.append(br)
             failure += f
     verdict = None
     decided = [b for b in chosen if not b.undecided]
-    if (joint or not per_branch) and decided:
+    if (checked.joint or not per_branch) and decided:
         left = None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
         verdict = joint_verdict_of(
             model, decided, seed=seed, prob=prob, max_seconds=left, unknown_input_derivatives=unknown_input_derivatives
@@ -272,7 +377,7 @@ def _analyze(
         signature=ModelSignature.of(model, switching=switching),
         joint=verdict,
         visited=how,
-        assumptions=assumed,
+        assumptions=assumptions(model, unknown_input_derivatives, checked.input_derivatives),
     )
 
 

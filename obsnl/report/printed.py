@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-__all__ = ["Printed", "printed", "write_rendering", "written_line"]
+__all__ = ["Printed", "printed", "check_rendering_target", "write_rendering", "written_line"]
 
 
 class Printed(NamedTuple):
@@ -51,6 +51,39 @@ def printed(
     """
     written = write_rendering(text, output, force=force)
     return Printed(text if written is None else None, undecided)
+
+
+def check_rendering_target(output: str | Path | None, *, force: bool = False) -> None:
+    """Refuse, before any work, a file a rendering is to be written to (:func:`write_rendering`) that cannot be
+    written.
+
+    Parameters
+    ----------
+    output : str, Path or None
+        The file (None or ``"-"``: standard output).
+    force : bool
+        Whether it may be overwritten.
+
+    Raises
+    ------
+    OptionError
+        An empty name (else the work runs, then ``"."`` is refused as a folder).
+    OutputError
+        A file that exists without ``force``, a folder, a link (:func:`obsnl.report.files.check_target`).
+
+    Examples
+    --------
+    >>> check_rendering_target("-") is None
+    True
+    """
+    if output is not None and not str(output).strip():
+        from obsnl.errors import OptionError
+
+        raise OptionError("the output file name is empty; name a file, or - for standard output")
+    if output and output != "-":
+        from obsnl.report.files import check_target
+
+        check_target(output, force=force)
 
 
 def write_rendering(text: str, output: str | Path | None, *, force: bool = False) -> Path | None:

@@ -7,10 +7,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
-from obsnl.errors import AnalysisError, ModelError
+from obsnl.errors import AnalysisError
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
-from obsnl.observability.limits import check_analysis_limits
+from obsnl.observability.limits import _OPTION, check_analysis_limits
 
 __all__ = ["METHODS", "Checked", "resolve_unknown_input_derivatives"]
 
@@ -34,9 +34,12 @@ def _check(
     prob: float,
     unknown_input_derivatives: int | str | None,
     input_derivatives: int | None,
+    *,
+    option: str = _OPTION,
 ) -> Checked:
     """Refuse bad options and a model the engines cannot take, before any work; return what they settle,
-    resolved here once."""
+    resolved here once (``option``: how messages name the caller's unknown-input option, as for
+    :func:`~obsnl.observability.limits.check_analysis_limits`)."""
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.read_model")
     variables = _variable_names(model)
@@ -48,11 +51,6 @@ def _check(
         raise AnalysisError(f"max_seconds= must be a positive finite number or None, got {max_seconds!r}")
     if not (isinstance(prob, float | int) and 0 < prob < 1):
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
-    if unknown_input_derivatives is not None:
-        try:
-            check_unknown_input_derivatives(unknown_input_derivatives)
-        except ModelError as exc:
-            raise AnalysisError(str(exc)) from None
     if input_derivatives is not None and (not isinstance(input_derivatives, int) or input_derivatives < 0):
         raise AnalysisError(f"input_derivatives must be a non-negative integer or None, got {input_derivatives!r}")
     if not model.outputs:
@@ -67,8 +65,9 @@ def _check(
             )
     if not any(expr.free_symbols & states for expr in model.outputs.values()):
         raise AnalysisError(f"no output of model {model.name!r} depends on a state; measure at least one state")
-    # last: the size of what the engines will hold (refused before any heavy work)
-    return Checked(check_analysis_limits(model, unknown_input_derivatives), variables)
+    # last: the unknown-input option (checked once, there) and the size of what the engines will hold (refused before
+    # any heavy work)
+    return Checked(check_analysis_limits(model, unknown_input_derivatives, option=option), variables)
 
 
 def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> int | str:
