@@ -22,10 +22,13 @@ import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from obsnl._text import quote
 from obsnl.errors import ExecutorError, ObsnlError, OptionError
+
+if TYPE_CHECKING:  # Dask is optional: imported only where a cluster is used
+    from distributed import Client
 
 T = TypeVar("T")
 
@@ -57,7 +60,7 @@ class Executor:
 
     Parameters
     ----------
-    scheduler : Any
+    scheduler : str or distributed.Client or None
         None: this machine; an address (``"tcp://host:8786"``) or a ``distributed.Client``: that Dask
         cluster (its workers need obsnl installed).
     workers : int or None
@@ -70,7 +73,7 @@ class Executor:
     [1, 2, 3]
     """
 
-    scheduler: Any = None
+    scheduler: str | Client | None = None
     workers: int | None = None
 
     def __post_init__(self) -> None:
@@ -347,7 +350,7 @@ class _Session:
             )
         elif self.kind == "dask":
             self.own = isinstance(ex.scheduler, str)
-            self.client = _client(ex.scheduler.strip(), DEADLINE) if self.own else ex.scheduler
+            self.client = _client(ex.scheduler.strip(), DEADLINE) if isinstance(ex.scheduler, str) else ex.scheduler
 
     def close(self, *, abort: bool = False) -> None:
         """Shut the workers down; ``abort`` (an interrupt, an error): stop them now, running tasks included."""

@@ -8,7 +8,7 @@ series of first-order jets modulo a prime.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import sympy as sp
@@ -39,7 +39,7 @@ class Program:
 
     ops: tuple[Op, ...]
     roots: tuple[int, ...]
-    leaves: dict
+    leaves: Mapping[sp.Symbol, int]
 
     def __len__(self) -> int:
         return len(self.ops)

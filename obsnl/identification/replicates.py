@@ -13,12 +13,13 @@ from __future__ import annotations
 import json
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 
 from obsnl._text import quote
 from obsnl.errors import OptionError
+from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.numeric import NumericModel
 from obsnl.estimation.ukf import UKF
 from obsnl.executor import Executor, built_once
@@ -120,23 +121,47 @@ def check_passes(passes: int) -> int:
 #: Replicates per task (any split gives the same replicates; ``obsnl reproduce`` uses it too).
 CHUNK = 8
 
-_SETUP_FIELDS = (
-    "record",
-    "truth",
-    "guess",
-    "noise",
-    "substeps",
-    "refine",
-    "jit",
-    "y_true",
-    "channel_noise",
-    "fit_substeps",
-    "locate",
-    "initial",
-    "known",
-    "objective",
-    "bounds",
-)
+
+class SetupFields(TypedDict):
+    """The fields of a :class:`~obsnl.identification.setup.Setup` a worker rebuilds it from: every one but the
+    compiled model and the coordinates (made again there), with Setup's types."""
+
+    record: Record
+    truth: Mapping[str, float] | None
+    guess: Mapping[str, float]
+    noise: float
+    substeps: int
+    refine: int
+    jit: bool
+    y_true: np.ndarray
+    channel_noise: Mapping[str, float] | None
+    fit_substeps: int | None
+    locate: bool
+    initial: Mapping[str, float] | None
+    known: tuple[str, ...]
+    objective: str
+    bounds: Mapping[str, tuple[float, float]] | None
+
+
+def _setup_fields(setup: Setup) -> SetupFields:
+    """The :class:`SetupFields` of ``setup``."""
+    return SetupFields(
+        record=setup.record,
+        truth=setup.truth,
+        guess=setup.guess,
+        noise=setup.noise,
+        substeps=setup.substeps,
+        refine=setup.refine,
+        jit=setup.jit,
+        y_true=setup.y_true,
+        channel_noise=setup.channel_noise,
+        fit_substeps=setup.fit_substeps,
+        locate=setup.locate,
+        initial=setup.initial,
+        known=setup.known,
+        objective=setup.objective,
+        bounds=setup.bounds,
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -146,7 +171,7 @@ class Recipe:
     model: Model
     switching: tuple[str, ...] | None
     constants: Mapping[str, float] | None
-    setup: Mapping[str, Any]
+    setup: SetupFields
     method: str
     table_json: str | None
     points: int = 0
@@ -185,7 +210,7 @@ def recipe_of(setup: Setup, method: str, table: Any) -> Recipe:
         model=model,
         switching=switching,
         constants=constants,
-        setup={k: getattr(setup, k) for k in _SETUP_FIELDS},
+        setup=_setup_fields(setup),
         method=method,
         table_json=None if table is None else table.to_json(),
         points=setup.model.points,
