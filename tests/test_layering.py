@@ -17,7 +17,7 @@ PKG = Path(__file__).resolve().parents[1] / "obsnl"
 
 #: Rank of each room along the data flow: a module may import only rooms of a lower rank, or its own room.
 LAYERS = {
-    "errors": 0, "_progress": 0, "_text": 0, "_exports": 0, "_display": 0,
+    "errors": 0, "_progress": 0, "_text": 0, "_exports": 0, "_display": 0, "_types": 0,
     "executor": 1,
     "model": 1,
     "algebra": 2,
@@ -34,7 +34,7 @@ LAYERS = {
 #: only a lower rank of its own room, or its own sub-room. A top-level module of the room is its own unit.
 INNER = {
     "observability": {
-        "limits": 0, "verdicts": 0,
+        "limits": 0, "verdicts": 0, "assumptions": 0,
         "engines": 1,
         "joint": 2,
         "certificates": 3,

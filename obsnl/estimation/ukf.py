@@ -130,6 +130,8 @@ class UKF:
     cache : dict
         The compiled Functions (and coordinate maps) of this filter, by options; filled as it runs.
 
+    Notes
+    -----
     The array options are typed as given (``numpy.typing.ArrayLike``); once built the filter holds them as
     float arrays (``Q`` and ``R`` as full matrices, ``state_scale`` and ``cap`` as one entry per state or
     coordinate, ``bounds`` as a pair of arrays).

@@ -3,7 +3,8 @@
 Owns :func:`~obsnl.observability.analyze.analyze` and its result values. Its inner order, lowest
 first (a module imports only what stands below it, or its own sub-room):
 
-1. ``limits`` (how big an analysis may be) and ``verdicts`` (one branch's answer);
+1. ``limits`` (how big an analysis may be), ``verdicts`` (one branch's answer) and ``assumptions`` (what an
+   analysis assumes);
 2. ``engines/``: the per-branch rank tests (ORC, Sedoglavic's power series, the Jacobian mod p);
 3. ``joint/``: which branches are analysed and the joint verdict over all of them;
 4. ``certificates/``: verified symmetries that prove a verdict of unobservability;
@@ -25,6 +26,7 @@ _LAZY: dict[str, str] = {
     "Verdict": "verdicts",
     "BranchResult": "verdicts",
     "AnalysisResult": "results",
+    "Assumptions": "assumptions",
     "orc": "engines.smooth",
     "sedoglavic": "engines.smooth",
     "decompose": "engines.decompose",
@@ -37,6 +39,7 @@ _LAZY: dict[str, str] = {
 }
 
 if TYPE_CHECKING:  # the public names as type checkers see them; at run time each loads on first use (_LAZY)
+    from obsnl.observability.assumptions import Assumptions as Assumptions
     from obsnl.observability.certificates.generators import Symmetries as Symmetries
     from obsnl.observability.certificates.generators import Symmetry as Symmetry
     from obsnl.observability.certificates.symmetry import symmetries as symmetries
