@@ -222,7 +222,25 @@ def check_analysis(
     ----------
     model : Model, str or os.PathLike
         The model, or its file (read with :func:`obsnl.read_model`).
-    method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives, decompose, branches, joint, per_branch
+    method : str
+        As for :func:`analyze`.
+    seed : int or None
+        As for :func:`analyze`.
+    max_seconds : float or None
+        As for :func:`analyze`.
+    prob : float
+        As for :func:`analyze`.
+    unknown_input_derivatives : int, str or None
+        As for :func:`analyze`.
+    input_derivatives : int or None
+        As for :func:`analyze`.
+    decompose : bool
+        As for :func:`analyze`.
+    branches : sequence of str or None
+        As for :func:`analyze`.
+    joint : bool
+        As for :func:`analyze`.
+    per_branch : bool
         As for :func:`analyze`.
     option : str
         How messages name the caller's unknown-input option (``"unknown_input_derivatives="``: the command line
@@ -277,7 +295,9 @@ def run_analysis(
     ----------
     checked : CheckedAnalysis
         The model and its options, checked.
-    visited, crossings
+    visited : mapping of tuple of int to float or None
+        As for :func:`analyze`.
+    crossings : mapping of str to int or None
         As for :func:`analyze`.
 
     Returns

@@ -34,6 +34,25 @@ def read_part(what: str, read: Callable[[Any], T], d: Any) -> T:
     """``read(d)``, a part of the Table 2 document; a part that is not an object, lacks a key or holds a value of
     the wrong kind is a :class:`~obsnl.errors.DataError` naming the part, the problem and the fix.
 
+    Parameters
+    ----------
+    what : str
+        How messages name the part (``"the tuning of run 2"``).
+    read : callable
+        The part's reader (a ``from_dict``).
+    d : object
+        The part as the JSON document holds it.
+
+    Returns
+    -------
+    T
+        What ``read`` returns.
+
+    Raises
+    ------
+    DataError
+        A part that is not an object, lacks a key or holds a value of the wrong kind.
+
     Examples
     --------
     >>> read_part("a tuning", Tuning.from_dict, {"s0": 0.1, "q_theta": 0.0, "q_x": 1.0, "gate": None}).gate
