@@ -221,7 +221,9 @@ def test_the_assumptions_of_an_analysis_write_the_json_they_always_did():
 @pytest.mark.parametrize("change, words", [
     ({"unknown_input_derivatives": "sometimes"}, "unknown_input_derivatives is 'sometimes'"),
     ({"known_inputs": 3}, "known_inputs is 3"),
-    ({"initial_conditions": {"unknown": "x"}}, "initial_conditions.unknown is 'x'"),
+    ({"initial_conditions": {"unknown": "x", "known_generic": [], "known_values": {}}},
+     "initial_conditions.unknown is 'x'"),
+    ({"initial_conditions": {"unknown": ["x"]}}, "initial_conditions has no 'known_generic'"),
     ({"bounds": {"fy": [0, "huge"]}}, "the end 'huge'"),
     ({"extra": 1}, "unknown key 'extra'"),
 ])

@@ -112,8 +112,9 @@ class Assumptions:
         ic = data["initial_conditions"]
         if not isinstance(ic, Mapping):
             raise DataError(f"assumptions.initial_conditions is {quote(ic)}; it is an object")
-        _keys(ic, ("unknown", "known_generic", "known_values"), where="assumptions.initial_conditions")
-        values = ic.get("known_values", {})
+        parts = ("unknown", "known_generic", "known_values")
+        _keys(ic, parts, required=parts, where="assumptions.initial_conditions")
+        values = ic["known_values"]
         if not (isinstance(values, Mapping) and all(isinstance(v, str) for v in values.values())):
             raise DataError(f"assumptions.initial_conditions.known_values is {quote(values)}; it is {{state: text}}")
         bounds = data.get("bounds", {})
@@ -123,8 +124,8 @@ class Assumptions:
             unknown_input_derivatives=k,
             known_inputs=known,
             initial_conditions=InitialConditions(
-                unknown=_names(ic.get("unknown", []), "unknown"),
-                known_generic=_names(ic.get("known_generic", []), "known_generic"),
+                unknown=_names(ic["unknown"], "unknown"),
+                known_generic=_names(ic["known_generic"], "known_generic"),
                 known_values={str(s): str(v) for s, v in values.items()},
             ),
             bounds={str(name): _bound(name, pair) for name, pair in bounds.items()},
