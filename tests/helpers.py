@@ -55,7 +55,7 @@ def one_line_refusal(code: int, err: str, *words: str) -> None:
 REC = Path(obsnl.__file__).parent / "studies" / "data" / "northridge1994_LOS270_ngawest2_accel.csv"
 #: A short identification of the seed model from :data:`REC` (100 samples, one pass).
 FAST_STUDY = ("identify", "obsnl:damage_healing_reparam", "--record", str(REC), "--samples", "100", "--passes", "1",
-              "--s0", "0.2")
+              "--s0", "0.2", "--no-refine")
 
 
 def refused_in_one_line(code: int, err: str, *words: str) -> str:

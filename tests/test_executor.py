@@ -29,7 +29,7 @@ def _short_reproduction(executor):
     from obsnl.identification.setup import DEFAULT_GRID
     from obsnl.studies.seed_paper import reproduce
 
-    return reproduce(samples=300, seeds=1, tuning_seeds=1, passes=1, grid=DEFAULT_GRID[:2], replicates=3,
+    return reproduce(samples=120, seeds=1, tuning_seeds=1, passes=1, grid=DEFAULT_GRID[:2], replicates=3,
                      jit=False, executor=executor)
 
 

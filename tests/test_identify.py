@@ -239,7 +239,7 @@ def test_a_study_without_a_tuning_is_tuned_like_measured_data():
     from obsnl.identification.runs import MEASURED_GRID
     from obsnl.identification.identify import study
 
-    res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=600, jit=HAVE_CC)
+    res = study(MODELS / "damage_healing_reparam.toml", CSV, samples=600, jit=HAVE_CC, refine=False)  # the tuning only
     assert [t for t, _ in res.tuning_scores] == list(MEASURED_GRID)
     best = min(res.tuning_scores, key=lambda ts: ts[1] if np.isfinite(ts[1]) else np.inf)
     assert res.tuning == best[0]
@@ -283,15 +283,15 @@ def test_identify_command(tmp_path, capsys):
     table.write_text(BranchTable.from_dict(paper_table1()).to_json())
     model = str(MODELS / "damage_healing_reparam.toml")
     args = ["identify", model, "--record", str(CSV), "--method", "dukf", "--table", str(table),
-            "--samples", "500", "--passes", "1", "--out", str(tmp_path)] + JIT
+            "--samples", "500", "--passes", "1", "--no-refine", "--out", str(tmp_path)] + JIT
     assert main(args) == 0
     doc = json.loads((tmp_path / "identify.json").read_text())
     assert doc["method"] == "dukf" and "c_p" in [p["name"] for p in doc["parameters"]]
     assert main(args) == 2  # never overwrite without --force
     assert "--force" in capsys.readouterr().err
     mc_out = tmp_path / "mc"  # the Monte-Carlo check from the command line: 3 replicates, all accounted for
-    assert main(["identify", model, "--record", str(CSV), "--samples", "500", "--passes", "1", "--replicates", "3",
-                 "--out", str(mc_out)] + JIT) == 0
+    assert main(["identify", model, "--record", str(CSV), "--samples", "500", "--passes", "1", "--no-refine",
+                 "--replicates", "3", "--out", str(mc_out)] + JIT) == 0
     prac = json.loads((mc_out / "identify.json").read_text())["practical_identifiability"]
     assert prac["monte_carlo"]["replicates"] + prac["monte_carlo"]["diverged"] == 3
     assert main(["identify", model, "--record", str(CSV), "--replicates", "2"]) == 2
