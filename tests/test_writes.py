@@ -120,7 +120,8 @@ def small_reproduction():
     from obsnl.identification.experiments import DEFAULT_GRID
     from obsnl.studies.seed_paper import reproduce
 
-    return reproduce(seeds=1, tuning_seeds=1, passes=1, grid=DEFAULT_GRID[:1], jit=False, samples=200, replicates=0)
+    return reproduce(seeds=1, tuning_seeds=1, passes=1, grid=DEFAULT_GRID[:1], jit=False, samples=200, replicates=0,
+                     refine=False)  # what is written, not the refinement
 
 
 def _no_reproduce(**kwargs):
