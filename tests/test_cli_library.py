@@ -186,3 +186,24 @@ def test_a_command_prints_what_its_module_returns(tmp_path, capsys):
         return [untimed(v) for v in doc] if isinstance(doc, list) else doc
 
     assert untimed(json.loads(out.read_text())) == untimed(json.loads(printed.text)) and printed.undecided is None
+
+
+def test_the_guides_python_request_runs_what_the_command_runs(tmp_path, capsys):
+    """The user guide's example: ``run_analyze(AnalyzeRequest(...))`` renders what ``obsnl analyze ... --format md``
+    prints, and refuses a record that is not there with the command's one line (in Python's keyword terms)."""
+    import math
+
+    from obsnl.commands import AnalyzeRequest, run_analyze
+
+    rec = tmp_path / "rec.csv"
+    rec.write_text("time_s,u\n" + "".join(f"{i * 0.01:.2f},{math.sin(i * 0.05):.6f}\n" for i in range(200)),
+                   encoding="utf-8")
+    assert main(["analyze", "obsnl:coulomb_friction", "--record", str(rec), "--format", "md", "--seed", "0"]) == 0
+    printed = capsys.readouterr().out
+    result = run_analyze(AnalyzeRequest(model="obsnl:coulomb_friction", record=rec, fmt="md", seed=0))
+    assert printed.rstrip("\n") == result.rendering.rstrip("\n") and result.analysis.visited.how == "record"
+    missing = tmp_path / "none.csv"
+    with pytest.raises(ObsnlError) as info:
+        run_analyze(AnalyzeRequest(model="obsnl:coulomb_friction", record=missing))
+    assert main(["analyze", "obsnl:coulomb_friction", "--record", str(missing)]) == 2
+    assert capsys.readouterr().err == f"obsnl analyze: error: {cli_terms(str(info.value), _sub('analyze'))}\n"
