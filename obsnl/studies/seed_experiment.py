@@ -9,12 +9,15 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from typing import Any
+from typing import TYPE_CHECKING
 
 from obsnl.errors import OutputError
 from obsnl.estimation.records import Record
 from obsnl.identification.experiments import Setup, coordinates
 from obsnl.model.files import catalogue_path
+
+if TYPE_CHECKING:
+    from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = ["SEED_GUESS", "seed_model_path", "check_record_name", "seed_record", "seed_setup", "seed_branch_table"]
 
@@ -152,7 +155,7 @@ def seed_setup(
     )
 
 
-def seed_branch_table(*, seed: int = 0) -> tuple[Any, str]:
+def seed_branch_table(*, seed: int = 0) -> tuple[BranchTable, str]:
     """The branch table of the seed model from obsnl's analysis, checked against the paper's Table 1."""
     from obsnl.model.files import read_model
     from obsnl.observability.analyze import analyze

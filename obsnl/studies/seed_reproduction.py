@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,6 +22,9 @@ from obsnl.studies.seed_document import FIX, Experiment, TuningChoice, TuningSco
 from obsnl.studies.seed_runs import FALLBACKS, FLOOR, Refined, RunResult
 from obsnl.studies.seed_tasks import ML_MAX_ITER
 from obsnl.studies.seed_tuning import tuning_protocol
+
+if TYPE_CHECKING:
+    from obsnl.observability.contract.branch_table import BranchTable
 
 __all__ = [
     "PAPER_ERRORS",
@@ -86,7 +89,7 @@ class Reproduction:
     noise_floor_factor: float | None = FLOOR
     paper_errors: Mapping[str, Mapping[str, float]] = field(default_factory=lambda: PAPER_ERRORS)
     setup: Setup | None = field(default=None, repr=False)
-    table: Any = field(default=None, repr=False)
+    table: BranchTable | None = field(default=None, repr=False)
     trajectories: Mapping[tuple[str, int], tuple[Trajectory, ...]] = field(default_factory=dict, repr=False)
 
     @classmethod
@@ -94,7 +97,7 @@ class Reproduction:
         cls,
         *,
         setup: Setup,
-        table: Any,
+        table: BranchTable,
         table_source: str,
         tuning: Mapping[tuple[str, int], tuple[Tuning, Mapping[Tuning, float]]],
         runs: tuple[RunResult, ...],
