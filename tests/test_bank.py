@@ -141,6 +141,30 @@ def test_study_serialises_to_json(study):
     assert r["crack_element"] is None and set(r["rms_force"]) == {"2", "4", "6"}
 
 
+def test_study_settings_and_observers_write_the_json_they_always_did(study):
+    # the typed settings and observers (issue 42) write bank.json as the plain dicts did: the [bank] table of the
+    # packaged models/cantilever_link.toml, its [crack] severity, [sensors] noise and source, and the fixture's seeds,
+    # written out by hand in the key order of bank.json
+    expected = {
+        "model": "001_d0508a78c5399696.txt (seed paper); numbers from docs/observer_bank.md sections 2.1-2.5",
+        "sensors": "S1", "channels": ["moment"], "severity": 0.3, "noise": 0.01, "dt": 2e-4, "duration": 6.0,
+        "onset": 3.0, "detection_window": 0.5, "evaluation_window": 3.0, "threshold_factor": 3.0, "ratio_band": 1.5,
+        "q_x": 1.0, "q_v": 1e8, "fictitious_model": "integrator", "evaluation_seeds": [0, 1, 2],
+        "calibration_seeds": [101, 102, 103],
+    }
+    doc = study.to_dict()
+    assert list(doc) == ["settings", "thresholds", "observers", "gates", "runs"]
+    assert json.dumps(doc["settings"]) == json.dumps(expected)
+    assert study.settings.onset == 3.0 and study.settings.evaluation_seeds == EVAL_SEEDS
+    # one moment channel per observer with S1 is observable (docs/observer_bank.md section 2.6.6)
+    assert [(o["label"], o["element"], o["check"]) for o in doc["observers"]] == [
+        ("2", 2, "observable"), ("4", 4, "observable"), ("6", 6, "observable")]
+    for o in doc["observers"]:
+        assert list(o) == ["label", "element", "check", "design"] and type(o["check"]) is str  # the text, not the enum
+        assert list(o["design"]) == ["method", "stable", "eigenvalues", "force_eigenvalues", "residual", "gain_norm"]
+    assert json.loads(json.dumps(doc)) == doc  # plain JSON values only (a tuple would come back a list)
+
+
 # --------------------------------------------------------------------------- bank API
 def test_bank_refuses_an_unobservable_observer():
     beam = build_cantilever()

@@ -38,10 +38,6 @@ EXEMPT: dict[str, str] = {
     # (factorizations, affine coefficients, emptiness verdicts) under its own kind of key: heterogeneous by design,
     # never compared nor shown (compare=False, repr=False)
     "obsnl.model.branching.switching.Switching.memo": "a heterogeneous memo",
-    # the observer-bank study's settings are typed in their own change
-    "obsnl.studies.link_model.LinkSpec.bank": "studies: typed in its own change",
-    "obsnl.studies.link_study.LinkStudy.settings": "studies: typed in its own change",
-    "obsnl.studies.link_study.LinkStudy.observers": "studies: typed in its own change",
 }
 
 #: Generic origins whose arguments are read (builtin and standard containers); any other generic is a leaf.

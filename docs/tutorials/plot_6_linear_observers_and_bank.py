@@ -66,7 +66,7 @@ for ax, name in zip(axes, ("healthy", "crack2", "crack4")):
     for j, label in enumerate(study.thresholds.labels):
         ax.plot(t, nhat[:, j], lw=0.6, label=f"observer at element {label}")
     ax.plot(t, n_true, color="k", lw=0.8, label="true crack moment")
-    ax.axvline(study.settings["onset"], color="0.5", ls=":")
+    ax.axvline(study.settings.onset, color="0.5", ls=":")
     ax.set(ylabel="moment (N·m)", title=name)
 axes[0].legend(fontsize=8, ncol=2)
 axes[-1].set_xlabel("time (s)")

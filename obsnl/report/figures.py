@@ -263,7 +263,8 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
     Parameters
     ----------
     study : Any
-        A :class:`obsnl.linear.bank.LinkStudy` (its ``traces`` hold the time series).
+        A :class:`obsnl.studies.link_study.LinkStudy` (its ``traces`` hold the time series, its
+        ``settings`` the onset and the seeds).
     out_dir : str or Path
         Folder for ``forces_<scenario>.png`` (created if needed; existing files are replaced,
         the caller decides whether that is allowed).
@@ -289,10 +290,10 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
             ax2.axhline(thr.tau[j], color=line.get_color(), ls="--", lw=0.8)
         for ax in (ax1, ax2):
             if name != "healthy":
-                ax.axvline(st["onset"], color="k", lw=0.6, ls=":")
+                ax.axvline(st.onset, color="k", lw=0.6, ls=":")
             ax.grid(alpha=0.3)
         ax1.set_ylabel("crack force [N·m]")
-        ax1.set_title(f"{name}: estimated crack forces (seed {st['evaluation_seeds'][0]})", fontsize=10)
+        ax1.set_title(f"{name}: estimated crack forces (seed {st.evaluation_seeds[0]})", fontsize=10)
         ax1.legend(fontsize=7, ncol=4, loc="upper left")
         ax2.set_ylabel(f"{thr.window:g}-s RMS [N·m]")
         ax2.set_xlabel("time [s]")

@@ -16,6 +16,7 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
+from obsnl._types import FileValue
 from obsnl.errors import ModelError
 from obsnl.model.files import PACKAGED, catalogue_path, parse_text
 
@@ -32,8 +33,8 @@ class LinkSpec:
     """The benchmark's numbers, as read from the model file (SI units).
 
     ``sensors`` maps a sensor-set name to DOF names (``"theta3"``, ``"w6"``); ``bank`` holds the ``[bank]`` table
-    as written (:func:`obsnl.studies.link_study.check_bank_settings` checks it); ``opens_when`` is one of
-    :data:`OPENS_WHEN`; ``file`` names the file read.
+    as written, its TOML values unchecked (:func:`obsnl.studies.link_study.check_bank_settings` checks them);
+    ``opens_when`` is one of :data:`OPENS_WHEN`; ``file`` names the file read.
     """
 
     youngs_modulus: float
@@ -51,7 +52,7 @@ class LinkSpec:
     sensors: Mapping[str, tuple[str, ...]]
     noise: float
     severity: float
-    bank: Mapping[str, Any] = field(default_factory=dict)
+    bank: Mapping[str, FileValue] = field(default_factory=dict)
     source: str = ""
     opens_when: str = "negative curvature"
     file: str = ""

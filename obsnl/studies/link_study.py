@@ -12,13 +12,17 @@ import numpy as np
 
 from obsnl.errors import AnalysisError, DataError, ModelError
 from obsnl.linear.bank import BankDecision, Thresholds, _f, build_bank, calibrate_thresholds, decide
+from obsnl.linear.gains import ObserverDesign
 from obsnl.linear.observer import ExtendedObservability, extended_observability, integrator
+from obsnl.observability.verdicts import Verdict
 from obsnl.studies.cantilever import BreathingCrack, build_cantilever
 from obsnl.studies.link_model import LinkSpec, _Table, read_link_spec
 
 __all__ = [
     "ScenarioRun",
     "GateCheck",
+    "LinkSettings",
+    "BankObserver",
     "LinkStudy",
     "run_link_study",
     "check_bank_settings",
@@ -103,23 +107,100 @@ class GateCheck:
         }
 
 
+@dataclass(frozen=True)
+class LinkSettings:
+    """What a :class:`LinkStudy` ran with (SI units): the model's ``source``, the sensor set and force channels,
+    the crack severity and the noise (a fraction of the healthy RMS), the checked ``[bank]`` numbers
+    (:func:`check_bank_settings`), the fictitious force model and the evaluation and calibration noise seeds.
+
+    Examples
+    --------
+    >>> s = LinkSettings(model="m", sensors="S1", channels=("moment",), severity=0.3, noise=0.01, dt=2e-4,
+    ...     duration=6.0, onset=3.0, detection_window=0.5, evaluation_window=3.0, threshold_factor=3.0,
+    ...     ratio_band=1.5, q_x=1.0, q_v=1e8, fictitious_model="integrator", evaluation_seeds=(0,),
+    ...     calibration_seeds=(1000,))
+    >>> s.to_dict()["channels"], s.to_dict()["evaluation_seeds"]
+    (['moment'], [0])
+    """
+
+    model: str
+    sensors: str
+    channels: tuple[str, ...]
+    severity: float
+    noise: float
+    dt: float
+    duration: float
+    onset: float
+    detection_window: float
+    evaluation_window: float
+    threshold_factor: float
+    ratio_band: float
+    q_x: float
+    q_v: float
+    fictitious_model: str
+    evaluation_seeds: tuple[int, ...]
+    calibration_seeds: tuple[int, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``settings`` of ``bank.json``, in this order (tuples as lists)."""
+        return {
+            "model": self.model,
+            "sensors": self.sensors,
+            "channels": list(self.channels),
+            "severity": self.severity,
+            "noise": self.noise,
+            "dt": self.dt,
+            "duration": self.duration,
+            "onset": self.onset,
+            "detection_window": self.detection_window,
+            "evaluation_window": self.evaluation_window,
+            "threshold_factor": self.threshold_factor,
+            "ratio_band": self.ratio_band,
+            "q_x": self.q_x,
+            "q_v": self.q_v,
+            "fictitious_model": self.fictitious_model,
+            "evaluation_seeds": list(self.evaluation_seeds),
+            "calibration_seeds": list(self.calibration_seeds),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class BankObserver:
+    """One observer of the bank: its ``label``, the link ``element`` it watches, the ``check`` (verdict) of its
+    extended system (:func:`~obsnl.linear.observer.extended_observability`) and its gain ``design``."""
+
+    label: str
+    element: int
+    check: Verdict
+    design: ObserverDesign
+
+    def to_dict(self) -> dict[str, Any]:
+        """One entry of ``observers`` in ``bank.json`` (the verdict as its text)."""
+        return {
+            "label": self.label,
+            "element": self.element,
+            "check": self.check.value,
+            "design": self.design.to_dict(),
+        }
+
+
 @dataclass(frozen=True, eq=False)
 class LinkStudy:
     """Result of :func:`run_link_study`. ``traces`` (first evaluation seed per scenario:
     ``(t, nhat, n_true)``) are kept for plots and left out of :meth:`to_dict`."""
 
-    settings: Mapping[str, Any]
+    settings: LinkSettings
     thresholds: Thresholds
     gates: tuple[GateCheck, ...]
     runs: tuple[ScenarioRun, ...]
-    observers: tuple[Mapping[str, Any], ...]
+    observers: tuple[BankObserver, ...]
     traces: Mapping[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = field(default_factory=dict, repr=False)
 
     def to_dict(self) -> dict:
         return {
-            "settings": dict(self.settings),
+            "settings": self.settings.to_dict(),
             "thresholds": self.thresholds.to_dict(),
-            "observers": [dict(o) for o in self.observers],
+            "observers": [o.to_dict() for o in self.observers],
             "gates": [g.to_dict() for g in self.gates],
             "runs": [r.to_dict() for r in self.runs],
         }
@@ -246,27 +327,27 @@ def run_link_study(
             for e in elements:
                 chk = extended_observability(beam.system(sset), beam.crack_distribution(e, ch), integrator(len(ch)))
                 gate_list.append(GateCheck(sset, ch, e, chk))
-    settings = {
-        "model": beam.spec.source,
-        "sensors": sensors,
-        "channels": list(chans),
-        "severity": beam.spec.severity,
-        "noise": beam.spec.noise,
-        "dt": dt,
-        "duration": T,
-        "onset": onset,
-        "detection_window": win_det,
-        "evaluation_window": win_ev,
-        "threshold_factor": factor,
-        "ratio_band": band,
-        "q_x": q_x,
-        "q_v": q_v,
-        "fictitious_model": "integrator",
-        "evaluation_seeds": ev,
-        "calibration_seeds": cal,
-    }
+    settings = LinkSettings(
+        model=beam.spec.source,
+        sensors=sensors,
+        channels=chans,
+        severity=beam.spec.severity,
+        noise=beam.spec.noise,
+        dt=dt,
+        duration=T,
+        onset=onset,
+        detection_window=win_det,
+        evaluation_window=win_ev,
+        threshold_factor=factor,
+        ratio_band=band,
+        q_x=q_x,
+        q_v=q_v,
+        fictitious_model="integrator",
+        evaluation_seeds=tuple(ev),
+        calibration_seeds=tuple(cal),
+    )
     observers = tuple(
-        {"label": lab, "element": int(lab), "check": chk.verdict.value, "design": d.to_dict()}
+        BankObserver(label=lab, element=int(lab), check=chk.verdict, design=d)
         for lab, chk, d in zip(bank.labels, bank.checks, bank.designs)
     )
     return LinkStudy(settings, thr, tuple(gate_list), tuple(runs), observers, traces)
