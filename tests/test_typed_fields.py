@@ -33,12 +33,7 @@ import obsnl
 from obsnl._types import FileValue, JSONValue
 
 #: ``module.Class.field`` -> why it is still loose. Keep it short; each entry is checked to be still loose.
-EXEMPT: dict[str, str] = {
-    # one cache shared by the branch split and the feasibility search, each storing its own kind of entry
-    # (factorizations, affine coefficients, emptiness verdicts) under its own kind of key: heterogeneous by design,
-    # never compared nor shown (compare=False, repr=False)
-    "obsnl.model.branching.switching.Switching.memo": "a heterogeneous memo",
-}
+EXEMPT: dict[str, str] = {}
 
 #: Generic origins whose arguments are read (builtin and standard containers); any other generic is a leaf.
 _CONTAINERS = {
@@ -182,6 +177,38 @@ def test_a_name_imported_only_for_type_checkers_is_resolved():
 
     hints = typing.get_type_hints(NumericModel, localns=_type_checking_names(NumericModel))
     assert typing.get_args(typing.get_args(hints["source"])[0])[0] is Model
+
+
+# ----------------------------------------------------------------------------- the split's memo
+def test_the_memo_of_a_split_holds_each_kind_of_value_under_its_kind_of_key():
+    # Switching.memo is typed as the union obsnl.model.branching.feasibility.Memo spells out: a switching function
+    # -> (sign, factors); ("affine", g, unknowns) -> coefficients or None; ("relax", pattern) -> bool;
+    # ("never", g, s) -> str. A split of sign(x*v - k) and sign((x*v - 2k) v), then the pattern x*v > k,
+    # x*v < 2k, k < 0 (empty only by the monomial relaxation: x*v is an unknown between k and 2k < k) fills all four.
+    import numpy as np
+    import sympy as sp
+
+    from obsnl.model.branching.feasibility import feasible
+    from obsnl.model.branching.switching import Switching
+
+    x, v, k = sp.symbols("x v k", real=True)
+    level = Switching.of([v, -k * x - sp.sign(x * v - k) - sp.sign((x * v - 2 * k) * v)], [])
+    level.field_at([1] * len(level.functions))
+    point, _, proved = feasible([(x * v - k, 1), (x * v - 2 * k, -1), (k, -1)], np.random.default_rng(0), level.memo)
+    assert point is None and proved
+    kinds = set()
+    for key, value in level.memo.items():
+        kind = key[0] if isinstance(key, tuple) else "factored"
+        kinds.add(kind)
+        if kind == "factored":
+            assert isinstance(key, sp.Expr) and value[0] in (1, -1) and all(isinstance(f, sp.Expr) for f in value[1])
+        elif kind == "affine":
+            assert value is None or (all(isinstance(c, float) for c in value[0]) and isinstance(value[1], float))
+        elif kind == "relax":
+            assert isinstance(value, bool)
+        else:
+            assert kind == "never" and isinstance(value, str), (key, value)
+    assert kinds == {"factored", "affine", "relax", "never"}
 
 
 # ----------------------------------------------------------------------------- the typed assumptions

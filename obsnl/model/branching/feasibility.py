@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
+from typing import TypeAlias, cast
 
 import numpy as np
 import sympy as sp
@@ -31,16 +32,33 @@ from obsnl.model.bounds.budget import check_time
 from obsnl.model.bounds.work import can_expand, can_factor
 from obsnl.model.branching.definite import never_positive
 
-__all__ = ["feasible", "affine_coefficients", "bound_conditions", "UNDECIDED"]
+__all__ = ["feasible", "affine_coefficients", "bound_conditions", "UNDECIDED", "Memo", "MemoKey", "MemoValue"]
 
 #: How the reason of an undecided pattern starts.
 UNDECIDED = "no point was found"
+
+#: A key of the cache one split shares between its levels and branches (:data:`Memo`): a switching function
+#: (its factorization, :mod:`obsnl.model.branching.switching`), ``("affine", g, unknowns)``
+#: (:func:`affine_coefficients`), ``("relax", pattern)`` (the monomial relaxation of a sign pattern) or
+#: ``("never", g, s)`` (whether ``s * g > 0`` holds nowhere).
+MemoKey: TypeAlias = (
+    sp.Expr
+    | tuple[str, sp.Expr, tuple[sp.Symbol, ...]]
+    | tuple[str, tuple[tuple[sp.Expr, int], ...]]
+    | tuple[str, sp.Expr, int]
+)
+#: What the cache holds under each kind of :data:`MemoKey`, in the same order: ``(sign, factors)``, the affine
+#: coefficients and constant (None: not affine), whether the relaxation is empty, why the sign never holds ("": not
+#: shown).
+MemoValue: TypeAlias = tuple[int, list[sp.Expr]] | tuple[list[float], float] | None | bool | str
+#: The cache of one split: each entry's kind of value is fixed by its kind of key (:data:`MemoKey`).
+Memo: TypeAlias = dict[MemoKey, MemoValue]
 
 _FIX = "raise max_seconds=, or smooth some switching functions (tanh(g/eps) for sign(g))"
 
 
 def affine_coefficients(
-    g: sp.Expr, syms: Sequence[sp.Symbol], memo: dict | None = None
+    g: sp.Expr, syms: Sequence[sp.Symbol], memo: Memo | None = None
 ) -> tuple[list[float], float] | None:
     """(coefficients of ``syms``, constant) when ``g`` is affine in ``syms`` with numeric coefficients, else
     None; an expression too large to expand cheaply (:func:`obsnl.model.bounds.work.can_factor`) counts as not
@@ -52,7 +70,7 @@ def affine_coefficients(
         A switching function.
     syms : sequence of sympy.Symbol
         The unknowns, in the order of the coefficients returned.
-    memo : dict or None
+    memo : Memo or None
         Cache shared by the calls of one split.
 
     Returns
@@ -67,7 +85,7 @@ def affine_coefficients(
     """
     key = ("affine", g, tuple(syms))
     if memo is not None and key in memo:
-        return memo[key]
+        return cast("tuple[list[float], float] | None", memo[key])
     out = None
     if can_factor(g):
         try:
@@ -159,11 +177,11 @@ def _sign_of(mono: tuple, signs: dict[sp.Basic, int]) -> int:
     return out
 
 
-def _relaxation_empty(conds: Sequence[tuple[sp.Expr, int]], memo: dict | None) -> bool:
+def _relaxation_empty(conds: Sequence[tuple[sp.Expr, int]], memo: Memo | None) -> bool:
     """True when the sign conditions have no solution even with each monomial an independent unknown."""
     key = ("relax", tuple(conds))
     if memo is not None and key in memo:
-        return memo[key]
+        return cast(bool, memo[key])
     parts = [_monomials(g) for g, _ in conds]
     known = [p for p in parts if p is not None]
     out = False
@@ -297,7 +315,7 @@ def bound_conditions(
 def feasible(
     conds: Sequence[tuple[sp.Expr, int]],
     rng: np.random.Generator,
-    memo: dict | None = None,
+    memo: Memo | None = None,
     *,
     bounds: Sequence[tuple[sp.Expr, int]] = (),
 ) -> tuple[dict[str, float] | None, str, bool]:
@@ -309,7 +327,7 @@ def feasible(
         Switching functions and their wanted signs (+1 or -1).
     rng : numpy.random.Generator
         Random source of the witness search.
-    memo : dict or None
+    memo : Memo or None
         Cache shared by the calls of one split.
     bounds : sequence of (sympy.Expr, int)
         Declared bounds as sign conditions (:func:`bound_conditions`); those on symbols of ``conds`` hold too.
@@ -343,7 +361,7 @@ def feasible(
             if memo is not None:
                 memo[key] = why
         else:
-            why = memo[key]
+            why = cast(str, memo[key])
         if why:
             return None, f"{_pattern_text([(g, s)])} holds nowhere: {why}", True
     within = ""

@@ -14,13 +14,14 @@ import functools
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 import sympy as sp
 
 from obsnl.errors import ModelError, NotSupportedError
 from obsnl.model.bounds.budget import check_time
 from obsnl.model.bounds.work import can_factor
-from obsnl.model.branching.feasibility import bound_conditions
+from obsnl.model.branching.feasibility import Memo, bound_conditions
 from obsnl.model.core import NONSMOOTH_FUNCTIONS, Model
 from obsnl.model.reading.parse import shorten
 
@@ -179,18 +180,18 @@ def switching_functions(model: Model) -> tuple[sp.Expr, ...]:
     return switching_of(list(model.rhs) + list(model.output_exprs), model.switching)
 
 
-def _factored(g: sp.Expr, memo: dict | None) -> tuple[int, list[sp.Expr]]:
+def _factored(g: sp.Expr, memo: Memo | None) -> tuple[int, list[sp.Expr]]:
     """:func:`_factor_signs` remembered for one split (the same arguments recur in every branch)."""
     if memo is None:
         return _factor_signs(g)
     if g not in memo:
         memo[g] = _factor_signs(g)
-    c, factors = memo[g]
+    c, factors = cast("tuple[int, list[sp.Expr]]", memo[g])
     return c, list(factors)
 
 
 def switching_of(
-    exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr], memo: dict | None = None
+    exprs: Sequence[sp.Basic], declared: Sequence[sp.Expr], memo: Memo | None = None
 ) -> tuple[sp.Expr, ...]:
     """The distinct switching functions of the non-smooth nodes of ``exprs``, declared ones first.
 
@@ -203,7 +204,7 @@ def switching_of(
         The expressions (right-hand sides, outputs) to scan.
     declared : sequence of sympy.Expr
         Switching functions the model declares, fixing the order.
-    memo : dict or None
+    memo : Memo or None
         Cache of factorizations shared between calls.
 
     Returns
@@ -240,7 +241,8 @@ class Switching:
     declared
         The model's declared switching functions (their order holds at every level).
     memo
-        The factorizations made, shared with the split and the feasibility search that follow.
+        The factorizations made, shared with the split and the feasibility search that follow, which add their
+        own kinds of entry (:data:`obsnl.model.branching.feasibility.Memo`).
     bounds
         The model's declared bounds as sign conditions
         (:func:`obsnl.model.branching.feasibility.bound_conditions`), which every sign pattern must meet too.
@@ -251,14 +253,14 @@ class Switching:
     nodes: tuple[sp.Basic, ...]
     nested: bool
     declared: tuple[sp.Expr, ...] = ()
-    memo: dict = field(default_factory=dict, compare=False, repr=False)
+    memo: Memo = field(default_factory=dict, compare=False, repr=False)
     bounds: tuple[tuple[sp.Expr, int], ...] = ()
 
     @staticmethod
     def of(
         exprs: Sequence[sp.Expr],
         declared: Sequence[sp.Expr],
-        memo: dict | None = None,
+        memo: Memo | None = None,
         bounds: Sequence[tuple[sp.Expr, int]] = (),
     ) -> Switching:
         """The switching structure of ``exprs``, ``declared`` fixing the order of the functions, ``bounds`` the
@@ -362,7 +364,7 @@ def check_declared(model: Model, found: Sequence[sp.Expr]) -> None:
 
 
 # --------------------------------------------------------------------------- resolution in a branch
-def _sign_in(g: sp.Expr, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> int:
+def _sign_in(g: sp.Expr, switching: Sequence[sp.Expr], signs: Sequence[int], memo: Memo | None = None) -> int:
     """The sign of ``g`` in the branch where ``switching`` have ``signs``."""
     c, factors = _factored(g, memo)
     canon = {_canonical(sw)[1]: (_canonical(sw)[0], s) for sw, s in zip(switching, signs)}
@@ -375,7 +377,7 @@ def _sign_in(g: sp.Expr, switching: Sequence[sp.Expr], signs: Sequence[int], mem
     return out
 
 
-def _truth(cond: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> bool:
+def _truth(cond: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: Memo | None = None) -> bool:
     if cond is sp.true or cond is True:
         return True
     if cond is sp.false or cond is False:
@@ -393,7 +395,7 @@ def _truth(cond: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], m
     raise NotSupportedError(f"Piecewise condition {cond} is not supported")  # pragma: no cover
 
 
-def resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: dict | None = None) -> sp.Expr:
+def resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], memo: Memo | None = None) -> sp.Expr:
     """The smooth expression a non-smooth ``node`` takes where the switching functions have ``signs``.
 
     Parameters
@@ -404,7 +406,7 @@ def resolve(node: sp.Basic, switching: Sequence[sp.Expr], signs: Sequence[int], 
         The model's switching functions.
     signs : sequence of int
         The sign (+1 or -1) of each switching function on the branch.
-    memo : dict or None
+    memo : Memo or None
         Cache of factorizations shared between calls.
 
     Returns
