@@ -11,7 +11,7 @@ import obsnl
 
 from .conftest import ROOT
 
-DOCS_COMMAND = 'pip install -e ".[docs]" && python -m sphinx -W --keep-going -b html docs docs/_build/html'
+DOCS_COMMAND = 'pip install -e ".[docs]" && python -m sphinx -j auto -W --keep-going -b html docs docs/_build/html'
 
 
 def _rooms() -> list[str]:
