@@ -151,6 +151,8 @@ def analyze(
     >>> res.joint.unobservable
     ()
     """
+    if isinstance(model, (str, os.PathLike)):  # a path is accepted wherever a model is, as identify does
+        model = read_model(model)
     checked = check_analysis(
         model,
         method=method,
@@ -199,7 +201,7 @@ class CheckedAnalysis:
 
 
 def check_analysis(
-    model: Model | str | os.PathLike,
+    model: Model,
     *,
     method: str = "auto",
     seed: int | None = 0,
@@ -220,8 +222,8 @@ def check_analysis(
 
     Parameters
     ----------
-    model : Model, str or os.PathLike
-        The model, or its file (read with :func:`obsnl.read_model`).
+    model : Model
+        The model (a command reads its file first, once).
     method : str
         As for :func:`analyze`.
     seed : int or None
@@ -262,8 +264,6 @@ def check_analysis(
     >>> check_analysis(m).variables
     ('x', 'a')
     """
-    if isinstance(model, (str, os.PathLike)):  # a path is accepted wherever a model is, as identify does
-        model = read_model(model)
     k, variables = _check(
         model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives, option=option
     )
