@@ -10,7 +10,8 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Any
+from collections.abc import Sequence
+from typing import Any, Protocol
 
 from obsnl.report.sentences import bounds_text, probability_text
 
@@ -109,23 +110,26 @@ def _rows(search: Any) -> list[tuple[tuple[str, ...], str, list[str]]]:
     return rows
 
 
-def _ranking_rows(search: Any) -> list[dict[str, Any]]:
+class _Ranked(Protocol):
+    """What the renderings read of one ranked set (:class:`obsnl.design.ranking.RankedSet`)."""
+
+    @property
+    def sensors(self) -> Sequence[str]: ...
+    @property
+    def worst_relative_std(self) -> float: ...
+    @property
+    def worst(self) -> str: ...
+    @property
+    def log_det_fim(self) -> float: ...
+
+
+def _ranking_rows(search: Any) -> list[tuple[_Ranked, bool]]:
+    """The ranked sets of ``search``, best first, each with whether effective independence chose it."""
     ranking = getattr(search, "ranking", None)
     if ranking is None:
         return []
     efi = set(getattr(search, "effective_independence", ()) or ())
-    rows = []
-    for r in ranking.rows:
-        rows.append(
-            {
-                "sensors": r.sensors,
-                "worst_relative_std": r.worst_relative_std,
-                "worst": r.worst,
-                "log_det_fim": r.log_det_fim,
-                "efi": bool(efi) and set(r.sensors) == efi,
-            }
-        )
-    return rows
+    return [(r, bool(efi) and set(r.sensors) == efi) for r in ranking.rows]
 
 
 def _num(x: Any) -> str:
@@ -186,10 +190,9 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
         if ranked:
             lines.append("ranking along the record (Cramer-Rao bound, best first):")
             lines.extend(
-                f"  {_set(r['sensors'])}: worst relative std {_num(r['worst_relative_std'])} "
-                f"({r['worst']}), log det FIM {_num(r['log_det_fim'])}"
-                + ("  <- effective independence" if r["efi"] else "")
-                for r in ranked
+                f"  {_set(r.sensors)}: worst relative std {_num(r.worst_relative_std)} "
+                f"({r.worst}), log det FIM {_num(r.log_det_fim)}" + ("  <- effective independence" if chosen else "")
+                for r, chosen in ranked
             )
         if efi:
             lines.append(f"effective independence (linear modes) chooses {_set(efi)}")
@@ -212,9 +215,9 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
                 "|---:|---|---:|---|---:|---|",
             ]
             lines += [
-                f"| {i} | {_set(r['sensors'])} | {_num(r['worst_relative_std'])} | {r['worst']} | "
-                f"{_num(r['log_det_fim'])} | {'chosen' if r['efi'] else ''} |"
-                for i, r in enumerate(ranked, 1)
+                f"| {i} | {_set(r.sensors)} | {_num(r.worst_relative_std)} | {r.worst} | "
+                f"{_num(r.log_det_fim)} | {'chosen' if chosen else ''} |"
+                for i, (r, chosen) in enumerate(ranked, 1)
             ]
         if efi:
             lines += ["", f"Effective independence (linear modes) chooses {_set(efi)}."]
@@ -251,8 +254,8 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
                 r"\midrule",
             ]
             lines += [
-                f"{i} & {_tex_set(r['sensors'])} & {_num(r['worst_relative_std'])} & {_num(r['log_det_fim'])} \\\\"
-                for i, r in enumerate(ranked, 1)
+                f"{i} & {_tex_set(r.sensors)} & {_num(r.worst_relative_std)} & {_num(r.log_det_fim)} \\\\"
+                for i, (r, _) in enumerate(ranked, 1)
             ]
             lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
         return "\n".join(lines)
