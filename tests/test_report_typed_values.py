@@ -74,3 +74,15 @@ def test_no_set_is_marked_without_an_effective_independence_choice():
     assert "  {x, v}: worst relative std 0.0123 (k), log det FIM 12.3\n" in text
     assert "effective independence" not in text
     assert "| 1 | {x, v} | 0.0123 | k | 12.3 |  |" in render_sensors(plain, "md").splitlines()
+
+
+# ----------------------------------------------------------------------------- the validation figure's titles
+def test_the_validation_panels_are_titled_from_the_typed_scores():
+    from obsnl.identification.validation.merit import OutputScore
+    from obsnl.report.identification.validation import _title
+
+    # RMSE in 4 significant digits, fit % with 2 decimals; a constant measured output has no fit (None), an output
+    # without a score gets n/a for both
+    assert _title("y", OutputScore("y", 0.012345, 0.1, 90.0, -20.0)) == "y: RMSE 0.01235, fit 90.00 %"
+    assert _title("y", OutputScore("y", 2.0, None, None, 6.0)) == "y: RMSE 2, fit n/a %"
+    assert _title("y", None) == "y: RMSE n/a, fit n/a %"

@@ -173,6 +173,20 @@ def _longest_run(ok: np.ndarray) -> slice:
     return slice(int(starts[k]), int(ends[k])) if len(starts) else slice(0, 0)
 
 
+def _title(name: str, score: _Score | None) -> str:
+    """The head of an output's panels: its RMSE and fit % (``n/a`` for a figure undefined or an output not scored).
+
+    Examples
+    --------
+    >>> from types import SimpleNamespace as V
+    >>> _title("x", V(rmse=0.012345, nrmse=0.1, fit_percent=90.0, db=-20.0)), _title("x", None)
+    ('x: RMSE 0.01235, fit 90.00 %', 'x: RMSE n/a, fit n/a %')
+    """
+    if score is None:
+        return f"{name}: RMSE n/a, fit n/a %"
+    return f"{name}: RMSE {number(score.rmse)}, fit {_cell(score.fit_percent, '.2f')} %"
+
+
 def plot_validation(
     path: str | Path,
     *,
@@ -181,7 +195,7 @@ def plot_validation(
     simulated: np.ndarray,
     outputs: Sequence[str],
     warmup: int,
-    scores: Mapping[str, Any],
+    scores: Mapping[str, _Score],
 ) -> Path:
     """Per output: the overlay over the whole record, the zoomed window, the error and its spectrum.
 
@@ -197,8 +211,9 @@ def plot_validation(
         Output names.
     warmup : int
         Samples at the start that are not scored (shaded).
-    scores : mapping of str to Any
-        Each output's figures of merit (``rmse``, ``fit_percent``), for the titles.
+    scores : mapping of str to OutputScore
+        Each output's figures of merit (``Validation.outputs``: ``rmse``, ``fit_percent``), for the titles; an
+        output without one is titled ``n/a``.
 
     Returns
     -------
@@ -215,9 +230,7 @@ def plot_validation(
         e = y - s
         win = zoom_window(e, warmup)
         full, zoom, err, psd = axes[2 * j, 0], axes[2 * j, 1], axes[2 * j + 1, 0], axes[2 * j + 1, 1]
-        sc = scores.get(name)
-        fit = _cell(getattr(sc, "fit_percent", None), ".2f")
-        head = f"{name}: RMSE {number(getattr(sc, 'rmse', None))}, fit {fit} %"
+        head = _title(name, scores.get(name))
         for ax in (full, zoom):
             sl = slice(None) if ax is full else win
             ax.plot(t[sl], y[sl], lw=1.4, color="0.65", label="measured")
