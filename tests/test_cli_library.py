@@ -207,3 +207,18 @@ def test_the_guides_python_request_runs_what_the_command_runs(tmp_path, capsys):
         run_analyze(AnalyzeRequest(model="obsnl:coulomb_friction", record=missing))
     assert main(["analyze", "obsnl:coulomb_friction", "--record", str(missing)]) == 2
     assert capsys.readouterr().err == f"obsnl analyze: error: {cli_terms(str(info.value), _sub('analyze'))}\n"
+
+
+@pytest.mark.parametrize("command", ["analyze", "sensors", "design", "show", "branches", "symmetries", "reparametrize",
+                                     "identify"])
+@pytest.mark.parametrize("model", [3, None, {"name": "m"}])
+def test_a_model_of_the_wrong_kind_is_refused_in_one_line_from_python(command, model):
+    """``run_analyze(AnalyzeRequest(model=3))`` raised a TypeError from deep in the file reader (``open(3)`` would even
+    read file descriptor 3): every door now refuses what is neither a Model nor a path, naming the kinds it takes."""
+    import obsnl.commands as commands
+
+    request = getattr(commands, f"{command.capitalize()}Request")
+    extra = {"design": {"records": ["r.csv"]}, "identify": {"data": "d.csv"}}.get(command, {})
+    with pytest.raises(OptionError, match=r"a model is an obsnl Model, the path of a \.toml or \.json model file or "
+                                          r"obsnl:NAME; got (int|NoneType|dict)"):
+        getattr(commands, f"run_{command}")(request(model=model, **extra))

@@ -241,7 +241,7 @@ class IdentifyRequest:
     def __post_init__(self) -> None:
         from obsnl.identification.identify import IDENTIFY_FILES
         from obsnl.identification.structural import parse_assignments
-        from obsnl.model.files import read_model
+        from obsnl.model.files import as_model
 
         data, intersample = self.data, self.intersample or None  # the command line's empty list: not given
         if self.samples is not None and data:  # an option that would be ignored is refused, not dropped silently
@@ -276,7 +276,7 @@ class IdentifyRequest:
             from obsnl.report.files import check_folder
 
             check_folder(self.out, IDENTIFY_FILES + FIGURES, force=self.force)  # every file a run may write
-        model = read_model(self.model) if isinstance(self.model, (str, Path)) else self.model
+        model = as_model(self.model)  # a Model, or read from its file (anything else refused in one line)
         guesses = parse_assignments(
             list(_flat(self.guess)), [s.name for s in model.parameters], option="guess=", what="parameter"
         )

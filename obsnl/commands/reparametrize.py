@@ -70,7 +70,7 @@ class ReparametrizeRequest:
     resolved: _Resolved = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        from obsnl.model.files import read_model
+        from obsnl.model.files import as_model
         from obsnl.observability.limits import check_file_limits
         from obsnl.report.files import check_target
 
@@ -79,7 +79,7 @@ class ReparametrizeRequest:
             raise OptionError(f"names= takes OLD=NEW, got {quote(bad[0])}")
         if self.written is not None:  # refused before any work
             check_target(self.written, force=self.force)
-        model = read_model(self.model, check=check_file_limits) if isinstance(self.model, (str, Path)) else self.model
+        model = as_model(self.model, check=check_file_limits)  # a Model, or read from its file
         renamings = {old.strip(): new.strip() for old, new in (n.split("=") for n in names)}
         object.__setattr__(self, "resolved", _Resolved(model, renamings))
 

@@ -12,7 +12,8 @@ from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-from obsnl.errors import ParseError
+from obsnl._text import quote
+from obsnl.errors import OptionError, ParseError
 from obsnl.model.bounds.textsize import MAX_DIGITS
 from obsnl.model.core import Model
 
@@ -297,6 +298,9 @@ def read_model(path: str | os.PathLike[str], check: Callable[[dict[str, Any]], N
     ------
     ParseError, ModelError
         With the file name and the offending key or expression.
+    OptionError
+        ``path`` is neither text nor a path (a number, a dict: a model in Python is built with
+        :class:`~obsnl.model.core.Model`).
 
     Examples
     --------
@@ -304,6 +308,11 @@ def read_model(path: str | os.PathLike[str], check: Callable[[dict[str, Any]], N
     >>> obsnl.read_model("obsnl:coulomb_friction").states
     (x, v)
     """
+    if not isinstance(path, (str, os.PathLike)):  # open() would raise a TypeError, or read a file descriptor
+        raise OptionError(
+            f"a model is an obsnl Model, the path of a .toml or .json model file or obsnl:NAME; got "
+            f"{type(path).__name__} {quote(path, 40)}"
+        )
     if isinstance(path, str) and path.startswith(PACKAGED):
         path = catalogue_path(path[len(PACKAGED) :])
     data = read_model_file(path)
