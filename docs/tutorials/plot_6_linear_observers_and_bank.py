@@ -45,7 +45,7 @@ print(obsnl.hautus(A2, np.array([[1.0, 1.0, 0.0, 0.0]])).summary())
 # scenarios (a healthy link and a crack in each element, onset at 3 s) with thresholds calibrated on healthy runs of
 # other noise seeds. One evaluation seed here (``obsnl bank`` runs three: ``reports/bank/``).
 study = run_link_study(seeds=1)
-print(report.bank_table_markdown(study.to_dict()))
+print(report.bank_table_markdown(study))
 
 # %%
 # Before any simulation, the extended system's observability decides what the bank can estimate: one moment channel
