@@ -222,3 +222,42 @@ def test_a_model_of_the_wrong_kind_is_refused_in_one_line_from_python(command, m
     with pytest.raises(OptionError, match=r"a model is an obsnl Model, the path of a \.toml or \.json model file or "
                                           r"obsnl:NAME; got (int|NoneType|dict)"):
         getattr(commands, f"run_{command}")(request(model=model, **extra))
+
+
+@pytest.mark.parametrize("command, options, words", [
+    ("analyze", {"fmt": "xml"}, "unknown format 'xml'; formats are text, json, md, tex, json-table"),
+    ("sensors", {"fmt": "xml"}, "unknown format 'xml'; formats are text, json, md, tex"),  # a ValueError, after the work
+    ("design", {"records": ["r.csv"], "fmt": "json-table"}, "unknown format 'json-table'; formats are text, json, md"),
+    ("show", {"fmt": "xml"}, "unknown format 'xml'; formats are text, json"),  # rendered as text
+    ("branches", {"fmt": "md"}, "unknown format 'md'; formats are text, json"),
+    ("symmetries", {"fmt": "tex"}, "unknown format 'tex'; formats are text, json"),
+    ("analyze", {"record": 5}, "record= takes a file name (text or a path), got int 5"),  # open(5): a TypeError
+    ("analyze", {"output": 7}, "output= takes a file name (text or a path), got int 7"),
+    ("sensors", {"record": 2.5}, "record= takes a file name (text or a path), got float 2.5"),
+    ("design", {"records": ["r.csv", 4]}, "record= takes a file name (text or a path), got int 4"),
+    ("design", {"records": ["r.csv"], "figure": True}, "figure= takes a file name (text or a path), got bool True"),
+])
+def test_a_request_refuses_a_format_or_a_file_option_of_the_wrong_kind_before_the_model_is_read(
+        monkeypatch, command, options, words):
+    import obsnl.commands as commands
+    import obsnl.model.files as files
+
+    def tripwire(*a, **k):  # noqa: ANN002, ANN003
+        raise AssertionError("the model was read before the request was checked")
+
+    monkeypatch.setattr(files, "read_model", tripwire)
+    with pytest.raises(OptionError) as info:
+        getattr(commands, f"run_{command}")(getattr(commands, f"{command.capitalize()}Request")(
+            model=MODELS / "coulomb_friction.toml", **options))
+    assert str(info.value).startswith(words), str(info.value)
+
+
+def test_a_request_reads_text_as_the_command_line_reads_it(tmp_path):
+    """``branches="ab"`` is the label ab (it was the labels a and b: its characters), ``"a, b"`` two labels as
+    ``--branches a,b``; ``records="r.csv"`` is the one record (its characters were read as the files 'r', '.', ...)."""
+    from obsnl.commands import AnalyzeRequest, DesignRequest
+
+    assert AnalyzeRequest(model="m.toml", branches="a, b").branches == ["a", "b"]
+    assert AnalyzeRequest(model="m.toml", branches="ab").branches == ["ab"]
+    assert DesignRequest(model="m.toml", records="r.csv").records == ("r.csv",)
+    assert DesignRequest(model="m.toml", records=tmp_path / "r.csv").records == (tmp_path / "r.csv",)

@@ -15,8 +15,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from obsnl.commands.inputs import RECORD_OPTION, one_input_record
-from obsnl.report.printed import Printed, check_rendering_target, write_rendering
+from obsnl.commands.inputs import RECORD_OPTION, check_file_option, one_input_record
+from obsnl.report.printed import Printed, check_format, check_rendering_target, write_rendering
 
 if TYPE_CHECKING:
     from obsnl.model.core import Model
@@ -67,6 +67,17 @@ class AnalyzeRequest:
     unknown_input_derivatives: int | str | None = None
     output: str | Path | None = None
     force: bool = False
+
+    def __post_init__(self) -> None:
+        """Refuse, before the model is read, a format the command does not render and a file option of the wrong
+        kind; read labels given as text (``"a,b"``) as the command line reads them."""
+        from obsnl.report.tables import FORMATS
+
+        check_format(self.fmt, FORMATS)
+        check_file_option(self.record, RECORD_OPTION)
+        check_file_option(self.output, "output=")
+        if isinstance(self.branches, str):  # "ab" is one label, not the labels a and b
+            object.__setattr__(self, "branches", [b.strip() for b in self.branches.split(",") if b.strip()])
 
 
 @dataclass(frozen=True)

@@ -11,15 +11,16 @@ is inconclusive.
 from __future__ import annotations
 
 import dataclasses
+import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from obsnl._text import quote
-from obsnl.commands.inputs import RECORD_OPTION, one_input_record
+from obsnl.commands.inputs import RECORD_OPTION, check_file_option, one_input_record
 from obsnl.errors import OptionError
-from obsnl.report.printed import Printed, check_rendering_target, write_rendering
+from obsnl.report.printed import Printed, check_format, check_rendering_target, write_rendering
 
 if TYPE_CHECKING:
     from obsnl.design.experiment import ExperimentDesign
@@ -72,6 +73,19 @@ class DesignRequest:
     fmt: str = "text"
     output: str | Path | None = None
     force: bool = False
+
+    def __post_init__(self) -> None:
+        """Refuse, before any work, a format the command does not render and a file option of the wrong kind; one
+        record file given alone is the one record (not a sequence of its characters)."""
+        from obsnl.report.experiment import DESIGN_FORMATS
+
+        check_format(self.fmt, DESIGN_FORMATS)
+        if isinstance(self.records, (str, os.PathLike)):
+            object.__setattr__(self, "records", (self.records,))
+        for path in self.records:
+            check_file_option(path, RECORD_OPTION)
+        check_file_option(self.figure, "figure=")
+        check_file_option(self.output, "output=")
 
 
 @dataclass(frozen=True)

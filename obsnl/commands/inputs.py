@@ -1,21 +1,49 @@
-"""A record as a model's one known input, as the file commands (``analyze``, ``sensors``, ``design``) take it."""
+"""What the file commands (``analyze``, ``sensors``, ``design``) take: a file option of the right kind, and a record as
+a model's one known input."""
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from obsnl._text import quote
 from obsnl.errors import OptionError
 from obsnl.model.core import Model
 
 if TYPE_CHECKING:
     from obsnl.estimation.accelerogram import Record
 
-__all__ = ["RECORD_OPTION", "one_input_record"]
+__all__ = ["RECORD_OPTION", "check_file_option", "one_input_record"]
 
 #: How the file commands name their record option in messages: as the Python keyword, which the command line prints
 #: as its flag (``--record``).
 RECORD_OPTION = "record="
+
+
+def check_file_option(value: object, option: str) -> None:
+    """Refuse, when a request is made, a file option that is neither None, text nor a path (``record=5`` from Python
+    reached ``open(5)``, which raised a TypeError or read a file descriptor).
+
+    Parameters
+    ----------
+    value : object
+        The option's value.
+    option : str
+        Its name in messages (``"record="``: the command line prints its flag).
+
+    Raises
+    ------
+    OptionError
+        A value of another kind.
+
+    Examples
+    --------
+    >>> check_file_option("rec.csv", "record=") is None
+    True
+    """
+    if value is not None and (not isinstance(value, (str, os.PathLike)) or isinstance(value, bool)):
+        raise OptionError(f"{option} takes a file name (text or a path), got {type(value).__name__} {quote(value, 40)}")
 
 
 def one_input_record(model: Model, path: str | Path, *, option: str = "a record") -> Record:

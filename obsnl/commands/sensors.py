@@ -16,9 +16,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from obsnl._text import quote
-from obsnl.commands.inputs import RECORD_OPTION, one_input_record
+from obsnl.commands.inputs import RECORD_OPTION, check_file_option, one_input_record
 from obsnl.errors import OptionError
-from obsnl.report.printed import Printed, check_rendering_target, write_rendering
+from obsnl.report.printed import Printed, check_format, check_rendering_target, write_rendering
 
 if TYPE_CHECKING:
     from obsnl.design.sensor_search import SensorSearch
@@ -75,6 +75,14 @@ class SensorsRequest:
     fmt: str = "text"
     output: str | Path | None = None
     force: bool = False
+
+    def __post_init__(self) -> None:
+        """Refuse, before any work, a format the command does not render and a file option of the wrong kind."""
+        from obsnl.report.sensors import FORMATS
+
+        check_format(self.fmt, FORMATS)
+        check_file_option(self.record, RECORD_OPTION)
+        check_file_option(self.output, "output=")
 
 
 @dataclass(frozen=True)

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from obsnl.report.printed import Printed
+from obsnl.report.printed import STRUCTURE_FORMATS, Printed, check_format
 
 if TYPE_CHECKING:
     from obsnl.model.core import Model
@@ -36,6 +36,7 @@ class ShowRequest:
     resolved: Model = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        check_format(self.fmt, STRUCTURE_FORMATS)  # before the model is read
         from obsnl.model.files import as_model
 
         object.__setattr__(self, "resolved", as_model(self.model))

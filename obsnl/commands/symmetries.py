@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from obsnl.report.printed import Printed
+from obsnl.report.printed import STRUCTURE_FORMATS, Printed, check_format
 
 if TYPE_CHECKING:
     from obsnl.model.branching.branches import Branch
@@ -43,6 +43,7 @@ class SymmetriesRequest:
     resolved: Model = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        check_format(self.fmt, STRUCTURE_FORMATS)  # before the model is read
         from obsnl.model.files import as_model
         from obsnl.observability.limits import check_file_limits
 

@@ -12,7 +12,15 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-__all__ = ["Printed", "printed", "check_rendering_target", "write_rendering", "written_line"]
+__all__ = [
+    "Printed",
+    "printed",
+    "STRUCTURE_FORMATS",
+    "check_format",
+    "check_rendering_target",
+    "write_rendering",
+    "written_line",
+]
 
 
 class Printed(NamedTuple):
@@ -51,6 +59,37 @@ def printed(
     """
     written = write_rendering(text, output, force=force)
     return Printed(text if written is None else None, undecided)
+
+
+#: The formats of the renderings of a model's structure (``obsnl show``, ``branches``, ``symmetries``).
+STRUCTURE_FORMATS = ("text", "json")
+
+
+def check_format(fmt: object, formats: Sequence[str]) -> None:
+    """Refuse, before any work, a format the command does not render.
+
+    Parameters
+    ----------
+    fmt : object
+        The format asked for.
+    formats : sequence of str
+        The command's formats.
+
+    Raises
+    ------
+    OptionError
+        ``fmt`` is not one of them.
+
+    Examples
+    --------
+    >>> check_format("md", ("text", "md")) is None
+    True
+    """
+    if fmt not in formats:
+        from obsnl._text import quote
+        from obsnl.errors import OptionError
+
+        raise OptionError(f"unknown format {quote(fmt, 30)}; formats are {', '.join(formats)}")
 
 
 def check_rendering_target(output: str | Path | None, *, force: bool = False) -> None:

@@ -13,6 +13,7 @@ import math
 from collections.abc import Sequence
 from typing import Any, Protocol
 
+from obsnl.errors import OptionError
 from obsnl.report.sentences import bounds_text, probability_text
 
 __all__ = ["render_sensors", "undecided_line"]
@@ -259,7 +260,7 @@ def render_sensors(search: Any, fmt: str = "text") -> str:
             ]
             lines += [r"\bottomrule", r"\end{tabular}", r"\end{table}"]
         return "\n".join(lines)
-    raise ValueError(f"unknown format {fmt!r}; choose one of {', '.join(FORMATS)}")
+    raise OptionError(f"unknown format {fmt!r}; formats are {', '.join(FORMATS)}")
 
 
 def undecided_line(search: Any) -> str | None:
