@@ -11,7 +11,13 @@ import pytest
 import obsnl
 from obsnl.identification.engineering import figure_files, restoring_force
 from obsnl.identification.identify import write_identification
-from obsnl.report.identification.diagnostics import correlation_bounds, h1_estimate, model_frf
+from obsnl.report.identification.diagnostics import (
+    HysteresisLoop,
+    NoHysteresisLoop,
+    correlation_bounds,
+    h1_estimate,
+    model_frf,
+)
 
 from .conftest import ROOT
 from .radau_data import SDOF_TRUE, noisy, sdof_force
@@ -40,18 +46,34 @@ def test_the_folder_holds_the_residual_frf_and_hysteresis_figures(bouc_wen, tmp_
 def test_the_measured_and_model_restoring_force_follow_the_true_one(bouc_wen):
     res, X, F = bouc_wen
     loop = restoring_force(res)
-    assert not isinstance(loop, str), loop
+    assert isinstance(loop, HysteresisLoop), loop
     p = SDOF_TRUE
     true = p["c"] * X[:, 1] + p["k"] * X[:, 0] + p["kh"] * X[:, 2]  # F - m x'' along the Radau solution
     rms = np.sqrt(np.mean(true ** 2))
     inner = slice(20, -20)  # the Savitzky-Golay ends are extrapolated
-    measured = loop["force"]["measured"][inner] - true[inner]
-    model = loop["force"]["model"][inner] - true[inner]
+    measured = loop.force_measured[inner] - true[inner]
+    model = loop.force_model[inner] - true[inner]
     # measured: the 1 % noise of F and x passed through F - m x'' (a second derivative): within 10 % RMS;
     # the model at the estimate: within 3 %
     assert np.sqrt(np.mean(measured ** 2)) < 0.10 * rms
     assert np.sqrt(np.mean(model ** 2)) < 0.03 * rms
-    assert "Savitzky-Golay" in loop["note"]
+    assert "Savitzky-Golay" in loop.note
+    # the displacement drawn: the measured x (1 % RMS noise, seeded: within 5 % of the RMS at every sample), and the
+    # model's x along its simulation at the estimate (within 5 % RMS of the Radau solution)
+    x_rms = np.sqrt(np.mean(X[:, 0] ** 2))
+    assert loop.displacement_measured == pytest.approx(X[:, 0], abs=0.05 * x_rms)
+    assert np.sqrt(np.mean((loop.displacement_model - X[:, 0]) ** 2)) < 0.05 * x_rms
+
+
+def test_a_run_without_a_loop_says_why_and_the_figure_says_it(tmp_path):
+    from types import SimpleNamespace
+
+    from obsnl.report.identification.diagnostics import plot_hysteresis
+
+    loop = restoring_force(SimpleNamespace(linear_at_rest=None, u_measured=None))
+    assert loop == NoHysteresisLoop("the model does not linearise at rest, or the run kept no inputs")
+    assert loop.note == "no loop drawn: the model does not linearise at rest, or the run kept no inputs"
+    assert plot_hysteresis(tmp_path / "h.png", loop).stat().st_size > 1000
 
 
 def test_the_frf_and_the_h1_estimate_agree_with_their_formulas():

@@ -21,6 +21,7 @@ import numpy as np
 
 from obsnl.errors import ObsnlError
 from obsnl.identification.validation.job import HYSTERETIC_STATE
+from obsnl.report.identification.diagnostics import HysteresisLoop, NoHysteresisLoop
 
 __all__ = ["figure_files", "write_figures", "restoring_force", "FIGURES"]
 
@@ -80,18 +81,7 @@ def write_figures(result: Any, folder: Any, files: Sequence[str]) -> None:
             outputs=result.outputs,
         )
     if "hysteresis.png" in files:
-        loop = restoring_force(result)
-        if isinstance(loop, str):
-            plot_hysteresis(
-                folder.path("hysteresis.png"),
-                displacement={},
-                force={},
-                xlabel="displacement",
-                ylabel="restoring force",
-                note=f"no loop drawn: {loop}",
-            )
-        else:
-            plot_hysteresis(folder.path("hysteresis.png"), **loop)
+        plot_hysteresis(folder.path("hysteresis.png"), restoring_force(result))
 
 
 def _derivative_state(A: np.ndarray, B: np.ndarray, d: int) -> int | None:
@@ -103,9 +93,9 @@ def _derivative_state(A: np.ndarray, B: np.ndarray, d: int) -> int | None:
     return None
 
 
-def restoring_force(result: Any) -> dict[str, Any] | str:
-    """The hysteresis loop's arrays (module docstring): ``displacement`` and ``force``, each ``{"measured": ...,
-    "model": ...}``, the axes' labels and the note on how they were made; or why there is none (a sentence).
+def restoring_force(result: Any) -> HysteresisLoop | NoHysteresisLoop:
+    """The hysteresis loop (module docstring): the measured and the model's displacement and restoring force, the
+    axes' labels and the note on how they were made; or why there is none.
 
     Parameters
     ----------
@@ -114,7 +104,9 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
 
     Returns
     -------
-    dict or str
+    HysteresisLoop or NoHysteresisLoop
+        The loop; or, where the model is not of the form the module docstring states (or its simulation fails),
+        the reason in a sentence.
     """
     from scipy.signal import savgol_filter, welch
 
@@ -123,10 +115,10 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
 
     lin = result.linear_at_rest
     if lin is None or result.u_measured is None:
-        return "the model does not linearise at rest, or the run kept no inputs"
+        return NoHysteresisLoop("the model does not linearise at rest, or the run kept no inputs")
     u = np.asarray(result.u_measured, float).reshape(len(result.t), -1)
     if u.shape[1] != 1:
-        return f"the loop reads the restoring force from one input; the model has {u.shape[1]}"
+        return NoHysteresisLoop(f"the loop reads the restoring force from one input; the model has {u.shape[1]}")
     states = list(lin.states)
     found = None
     for j, _out in enumerate(result.outputs):  # an output that is a displacement state, whose derivative is a state
@@ -137,7 +129,9 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
                 found = (j, int(hits[0]), v)
                 break
     if found is None:
-        return "no measured output is a displacement state whose derivative is a velocity state driven by the input"
+        return NoHysteresisLoop(
+            "no measured output is a displacement state whose derivative is a velocity state driven by the input"
+        )
     j, d, v = found
     b = float(lin.B[v, 0])
     num = to_casadi(result.fitted_model)
@@ -147,11 +141,15 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
     for _ in range(2):
         _, Bk, _, _, _ = linearise(num, theta, rng.standard_normal(num.nx))
         if not math.isclose(float(Bk[v, 0]), b, rel_tol=1e-9, abs_tol=1e-12):
-            return f"the gain of the input on {states[v]}' depends on the state: no restoring force to read"
+            return NoHysteresisLoop(
+                f"the gain of the input on {states[v]}' depends on the state: no restoring force to read"
+            )
     dt = float(result.t[1] - result.t[0])
     y = np.asarray(result.y_measured[:, j], float)
     if np.any(np.isnan(y)):
-        return f"the measured {result.outputs[j]} has gaps: its second derivative is not read across them"
+        return NoHysteresisLoop(
+            f"the measured {result.outputs[j]} has gaps: its second derivative is not read across them"
+        )
     f, p = welch(y - y.mean(), fs=1 / dt, nperseg=min(len(y), 1024))
     peak = float(f[1:][np.argmax(p[1:])]) if len(f) > 1 else 0.0
     window = round(1 / (4 * peak * dt)) if peak > 0 else 5
@@ -167,15 +165,17 @@ def restoring_force(result: Any) -> dict[str, Any] | str:
             }
         )
     except ObsnlError as exc:  # the figure says why, the run's files are still written
-        return f"the model at the estimate could not be simulated from rest: {exc}"
+        return NoHysteresisLoop(f"the model at the estimate could not be simulated from rest: {exc}")
     x = np.asarray(sim.x, float)
     fv = np.array([float(np.asarray(num.f(x[k], theta, u[k]), float).ravel()[v]) for k in range(len(x))])
     name = result.inputs[0]
-    return {
-        "displacement": {"measured": y, "model": x[:, d]},
-        "force": {"measured": u[:, 0] - acc / b, "model": u[:, 0] - fv / b},
-        "xlabel": f"displacement {states[d]} (measured as {result.outputs[j]})",
-        "ylabel": f"restoring force, in the units of {name}: {name} - {states[v]}' / b",
-        "note": f"b = d{states[v]}'/d{name} = {b:.4g} at the estimate; measured {states[v]}': the second "
+    return HysteresisLoop(
+        displacement_measured=y,
+        force_measured=u[:, 0] - acc / b,
+        displacement_model=x[:, d],
+        force_model=u[:, 0] - fv / b,
+        xlabel=f"displacement {states[d]} (measured as {result.outputs[j]})",
+        ylabel=f"restoring force, in the units of {name}: {name} - {states[v]}' / b",
+        note=f"b = d{states[v]}'/d{name} = {b:.4g} at the estimate; measured {states[v]}': the second "
         f"derivative of {result.outputs[j]} (Savitzky-Golay, cubic, {window} samples)",
-    }
+    )

@@ -16,7 +16,8 @@ zoomed window around the largest residual (:func:`~obsnl.report.identification.v
   ``H1 = P_uy / P_uu`` (Welch's averaged cross- and auto-spectra, scipy.signal.csd and welch; Bendat and Piersol,
   "Random Data", 2010, sec. 9.1), and the coherence, which says where the estimate can be trusted.
 - ``hysteresis.png`` (:func:`plot_hysteresis`): the restoring force against the displacement, measured against
-  the model (the arrays are made by the caller, who knows the model).
+  the model (a :class:`HysteresisLoop`, made by the caller, who knows the model; or a :class:`NoHysteresisLoop`,
+  which says why there is none).
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from __future__ import annotations
 import textwrap
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +35,8 @@ from obsnl.report.figures import _plt, _save
 from obsnl.report.identification.validation import _longest_run, zoom_window
 
 __all__ = [
+    "HysteresisLoop",
+    "NoHysteresisLoop",
     "plot_fit_record",
     "plot_residuals",
     "plot_frf",
@@ -431,27 +435,59 @@ def plot_frf(
         return _save(plt, fig, path)
 
 
-def plot_hysteresis(
-    path: str | Path,
-    *,
-    displacement: Mapping[str, np.ndarray],
-    force: Mapping[str, np.ndarray],
-    xlabel: str,
-    ylabel: str,
-    note: str = "",
-) -> Path:
+@dataclass(frozen=True, eq=False)
+class HysteresisLoop:
+    """A hysteresis loop to draw: the restoring force against the displacement, measured and the model's.
+
+    Attributes
+    ----------
+    displacement_measured, force_measured
+        The measured loop (samples of the record).
+    displacement_model, force_model
+        The model's loop at the estimate (its simulation).
+    xlabel, ylabel
+        The axes' labels (what the displacement is, in which units the force is).
+    note
+        How the loop was made (a line under the figure).
+    """
+
+    displacement_measured: np.ndarray
+    force_measured: np.ndarray
+    displacement_model: np.ndarray
+    force_model: np.ndarray
+    xlabel: str
+    ylabel: str
+    note: str
+
+
+@dataclass(frozen=True)
+class NoHysteresisLoop:
+    """No hysteresis loop for a run, and why (``reason``, a sentence the figure shows in place of the loop).
+
+    Examples
+    --------
+    >>> NoHysteresisLoop("the model does not linearise at rest").note
+    'no loop drawn: the model does not linearise at rest'
+    """
+
+    reason: str
+
+    @property
+    def note(self) -> str:
+        """What the figure says in place of the loop."""
+        return f"no loop drawn: {self.reason}"
+
+
+def plot_hysteresis(path: str | Path, loop: HysteresisLoop | NoHysteresisLoop) -> Path:
     """The hysteresis loop: the restoring force against the displacement, measured and the model's.
 
     Parameters
     ----------
     path : str or Path
         The PNG file to write.
-    displacement, force : mapping of str to numpy.ndarray
-        ``"measured"`` and ``"model"`` series (either may be missing).
-    xlabel, ylabel : str
-        The axes' labels.
-    note : str
-        How the measured loop was made (a line under the title).
+    loop : HysteresisLoop or NoHysteresisLoop
+        The loop, with its axes' labels and how it was made (a line under the title); or why there is none (said in
+        the middle of an empty frame).
 
     Returns
     -------
@@ -460,17 +496,18 @@ def plot_hysteresis(
     plt = _plt()
     with _style(plt):
         fig, ax = plt.subplots(1, 1, figsize=(6.5, 5.5))
-        if "measured" in displacement:
-            ax.plot(displacement["measured"], force["measured"], lw=1.2, color=MEASURED, label="measured")
-        if "model" in displacement:
-            ax.plot(displacement["model"], force["model"], color=MODEL, lw=0.7, label="model at the estimate")
-        ax.set_xlabel(xlabel)
-        ax.set_ylabel(ylabel)
-        ax.set_title("hysteresis loop: restoring force against displacement")
-        if displacement:
+        note = loop.note
+        if isinstance(loop, HysteresisLoop):
+            ax.plot(loop.displacement_measured, loop.force_measured, lw=1.2, color=MEASURED, label="measured")
+            ax.plot(loop.displacement_model, loop.force_model, color=MODEL, lw=0.7, label="model at the estimate")
+            ax.set_xlabel(loop.xlabel)
+            ax.set_ylabel(loop.ylabel)
             ax.legend(loc="upper left")
         else:  # said in the middle, not a blank frame
+            ax.set_xlabel("displacement")
+            ax.set_ylabel("restoring force")
             ax.text(0.5, 0.5, textwrap.fill(note, 60), ha="center", va="center", fontsize=8, transform=ax.transAxes)
+        ax.set_title("hysteresis loop: restoring force against displacement")
         lines = textwrap.wrap(note, 100)
         fig.text(0.5, 0.01, "\n".join(lines), ha="center", va="bottom", fontsize=7)
         fig.tight_layout(rect=(0, 0.03 * len(lines), 1, 1))
