@@ -254,10 +254,39 @@ def test_a_request_refuses_a_format_or_a_file_option_of_the_wrong_kind_before_th
 
 def test_a_request_reads_text_as_the_command_line_reads_it(tmp_path):
     """``branches="ab"`` is the label ab (it was the labels a and b: its characters), ``"a, b"`` two labels as
-    ``--branches a,b``; ``records="r.csv"`` is the one record (its characters were read as the files 'r', '.', ...)."""
-    from obsnl.commands import AnalyzeRequest, DesignRequest
+    ``--branches a,b``; ``records="r.csv"`` is the one record (its characters were read as the files 'r', '.', ...),
+    ``models="m.toml"`` the one model."""
+    from obsnl.commands import AnalyzeRequest, DesignRequest, ReportRequest
 
     assert AnalyzeRequest(model="m.toml", branches="a, b").branches == ["a", "b"]
     assert AnalyzeRequest(model="m.toml", branches="ab").branches == ["ab"]
     assert DesignRequest(model="m.toml", records="r.csv").records == ("r.csv",)
     assert DesignRequest(model="m.toml", records=tmp_path / "r.csv").records == (tmp_path / "r.csv",)
+    assert ReportRequest(models="m.toml", out="o").models == ("m.toml",)  # its characters were read as model files
+
+
+@pytest.mark.parametrize("request_, words", [
+    (lambda c: c.ValidateRequest(model="m.toml", params="p.json", data="d.csv", out=3), "out= takes a folder name"),
+    (lambda c: c.ValidateRequest(model="m.toml", params="p.json", data=2.0, out="o"), "data= takes a file name"),
+    (lambda c: c.ReportRequest(models=["m.toml"], out=4), "out= takes a folder name"),
+    (lambda c: c.ReportRequest(models=["m.toml", 5], out="o"), "models= takes a file name"),
+    (lambda c: c.IdentifyRequest(model="m.toml", data="d.csv", out=3), "out= takes a folder name"),
+    (lambda c: c.IdentifyRequest(model="m.toml", record=3), "record= takes a file name"),  # an AttributeError deep in
+    (lambda c: c.ReproduceRequest(out=3), "out= takes a folder name"),
+    (lambda c: c.ReproduceRequest(record=3, out="o"), "record= takes a file name"),
+    (lambda c: c.BankRequest(out=3), "out= takes a folder name"),
+    (lambda c: c.ReparametrizeRequest(model="m.toml", output=3), "output= takes a file name"),
+], ids=["validate-out", "validate-data", "report-out", "report-models", "identify-out", "identify-record",
+        "reproduce-out", "reproduce-record", "bank-out", "reparametrize-output"])
+def test_every_request_refuses_a_file_or_folder_option_of_the_wrong_kind_when_made(monkeypatch, request_, words):
+    """Each of these reached ``open()`` or ``Path()`` with a number (a TypeError, or file descriptor 3 read): refused
+    when the request is made, before any file is read."""
+    import obsnl.commands as commands
+    import obsnl.model.files as files
+
+    def tripwire(*a, **k):  # noqa: ANN002, ANN003
+        raise AssertionError("a model was read before the request was checked")
+
+    monkeypatch.setattr(files, "read_model", tripwire)
+    with pytest.raises(OptionError, match=words + r" \(text or a path\), got (int|float)"):
+        request_(commands)

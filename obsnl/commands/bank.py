@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from obsnl.commands.inputs import check_file_option
 from obsnl.report.printed import Printed
 
 if TYPE_CHECKING:
@@ -54,6 +55,8 @@ class BankRequest:
         from obsnl.studies.link_model import read_link_spec
         from obsnl.studies.link_study import check_bank_settings
 
+        check_file_option(self.out, "out=", what="folder")
+        check_file_option(self.model, "model=")
         spec = read_link_spec(self.model)  # the model file and its [bank] table are checked before any work
         scenarios = ["healthy"] + [f"crack{c}" for c in check_bank_settings(spec)["crack_elements"]]
         check_bank_output(self.out, scenarios, force=self.force)

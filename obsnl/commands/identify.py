@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, overload
 
+from obsnl.commands.inputs import check_file_option
 from obsnl.errors import OptionError
 from obsnl.report.printed import Printed, written_line
 
@@ -244,6 +245,8 @@ class IdentifyRequest:
         from obsnl.model.files import as_model
 
         data, intersample = self.data, self.intersample or None  # the command line's empty list: not given
+        check_file_option(self.record, "record=")
+        check_file_option(self.out, "out=", what="folder")
         if self.samples is not None and data:  # an option that would be ignored is refused, not dropped silently
             raise OptionError("samples= applies to a record= study; cut the data file instead")
         if intersample is not None and not data:

@@ -9,10 +9,10 @@ from typing import TYPE_CHECKING
 
 from obsnl._text import quote
 from obsnl.errors import OptionError
-from obsnl.model.core import Model
 
 if TYPE_CHECKING:
     from obsnl.estimation.accelerogram import Record
+    from obsnl.model.core import Model
 
 __all__ = ["RECORD_OPTION", "check_file_option", "one_input_record"]
 
@@ -21,7 +21,7 @@ __all__ = ["RECORD_OPTION", "check_file_option", "one_input_record"]
 RECORD_OPTION = "record="
 
 
-def check_file_option(value: object, option: str) -> None:
+def check_file_option(value: object, option: str, *, what: str = "file") -> None:
     """Refuse, when a request is made, a file option that is neither None, text nor a path (``record=5`` from Python
     reached ``open(5)``, which raised a TypeError or read a file descriptor).
 
@@ -31,6 +31,8 @@ def check_file_option(value: object, option: str) -> None:
         The option's value.
     option : str
         Its name in messages (``"record="``: the command line prints its flag).
+    what : str
+        What it names: ``"file"`` or ``"folder"``.
 
     Raises
     ------
@@ -43,7 +45,9 @@ def check_file_option(value: object, option: str) -> None:
     True
     """
     if value is not None and (not isinstance(value, (str, os.PathLike)) or isinstance(value, bool)):
-        raise OptionError(f"{option} takes a file name (text or a path), got {type(value).__name__} {quote(value, 40)}")
+        raise OptionError(
+            f"{option} takes a {what} name (text or a path), got {type(value).__name__} {quote(value, 40)}"
+        )
 
 
 def one_input_record(model: Model, path: str | Path, *, option: str = "a record") -> Record:

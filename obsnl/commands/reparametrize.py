@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from obsnl._text import quote
+from obsnl.commands.inputs import check_file_option
 from obsnl.errors import OptionError
 from obsnl.report.printed import Printed
 
@@ -74,6 +75,7 @@ class ReparametrizeRequest:
         from obsnl.observability.limits import check_file_limits
         from obsnl.report.files import check_target
 
+        check_file_option(self.output, "output=")
         names = list(self.names)
         if bad := [n for n in names if not isinstance(n, str) or n.count("=") != 1 or not all(n.split("="))]:
             raise OptionError(f"names= takes OLD=NEW, got {quote(bad[0])}")

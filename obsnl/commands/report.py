@@ -8,11 +8,13 @@ the line that names the first inconclusive branch with its model's name.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from obsnl.commands.inputs import check_file_option
 from obsnl.report.printed import Printed
 
 if TYPE_CHECKING:
@@ -51,6 +53,15 @@ class ReportRequest:
     max_seconds: float | None = None
     force: bool = False
     executor: Executor | None = None
+
+    def __post_init__(self) -> None:
+        """One model file given alone is the one model (its characters were read as files); refuse, before any work, a
+        model or a folder that is not a file name."""
+        if isinstance(self.models, (str, os.PathLike)):
+            object.__setattr__(self, "models", (self.models,))
+        for path in self.models:
+            check_file_option(path, "models=")
+        check_file_option(self.out, "out=", what="folder")
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from obsnl.commands.inputs import check_file_option
 from obsnl.report.printed import Printed, written_line
 
 if TYPE_CHECKING:
@@ -105,6 +106,9 @@ class ReproduceRequest:
         from obsnl.report.files import check_folder
         from obsnl.studies import seed_paper, seed_reproduction
         from obsnl.studies.seed_experiment import seed_record
+
+        check_file_option(self.out, "out=", what="folder")
+        check_file_option(self.record, "record=")
 
         given = {
             "seeds": self.seeds,

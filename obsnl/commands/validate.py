@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from obsnl.commands.inputs import check_file_option
 from obsnl.report.printed import Printed, written_line
 
 if TYPE_CHECKING:
@@ -51,6 +52,12 @@ class ValidateRequest:
     warmup: int = 0
     intersample: Sequence[str] | str | None = None
     force: bool = False
+
+    def __post_init__(self) -> None:
+        """Refuse, before any work, a test record or a folder that is not a file name (``out=3`` reached
+        ``open``)."""
+        check_file_option(self.data, "data=")
+        check_file_option(self.out, "out=", what="folder")
 
 
 @dataclass(frozen=True)
