@@ -95,6 +95,8 @@ class _Gate(Protocol):
     def element(self) -> int: ...
     @property
     def check(self) -> ExtendedObservability: ...
+    @property
+    def condition(self) -> float | None: ...
 
 
 class BankStudy(Protocol):
@@ -148,7 +150,7 @@ def _gate_row(g: _Gate) -> str:
     channel or it is infinite (a singular gain)."""
     chk = g.check
     sv = ", ".join(f"{x:.2e}" for x in chk.channels[0].singular_values)
-    cond = _stored(max(c.condition for c in chk.channels)) if chk.channels else None
+    cond = _stored(g.condition)
     return (
         f"| {g.sensors} | {'+'.join(g.channels)} | {g.element} | {chk.n_outputs} | "
         f"{chk.n_channels} | {chk.verdict.value} | {sv} | {_bank_num(cond, '.3g')} | "

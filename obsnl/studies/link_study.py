@@ -92,8 +92,13 @@ class GateCheck:
     element: int
     check: ExtendedObservability
 
+    @property
+    def condition(self) -> float | None:
+        """The largest static-gain condition number over the channels (None without a channel; infinite for a
+        singular gain)."""
+        return max(c.condition for c in self.check.channels) if self.check.channels else None
+
     def to_dict(self) -> dict:
-        ch = [c.condition for c in self.check.channels]
         return {
             "sensors": self.sensors,
             "channels": list(self.channels),
@@ -103,7 +108,7 @@ class GateCheck:
             "n_outputs": self.check.n_outputs,
             "n_channels": self.check.n_channels,
             "static_gain_singular_values": list(self.check.channels[0].singular_values),
-            "condition": _f(max(ch)) if ch else None,
+            "condition": None if self.condition is None else _f(self.condition),
         }
 
 
