@@ -42,8 +42,9 @@ data_file = {data_file}
 """
 
 
-def _suite(pytest_args: list[str], json_path: Path) -> tuple[int, float, str]:
-    """Run the suite under coverage; its exit code, wall time in seconds and pytest's summary line."""
+def _suite(pytest_args: list[str], json_path: Path) -> tuple[int, float, str, list[str]]:
+    """Run the suite under coverage; its exit code, wall time in seconds, pytest's summary line and the tests that
+    failed."""
     with tempfile.TemporaryDirectory() as tmp:
         rc = Path(tmp) / "coveragerc"
         rc.write_text(COVERAGE_RC.format(data_file=Path(tmp) / ".coverage"), encoding="utf-8")
@@ -70,7 +71,8 @@ def _suite(pytest_args: list[str], json_path: Path) -> tuple[int, float, str]:
                 out.append(line.rstrip("\n"))
         took = time.perf_counter() - t0
     lines = [ln for ln in out if ln.startswith("=") and any(w in ln for w in (" passed", " failed", " error"))]
-    return proc.returncode, took, lines[-1].strip("= ") if lines else "(no summary line)"
+    failed = [ln.split()[1] for ln in out if ln.startswith(("FAILED ", "ERROR ")) and len(ln.split()) > 1]
+    return proc.returncode, took, lines[-1].strip("= ") if lines else "(no summary line)", failed
 
 
 def _group(path: str) -> str:
@@ -89,7 +91,9 @@ def _row(path: str, s: dict) -> str:
     return f"| `{path}` | {s['num_statements']} | {s['missing_lines']} | {pct:.1f} % |"
 
 
-def render(data: dict, *, took: float, summary: str, code: int, pytest_args: list[str]) -> str:
+def render(
+    data: dict, *, took: float, summary: str, code: int, pytest_args: list[str], failed: list[str] | None = None
+) -> str:
     """The Markdown report of a coverage JSON report (coverage.py's ``json`` format)."""
     files = {p: f["summary"] for p, f in data["files"].items()}
     tot = data["totals"]
@@ -116,6 +120,17 @@ def render(data: dict, *, took: float, summary: str, code: int, pytest_args: lis
         "",
         f"The run: {summary} ({took / 60:.1f} min of wall time with the coverage reports; 2 worker processes on a "
         f"machine of 2 cores shared with other jobs){'' if code == 0 else f'; pytest exited with code {code}'}.",
+        *(
+            [
+                "",
+                "Failed in this run (under coverage: a test that fails here and passes without coverage measures "
+                "something coverage changes, such as the modules a fresh interpreter imports): "
+                + ", ".join(f"`{t}`" for t in failed)
+                + ".",
+            ]
+            if failed
+            else []
+        ),
         "",
         "## Total",
         "",
@@ -165,13 +180,13 @@ def main() -> None:
     args = ap.parse_args(own)
     with tempfile.TemporaryDirectory() as tmp:
         json_path = Path(tmp) / "coverage.json"
-        code, took, summary = _suite(extra, json_path)
+        code, took, summary, failed = _suite(extra, json_path)
         if not json_path.exists() or " passed" not in summary:
             sys.exit(
                 f"coverage.py: error: the suite did not run (pytest exit code {code}: {summary}); no report written"
             )
         data = json.loads(json_path.read_text(encoding="utf-8"))
-    text = render(data, took=took, summary=summary, code=code, pytest_args=extra)
+    text = render(data, took=took, summary=summary, code=code, pytest_args=extra, failed=failed)
     Path(args.out).write_text(text, encoding="utf-8")
     print(f"wrote {args.out}: total {data['totals']['percent_covered']:.1f} %")
 
