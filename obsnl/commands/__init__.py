@@ -1,7 +1,8 @@
 """commands: one door per command, the library run as one command asks.
 
-One module per command of ``obsnl``. Each holds a frozen request value (``IdentifyRequest`` in ``identify``...)
-that checks every option and resolves its inputs once, when it is made (an output folder that cannot take the
+One module per command of ``obsnl``, and ``inputs``: the kinds of file option every request checks and a record as
+a model's one known input, which the file commands share. Each command's module holds a frozen request value
+(``IdentifyRequest`` in ``identify``...) that checks every option and resolves its inputs once, when it is made (an output folder that cannot take the
 files, an option that would be ignored and a Dask scheduler that does not answer are refused before the model is
 read; the model is read once), a ``run_<command>(request)`` that calls the library and returns a typed result,
 and a ``<command>_printed(result)`` that is what the command line prints of it
