@@ -91,3 +91,41 @@ def test_data_columns_of_the_wrong_kind_are_refused(column, words):
     with pytest.raises(DataError) as info:
         obsnl.identify(MSD, cols, progress=False)
     assert words in str(info.value) and "\n" not in str(info.value)
+
+
+# ----------------------------------------------------------------------------- the rest of the flat API
+FRICTION = "obsnl:coulomb_friction"
+
+
+@pytest.mark.parametrize("call, words", [
+    # each raised an AttributeError or a TypeError from deep inside (open(3) would even read file descriptor 3)
+    (lambda: obsnl.symmetries(3), "a model is an obsnl Model, the path of a .toml or .json model file or obsnl:NAME"),
+    (lambda: obsnl.reparametrize(None), "a model is an obsnl Model"),
+    (lambda: obsnl.identifiable_functions({"name": "m"}), "a model is an obsnl Model"),
+    (lambda: obsnl.symmetries(obsnl.Model(name="s", states=["x"], parameters=["a"], equations={"x": "-a*x"},
+                                          outputs={"y": "x"}), seed="a"), "seed must be a non-negative integer"),
+    (lambda: obsnl.read_record(3), "read_record takes the path of a record file (text or a path), got int 3"),
+    (lambda: obsnl.read_measured(3, inputs=["u"], outputs=["y"]), "read_measured takes the path of a CSV file"),
+    (lambda: obsnl.analyze(FRICTION, branches=3), "branches= takes labels"),
+    (lambda: obsnl.analyze(FRICTION, branches=["a", 1]), "branches= takes labels"),
+    # 0 seeds ran the whole tuning and ended in an IndexError; passes=0 did the same; "5" a TypeError
+    (lambda: obsnl.reproduce(seeds=0), "seeds= takes a whole number >= 1, got 0"),
+    (lambda: obsnl.reproduce(tuning_seeds="2"), "tuning_seeds= takes a whole number >= 1, got '2'"),
+    (lambda: obsnl.reproduce(passes=0), "passes= must be at least 1"),
+    (lambda: obsnl.reproduce(samples="5"), "samples= takes a whole number of samples"),
+], ids=["symmetries-model", "reparametrize-model", "identifiable-model", "symmetries-seed", "read_record",
+        "read_measured", "analyze-branches-int", "analyze-branches-mixed", "reproduce-seeds", "reproduce-tuning",
+        "reproduce-passes", "reproduce-samples"])
+def test_the_flat_api_refuses_arguments_of_the_wrong_kind_in_one_line(call, words):
+    with pytest.raises(obsnl.ObsnlError) as info:
+        call()
+    assert str(info.value).startswith(words) and "\n" not in str(info.value), str(info.value)
+
+
+def test_a_model_file_is_taken_where_a_model_is_and_labels_as_the_command_line_writes_them():
+    """As analyze and identify do, symmetries, reparametrize and identifiable_functions read a model's file; analyze
+    reads ``branches="a"`` as the label a (``"ab"`` would be one label, never a and b)."""
+    assert obsnl.reparametrize(FRICTION).model.name.startswith("coulomb_friction")
+    assert [b.label for b in obsnl.analyze(FRICTION, branches="a", seed=0).branches] == ["a"]
+    with pytest.raises(obsnl.ObsnlError, match="'ab'"):
+        obsnl.analyze(FRICTION, branches="ab", seed=0)

@@ -324,7 +324,7 @@ def read_model(path: str | os.PathLike[str], check: Callable[[dict[str, Any]], N
         raise ParseError(f"{Path(path).name}: {exc}") from None
 
 
-def as_model(model: Model | str | Path, check: Callable[[dict[str, Any]], None] | None = None) -> Model:
+def as_model(model: Model | str | os.PathLike[str], check: Callable[[dict[str, Any]], None] | None = None) -> Model:
     """``model`` itself, or the model read from that file or ``obsnl:NAME`` (:func:`read_model`, ``check`` run on
     the file's contents first): what every function that takes "a model or its file" reads it with.
 

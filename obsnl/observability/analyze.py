@@ -25,6 +25,8 @@ import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
+from obsnl._text import quote
+from obsnl.errors import AnalysisError
 from obsnl.model.bounds.budget import deadline as budget_deadline
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text
@@ -267,6 +269,10 @@ def check_analysis(
     k, variables = _check(
         model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives, option=option
     )
+    if isinstance(branches, str):  # "a,c" as the command line takes it; "ab" is one label, not a and b
+        branches = [b.strip() for b in branches.split(",") if b.strip()]
+    elif branches is not None and (not isinstance(branches, Sequence) or not all(isinstance(b, str) for b in branches)):
+        raise AnalysisError(f"branches= takes labels, e.g. ['a', 'c'] or 'a,c', got {quote(branches, 40)}")
     return CheckedAnalysis(
         model=model,
         variables=variables,

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import random
 import time
 from collections.abc import Sequence
@@ -39,6 +40,7 @@ from obsnl.algebra.jets import Expressions
 from obsnl.algebra.modp import PRIME, nullspace_mod_p, rank_mod_p, rational_reconstruction
 from obsnl.errors import AnalysisError, NotSupportedError
 from obsnl.model.core import Model
+from obsnl.model.files import as_model
 from obsnl.observability.certificates.generators import Symmetries
 from obsnl.observability.certificates.symmetry import _monomials
 from obsnl.observability.certificates.symmetry import symmetries as find_symmetries
@@ -280,7 +282,7 @@ def _output_derivatives(model: Model, kept: _Kept, deadline: float, max_ops: int
 
 
 def identifiable_functions(
-    model: Model,
+    model: Model | str | os.PathLike[str],
     *,
     seed: int = 0,
     symmetries: Symmetries | None = None,
@@ -292,8 +294,8 @@ def identifiable_functions(
 
     Parameters
     ----------
-    model : Model
-        A smooth model (one branch).
+    model : Model, str or os.PathLike
+        A smooth model (one branch), or its file.
     seed : int
         Seed of the random points.
     symmetries : Symmetries or None
@@ -315,6 +317,7 @@ def identifiable_functions(
     (True, ['x0', 'a01*a12', 'a01 + a12 + a21', 'a01*x0 - a12*x1 + a21*x0'])
     """
     t0 = time.perf_counter()
+    model = as_model(model)  # a Model, or read from its file (anything else refused in one line)
     if not model.is_smooth:
         raise NotSupportedError(f"model {model.name!r} is not smooth; pass one branch at a time")
     S = symmetries if symmetries is not None else find_symmetries(model, seed=seed)

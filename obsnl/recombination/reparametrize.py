@@ -22,6 +22,7 @@ no closed form, gets its identifiable functions from :func:`obsnl.recombination.
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Mapping, Sequence
 
@@ -31,6 +32,7 @@ import sympy as sp
 from obsnl.errors import ModelError
 from obsnl.model.branching.branches import split_branches
 from obsnl.model.core import Model
+from obsnl.model.files import as_model
 from obsnl.model.reading.parse import make_symbol
 from obsnl.observability.analyze import analyze
 from obsnl.observability.certificates.generators import Symmetry
@@ -119,7 +121,7 @@ def _positive(expr: sp.Expr, bounds: Mapping[str, tuple[float, float]]) -> bool:
 
 # --------------------------------------------------------------------------- the proposal
 def reparametrize(
-    model: Model,
+    model: Model | str | os.PathLike[str],
     *,
     keep: Sequence[str] = (),
     eliminate: Sequence[str] = (),
@@ -131,8 +133,8 @@ def reparametrize(
 
     Parameters
     ----------
-    model : Model
-        Any model (smooth or non-smooth; unknown inputs are not supported).
+    model : Model, str or os.PathLike
+        Any model (smooth or non-smooth; unknown inputs are not supported), or its file.
     keep : sequence of str
         Parameters that must not be pivots (they stay, possibly rescaled).
     eliminate : sequence of str
@@ -162,6 +164,7 @@ def reparametrize(
     {'x_p': 'x/b', 'a': 'a', 'c_p': 'b*c'}
     """
     t0 = time.perf_counter()
+    model = as_model(model)  # a Model, or read from its file (anything else refused in one line)
     check_analysis_limits(model)  # before any work: the analyses below hold dense arrays of this size
     names = dict(names or {})
     syms = model.symbols

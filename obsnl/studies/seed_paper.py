@@ -24,11 +24,13 @@ from typing import Any
 
 import numpy as np
 
+from obsnl._text import quote
+from obsnl.errors import OptionError
 from obsnl.estimation.jitcache import compiler_available
 from obsnl.estimation.records import Record
 from obsnl.executor import Executor
 from obsnl.identification.experiments import DEFAULT_GRID, Tuning, mc_spread
-from obsnl.identification.replicates import CHUNK
+from obsnl.identification.replicates import CHUNK, check_passes
 from obsnl.identification.runs import check_replicates
 from obsnl.studies.seed_experiment import seed_branch_table
 from obsnl.studies.seed_reproduction import Reproduction
@@ -86,6 +88,17 @@ def rate_from_here(progress: Any) -> None:
         progress.last_print_t, progress.last_print_n = progress._time(), progress.n
 
 
+def _check_counts(seeds: object, tuning_seeds: object, samples: object) -> None:
+    """Refuse a number of seeds that is not a whole number >= 1, and samples that are not a whole number or None."""
+    for name, n in (("seeds", seeds), ("tuning_seeds", tuning_seeds)):
+        if isinstance(n, bool) or not isinstance(n, (int, np.integer)) or n < 1:
+            raise OptionError(f"{name}= takes a whole number >= 1, got {quote(n, 30)}")
+    if samples is not None and (isinstance(samples, bool) or not isinstance(samples, (int, np.integer))):
+        raise OptionError(
+            f"samples= takes a whole number of samples, or None for the whole record; got {quote(samples, 30)}"
+        )
+
+
 def reproduce(
     *,
     record: Record | None = None,
@@ -141,6 +154,8 @@ def reproduce(
         Refine each reported seed by maximum likelihood (the third column of Table 2).
     """
     check_replicates(replicates)
+    check_passes(passes)
+    _check_counts(seeds, tuning_seeds, samples)  # before any work: 0 seeds ran the whole tuning, then an IndexError
     if jit is None:
         jit = compiler_available()
         if not jit:

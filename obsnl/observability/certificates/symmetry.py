@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import os
 import random
 import time
 from collections.abc import Mapping, Sequence
@@ -31,6 +32,7 @@ from dataclasses import dataclass, field
 
 import sympy as sp
 
+from obsnl._text import quote
 from obsnl.algebra.jets import Expressions
 from obsnl.algebra.modp import (
     PRIME,
@@ -39,9 +41,10 @@ from obsnl.algebra.modp import (
     rank_mod_p,
     rational_reconstruction,
 )
-from obsnl.errors import NotSupportedError
+from obsnl.errors import AnalysisError, NotSupportedError
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
+from obsnl.model.files import as_model
 from obsnl.observability.certificates.generators import Symmetries, Symmetry
 from obsnl.observability.certificates.proofs import verify_generator
 from obsnl.observability.engines.decompose import output_reachable
@@ -210,13 +213,15 @@ def _normalised(comp: Mapping[sp.Symbol, sp.Expr], order: Sequence[sp.Symbol]) -
     return {v: sp.expand(c * den * sign / num) for v, c in comp.items()}
 
 
-def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: ModularJacobian | None = None) -> Symmetries:
+def symmetries(
+    model: Model | str | os.PathLike[str], *, seed: int = 0, degree: int = 1, jacobian: ModularJacobian | None = None
+) -> Symmetries:
     """Generators of the unobservable directions of a smooth model, exact over Q and verified.
 
     Parameters
     ----------
-    model : Model
-        A smooth model (a branch: ``[b.model for b in obsnl.model.split_branches(model)]``).
+    model : Model, str or os.PathLike
+        A smooth model (a branch: ``[b.model for b in obsnl.model.split_branches(model)]``), or its file.
     seed : int
         Seed of the random points (the Jacobian and the determining equations).
     degree : int
@@ -248,6 +253,9 @@ def symmetries(model: Model, *, seed: int = 0, degree: int = 1, jacobian: Modula
     ['x*d/dx + b*d/db - c*d/dc']
     """
     t0 = time.perf_counter()
+    model = as_model(model)  # a Model, or read from its file (anything else refused in one line)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise AnalysisError(f"seed must be a non-negative integer, got {quote(seed, 30)}")
     if not model.is_smooth:
         raise NotSupportedError(
             f"model {model.name!r} is not smooth; pass one branch at a time "
