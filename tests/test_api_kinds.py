@@ -12,6 +12,7 @@ import pytest
 import obsnl
 from obsnl.cli import main
 from obsnl.errors import DataError, OptionError
+from obsnl.estimation.codegen import to_casadi
 
 MSD = obsnl.Model(name="msd", states=["x", "v"], parameters=["k", "c"], inputs=["u"],
                   equations={"x": "v", "v": "u - k*x - c*v"}, outputs={"y": "x"}, guess={"k": 20.0, "c": 1.0})
@@ -113,9 +114,12 @@ FRICTION = "obsnl:coulomb_friction"
     (lambda: obsnl.reproduce(tuning_seeds="2"), "tuning_seeds= takes a whole number >= 1, got '2'"),
     (lambda: obsnl.reproduce(passes=0), "passes= must be at least 1"),
     (lambda: obsnl.reproduce(samples="5"), "samples= takes a whole number of samples"),
+    # the rooms' entries that take a Model: an AttributeError deep inside before
+    (lambda: obsnl.model.split_branches(3), "split_branches takes an obsnl Model, got int"),
+    (lambda: to_casadi("m.toml"), "to_casadi takes an obsnl Model, got str"),
 ], ids=["symmetries-model", "reparametrize-model", "identifiable-model", "symmetries-seed", "read_record",
         "read_measured", "analyze-branches-int", "analyze-branches-mixed", "reproduce-seeds", "reproduce-tuning",
-        "reproduce-passes", "reproduce-samples"])
+        "reproduce-passes", "reproduce-samples", "split_branches", "to_casadi"])
 def test_the_flat_api_refuses_arguments_of_the_wrong_kind_in_one_line(call, words):
     with pytest.raises(obsnl.ObsnlError) as info:
         call()

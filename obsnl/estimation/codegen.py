@@ -186,6 +186,10 @@ def to_casadi(
     >>> float(to_casadi(m).f([1.0, 0.0], [4.0], [0.0])[1])
     -4.0
     """
+    if not isinstance(model, Model):  # an AttributeError below otherwise
+        raise ModelError(
+            f"to_casadi takes an obsnl Model, got {type(model).__name__}; read a file with obsnl.read_model"
+        )
     if model.unknown_inputs:
         raise NotSupportedError(
             f"model {model.name!r} has unknown inputs {[s.name for s in model.unknown_inputs]}; "

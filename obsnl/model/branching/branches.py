@@ -261,6 +261,10 @@ def split_branches(
     >>> [(b.label, b.guard_text) for b in split_branches(m)]
     [('a', 'v > 0'), ('b', 'v < 0')]
     """
+    if not isinstance(model, Model):  # an AttributeError deep in the split otherwise
+        raise ModelError(
+            f"split_branches takes an obsnl Model, got {type(model).__name__}; read a file with obsnl.read_model"
+        )
     return split_by(
         model,
         switching_structure(model),
