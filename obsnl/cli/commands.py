@@ -40,213 +40,217 @@ def _show(a: Namespace) -> Printed:
     """``obsnl show``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.show import ShowRequest, run_show, show_printed
 
-    result = run_show(ShowRequest(model=a.model, fmt=a.fmt))
-    return show_printed(result)
+    return show_printed(run_show(ShowRequest(model=a.model, fmt=a.fmt)))
 
 
 def _branches(a: Namespace) -> Printed:
     """``obsnl branches``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.branches import BranchesRequest, branches_printed, run_branches
 
-    result = run_branches(BranchesRequest(model=a.model, fmt=a.fmt, equations=a.equations))
-    return branches_printed(result)
+    return branches_printed(run_branches(BranchesRequest(model=a.model, fmt=a.fmt, equations=a.equations)))
 
 
 def _symmetries(a: Namespace) -> Printed:
     """``obsnl symmetries``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.symmetries import SymmetriesRequest, run_symmetries, symmetries_printed
 
-    result = run_symmetries(SymmetriesRequest(model=a.model, fmt=a.fmt, degree=a.degree, seed=a.seed))
-    return symmetries_printed(result)
+    return symmetries_printed(run_symmetries(SymmetriesRequest(model=a.model, fmt=a.fmt, degree=a.degree, seed=a.seed)))
 
 
 def _analyze(a: Namespace) -> Printed:
     """``obsnl analyze``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.analyze import AnalyzeRequest, analyze_printed, run_analyze
 
-    result = run_analyze(
-        AnalyzeRequest(
-            model=a.model,
-            fmt=a.fmt,
-            method=a.method,
-            seed=a.seed,
-            max_seconds=a.max_seconds,
-            branches=a.branches,
-            record=a.record,
-            joint=a.joint,
-            unknown_input_derivatives=a.unknown_input_derivatives,
-            output=a.output,
-            force=a.force,
+    return analyze_printed(
+        run_analyze(
+            AnalyzeRequest(
+                model=a.model,
+                fmt=a.fmt,
+                method=a.method,
+                seed=a.seed,
+                max_seconds=a.max_seconds,
+                branches=a.branches,
+                record=a.record,
+                joint=a.joint,
+                unknown_input_derivatives=a.unknown_input_derivatives,
+                output=a.output,
+                force=a.force,
+            )
         )
     )
-    return analyze_printed(result)
 
 
 def _report(a: Namespace) -> Printed:
     """``obsnl report``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.report import ReportRequest, report_printed, run_report
 
-    result = run_report(
-        ReportRequest(
-            models=a.models,
-            out=a.out,
-            method=a.method,
-            seed=a.seed,
-            max_seconds=a.max_seconds,
-            force=a.force,
-            executor=_executor(a),
+    return report_printed(
+        run_report(
+            ReportRequest(
+                models=a.models,
+                out=a.out,
+                method=a.method,
+                seed=a.seed,
+                max_seconds=a.max_seconds,
+                force=a.force,
+                executor=_executor(a),
+            )
         )
     )
-    return report_printed(result)
 
 
 def _reparametrize(a: Namespace) -> Printed:
     """``obsnl reparametrize``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.reparametrize import ReparametrizeRequest, reparametrize_printed, run_reparametrize
 
-    result = run_reparametrize(
-        ReparametrizeRequest(
-            model=a.model,
-            output=a.output,
-            force=a.force,
-            seed=a.seed,
-            eliminate=a.eliminate,
-            keep=a.keep,
-            names=a.names,
+    return reparametrize_printed(
+        run_reparametrize(
+            ReparametrizeRequest(
+                model=a.model,
+                output=a.output,
+                force=a.force,
+                seed=a.seed,
+                eliminate=a.eliminate,
+                keep=a.keep,
+                names=a.names,
+            )
         )
     )
-    return reparametrize_printed(result)
 
 
 def _identify(a: Namespace) -> Printed:
     """``obsnl identify``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.identify import IdentifyRequest, identify_printed, run_identify
 
-    result = run_identify(
-        IdentifyRequest(
-            model=a.model,
-            data=a.data,
-            record=a.record,
-            table=a.table,
-            method=a.method,
-            guess=a.guess,
-            noise=a.noise,
-            passes=a.passes,
-            allow_unidentifiable=a.allow_unidentifiable,
-            hold=a.hold,
-            refine=a.refine,
-            seed=a.seed,
-            s0=a.s0,
-            q_theta=a.q_theta,
-            q_x=a.q_x,
-            gate=a.gate,
-            samples=a.samples,
-            jit=a.jit,
-            replicates=a.replicates,
-            intersample=a.intersample,
-            objective=a.objective,
-            executor=_executor(a),
-            out=a.out,
-            force=a.force,
+    return identify_printed(
+        run_identify(
+            IdentifyRequest(
+                model=a.model,
+                data=a.data,
+                record=a.record,
+                table=a.table,
+                method=a.method,
+                guess=a.guess,
+                noise=a.noise,
+                passes=a.passes,
+                allow_unidentifiable=a.allow_unidentifiable,
+                hold=a.hold,
+                refine=a.refine,
+                seed=a.seed,
+                s0=a.s0,
+                q_theta=a.q_theta,
+                q_x=a.q_x,
+                gate=a.gate,
+                samples=a.samples,
+                jit=a.jit,
+                replicates=a.replicates,
+                intersample=a.intersample,
+                objective=a.objective,
+                executor=_executor(a),
+                out=a.out,
+                force=a.force,
+            )
         )
     )
-    return identify_printed(result)
 
 
 def _reproduce(a: Namespace) -> Printed:
     """``obsnl reproduce``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.reproduce import ReproduceRequest, reproduce_printed, run_reproduce
 
-    result = run_reproduce(
-        ReproduceRequest(
-            quick=a.quick,
-            record=a.record,
-            seeds=a.seeds,
-            tuning_seeds=a.tuning_seeds,
-            passes=a.passes,
-            samples=a.samples,
-            jit=a.jit,
-            replicates=a.replicates,
-            out=a.out,
-            force=a.force,
-            executor=_executor(a),
-            regenerating=_regenerating,
+    return reproduce_printed(
+        run_reproduce(
+            ReproduceRequest(
+                quick=a.quick,
+                record=a.record,
+                seeds=a.seeds,
+                tuning_seeds=a.tuning_seeds,
+                passes=a.passes,
+                samples=a.samples,
+                jit=a.jit,
+                replicates=a.replicates,
+                out=a.out,
+                force=a.force,
+                executor=_executor(a),
+                regenerating=_regenerating,
+            )
         )
     )
-    return reproduce_printed(result)
 
 
 def _bank(a: Namespace) -> Printed:
     """``obsnl bank``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.bank import BankRequest, bank_printed, run_bank
 
-    result = run_bank(BankRequest(out=a.out, model=a.model, seeds=a.seeds, force=a.force))
-    return bank_printed(result)
+    return bank_printed(run_bank(BankRequest(out=a.out, model=a.model, seeds=a.seeds, force=a.force)))
 
 
 def _sensors(a: Namespace) -> Printed:
     """``obsnl sensors``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.sensors import SensorsRequest, run_sensors, sensors_printed
 
-    result = run_sensors(
-        SensorsRequest(
-            model=a.model,
-            target=a.target,
-            max_size=a.max_size,
-            fmt=a.fmt,
-            output=a.output,
-            force=a.force,
-            seed=a.seed,
-            max_seconds=a.max_seconds,
-            progress=a.progress,
-            record=a.record,
-            rank_size=a.rank_size,
-            noise=a.noise,
-            executor=_executor(a),
+    return sensors_printed(
+        run_sensors(
+            SensorsRequest(
+                model=a.model,
+                target=a.target,
+                max_size=a.max_size,
+                fmt=a.fmt,
+                output=a.output,
+                force=a.force,
+                seed=a.seed,
+                max_seconds=a.max_seconds,
+                progress=a.progress,
+                record=a.record,
+                rank_size=a.rank_size,
+                noise=a.noise,
+                executor=_executor(a),
+            )
         )
     )
-    return sensors_printed(result)
 
 
 def _design(a: Namespace) -> Printed:
     """``obsnl design``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.design import DesignRequest, design_printed, run_design
 
-    result = run_design(
-        DesignRequest(
-            model=a.model,
-            records=a.record,
-            target=a.target,
-            sensors=a.sensors,
-            fmt=a.fmt,
-            output=a.output,
-            force=a.force,
-            figure=a.figure,
-            max_seconds=a.max_seconds,
-            scales=a.scales,
-            seed=a.seed,
-            intersample=a.intersample,
+    return design_printed(
+        run_design(
+            DesignRequest(
+                model=a.model,
+                records=a.record,
+                target=a.target,
+                sensors=a.sensors,
+                fmt=a.fmt,
+                output=a.output,
+                force=a.force,
+                figure=a.figure,
+                max_seconds=a.max_seconds,
+                scales=a.scales,
+                seed=a.seed,
+                intersample=a.intersample,
+            )
         )
     )
-    return design_printed(result)
 
 
 def _validate(a: Namespace) -> Printed:
     """``obsnl validate``: its request built from the parsed options, run, and what it prints."""
     from obsnl.commands.validate import ValidateRequest, run_validate, validate_printed
 
-    result = run_validate(
-        ValidateRequest(
-            model=a.model,
-            params=a.params,
-            data=a.data,
-            warmup=a.warmup,
-            intersample=a.intersample,
-            out=a.out,
-            force=a.force,
+    return validate_printed(
+        run_validate(
+            ValidateRequest(
+                model=a.model,
+                params=a.params,
+                data=a.data,
+                warmup=a.warmup,
+                intersample=a.intersample,
+                out=a.out,
+                force=a.force,
+            )
         )
     )
-    return validate_printed(result)
 
 
 def printed(a: Namespace) -> Printed:

@@ -20,6 +20,7 @@ from obsnl.report.printed import Printed, check_format, check_rendering_target, 
 
 if TYPE_CHECKING:
     from obsnl.model.core import Model
+    from obsnl.observability.analyze import CheckedAnalysis
     from obsnl.observability.joint.visited import Visits
     from obsnl.observability.results import AnalysisResult
 
@@ -107,7 +108,7 @@ def run_analyze(request: AnalyzeRequest) -> AnalyzeResult:
     from obsnl.model.bounds.budget import time_budget
     from obsnl.model.files import as_model
     from obsnl.observability.analyze import check_analysis, run_analysis
-    from obsnl.observability.limits import check_file_limits, out_of_memory
+    from obsnl.observability.limits import check_file_limits
     from obsnl.report.tables import render
 
     check_rendering_target(request.output, force=request.force)
@@ -123,23 +124,29 @@ def run_analyze(request: AnalyzeRequest) -> AnalyzeResult:
             unknown_input_derivatives=request.unknown_input_derivatives,
             option="unknown_input_derivatives=",
         )
-        visits: Visits | None = None
-        if request.record:  # what the model's [values] visit under it along the continuous trajectory (crossings
-            # located between samples, the input between samples as the model's [intersample] table says)
-            from obsnl.design.continuous import continuous_visits  # casadi: loaded only with a record
-
-            record = one_input_record(model, request.record, option=RECORD_OPTION)
-            try:
-                visits = continuous_visits(model, record.t, {model.inputs[0].name: record.accel})
-            except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the simulation's arrays are freed
-                pass
-            if visits is None:
-                raise out_of_memory(model, checked.unknown_input_derivatives)
+        visits = _record_visits(checked, request.record) if request.record else None
         result = run_analysis(
             checked, visited=visits.patterns if visits else None, crossings=visits.crossings if visits else None
         )
     text = render(result, request.fmt)
     return AnalyzeResult(result, text, write_rendering(text, request.output, force=request.force))
+
+
+def _record_visits(checked: CheckedAnalysis, path: str | Path) -> Visits:
+    """The sign patterns and crossings a simulation of the model's ``[values]`` under the record at ``path`` visits
+    along its continuous trajectory (:func:`obsnl.design.continuous.continuous_visits`: crossings located between
+    samples, a state resting on a switching surface on no branch, the input between samples as the model's
+    ``[intersample]`` table says, from the known initial state)."""
+    from obsnl.design.continuous import continuous_visits  # casadi: loaded only with a record
+    from obsnl.observability.limits import out_of_memory
+
+    model = checked.model
+    record = one_input_record(model, path, option=RECORD_OPTION)
+    try:
+        return continuous_visits(model, record.t, {model.inputs[0].name: record.accel})
+    except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the simulation's arrays are freed
+        pass
+    raise out_of_memory(model, checked.unknown_input_derivatives)
 
 
 def analyze_printed(result: AnalyzeResult) -> Printed:

@@ -211,8 +211,8 @@ class TrajectoryVisits:
     def __init__(self, model: Model, *, values: Mapping[str, float] | None = None, intersample: Any = None) -> None:
         self.model = model
         self.values = dict(model.values if values is None else values)
-        self.x0, self.initial = initial_state(model, self.values)
         self.kinds = intersample_kinds(intersample, [u.name for u in model.inputs], table=model.intersample)
+        self.x0, self.initial = initial_state(model, self.values)
         exprs = list(model.rhs) + list(model.output_exprs)
         self.smooth = not any(e.has(*NONSMOOTH_FUNCTIONS) for e in exprs)
         self._num: Any = None
@@ -243,9 +243,8 @@ class TrajectoryVisits:
         return self._num
 
     def _run(self, x0: np.ndarray, ua: np.ndarray, ub: np.ndarray, h: float, substeps: int) -> np.ndarray:
-        """The states at the ends of the fine intervals ``(ua, ub)`` of length ``h`` from ``x0``: ``(N + 1, nx)``
-        (the model compiled by :meth:`visits`)."""
-        num, N = self._num, len(ua)
+        """The states at the ends of the fine intervals ``(ua, ub)`` of length ``h`` from ``x0``: ``(N + 1, nx)``."""
+        num, N = self._compiled(), len(ua)
         key = (float(h), N, int(substeps))
         if key not in self._runs:
             step = num.step(h, substeps=substeps, refine=8, locate=True)
@@ -346,8 +345,8 @@ class TrajectoryVisits:
         """
         if self.smooth:
             return Visits((), {(): drive.duration}, {})
-        d = drive.scaled(scale) if scale != 1.0 else drive
         num = self._compiled()
+        d = drive.scaled(scale) if scale != 1.0 else drive
         signs: list[np.ndarray] = []
         seconds: list[np.ndarray] = []
         x = self.x0
@@ -434,5 +433,4 @@ def continuous_visits(
     (('g - x',), [(-1,), (1,)], {'g - x': 2})
     """
     run = TrajectoryVisits(model, values=values, intersample=intersample)
-    drive = run.drive(t, inputs)  # the record checked before the model is compiled
-    return run.visits(drive)
+    return run.visits(run.drive(t, inputs))
