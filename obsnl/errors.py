@@ -9,7 +9,9 @@ line's flags).
 
 from __future__ import annotations
 
+import os
 import re
+import reprlib
 from collections.abc import Mapping
 
 __all__ = [
@@ -26,6 +28,7 @@ __all__ = [
     "OutputError",
     "ExecutorError",
     "in_terms",
+    "refuse_non_path",
 ]
 
 
@@ -131,3 +134,33 @@ def in_terms(message: str, names: Mapping[str, tuple[str, bool | None]]) -> str:
         return f"{option} {value}" if value else option
 
     return _KEYWORD.sub(rename, message)
+
+
+def refuse_non_path(value: object, what: str) -> None:
+    """Refuse a file argument that is neither text nor a path, in one line (``open(3)`` raises a TypeError, or reads
+    file descriptor 3).
+
+    Parameters
+    ----------
+    value : object
+        The argument.
+    what : str
+        What takes it, for the message (``"read_record takes the path of a record file"``, ``"record= takes a file
+        name"``); the message goes on with ``(text or a path), got KIND VALUE``.
+
+    Raises
+    ------
+    OptionError
+        ``value`` of another kind.
+
+    Examples
+    --------
+    >>> refuse_non_path("r.csv", "read_record takes the path of a record file") is None
+    True
+    >>> refuse_non_path(3, "record= takes a file name")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.OptionError: record= takes a file name (text or a path), got int 3
+    """
+    if not isinstance(value, (str, os.PathLike)):  # reprlib: a huge value is echoed cut (the ground floor's own)
+        raise OptionError(f"{what} (text or a path), got {type(value).__name__} {reprlib.repr(value)}")

@@ -3,12 +3,10 @@ a model's one known input."""
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from obsnl._text import quote
-from obsnl.errors import OptionError
+from obsnl.errors import OptionError, refuse_non_path
 
 if TYPE_CHECKING:
     from obsnl.estimation.accelerogram import Record
@@ -44,10 +42,8 @@ def check_file_option(value: object, option: str, *, what: str = "file") -> None
     >>> check_file_option("rec.csv", "record=") is None
     True
     """
-    if value is not None and (not isinstance(value, (str, os.PathLike)) or isinstance(value, bool)):
-        raise OptionError(
-            f"{option} takes a {what} name (text or a path), got {type(value).__name__} {quote(value, 40)}"
-        )
+    if value is not None:
+        refuse_non_path(value, f"{option} takes a {what} name")
 
 
 def one_input_record(model: Model, path: str | Path, *, option: str = "a record") -> Record:

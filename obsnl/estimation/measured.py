@@ -45,9 +45,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from obsnl._text import block, names, number, one_line, plain_float
-from obsnl.errors import DataError
+from obsnl.errors import DataError, refuse_non_path
 from obsnl.estimation.accelerogram import Record, check_increasing, check_seconds
-from obsnl.estimation.records import check_path, read_table
+from obsnl.estimation.records import read_table
 from obsnl.model.bounds.textsize import quote
 
 if TYPE_CHECKING:  # pandas loads when a DataFrame is given
@@ -438,7 +438,7 @@ def read_measured(path: str | Path, *, inputs: Sequence[str], outputs: Sequence[
     >>> m.y.ravel().tolist(), m.ignored
     ([0.0, nan, 0.3], ('note',))
     """
-    check_path(path, "read_measured takes the path of a CSV file")
+    refuse_non_path(path, "read_measured takes the path of a CSV file")
     p = Path(path)
     channels, where = (*inputs, *outputs), f"data {str(p)!r}"
     ignored: list[str] = []

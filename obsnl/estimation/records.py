@@ -34,7 +34,7 @@ from typing import IO, NamedTuple, cast
 import numpy as np
 
 from obsnl._text import os_error_line, shorten
-from obsnl.errors import DataError, OptionError
+from obsnl.errors import DataError, refuse_non_path
 from obsnl.estimation.accelerogram import (
     ABSOLUTE_TIME,
     G,
@@ -468,33 +468,9 @@ def read_at2(path: str | Path) -> Record:
     return check_motion(Record(p.stem, a, dt, source=f"{p.name}: {shorten(head[1], 200)}"))
 
 
-def check_path(path: object, what: str) -> None:
-    """Refuse a file argument that is neither text nor a path (``open(3)`` would read file descriptor 3).
-
-    Parameters
-    ----------
-    path : object
-        The argument.
-    what : str
-        The function and what it reads, for the message (``"read_record takes a record file"``).
-
-    Raises
-    ------
-    OptionError
-        ``path`` of another kind.
-
-    Examples
-    --------
-    >>> check_path("r.csv", "read_record takes a record file") is None
-    True
-    """
-    if not isinstance(path, (str, os.PathLike)):
-        raise OptionError(f"{what} (text or a path), got {type(path).__name__} {quote(path, 40)}")
-
-
 def read_record(path: str | Path) -> Record:
     """Read a record by extension: ``.AT2`` (PEER) or ``.csv``."""
-    check_path(path, "read_record takes the path of a record file")
+    refuse_non_path(path, "read_record takes the path of a record file")
     suffix = Path(path).suffix.lower()
     if suffix == ".at2":
         return read_at2(path)
