@@ -208,8 +208,8 @@ def test_one_analyze_checks_its_limits_once(monkeypatch):
 
     calls = _count_limit_checks(monkeypatch)
     searched = []
-    real_symmetries = certify.symmetries
-    monkeypatch.setattr(certify, "symmetries", lambda *a, **k: searched.append(1) or real_symmetries(*a, **k))
+    real_symmetries = certify.symmetries_of
+    monkeypatch.setattr(certify, "symmetries_of", lambda *a, **k: searched.append(1) or real_symmetries(*a, **k))
     analyze(FRICTION, seed=0)  # branches and the joint verdict
     assert sum(calls.values()) == 1
     calls.clear()
@@ -245,17 +245,26 @@ def test_the_analyze_command_checks_once_and_before_the_record_is_simulated(tmp_
     assert checks_when_simulated == [1]  # refused before the simulation
 
 
-def test_the_inner_entries_still_check_when_called_on_their_own(monkeypatch):
-    from obsnl.observability.certificates.symmetry import symmetries
+def test_the_doors_check_once_and_the_searches_they_call_do_not(monkeypatch):
+    """A context variable used to tell the inner entries whether a public call up the stack had checked; now each
+    door checks once and calls the search that takes a checked model: a symmetry search over the branches checks the
+    model once, not once more per branch."""
+    from obsnl.observability.certificates.symmetry import branch_symmetries, symmetries
     from obsnl.observability.joint.verdict import joint_verdict
 
     calls = _count_limit_checks(monkeypatch)
     joint_verdict(FRICTION, seed=0)
     symmetries(DRIFT, seed=0)
     assert calls == {"friction": 1, "drift": 1}
-    with limits.limits_checked():  # inside a public call that checked: not again
-        joint_verdict(FRICTION, seed=0)
-    assert calls == {"friction": 1, "drift": 1}
+    calls.clear()
+    found = branch_symmetries(FRICTION, seed=0)  # two branches, v > 0 and v < 0
+    assert len(found) == 2 and all(s is not None for _, s in found)
+    assert calls == {"friction": 1}
+    calls.clear()
+    obsnl.reparametrize(FRICTION, seed=0)  # then it analyses the model it built: that one is checked at its doors
+    assert {k: n for k, n in calls.items() if not k.startswith("friction_reparam")} == {"friction": 1}
+    with pytest.raises(obsnl.errors.NotSupportedError, match="degree must be 1 or 2"):
+        branch_symmetries(FRICTION, degree=3)  # the options too are checked at the door, before the split
 
 
 def test_a_model_too_large_is_still_refused_before_any_work():

@@ -41,7 +41,7 @@ from obsnl.observability.engines.inputs import METHODS, _check
 from obsnl.observability.engines.smooth import _fresh_seed, branch_result
 from obsnl.observability.joint.selection import select_branches
 from obsnl.observability.joint.verdict import joint_verdict_of
-from obsnl.observability.limits import limits_checked, out_of_memory
+from obsnl.observability.limits import out_of_memory
 from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import BranchResult
 
@@ -316,9 +316,8 @@ def run_analysis(
     AnalysisError
         Running out of memory.
     """
-    try:
-        with limits_checked():  # the joint verdict and the symmetry certificates below do not check again
-            return _analyze(checked, visited, crossings)
+    try:  # the joint verdict and the symmetry certificates below take the checked model: they do not check again
+        return _analyze(checked, visited, crossings)
     except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the arrays are freed
         pass
     raise out_of_memory(checked.model, checked.unknown_input_derivatives)

@@ -21,9 +21,7 @@ Unknown-input derivatives: at most :func:`obsnl.model.reading.unknown_inputs.max
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
-from contextlib import contextmanager
-from contextvars import ContextVar
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from obsnl._text import shorten
@@ -45,17 +43,12 @@ __all__ = [
     "check_analysis_limits",
     "out_of_memory",
     "check_file_limits",
-    "limits_checked",
-    "check_limits_once",
 ]
 
 #: The most unknowns (states + parameters + unknown-input coefficients) an analysis accepts.
 MAX_UNKNOWNS = 300
 
 _OPTION = "unknown_input_derivatives"
-
-#: True inside a public call that has checked its model's limits (:func:`limits_checked`).
-_CHECKED: ContextVar[bool] = ContextVar("obsnl_analysis_limits_checked", default=False)
 
 
 def _plural(n: int, word: str) -> str:
@@ -219,50 +212,6 @@ def check_analysis_limits(
             f"{', fewer unknown inputs or a smaller unknown_input_derivatives' if model.unknown_inputs else ''})"
         )
     return k
-
-
-@contextmanager
-def limits_checked() -> Iterator[None]:
-    """Within: the public call in progress (:func:`obsnl.analyze`) has run :func:`check_analysis_limits` on its
-    model and resolved the unknown-input assumption; the inner entries it calls
-    (:func:`obsnl.observability.joint.verdict.joint_verdict`, :func:`obsnl.observability.certificates.symmetry.symmetries`,
-    which check when called on their own) do not check again (:func:`check_limits_once`).
-
-    The flag is a context variable: another thread, or a process, starts unchecked and checks.
-
-    Examples
-    --------
-    >>> with limits_checked():
-    ...     _CHECKED.get()
-    True
-    >>> _CHECKED.get()
-    False
-    """
-    token = _CHECKED.set(True)
-    try:
-        yield
-    finally:
-        _CHECKED.reset(token)
-
-
-def check_limits_once(model: Model, unknown_input_derivatives: int | str | None = None) -> None:
-    """:func:`check_analysis_limits` for an entry that a public call may have reached after its own check:
-    nothing inside :func:`limits_checked`, the check otherwise.
-
-    Parameters
-    ----------
-    model : Model
-        The model to analyse.
-    unknown_input_derivatives : int, str or None
-        The unknown-input option (as for :func:`check_analysis_limits`).
-
-    Raises
-    ------
-    OptionError, ModelError, AnalysisError
-        As :func:`check_analysis_limits`, outside :func:`limits_checked`.
-    """
-    if not _CHECKED.get():
-        check_analysis_limits(model, unknown_input_derivatives)
 
 
 def check_file_limits(data: Mapping[str, Any]) -> None:

@@ -37,7 +37,7 @@ from obsnl.model.reading.parse import make_symbol
 from obsnl.observability.analyze import analyze
 from obsnl.observability.certificates.generators import Symmetry
 from obsnl.observability.certificates.proofs import verify_reparametrization
-from obsnl.observability.certificates.symmetry import symmetries
+from obsnl.observability.certificates.symmetry import check_search, symmetries_of
 from obsnl.observability.engines.smooth import analyze_smooth
 from obsnl.observability.limits import check_analysis_limits
 from obsnl.recombination.invariants import (
@@ -165,6 +165,7 @@ def reparametrize(
     """
     t0 = time.perf_counter()
     model = as_model(model)  # a Model, or read from its file (anything else refused in one line)
+    check_search(seed, degree)
     check_analysis_limits(model)  # before any work: the analyses below hold dense arrays of this size
     names = dict(names or {})
     syms = model.symbols
@@ -172,7 +173,7 @@ def reparametrize(
     elim_s = [model.symbol(k) for k in eliminate]
     every = split_branches(model, seed=seed, undecided=True)
     branches = [b for b in every if not b.undecided]
-    per = tuple(symmetries(b.model, seed=seed + i, degree=degree) for i, b in enumerate(branches))
+    per = tuple(symmetries_of(b.model, seed=seed + i, degree=degree) for i, b in enumerate(branches))
     notes = [
         f"branch {b.label} ({b.guard_text}) not used, its feasibility is undecided (the new coordinates "
         f"are not checked there): {b.undecided}"

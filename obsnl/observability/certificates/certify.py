@@ -32,7 +32,7 @@ from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
 from obsnl.observability.certificates.generators import Symmetry
 from obsnl.observability.certificates.proofs import ANY, is_zero, verify_generator, weight
-from obsnl.observability.certificates.symmetry import symmetries
+from obsnl.observability.certificates.symmetry import symmetries_of
 from obsnl.observability.joint.result import JointResult
 
 __all__ = ["shared_symmetries", "certify_by_symmetry", "undecided_beyond_visits"]
@@ -58,6 +58,10 @@ def shared_symmetries(
     model: Model, branches: Sequence[Branch], *, seed: int = 0, kinds: Sequence[str] | None = None
 ) -> tuple[Symmetry, ...]:
     """Generators found in the first branch that are symmetries of every branch and keep every surface.
+
+    The search does not check the model's limits again
+    (:func:`~obsnl.observability.certificates.symmetry.symmetries_of`): its callers have, :func:`obsnl.analyze` before
+    it chose the branches, the sensor search in the analyses that found the targets hidden.
 
     Parameters
     ----------
@@ -89,7 +93,7 @@ def shared_symmetries(
     syms = model.symbols
     surfaces = list(branches[0].switching)
     try:
-        found = symmetries(branches[0].model, seed=seed)
+        found = symmetries_of(branches[0].model, seed=seed)
     except ObsnlError:
         return ()
     out = []

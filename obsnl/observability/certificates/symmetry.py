@@ -49,9 +49,9 @@ from obsnl.observability.certificates.generators import Symmetries, Symmetry
 from obsnl.observability.certificates.proofs import verify_generator
 from obsnl.observability.engines.decompose import output_reachable
 from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
-from obsnl.observability.limits import check_limits_once
+from obsnl.observability.limits import check_analysis_limits
 
-__all__ = ["symmetries", "branch_symmetries"]
+__all__ = ["symmetries", "symmetries_of", "branch_symmetries", "check_search"]
 
 _MAX_UNKNOWNS = 2500
 
@@ -252,18 +252,77 @@ def symmetries(
     >>> [str(g) for g in symmetries(m).generators]
     ['x*d/dx + b*d/db - c*d/dc']
     """
-    t0 = time.perf_counter()
     model = as_model(model)  # a Model, or read from its file (anything else refused in one line)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise AnalysisError(f"seed must be a non-negative integer, got {quote(seed, 30)}")
+    check_search(seed, degree)
     if not model.is_smooth:
         raise NotSupportedError(
             f"model {model.name!r} is not smooth; pass one branch at a time "
             f"([b.model for b in obsnl.model.split_branches(model)])"
         )
+    check_analysis_limits(model)  # the size the dense Jacobian and series can hold, before any work
+    return symmetries_of(model, seed=seed, degree=degree, jacobian=jacobian)
+
+
+def check_search(seed: int, degree: int) -> None:
+    """Refuse the options of a symmetry search that :func:`symmetries_of` cannot take.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the random points: an integer >= 0.
+    degree : int
+        Ansatz degree: 1 or 2.
+
+    Raises
+    ------
+    AnalysisError
+        A seed that is not a non-negative integer.
+    NotSupportedError
+        A degree other than 1 or 2.
+
+    Examples
+    --------
+    >>> check_search(0, 3)
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.NotSupportedError: degree must be 1 or 2, got 3
+    """
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise AnalysisError(f"seed must be a non-negative integer, got {quote(seed, 30)}")
     if degree not in (1, 2):
         raise NotSupportedError(f"degree must be 1 or 2, got {degree!r}")
-    check_limits_once(model)  # the size the dense Jacobian and series can hold, before any work (once per call)
+
+
+def symmetries_of(model: Model, *, seed: int, degree: int = 1, jacobian: ModularJacobian | None = None) -> Symmetries:
+    """The search of :func:`symmetries` on a smooth model whose options and limits its caller has checked.
+
+    :func:`symmetries` is the door that checks them, for one model. A caller that searches the branches of a model
+    checks them once for the whole model (:func:`check_search` and
+    :func:`~obsnl.observability.limits.check_analysis_limits`, which counts the states, parameters and unknown inputs
+    that every branch shares) and then calls this for each branch: :func:`branch_symmetries`, the symmetry
+    certificates of :func:`obsnl.analyze`, :func:`obsnl.reparametrize`.
+
+    Parameters
+    ----------
+    model : Model
+        A smooth model (a branch), checked.
+    seed, degree, jacobian
+        As for :func:`symmetries`, checked.
+
+    Returns
+    -------
+    Symmetries
+        As for :func:`symmetries`.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="scaled", states=["x"], parameters=["a", "b", "c"], inputs=["u"],
+    ...           equations={"x": "a*x + b*u"}, outputs={"y": "c*x"})
+    >>> symmetries_of(m, seed=0).dimension
+    1
+    """
+    t0 = time.perf_counter()
     J = jacobian if jacobian is not None else observability_jacobian(model, seed=seed)
     d = len(J.variables) - J.rank
     moved = list(J.unobservable)
@@ -352,7 +411,9 @@ def branch_symmetries(model: Model, *, seed: int = 0, degree: int = 1) -> list[t
     list of (Branch, Symmetries or None)
         Each branch with the generators found on it (None: its feasibility is undecided).
     """
+    check_search(seed, degree)
+    check_analysis_limits(model)  # once for the model: its branches have its states, parameters and inputs
     return [
-        (b, None if b.undecided else symmetries(b.model, seed=seed + i, degree=degree))
+        (b, None if b.undecided else symmetries_of(b.model, seed=seed + i, degree=degree))
         for i, b in enumerate(split_branches(model, seed=seed, undecided=True))
     ]

@@ -73,7 +73,7 @@ from obsnl.observability.joint.visits import (
     replace_visit,
     surface_visit,
 )
-from obsnl.observability.limits import check_limits_once
+from obsnl.observability.limits import check_analysis_limits
 
 __all__ = ["JointVisit", "joint_verdict", "joint_verdict_of"]
 
@@ -248,8 +248,9 @@ def joint_verdict(
     """
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}")
-    # before any work (once per call: analyze checked it); the default 1 means nothing without unknown inputs
-    check_limits_once(model, unknown_input_derivatives if model.unknown_inputs else None)
+    # before any work (analyze, which checks its own, calls joint_verdict_of); the default 1 means nothing without
+    # unknown inputs
+    check_analysis_limits(model, unknown_input_derivatives if model.unknown_inputs else None)
     if not (0 < prob < 1):
         raise AnalysisError(f"prob must be strictly between 0 and 1, got {prob!r}")
     if not model.outputs:
