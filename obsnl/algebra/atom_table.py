@@ -11,13 +11,13 @@ uses earlier atoms only, and can start from the atoms of an earlier rewriting (:
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 import sympy as sp
 
-from obsnl.algebra.arguments import _rational_gcd
 from obsnl.errors import NotSupportedError
 
 __all__ = ["Atom", "AtomTable"]
@@ -102,6 +102,45 @@ class AtomTable:
         self.subs: dict[sp.Symbol, sp.Expr] = {}  # provisional symbols -> expressions over atoms
 
     # ----------------------------------------------------------------- atoms
+    def user_form(self, e: sp.Expr) -> sp.Expr:
+        """``e`` with the provisional and atom symbols (``_pexp0``, ``_log1``, ...) swapped back for what they stand
+        for: how a message shows the user's own expression.
+
+        Parameters
+        ----------
+        e : sympy.Expr
+            An expression of the rewriting.
+
+        Returns
+        -------
+        sympy.Expr
+
+        Examples
+        --------
+        >>> x = sp.Symbol("x")
+        >>> table = AtomTable([x])
+        >>> table.user_form(table._new("exp", 2 * x) + 1)
+        exp(2*x) + 1
+        """
+        back: dict[sp.Symbol, sp.Expr] = {s: sp.exp(c * m) for s, (m, c) in self.prov_exp_inv.items()}
+        for (kind, m, c), s in self.prov_trig.items():
+            back[s] = (sp.sin if kind == "sin" else sp.cos)(c * m)
+        for s, a in self.atoms.items():
+            back[s] = (
+                a.arg ** sp.Rational(1, a.q)
+                if a.kind == "root"
+                else a.arg
+                if a.kind == "const"
+                else sp.log(a.arg)
+                if a.kind == "log"
+                else getattr(sp, a.kind)(a.arg)
+            )
+        for _ in range(len(back) + 1):  # an atom's argument may hold earlier atoms
+            if not e.free_symbols & set(back):
+                break
+            e = e.xreplace(back)
+        return e
+
     def _new(self, kind: str, arg: sp.Expr, *, q: int = 0, name: str | None = None) -> sp.Symbol:
         key = (kind, arg, q)
         if key in self.by_key:
@@ -241,3 +280,15 @@ class AtomTable:
             if not progress:  # pragma: no cover - arguments are built bottom-up
                 raise NotSupportedError("circular definition among non-rational terms")
         return tuple(done)
+
+
+def _rational_gcd(values: Sequence[sp.Rational]) -> sp.Rational:
+    nums = [abs(int(v.p)) for v in values]
+    dens = [int(v.q) for v in values]
+    g = 0
+    for n in nums:
+        g = math.gcd(g, n)
+    lcm = 1
+    for d in dens:
+        lcm = lcm * d // math.gcd(lcm, d)
+    return sp.Rational(g, lcm)

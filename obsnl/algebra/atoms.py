@@ -19,14 +19,17 @@ from collections.abc import Iterable
 
 import sympy as sp
 
-from obsnl.algebra.arguments import _factor_fraction, _to_exact, user_form
 from obsnl.algebra.atom_table import Atom, AtomTable
-from obsnl.errors import NotSupportedError
+from obsnl.errors import ModelError, NotSupportedError
 from obsnl.model.bounds.textsize import shorten
-from obsnl.model.bounds.work import MAX_EXPANDED_TERMS, can_expand
+from obsnl.model.bounds.work import MAX_EXPANDED_TERMS, can_expand, can_factor
 from obsnl.model.core import NONSMOOTH_FUNCTIONS
 
 __all__ = ["Rewriter", "rewrite"]
+
+
+#: A numerator's or denominator's constant and factors with their multiplicities.
+_Factored = tuple[sp.Rational, tuple[tuple[sp.Expr, int], ...]]
 
 
 class Rewriter(AtomTable):
@@ -193,10 +196,6 @@ class Rewriter(AtomTable):
             out -= e * self.const(sp.log(prime, evaluate=False))
         return out
 
-    def user_form(self, e: sp.Expr) -> sp.Expr:
-        """``e`` with the provisional and atom symbols swapped back (:func:`obsnl.algebra.arguments.user_form`)."""
-        return user_form(e, self.prov_exp_inv, self.prov_trig, self.atoms)
-
     def _terms(self, g: sp.Expr, func: type) -> list[tuple[sp.Rational, sp.Expr]]:
         """The terms ``c * m`` of the argument ``g`` of ``func`` (exp, sin or cos), ``g`` expanded."""
 
@@ -292,3 +291,36 @@ def rewrite(exprs: Iterable[sp.Expr], symbols: Iterable[sp.Symbol]) -> tuple[lis
     out = [rw.add(e) for e in exprs]
     subs = rw.finalize()
     return [e.xreplace(subs) for e in out], rw.ordered_atoms()
+
+
+def _factor_fraction(g: sp.Expr) -> sp.Rational | tuple[_Factored, ...]:
+    """``g`` as a rational number, or ((c, factors) of the numerator, (c, factors) of the denominator).
+
+    A part too large to factor cheaply (:func:`obsnl.model.bounds.work.can_factor`) is kept whole: ``log|part|``
+    is then one atom, which is still exact.
+    """
+    g = sp.together(g)
+    if g == 0:
+        raise ModelError("log(0) in the model")
+    if g.is_Rational:
+        return sp.Rational(g)
+    out: list[_Factored] = []
+    for part in sp.fraction(g):
+        if part.is_Rational:
+            out.append((sp.Rational(part), ()))
+            continue
+        if not can_factor(part):
+            out.append((sp.Integer(1), ((part, 1),)))
+            continue
+        try:
+            c, factors = sp.factor_list(sp.expand(part))
+        except (sp.PolynomialError, NotImplementedError):  # pragma: no cover - defensive
+            c, factors = sp.Integer(1), [(part, 1)]
+        out.append((sp.Rational(c), tuple(factors)))
+    return tuple(out)
+
+
+def _to_exact(e: sp.Expr) -> sp.Expr:
+    if e.has(sp.Float):
+        return e.xreplace({f: sp.nsimplify(f, rational=True) for f in e.atoms(sp.Float)})
+    return e
