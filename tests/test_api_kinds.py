@@ -50,6 +50,33 @@ def test_identify_refuses_data_that_are_not_data():
         obsnl.identify(MSD, None)
 
 
+@pytest.mark.parametrize("noise", ["high", True, -0.01, float("nan"), None])
+def test_a_study_refuses_a_noise_ratio_of_the_wrong_kind_before_any_work(noise, monkeypatch):
+    # a text reached math.isfinite after the structural analysis: a raw TypeError
+    import obsnl.identification.identify as ident
+    from obsnl.estimation.accelerogram import Record
+
+    monkeypatch.setattr(ident, "analyze", _no_analysis)
+    model = MSD.replace(values={"k": 25.0, "c": 0.8})
+    with pytest.raises(OptionError) as info:
+        ident.study(model, Record("r", list(np.sin(3.1 * T)), 0.02), noise=noise, progress=False)
+    assert "noise= takes one noise-to-signal ratio > 0 for every channel" in str(info.value)
+    assert "\n" not in str(info.value)
+
+
+def test_a_misspelt_guess_is_refused_before_the_structural_analysis(monkeypatch):
+    # the guesses were checked after the analysis and the compilation
+    import obsnl.identification.identify as ident
+
+    monkeypatch.setattr(ident, "analyze", _no_analysis)
+    with pytest.raises(OptionError, match="guess= names 'kk', which is not a parameter of 'msd'"):
+        obsnl.identify(MSD, _columns(), guess={"kk": 3.0}, progress=False)
+
+
+def _no_analysis(*a, **k):
+    raise AssertionError("the structural analysis ran before the arguments were checked")
+
+
 def test_an_input_too_small_to_move_the_model_is_named_not_an_index_error():
     # 1e-170 N moves the states to ~1e-172: their squares underflow to 0, so the filter has no scale to work with
     with pytest.raises(DataError, match=r"the inputs move no state \(largest \|input\| 1e-170\)"):

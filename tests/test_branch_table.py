@@ -127,8 +127,8 @@ def test_identify_with_a_table_analyses_the_model_once(monkeypatch):
 
     monkeypatch.setattr(an, "analyze", counted)
     monkeypatch.setattr(ident, "analyze", counted)
-    num, g, tab, structural = ident._prepare(m, table, None, False, 0, "dukf")
-    assert len(calls) == 1 and tab is table and structural.unidentifiable == ()
+    num, structural = ident._prepare(m, table, False, 0, "dukf")
+    assert len(calls) == 1 and structural.unidentifiable == ()
 
 
 # ----------------------------------------------------------------------------- 9 contradictory tables

@@ -124,6 +124,42 @@ def test_the_identify_request_refuses_an_executor_nothing_would_use(tmp_path, ca
             IdentifyRequest(model=MODELS / "bouc_wen.toml", record="r.csv", **options)
 
 
+def test_one_obsnl_identify_probes_its_scheduler_once_and_checks_its_data_when_the_request_is_made(
+        tmp_path, monkeypatch):
+    """The request probed the scheduler, then the library's identify probed it again (a second connection to a Dask
+    scheduler per run), and the data were read only when the request ran: now the request holds the identification
+    checked once (``check_identify``), and the run (``run_identification``) checks nothing again."""
+    import numpy as np
+
+    import obsnl.identification.identify as ident
+    from obsnl.commands.identify import IdentifyRequest, run_identify
+
+    probes = []
+    monkeypatch.setattr(Executor, "probe", lambda self, timeout=5.0: probes.append(self) or self)
+    model = tmp_path / "leak.toml"
+    model.write_text('name = "leak"\nstates = ["x"]\nparameters = ["a"]\ninputs = ["u"]\n'
+                     '[equations]\nx = "u - a*x"\n[outputs]\ny = "x"\n[guess]\na = 1.0\n')
+    with pytest.raises(ObsnlError, match="does not exist"):  # a missing data file: when the request is made
+        IdentifyRequest(model=model, data=tmp_path / "none.csv", executor=Executor(workers=2))
+    t = np.arange(60) * 0.1
+    csv = tmp_path / "d.csv"
+    csv.write_text("t,u,y\n" + "".join(f"{a:.1f},{np.sin(a):.6f},{0.1 * np.sin(a):.6f}\n" for a in t))
+    probes.clear()
+    request = IdentifyRequest(model=model, data=csv, executor=Executor(workers=2))
+    assert len(probes) == 1 and request.checked.data is not None and len(request.checked.data.y) == 60
+
+    def no_filter(*a, **k):  # noqa: ANN002, ANN003
+        raise SystemExit("the filter was reached")
+
+    monkeypatch.setattr(ident, "identify_measured", no_filter)
+    with pytest.raises(SystemExit, match="the filter was reached"):
+        run_identify(request)
+    assert len(probes) == 1  # the run did not probe again
+    with pytest.raises(SystemExit, match="the filter was reached"):
+        ident.identify(model, csv, executor=Executor(workers=2), progress=False)
+    assert len(probes) == 2  # the library's own door probes once too
+
+
 @pytest.mark.parametrize("job", ["IdentifyRequest", "ReproduceRequest", "report_paths", "SensorsRequest"])
 def test_the_jobs_refuse_a_dead_scheduler_before_any_work(tmp_path, monkeypatch, job):
     """A scheduler address where nothing listens (port 1 of the loopback: refused at once) is refused by the job

@@ -23,15 +23,15 @@ def test_identify_reads_the_guesses_given_at_once(monkeypatch, tmp_path):
 
     seen = {}
 
-    def fake_identify(model, data, *, guess, **options):
+    def fake_check(model, data, *, guess, **options):
         seen.update(guess)
         raise SystemExit(0)
 
-    monkeypatch.setattr("obsnl.identification.identify.identify", fake_identify)
+    monkeypatch.setattr("obsnl.identification.identify.check_identify", fake_check)
     model = obsnl.Model(name="m", states=["x"], parameters=["k", "c"], inputs=["u"],
                         equations={"x": "-k*x - c*x + u"}, outputs={"y": "x"})
     try:
-        identify.run_identify(identify.IdentifyRequest(model=model, data="d.csv", guess=[["k=3", "c=0.5"]]))
+        identify.IdentifyRequest(model=model, data="d.csv", guess=[["k=3", "c=0.5"]])
     except SystemExit:
         pass
     assert seen == {"k": 3.0, "c": 0.5}

@@ -4,10 +4,12 @@
 ``NAME=VALUE`` texts, the meaning of ``--noise``: one ``RATIO`` for every channel, ``NAME=RATIO`` for one; a
 tuning given in part, :data:`TUNING_DEFAULTS` for the rest), checks them and resolves them once, before any
 work: an option that would be ignored, an executor nothing would use, a scheduler that does not answer and an
-output folder that cannot take the files are refused before the model is read; the model is read once.
-:func:`run_identify` calls :func:`obsnl.identification.identify.identify` (measured data) or
-:func:`~obsnl.identification.identify.study` (a simulation study) and writes the files; :func:`identify_printed` is
-what the command prints.
+output folder that cannot take the files are refused before the model is read; the model is read once. Then the
+library checks and resolves the rest once (:func:`obsnl.identification.identify.check_identify` for measured data,
+:func:`~obsnl.identification.identify.check_study` for a simulation study: the data or the record read, the table
+read, the guesses): the request holds the :class:`~obsnl.identification.identify.CheckedIdentification`.
+:func:`run_identify` runs it (:func:`~obsnl.identification.identify.run_identification`, which checks nothing again)
+and writes the files; :func:`identify_printed` is what the command prints.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ from obsnl.report.printed import Printed, written_line
 if TYPE_CHECKING:
     from obsnl.executor import Executor
     from obsnl.identification.experiments import Tuning
+    from obsnl.identification.identify import CheckedIdentification
     from obsnl.identification.results import Identification
     from obsnl.model.core import Model
     from obsnl.observability.contract.branch_table import BranchTable
@@ -236,11 +239,12 @@ class IdentifyRequest:
     progress: bool | Callable[[], Any] | None = True
     out: str | Path | None = None
     force: bool = False
-    #: The model read, the guesses and the noise levels parsed, the tuning made: what :func:`run_identify` uses.
-    resolved: _Resolved = field(init=False, repr=False, compare=False)
+    #: The identification checked and resolved (the model and the data or record read, the guesses and the noise
+    #: levels parsed, the tuning made): what :func:`run_identify` runs.
+    checked: CheckedIdentification = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
-        from obsnl.identification.identify import IDENTIFY_FILES
+        from obsnl.identification.identify import IDENTIFY_FILES, check_identify, check_study
         from obsnl.identification.structural import parse_assignments
         from obsnl.model.files import as_model
 
@@ -287,21 +291,34 @@ class IdentifyRequest:
         source = data if data else self.record
         if source is None:
             raise OptionError("give data= (a measured CSV) or record= (a record driving a simulation study)")
-        noise: dict[str, float] | float = noise_ratios(list(self.noise), channels, study=not data, option="noise=")
-        object.__setattr__(self, "resolved", _Resolved(model, source, guesses, noise, tuning, intersample))
-
-
-@dataclass(frozen=True)
-class _Resolved:
-    """What an :class:`IdentifyRequest` resolved: the model, the data or record, the guesses, the noise levels (a
-    mapping for measured data, one level for a study), the tuning, the inputs between samples."""
-
-    model: Model
-    source: str | Path
-    guesses: dict[str, float]
-    noise: dict[str, float] | float
-    tuning: Tuning | None
-    intersample: str | Mapping[str, str] | Sequence[str] | None
+        common: dict[str, Any] = {  # what a measured identification and a simulation study take alike
+            "guess": guesses,
+            "method": self.method,
+            "table": self.table,
+            "passes": self.passes,
+            "replicates": self.replicates,
+            "seed": self.seed,
+            "tuning": tuning,
+            "allow_unidentifiable": self.allow_unidentifiable,
+            "jit": self.jit,
+            "hold": self.hold,
+            "progress": self.progress,
+            "executor": ex,
+            "refine": self.refine,
+        }
+        if data:  # measured data: a level per channel named, the others estimated
+            checked = check_identify(
+                model,
+                data,
+                noise=noise_ratios(list(self.noise), channels, study=False, option="noise="),
+                intersample=intersample,
+                objective=self.objective,
+                **common,
+            )
+        else:  # a simulation study: one level for every channel
+            noise = noise_ratios(list(self.noise), channels, study=True, option="noise=")
+            checked = check_study(model, source, noise=noise, samples=self.samples, **common)
+        object.__setattr__(self, "checked", checked)
 
 
 @dataclass(frozen=True)
@@ -329,30 +346,9 @@ def run_identify(request: IdentifyRequest) -> IdentifyResult:
     IdentifyResult
         The identification and the files written in ``request.out``.
     """
-    from obsnl.identification.identify import identify, study, write_identification
+    from obsnl.identification.identify import run_identification, write_identification
 
-    r = request.resolved
-    # what a measured identification and a simulation study take alike
-    common: dict[str, Any] = {
-        "guess": r.guesses,
-        "noise": r.noise,
-        "method": request.method,
-        "table": request.table,
-        "passes": request.passes,
-        "replicates": request.replicates,
-        "seed": request.seed,
-        "tuning": r.tuning,
-        "allow_unidentifiable": request.allow_unidentifiable,
-        "jit": request.jit,
-        "hold": request.hold,
-        "progress": request.progress,
-        "executor": request.executor,
-        "refine": request.refine,
-    }
-    if isinstance(r.noise, dict):  # measured data: a level per channel named, the others estimated
-        res = identify(r.model, r.source, intersample=r.intersample, objective=request.objective, **common)
-    else:  # a simulation study: one level for every channel
-        res = study(r.model, r.source, samples=request.samples, **common)
+    res = run_identification(request.checked)
     files = write_identification(res, request.out, force=request.force) if request.out else []
     return IdentifyResult(res, tuple(files))
 

@@ -20,6 +20,7 @@ import json
 import math
 import sys
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
 from numbers import Real
 from pathlib import Path
 from typing import Any
@@ -27,12 +28,14 @@ from typing import Any
 import numpy as np
 
 from obsnl._progress import Progress
+from obsnl._text import quote
 from obsnl.errors import CompileError, DataError, OptionError, OutputError
 from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.codegen import to_casadi
 from obsnl.estimation.intersample import intersample_kinds
 from obsnl.estimation.jitcache import compiler_available
 from obsnl.estimation.measured import MIN_SAMPLES, Measured, is_frame, measured, read_measured
+from obsnl.estimation.numeric import NumericModel
 from obsnl.estimation.records import read_record
 from obsnl.executor import Executor
 from obsnl.identification.experiments import Tuning
@@ -47,25 +50,25 @@ from obsnl.observability.analyze import analyze
 from obsnl.observability.contract.branch_table import BranchTable
 from obsnl.observability.contract.table_check import check_table
 
-__all__ = ["identify", "study", "write_identification", "IDENTIFY_FILES"]
+__all__ = [
+    "identify",
+    "study",
+    "CheckedIdentification",
+    "check_identify",
+    "check_study",
+    "run_identification",
+    "write_identification",
+    "IDENTIFY_FILES",
+]
 
 #: What :func:`write_identification` writes into its folder.
 IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png", "profiles.png")
 
 
 def _prepare(
-    model: Model,
-    table: BranchTable | str | Path | None,
-    guess: Mapping[str, float] | None,
-    allow_unidentifiable: bool,
-    seed: int,
-    method: str = "ukf",
-) -> tuple[Any, dict[str, float], BranchTable | None, StructuralCheck]:
-    """Table check, structural analysis (refusal), compilation, guesses."""
-    if isinstance(table, (str, Path)):
-        from obsnl.observability.contract.branch_table import read_branch_table
-
-        table = read_branch_table(table)
+    model: Model, table: BranchTable | None, allow_unidentifiable: bool, seed: int, method: str
+) -> tuple[NumericModel, StructuralCheck]:
+    """The structural analysis (its refusal of an unidentifiable parameter) and the compiled model."""
     names = tuple(s.name for s in model.parameters)
     # a table made for another model, or one that contradicts it, is refused first; its check's analysis is the
     # structural check (one analysis per call)
@@ -73,7 +76,13 @@ def _prepare(
     structural = structural_check(
         result, model.name, names, table=table, method=method, allow_unidentifiable=allow_unidentifiable
     )
-    num = to_casadi(model, switching=table.switching if table else None)
+    return to_casadi(model, switching=table.switching if table else None), structural
+
+
+def _guesses(model: Model, guess: Mapping[str, float] | None) -> dict[str, float]:
+    """The filter's starting point: ``guess`` over the model's ``[guess]``, each a finite nonzero number inside the
+    parameter's declared bounds."""
+    names = tuple(s.name for s in model.parameters)
     g = {k: float(v) for k, v in (getattr(model, "guess", None) or {}).items() if k in names}
     unknown = sorted(set(guess or {}) - set(names))
     if unknown:  # a misspelt guess is refused, as the command line refuses --guess kk=3
@@ -81,7 +90,7 @@ def _prepare(
             f"guess= names {unknown[0]!r}, which is not a parameter of {model.name!r} "
             f"({', '.join(names)}); check the spelling"
         )
-    g.update(guess or {})
+    g.update({k: float(v) for k, v in (guess or {}).items()})  # numbers checked at the door (_check_kinds)
     for k, v in g.items():  # the filters estimate log|p| with the guess's sign: 0, inf and NaN cannot start
         if not (math.isfinite(v) and 0 < abs(v) < 1e100):
             raise OptionError(
@@ -94,18 +103,31 @@ def _prepare(
                 f"the guess of {k} is {v:g}, outside its declared bounds [{lo:g}, {hi:g}] (the model's [bounds]); "
                 f"give a guess inside them"
             )
-    return num, g, table, structural
+    return g
+
+
+def _read_table(table: BranchTable | str | Path | None) -> BranchTable | None:
+    if isinstance(table, (str, Path)):
+        from obsnl.observability.contract.branch_table import read_branch_table
+
+        return read_branch_table(table)
+    return table
 
 
 def _at_the_door(passes: int, replicates: int, guess: Any, noise: Any, **kinds: Any) -> None:
-    """What identify and study check before any work, in this order: the counts, every argument's kind
-    (:func:`_check_kinds`), then the executor's scheduler (one that cannot run the work is refused now, not after the
-    filter)."""
+    """What :func:`check_identify` and :func:`check_study` check first, in this order: the counts, then every
+    argument's kind (:func:`_check_kinds`)."""
     check_passes(passes)
     check_replicates(replicates)
     _check_kinds(guess, noise, **kinds)
-    if kinds.get("executor") is not None:
-        kinds["executor"].probe()
+
+
+def _probed(checked: CheckedIdentification) -> CheckedIdentification:
+    """``checked``, its executor's scheduler probed: one that cannot run the work is refused now, not after the
+    filter (:meth:`obsnl.executor.Executor.probe`)."""
+    if checked.executor is not None:
+        checked.executor.probe()
+    return checked
 
 
 def _check_kinds(
@@ -304,6 +326,164 @@ def identify(
     ...
     obsnl.errors.AnalysisError: a, b of 'drift' are structurally unidentifiable from its outputs (the joint verdict); write identifiable combinations with `obsnl reparametrize MODEL -o NEW.toml` and identify NEW.toml, or pass allow_unidentifiable=True
     """
+    return run_identification(
+        _probed(
+            check_identify(
+                model,
+                data,
+                guess=guess,
+                noise=noise,
+                method=method,
+                table=table,
+                passes=passes,
+                replicates=replicates,
+                seed=seed,
+                tuning=tuning,
+                allow_unidentifiable=allow_unidentifiable,
+                jit=jit,
+                hold=hold,
+                progress=progress,
+                executor=executor,
+                refine=refine,
+                intersample=intersample,
+                known_initial=known_initial,
+                objective=objective,
+            )
+        )
+    )
+
+
+@dataclass(frozen=True, kw_only=True)
+class CheckedIdentification:
+    """An identification checked and resolved once, by :func:`check_identify` (measured data) or :func:`check_study`
+    (a simulation study); :func:`run_identification` runs it without checking again. ``obsnl identify`` makes one when
+    its request is made (:class:`obsnl.commands.identify.IdentifyRequest`).
+
+    Attributes
+    ----------
+    model : Model
+        The model, read from its file where a file was given, with the known initial states declared known.
+    known_initial : mapping of str to float
+        The value of every known initial state (the model's, and ``known_initial=``).
+    data : Measured or None
+        The measured data (None in a simulation study).
+    record : Record or None
+        The study's record, cut to its first ``samples`` (None for measured data).
+    inputs : numpy.ndarray
+        The inputs as sampled, ``(T, inputs)``: kept on the result for the residual analysis and the frequency
+        response.
+    intersample : mapping of str to str
+        How each input runs between samples, ``{input: kind}`` (measured data; empty in a study, which simulates its
+        record linearly between samples).
+    guess : mapping of str to float
+        The filter's starting point: the guesses given over the model's ``[guess]``, each checked.
+    noise : mapping of str to float, or float, or None
+        Noise-to-signal ratios per channel (measured data; channels not named are estimated), or the study's one ratio.
+    table : BranchTable or None
+        The branch table, read from its file where a file was given.
+    method, passes, replicates, seed, tuning, allow_unidentifiable, jit, hold, progress, executor, refine, objective
+        As :func:`identify` takes them, checked.
+    """
+
+    model: Model
+    known_initial: Mapping[str, float]
+    data: Measured | None
+    record: Record | None
+    inputs: np.ndarray = field(repr=False)
+    intersample: Mapping[str, str]
+    guess: Mapping[str, float]
+    noise: Mapping[str, float] | float | None
+    table: BranchTable | None
+    method: str
+    passes: int
+    replicates: int
+    seed: int
+    tuning: Tuning | None
+    allow_unidentifiable: bool
+    jit: bool | None
+    hold: bool
+    progress: bool | Callable[[], Any] | None
+    executor: Executor | None
+    refine: bool
+    objective: str
+
+
+def check_identify(
+    model: Model | str | Path,
+    data: Measured | Mapping[str, Any] | str | Path,
+    *,
+    guess: Mapping[str, float] | None = None,
+    noise: Mapping[str, float] | None = None,
+    method: str = "ukf",
+    table: BranchTable | str | Path | None = None,
+    passes: int = 3,
+    replicates: int = 0,
+    seed: int = 0,
+    tuning: Tuning | None = None,
+    allow_unidentifiable: bool = False,
+    jit: bool | None = None,
+    hold: bool = False,
+    progress: bool | Callable[[], Any] | None = True,
+    executor: Executor | None = None,
+    refine: bool = True,
+    intersample: str | Mapping[str, str] | Sequence[str] | None = None,
+    known_initial: Mapping[str, float] | None = None,
+    objective: str = "output",
+) -> CheckedIdentification:
+    """Check and resolve what :func:`identify` takes, before any work: the counts and every argument's kind, the
+    model and the data read, the inputs between samples, the known initial states, the branch table read, the
+    guesses. The executor's scheduler is not asked here: :func:`identify` probes it next, and ``obsnl identify``
+    before it reads the model.
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file.
+    data : Measured, mapping of str to Any, pandas.DataFrame, str or Path
+        The measured data, as :func:`identify` reads them.
+    guess, noise : mapping of str to float or None
+        Guesses over the model's ``[guess]``; noise-to-signal ratios per channel.
+    method : {"ukf", "dukf"}
+        The filter.
+    table : BranchTable, str, Path or None
+        The branch table or its file.
+    passes, replicates, seed : int
+        Passes over the record, Monte-Carlo replicates, the seed.
+    tuning : Tuning or None
+        One filter configuration, or None to tune over a grid.
+    allow_unidentifiable, hold, refine : bool
+        As for :func:`identify`.
+    jit : bool or None
+        Compile to C (None: where a C compiler is found).
+    progress : bool, callable or None
+        The progress bar.
+    executor : Executor or None
+        Where the profiles and the replicates run.
+    intersample : str, mapping of str to str, sequence of str or None
+        How the inputs run between samples.
+    known_initial : mapping of str to float or None
+        Initial states known.
+    objective : {"output", "prediction"}
+        What the maximum-likelihood fit minimises.
+
+    Returns
+    -------
+    CheckedIdentification
+
+    Raises
+    ------
+    DataError, OptionError, TableError, ParseError
+        As :func:`identify` raises them before any work.
+
+    Examples
+    --------
+    >>> import obsnl
+    >>> m = obsnl.Model(name="leak", states=["x"], parameters=["a"], inputs=["u"],
+    ...                 equations={"x": "u - a*x"}, outputs={"y": "x"})
+    >>> checked = check_identify(m, {"t": [0, 1, 2], "u": [1, 1, 1], "y": [0, 1, 2]}, guess={"a": 2})
+    >>> checked.guess, checked.intersample, checked.inputs.shape
+    ({'a': 2.0}, {'u': 'linear'}, (3, 1))
+    """
     _at_the_door(
         passes,
         replicates,
@@ -332,39 +512,98 @@ def identify(
         data = read_measured(data, inputs=ins, outputs=outs)
     elif not isinstance(data, Measured):
         data = measured(data, inputs=ins, outputs=outs)
-    inputs = data.u  # kept on the result, for the residual analysis and the frequency response
     kinds = intersample_kinds(intersample, ins, table=model.intersample)
     model, known = _known_initial(model, known_initial)
-    num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
+    return CheckedIdentification(
+        model=model,
+        known_initial=known,
+        data=data,
+        record=None,
+        inputs=data.u,
+        intersample=kinds,
+        guess=_guesses(model, guess),
+        noise=noise,
+        table=_read_table(table),
+        method=method,
+        passes=passes,
+        replicates=replicates,
+        seed=seed,
+        tuning=tuning,
+        allow_unidentifiable=allow_unidentifiable,
+        jit=jit,
+        hold=hold,
+        progress=progress,
+        executor=executor,
+        refine=refine,
+        objective=objective,
+    )
+
+
+def run_identification(checked: CheckedIdentification) -> Identification:
+    """Run a checked identification (:func:`check_identify`, :func:`check_study`): the structural analysis and its
+    refusal, the filter, the maximum-likelihood refinement, the replicates; nothing is checked again.
+
+    Parameters
+    ----------
+    checked : CheckedIdentification
+
+    Returns
+    -------
+    Identification
+        As :func:`identify` and :func:`study` return it.
+    """
+    c = checked
+    model = c.model
+    num, structural = _prepare(model, c.table, c.allow_unidentifiable, c.seed, c.method)
 
     def run(compiled: bool) -> Identification:
-        with _steps(progress, model, passes, replicates, tuning, refine) as bar:
+        with _steps(c.progress, model, c.passes, c.replicates, c.tuning, c.refine) as bar:
+            if c.record is not None:  # a simulation study: one noise level for every channel
+                assert isinstance(c.noise, float)  # check_study keeps one ratio
+                return simulation_study(
+                    num,
+                    c.record,
+                    guess=dict(c.guess),
+                    method=c.method,
+                    table=c.table,
+                    seed=c.seed,
+                    noise=c.noise,
+                    tuning=c.tuning,
+                    passes=c.passes,
+                    replicates=c.replicates,
+                    jit=compiled,
+                    progress=bar,
+                    executor=c.executor,
+                    hold=c.hold,
+                    refined=c.refine,
+                )
+            assert c.data is not None  # check_identify resolves one or the other
             return identify_measured(
                 num,
-                data,
-                guess=g,
-                method=method,
-                table=table,
-                noise=noise,
-                grid=MEASURED_GRID if tuning is None else (tuning,),
-                passes=passes,
-                replicates=replicates,
-                seed=seed,
+                c.data,
+                guess=dict(c.guess),
+                method=c.method,
+                table=c.table,
+                noise=c.noise if isinstance(c.noise, Mapping) else None,
+                grid=MEASURED_GRID if c.tuning is None else (c.tuning,),
+                passes=c.passes,
+                replicates=c.replicates,
+                seed=c.seed,
                 jit=compiled,
-                hold=hold,
+                hold=c.hold,
                 progress=bar,
-                executor=executor,
-                refined=refine,
-                intersample=kinds,
-                known_initial=known,
-                objective=objective,
-                bounds={k: v for k, v in (model.bounds or {}).items() if k in g},
+                executor=c.executor,
+                refined=c.refine,
+                intersample=dict(c.intersample),
+                known_initial=dict(c.known_initial),
+                objective=c.objective,
+                bounds={k: v for k, v in (model.bounds or {}).items() if k in c.guess},
             )
 
     return dataclasses.replace(
-        _cross_check(_compiled_or_not(jit, run), structural),
+        _cross_check(_compiled_or_not(c.jit, run), structural),
         fitted_model=model,
-        u_measured=inputs,
+        u_measured=c.inputs,
         inputs=tuple(s.name for s in model.inputs),
     )
 
@@ -498,6 +737,104 @@ def study(
     >>> callable(study)
     True
     """
+    return run_identification(
+        _probed(
+            check_study(
+                model,
+                record,
+                guess=guess,
+                noise=noise,
+                method=method,
+                table=table,
+                passes=passes,
+                replicates=replicates,
+                seed=seed,
+                tuning=tuning,
+                samples=samples,
+                allow_unidentifiable=allow_unidentifiable,
+                jit=jit,
+                hold=hold,
+                progress=progress,
+                executor=executor,
+                refine=refine,
+            )
+        )
+    )
+
+
+def check_study(
+    model: Model | str | Path,
+    record: Record | str | Path,
+    *,
+    guess: Mapping[str, float] | None = None,
+    noise: float = 1e-3,
+    method: str = "ukf",
+    table: BranchTable | str | Path | None = None,
+    passes: int = 3,
+    replicates: int = 0,
+    seed: int = 0,
+    tuning: Tuning | None = None,
+    samples: int | None = None,
+    allow_unidentifiable: bool = False,
+    jit: bool | None = None,
+    hold: bool = False,
+    progress: bool | Callable[[], Any] | None = True,
+    executor: Executor | None = None,
+    refine: bool = True,
+) -> CheckedIdentification:
+    """Check and resolve what :func:`study` takes, before any work: as :func:`check_identify`, with the record read
+    and cut to ``samples``, the noise ratio, and the model's one input.
+
+    Parameters
+    ----------
+    model : Model, str or Path
+        The model or its file (with the ``[values]`` simulated).
+    record : Record, str or Path
+        The input record or its file.
+    guess : mapping of str to float or None
+        Guesses over the model's ``[guess]``.
+    noise : float
+        The noise-to-signal RMS ratio of every channel (> 0).
+    method : {"ukf", "dukf"}
+        The filter.
+    table : BranchTable, str, Path or None
+        The branch table or its file.
+    passes, replicates, seed : int
+        Passes over the record, Monte-Carlo replicates, the seed.
+    tuning : Tuning or None
+        One filter configuration, or None to tune over a grid.
+    samples : int or None
+        Use only the first samples of the record.
+    allow_unidentifiable, hold, refine : bool
+        As for :func:`study`.
+    jit : bool or None
+        Compile to C (None: where a C compiler is found).
+    progress : bool, callable or None
+        The progress bar.
+    executor : Executor or None
+        Where the profiles and the replicates run.
+
+    Returns
+    -------
+    CheckedIdentification
+
+    Raises
+    ------
+    DataError, OptionError, TableError, ParseError
+        As :func:`study` raises them before any work (a branch table that contradicts a model of several inputs is
+        named before the inputs are: its check analyses the model).
+
+    Examples
+    --------
+    >>> import obsnl
+    >>> from obsnl.estimation.accelerogram import Record
+    >>> m = obsnl.Model(name="leak", states=["x"], parameters=["a"], inputs=["u"],
+    ...                 equations={"x": "u - a*x"}, outputs={"y": "x"}, values={"a": 1.0}, guess={"a": 2.0})
+    >>> check_study(m, Record("r", [0.0] * 60, 0.01), noise="high")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.OptionError: noise= takes one noise-to-signal ratio > 0 for every channel, got 'high'
+    """
     _at_the_door(
         passes,
         replicates,
@@ -513,6 +850,8 @@ def study(
         hold=hold,
         allow_unidentifiable=allow_unidentifiable,
     )
+    if isinstance(noise, (bool, np.bool_)) or not isinstance(noise, Real) or not (math.isfinite(noise) and noise > 0):
+        raise OptionError(f"noise= takes one noise-to-signal ratio > 0 for every channel, got {quote(noise, 30)}")
     model = as_model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"
@@ -522,41 +861,36 @@ def study(
             f"a simulation study needs at least {MIN_SAMPLES} samples of the record, got "
             f"{len(record.accel)}: give a longer record or a larger samples="
         )
+    table = _read_table(table)
     if table is not None and len(model.inputs) != 1:  # a contradicting table is named first
-        _prepare(model, table, guess, True, seed, method)
+        check_table(table, model)
     if len(model.inputs) != 1:
         raise OptionError(
             f"a simulation study drives one input with record=; {model.name!r} has "
             f"{[s.name for s in model.inputs]}: give measured data with data="
         )
-    num, g, table, structural = _prepare(model, table, guess, allow_unidentifiable, seed, method)
-    inputs = np.asarray(record.accel, float).reshape(len(record.accel), -1)
-
-    def run(compiled: bool) -> Identification:
-        with _steps(progress, model, passes, replicates, tuning, refine) as bar:
-            return simulation_study(
-                num,
-                record,
-                guess=g,
-                method=method,
-                table=table,
-                seed=seed,
-                noise=noise,
-                tuning=tuning,
-                passes=passes,
-                replicates=replicates,
-                jit=compiled,
-                progress=bar,
-                executor=executor,
-                hold=hold,
-                refined=refine,
-            )
-
-    return dataclasses.replace(
-        _cross_check(_compiled_or_not(jit, run), structural),
-        fitted_model=model,
-        u_measured=inputs,
-        inputs=tuple(s.name for s in model.inputs),
+    return CheckedIdentification(
+        model=model,
+        known_initial={},
+        data=None,
+        record=record,
+        inputs=np.asarray(record.accel, float).reshape(len(record.accel), -1),
+        intersample={},
+        guess=_guesses(model, guess),
+        noise=float(noise),
+        table=table,
+        method=method,
+        passes=passes,
+        replicates=replicates,
+        seed=seed,
+        tuning=tuning,
+        allow_unidentifiable=allow_unidentifiable,
+        jit=jit,
+        hold=hold,
+        progress=progress,
+        executor=executor,
+        refine=refine,
+        objective="output",
     )
 
 

@@ -306,8 +306,10 @@ def symmetries_of(model: Model, *, seed: int, degree: int = 1, jacobian: Modular
     ----------
     model : Model
         A smooth model (a branch), checked.
-    seed, degree, jacobian
-        As for :func:`symmetries`, checked.
+    seed, degree : int
+        As for :func:`symmetries`, checked (:func:`check_search`).
+    jacobian : ModularJacobian or None
+        As for :func:`symmetries`.
 
     Returns
     -------
