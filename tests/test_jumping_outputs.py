@@ -63,6 +63,36 @@ def test_an_accelerometer_under_coulomb_friction_is_known_to_jump() -> None:
     assert to_casadi(both).output_jumps == (False, True)
 
 
+def test_where_the_model_jumps_is_proved_in_one_split(monkeypatch) -> None:
+    """The compilation asked the field's jumps, its slides and each output's jumps in separate passes, each splitting
+    the model again (three splits and one more per output: 7 here); now one. The answers, derived by hand for a mass
+    with Coulomb friction and a kink spring ``s max(x, 0)``: the friction force jumps across ``v = 0`` with a
+    component along ``v`` (the field jumps there and a sliding mode may form); ``s max(x, 0)`` is continuous across
+    ``x = 0`` (no jump, no slide); a displacement and the spring's force never jump, the acceleration and the friction
+    force jump with ``sign(v)``."""
+    import obsnl.model.branching.jumps as jumps
+
+    model = obsnl.Model(
+        name="friction_kink",
+        states=["x", "v"],
+        parameters=["k", "c", "F", "s"],
+        inputs=["u"],
+        equations={"x": "v", "v": "u - k*x - c*v - F*sign(v) - s*Max(x, 0)"},
+        outputs={"x_m": "x", "a": "u - k*x - c*v - F*sign(v) - s*Max(x, 0)", "f": "F*sign(v)", "h": "s*Max(x, 0)"},
+    )
+    splits = []
+    real = jumps.split_branches
+    monkeypatch.setattr(jumps, "split_branches", lambda m, *a, **k: splits.append(m.name) or real(m, *a, **k))
+    num = to_casadi(model)
+    assert len(splits) == 1
+    on_v = [i for i, g in enumerate(num.signature.switching) if g in ("v", "-v")]
+    on_x = [i for i, g in enumerate(num.signature.switching) if g in ("x", "-x")]
+    assert len(on_v) == len(on_x) == 1 and len(num.jumps) == 2
+    assert (num.jumps[on_v[0]], num.slides[on_v[0]]) == (True, True)
+    assert (num.jumps[on_x[0]], num.slides[on_x[0]]) == (False, False)
+    assert num.output_jumps == (False, True, True, False)
+
+
 @pytest.mark.slow
 def test_intervals_close_and_cover_on_an_accelerometer_under_coulomb_friction() -> None:
     """Four noise seeds, three parameters each: every fit converged, every interval closed, and the intervals cover

@@ -23,7 +23,7 @@ import sympy as sp
 from obsnl.errors import ModelError, NotSupportedError, TableError
 from obsnl.estimation.jitcache import jit_options
 from obsnl.estimation.numeric import NumericModel, ParameterMap
-from obsnl.model.branching.jumps import field_jumps, field_slides, output_jumps
+from obsnl.model.branching.jumps import Discontinuities, discontinuities
 from obsnl.model.branching.signature import ModelSignature
 from obsnl.model.branching.switching import expr_text, switching_functions
 from obsnl.model.core import Model
@@ -219,6 +219,7 @@ def to_casadi(
     hx = ca.vertcat(*[conv(e) for e in model.output_exprs]) if model.outputs else ca.SX.zeros(0)
     gx = ca.vertcat(*[conv(e) for e in gs]) if gs else ca.SX.zeros(0)
     args, names = [xs, ps, us], ["x", "p", "u"]
+    where = discontinuities(model, gs) if gs else Discontinuities((), (), ())  # one proof pass, one split
     values = {k: float(v) for k, v in (model.values or {}).items()}
     return NumericModel(
         signature=ModelSignature(
@@ -233,9 +234,9 @@ def to_casadi(
             ),
         ),
         values=MappingProxyType(values),
-        jumps=field_jumps(model, gs) if gs else (),
-        slides=field_slides(model, gs) if gs else (),
-        output_jumps=output_jumps(model, gs) if gs else (),
+        jumps=where.jumps,
+        slides=where.slides,
+        output_jumps=where.output_jumps,
         source=(model, None if switching is None else tuple(switching), None if constants is None else dict(constants)),
         f=ca.Function("f", args, [fx], names, ["xdot"]),
         h=ca.Function("h", args, [hx], names, ["y"]),

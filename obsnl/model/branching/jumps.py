@@ -2,12 +2,14 @@
 on its two sides may differ on the surface (the discrete steps of :mod:`obsnl.estimation.numeric` refine only
 the crossings where it does), and whether the jump may have a component across the surface, the only kind
 that can hold a trajectory on it (a sliding mode in Filippov's sense: a mass that sticks under dry friction),
-which the located substep of :mod:`obsnl.estimation.crossing` then resolves.
+which the located substep of :mod:`obsnl.estimation.crossing` then resolves; and for each output, whether it may
+jump where the field does. :func:`discontinuities` answers the three in one pass over one split of the model.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
 
 import sympy as sp
 
@@ -16,7 +18,7 @@ from obsnl.model.bounds.work import can_expand, can_factor, same_up_to_sign
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 
-__all__ = ["field_jumps", "field_slides", "output_jumps"]
+__all__ = ["Discontinuities", "discontinuities", "field_jumps", "field_slides", "output_jumps"]
 
 #: ``differences(g, a, b, states)``: the expressions to prove zero on ``g = 0`` between two neighbouring branches'
 #: models ``a`` and ``b``.
@@ -50,7 +52,7 @@ def field_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
     tuple of bool
         One per switching function: True where the field may jump.
     """
-    return _across(model, switching, _jump)
+    return discontinuities(model, switching).jumps
 
 
 def field_slides(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
@@ -91,7 +93,7 @@ def field_slides(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]
     >>> field_jumps(m2, g), field_slides(m2, g)
     ((True,), (False,))
     """
-    return _across(model, switching, _normal_jump)
+    return discontinuities(model, switching).slides
 
 
 def output_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]:
@@ -124,16 +126,82 @@ def output_jumps(model: Model, switching: Sequence[sp.Expr]) -> tuple[bool, ...]
     >>> output_jumps(m, switching_functions(m))
     (False, True)
     """
-    jumping = field_jumps(model, switching)
-    out = []
-    for o in model.outputs:
+    return discontinuities(model, switching).output_jumps
 
-        def differences(g: sp.Expr, a: Model, b: Model, states: Sequence[sp.Symbol], o: str = o) -> list[sp.Expr]:
-            return [a.outputs[o] - b.outputs[o]]
 
-        across = _across(model, switching, differences)
-        out.append(any(j and c for j, c in zip(jumping, across)))
-    return tuple(out)
+@dataclass(frozen=True)
+class Discontinuities:
+    """Where a model's vector field and outputs may jump, proved in one pass (:func:`discontinuities`).
+
+    Attributes
+    ----------
+    jumps : tuple of bool
+        Per switching function: the field may jump where it crosses 0 (:func:`field_jumps`).
+    slides : tuple of bool
+        Per switching function: a trajectory may slide along its surface (:func:`field_slides`).
+    output_jumps : tuple of bool
+        Per output, in ``model.outputs`` order: it may jump where the field does (:func:`output_jumps`).
+    """
+
+    jumps: tuple[bool, ...]
+    slides: tuple[bool, ...]
+    output_jumps: tuple[bool, ...]
+
+
+def discontinuities(model: Model, switching: Sequence[sp.Expr]) -> Discontinuities:
+    """Where the field and the outputs of ``model`` may jump across ``switching``: one split of the model, each
+    switching function solved once, and every neighbouring pair of branches compared once for all three questions
+    (:func:`field_jumps`, :func:`field_slides`, :func:`output_jumps` read their answer from here).
+
+    Parameters
+    ----------
+    model : Model
+        The non-smooth model.
+    switching : sequence of sympy.Expr
+        Switching functions (the model's own, or a branch table's), in any orientation.
+
+    Returns
+    -------
+    Discontinuities
+        What is not proved continuous counts as may jump (a model that cannot be split, a nested split, more than
+        ``_MAX_JUMP_CHECK`` switching functions, a switching function that cannot be solved).
+
+    Examples
+    --------
+    >>> from obsnl.model.core import Model
+    >>> from obsnl.model.branching.switching import switching_functions
+    >>> m = Model(name="dry", states=["x", "v"], parameters=["k", "F"], inputs=["u"],
+    ...           equations={"x": "v", "v": "u - k*x - F*sign(v)"}, outputs={"y": "x", "a": "u - k*x - F*sign(v)"})
+    >>> discontinuities(m, switching_functions(m))
+    Discontinuities(jumps=(True,), slides=(True,), output_jumps=(False, True))
+    """
+    switching = list(switching)
+    kinds: list[_Differences] = [_jump, _normal_jump] + [_output_difference(o) for o in model.outputs]
+    unproved = [[True] * len(switching) for _ in kinds]  # per kind, per switching function: may jump
+    branches = _split(model) if len(switching) <= _MAX_JUMP_CHECK else None
+    if branches is not None:
+        sw = list(branches[0].switching)
+        by_signs = {b.signs: b for b in branches}
+        for i, g in enumerate(switching):
+            j = next((k for k, s in enumerate(sw) if same_up_to_sign(s, g)), None)
+            if j is not None:
+                for k, vanish in enumerate(_vanish_across(g, j, by_signs, model, kinds)):
+                    unproved[k][i] = not vanish
+    jumps, slides, *per_output = (tuple(u) for u in unproved)
+    return Discontinuities(
+        jumps,
+        slides,
+        tuple(any(j and c for j, c in zip(jumps, across)) for across in per_output),
+    )
+
+
+def _output_difference(o: str) -> _Differences:
+    """The difference to prove zero on ``g = 0`` for the output ``o`` to be continuous there."""
+
+    def differences(g: sp.Expr, a: Model, b: Model, states: Sequence[sp.Symbol]) -> list[sp.Expr]:
+        return [a.outputs[o] - b.outputs[o]]
+
+    return differences
 
 
 def _jump(g: sp.Expr, a: Model, b: Model, states: Sequence[sp.Symbol]) -> list[sp.Expr]:
@@ -146,35 +214,28 @@ def _normal_jump(g: sp.Expr, a: Model, b: Model, states: Sequence[sp.Symbol]) ->
     return [sum((sp.diff(g, s) * (fa - fb) for s, fa, fb in zip(states, a.rhs, b.rhs)), sp.Integer(0))]
 
 
-def _across(model: Model, switching: Sequence[sp.Expr], differences: _Differences) -> tuple[bool, ...]:
-    """For each switching function: not proved that ``differences`` vanish on its surface for every pair of
-    neighbouring branches (True also when the model cannot be split or has too many switching functions)."""
-    switching = list(switching)
-    if len(switching) > _MAX_JUMP_CHECK:
-        return (True,) * len(switching)
+def _split(model: Model) -> Sequence[Branch] | None:
+    """The branches of a one-level split of ``model`` with the same switching functions in each; None where the
+    model cannot be split so (nothing is then proved continuous)."""
     try:
         branches = split_branches(model)
     except (ModelError, NotSupportedError):
-        return (True,) * len(switching)
+        return None
     if len(branches) < 2 or any(b.switching != branches[0].switching for b in branches):
-        return (True,) * len(switching)
-    sw = list(branches[0].switching)
-    by_signs = {b.signs: b for b in branches}
-    out = []
-    for g in switching:
-        j = next((i for i, s in enumerate(sw) if same_up_to_sign(s, g)), None)
-        out.append(True if j is None else not _vanish_across(g, j, by_signs, model, differences))
-    return tuple(out)
+        return None
+    return branches
 
 
 def _vanish_across(
-    g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model, differences: _Differences
-) -> bool:
-    """Whether ``differences(g, fa, fb, states)`` of the branch fields on the two sides of ``g = 0`` (``g`` the
-    ``j``-th switching function) vanish identically on ``g = 0`` for every pair of neighbouring branches."""
+    g: sp.Expr, j: int, by_signs: Mapping[tuple[int, ...], Branch], model: Model, kinds: Sequence[_Differences]
+) -> list[bool]:
+    """For each kind of differences, whether ``differences(g, fa, fb, states)`` of the branches on the two sides of
+    ``g = 0`` (``g`` the ``j``-th switching function) vanish identically on ``g = 0`` for every pair of neighbouring
+    branches: ``g`` solved once, each pair compared once for every kind."""
+    none = [False] * len(kinds)
     sol = None
     if not can_factor(g):  # solving it could run for minutes: not proved continuous, counted as a jump
-        return False
+        return none
     for s in [s for s in list(model.states) + list(model.parameters) if s in g.free_symbols]:
         try:
             roots = sp.solve(g, s)
@@ -184,14 +245,18 @@ def _vanish_across(
             sol = (s, roots[0])
             break
     if sol is None:
-        return False
+        return none
     pairs = 0
+    vanish = [True] * len(kinds)
     for signs, b in by_signs.items():
         other = by_signs.get(signs[:j] + (-1,) + signs[j + 1 :]) if signs[j] > 0 else None
         if other is None:
             continue
         pairs += 1
-        for d in differences(g, b.model, other.model, list(model.states)):
-            if not can_expand(d) or sp.cancel(sp.together(d.subs(*sol))) != 0:
-                return False
-    return pairs > 0
+        for k, differences in enumerate(kinds):
+            if vanish[k]:
+                vanish[k] = all(
+                    can_expand(d) and sp.cancel(sp.together(d.subs(*sol))) == 0
+                    for d in differences(g, b.model, other.model, list(model.states))
+                )
+    return vanish if pairs else none
