@@ -23,26 +23,22 @@ from obsnl.observability.results import AnalysisResult
 __all__ = ["check_table"]
 
 
-def _same(a: str, b: str, model: Model, *, relation: bool = False) -> bool:
+def _compared(a: str, b: str, model: Model, *, relation: bool = False) -> str:
+    """``"same"`` when the texts ``a`` and ``b`` say the same (equal but for spaces, or equal once parsed: a relation
+    equivalent), ``"flipped"`` when one expression is the other's negative, else ``"different"`` (also when either
+    does not parse): each text is parsed at most once."""
     if "".join(a.split()) == "".join(b.split()):
-        return True
+        return "same"
     try:
         ea = parse_expression(a, model.symbols, where="table", allow_relations=relation)
         eb = parse_expression(b, model.symbols, where="table", allow_relations=relation)
     except ObsnlError:
-        return False
+        return "different"
     if relation:
-        return ea == eb or sp.simplify(sp.Equivalent(ea, eb)) is sp.true
-    return sp.simplify(ea - eb) == 0
-
-
-def _flipped(a: str, b: str, model: Model) -> bool:
-    try:
-        ea = parse_expression(a, model.symbols, where="table")
-        eb = parse_expression(b, model.symbols, where="table")
-    except ObsnlError:
-        return False
-    return sp.simplify(ea + eb) == 0
+        return "same" if ea == eb or sp.simplify(sp.Equivalent(ea, eb)) is sp.true else "different"
+    if sp.simplify(ea - eb) == 0:
+        return "same"
+    return "flipped" if sp.simplify(ea + eb) == 0 else "different"
 
 
 def check_table(table: BranchTable, model: Model, *, max_seconds: float | None = 120.0) -> AnalysisResult:
@@ -99,8 +95,9 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
             f"the table has {len(table.switching)} switching functions, the model {len(fresh.switching)}; {TABLE_FIX}"
         )
     for mine, theirs in zip(table.switching, fresh.switching):
-        if not _same(mine, theirs, model):
-            how = "the opposite orientation of" if _flipped(mine, theirs, model) else "not"
+        said = _compared(mine, theirs, model)
+        if said != "same":
+            how = "the opposite orientation of" if said == "flipped" else "not"
             raise TableError(
                 f"the table's switching function {quote(mine)} is {how} the model's {quote(theirs)}; {TABLE_FIX}"
             )
@@ -162,7 +159,7 @@ def _compare(mine: BranchEntry, fresh: BranchEntry, model: Model) -> None:
             f"{where}: the fresh analysis of the model is inconclusive there, so the table cannot be "
             f"confirmed; analyse the model with a longer time limit"
         )
-    if not _same(mine.guard, fresh.guard, model, relation=True):
+    if _compared(mine.guard, fresh.guard, model, relation=True) != "same":
         raise TableError(
             f"{where}: guard {quote(mine.guard)} contradicts its signs (the model gives {quote(fresh.guard)}); "
             f"{TABLE_FIX}"
