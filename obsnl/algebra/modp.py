@@ -12,7 +12,9 @@ One module for every modular computation of the package (the engines and the sym
   ``2**13`` of them stays below ``2**63``: int64 matrix products are exact.
 - :class:`Echelon`: an incremental reduced row echelon basis (rank after every new row, and the
   kernel classification of the columns at the end) without converting to another library.
-- :func:`rank_mod_p`, :func:`nullspace_mod_p`: rank and a kernel basis of a whole matrix (flint).
+- :func:`rank_mod_p`, :func:`nullspace_mod_p`, :func:`rref_mod_p`, :func:`kernel_support`: rank, a kernel basis,
+  the reduced rows of a whole matrix (flint), and the columns its kernel leaves undetermined.
+- :func:`value_mod_p`: a sympy expression's value at integer values, in GF(p).
 - :func:`rational_reconstruction`: back from GF(p) to a small rational.
 
 No float ever decides anything: floats only estimate quotients that integer arithmetic corrects.
@@ -25,7 +27,7 @@ from __future__ import annotations
 
 import math
 import random
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import TYPE_CHECKING, Any
@@ -48,6 +50,9 @@ __all__ = [
     "nmod_matrix",
     "rank_mod_p",
     "nullspace_mod_p",
+    "rref_mod_p",
+    "kernel_support",
+    "value_mod_p",
     "rational_reconstruction",
 ]
 
@@ -347,6 +352,101 @@ def nullspace_mod_p(rows: np.ndarray | Sequence[Sequence[int]], ncols: int, p: i
         return []
     table = X.tolist()
     return [[int(table[i][j]) for i in range(ncols)] for j in range(nullity)]
+
+
+def rref_mod_p(rows: np.ndarray, p: int) -> np.ndarray:
+    """The nonzero rows of the reduced row echelon form of an integer matrix modulo ``p``.
+
+    Parameters
+    ----------
+    rows : numpy.ndarray
+        Integer matrix rows (may have no rows or no columns).
+    p : int
+        Prime modulus.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(rank, ncols)`` int64, residues mod ``p``.
+
+    Examples
+    --------
+    >>> rref_mod_p(np.array([[2, 4, 1], [1, 2, 0]]), 7).tolist()
+    [[1, 2, 0], [0, 0, 1]]
+    """
+    if rows.shape[0] == 0 or rows.shape[1] == 0:
+        return np.zeros((0, rows.shape[1]), dtype=np.int64)
+    X, r = nmod_matrix(rows, rows.shape[1], p).rref()
+    return np.array([[int(X[i, j]) for j in range(rows.shape[1])] for i in range(r)], dtype=np.int64)
+
+
+def kernel_support(rows: np.ndarray, ncols: int, p: int) -> list[bool]:
+    """Per column: True when some kernel vector of ``rows`` is nonzero there, an unknown the rows leave undetermined
+    (as :meth:`Echelon.unobservable`, for a whole matrix).
+
+    Parameters
+    ----------
+    rows : numpy.ndarray
+        Integer rows mod ``p`` (may have no rows: then every column is undetermined).
+    ncols : int
+        Number of columns.
+    p : int
+        Prime modulus.
+
+    Returns
+    -------
+    list of bool
+
+    Examples
+    --------
+    >>> kernel_support(np.array([[1, 2, 0]]), 3, 7)
+    [True, True, True]
+    >>> kernel_support(np.array([[1, 2, 0], [0, 0, 1]]), 3, 7)
+    [True, True, False]
+    """
+    if ncols == 0:
+        return []
+    ker = (
+        nullspace_mod_p(rows, ncols, p)
+        if rows.shape[0]
+        else [[int(i == j) for i in range(ncols)] for j in range(ncols)]
+    )
+    return [any(k[j] for k in ker) for j in range(ncols)]
+
+
+def value_mod_p(expr: sp.Expr, values: Mapping[sp.Symbol, int], p: int) -> int | None:
+    """``expr`` at the integer ``values`` of its symbols, reduced mod ``p``; None when the value is not a rational
+    number (a symbol without a value, a transcendental function) or its denominator vanishes mod ``p``.
+
+    Parameters
+    ----------
+    expr : sympy.Expr
+        The expression.
+    values : mapping of sympy.Symbol to int
+        Integer values of (some of) its symbols.
+    p : int
+        Prime modulus.
+
+    Returns
+    -------
+    int or None
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> x, y = sp.symbols("x y")
+    >>> value_mod_p(x / 3 + 1, {x: 2}, 7), value_mod_p(x / 7, {x: 1}, 7), value_mod_p(x + y, {x: 1}, 7)
+    (4, None, None)
+    """
+    import sympy as sp
+
+    v = sp.sympify(expr).xreplace({s: sp.Integer(values[s]) for s in expr.free_symbols if s in values})
+    if not v.is_Rational:
+        return None
+    v = sp.Rational(v)
+    if int(v.q) % p == 0:
+        return None
+    return int(v.p) * pow(int(v.q), -1, p) % p
 
 
 def rational_reconstruction(a: int, p: int = PRIME) -> sp.Rational | None:

@@ -53,13 +53,12 @@ from dataclasses import dataclass
 import numpy as np
 import sympy as sp
 
-from obsnl.algebra.modp import Echelon, Resample, random_prime
+from obsnl.algebra.modp import Echelon, Resample, kernel_support, random_prime
 from obsnl.algebra.series import TimeUp, draw_prime
 from obsnl.errors import AnalysisError
 from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.observability.assumptions import JointAssumptions
-from obsnl.observability.joint.modular import kernel_rows
 from obsnl.observability.joint.result import JointResult, JointVisit
 from obsnl.observability.joint.visits import (
     NewPrime,
@@ -151,7 +150,7 @@ def _run_at(
         if plan.kind == "branch":  # the union: this visit on its own
             alone = classify_visit(v, np.zeros((0, n_par), dtype=np.int64), p)
             union |= {c for c, ok in alone.items() if ok and c in states}
-            unobs_par = kernel_rows(v.pi, n_par, p)
+            unobs_par = kernel_support(v.pi, n_par, p)
             union |= {c for c, u in zip(params, unobs_par) if not u}
         if ech.rank == n_par and i < len(plans) - 1:
             obs = classes.update(done, ech)

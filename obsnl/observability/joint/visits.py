@@ -22,7 +22,7 @@ import sympy as sp
 
 from obsnl.algebra.augment import rationalize
 from obsnl.algebra.bounds import bound_sizes, failure_bound
-from obsnl.algebra.modp import Echelon
+from obsnl.algebra.modp import Echelon, kernel_support, rref_mod_p, value_mod_p
 from obsnl.algebra.problem import Problem, make_problem
 from obsnl.algebra.series import run_series
 from obsnl.errors import AnalysisError
@@ -30,7 +30,6 @@ from obsnl.model.bounds.work import degree_in
 from obsnl.model.branching.branches import derived_model, expr_text
 from obsnl.model.core import Model
 from obsnl.observability.engines.sedoglavic import RankTracker, stall_safe
-from obsnl.observability.joint.modular import _mod, _rref, kernel_rows
 from obsnl.observability.joint.result import JointVisit
 
 __all__ = [
@@ -240,7 +239,7 @@ def surface_visit(
         if degree_in(g, s) != 1:  # g = a*s + b read without expanding g (which may be huge)
             continue
         a, b = sp.diff(g, s), g.xreplace({s: sp.Integer(0)})
-        av, bv = _mod(a, values, p), _mod(b, values, p)
+        av, bv = value_mod_p(a, values, p), value_mod_p(b, values, p)
         if av is None or bv is None or av == 0:
             continue
         states[s] = (-bv) * pow(av, -1, p) % p
@@ -302,7 +301,7 @@ def surface_visit(
     grow = []
     for c in cols:
         s = syms.get(c)
-        d = _mod(sp.diff(g, s), values, p) if s is not None else 0
+        d = value_mod_p(sp.diff(g, s), values, p) if s is not None else 0
         if d is None:
             return _unused(
                 plan, model, replace_visit(record, reason=f"the gradient of {text} is not rational at the point")
@@ -319,7 +318,7 @@ def replace_visit(v: JointVisit, **kw: Any) -> JointVisit:
 
 
 def _finish(plan: Plan, R: np.ndarray, n_priv: int, p: int, record: JointVisit) -> VisitData:
-    E = _rref(R, p)
+    E = rref_mod_p(R, p)
     keep = [i for i in range(E.shape[0]) if not E[i, :n_priv].any()]
     pi = E[keep, n_priv:] if keep else np.zeros((0, R.shape[1] - n_priv), dtype=np.int64)
     return VisitData(plan, E, pi, replace_visit(record, parameter_rank=len(keep)))
@@ -352,7 +351,7 @@ def classify_visit(v: VisitData, Pi: np.ndarray, p: int) -> dict[str, bool]:
     stack = v.rows if v.rows.size else np.zeros((0, n_priv + n_par), dtype=np.int64)  # a visit may show nothing
     if Pi.shape[0]:
         stack = np.vstack([stack, np.hstack([np.zeros((Pi.shape[0], n_priv), dtype=np.int64), Pi])])
-    unobs = kernel_rows(stack, n_priv + n_par, p)
+    unobs = kernel_support(stack, n_priv + n_par, p)
     return {c: not unobs[i] for i, c in enumerate(private_names(prep))}
 
 
@@ -373,7 +372,7 @@ class _Classes:
     def update(self, done: list[VisitData], ech: Echelon) -> dict[str, bool]:
         p, n_par = self.p, len(self.params)
         Pi = ech.rows if ech.rank else np.zeros((0, n_par), dtype=np.int64)
-        unobs_par = kernel_rows(Pi, n_par, p)
+        unobs_par = kernel_support(Pi, n_par, p)
         for v in done:
             if not v.used or self.at_rank.get(id(v), -1) >= ech.rank:
                 continue
