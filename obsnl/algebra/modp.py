@@ -404,13 +404,7 @@ def kernel_support(rows: np.ndarray, ncols: int, p: int) -> list[bool]:
     >>> kernel_support(np.array([[1, 2, 0], [0, 0, 1]]), 3, 7)
     [True, True, False]
     """
-    if ncols == 0:
-        return []
-    ker = (
-        nullspace_mod_p(rows, ncols, p)
-        if rows.shape[0]
-        else [[int(i == j) for i in range(ncols)] for j in range(ncols)]
-    )
+    ker = nullspace_mod_p(rows, ncols, p)  # no rows: every unit vector
     return [any(k[j] for k in ker) for j in range(ncols)]
 
 
