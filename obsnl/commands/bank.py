@@ -58,7 +58,7 @@ class BankRequest:
         check_file_option(self.out, "out=", what="folder")
         check_file_option(self.model, "model=")
         spec = read_link_spec(self.model)  # the model file and its [bank] table are checked before any work
-        scenarios = ["healthy"] + [f"crack{c}" for c in check_bank_settings(spec)["crack_elements"]]
+        scenarios = ["healthy"] + [f"crack{c}" for c in check_bank_settings(spec).crack_elements]
         check_bank_output(self.out, scenarios, force=self.force)
         object.__setattr__(self, "spec", spec)
 

@@ -15,7 +15,7 @@ from obsnl.linear.bank import BankDecision, Thresholds, _f, build_bank, calibrat
 from obsnl.linear.gains import ObserverDesign
 from obsnl.linear.observer import ExtendedObservability, extended_observability, integrator
 from obsnl.observability.verdicts import Verdict
-from obsnl.studies.cantilever import BreathingCrack, build_cantilever
+from obsnl.studies.cantilever import BreathingCrack, LinkSimulation, build_cantilever
 from obsnl.studies.link_model import LinkSpec, _Table, read_link_spec
 
 __all__ = [
@@ -25,6 +25,7 @@ __all__ = [
     "BankObserver",
     "LinkStudy",
     "run_link_study",
+    "BankSettings",
     "check_bank_settings",
     "study_cost",
     "BANK_KEYS",
@@ -261,7 +262,7 @@ def run_link_study(
         raise DataError(f"calibration seeds {cal} must be non-empty and differ from the evaluation seeds {ev}")
     spec = read_link_spec() if spec is None else spec
     cfg = check_bank_settings(spec)
-    size, work = study_cost(spec, n_seeds=len(ev), n_calibration=len(cal))
+    size, work = study_cost(spec, n_seeds=len(ev), n_calibration=len(cal), settings=cfg)
     if size > MAX_STUDY_BYTES or work > MAX_STUDY_WORK:
         what = (
             f"about {size / 1024**3:.3g} GiB of memory, over the limit of {MAX_STUDY_BYTES / 1024**3:g} GiB"
@@ -269,17 +270,17 @@ def run_link_study(
             else f"about {work:.2g} multiply-adds, over the limit of {MAX_STUDY_WORK:g}"
         )
         raise ModelError(
-            f"this study ({spec.n_elements} elements, {len(cfg['observer_elements'])} observers, "
-            f"{len(cfg['crack_elements'])} crack scenarios, {len(ev)} evaluation and {len(cal)} "
-            f"calibration seeds, {_samples(cfg):,} time samples) needs {what}; use fewer elements, "
+            f"this study ({spec.n_elements} elements, {len(cfg.observer_elements)} observers, "
+            f"{len(cfg.crack_elements)} crack scenarios, {len(ev)} evaluation and {len(cal)} "
+            f"calibration seeds, {cfg.samples:,} time samples) needs {what}; use fewer elements, "
             f"observers, scenarios, seeds or time samples (duration / dt)"
         )
     beam = build_cantilever(spec)
-    dt, T, onset = cfg["dt"], cfg["duration"], cfg["onset"]
-    elements, chans = list(cfg["observer_elements"]), tuple(cfg["channels"])
-    sensors, cracks = cfg["sensor_set"], list(cfg["crack_elements"])
-    win_det, win_ev = cfg["detection_window"], cfg["evaluation_window"]
-    factor, band, q_x, q_v = (cfg[k] for k in ("threshold_factor", "ratio_band", "q_x", "q_v"))
+    dt, T, onset = cfg.dt, cfg.duration, cfg.onset
+    elements, chans = list(cfg.observer_elements), cfg.channels
+    sensors, cracks = cfg.sensor_set, list(cfg.crack_elements)
+    win_det, win_ev = cfg.detection_window, cfg.evaluation_window
+    factor, band, q_x, q_v = cfg.threshold_factor, cfg.ratio_band, cfg.q_x, cfg.q_v
     f1 = float(beam.modal_frequencies()[0])
     if not f1 < 0.5 / dt:
         raise ModelError(
@@ -307,7 +308,7 @@ def run_link_study(
         y = x @ plant.C.T
         return [y + np.random.default_rng(s).standard_normal(y.shape) * sigma for s in seed_list]
 
-    sims = {"healthy": (None, healthy)}
+    sims: dict[str, tuple[int | None, LinkSimulation]] = {"healthy": (None, healthy)}
     for c in cracks:
         sims[f"crack{c}"] = (c, beam.simulate(dt=dt, duration=T, crack=BreathingCrack(c, beam.spec.severity, onset)))
         _finite(sims[f"crack{c}"][1].x, f"the simulation with a crack in element {c}")
@@ -319,12 +320,12 @@ def run_link_study(
     runs: list[ScenarioRun] = []
     traces: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
     w = healthy.t >= T - win_ev + 0.5 * dt
-    for i, (name, (c, sim)) in enumerate(sims.items()):
+    for i, (name, (cracked, sim)) in enumerate(sims.items()):
         truth = float(np.sqrt(np.mean(sim.n_true[w] ** 2)))
         for k, s in enumerate(ev):
             out = outs[len(cal) + i * len(ev) + k]
-            dec = decide(out, thr, evaluation_window=win_ev, onset=None if c is None else onset, ratio_band=band)
-            runs.append(ScenarioRun(name, c, s, truth, dec))
+            dec = decide(out, thr, evaluation_window=win_ev, onset=None if cracked is None else onset, ratio_band=band)
+            runs.append(ScenarioRun(name, cracked, s, truth, dec))
             traces.setdefault(name, (out.t, out.nhat, sim.n_true))
     gate_list = []
     if gates:
@@ -378,10 +379,6 @@ def _seed_list(seeds: int | Sequence[int], what: str) -> list[int]:
     return out
 
 
-def _samples(cfg: Mapping[str, Any]) -> int:
-    return int(round(cfg["duration"] / cfg["dt"])) + 1
-
-
 def _finite(x: np.ndarray, what: str) -> None:
     if not np.all(np.isfinite(x)):
         raise AnalysisError(
@@ -390,7 +387,52 @@ def _finite(x: np.ndarray, what: str) -> None:
         )
 
 
-def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
+@dataclass(frozen=True, kw_only=True)
+class BankSettings:
+    """The ``[bank]`` table of a link model, checked (:func:`check_bank_settings`); one field per key of
+    :data:`BANK_KEYS`.
+
+    Attributes
+    ----------
+    observer_elements : tuple of int
+        The elements the bank hypothesises a crack in (one observer each), 1 = root.
+    channels : tuple of str
+        The crack's force channels (``"moment"``, ``"shear"``).
+    sensor_set : str
+        The sensor set of ``[sensors]`` measured.
+    crack_elements : tuple of int
+        The cracked scenarios simulated (may be empty: the healthy link alone).
+    q_x, q_v : float
+        Process noise of the observers' displacement and velocity states.
+    threshold_factor, ratio_band : float
+        The detection threshold over the calibrated level, and the band of residual ratios read as a tie.
+    dt, duration : float
+        Time step and length of a simulated record, in seconds.
+    onset, evaluation_window, detection_window : float
+        When the crack starts, the window its location is judged over, and the detection window, in seconds.
+    """
+
+    observer_elements: tuple[int, ...]
+    channels: tuple[str, ...]
+    sensor_set: str
+    crack_elements: tuple[int, ...]
+    q_x: float
+    q_v: float
+    threshold_factor: float
+    ratio_band: float
+    dt: float
+    duration: float
+    onset: float
+    evaluation_window: float
+    detection_window: float
+
+    @property
+    def samples(self) -> int:
+        """Time samples of a simulated record, ``duration / dt + 1``."""
+        return int(round(self.duration / self.dt)) + 1
+
+
+def check_bank_settings(spec: LinkSpec) -> BankSettings:
     """Check the ``[bank]`` table of a link model (``spec.bank``) before any work.
 
     Every key of :data:`BANK_KEYS` must be present and typed; observer and crack elements are distinct
@@ -405,8 +447,7 @@ def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
 
     Returns
     -------
-    dict
-        The settings as ``int``, ``float``, ``str`` and tuples, keyed as :data:`BANK_KEYS`.
+    BankSettings
 
     Raises
     ------
@@ -415,7 +456,7 @@ def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
 
     Examples
     --------
-    >>> check_bank_settings(read_link_spec())["observer_elements"]
+    >>> check_bank_settings(read_link_spec()).observer_elements
     (2, 4, 6)
     """
     bk = _Table({"bank": spec.bank} if spec.bank else {}, "bank", spec.file or "link model", BANK_KEYS)
@@ -464,10 +505,12 @@ def check_bank_settings(spec: LinkSpec) -> dict[str, Any]:
         raise bk.fail(
             "detection_window", f"s must lie between one time step (dt = {dt:g} s) and the duration ({duration:g} s)"
         )
-    return {k: out[k] for k in BANK_KEYS}
+    return BankSettings(**{k: out[k] for k in BANK_KEYS})
 
 
-def study_cost(spec: LinkSpec, *, n_seeds: int, n_calibration: int) -> tuple[float, float]:
+def study_cost(
+    spec: LinkSpec, *, n_seeds: int, n_calibration: int, settings: BankSettings | None = None
+) -> tuple[float, float]:
     """Estimated peak memory (bytes) and work (multiply-adds) of :func:`run_link_study`.
 
     Counts the arrays that grow with the record: the simulated states of every scenario, the noisy
@@ -481,6 +524,9 @@ def study_cost(spec: LinkSpec, *, n_seeds: int, n_calibration: int) -> tuple[flo
         From :func:`obsnl.studies.link_model.read_link_spec`.
     n_seeds, n_calibration : int
         Numbers of evaluation and calibration seeds.
+    settings : BankSettings or None
+        ``spec``'s ``[bank]`` table checked already (:func:`check_bank_settings`), as :func:`run_link_study` has it;
+        None: checked here.
 
     Returns
     -------
@@ -493,12 +539,12 @@ def study_cost(spec: LinkSpec, *, n_seeds: int, n_calibration: int) -> tuple[flo
     >>> size < MAX_STUDY_BYTES and work < MAX_STUDY_WORK
     True
     """
-    cfg = check_bank_settings(spec)
-    N = _samples(cfg)
+    cfg = check_bank_settings(spec) if settings is None else settings
+    N = cfg.samples
     n, m = 4 * spec.n_elements, len(spec.actuator_nodes)
-    p = len(spec.sensors[cfg["sensor_set"]])
-    J, s = len(cfg["observer_elements"]), len(cfg["channels"])
-    S = 1 + len(cfg["crack_elements"])  # simulated scenarios
+    p = len(spec.sensors[cfg.sensor_set])
+    J, s = len(cfg.observer_elements), len(cfg.channels)
+    S = 1 + len(cfg.crack_elements)  # simulated scenarios
     R = n_calibration + S * n_seeds  # records through the bank
     ntot = J * (n + s)  # states of the whole bank
     chunk = min(N, _CHUNK)
