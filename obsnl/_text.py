@@ -27,6 +27,7 @@ __all__ = [
     "probability_text",
     "plain_float",
     "bound",
+    "json_end",
     "one_line",
     "block",
     "verdict_words",
@@ -238,6 +239,18 @@ def bound(p: float | None) -> str:
     if p is None:
         return "deterministic"
     return "P=1" if p >= 1.0 else "P>=" + probability_text(p).replace(" ", "")
+
+
+def json_end(x: float) -> float | str:
+    """An end of a bound as a JSON document or a model file holds it: the number, or ``"inf"``/``"-inf"`` (JSON has
+    no infinity).
+
+    Examples
+    --------
+    >>> json_end(0.5), json_end(float("inf")), json_end(float("-inf"))
+    (0.5, 'inf', '-inf')
+    """
+    return x if x == x and abs(x) != float("inf") else ("inf" if x > 0 else "-inf")
 
 
 def one_line(kind: str, *parts: str, width: int = WIDTH) -> str:

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import sympy as sp
 
+from obsnl._text import json_end
 from obsnl._types import FileValue
 from obsnl.errors import ModelError, ParseError
 from obsnl.model.reading.fields import ROLE_NAMES, ROLES, read_fields
@@ -274,7 +275,7 @@ class Model:
         if self.intersample:
             d["intersample"] = dict(self.intersample)
         if self.bounds:  # an infinite end as text: JSON has no infinity
-            d["bounds"] = {k: [_end(lo), _end(hi)] for k, (lo, hi) in self.bounds.items()}
+            d["bounds"] = {k: [json_end(lo), json_end(hi)] for k, (lo, hi) in self.bounds.items()}
         return d
 
     def replace(self, **changes: Any) -> Model:
@@ -407,11 +408,6 @@ class Model:
             tuple(self.initial_condition_values.items()),
             tuple(self.bounds.items()),
         )
-
-
-def _end(x: float) -> float | str:
-    """An end of a bound as a model file writes it: a number, or ``"inf"``/``"-inf"``."""
-    return x if x == x and abs(x) != float("inf") else ("inf" if x > 0 else "-inf")
 
 
 def _expr_text(e: sp.Basic) -> str:

@@ -444,6 +444,5 @@ def assumptions(model: Model, unknown_input_derivatives: int | str, input_deriva
             known_generic=tuple(s.name for s in known if s not in model.initial_condition_values),
             known_values={s.name: str(v) for s, v in model.initial_condition_values.items()},
         ),
-        # as a model file writes them (an infinite end as text): the JSON of the analysis carries them so
-        bounds={k: (lo, hi) for k, (lo, hi) in model.to_dict()["bounds"].items()} if model.bounds else {},
+        bounds=dict(model.bounds or {}),
     )

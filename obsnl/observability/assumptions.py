@@ -10,14 +10,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-from obsnl._text import quote
+from obsnl._text import json_end, quote
 from obsnl._types import JSONValue
 from obsnl.errors import DataError
 
 __all__ = ["Assumptions", "InitialConditions", "JointAssumptions"]
-
-#: An end of a declared bound as JSON writes it: a number, or ``"inf"``/``"-inf"`` (JSON has no infinity).
-BoundEnd = float | str
 
 
 @dataclass(frozen=True)
@@ -61,9 +58,9 @@ class Assumptions:
     initial_conditions
         What is assumed of the initial states (:class:`InitialConditions`).
     bounds
-        The model's declared bounds, ``{name: (lo, hi)}`` with an infinite end as ``"inf"``/``"-inf"`` (as JSON
-        writes them); empty when none are declared (then ``bounds`` is not written). Only the sign patterns that
-        can hold within them are branches.
+        The model's declared bounds, ``{name: (lo, hi)}``, an end infinite where the model leaves it open (written
+        ``"inf"``/``"-inf"`` by :meth:`to_dict`: JSON has no infinity); empty when none are declared (then
+        ``bounds`` is not written). Only the sign patterns that can hold within them are branches.
 
     Examples
     --------
@@ -78,7 +75,7 @@ class Assumptions:
     unknown_input_derivatives: int | str | None
     known_inputs: str | None
     initial_conditions: InitialConditions
-    bounds: Mapping[str, tuple[BoundEnd, BoundEnd]] = field(default_factory=dict)
+    bounds: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, JSONValue]:
         """JSON-ready, the keys of ``obsnl analyze --format json``'s ``assumptions``: ``unknown_input_derivatives``,
@@ -89,7 +86,7 @@ class Assumptions:
             "initial_conditions": self.initial_conditions.to_dict(),
         }
         if self.bounds:
-            out["bounds"] = {k: [lo, hi] for k, (lo, hi) in self.bounds.items()}
+            out["bounds"] = {k: [json_end(lo), json_end(hi)] for k, (lo, hi) in self.bounds.items()}
         return out
 
     @classmethod
@@ -207,13 +204,14 @@ def _names(value: JSONValue, key: str) -> tuple[str, ...]:
     return tuple(str(v) for v in value)
 
 
-def _bound(name: str, pair: JSONValue) -> tuple[BoundEnd, BoundEnd]:
+def _bound(name: str, pair: JSONValue) -> tuple[float, float]:
     if not (isinstance(pair, list) and len(pair) == 2):
         raise DataError(f'assumptions.bounds.{name} is {quote(pair)}; it is [lo, hi], an end a number, "-inf" or "inf"')
     return _end(name, pair[0]), _end(name, pair[1])
 
 
-def _end(name: str, end: JSONValue) -> BoundEnd:
+def _end(name: str, end: JSONValue) -> float:
+    """An end read back from JSON: a number, or ``"inf"``/``"-inf"`` for an open end."""
     if isinstance(end, (int, float)) and not isinstance(end, bool) or end in ("inf", "-inf"):
-        return end
+        return float(end)  # a number, or "inf"/"-inf" (float reads them)
     raise DataError(f'assumptions.bounds.{name} has the end {quote(end)}; an end is a number, "-inf" or "inf"')

@@ -3,6 +3,7 @@ first), the union, the assumptions and the verdict lines (text, Markdown and LaT
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Mapping, Sequence
 
 from obsnl._text import probability_text
@@ -54,20 +55,21 @@ def assumption_texts(result: AnalysisResult) -> list[str]:
     return out
 
 
-def bounds_text(bounds: Mapping[str, Sequence[float | str]]) -> str:
-    """The declared bounds of an analysis' assumptions (``{name: [lo, hi]}``, an infinite end ``"inf"``/``"-inf"``)
-    in words; whether an end is included does not matter to the branches (a sign pattern holds on an open set).
+def bounds_text(bounds: Mapping[str, tuple[float, float]]) -> str:
+    """The declared bounds of an analysis' assumptions (``{name: (lo, hi)}``, an open end infinite) in words; whether
+    an end is included does not matter to the branches (a sign pattern holds on an open set).
 
     Examples
     --------
-    >>> bounds_text({"fy": [0.0, "inf"], "gap": [0, 0.01], "c": ["-inf", 5]})
+    >>> inf = float("inf")
+    >>> bounds_text({"fy": (0.0, inf), "gap": (0.0, 0.01), "c": (-inf, 5.0)})
     'declared bounds fy > 0, gap in [0, 0.01], c < 5'
     """
 
-    def one(name: str, lo: float | str, hi: float | str) -> str:
-        if hi == "inf":
+    def one(name: str, lo: float, hi: float) -> str:
+        if hi == math.inf:
             return f"{name} > {lo:g}"
-        if lo == "-inf":
+        if lo == -math.inf:
             return f"{name} < {hi:g}"
         return f"{name} in [{lo:g}, {hi:g}]"
 
