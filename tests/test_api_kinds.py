@@ -73,6 +73,21 @@ def test_a_misspelt_guess_is_refused_before_the_structural_analysis(monkeypatch)
         obsnl.identify(MSD, _columns(), guess={"kk": 3.0}, progress=False)
 
 
+@pytest.mark.parametrize("worker, words", [
+    ("obsnl.observability.analyze:run_analysis", "run_analysis takes the CheckedAnalysis"),
+    ("obsnl.identification.identify:run_identification", "run_identification takes the CheckedIdentification"),
+    ("obsnl.observability.certificates.symmetry:symmetries_of", "symmetries_of takes an obsnl Model"),
+])
+def test_a_worker_refuses_what_its_door_did_not_check_in_one_line(worker, words):
+    # each raised an AttributeError ('int' object has no attribute 'model', 'is_smooth')
+    import importlib
+
+    module, name = worker.split(":")
+    with pytest.raises(obsnl.errors.ObsnlError) as info:
+        getattr(importlib.import_module(module), name)(3)
+    assert words in str(info.value) and "got int" in str(info.value) and "\n" not in str(info.value)
+
+
 def _no_analysis(*a, **k):
     raise AssertionError("the structural analysis ran before the arguments were checked")
 

@@ -552,6 +552,11 @@ def run_identification(checked: CheckedIdentification) -> Identification:
     Identification
         As :func:`identify` and :func:`study` return it.
     """
+    if not isinstance(checked, CheckedIdentification):  # an AttributeError below otherwise
+        raise OptionError(
+            f"run_identification takes the CheckedIdentification that check_identify or check_study returns, got "
+            f"{type(checked).__name__}; or call obsnl.identify with the model and the data"
+        )
     c = checked
     model = c.model
     num, structural = _prepare(model, c.table, c.allow_unidentifiable, c.seed, c.method)

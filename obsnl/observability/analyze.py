@@ -316,6 +316,11 @@ def run_analysis(
     AnalysisError
         Running out of memory.
     """
+    if not isinstance(checked, CheckedAnalysis):  # an AttributeError below otherwise
+        raise AnalysisError(
+            f"run_analysis takes the CheckedAnalysis that check_analysis returns, got {type(checked).__name__}; "
+            f"or call obsnl.analyze with the model"
+        )
     try:  # the joint verdict and the symmetry certificates below take the checked model: they do not check again
         return _analyze(checked, visited, crossings)
     except MemoryError:  # numpy's _ArrayMemoryError too; raised below, once the arrays are freed

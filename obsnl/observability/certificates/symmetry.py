@@ -293,7 +293,9 @@ def check_search(seed: int, degree: int) -> None:
         raise NotSupportedError(f"degree must be 1 or 2, got {degree!r}")
 
 
-def symmetries_of(model: Model, *, seed: int, degree: int = 1, jacobian: ModularJacobian | None = None) -> Symmetries:
+def symmetries_of(
+    model: Model, *, seed: int = 0, degree: int = 1, jacobian: ModularJacobian | None = None
+) -> Symmetries:
     """The search of :func:`symmetries` on a smooth model whose options and limits its caller has checked.
 
     :func:`symmetries` is the door that checks them, for one model. A caller that searches the branches of a model
@@ -324,6 +326,11 @@ def symmetries_of(model: Model, *, seed: int, degree: int = 1, jacobian: Modular
     >>> symmetries_of(m, seed=0).dimension
     1
     """
+    if not isinstance(model, Model):  # an AttributeError below otherwise
+        raise AnalysisError(
+            f"symmetries_of takes an obsnl Model (a smooth branch, checked), got {type(model).__name__}; "
+            f"call obsnl.symmetries with a model or its file"
+        )
     t0 = time.perf_counter()
     J = jacobian if jacobian is not None else observability_jacobian(model, seed=seed)
     d = len(J.variables) - J.rank
