@@ -57,6 +57,7 @@ __all__ = [
     "Measured",
     "measured",
     "read_measured",
+    "as_measured",
     "estimate_noise",
     "is_frame",
     "frame_columns",
@@ -455,6 +456,61 @@ def read_measured(path: str | Path, *, inputs: Sequence[str], outputs: Sequence[
 
     data = measured(read_table(p, "data", choose).values, inputs=inputs, outputs=outputs, name=p.stem, source=p.name)
     return replace(data, ignored=tuple(ignored))
+
+
+def as_measured(
+    data: Measured | Mapping[str, Any] | str | Path,
+    *,
+    inputs: Sequence[str],
+    outputs: Sequence[str],
+    option: str = "data=",
+) -> Measured:
+    """Measured data in any form obsnl takes them, for a model's inputs and outputs: a CSV file
+    (:func:`read_measured`), columns or a pandas DataFrame (:func:`measured`), or a :class:`Measured` whose channels
+    are the model's.
+
+    Parameters
+    ----------
+    data : Measured, mapping of str to Any, pandas.DataFrame, str or Path
+        The data.
+    inputs, outputs : sequence of str
+        The model's input and output names, in model order.
+    option : str
+        How the caller names the data in messages (``data=``, ``record=``).
+
+    Returns
+    -------
+    Measured
+
+    Raises
+    ------
+    DataError
+        Data of another kind, a :class:`Measured` of other channels, or what the readers refuse.
+
+    Examples
+    --------
+    >>> as_measured({"t": [0, 0.1, 0.2], "f": [0, 1, 0], "x": [0, 0.1, 0.3]}, inputs=["f"], outputs=["x"]).dt
+    0.1
+    >>> as_measured(None, inputs=["f"], outputs=["x"])
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.DataError: data= takes a CSV file, a mapping of columns {name: samples}, a pandas DataFrame or a Measured; got NoneType
+    """
+    if isinstance(data, (str, Path)):
+        return read_measured(data, inputs=inputs, outputs=outputs)
+    if isinstance(data, Mapping) or is_frame(data):
+        return measured(data, inputs=inputs, outputs=outputs)
+    if not isinstance(data, Measured):
+        raise DataError(
+            f"{option} takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
+            f"Measured; got {type(data).__name__}"
+        )
+    if data.inputs != tuple(inputs) or data.outputs != tuple(outputs):
+        raise DataError(
+            f"{option} has inputs {list(data.inputs)} and outputs {list(data.outputs)}; the model has "
+            f"{list(inputs)} and {list(outputs)}"
+        )
+    return data
 
 
 def _time_column(columns: Mapping[str, Any], inputs: Sequence[str], outputs: Sequence[str], where: str) -> str:

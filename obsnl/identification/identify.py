@@ -34,7 +34,7 @@ from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.codegen import to_casadi
 from obsnl.estimation.intersample import intersample_kinds
 from obsnl.estimation.jitcache import compiler_available
-from obsnl.estimation.measured import MIN_SAMPLES, Measured, is_frame, measured, read_measured
+from obsnl.estimation.measured import MIN_SAMPLES, Measured, as_measured
 from obsnl.estimation.numeric import NumericModel
 from obsnl.estimation.records import read_record
 from obsnl.executor import Executor
@@ -501,25 +501,17 @@ def check_identify(
         hold=hold,
         allow_unidentifiable=allow_unidentifiable,
     )
-    if not isinstance(data, (Measured, Mapping, str, Path)) and not is_frame(data):
-        raise DataError(
-            f"data= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
-            f"Measured; got {type(data).__name__}"
-        )
     model = as_model(model)
     ins, outs = [s.name for s in model.inputs], list(model.outputs)
-    if isinstance(data, (str, Path)):
-        data = read_measured(data, inputs=ins, outputs=outs)
-    elif not isinstance(data, Measured):
-        data = measured(data, inputs=ins, outputs=outs)
+    read = as_measured(data, inputs=ins, outputs=outs)
     kinds = intersample_kinds(intersample, ins, table=model.intersample)
     model, known = _known_initial(model, known_initial)
     return CheckedIdentification(
         model=model,
         known_initial=known,
-        data=data,
+        data=read,
         record=None,
-        inputs=data.u,
+        inputs=read.u,
         intersample=kinds,
         guess=_guesses(model, guess),
         noise=noise,

@@ -29,7 +29,7 @@ from obsnl._text import quote
 from obsnl.errors import DataError, EstimatorError, OptionError
 from obsnl.estimation.codegen import to_casadi
 from obsnl.estimation.intersample import between_samples, drive, intersample_kinds
-from obsnl.estimation.measured import Measured, is_frame, measured, read_measured
+from obsnl.estimation.measured import Measured, as_measured
 from obsnl.estimation.numeric import NumericModel
 from obsnl.estimation.simulate import simulate as simulate_numeric
 from obsnl.identification.likelihood import LOCATE
@@ -183,26 +183,6 @@ def _parameters(parameters: Any, model: Model) -> tuple[dict[str, float], str, d
     return {k: float(values[k]) for k in names}, source, kinds
 
 
-def _as_measured(record: Measured | Mapping[str, Any] | str | Path, num: NumericModel) -> Measured:
-    """The record read as :func:`obsnl.identify` reads its data, with the model's inputs and outputs."""
-    ins, outs = list(num.inputs), list(num.outputs)
-    if isinstance(record, (str, Path)):
-        return read_measured(record, inputs=ins, outputs=outs)
-    if isinstance(record, Mapping) or is_frame(record):
-        return measured(record, inputs=ins, outputs=outs)
-    if not isinstance(record, Measured):
-        raise DataError(
-            f"record= takes a CSV file, a mapping of columns {{name: samples}}, a pandas DataFrame or a "
-            f"Measured; got {type(record).__name__}"
-        )
-    if record.inputs != tuple(ins) or record.outputs != tuple(outs):
-        raise DataError(
-            f"the record has inputs {list(record.inputs)} and outputs {list(record.outputs)}; model "
-            f"{num.name!r} has {ins} and {outs}"
-        )
-    return record
-
-
 def _drive(num: NumericModel, u: np.ndarray, kinds: Mapping[str, str]) -> tuple[NumericModel, np.ndarray, list[str]]:
     """The model to step, the input rows it takes, and how each input is taken between samples (a sentence each)."""
     from obsnl.report.identification.run import between_said
@@ -340,7 +320,7 @@ def simulate(
     model = as_model(model)
     values, source, fitted = _parameters(parameters, model)
     num = to_casadi(model)
-    data = _as_measured(record, num)
+    data = as_measured(record, inputs=num.inputs, outputs=num.outputs, option="record=")
     warmup = _check_warmup(warmup, len(data.y), num.nx, num.ny)
     for j, c in enumerate(num.outputs):
         if np.sum(~np.isnan(data.y[warmup:, j])) < 2:
