@@ -501,6 +501,55 @@ def check_unknowns(
         )
 
 
+def _noise_levels(num: NumericModel, data: Measured, noise: Mapping[str, float] | None) -> dict[str, NoiseLevel]:
+    """The noise level of every input and output of a measured record: the ratio given in ``noise``, else estimated
+    from the record (:func:`~obsnl.estimation.measured.estimate_noise`, floored at :data:`NOISE_FLOOR`); an input whose
+    samples differ as white noise does (a random excitation) is taken as exact, its estimate kept as an upper bound.
+    A misspelt channel and a ratio outside ``[MIN_NOISE, 1)`` are refused."""
+    given = dict(noise or {})
+    unknown = sorted(set(given) - set(num.inputs) - set(num.outputs))
+    if unknown:  # a misspelt channel is refused, never ignored
+        raise OptionError(
+            f"noise given for {unknown[0]!r}, which is not an input or output of {num.name!r} "
+            f"({', '.join(num.inputs + num.outputs)}); check the spelling"
+        )
+    bad = [
+        f"{k}={v!r}"
+        for k, v in given.items()
+        if isinstance(v, bool) or not (isinstance(v, (int, float)) and MIN_NOISE <= v < 1)
+    ]
+    if bad:
+        raise OptionError(
+            f"the noise= ratio {bad[0]} must lie in [{MIN_NOISE:g}, 1) (noise to signal RMS; below "
+            f"{MIN_NOISE:g} double precision cannot resolve it: for noise-free data give the "
+            f"integrator's accuracy, e.g. 1e-6)"
+        )
+    levels: dict[str, NoiseLevel] = {}
+    for names, arr in ((num.inputs, data.u), (num.outputs, data.y)):
+        for j, c in enumerate(names):
+            if c in given:
+                levels[c] = NoiseLevel(float(given[c]), "given")
+            else:
+                r, note = estimate_noise(arr[:, j])
+                levels[c] = NoiseLevel(
+                    max(r, NOISE_FLOOR),
+                    f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else ""),
+                    estimate=r,
+                    upper_bound=UPPER_BOUND in note,
+                )
+                if c in num.inputs and r >= RANDOM_INPUT:  # a random excitation: its samples differ as noise does
+                    levels[c] = NoiseLevel(
+                        NOISE_FLOOR,
+                        f"estimated {note}; that is {100 * r:.2g} % of the input's RMS: its samples differ as white "
+                        f"noise does (a random excitation, not oversampled), so this is only an upper bound and the "
+                        f"input is taken as exact (the filter gets the floor {NOISE_FLOOR:g}); give its noise level "
+                        f"to count it",
+                        estimate=r,
+                        upper_bound=True,
+                    )
+    return levels
+
+
 def identify_measured(
     num: NumericModel,
     data: Measured,
@@ -604,47 +653,7 @@ def identify_measured(
                 f"output {c!r} of {data.name!r} is constant ({float(seen[0])!r} throughout): there "
                 f"is no response to identify from; check the column"
             )
-    given = dict(noise or {})
-    unknown = sorted(set(given) - set(num.inputs) - set(num.outputs))
-    if unknown:  # a misspelt channel is refused, never ignored
-        raise OptionError(
-            f"noise given for {unknown[0]!r}, which is not an input or output of {num.name!r} "
-            f"({', '.join(num.inputs + num.outputs)}); check the spelling"
-        )
-    bad = [
-        f"{k}={v!r}"
-        for k, v in given.items()
-        if isinstance(v, bool) or not (isinstance(v, (int, float)) and MIN_NOISE <= v < 1)
-    ]
-    if bad:
-        raise OptionError(
-            f"the noise= ratio {bad[0]} must lie in [{MIN_NOISE:g}, 1) (noise to signal RMS; below "
-            f"{MIN_NOISE:g} double precision cannot resolve it: for noise-free data give the "
-            f"integrator's accuracy, e.g. 1e-6)"
-        )
-    levels: dict[str, NoiseLevel] = {}
-    for names, arr in ((num.inputs, data.u), (num.outputs, data.y)):
-        for j, c in enumerate(names):
-            if c in given:
-                levels[c] = NoiseLevel(float(given[c]), "given")
-            else:
-                r, note = estimate_noise(arr[:, j])
-                levels[c] = NoiseLevel(
-                    max(r, NOISE_FLOOR),
-                    f"estimated {note}" + (f"; floored at {NOISE_FLOOR:g}" if r < NOISE_FLOOR else ""),
-                    estimate=r,
-                    upper_bound=UPPER_BOUND in note,
-                )
-                if c in num.inputs and r >= RANDOM_INPUT:  # a random excitation: its samples differ as noise does
-                    levels[c] = NoiseLevel(
-                        NOISE_FLOOR,
-                        f"estimated {note}; that is {100 * r:.2g} % of the input's RMS: its samples differ as white "
-                        f"noise does (a random excitation, not oversampled), so this is only an upper bound and the "
-                        f"input is taken as exact (the filter gets the floor {NOISE_FLOOR:g}); give its noise level "
-                        f"to count it",
-                        estimate=r,
-                        upper_bound=True,
-                    )
+    levels = _noise_levels(num, data, noise)
     # the refinement's std counts an input's noise at its given level or its estimate (not the filter's floor); a
     # level that is only an upper bound (the channel is not oversampled) would swamp the std with signal: not counted
     bound = [c for c in num.inputs if levels[c].upper_bound]
