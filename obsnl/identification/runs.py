@@ -269,10 +269,64 @@ def _result(
     )
     restarted = failed if ref is not None else ""  # with a refinement, the third element says a restart
     refine_seconds = time.perf_counter() - t0
-    by_name = {pr.name: pr for pr in profs}
     x0 = setup.x0
     if ref is not None:
         theta, x0 = ref.theta, ref.x0
+    params = _estimates(setup, theta, var, held, prac, trs, ref, {pr.name: pr for pr in profs})
+    y_fit, per = _fitted_response(setup, data, theta, x0)
+    if ref is not None:
+        misfit = float(np.sqrt(np.mean(per**2)))
+    converged, reason = _convergence(ref, profs, restarted, refined, failed)
+    adequate = None if ref is None else adequacy_of(ref, data, input_noise=input_noise)
+    if adequate is not None and not adequate.passed:  # every std and interval assumes a right model
+        params = [
+            replace_field(p, flagged=True, reason="; ".join(w for w in (FLAG_REASON, p.reason) if w)) for p in params
+        ]
+    return Identification(
+        model=m.name,
+        mode=mode,
+        method=method,
+        parameters=tuple(params),
+        adequacy=adequate,
+        fit={o: float(100 * v) for o, v in zip(m.outputs, per)},
+        passes=passes,
+        passes_run=len(trs),
+        seconds=float(sum(t.seconds for t in trs)) + refine_seconds,
+        converged=converged,
+        output_misfit=misfit if math.isfinite(misfit) else None,
+        noise=dict(noise),
+        tuning=tuning,
+        tuning_scores=scores,
+        data=record,
+        practical=prac,
+        assumptions=tuple(assumptions),
+        repairs=int(sum(t.total_repairs for t in trs)),
+        seed=seed,
+        traces=trs,
+        t=setup.record.t,
+        y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1),
+        y_fit=y_fit,
+        outputs=m.outputs,
+        converged_reason=reason,
+        refinement=None if ref is None else RefinementSummary.from_refinement(ref),
+        profiles=profs,
+    )
+
+
+def _estimates(
+    setup: Setup,
+    theta: np.ndarray,
+    var: np.ndarray,
+    held: tuple[str, ...],
+    prac: Any,
+    trs: tuple[Trajectory, ...],
+    ref: Refinement | None,
+    by_name: Mapping[str, Profile],
+) -> list[ParameterEstimate]:
+    """Each parameter's estimate, std, interval and flag: the refinement's (its Fisher std, its profile's interval
+    and judgement, an estimate on the edge of the valid region) where it ran, else the filter's (its posterior
+    variance, the practical check's flags); a held parameter has no estimate."""
+    m = setup.model
     truth = None if setup.truth is None else setup.theta_true
     params = []
     for i, p in enumerate(m.parameters):
@@ -327,6 +381,13 @@ def _result(
                 else f"profile likelihood, 95 % (chi2(1) threshold 3.84{_widened(prof)}), {prof.shape}",
             )
         )
+    return params
+
+
+def _fitted_response(setup: Setup, data: Data, theta: np.ndarray, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The model's response at the estimate (``y_fit``) and its RMS error per output over the samples measured,
+    relative to the output's RMS; NaN and infinite errors where the simulation fails."""
+    m = setup.model
     try:
         y_fit = simulate(
             m,
@@ -343,8 +404,15 @@ def _result(
     except EstimatorError:
         y_fit = np.full(np.shape(setup.y_true), np.nan)
         per = np.full(m.ny, np.inf)
+    return y_fit, per
+
+
+def _convergence(
+    ref: Refinement | None, profs: Sequence[Profile], restarted: str, refined: bool, failed: str
+) -> tuple[bool, str]:
+    """Whether the identification converged, and why or why not: the refinement's first-order conditions, unless a
+    profile found a better point; not converged where the refinement failed or was skipped."""
     if ref is not None:
-        misfit = float(np.sqrt(np.mean(per**2)))
         better = [pr.name for pr in profs if pr.better is not None]
         converged, reason = ref.converged and not better, "; ".join(w for w in (restarted, ref.reason) if w)
         if better:
@@ -363,40 +431,7 @@ def _result(
                 "first-order conditions define convergence"
             ),
         )
-    adequate = None if ref is None else adequacy_of(ref, data, input_noise=input_noise)
-    if adequate is not None and not adequate.passed:  # every std and interval assumes a right model
-        params = [
-            replace_field(p, flagged=True, reason="; ".join(w for w in (FLAG_REASON, p.reason) if w)) for p in params
-        ]
-    return Identification(
-        model=m.name,
-        mode=mode,
-        method=method,
-        parameters=tuple(params),
-        adequacy=adequate,
-        fit={o: float(100 * v) for o, v in zip(m.outputs, per)},
-        passes=passes,
-        passes_run=len(trs),
-        seconds=float(sum(t.seconds for t in trs)) + refine_seconds,
-        converged=converged,
-        output_misfit=misfit if math.isfinite(misfit) else None,
-        noise=dict(noise),
-        tuning=tuning,
-        tuning_scores=scores,
-        data=record,
-        practical=prac,
-        assumptions=tuple(assumptions),
-        repairs=int(sum(t.total_repairs for t in trs)),
-        seed=seed,
-        traces=trs,
-        t=setup.record.t,
-        y_measured=np.asarray(data.y, float).reshape(len(setup.record), -1),
-        y_fit=y_fit,
-        outputs=m.outputs,
-        converged_reason=reason,
-        refinement=None if ref is None else RefinementSummary.from_refinement(ref),
-        profiles=profs,
-    )
+    return converged, reason
 
 
 #: Profile shapes that claim no interval (none is printed or written for them).
