@@ -28,7 +28,6 @@ from typing import Any
 import numpy as np
 
 from obsnl._progress import Progress
-from obsnl._text import quote
 from obsnl.errors import CompileError, DataError, OptionError, OutputError
 from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.codegen import to_casadi
@@ -42,7 +41,7 @@ from obsnl.identification.experiments import Tuning
 from obsnl.identification.replicates import check_passes, check_replicates
 from obsnl.identification.runs import MEASURED_GRID, Identification, identify_measured
 from obsnl.identification.setup import OBJECTIVES
-from obsnl.identification.simulation import simulation_study
+from obsnl.identification.simulation import check_noise_ratio, simulation_study
 from obsnl.identification.structural import StructuralCheck, structural_check
 from obsnl.model.core import Model
 from obsnl.model.files import as_model
@@ -847,8 +846,7 @@ def check_study(
         hold=hold,
         allow_unidentifiable=allow_unidentifiable,
     )
-    if isinstance(noise, (bool, np.bool_)) or not isinstance(noise, Real) or not (math.isfinite(noise) and noise > 0):
-        raise OptionError(f"noise= takes one noise-to-signal ratio > 0 for every channel, got {quote(noise, 30)}")
+    noise = check_noise_ratio(noise)  # before any work (simulation_study checks it too, for a direct caller)
     model = as_model(model)
     record = read_record(record) if isinstance(record, (str, Path)) else record
     if samples is not None:  # 0 is refused by head, never read as "all of them"
@@ -874,7 +872,7 @@ def check_study(
         inputs=np.asarray(record.accel, float).reshape(len(record.accel), -1),
         intersample={},
         guess=_guesses(model, guess),
-        noise=float(noise),
+        noise=noise,
         table=table,
         method=method,
         passes=passes,

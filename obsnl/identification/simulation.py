@@ -4,8 +4,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
+from numbers import Real
 from typing import Any
 
+import numpy as np
+
+from obsnl._text import quote
 from obsnl.errors import OptionError
 from obsnl.estimation.accelerogram import Record
 from obsnl.estimation.codegen import NumericModel
@@ -17,7 +21,39 @@ from obsnl.identification.setup import Setup, coordinates
 from obsnl.identification.summaries import NoiseLevel, RecordSummary
 from obsnl.observability.contract.branch_table import BranchTable
 
-__all__ = ["simulation_study"]
+__all__ = ["simulation_study", "check_noise_ratio"]
+
+
+def check_noise_ratio(noise: Any) -> float:
+    """The one noise-to-signal RMS ratio of a simulation study, checked: a real number > 0, finite.
+
+    Parameters
+    ----------
+    noise : Any
+        What was given.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    OptionError
+        Anything else (text, a boolean, 0, a negative number, NaN, infinity, None), in one line.
+
+    Examples
+    --------
+    >>> check_noise_ratio(0.02)
+    0.02
+    >>> check_noise_ratio(True)
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.OptionError: noise= takes one noise-to-signal ratio > 0 for every channel, got True
+    """
+    value = math.nan if isinstance(noise, (bool, np.bool_)) or not isinstance(noise, Real) else float(noise)
+    if not (math.isfinite(value) and value > 0):
+        raise OptionError(f"noise= takes one noise-to-signal ratio > 0 for every channel, got {quote(noise, 30)}")
+    return value
 
 
 def simulation_study(
@@ -94,8 +130,7 @@ def simulation_study(
     truth = {q: v for q, v in given.items() if v is not None}
     if len(truth) < len(given):
         raise OptionError(f"model {num.name!r} needs [values] for every parameter (the truth of the simulation)")
-    if not (math.isfinite(noise) and noise > 0):
-        raise OptionError(f"noise= must be a ratio > 0, got {noise!r}")
+    noise = check_noise_ratio(noise)
     setup = Setup(
         model=num,
         record=record,
