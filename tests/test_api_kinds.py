@@ -56,7 +56,7 @@ def test_a_study_refuses_a_noise_ratio_of_the_wrong_kind_before_any_work(noise, 
     import obsnl.identification.identify as ident
     from obsnl.estimation.accelerogram import Record
 
-    monkeypatch.setattr(ident, "analyze", _no_analysis)
+    monkeypatch.setattr(ident, "run_analysis", _no_analysis)
     model = MSD.replace(values={"k": 25.0, "c": 0.8})
     with pytest.raises(OptionError) as info:
         ident.study(model, Record("r", list(np.sin(3.1 * T)), 0.02), noise=noise, progress=False)
@@ -68,7 +68,7 @@ def test_a_misspelt_guess_is_refused_before_the_structural_analysis(monkeypatch)
     # the guesses were checked after the analysis and the compilation
     import obsnl.identification.identify as ident
 
-    monkeypatch.setattr(ident, "analyze", _no_analysis)
+    monkeypatch.setattr(ident, "run_analysis", _no_analysis)
     with pytest.raises(OptionError, match="guess= names 'kk', which is not a parameter of 'msd'"):
         obsnl.identify(MSD, _columns(), guess={"kk": 3.0}, progress=False)
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
 import pytest
 
 import obsnl
@@ -112,23 +113,52 @@ def test_not_json_and_missing(tmp_path):
 
 
 def test_identify_with_a_table_analyses_the_model_once(monkeypatch):
-    # identify used to analyse the model in check_table and again for its structural check
+    # identify used to analyse the model in check_table and again for its structural check; then its run went
+    # through check_table's door, which checked the analysis's options and the model's size a second time. Now
+    # check_identify checks the table's analysis once and the run runs it once, then compares the table with it
     import obsnl.identification.identify as ident
     import obsnl.observability.analyze as an
+    import obsnl.observability.contract.table_check as tc
 
     m = obsnl.read_model(MODELS / "damage_healing_reparam.toml")
     table = obsnl.report.branch_table(obsnl.analyze(m, seed=0), m)
-    calls = []
-    real = an.analyze
+    checks, runs = [], []
+    real_check, real_run = an.check_analysis, an.run_analysis
 
-    def counted(*a, **k):
-        calls.append(1)
-        return real(*a, **k)
+    def counted_check(*a, **k):
+        checks.append(1)
+        return real_check(*a, **k)
 
-    monkeypatch.setattr(an, "analyze", counted)
-    monkeypatch.setattr(ident, "analyze", counted)
-    num, structural = ident._prepare(m, table, False, 0, "dukf")
-    assert len(calls) == 1 and structural.unidentifiable == ()
+    def counted_run(*a, **k):
+        runs.append(1)
+        return real_run(*a, **k)
+
+    for module in (an, ident, tc):
+        monkeypatch.setattr(module, "check_analysis", counted_check)
+        monkeypatch.setattr(module, "run_analysis", counted_run)
+    t = np.arange(40) * 0.01
+    data = {"t": t, "xg_dd": np.sin(3 * t), "y": np.zeros_like(t)}
+    checked = ident.check_identify(m, data, table=table, method="dukf", progress=False)
+    assert (len(checks), len(runs)) == (1, 0)
+    num, structural = ident._prepare(checked)
+    assert (len(checks), len(runs)) == (1, 1) and structural.unidentifiable == ()
+
+
+def test_identify_refuses_a_table_of_another_model_before_any_work(monkeypatch):
+    # the signature was compared only when the run began; check_identify now refuses it, and nothing is analysed
+    import obsnl.identification.identify as ident
+
+    def no_analysis(*a, **k):
+        raise AssertionError("the model was analysed before the table's signature was compared")
+
+    monkeypatch.setattr(ident, "run_analysis", no_analysis)
+    friction = obsnl.read_model("obsnl:coulomb_friction")
+    table = obsnl.report.branch_table(obsnl.analyze(friction, seed=0), friction)
+    m = obsnl.Model(name="leak", states=["x"], parameters=["a"], inputs=["u"],
+                    equations={"x": "u - a*x"}, outputs={"y": "x"})
+    t = np.arange(40) * 0.01
+    with pytest.raises(TableError, match="coulomb_friction"):
+        ident.check_identify(m, {"t": t, "u": np.ones_like(t), "y": t}, table=table, progress=False)
 
 
 # ----------------------------------------------------------------------------- 9 contradictory tables

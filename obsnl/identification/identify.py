@@ -45,9 +45,9 @@ from obsnl.identification.simulation import check_noise_ratio, simulation_study
 from obsnl.identification.structural import StructuralCheck, structural_check
 from obsnl.model.core import Model
 from obsnl.model.files import as_model
-from obsnl.observability.analyze import analyze
+from obsnl.observability.analyze import CheckedAnalysis, check_analysis, run_analysis
 from obsnl.observability.contract.branch_table import BranchTable
-from obsnl.observability.contract.table_check import check_table
+from obsnl.observability.contract.table_check import check_table, compare_table, table_analysis
 
 __all__ = [
     "identify",
@@ -64,18 +64,26 @@ __all__ = [
 IDENTIFY_FILES = ("identify.json", "fit.png", "traces.png", "profiles.png")
 
 
-def _prepare(
-    model: Model, table: BranchTable | None, allow_unidentifiable: bool, seed: int, method: str
-) -> tuple[NumericModel, StructuralCheck]:
+def _prepare(c: CheckedIdentification) -> tuple[NumericModel, StructuralCheck]:
     """The structural analysis (its refusal of an unidentifiable parameter) and the compiled model."""
-    names = tuple(s.name for s in model.parameters)
-    # a table made for another model, or one that contradicts it, is refused first; its check's analysis is the
-    # structural check (one analysis per call)
-    result = check_table(table, model) if table is not None else analyze(model, seed=seed)
+    result = run_analysis(c.analysis)
+    if c.table is not None:  # a table that contradicts the model is refused first; its analysis is the structural one
+        compare_table(c.table, result, c.model)
     structural = structural_check(
-        result, model.name, names, table=table, method=method, allow_unidentifiable=allow_unidentifiable
+        result,
+        c.model.name,
+        tuple(s.name for s in c.model.parameters),
+        table=c.table,
+        method=c.method,
+        allow_unidentifiable=c.allow_unidentifiable,
     )
-    return to_casadi(model, switching=table.switching if table else None), structural
+    return to_casadi(c.model, switching=c.table.switching if c.table else None), structural
+
+
+def _analysis(model: Model, table: BranchTable | None, seed: int) -> CheckedAnalysis:
+    """The structural analysis, checked before any work: the one that confirms ``table`` (its method and seed; a
+    table made for another model is refused here), else the default method with ``seed``."""
+    return table_analysis(table, model) if table is not None else check_analysis(model, seed=seed)
 
 
 def _guesses(model: Model, guess: Mapping[str, float] | None) -> dict[str, float]:
@@ -380,6 +388,8 @@ class CheckedIdentification:
         Noise-to-signal ratios per channel (measured data; channels not named are estimated), or the study's one ratio.
     table : BranchTable or None
         The branch table, read from its file where a file was given.
+    analysis : CheckedAnalysis
+        The structural analysis, checked: the one that confirms ``table`` (its method and seed) where one is given.
     method, passes, replicates, seed, tuning, allow_unidentifiable, jit, hold, progress, executor, refine, objective
         As :func:`identify` takes them, checked.
     """
@@ -393,6 +403,7 @@ class CheckedIdentification:
     guess: Mapping[str, float]
     noise: Mapping[str, float] | float | None
     table: BranchTable | None
+    analysis: CheckedAnalysis
     method: str
     passes: int
     replicates: int
@@ -431,7 +442,8 @@ def check_identify(
 ) -> CheckedIdentification:
     """Check and resolve what :func:`identify` takes, before any work: the counts and every argument's kind, the
     model and the data read, the inputs between samples, the known initial states, the branch table read, the
-    guesses. The executor's scheduler is not asked here: :func:`identify` probes it next, and ``obsnl identify``
+    guesses, the structural analysis's options and the model's size (:func:`~obsnl.observability.analyze.check_analysis`;
+    a table made for another model is refused here). The executor's scheduler is not asked here: :func:`identify` probes it next, and ``obsnl identify``
     before it reads the model.
 
     Parameters
@@ -505,6 +517,7 @@ def check_identify(
     read = as_measured(data, inputs=ins, outputs=outs)
     kinds = intersample_kinds(intersample, ins, table=model.intersample)
     model, known = _known_initial(model, known_initial)
+    table = _read_table(table)
     return CheckedIdentification(
         model=model,
         known_initial=known,
@@ -514,7 +527,8 @@ def check_identify(
         intersample=kinds,
         guess=_guesses(model, guess),
         noise=noise,
-        table=_read_table(table),
+        table=table,
+        analysis=_analysis(model, table, seed),
         method=method,
         passes=passes,
         replicates=replicates,
@@ -550,7 +564,7 @@ def run_identification(checked: CheckedIdentification) -> Identification:
         )
     c = checked
     model = c.model
-    num, structural = _prepare(model, c.table, c.allow_unidentifiable, c.seed, c.method)
+    num, structural = _prepare(c)
 
     def run(compiled: bool) -> Identification:
         with _steps(c.progress, model, c.passes, c.replicates, c.tuning, c.refine) as bar:
@@ -874,6 +888,7 @@ def check_study(
         guess=_guesses(model, guess),
         noise=noise,
         table=table,
+        analysis=_analysis(model, table, seed),
         method=method,
         passes=passes,
         replicates=replicates,

@@ -6,6 +6,10 @@ flipped, guards that do not match the sign patterns, branches missing, a ``joint
 jointly identifiable parameter into ``unobservable``) would silently change what the DUKF freezes, or
 which refusal it skips. :func:`check_table` re-runs the analysis with the table's own method and seed
 and refuses any difference, naming the first one.
+
+:func:`check_table` is the door; a caller that runs the analysis itself (an identification, whose structural check
+is that same analysis) checks the table's analysis with :func:`table_analysis` before any work, runs it, and
+compares with :func:`compare_table`.
 """
 
 from __future__ import annotations
@@ -17,10 +21,14 @@ from obsnl.errors import ObsnlError, TableError
 from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
 from obsnl.model.core import Model
 from obsnl.model.reading.parse import parse_expression
+from obsnl.observability.analyze import CheckedAnalysis, check_analysis, run_analysis
 from obsnl.observability.contract.branch_table import BranchEntry, BranchTable
 from obsnl.observability.results import AnalysisResult
 
-__all__ = ["check_table"]
+__all__ = ["check_table", "table_analysis", "compare_table"]
+
+#: Time limit of the analysis that confirms a table, in seconds.
+TABLE_SECONDS = 120.0
 
 
 def _compared(a: str, b: str, model: Model, *, relation: bool = False) -> str:
@@ -41,14 +49,15 @@ def _compared(a: str, b: str, model: Model, *, relation: bool = False) -> str:
     return "flipped" if sp.simplify(ea + eb) == 0 else "different"
 
 
-def check_table(table: BranchTable, model: Model, *, max_seconds: float | None = 120.0) -> AnalysisResult:
+def check_table(table: BranchTable, model: Model, *, max_seconds: float | None = TABLE_SECONDS) -> AnalysisResult:
     """Refuse ``table`` unless a fresh analysis of ``model`` gives the same table; return that analysis.
 
     Compared: the model signature (names, order, fingerprint), the switching functions and their
     orientation, the set of sign patterns (no branch missing or invented), and per branch the guard,
     verdict, observable / unobservable / absent variables and transcendence degree, the union
     over branches, and the joint verdict (the ``joint`` key, when the table has one: its observable,
-    unobservable and inconclusive sets must be the fresh analysis's). The analysis uses the table's method and seed, so a table obsnl wrote passes.
+    unobservable and inconclusive sets must be the fresh analysis's). The analysis uses the table's method and
+    seed, so a table obsnl wrote passes.
 
     Parameters
     ----------
@@ -84,11 +93,72 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     ...
     obsnl.errors.TableError: the branch table lacks the branch with signs [-1] (v < 0) that the model has; regenerate it with `obsnl analyze MODEL --format json-table -o TABLE.json`
     """
-    from obsnl.observability.analyze import analyze
+    result = run_analysis(table_analysis(table, model, max_seconds=max_seconds))
+    compare_table(table, result, model)
+    return result
 
+
+def table_analysis(table: BranchTable, model: Model, *, max_seconds: float | None = TABLE_SECONDS) -> CheckedAnalysis:
+    """The analysis that confirms ``table``, checked before any work: the table's method and seed on ``model``.
+
+    A table made for another model (its signature: names, order, fingerprint) is refused here, before the
+    analysis runs.
+
+    Parameters
+    ----------
+    table : BranchTable
+        The table.
+    model : Model
+        The model the estimator will run.
+    max_seconds : float or None
+        Time limit of the analysis.
+
+    Returns
+    -------
+    CheckedAnalysis
+        For :func:`~obsnl.observability.analyze.run_analysis`; compare its result with :func:`compare_table`.
+
+    Raises
+    ------
+    TableError
+        The table was made for another model.
+
+    Examples
+    --------
+    >>> import obsnl
+    >>> from obsnl.observability.analyze import analyze
+    >>> m = obsnl.read_model("obsnl:coulomb_friction")
+    >>> table = BranchTable.from_result(analyze(m, seed=3))
+    >>> checked = table_analysis(table, m)
+    >>> checked.seed, checked.max_seconds
+    (3, 120.0)
+    """
     table.signature.check(ModelSignature.of(model))
     method = table.method if table.method in ("auto", "orc", "sedoglavic") else "auto"
-    result = analyze(model, method=method, seed=table.seed if table.seed is not None else 0, max_seconds=max_seconds)
+    return check_analysis(
+        model, method=method, seed=table.seed if table.seed is not None else 0, max_seconds=max_seconds
+    )
+
+
+def compare_table(table: BranchTable, result: AnalysisResult, model: Model) -> None:
+    """Refuse ``table`` unless it is the table of ``result``, the analysis of ``model`` that
+    :func:`table_analysis` checked; :func:`check_table` lists what is compared.
+
+    Parameters
+    ----------
+    table : BranchTable
+        The table.
+    result : AnalysisResult
+        The analysis of ``model`` with the table's method and seed.
+    model : Model
+        The model (its symbols parse the table's expressions).
+
+    Raises
+    ------
+    TableError
+        The first difference, and how to regenerate the table; or the analysis could not decide a branch, so the
+        table cannot be confirmed.
+    """
     fresh = BranchTable.from_result(result)
     if len(table.switching) != len(fresh.switching):
         raise TableError(
@@ -121,7 +191,6 @@ def check_table(table: BranchTable, model: Model, *, max_seconds: float | None =
     ):
         raise TableError(f"the table's 'overall' differs from the model's union over branches; {TABLE_FIX}")
     _compare_joint(table, fresh)
-    return result
 
 
 def _compare_joint(table: BranchTable, fresh: BranchTable) -> None:
