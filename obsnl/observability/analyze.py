@@ -37,8 +37,8 @@ from obsnl.observability.certificates.certify import (
     certify_by_symmetry,
     undecided_beyond_visits,
 )
-from obsnl.observability.engines.inputs import METHODS, _check
-from obsnl.observability.engines.smooth import _fresh_seed, branch_result
+from obsnl.observability.engines.inputs import METHODS, check_model_and_options
+from obsnl.observability.engines.smooth import branch_result, fresh_seed
 from obsnl.observability.joint.selection import select_branches
 from obsnl.observability.joint.verdict import joint_verdict_of
 from obsnl.observability.limits import out_of_memory
@@ -266,7 +266,7 @@ def check_analysis(
     >>> check_analysis(m).variables
     ('x', 'a')
     """
-    k, variables = _check(
+    k, variables = check_model_and_options(
         model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives, option=option
     )
     if isinstance(branches, str):  # "a,c" as the command line takes it; "ab" is one label, not a and b
@@ -341,7 +341,7 @@ def _analyze(
     deadline = None if max_seconds is None else t0 + float(max_seconds)
     outer = budget_deadline()  # a command's budget (obsnl.model.bounds.budget.time_budget), started before reading
     deadline = outer if deadline is None else deadline if outer is None else min(deadline, outer)
-    seed = _fresh_seed(seed)
+    seed = fresh_seed(seed)
     # the split is bounded too, with a floor: a tiny limit still yields branches (each then inconclusive)
     chosen, how = select_branches(
         model,

@@ -43,12 +43,14 @@ __all__ = [
     "check_analysis_limits",
     "out_of_memory",
     "check_file_limits",
+    "UNKNOWN_INPUT_OPTION",
 ]
 
 #: The most unknowns (states + parameters + unknown-input coefficients) an analysis accepts.
 MAX_UNKNOWNS = 300
 
-_OPTION = "unknown_input_derivatives"
+#: How messages name the caller's unknown-input option by default (the keyword of :func:`obsnl.analyze`).
+UNKNOWN_INPUT_OPTION = "unknown_input_derivatives"
 
 
 def _plural(n: int, word: str) -> str:
@@ -130,7 +132,7 @@ def _given(where: str, value: object) -> str:
 
 
 def check_analysis_limits(
-    model: Model, unknown_input_derivatives: int | str | None = None, *, option: str = _OPTION
+    model: Model, unknown_input_derivatives: int | str | None = None, *, option: str = UNKNOWN_INPUT_OPTION
 ) -> int | str:
     """Refuse, before any heavy work, an analysis of ``model`` larger than the engines can hold.
 

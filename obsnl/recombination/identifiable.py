@@ -42,7 +42,7 @@ from obsnl.errors import AnalysisError, NotSupportedError
 from obsnl.model.core import Model
 from obsnl.model.files import as_model
 from obsnl.observability.certificates.generators import Symmetries
-from obsnl.observability.certificates.symmetry import _monomials
+from obsnl.observability.certificates.symmetry import monomials_up_to
 from obsnl.observability.certificates.symmetry import symmetries as find_symmetries
 from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
 
@@ -186,7 +186,7 @@ def _polynomial_invariants(
 ) -> list[sp.Expr]:
     """Polynomials of degree <= ``degree`` annihilated by the generators (and orthogonal to the kernel)."""
     vars_ = list(J.variables) + list(model.known_initial_conditions)
-    monos = _monomials(vars_, degree)[1:]
+    monos = monomials_up_to(vars_, degree)[1:]
     M = len(monos)
     gens = [[sp.sympify(g.components.get(v.name, 0)) for v in vars_] for g in S.generators]
     syms = sorted(set(J.point), key=lambda s: s.name)

@@ -30,14 +30,39 @@ import sympy as sp
 
 from obsnl.observability.certificates.proofs import canonical
 
-__all__ = ["span_intersection", "translation_invariants", "adapted_forms", "pushforward", "coordinates"]
-
-_MAX_PIVOT_SETS = 4000
+__all__ = [
+    "span_intersection",
+    "translation_invariants",
+    "adapted_forms",
+    "pushforward",
+    "coordinates",
+    "row_basis",
+]
 
 
 # --------------------------------------------------------------------------- linear algebra over Q(e)
-def _basis(rows: Sequence[Sequence[sp.Expr]]) -> list[list[sp.Expr]]:
-    """A basis (rref rows) of the span of ``rows`` over Q(e)."""
+def row_basis(rows: Sequence[Sequence[sp.Expr]]) -> list[list[sp.Expr]]:
+    """A basis of the span of ``rows`` over Q(e): the nonzero rows of their reduced row echelon form.
+
+    Parameters
+    ----------
+    rows : sequence of sequences of sympy.Expr
+        Row vectors of one length, with entries rational in the exponent parameters ``e`` (or none).
+
+    Returns
+    -------
+    list of lists of sympy.Expr
+        The basis rows (as many as the rank), each entry factored; ``[]`` for no rows.
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> N = sp.Symbol("N")
+    >>> row_basis([[1, 2], [2, 4]])
+    [[1, 2]]
+    >>> row_basis([[1, N], [0, 1]])
+    [[1, 0], [0, 1]]
+    """
     if not rows:
         return []
     R, piv = sp.Matrix(rows).rref(simplify=True)
@@ -78,12 +103,12 @@ def span_intersection(a: Sequence[Sequence[sp.Expr]], b: Sequence[Sequence[sp.Ex
             same = False
         if same:
             return [list(r) for r in a]
-    a, b = _basis(a), _basis(b)
+    a, b = row_basis(a), row_basis(b)
     if not a or not b:
         return []
     M = sp.Matrix(a + [[-x for x in r] for r in b]).T
     vecs = [sp.Matrix(1, len(a), list(ns[: len(a)])) * sp.Matrix(a) for ns in M.nullspace(simplify=True)]
-    return _basis([[sp.factor(x) for x in v] for v in vecs])
+    return row_basis([[sp.factor(x) for x in v] for v in vecs])
 
 
 # --------------------------------------------------------------------------- translations
@@ -107,7 +132,7 @@ def translation_invariants(
         ``(pivots, invariants)``.
     """
     coords = list(coords)
-    rows = _basis([[sp.Rational(v.get(c, 0)) for c in coords] for v in vectors])
+    rows = row_basis([[sp.Rational(v.get(c, 0)) for c in coords] for v in vectors])
     if not rows:
         return [], {}
     order = sorted(range(len(coords)), key=lambda j: (coords[j] not in set(allowed_pivots), -j))

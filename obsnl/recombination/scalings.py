@@ -12,9 +12,12 @@ import sympy as sp
 
 from obsnl.errors import ModelError
 from obsnl.model.reading.parse import make_symbol
-from obsnl.recombination.invariants import _MAX_PIVOT_SETS, _basis
+from obsnl.recombination.invariants import row_basis
 
 __all__ = ["ScalingSection", "scaling_section", "section_map"]
+
+#: Most candidate pivot sets :func:`scaling_section` scores (the combinations beyond are not tried).
+_MAX_PIVOT_SETS = 4000
 
 
 # --------------------------------------------------------------------------- scalings
@@ -134,7 +137,7 @@ def scaling_section(
        Computational Mathematics 13(4), 479-516, 2013. doi:10.1007/s10208-013-9165-9
     """
     variables = list(variables)
-    rows = _basis([[sp.sympify(w.get(v, 0)) for v in variables] for w in weights])
+    rows = row_basis([[sp.sympify(w.get(v, 0)) for v in variables] for w in weights])
     if not rows:
         return ScalingSection((), {}, {}, ())
     W = sp.Matrix(rows)

@@ -51,9 +51,12 @@ __all__ = [
     "smooth_branch",
     "switching_functions",
     "check_finite",
+    "gray_code",
+    "MAX_SWITCHING",
 ]
 
-_MAX_SWITCHING = 12  # switching functions in all (nested ones included): 2**12 sign patterns at most
+#: Most switching functions in all (nested ones included) whose sign patterns are enumerated: 2**12 at most.
+MAX_SWITCHING = 12
 _MAX_BRANCHES = 1024  # smooth branches in all
 _FIELDS = {f.name for f in dataclasses.fields(Model)}
 
@@ -130,8 +133,29 @@ class DroppedPattern:
     proved: bool = True
 
 
-def _gray(k: int) -> list[tuple[int, ...]]:
-    """Reflected Gray code over k signs, +1 first; the first function is the slowest."""
+def gray_code(k: int) -> list[tuple[int, ...]]:
+    """The sign patterns of ``k`` switching functions in reflected Gray-code order.
+
+    Neighbouring patterns differ in one sign (across one switching surface); the all-positive pattern is
+    first and the first function's sign changes slowest.
+
+    Parameters
+    ----------
+    k : int
+        The number of switching functions (0 or more).
+
+    Returns
+    -------
+    list[tuple[int, ...]]
+        All ``2**k`` patterns, each a tuple of ``k`` signs (+1 or -1).
+
+    Examples
+    --------
+    >>> gray_code(2)
+    [(1, 1), (1, -1), (-1, -1), (-1, 1)]
+    >>> gray_code(0)
+    [()]
+    """
     out = []
     for i in range(2**k):
         g = i ^ (i >> 1)
@@ -429,13 +453,13 @@ def _split_level(
         return
     sw = level.functions
     seen.update(dict.fromkeys(sw))
-    if patterns is None and len(outer_sw) + len(sw) > _MAX_SWITCHING:
+    if patterns is None and len(outer_sw) + len(sw) > MAX_SWITCHING:
         n = len(outer_sw) + len(sw)
         raise NotSupportedError(
             f"{n} switching functions{' (nested ones included)' if outer_sw else ''} ({2**n} sign patterns); "
-            f"at most {_MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
+            f"at most {MAX_SWITCHING} are supported. Smooth some of them (e.g. tanh(v/eps) for sign(v))"
         )
-    for signs in _gray(len(sw)) if patterns is None else patterns:
+    for signs in gray_code(len(sw)) if patterns is None else patterns:
         if deadline is not None and time.perf_counter() > deadline:
             raise AnalysisError(
                 "splitting the model into branches ran past the time limit; raise max_seconds= "

@@ -30,7 +30,7 @@ import sympy as sp
 
 from obsnl.errors import NotSupportedError
 from obsnl.model.bounds.work import can_expand
-from obsnl.model.branching.branches import Branch, _gray, sides_of, smooth_branch
+from obsnl.model.branching.branches import Branch, gray_code, sides_of, smooth_branch
 from obsnl.model.branching.feasibility import feasible
 from obsnl.model.branching.switching import Switching, switching_structure
 from obsnl.model.core import Model
@@ -211,7 +211,7 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
     base = [0] * len(sw)
     fixed: list[int] = []
     for g in groups:
-        for local in _gray(len(g)):
+        for local in gray_code(len(g)):
             trial = dict(zip(g, local))
             conds = [(sw[j], base[j]) for j in fixed] + [(sw[j], trial[j]) for j in g]
             witness = feasible(conds, rng, level.memo, bounds=level.bounds)[0]
@@ -224,7 +224,7 @@ def representatives_of(model: Model, level: Switching, *, seed: int = 0) -> Repr
             raise NotSupportedError(f"no feasible sign pattern of the switching functions {[str(sw[j]) for j in g]}")
     candidates = [tuple(base)]
     for g in groups:
-        for local in _gray(len(g)):
+        for local in gray_code(len(g)):
             pattern = list(base)
             for j, s in zip(g, local):
                 pattern[j] = s

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from obsnl.errors import NotSupportedError
-from obsnl.model.branching.branches import _MAX_SWITCHING, Branch, split_by
+from obsnl.model.branching.branches import MAX_SWITCHING, Branch, split_by
 from obsnl.model.branching.switching import Switching, switching_structure
 from obsnl.model.core import Model
 
@@ -94,7 +94,7 @@ def branching(
     (['a', 'b', 'c', 'd'], ['r0', 'r1', 'r2'])
     """
     level = switching_structure(model)
-    if len(level.functions) > min(enumerate_up_to, _MAX_SWITCHING):
+    if len(level.functions) > min(enumerate_up_to, MAX_SWITCHING):
         from obsnl.model.branching.representatives import representatives_of
 
         try:

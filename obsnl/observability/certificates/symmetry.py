@@ -51,7 +51,7 @@ from obsnl.observability.engines.decompose import output_reachable
 from obsnl.observability.engines.jacobian import ModularJacobian, observability_jacobian
 from obsnl.observability.limits import check_analysis_limits
 
-__all__ = ["symmetries", "symmetries_of", "branch_symmetries", "check_search"]
+__all__ = ["symmetries", "symmetries_of", "branch_symmetries", "check_search", "monomials_up_to"]
 
 _MAX_UNKNOWNS = 2500
 
@@ -114,7 +114,31 @@ def _samples(st: _Setup, count: int, rng: random.Random) -> None:
             continue
 
 
-def _monomials(vars_: Sequence[sp.Symbol], degree: int) -> list[tuple[sp.Symbol, ...]]:
+def monomials_up_to(vars_: Sequence[sp.Symbol], degree: int) -> list[tuple[sp.Symbol, ...]]:
+    """Every monomial of total degree at most ``degree`` in ``vars_``, each as the tuple of its factors.
+
+    The constant monomial ``()`` comes first, then degree 1, 2, ... in turn, each degree in the order of
+    :func:`itertools.combinations_with_replacement` (factors in the order of ``vars_``).
+
+    Parameters
+    ----------
+    vars_ : Sequence[sympy.Symbol]
+        The variables, in the order the factors of each monomial follow.
+    degree : int
+        The highest total degree (0 gives only the constant monomial).
+
+    Returns
+    -------
+    list[tuple[sympy.Symbol, ...]]
+        The monomials, a monomial as its factors with repetition (``(x, x, y)`` for ``x**2*y``).
+
+    Examples
+    --------
+    >>> import sympy as sp
+    >>> x, y = sp.symbols("x y")
+    >>> monomials_up_to([x, y], 2)
+    [(), (x,), (y,), (x, x), (x, y), (y, y)]
+    """
     out: list[tuple[sp.Symbol, ...]] = [()]
     for d in range(1, degree + 1):
         out += list(itertools.combinations_with_replacement(vars_, d))
@@ -135,7 +159,7 @@ def _solve_stage(
     elif kind == "scaling":
         basis = [("self",)] + [("self", e) for e in (st.exps if with_exps else [])]
     else:
-        basis = _monomials(st.basis_vars, degree)
+        basis = monomials_up_to(st.basis_vars, degree)
     unknowns = [(j, b) for j in range(len(U)) for b in basis]
     if len(unknowns) > _MAX_UNKNOWNS:
         return None

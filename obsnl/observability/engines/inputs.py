@@ -10,9 +10,15 @@ from typing import NamedTuple
 from obsnl.errors import AnalysisError
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY, check_unknown_input_derivatives
-from obsnl.observability.limits import _OPTION, check_analysis_limits
+from obsnl.observability.limits import UNKNOWN_INPUT_OPTION, check_analysis_limits
 
-__all__ = ["METHODS", "Checked", "resolve_unknown_input_derivatives"]
+__all__ = [
+    "METHODS",
+    "Checked",
+    "check_model_and_options",
+    "resolve_unknown_input_derivatives",
+    "unknown_variable_names",
+]
 
 #: The engines that ``method=`` names (``auto`` picks one per branch).
 METHODS = ("auto", "orc", "sedoglavic")
@@ -26,7 +32,7 @@ class Checked(NamedTuple):
     variables: tuple[str, ...]
 
 
-def _check(
+def check_model_and_options(
     model: Model,
     method: str,
     seed: int | None,
@@ -35,11 +41,57 @@ def _check(
     unknown_input_derivatives: int | str | None,
     input_derivatives: int | None,
     *,
-    option: str = _OPTION,
+    option: str = UNKNOWN_INPUT_OPTION,
 ) -> Checked:
-    """Refuse bad options and a model the engines cannot take, before any work; return what they settle,
-    resolved here once (``option``: how messages name the caller's unknown-input option, as for
-    :func:`~obsnl.observability.limits.check_analysis_limits`)."""
+    """Refuse bad options and a model the engines cannot take, before any work; return what they settle.
+
+    The one check of an analysis's options and model (:func:`obsnl.observability.analyze.check_analysis` and
+    :func:`obsnl.observability.engines.smooth.analyze_smooth` call it), what it settles resolved here once.
+
+    Parameters
+    ----------
+    model : Model
+        The model to analyse.
+    method : str
+        The engine, one of :data:`METHODS`.
+    seed : int or None
+        The random seed: a non-negative integer, or None for a fresh one.
+    max_seconds : float or None
+        The time limit: a positive finite number of seconds, or None for none.
+    prob : float
+        The required probability of a correct answer, strictly between 0 and 1.
+    unknown_input_derivatives : int, str or None
+        The caller's unknown-input option (None: the model's key, else ``"arbitrary"``).
+    input_derivatives : int or None
+        The known inputs' degree: a non-negative integer, or None for generic inputs.
+    option : str
+        How messages name the caller's unknown-input option, as for
+        :func:`~obsnl.observability.limits.check_analysis_limits`.
+
+    Returns
+    -------
+    Checked
+        The unknown-input assumption in force and the reported variables (every state, then every parameter).
+
+    Raises
+    ------
+    AnalysisError
+        When ``model`` is not a :class:`~obsnl.model.core.Model`, an option is invalid, the model has no output,
+        an output depends on no unknown or no output on a state, or the model has more unknowns than
+        :data:`~obsnl.observability.limits.MAX_UNKNOWNS`.
+    OptionError
+        When the caller's ``unknown_input_derivatives`` is invalid, beyond its bound, or given for a model
+        without unknown inputs.
+    ModelError
+        When the model's ``unknown_input_derivatives`` key is invalid or beyond its bound.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="m", states=["x"], parameters=["a"], equations={"x": "-a*x"}, outputs={"y": "x"})
+    >>> check_model_and_options(m, "auto", 0, None, 0.99, None, None)
+    Checked(unknown_input_derivatives='arbitrary', variables=('x', 'a'))
+    """
     if not isinstance(model, Model):
         raise AnalysisError(f"expected an obsnl Model, got {type(model).__name__}; load one with obsnl.read_model")
     variables = _variable_names(model)
@@ -95,7 +147,28 @@ def resolve_unknown_input_derivatives(model: Model, value: int | str | None) -> 
     return ARBITRARY if value is None else check_unknown_input_derivatives(value)
 
 
-def _unknown_names(model: Model) -> tuple[str, ...]:
+def unknown_variable_names(model: Model) -> tuple[str, ...]:
+    """The names of the variables an engine solves for: every state whose initial value is not known, then every
+    parameter.
+
+    Parameters
+    ----------
+    model : Model
+        The (smooth) model or block.
+
+    Returns
+    -------
+    tuple[str, ...]
+        The states' names (those with a known initial value left out), then the parameters' names.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> m = Model(name="m", states=["x", "v"], parameters=["a"], equations={"x": "v", "v": "-a*x"},
+    ...           outputs={"y": "x"}, known_initial_conditions=["v"])
+    >>> unknown_variable_names(m)
+    ('x', 'a')
+    """
     known = set(model.known_initial_conditions)
     return tuple(s.name for s in model.states if s not in known) + tuple(s.name for s in model.parameters)
 

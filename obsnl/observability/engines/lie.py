@@ -15,11 +15,46 @@ from obsnl.errors import NotSupportedError
 if TYPE_CHECKING:
     from flint import nmod_mpoly
 
-__all__ = ["lie_derivatives"]
+__all__ = ["lie_derivatives", "ModularSystem", "OutOfInputs"]
 
 
-class _System:
-    """The augmented rational system as flint polynomials modulo p."""
+class ModularSystem:
+    """The augmented rational system of a problem as flint polynomials modulo a prime.
+
+    The coordinates (``coords``) are the dynamic ones (states, time-varying atoms, the unknown inputs and their
+    derivatives), then the constant ones (parameters, known constants without a given value, time-invariant atoms);
+    ``symbols`` adds each known input and its derivatives. ``P[v] / Q`` is the rate of a dynamic coordinate ``v``
+    over the common denominator ``Q``, and ``outputs`` holds each output as a (numerator, denominator) pair.
+
+    Parameters
+    ----------
+    problem : Problem
+        The compiled smooth model (:func:`obsnl.algebra.problem.make_problem`).
+    p : int
+        The prime modulus.
+    n_input_derivs : int
+        How many derivatives of each known input get a symbol (a Lie derivative that needs one more raises
+        :class:`OutOfInputs`).
+    deadline : float or None
+        ``time.perf_counter()`` time limit (None: none).
+    known : dict or None
+        Values of known constants (symbol -> integer), replaced before differentiating (None: none).
+
+    Raises
+    ------
+    TimeUp
+        On the deadline while converting the vector field to polynomials.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> from obsnl.algebra.augment import rationalize
+    >>> from obsnl.algebra.problem import make_problem
+    >>> m = Model(name="m", states=["x"], parameters=["a"], equations={"x": "-a*x"}, outputs={"y": "x"})
+    >>> system = ModularSystem(make_problem(rationalize(m)), 101, 1)
+    >>> system.coords, system.P
+    ([x, a], {x: 100*v0*v1})
+    """
 
     def __init__(
         self, problem: Problem, p: int, n_input_derivs: int, deadline: float | None = None, known: dict | None = None
@@ -158,14 +193,33 @@ class _System:
                 if degs[i]:
                     extra += self.ctx.gen(self.index[ch[j + 1]]) * X.derivative(i)
             if degs[self.index[ch[-1]]]:
-                raise _OutOfInputs()
+                raise OutOfInputs()
         if not extra.is_zero():
             out += self.Q * extra
         return out
 
 
-class _OutOfInputs(Exception):
-    pass
+class OutOfInputs(Exception):
+    """A Lie derivative needs a derivative of a known input beyond those :class:`ModularSystem` gave a symbol.
+
+    Examples
+    --------
+    >>> from obsnl import Model
+    >>> from obsnl.algebra.augment import rationalize
+    >>> from obsnl.algebra.problem import make_problem
+    >>> m = Model(name="m", states=["x"], parameters=["a"], inputs=["u"], equations={"x": "-a*x + u"},
+    ...           outputs={"y": "x"})
+    >>> system = ModularSystem(make_problem(rationalize(m)), 101, 0)
+    >>> H, G = system.outputs[0]
+    >>> derivatives = lie_derivatives(system, H, G, deadline=None)
+    >>> [next(derivatives)[0] for _ in range(2)]  # y and y' (which holds u)
+    [v0, 100*v0*v1 + v2]
+    >>> try:  # y'' needs u'
+    ...     next(derivatives)
+    ... except OutOfInputs:
+    ...     print("no symbol for u'")
+    no symbol for u'
+    """
 
 
 #: A Lie derivative numerator with more terms than this ends the ORC (INCONCLUSIVE): expression swell.
@@ -176,12 +230,12 @@ MAX_TERMS = 2_000_000
 SECONDS_PER_PAIR = 5e-8
 
 
-def lie_derivatives(system: _System, H: Any, G: Any, *, deadline: float | None) -> Iterator[tuple[Any, int, int]]:
+def lie_derivatives(system: ModularSystem, H: Any, G: Any, *, deadline: float | None) -> Iterator[tuple[Any, int, int]]:
     """Yield ``(N_k, a, b)`` with ``L^k h = N_k / (G**b Q**a)`` for k = 0, 1, ...
 
     Parameters
     ----------
-    system : _System
+    system : ModularSystem
         The model over the prime field.
     H, G : flint.nmod_mpoly
         Numerator and denominator of the output, polynomials mod p.

@@ -33,7 +33,7 @@ import numpy as np
 from obsnl.algebra.bounds import BlockOutcome, classify, failure_bound
 from obsnl.algebra.modp import nmod_matrix, rank_mod_p
 from obsnl.algebra.series import Problem, Resample, TimeUp, draw_prime, run_series
-from obsnl.observability.engines.lie import _OutOfInputs, _System, lie_derivatives
+from obsnl.observability.engines.lie import ModularSystem, OutOfInputs, lie_derivatives
 
 if TYPE_CHECKING:
     from flint import nmod_mpoly
@@ -44,7 +44,7 @@ __all__ = ["orc_block"]
 class _Point:
     """Values and initial gradients of every ORC coordinate at one random point."""
 
-    def __init__(self, problem: Problem, system: _System, rng: random.Random, p: int) -> None:
+    def __init__(self, problem: Problem, system: ModularSystem, rng: random.Random, p: int) -> None:
         run = run_series(problem, rng, K=1, p=p, fixed={c: int(v) for c, v in system.known.items()})
         if run.p != p:
             raise Resample("the prime changed")
@@ -80,7 +80,7 @@ class _Point:
             raise Resample("denominator vanishes")
         del model
 
-    def row(self, system: _System, out_index: int, N: nmod_mpoly, a: int, b: int) -> np.ndarray:
+    def row(self, system: ModularSystem, out_index: int, N: nmod_mpoly, a: int, b: int) -> np.ndarray:
         p = self.p
         vals = self.values
         n = len(system.coords)
@@ -155,7 +155,7 @@ def orc_block(
             try:
                 first = run_series(problem, rng, K=1, p=p)
                 known = {c: first.point.values[c] for c in problem.model.known_constants}
-                system = _System(problem, p, bound + 1, deadline, known)
+                system = ModularSystem(problem, p, bound + 1, deadline, known)
                 point = _Point(problem, system, rng, p)
                 break
             except (Resample, ZeroDivisionError):
@@ -219,6 +219,6 @@ def orc_block(
     except TimeUp as exc:
         out.reason = f"{exc}; no verdict from a truncated computation"
         return out
-    except _OutOfInputs:  # pragma: no cover - input symbols are allocated for the order bound
+    except OutOfInputs:  # pragma: no cover - input symbols are allocated for the order bound
         out.reason = "ran out of input derivative symbols"
         return out

@@ -27,12 +27,12 @@ from obsnl.model.branching.branches import Branch
 from obsnl.model.core import Model
 from obsnl.model.reading.unknown_inputs import ARBITRARY
 from obsnl.observability.engines.decompose import decompose as _decompose
-from obsnl.observability.engines.inputs import _check, _unknown_names
+from obsnl.observability.engines.inputs import check_model_and_options, unknown_variable_names
 from obsnl.observability.engines.sedoglavic import sedoglavic_block
 from obsnl.observability.limits import out_of_memory
 from obsnl.observability.verdicts import BranchResult, Verdict
 
-__all__ = ["analyze_smooth", "orc", "sedoglavic"]
+__all__ = ["analyze_smooth", "orc", "sedoglavic", "fresh_seed"]
 
 _AUTO_ORC_SIZE = 6
 _AUTO_ORC_SECONDS = 1.0
@@ -133,7 +133,7 @@ def _branch_result(
         if deadline is not None and time.perf_counter() >= deadline:
             out = BlockOutcome(
                 method=method,
-                columns=tuple(_unknown_names(block)),
+                columns=tuple(unknown_variable_names(block)),
                 reason="time limit reached before this block was analysed",
             )
             problem: Problem | None = None
@@ -154,7 +154,7 @@ def _branch_result(
             terms.append(problem.order_bound())
         if out.inconclusive:
             reasons.append(out.reason)
-            undecided |= {c for c in _unknown_names(block)} | {w.name for w in block.unknown_inputs}
+            undecided |= {c for c in unknown_variable_names(block)} | {w.name for w in block.unknown_inputs}
             continue
         rank += out.rank
         unobs |= set(out.unobservable)
@@ -246,7 +246,26 @@ def branch_result(b: Branch, variables: Sequence[str], **options: Any) -> tuple[
     return replace(br, signs=tuple(b.signs)), failure
 
 
-def _fresh_seed(seed: int | None) -> int:
+def fresh_seed(seed: int | None) -> int:
+    """The seed an analysis runs with: ``seed`` when given, else a fresh one from the system's randomness.
+
+    Parameters
+    ----------
+    seed : int or None
+        The caller's seed (None: draw one).
+
+    Returns
+    -------
+    int
+        ``seed`` itself when it is not None, else a random integer from 0 to ``2**31 - 1``.
+
+    Examples
+    --------
+    >>> fresh_seed(7)
+    7
+    >>> 0 <= fresh_seed(None) < 2**31
+    True
+    """
     return seed if seed is not None else random.SystemRandom().randrange(2**31)
 
 
@@ -297,7 +316,9 @@ def analyze_smooth(
         When an option is invalid, the model has more unknowns than
         :data:`obsnl.observability.limits.MAX_UNKNOWNS`, or the analysis runs out of memory.
     """
-    k, variables = _check(model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives)
+    k, variables = check_model_and_options(
+        model, method, seed, max_seconds, prob, unknown_input_derivatives, input_derivatives
+    )
     if not model.is_smooth:
         raise ModelError(
             f"model {model.name!r} is not smooth; use obsnl.observability.analyze (which splits it into branches) or "
@@ -312,7 +333,7 @@ def analyze_smooth(
             model,
             variables,
             method=method,
-            seed=_fresh_seed(seed),
+            seed=fresh_seed(seed),
             deadline=deadline,
             target=1 - prob,
             decompose=decompose,

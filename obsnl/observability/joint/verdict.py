@@ -61,11 +61,11 @@ from obsnl.model.core import Model
 from obsnl.observability.assumptions import JointAssumptions
 from obsnl.observability.joint.result import JointResult, JointVisit
 from obsnl.observability.joint.visits import (
+    JointClasses,
     NewPrime,
     Plan,
     Prepared,
     VisitData,
-    _Classes,
     branch_visit,
     certified,
     classify_visit,
@@ -132,7 +132,7 @@ def _run_at(
     failure = 0.0
     early = False
     union: set[str] = set(known)
-    classes = _Classes(p, states, params, ws, known)
+    classes = JointClasses(p, states, params, ws, known)
     for i, plan in enumerate(plans):
         if deadline is not None and time.perf_counter() > deadline:
             raise TimeUp(f"time limit reached after {i} of {len(plans)} visits")

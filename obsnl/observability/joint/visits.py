@@ -33,6 +33,7 @@ from obsnl.observability.engines.sedoglavic import RankTracker, stall_safe
 from obsnl.observability.joint.result import JointVisit
 
 __all__ = [
+    "JointClasses",
     "NewPrime",
     "Plan",
     "Prepared",
@@ -355,12 +356,38 @@ def classify_visit(v: VisitData, Pi: np.ndarray, p: int) -> dict[str, bool]:
     return {c: not unobs[i] for i, c in enumerate(private_names(prep))}
 
 
-class _Classes:
+class JointClasses:
     """The joint classes of one run, kept up to date as visits are added.
 
     ``Pi`` only grows, and with it what each visit determines: a visit classified at some rank of
     ``Pi`` keeps its observable columns, and is classified again only when the rank has grown since
     (so a run costs one classification per visit once ``Pi`` is full, not one per visit and check).
+
+    Parameters
+    ----------
+    p : int
+        The run's prime.
+    states : list of str
+        The model's states.
+    params : list of str
+        The model's parameters, in the order of the columns of ``Pi``.
+    ws : list of str
+        The model's unknown inputs.
+    known : set of str
+        States with known initial conditions (observable from the start).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from obsnl.algebra.modp import Echelon
+    >>> classes = JointClasses(101, ["x", "y"], ["a", "b"], ["w"], {"x"})
+    >>> Pi = Echelon(2, 101)
+    >>> classes.update([], Pi)
+    {'a': False, 'b': False, 'x': True, 'y': False, 'w': False}
+    >>> Pi.add(np.array([1, 0]))  # a visit determines ``a``: the rank grows
+    True
+    >>> classes.update([], Pi)["a"]
+    True
     """
 
     def __init__(self, p: int, states: list[str], params: list[str], ws: list[str], known: set[str]) -> None:
@@ -370,6 +397,20 @@ class _Classes:
         self.at_rank: dict[int, int] = {}  # id of a visit -> rank of Pi at its last classification
 
     def update(self, done: list[VisitData], ech: Echelon) -> dict[str, bool]:
+        """The joint classes after the visits ``done``, given the joint parameter row space ``ech``.
+
+        Parameters
+        ----------
+        done : list of VisitData
+            The visits of the run so far (those not used are skipped).
+        ech : Echelon
+            The joint parameter row space ``Pi`` of those visits.
+
+        Returns
+        -------
+        dict of str to bool
+            Each parameter, then each state and unknown input -> whether it is jointly observable so far.
+        """
         p, n_par = self.p, len(self.params)
         Pi = ech.rows if ech.rank else np.zeros((0, n_par), dtype=np.int64)
         unobs_par = kernel_support(Pi, n_par, p)
