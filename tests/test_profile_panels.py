@@ -9,7 +9,7 @@ from obsnl.report import figures
 
 def test_a_profile_without_points_is_said_not_drawn(tmp_path, monkeypatch):
     said: list[str] = []
-    plt = figures._plt()
+    plt = figures.agg_pyplot()
     real = plt.Axes.text
 
     def spy(self, x, y, s, *a, **k):
@@ -31,7 +31,7 @@ def test_the_fit_figure_writes_the_units_of_an_output_where_the_model_gives_them
     from obsnl.report.identification import diagnostics
 
     labels: list[str] = []
-    plt = figures._plt()
+    plt = figures.agg_pyplot()
     real = plt.Axes.set_ylabel
     monkeypatch.setattr(plt.Axes, "set_ylabel", lambda self, s, *a, **k: labels.append(s) or real(self, s, *a, **k))
     t = np.arange(200) * 0.01

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from obsnl.errors import OptionError
-from obsnl.report.figures import _plt, _save
+from obsnl.report.figures import agg_pyplot, save_png
 from obsnl.report.tex import tex_escape
 
 __all__ = [
@@ -250,7 +250,7 @@ def plot_visits(design: Any, path: str | Path) -> Path:
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     names: dict[tuple[int, ...], str] = {}
     for v in design.visits:
         for b in v.branches:
@@ -278,4 +278,4 @@ def plot_visits(design: Any, path: str | Path) -> Path:
     ax.set_xlabel("scale of the records")
     ax.set_title(f"{design.model}: branches visited per scale", fontsize=10)
     ax.legend(fontsize=7, loc="best")
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)

@@ -21,7 +21,7 @@ from obsnl.report.files import check_target
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
 
-__all__ = ["figure2", "figure3", "plot_traces", "plot_bank_forces", "FIGURE_PREFIX"]
+__all__ = ["figure2", "figure3", "plot_traces", "plot_bank_forces", "FIGURE_PREFIX", "agg_pyplot", "save_png"]
 
 #: Bank figures are written as ``<FIGURE_PREFIX><scenario>.png``.
 FIGURE_PREFIX = "forces_"
@@ -39,8 +39,17 @@ _LATEX = {
 }
 
 
-def _plt() -> ModuleType:
-    """``matplotlib.pyplot`` on the Agg backend (no display needed), imported on first use."""
+def agg_pyplot() -> ModuleType:
+    """``matplotlib.pyplot`` on the Agg backend (no display needed), imported on first use.
+
+    Matplotlib is imported here, on the first call, not when a module is imported: an analysis that draws
+    nothing does not load it.
+
+    Returns
+    -------
+    types.ModuleType
+        The module ``matplotlib.pyplot``, its backend set to Agg.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
@@ -49,11 +58,38 @@ def _plt() -> ModuleType:
     return plt
 
 
-def _save(plt: ModuleType, fig: Figure, path: str | Path, *, dpi: int = 130, tight: bool = True) -> Path:
-    """Save ``fig`` as PNG at ``path`` through a temporary file in the same folder, renamed onto ``path``:
-    a symbolic link there is replaced by the file, never written through (the caller has decided, with
+def save_png(plt: ModuleType, fig: Figure, path: str | Path, *, dpi: int = 130, tight: bool = True) -> Path:
+    """Save ``fig`` as PNG at ``path``, then close it.
+
+    The figure is written to a temporary file in the same folder and renamed onto ``path``: a symbolic link
+    there is replaced by the file, never written through (the caller has decided, with
     :func:`obsnl.report.files.check_target`, that ``path`` may be replaced). What no caller may replace is
-    refused before anything is created: a FIFO, a device or a socket, a name that names a folder (``x.png/``)."""
+    refused before anything is created: a FIFO, a device or a socket, a name that names a folder (``x.png/``).
+    The figure is closed whether or not it was written.
+
+    Parameters
+    ----------
+    plt : types.ModuleType
+        ``matplotlib.pyplot`` (from :func:`agg_pyplot`), which closes the figure.
+    fig : matplotlib.figure.Figure
+        The figure to write.
+    path : str or Path
+        The PNG file to write (its folder is made when missing).
+    dpi : int
+        Resolution in dots per inch.
+    tight : bool
+        Whether to call ``fig.tight_layout()`` before saving.
+
+    Returns
+    -------
+    Path
+        The file written.
+
+    Raises
+    ------
+    OutputError
+        ``path`` may not be written (see :func:`obsnl.report.files.check_target`), or writing it failed.
+    """
     tmp = None
     try:
         out = check_target(path, force=True)
@@ -107,7 +143,7 @@ def figure2(
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     fig, ax = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
     ax[0].plot(t, accel, lw=0.7, color="k")
     ax[0].set_ylabel(r"$\ddot{x}_g$ (m/s$^2$)")
@@ -119,7 +155,7 @@ def figure2(
     ax[1].set_xlabel("t (s)")
     ax[1].set_title("(b) measured and estimated displacement", fontsize=10)
     ax[1].legend(fontsize=8, loc="upper right")
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
 
 
 def figure3(
@@ -136,7 +172,7 @@ def figure3(
 
     Parameters flagged as practically unidentifiable are drawn dashed and marked in the legend.
     """
-    plt = _plt()
+    plt = agg_pyplot()
     fig, axes = plt.subplots(len(panels), 1, figsize=(8, 3.2 * len(panels)), sharex=True, squeeze=False)
     cmap = plt.get_cmap("tab10")
     for ax, (title, theta) in zip(axes[:, 0], panels.items()):
@@ -150,7 +186,7 @@ def figure3(
         ax.set_title(title, fontsize=10)
         ax.legend(fontsize=7, ncol=5, loc="upper right")
     axes[-1, 0].set_xlabel("t (s)")
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
 
 
 # ---- identification of a structure (obsnl identify)
@@ -180,7 +216,7 @@ def table2_errors_figure(
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     fig, ax = plt.subplots(figsize=(max(7.0, 1.1 * len(parameters) + 2), 4.2))
     width = 0.8 / max(len(errors), 1)
     x = np.arange(len(parameters))
@@ -197,7 +233,7 @@ def table2_errors_figure(
     ax.set_ylabel("worst error over the seeds (%)")
     ax.set_title("Table 2: errors per parameter and filter (hatched: flagged, not held to the goal)")
     ax.legend(fontsize=7, ncol=2)
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
 
 
 def plot_traces(
@@ -226,7 +262,7 @@ def plot_traces(
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     params = traces[0].parameters
     nx = len(traces[0].states)
     dt = float(traces[0].t[1] - traces[0].t[0])
@@ -253,7 +289,7 @@ def plot_traces(
         axes[j // cols, j % cols].set_visible(False)
     for ax in axes[-1, :]:
         ax.set_xlabel("time over the passes (s)")
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
 
 
 # ---- observer bank
@@ -271,7 +307,7 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
     every : int
         Plot every ``every``-th sample (the figures stay small).
     """
-    plt = _plt()
+    plt = agg_pyplot()
     from obsnl.linear.bank import sliding_rms
 
     out = Path(out_dir)
@@ -298,7 +334,7 @@ def plot_bank_forces(study: Any, out_dir: str | Path, *, every: int = 5) -> list
         ax2.set_ylabel(f"{thr.window:g}-s RMS [N·m]")
         ax2.set_xlabel("time [s]")
         ax2.legend(fontsize=7, ncol=3, loc="upper left", title="dashed: tau", title_fontsize=7)
-        paths.append(_save(plt, fig, out / f"{FIGURE_PREFIX}{name}.png", dpi=80, tight=False))
+        paths.append(save_png(plt, fig, out / f"{FIGURE_PREFIX}{name}.png", dpi=80, tight=False))
     return paths
 
 
@@ -325,7 +361,7 @@ def plot_profiles(
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     n = max(len(profiles), 1)
     cols = min(n, 3)
     rows = -(-n // cols)
@@ -381,4 +417,4 @@ def plot_profiles(
         ax.ticklabel_format(axis="x", useOffset=False)  # values as they are, not as an offset plus small numbers
         ax.tick_params(labelsize=7)
     fig.suptitle("profile likelihood; dashed: 95 % threshold", fontsize=9)
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)

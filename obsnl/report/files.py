@@ -3,7 +3,8 @@
 
 File names come from model names, which come from files other people write: a name that is not a
 plain file name (a path separator, ``..``, a leading dot, characters outside letters, digits,
-``_ - .``) is refused, so every file lands inside the folder the user named.
+``_ - .``) is refused (by :func:`obsnl.report.folders.report_files`), so every file lands inside the folder the
+user named.
 
 Every command that writes goes through one writer, :class:`OutputFolder` (:func:`safe_write` for one
 file): files are created exclusively in a private staging folder and moved onto their names only when
@@ -28,8 +29,6 @@ from pathlib import Path
 from obsnl.errors import OutputError
 
 __all__ = ["check_target", "check_folder", "safe_write", "OutputFolder"]
-
-_SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,120}$")
 
 
 def check_target(path: str | Path, *, force: bool, root: str | Path | None = None) -> Path:

@@ -4,16 +4,21 @@ written through :class:`~obsnl.report.files.OutputFolder`.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from pathlib import Path
 
 from obsnl.errors import OutputError
 from obsnl.observability.contract.branch_table import SCHEMA_ID
 from obsnl.observability.results import AnalysisResult
-from obsnl.report.files import _SAFE_NAME, OutputFolder, check_folder
+from obsnl.report.files import OutputFolder, check_folder
 from obsnl.report.tables import joint_text, to_json, to_latex, to_markdown, union_text
 
 __all__ = ["report_files", "write_tables", "timing_table", "tables_written_line"]
+
+#: A model name that may become a file name (:func:`report_files`): letters, digits, ``_``, ``-`` and ``.``, not
+#: starting with ``.`` or ``-``, at most 121 characters.
+_SAFE_NAME = re.compile(r"^[A-Za-z0-9_][A-Za-z0-9_.-]{0,120}$")
 
 
 def timing_table(entries: Sequence[tuple[str, str, int, float]]) -> str:

@@ -46,15 +46,15 @@ def _details(summary: str, items: Iterable[str]) -> str:
 
 def _analysis(r: Any) -> str:
     from obsnl.report.groups import branch_groups
-    from obsnl.report.sentences import _first_lines
-    from obsnl.report.tables import ROWS, _cells, _header_line
+    from obsnl.report.sentences import opening_lines
+    from obsnl.report.tables import ROWS, analysis_header, group_cell
 
     groups = branch_groups(r)
     rows = [
-        [escape(ROWS[row])] + [escape(_cells(g, row, latex=False, result=r)).replace("`", "") for g in groups]
+        [escape(ROWS[row])] + [escape(group_cell(g, row, latex=False, result=r)).replace("`", "") for g in groups]
         for row in ROWS
     ]
-    return _head(f"Observability of {r.model}", _header_line(r), *_first_lines(r, suffix=".")) + _table(
+    return _head(f"Observability of {r.model}", analysis_header(r), *opening_lines(r, suffix=".")) + _table(
         ["Branches", *(g.heading for g in groups)], rows
     )
 

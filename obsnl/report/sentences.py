@@ -9,10 +9,35 @@ from collections.abc import Callable, Mapping, Sequence
 from obsnl._text import probability_text
 from obsnl.observability.results import AnalysisResult
 
-__all__ = ["probability_text", "assumption_texts", "bounds_text", "joint_text", "union_text"]
+__all__ = [
+    "probability_text",
+    "assumption_texts",
+    "bounds_text",
+    "joint_text",
+    "union_text",
+    "names_text",
+    "verdict_lines",
+    "opening_lines",
+]
 
 
-def _names(names: Sequence[str]) -> str:
+def names_text(names: Sequence[str]) -> str:
+    """Names as a comma-separated list, ``none`` for no name.
+
+    Parameters
+    ----------
+    names : sequence of str
+        The names, in the order they are said.
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> names_text(["x", "k"]), names_text([])
+    ('x, k', 'none')
+    """
     return ", ".join(names) if names else "none"
 
 
@@ -43,10 +68,12 @@ def assumption_texts(result: AnalysisResult) -> list[str]:
     parts = []
     if ic.unknown:
         parts.append(
-            "unknown and generic" if not (ic.known_generic or ic.known_values) else f"unknown for {_names(ic.unknown)}"
+            "unknown and generic"
+            if not (ic.known_generic or ic.known_values)
+            else f"unknown for {names_text(ic.unknown)}"
         )
     if ic.known_generic:
-        parts.append(f"known and generic for {_names(ic.known_generic)}")
+        parts.append(f"known and generic for {names_text(ic.known_generic)}")
     if ic.known_values:
         parts.append("given: " + ", ".join(f"{k}(0) = {v}" for k, v in ic.known_values.items()))
     out.append("initial conditions " + "; ".join(parts))
@@ -76,8 +103,33 @@ def bounds_text(bounds: Mapping[str, tuple[float, float]]) -> str:
     return "declared bounds " + ", ".join(one(k, lo, hi) for k, (lo, hi) in bounds.items())
 
 
-def _verdict_lines(result: AnalysisResult) -> list[str]:
-    """Verdict overall and of the unknown inputs (Markdown/LaTeX captions share it)."""
+def verdict_lines(result: AnalysisResult) -> list[str]:
+    """The verdict overall, of the unknown inputs and the assumptions, one sentence each.
+
+    The Markdown and LaTeX captions end with them.
+
+    Parameters
+    ----------
+    result : AnalysisResult
+        The analysis.
+
+    Returns
+    -------
+    list of str
+        The verdict (joint and union when the joint verdict was computed), then the unknown inputs' verdict
+        when the model has unknown inputs, then the assumptions when ``result`` records them.
+
+    Examples
+    --------
+    >>> from obsnl import Model, analyze
+    >>> m = Model(name="m", states=["x"], parameters=["a"], unknown_inputs=["w"],
+    ...           equations={"x": "-a*x + w"}, outputs={"y": "x"})
+    >>> for line in verdict_lines(analyze(m, seed=1, unknown_input_derivatives=0)):
+    ...     print(line)
+    Verdict: observable (joint); observable (union over branches).
+    Unknown inputs observable: w; unobservable: none.
+    Assumptions: unknown inputs constant (K = 0, STRIKE-GOLDD nnzDerW); initial conditions unknown and generic.
+    """
     lines = [
         f"Verdict: {result.verdict.value}."
         if result.joint is None
@@ -86,7 +138,8 @@ def _verdict_lines(result: AnalysisResult) -> list[str]:
     ui = result.unknown_inputs
     if ui:
         lines.append(
-            f"Unknown inputs observable: {_names(ui['observable'])}; unobservable: {_names(ui['unobservable'])}."
+            f"Unknown inputs observable: {names_text(ui['observable'])}; "
+            f"unobservable: {names_text(ui['unobservable'])}."
         )
     if result.assumptions:
         lines.append("Assumptions: " + "; ".join(assumption_texts(result)) + ".")
@@ -116,7 +169,7 @@ JOINT_RULE = "the visited branches and visible switching surfaces together, para
 UNION_RULE = "Union over branches (each branch on its own, the seed paper's rule)"
 
 
-def _first_lines(
+def opening_lines(
     result: AnalysisResult,
     *,
     suffix: str = "",
@@ -125,7 +178,38 @@ def _first_lines(
     strong: Callable[[str], str] = str,
     union: bool = True,
 ) -> list[str]:
-    """The joint verdict in words, why some of it is undecided, then the union: what a rendering says first."""
+    """What a rendering says first: the joint verdict in words, why some of it is undecided, then the union.
+
+    Parameters
+    ----------
+    result : AnalysisResult
+        The analysis.
+    suffix : str
+        Appended to every line (``"."`` to end them as sentences).
+    name : callable
+        Renders a variable's name (e.g. as LaTeX math); the names as they are by default.
+    escape : callable
+        Escapes the reason why the joint verdict is undecided (e.g. for LaTeX); unchanged by default.
+    strong : callable
+        Marks up the joint verdict's words (e.g. bold in Markdown); unchanged by default.
+    union : bool
+        Whether to end with the union over branches.
+
+    Returns
+    -------
+    list of str
+        The joint verdict (its rule said after it when it was computed), the reason it is undecided when
+        it is, and the union when ``union``.
+
+    Examples
+    --------
+    >>> from obsnl import Model, analyze
+    >>> m = Model(name="m", states=["x"], parameters=["a", "b"], equations={"x": "-(a + b)*x"}, outputs={"y": "x"})
+    >>> for line in opening_lines(analyze(m, seed=1), suffix="."):
+    ...     print(line)
+    jointly identifiable: x; not identifiable: a, b (the visited branches and visible switching surfaces together, parameters shared).
+    Union over branches (each branch on its own, the seed paper's rule): unobservable in every branch: a, b.
+    """
     words = strong(result.joint_words(name))
     lines = [f"{words} ({JOINT_RULE}){suffix}" if result.joint is not None else f"{words}{suffix}"]
     if result.joint is not None and result.joint.inconclusive:

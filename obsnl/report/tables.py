@@ -24,15 +24,15 @@ from obsnl.observability.results import AnalysisResult
 from obsnl.observability.verdicts import Verdict
 from obsnl.report.groups import BranchGroup, branch_groups
 from obsnl.report.sentences import (
-    _first_lines,
-    _names,
-    _verdict_lines,
     assumption_texts,
     joint_text,
+    names_text,
+    opening_lines,
     probability_text,
     union_text,
+    verdict_lines,
 )
-from obsnl.report.tex import _latex_expr, _latex_factor, _latex_name, tex_escape
+from obsnl.report.tex import latex_expr, latex_factor, latex_name, tex_escape
 
 if TYPE_CHECKING:  # the estimators' contract loads when a branch table is asked for, not with every rendering
     from obsnl.observability.contract.branch_table import BranchTable
@@ -51,6 +51,8 @@ __all__ = [
     "union_text",
     "joint_text",
 ]
+# The room re-exports this list (obsnl.report); group_cell and analysis_header, which the HTML renderer shares, are
+# public names of this module, not of the room.
 
 #: Row keys of a branch table and their headings.
 ROWS: dict[str, str] = {
@@ -149,7 +151,38 @@ def to_json(result: AnalysisResult, model: Model | None = None) -> str:
 # --------------------------------------------------------------------------- markdown / text
 
 
-def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult) -> str:
+def group_cell(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult) -> str:
+    """One cell of a branch table: what ``row`` says of a group of branches, in Markdown/text or in LaTeX.
+
+    Parameters
+    ----------
+    group : BranchGroup
+        The group of branches (a column of the table).
+    row : str
+        A row key of :data:`ROWS`.
+    latex : bool
+        LaTeX (each relation and each name its own math group, so that a long cell wraps) instead of
+        Markdown/text (the condition in backticks).
+    result : AnalysisResult
+        The analysis, whose LaTeX names name the variables.
+
+    Returns
+    -------
+    str
+        The cell; a name whose verdict is undecided ends with ``?`` among the unidentifiable ones.
+
+    Examples
+    --------
+    >>> from obsnl import Model, analyze
+    >>> from obsnl.report.groups import branch_groups
+    >>> m = Model(name="m", states=["x"], parameters=["a", "b"], equations={"x": "-(a + b)*x"}, outputs={"y": "x"})
+    >>> r = analyze(m, seed=1)
+    >>> (g,) = branch_groups(r)
+    >>> [group_cell(g, row, latex=False, result=r) for row in ROWS]
+    ['`true`', 'x', 'a, b', '1']
+    >>> [group_cell(g, row, latex=True, result=r) for row in ROWS]
+    ['always', '$x$', '$a$, $b$', '1']
+    """
     if row == "condition":
         if latex:
             if group.condition_expr is None:
@@ -157,12 +190,12 @@ def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult)
             if group.condition_expr is sp.true:
                 return "always"
             if group.factors:
-                prod = " ".join(_latex_factor(f, result, wrap=len(group.factors) > 1) for f in group.factors)
+                prod = " ".join(latex_factor(f, result, wrap=len(group.factors) > 1) for f in group.factors)
                 return f"${prod} {'>' if group.sign > 0 else '<'} 0$"
             # one math group per relation, so that a long condition wraps inside its p{} column
             alts = group.condition_expr.args if isinstance(group.condition_expr, sp.Or) else (group.condition_expr,)
             return " or ".join(
-                ", ".join(f"${_latex_expr(r, result)}$" for r in (a.args if isinstance(a, sp.And) else (a,)))
+                ", ".join(f"${latex_expr(r, result)}$" for r in (a.args if isinstance(a, sp.And) else (a,)))
                 for a in alts
             )
         return f"`{group.condition}`"
@@ -172,12 +205,31 @@ def _cells(group: BranchGroup, row: str, *, latex: bool, result: AnalysisResult)
     if row == "unobservable" and group.branches[0].undecided:
         names = tuple(names) + tuple(f"{n}?" for n in group.branches[0].undecided)
     if not latex:
-        return _names(names)
+        return names_text(names)
     # one math group per name, so that a long list wraps inside its p{} column
-    return ", ".join(f"${_latex_name(n, result)}$" for n in names) if names else "none"
+    return ", ".join(f"${latex_name(n, result)}$" for n in names) if names else "none"
 
 
-def _header_line(result: AnalysisResult) -> str:
+def analysis_header(result: AnalysisResult) -> str:
+    """The line under a rendering's title: the method, the seed and the probability that every verdict is right.
+
+    Parameters
+    ----------
+    result : AnalysisResult
+        The analysis.
+
+    Returns
+    -------
+    str
+        Plain text (the renderings escape or mark it up); no probability is claimed for an inconclusive analysis.
+
+    Examples
+    --------
+    >>> from obsnl import Model, analyze
+    >>> m = Model(name="m", states=["x"], parameters=["a", "b"], equations={"x": "-(a + b)*x"}, outputs={"y": "x"})
+    >>> analysis_header(analyze(m, seed=1))
+    'method auto, seed 1, every verdict right with probability >= 1 (certified)'
+    """
     bits = [f"method {result.method}"]
     if result.seed is not None:
         bits.append(f"seed {result.seed}")
@@ -209,16 +261,16 @@ def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, t
     lines = [
         f"### {title or 'Observability of ' + result.model}",
         "",
-        f"_{_header_line(result)}_",
+        f"_{analysis_header(result)}_",
         "",
-        *"\n\n".join(_first_lines(result, suffix=".", strong=lambda w: f"**{w}**")).split("\n"),
+        *"\n\n".join(opening_lines(result, suffix=".", strong=lambda w: f"**{w}**")).split("\n"),
         "",
     ]
     lines.append("| Branches | " + " | ".join(g.heading for g in groups) + " |")
     lines.append("|---|" + "---|" * len(groups))
     for row in rows:
         lines.append(
-            f"| {ROWS[row]} | " + " | ".join(_cells(g, row, latex=False, result=result) for g in groups) + " |"
+            f"| {ROWS[row]} | " + " | ".join(group_cell(g, row, latex=False, result=result) for g in groups) + " |"
         )
     lines.append("")
     if result.visited is not None and result.visited.how != "all":
@@ -226,7 +278,7 @@ def to_markdown(result: AnalysisResult, *, rows: Sequence[str] = DEFAULT_ROWS, t
     inconclusive = [b for b in result.branches if b.verdict is Verdict.INCONCLUSIVE]
     for b in inconclusive:
         lines.append(f"Branch ({b.label}) is inconclusive: {b.reason}")
-    lines += _verdict_lines(result)
+    lines += verdict_lines(result)
     return "\n".join(lines) + "\n"
 
 
@@ -240,9 +292,9 @@ def to_text(result: AnalysisResult) -> str:
     if result.verdict is Verdict.INCONCLUSIVE:
         prob = "no probability bound (not every verdict was decided)"
     lines = [f"{result.model}: method {result.method}, seed {result.seed}, {prob}, {result.seconds:.3f} s"]
-    lines += [f"  {line}" for line in _first_lines(result, union=False)]
-    lines.append(f"  union observable:     {_names(result.overall_observable)}   (in at least one branch)")
-    lines.append(f"  union unobservable:   {_names(result.overall_unobservable)}")
+    lines += [f"  {line}" for line in opening_lines(result, union=False)]
+    lines.append(f"  union observable:     {names_text(result.overall_observable)}   (in at least one branch)")
+    lines.append(f"  union unobservable:   {names_text(result.overall_unobservable)}")
     for text in assumption_texts(result):
         lines.append(f"  assumes: {text}")
     for b in result.branches:
@@ -257,19 +309,19 @@ def to_text(result: AnalysisResult) -> str:
         if b.verdict is Verdict.INCONCLUSIVE:
             lines.append(f"      INCONCLUSIVE: {b.reason}")
             if b.undecided:
-                lines.append(f"      undecided:    {_names(b.undecided)}")
-        lines.append(f"      observable:   {_names(b.observable)}")
-        lines.append(f"      unobservable: {_names(b.unobservable)}")
+                lines.append(f"      undecided:    {names_text(b.undecided)}")
+        lines.append(f"      observable:   {names_text(b.observable)}")
+        lines.append(f"      unobservable: {names_text(b.unobservable)}")
         if b.absent:
-            lines.append(f"      absent:       {_names(b.absent)}")
+            lines.append(f"      absent:       {names_text(b.absent)}")
         for k, v in b.unknown_inputs.items():
-            lines.append(f"      unknown inputs {k}: {_names(v)}")
+            lines.append(f"      unknown inputs {k}: {names_text(v)}")
         for note in b.notes:
             lines.append(f"      note: {note}")
     if result.joint is not None:
         j = result.joint
         for k, v in j.unknown_inputs.items():
-            lines.append(f"  joint unknown inputs {k}: {_names(v)}")
+            lines.append(f"  joint unknown inputs {k}: {names_text(v)}")
         visits = ", ".join(
             f"{v.kind} {'/'.join(v.labels)}"
             + (f" (skipped: {v.reason})" if v.reason else "" if v.visible or v.kind == "branch" else " (invisible)")
@@ -283,7 +335,7 @@ def to_text(result: AnalysisResult) -> str:
         for g, n in result.visited.crossings.items():
             lines.append(f"      crossings of {g} = 0: {n}")
     for k, v in result.unknown_inputs.items():
-        lines.append(f"  union unknown inputs {k}: {_names(v)}")
+        lines.append(f"  union unknown inputs {k}: {names_text(v)}")
     lines.append(
         f"  verdict: {result.overall_verdict.value} (joint); {result.verdict.value} (union over branches)"
         if result.joint is not None
@@ -365,15 +417,17 @@ def to_latex(
         "\\midrule",
     ]
     for row in rows:
-        body.append(f"{ROWS[row]} & " + " & ".join(_cells(g, row, latex=True, result=result) for g in groups) + " \\\\")
+        body.append(
+            f"{ROWS[row]} & " + " & ".join(group_cell(g, row, latex=True, result=result) for g in groups) + " \\\\"
+        )
     body += ["\\bottomrule", "\\end{tabular}"]
     if not environment:
         return "\n".join(body) + "\n"
-    header = tex_escape(_header_line(result)).replace(">=", "$\\geq$")
-    first = _first_lines(result, suffix=".", name=lambda n: f"${_latex_name(n, result)}$", escape=tex_escape)
+    header = tex_escape(analysis_header(result)).replace(">=", "$\\geq$")
+    first = opening_lines(result, suffix=".", name=lambda n: f"${latex_name(n, result)}$", escape=tex_escape)
     cap = caption or (
         f"Observability of the model {tex_escape(result.model)} by branch ({header}): "
-        + " ".join(first + [tex_escape(t) for t in _verdict_lines(result)])
+        + " ".join(first + [tex_escape(t) for t in verdict_lines(result)])
     )
     lab = label or f"tab:obsnl-{re.sub(r'[^A-Za-z0-9-]+', '-', result.model)}"
     head = [

@@ -31,8 +31,8 @@ from typing import Any
 
 import numpy as np
 
-from obsnl.report.figures import _plt, _save
-from obsnl.report.identification.validation import _longest_run, zoom_window
+from obsnl.report.figures import agg_pyplot, save_png
+from obsnl.report.identification.validation import longest_run, zoom_window
 
 __all__ = [
     "HysteresisLoop",
@@ -111,7 +111,7 @@ def plot_fit_record(
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     ny = len(outputs)
     with _style(plt):
         fig, axes = plt.subplots(
@@ -147,7 +147,7 @@ def plot_fit_record(
             res.set_ylabel(f"residual of {label}")
             res.set_xlabel("t (s)")
             zoom.set_xlabel("t (s)")
-        return _save(plt, fig, path)
+        return save_png(plt, fig, path)
 
 
 def correlation_bounds(n: int, level: float, p: float = 1.0) -> float:
@@ -219,7 +219,7 @@ def plot_residuals(
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     e_all = np.asarray(residuals, float).reshape(len(residuals), -1)
     u_all = np.zeros((len(e_all), 0)) if inputs is None else np.asarray(inputs, float).reshape(len(e_all), -1)
     nu = u_all.shape[1]
@@ -228,7 +228,7 @@ def plot_residuals(
             len(outputs), 1 + nu, figsize=(4.2 * (1 + nu), 2.8 * len(outputs) + 0.5), squeeze=False
         )
         for j, name in enumerate(outputs):
-            run = _longest_run(~np.isnan(e_all[:, j]))
+            run = longest_run(~np.isnan(e_all[:, j]))
             e = e_all[run, j]
             n = len(e)
             m = max(1, min(lags, n // 5))
@@ -265,7 +265,7 @@ def plot_residuals(
             f"residual analysis; dashed: {100 * (1 - level):g} % bounds of a white residual independent of the input",
             fontsize=9,
         )
-        return _save(plt, fig, path)
+        return save_png(plt, fig, path)
 
 
 def model_frf(A: Any, B: Any, C: Any, D: Any, f: Any) -> np.ndarray:
@@ -389,7 +389,7 @@ def plot_frf(
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     u_all = np.asarray(inputs, float).reshape(len(t), -1)
     y_all = np.asarray(measured, float).reshape(len(t), -1)
     fs = 1.0 / float(t[1] - t[0])
@@ -398,7 +398,7 @@ def plot_frf(
     with _style(plt):
         fig, axes = plt.subplots(len(pairs), 3, figsize=(12, 2.8 * len(pairs) + 0.6), squeeze=False)
         for row, (i, j) in enumerate(pairs):
-            run = _longest_run(~np.isnan(y_all[:, j]))
+            run = longest_run(~np.isnan(y_all[:, j]))
             f, H1, coh = h1_estimate(u_all[run, i], y_all[run, j], fs, segment=segment)
             f, H1, coh = f[1:], H1[1:], coh[1:]  # the mean (0 Hz) is removed by the detrending
             fm = np.geomspace(f[0], f[-1], 600)  # the model on a fine grid: its peaks are not sampled away
@@ -432,7 +432,7 @@ def plot_frf(
             f"segments, half overlap)",
             fontsize=9,
         )
-        return _save(plt, fig, path)
+        return save_png(plt, fig, path)
 
 
 @dataclass(frozen=True, eq=False)
@@ -493,7 +493,7 @@ def plot_hysteresis(path: str | Path, loop: HysteresisLoop | NoHysteresisLoop) -
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     with _style(plt):
         fig, ax = plt.subplots(1, 1, figsize=(6.5, 5.5))
         note = loop.note
@@ -511,4 +511,4 @@ def plot_hysteresis(path: str | Path, loop: HysteresisLoop | NoHysteresisLoop) -
         lines = textwrap.wrap(note, 100)
         fig.text(0.5, 0.01, "\n".join(lines), ha="center", va="bottom", fontsize=7)
         fig.tight_layout(rect=(0, 0.03 * len(lines), 1, 1))
-        return _save(plt, fig, path, tight=False)
+        return save_png(plt, fig, path, tight=False)

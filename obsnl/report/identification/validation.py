@@ -17,9 +17,17 @@ from typing import Any, Protocol
 import numpy as np
 
 from obsnl._text import number
-from obsnl.report.figures import _plt, _save
+from obsnl.report.figures import agg_pyplot, save_png
 
-__all__ = ["ValidationRun", "validate_text", "plot_validation", "plot_loop", "zoom_window", "ZOOM_SAMPLES"]
+__all__ = [
+    "ValidationRun",
+    "validate_text",
+    "plot_validation",
+    "plot_loop",
+    "zoom_window",
+    "longest_run",
+    "ZOOM_SAMPLES",
+]
 
 #: Samples of the zoomed window at least (a fortieth of the scored samples on a longer record).
 ZOOM_SAMPLES = 200
@@ -165,8 +173,26 @@ def zoom_window(error: Any, first: int) -> slice:
     return slice(lo, lo + width)
 
 
-def _longest_run(ok: np.ndarray) -> slice:
-    """The longest stretch of ``True`` in ``ok``."""
+def longest_run(ok: np.ndarray) -> slice:
+    """The longest stretch of ``True`` in ``ok`` (the first of the longest when several tie).
+
+    Parameters
+    ----------
+    ok : numpy.ndarray
+        A one-dimensional boolean array (e.g. where a signal is not NaN).
+
+    Returns
+    -------
+    slice
+        The indices of the stretch; ``slice(0, 0)`` when ``ok`` holds no ``True``.
+
+    Examples
+    --------
+    >>> longest_run(np.array([True, False, True, True, True, False]))
+    slice(2, 5, None)
+    >>> longest_run(np.array([False, False]))
+    slice(0, 0, None)
+    """
     edges = np.flatnonzero(np.diff(np.concatenate([[0], ok.astype(int), [0]])))
     starts, ends = edges[::2], edges[1::2]
     k = int(np.argmax(ends - starts)) if len(starts) else 0
@@ -221,7 +247,7 @@ def plot_validation(
     """
     from scipy.signal import welch
 
-    plt = _plt()
+    plt = agg_pyplot()
     ny = len(outputs)
     fig, axes = plt.subplots(2 * ny, 2, figsize=(10, 5.2 * ny + 0.4), squeeze=False)
     fs = 1.0 / float(t[1] - t[0])
@@ -247,7 +273,7 @@ def plot_validation(
         err.set_title("error: measured - simulated", fontsize=9)
         err.set_ylabel(f"error of {name}")
         err.set_xlabel("t (s)")
-        run = _longest_run(~np.isnan(e[warmup:]))
+        run = longest_run(~np.isnan(e[warmup:]))
         stretch = slice(warmup + run.start, warmup + run.stop)
         n = stretch.stop - stretch.start
         if n >= 8:
@@ -262,7 +288,7 @@ def plot_validation(
         psd.set_xlabel("frequency (Hz)")
         psd.set_ylabel("power spectral density")
         zoom.set_xlabel("t (s)")
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
 
 
 def plot_loop(
@@ -288,10 +314,10 @@ def plot_loop(
     -------
     Path
     """
-    plt = _plt()
+    plt = agg_pyplot()
     fig, ax = plt.subplots(1, 1, figsize=(5.5, 4.5))
     ax.plot(displacement[warmup:], state[warmup:], lw=0.5, color="C0")
     ax.set_xlabel(f"{output} (simulated)")
     ax.set_ylabel(f"{name} (simulated)")
     ax.set_title(f"hysteretic state {name} against {output}: the restoring-force loop", fontsize=9)
-    return _save(plt, fig, path)
+    return save_png(plt, fig, path)
