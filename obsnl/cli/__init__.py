@@ -14,7 +14,7 @@ from collections.abc import Sequence
 
 from obsnl._text import os_error_line
 from obsnl.cli.commands import run as run_job
-from obsnl.cli.common import _names, _number, _One, _Parser, _whole, cli_terms
+from obsnl.cli.common import OneValue, ShortErrorParser, cli_terms, comma_names, plain_number, whole_number
 from obsnl.errors import ObsnlError
 from obsnl.model.reading.unknown_inputs import DERIVATIVES_MARGIN
 from obsnl.observability.limits import MAX_UNKNOWNS
@@ -26,15 +26,15 @@ def _o(*flags: str, **kw: object) -> tuple:
     return flags, kw
 
 
-MODEL, SECONDS = _o("model", help="model file (.toml or .json) or obsnl:NAME"), _o("--max-seconds", type=_number)
+MODEL, SECONDS = _o("model", help="model file (.toml or .json) or obsnl:NAME"), _o("--max-seconds", type=plain_number)
 FMT, FMT4 = (_o("--format", dest="fmt", choices=("text", "json", *c), default="text") for c in ((), ("md", "tex")))
 FORCE = _o("--force", action="store_true", help="overwrite existing files")
-SEED = _o("--seed", type=_whole(), default=0)
+SEED = _o("--seed", type=whole_number(), default=0)
 OUT = [_o("-o", "--output", metavar="FILE", help="write here instead of stdout"), FORCE]
 METHOD = _o("--method", choices=("auto", "orc", "sedoglavic"), default="auto", help="observability engine")
 SCHEDULER = _o("--scheduler", metavar="ADDRESS", help="a Dask cluster instead (tcp://host:8786)")
-EXECUTOR = [_o("--workers", type=_whole(1), help="local processes (default: one per core)"), SCHEDULER]
-ONE_WORKER = [_o("--workers", type=_whole(1), default=1, help="local processes (default: 1)"), SCHEDULER]
+EXECUTOR = [_o("--workers", type=whole_number(1), help="local processes (default: one per core)"), SCHEDULER]
+ONE_WORKER = [_o("--workers", type=whole_number(1), default=1, help="local processes (default: 1)"), SCHEDULER]
 RECORD = "(.csv or .AT2) driving the model's one input"
 INTERSAMPLE = _o(
     "--intersample",
@@ -66,9 +66,9 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
             MODEL,
             _o("--format", dest="fmt", choices=("text", "json", "md", "tex", "json-table"), default="text"),
             METHOD,
-            _o("--seed", type=_whole(), default=0, help="default 0 (the same answer on every run)"),
+            _o("--seed", type=whole_number(), default=0, help="default 0 (the same answer on every run)"),
             SECONDS,
-            _o("--branches", type=_names, metavar="LABELS", help="only these branches (e.g. a,c)"),
+            _o("--branches", type=comma_names, metavar="LABELS", help="only these branches (e.g. a,c)"),
             _o("--record", metavar="FILE", help=f"only what the [values] visit under a record {RECORD}"),
             _o("--no-joint", dest="joint", action="store_false", help="skip the joint verdict"),
             _o(
@@ -105,8 +105,8 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
             _o("-o", "--output", metavar="NEW.toml"),
             FORCE,
             SEED,
-            _o("--eliminate", type=_names, default="", metavar="P,Q", help="parameters to normalise to 1"),
-            _o("--keep", type=_names, default="", metavar="P,Q", help="parameters that must not be pivots"),
+            _o("--eliminate", type=comma_names, default="", metavar="P,Q", help="parameters to normalise to 1"),
+            _o("--keep", type=comma_names, default="", metavar="P,Q", help="parameters that must not be pivots"),
             _o("--name", dest="names", action="append", default=[], metavar="OLD=NEW", help="rename a symbol"),
         ],
     ),
@@ -135,19 +135,19 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
                 metavar="NAME=RATIO",
                 help="noise/signal RMS of a channel, or RATIO for all",
             ),
-            _o("--passes", type=_whole(1), default=3, help="passes over the record (default: 3)"),
+            _o("--passes", type=whole_number(1), default=3, help="passes over the record (default: 3)"),
             _o("--allow-unidentifiable", action="store_true", help="run despite the structural verdict"),
             _o("--hold", action="store_true", help="hold poorly informed parameters at their guess"),
             _o("--no-refine", dest="refine", action="store_false", help="skip the maximum-likelihood refinement"),
             SEED,
-            *[_o(f, type=_number, help="default: tuned") for f in ("--s0", "--q-theta", "--q-x", "--gate")],
-            _o("--samples", type=_whole(2), help="only the first samples of a --record"),
+            *[_o(f, type=plain_number, help="default: tuned") for f in ("--s0", "--q-theta", "--q-x", "--gate")],
+            _o("--samples", type=whole_number(2), help="only the first samples of a --record"),
             _o(
                 "--jit",
                 action=argparse.BooleanOptionalAction,
                 help="compile the filter and the likelihood fit to C, or not (default: where a C compiler is on PATH)",
             ),
-            _o("--replicates", type=_whole(), default=0, help="Monte-Carlo replicates (0: off, else >= 3)"),
+            _o("--replicates", type=whole_number(), default=0, help="Monte-Carlo replicates (0: off, else >= 3)"),
             INTERSAMPLE,
             _o(
                 "--objective",
@@ -168,12 +168,12 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
         [
             _o("--quick", action="store_true", help="300 samples, 1 seed, 1 tuning seed, no Monte-Carlo (options win)"),
             _o("--record", help="another ground motion (.csv or .AT2)"),
-            _o("--seeds", type=_whole(1), help="reported noise seeds 0..K-1 (default: 5)"),
-            _o("--tuning-seeds", type=_whole(1), help="noise seeds of the tuning only (default: 5)"),
-            _o("--passes", type=_whole(1), help="passes of the refined protocol (default: 3)"),
-            _o("--samples", type=_whole(2), help="only the first samples of the record"),
+            _o("--seeds", type=whole_number(1), help="reported noise seeds 0..K-1 (default: 5)"),
+            _o("--tuning-seeds", type=whole_number(1), help="noise seeds of the tuning only (default: 5)"),
+            _o("--passes", type=whole_number(1), help="passes of the refined protocol (default: 3)"),
+            _o("--samples", type=whole_number(2), help="only the first samples of the record"),
             _o("--jit", action=argparse.BooleanOptionalAction, help="compile the filters to C (default)"),
-            _o("--replicates", type=_whole(), help="Monte-Carlo replicates per run (default: 32)"),
+            _o("--replicates", type=whole_number(), help="Monte-Carlo replicates per run (default: 32)"),
             _o("--out", help="output folder (default: reports/identification)"),
             FORCE,
             *EXECUTOR,
@@ -183,7 +183,7 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
         "run the observer-bank crack benchmark on the cantilever link",
         None,
         [
-            _o("--seeds", type=_whole(1), default=3),
+            _o("--seeds", type=whole_number(1), default=3),
             _o("--out", default="reports/bank"),
             _o("--model", help="link model file (default: obsnl:cantilever_link)"),
             FORCE,
@@ -195,15 +195,15 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
         [
             MODEL,
             _o("--target", default="parameters", help="parameters (default), all (states too) or names"),
-            _o("--max-size", type=_whole(1)),
+            _o("--max-size", type=whole_number(1)),
             FMT4,
             *OUT,
             SEED,
-            _o("--max-seconds", type=_number, help="of each analysis"),
+            _o("--max-seconds", type=plain_number, help="of each analysis"),
             _o("--progress", action="store_true"),
             _o("--record", metavar="FILE", help=f"rank by the Cramer-Rao bound under a record {RECORD}"),
-            _o("--rank-size", type=_whole(1), help="with --record"),
-            _o("--noise", type=_number, help="with --record (default 0.01)"),
+            _o("--rank-size", type=whole_number(1), help="with --record"),
+            _o("--noise", type=plain_number, help="with --record (default 0.01)"),
             *ONE_WORKER,
         ],
     ),
@@ -253,7 +253,7 @@ COMMANDS: dict[str, tuple[str, str | None, list[tuple]]] = {
             ),
             _o(
                 "--warmup",
-                type=_whole(),
+                type=whole_number(),
                 default=0,
                 metavar="N",
                 help="samples that estimate the initial state (not scored)",
@@ -276,7 +276,7 @@ def build_parser() -> argparse.ArgumentParser:
     """The full argument parser, built from :data:`COMMANDS` (exposed for tests and documentation)."""
     from obsnl import __version__
 
-    parser = _Parser(
+    parser = ShortErrorParser(
         prog="obsnl", description="Observability and identifiability of nonlinear, non-smooth mechanical models."
     )
     parser.add_argument("--version", action="version", version=f"obsnl {__version__}")
@@ -287,7 +287,7 @@ def build_parser() -> argparse.ArgumentParser:
         for flags, kw in options:
             one = {k: v for k, v in kw.items() if k != "one_of"}
             if "nargs" not in kw and kw.get("action") in (None, "append"):  # one value each: refused as '--'
-                one["action"] = _One
+                one["action"] = OneValue
             if kw.get("one_of"):  # one of these options is required
                 if group is None:
                     group = p.add_mutually_exclusive_group(required=True)

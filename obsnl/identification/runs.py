@@ -54,6 +54,9 @@ __all__ = [
     "check_replicates",
     "check_unknowns",
     "identify_measured",
+    "tune_and_run",
+    "assemble_identification",
+    "protocol_assumptions",
     "Identification",
     "ParameterEstimate",
     "MEASURED_GRID",
@@ -83,7 +86,7 @@ MEASURED_GRID: tuple[Tuning, ...] = (
 )
 
 
-def _run(
+def tune_and_run(
     setup: Setup,
     data: Data,
     *,
@@ -97,7 +100,54 @@ def _run(
     hold: bool = False,
     executor: Executor | None = None,
 ) -> tuple[Tuning, tuple, tuple[Trajectory, ...], tuple[str, ...], Any, float]:
-    """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner."""
+    """Tune over ``grid`` (one pass each, output misfit), then the protocol with the winner.
+
+    The filter part that :func:`identify_measured` and :func:`obsnl.identification.simulation.simulation_study`
+    share: each tuning of the grid runs one pass and the smallest free-run output misfit wins (no true value
+    used), the winner runs ``passes`` passes, and the practical identifiability is checked at the estimate (with
+    the Monte-Carlo spread of ``replicates`` runs when asked).
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment: compiled model, record, guess, coordinates.
+    data : Data
+        The inputs and outputs the filter reads.
+    method : str
+        The filter, ``"ukf"`` or ``"dukf"`` (the DUKF needs ``table``).
+    table : BranchTable or None
+        The model's branch table.
+    grid : sequence of Tuning
+        The tunings to try (one: taken as given, without a tuning pass).
+    passes : int
+        Passes over the record with the winning tuning.
+    replicates : int
+        Monte-Carlo replicates of the practical-identifiability check (0: off, else at least 3).
+    seed : int
+        Noise seed of the replicates.
+    progress : callable or None
+        Called after every pass (tuning passes included) and once per replicate.
+    hold : bool
+        Hold the parameters flagged as poorly informed at their guess (after the first pass whose output misfit
+        is at most :data:`HOLD_BELOW` times the noise level).
+    executor : Executor or None
+        Where the replicates run (default: this process).
+
+    Returns
+    -------
+    tuple
+        ``(tuning, scores, trajectories, held, practical, misfit)``: the winning :class:`Tuning`; each tried
+        tuning with its output misfit (inf where its pass failed; empty for a grid of one); the filter's
+        trajectory of each pass; the names of the parameters held; the practical-identifiability check at the
+        estimate; and the output misfit there.
+
+    Raises
+    ------
+    OptionError
+        ``method="dukf"`` without ``table``, a tuning out of range, or a bad number of passes or replicates.
+    CompileError
+        The filter could not be compiled.
+    """
     check_replicates(replicates)
     check_passes(passes)
     if method == "dukf" and table is None:
@@ -238,7 +288,7 @@ def _held_bias(ref: Refinement, names: Sequence[str], h: int) -> str:
     return f"held 10 % off, it would shift {said} (linearised at the estimate)" if said else ""
 
 
-def _result(
+def assemble_identification(
     setup: Setup,
     data: Data,
     *,
@@ -260,6 +310,55 @@ def _result(
     executor: Executor | None = None,
     input_noise: np.ndarray | None = None,
 ) -> Identification:
+    """The :class:`Identification` of a filter run (:func:`tune_and_run`): refined by maximum likelihood and
+    profiled where asked, then each parameter's estimate, std and interval, the fit, the convergence and the
+    adequacy of the model.
+
+    Parameters
+    ----------
+    setup : Setup
+        The experiment the filter ran on.
+    data : Data
+        Its inputs and outputs.
+    mode : str
+        ``"measured"`` or ``"simulation"``.
+    method : str
+        The filter, ``"ukf"`` or ``"dukf"``.
+    passes : int
+        The passes asked for.
+    tuning : Tuning
+        The winning tuning.
+    scores : tuple
+        Each tried tuning with its output misfit.
+    trs : tuple of Trajectory
+        The filter's trajectory of each pass.
+    held : tuple of str
+        The parameters held at their guess.
+    prac : Any
+        The practical-identifiability check at the filter's estimate.
+    misfit : float
+        The output misfit at the filter's estimate (replaced by the fit's where the refinement ran).
+    noise : mapping of str to NoiseLevel
+        The noise level of each channel and where it came from.
+    record : RecordSummary
+        What the record was.
+    assumptions : sequence of str
+        What the result assumes (:func:`protocol_assumptions`).
+    seed : int or None
+        The noise seed (None for measured data).
+    refined : bool
+        Refine by maximum likelihood and profile the likelihood (default on).
+    progress : callable or None
+        Called after the refinement and after each profile.
+    executor : Executor or None
+        Where the profiles run (default: this process).
+    input_noise : numpy.ndarray or None
+        The inputs' noise std propagated into the std (default: the setup's levels).
+
+    Returns
+    -------
+    Identification
+    """
     m = setup.model
     theta = trs[-1].theta[-1]
     var = np.diag(trs[-1].P[-1])[m.nx :]
@@ -488,7 +587,28 @@ _PREDICTION = (
 )
 
 
-def _assumptions(refined: bool, *more: str) -> tuple[str, ...]:
+def protocol_assumptions(refined: bool, *more: str) -> tuple[str, ...]:
+    """What an identification's result assumes: the lines common to every run, those of the likelihood
+    refinement or of the filter alone, then the run's own.
+
+    Parameters
+    ----------
+    refined : bool
+        The run was refined by maximum likelihood.
+    *more : str
+        The run's own assumptions, in order.
+
+    Returns
+    -------
+    tuple of str
+
+    Examples
+    --------
+    >>> protocol_assumptions(False, "one tuning, as given")[-1]
+    'one tuning, as given'
+    >>> len(protocol_assumptions(True)) - len(protocol_assumptions(False))  # 7 lines of the refinement, not 3
+    4
+    """
     return _COMMON + (_REFINED if refined else _FILTER_ONLY) + more
 
 
@@ -729,7 +849,7 @@ def identify_measured(
     for b in between:
         if b.matters:
             sys.stderr.write(f"obsnl: warning: {between_said(b)}\n")
-    tuning, scores, trs, held, prac, misfit = _run(
+    tuning, scores, trs, held, prac, misfit = tune_and_run(
         setup,
         d,
         method=method,
@@ -748,7 +868,7 @@ def identify_measured(
         if len(grid) > 1
         else "one tuning, as given"
     )
-    return _result(
+    return assemble_identification(
         setup,
         d,
         mode="measured",
@@ -767,7 +887,7 @@ def identify_measured(
         progress=progress,
         executor=executor,
         input_noise=input_noise,
-        assumptions=_assumptions(
+        assumptions=protocol_assumptions(
             refined,
             how,
             (

@@ -16,7 +16,13 @@ from obsnl.estimation.codegen import NumericModel
 from obsnl.executor import Executor
 from obsnl.identification.experiments import Tuning, make_data
 from obsnl.identification.results import Identification
-from obsnl.identification.runs import FIT_SUBSTEPS, MEASURED_GRID, _assumptions, _result, _run
+from obsnl.identification.runs import (
+    FIT_SUBSTEPS,
+    MEASURED_GRID,
+    assemble_identification,
+    protocol_assumptions,
+    tune_and_run,
+)
 from obsnl.identification.setup import Setup, coordinates
 from obsnl.identification.summaries import NoiseLevel, RecordSummary
 from obsnl.observability.contract.branch_table import BranchTable
@@ -143,7 +149,7 @@ def simulation_study(
     )
     data = make_data(setup, seed)
     grid = MEASURED_GRID if tuning is None else (tuning,)
-    tuning_, scores, trs, held, prac, misfit = _run(
+    tuning_, scores, trs, held, prac, misfit = tune_and_run(
         setup,
         data,
         method=method,
@@ -157,7 +163,7 @@ def simulation_study(
         executor=executor,
     )
     levels = {c: NoiseLevel(noise, "given (simulated)") for c in num.inputs + num.outputs}
-    return _result(
+    return assemble_identification(
         setup,
         data,
         mode="simulation",
@@ -175,7 +181,7 @@ def simulation_study(
         refined=refined,
         progress=progress,
         executor=executor,
-        assumptions=_assumptions(
+        assumptions=protocol_assumptions(
             refined,
             f"simulation study: the truth is the model's [values], simulated "
             f"with {FIT_SUBSTEPS} RK4 substeps per sample (crossings of a jump located, sliding "

@@ -34,7 +34,7 @@ from obsnl._text import block, names, number, one_line
 from obsnl.errors import AnalysisError, DataError
 from obsnl.linear.gains import ObserverDesign, riccati_gain
 from obsnl.linear.observer import ExtendedObservability, ExtendedSystem, FictitiousModel, extend, extended_observability
-from obsnl.linear.simulation import _samples, observer_matrices
+from obsnl.linear.simulation import checked_samples, observer_matrices
 from obsnl.linear.systems import as_linear_system
 
 __all__ = [
@@ -47,11 +47,27 @@ __all__ = [
     "sliding_rms",
     "calibrate_thresholds",
     "decide",
+    "json_float",
 ]
 
 
-def _f(x: float | None) -> float | None:
-    """JSON-safe float (None for NaN/inf/None)."""
+def json_float(x: float | None) -> float | None:
+    """A JSON-safe float: ``x`` as a float, None for NaN, an infinity or None.
+
+    Parameters
+    ----------
+    x : float or None
+        The number.
+
+    Returns
+    -------
+    float or None
+
+    Examples
+    --------
+    >>> json_float(2), json_float(float("nan")), json_float(None)
+    (2.0, None, None)
+    """
     return None if x is None or not math.isfinite(x) else float(x)
 
 
@@ -90,9 +106,9 @@ class ObserverBank:
     def run_many(self, u: Any, ys: Sequence[Any], *, chunk: int = 2048) -> tuple[BankRun, ...]:
         """Run the bank on several measurement records sharing the input ``u`` (vectorised over runs)."""
         p, m = self.systems[0].C.shape[0], self.systems[0].B.shape[1]
-        Y = np.stack([_samples(y, "y", p) for y in ys], axis=1)  # time-major (N, R, p)
+        Y = np.stack([checked_samples(y, "y", p) for y in ys], axis=1)  # time-major (N, R, p)
         N, R, _ = Y.shape
-        U = _samples(u, "u", m, rows=N) if m else np.zeros((N, 0))
+        U = checked_samples(u, "u", m, rows=N) if m else np.zeros((N, 0))
         ntot = self._phi.shape[0]
         gu, gy = U @ self._gam[:, :m].T, self._gam[:, m:]
         phiT = np.ascontiguousarray(self._phi.T)
@@ -370,15 +386,15 @@ class BankDecision:
         return {
             "detected": self.detected,
             "false_alarm": self.false_alarm,
-            "t_detect": _f(self.t_detect),
-            "time_to_detection": _f(self.time_to_detection),
+            "t_detect": json_float(self.t_detect),
+            "time_to_detection": json_float(self.time_to_detection),
             "by_magnitude": self.by_magnitude,
             "by_residual": self.by_residual,
-            "margin": _f(self.margin),
+            "margin": json_float(self.margin),
             "verdict": self.outcome.value,
             "reason": self.reason,
-            "rms_force": dict(zip(self.labels, map(_f, self.rms_force))),
-            "rms_residual": dict(zip(self.labels, map(_f, self.rms_residual))),
+            "rms_force": dict(zip(self.labels, map(json_float, self.rms_force))),
+            "rms_residual": dict(zip(self.labels, map(json_float, self.rms_residual))),
         }
 
 

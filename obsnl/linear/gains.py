@@ -15,7 +15,7 @@ import scipy.signal
 
 from obsnl.errors import AnalysisError, DataError
 from obsnl.linear.observer import ExtendedSystem
-from obsnl.linear.systems import _matrix
+from obsnl.linear.systems import checked_matrix
 
 __all__ = ["ObserverDesign", "riccati_gain", "place_gain"]
 
@@ -92,13 +92,13 @@ def riccati_gain(ext: ExtendedSystem, *, R: Any, q_x: float = 1.0, q_v: float = 
        83(1), 95-108, 1961. doi:10.1115/1.3658902
     """
     nq, p = ext.A.shape[0], ext.C.shape[0]
-    Rm = np.diag(np.asarray(R, dtype=float)) if np.ndim(R) == 1 else _matrix(R, "R")
+    Rm = np.diag(np.asarray(R, dtype=float)) if np.ndim(R) == 1 else checked_matrix(R, "R")
     if Rm.shape != (p, p) or not np.all(np.isfinite(Rm)):
         raise DataError(f"R must be {p} x {p} (or {p} variances) and finite")
     if Q is None:
         Qm = np.diag(np.r_[np.full(ext.n, float(q_x)), np.full(ext.q, float(q_v))])
     else:
-        Qm = _matrix(Q, "Q", rows=nq, cols=nq)
+        Qm = checked_matrix(Q, "Q", rows=nq, cols=nq)
     Qm, Rm = (Qm + Qm.T) / 2, (Rm + Rm.T) / 2
     try:
         P = sla.solve_continuous_are(ext.A.T, ext.C.T, Qm, Rm)

@@ -29,8 +29,8 @@ from obsnl.linear.systems import (
     DEFAULT_RTOL,
     DEFAULT_WEAK_RTOL,
     LinearSystem,
-    _matrix,
     as_linear_system,
+    checked_matrix,
     system_scaling,
 )
 from obsnl.observability.verdicts import Verdict
@@ -57,11 +57,11 @@ class FictitiousModel:
     kind: str
 
     def __post_init__(self) -> None:
-        V = _matrix(self.V, "V")
+        V = checked_matrix(self.V, "V")
         if V.shape[0] != V.shape[1]:
             raise DataError(f"V must be square, got shape {V.shape}")
         object.__setattr__(self, "V", V)
-        object.__setattr__(self, "H", _matrix(self.H, "H", cols=V.shape[0]))
+        object.__setattr__(self, "H", checked_matrix(self.H, "H", cols=V.shape[0]))
 
     @property
     def q(self) -> int:
@@ -167,7 +167,7 @@ def extend(system: Any, N_R: Any, model: FictitiousModel) -> ExtendedSystem:
     """
     plant = as_linear_system(system)
     n, q = plant.n_states, model.q
-    N = _matrix(N_R, "N_R", rows=n)
+    N = checked_matrix(N_R, "N_R", rows=n)
     if N.shape[1] != model.s:
         raise DataError(f"N_R has {N.shape[1]} columns but the fictitious model has s = {model.s} channels")
     A = np.block([[plant.A, N @ model.H], [np.zeros((q, n)), model.V]])

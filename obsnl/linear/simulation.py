@@ -12,9 +12,9 @@ import scipy.linalg as sla
 
 from obsnl.errors import DataError
 from obsnl.linear.observer import ExtendedSystem
-from obsnl.linear.systems import _matrix
+from obsnl.linear.systems import checked_matrix
 
-__all__ = ["ObserverRun", "simulate_observer", "zoh", "run_discrete"]
+__all__ = ["ObserverRun", "simulate_observer", "zoh", "run_discrete", "checked_samples"]
 
 
 # --------------------------------------------------------------------------- simulation
@@ -72,7 +72,39 @@ class ObserverRun:
     residual: np.ndarray
 
 
-def _samples(a: Any, name: str, cols: int, rows: int | None = None) -> np.ndarray:
+def checked_samples(a: Any, name: str, cols: int, rows: int | None = None) -> np.ndarray:
+    """A sampled signal as a float array of one row per sample, its shape and values checked.
+
+    Parameters
+    ----------
+    a : array_like
+        The samples, (N, cols); a 1-D array is one column when ``cols`` is 1.
+    name : str
+        The signal's name in a refusal (``"u"``, ``"y"``).
+    cols : int
+        The number of channels (columns).
+    rows : int or None
+        The number of samples required (None: any).
+
+    Returns
+    -------
+    numpy.ndarray
+        (N, cols), float.
+
+    Raises
+    ------
+    DataError
+        Another shape, or a NaN or an infinity among the samples.
+
+    Examples
+    --------
+    >>> checked_samples([1, 2, 3], "y", 1).shape
+    (3, 1)
+    >>> checked_samples([[1, 2]], "u", 3)
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.DataError: u has shape (1, 2), expected (N, 3): one row per sample
+    """
     a = np.asarray(a, dtype=float)
     if a.ndim == 1 and cols == 1:
         a = a[:, None]
@@ -111,9 +143,9 @@ def simulate_observer(ext: ExtendedSystem, L: Any, *, dt: float, u: Any, y: Any,
     -------
     ObserverRun
     """
-    y = _samples(y, "y", ext.C.shape[0])
-    u = _samples(u, "u", ext.B.shape[1], rows=y.shape[0]) if ext.B.shape[1] else np.zeros((y.shape[0], 0))
-    L = _matrix(L, "L", rows=ext.A.shape[0])
+    y = checked_samples(y, "y", ext.C.shape[0])
+    u = checked_samples(u, "u", ext.B.shape[1], rows=y.shape[0]) if ext.B.shape[1] else np.zeros((y.shape[0], 0))
+    L = checked_matrix(L, "L", rows=ext.A.shape[0])
     Phi, Gam = observer_matrices(ext, L, dt)
     xhat = run_discrete(Phi, np.hstack([u, y]) @ Gam.T, None if x0 is None else np.asarray(x0, dtype=float))
     return ObserverRun(xhat, ext.force(xhat), y - xhat @ ext.C.T)

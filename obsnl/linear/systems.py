@@ -32,6 +32,7 @@ __all__ = [
     "kalman_rank",
     "DEFAULT_RTOL",
     "DEFAULT_WEAK_RTOL",
+    "checked_matrix",
 ]
 
 #: Default relative rank tolerance: a singular value counts as zero below ``rtol * scale``.
@@ -40,7 +41,41 @@ DEFAULT_RTOL = 1e-13
 DEFAULT_WEAK_RTOL = 1e-8
 
 
-def _matrix(value: Any, name: str, *, rows: int | None = None, cols: int | None = None) -> np.ndarray:
+def checked_matrix(value: Any, name: str, *, rows: int | None = None, cols: int | None = None) -> np.ndarray:
+    """A matrix of a linear system as a 2-D float array, its shape and values checked.
+
+    A 1-D array is read as one row when its length is ``cols``, else as one column when its length is ``rows``.
+
+    Parameters
+    ----------
+    value : array_like
+        The matrix.
+    name : str
+        Its name in a refusal (``"A"``, ``"C"``, ``"L"``).
+    rows : int or None
+        The number of rows required (None: any).
+    cols : int or None
+        The number of columns required (None: any).
+
+    Returns
+    -------
+    numpy.ndarray
+        2-D, float.
+
+    Raises
+    ------
+    DataError
+        Not real numbers, not 2-D, the wrong number of rows or columns, or a NaN or an infinity.
+
+    Examples
+    --------
+    >>> checked_matrix([1, 0], "C", cols=2)
+    array([[1., 0.]])
+    >>> checked_matrix([[1, 0]], "C", cols=3)
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.DataError: C has 2 columns, expected 3 (the number of states)
+    """
     try:
         a = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -77,13 +112,13 @@ class LinearSystem:
     D: np.ndarray | None = None
 
     def __post_init__(self) -> None:
-        A = _matrix(self.A, "A")
+        A = checked_matrix(self.A, "A")
         if A.shape[0] != A.shape[1]:
             raise DataError(f"A must be square, got shape {A.shape}")
         n = A.shape[0]
-        B = _matrix(self.B if self.B is not None else np.zeros((n, 0)), "B", rows=n)
-        C = _matrix(self.C, "C", cols=n)
-        D = np.zeros((C.shape[0], B.shape[1])) if self.D is None else _matrix(self.D, "D")
+        B = checked_matrix(self.B if self.B is not None else np.zeros((n, 0)), "B", rows=n)
+        C = checked_matrix(self.C, "C", cols=n)
+        D = np.zeros((C.shape[0], B.shape[1])) if self.D is None else checked_matrix(self.D, "D")
         if D.shape != (C.shape[0], B.shape[1]):
             raise DataError(f"D has shape {D.shape}, expected {(C.shape[0], B.shape[1])}")
         for k, v in (("A", A), ("B", B), ("C", C), ("D", D)):
@@ -148,7 +183,7 @@ def as_linear_system(system: Any, C: Any = None) -> LinearSystem:
     if isinstance(system, LinearSystem) and C is None:
         return system
     if C is not None:
-        A = _matrix(system, "A")
+        A = checked_matrix(system, "A")
         return LinearSystem(A, np.zeros((A.shape[0], 0)), C)
     if all(hasattr(system, k) for k in ("A", "B", "C")):
         dt = getattr(system, "dt", 0)

@@ -26,7 +26,7 @@ import scipy.linalg as sla
 from obsnl.errors import DataError, ModelError
 from obsnl.linear.simulation import zoh
 from obsnl.linear.systems import LinearSystem
-from obsnl.studies.link_model import _DOF_NAME, DEFAULT_LINK_FILE, LinkSpec, read_link_spec
+from obsnl.studies.link_model import DEFAULT_LINK_FILE, DOF_NAME, LinkSpec, read_link_spec
 
 # DEFAULT_LINK_FILE, LinkSpec and read_link_spec live in obsnl.studies.link_model; named here as before
 __all__ = [
@@ -143,7 +143,7 @@ class Cantilever:
 
     def dof(self, name: str) -> int:
         """Index of a free DOF named ``"w<k>"`` or ``"theta<k>"`` (k = 1..n_elements)."""
-        m = _DOF_NAME.match(name.strip())
+        m = DOF_NAME.match(name.strip())
         if not m:
             raise ModelError(f"bad DOF name {name!r}; use 'w<node>' or 'theta<node>', e.g. 'theta3'")
         node = int(m.group(2))

@@ -2,7 +2,7 @@
 
 The file is untrusted TOML (the packaged one is ``models/cantilever_link.toml``,
 ``obsnl:cantilever_link``): every table and key is read with its type and range checked
-(:class:`_Table`), and every refusal is one line naming the file, table, key and value and the fix,
+(:class:`LinkTable`), and every refusal is one line naming the file, table, key and value and the fix,
 before anything is computed. :mod:`obsnl.studies.cantilever` builds the finite-element model from it.
 """
 
@@ -20,12 +20,23 @@ from obsnl._types import FileValue
 from obsnl.errors import ModelError
 from obsnl.model.files import PACKAGED, catalogue_path, parse_text
 
-__all__ = ["DEFAULT_LINK_FILE", "LinkSpec", "read_link_spec", "MAX_ELEMENTS", "MAX_FILE_BYTES", "OPENS_WHEN"]
+__all__ = [
+    "DEFAULT_LINK_FILE",
+    "LinkSpec",
+    "read_link_spec",
+    "MAX_ELEMENTS",
+    "MAX_FILE_BYTES",
+    "OPENS_WHEN",
+    "DOF_NAME",
+    "LinkTable",
+]
 
 #: The benchmark's data file (packaged with obsnl).
 DEFAULT_LINK_FILE = catalogue_path("cantilever_link")
 
-_DOF_NAME = re.compile(r"^(w|theta)(\d+)$")
+#: A free DOF's name, ``w<k>`` (deflection) or ``theta<k>`` (rotation) at node ``k``: group 1 the kind, group 2
+#: the node (its range is the model's to check: 1..n_elements, node 0 clamped).
+DOF_NAME = re.compile(r"^(w|theta)(\d+)$")
 
 
 @dataclass(frozen=True)
@@ -84,8 +95,35 @@ _KEYS = {
 }
 
 
-class _Table:
-    """One table of a link model file with typed, range-checked reads; errors name file, table, key and value."""
+class LinkTable:
+    """One table of a link model file with typed, range-checked reads; errors name file, table, key and value.
+
+    Parameters
+    ----------
+    doc : mapping
+        The parsed file, or the mapping that holds the table (``{"": doc}`` reads the file's top level).
+    name : str
+        The table's name (``"structure"``, ``"bank"``; ``""`` for the top level).
+    where : str
+        The file's name, the start of every refusal.
+    keys : sequence of str or None
+        The keys the table may have (None: any).
+
+    Raises
+    ------
+    ModelError
+        The table is missing or not a table, or it has a key not in ``keys``.
+
+    Examples
+    --------
+    >>> t = LinkTable({"damping": {"zeta": 0.02}}, "damping", "my.toml", ("zeta", "modes"))
+    >>> t.number("zeta", 0.0, 1.0)
+    0.02
+    >>> t.whole("zeta")
+    Traceback (most recent call last):
+    ...
+    obsnl.errors.ModelError: my.toml: [damping] zeta = 0.02 is not a whole number; write an integer such as 6
+    """
 
     def __init__(self, doc: Mapping[str, Any], name: str, where: str, keys: Sequence[str] | None = None) -> None:
         if not isinstance(doc.get(name), Mapping):
@@ -99,16 +137,68 @@ class _Table:
             )
 
     def fail(self, key: str, problem: str) -> ModelError:
+        """The refusal of ``key``'s value: one line naming the file, the table, the key and the value (cut at 60
+        characters), then ``problem``.
+
+        Parameters
+        ----------
+        key : str
+            The key refused.
+        problem : str
+            What is wrong, and the fix.
+
+        Returns
+        -------
+        ModelError
+            To raise.
+        """
         s = repr(self.data.get(key)).replace("\n", " ")
         return ModelError(f"{self.where}: [{self.name}] {key} = {s if len(s) <= 60 else s[:57] + '...'} {problem}")
 
     def raw(self, key: str) -> Any:
+        """``key``'s value as written.
+
+        Parameters
+        ----------
+        key : str
+            The key.
+
+        Returns
+        -------
+        Any
+
+        Raises
+        ------
+        ModelError
+            The table lacks the key.
+        """
         if key in self.data:
             return self.data[key]
         raise ModelError(f"{self.where}: [{self.name}] lacks the key '{key}'; add it ({_SEE})")
 
     def number(self, key: str, lo: float = 0.0, hi: float = math.inf, *, closed: bool = False) -> float:
-        """A finite number in ``(lo, hi)`` (``[lo, hi]`` with ``closed``), not a string or a boolean."""
+        """A finite number in ``(lo, hi)`` (``[lo, hi]`` with ``closed``), not a string or a boolean.
+
+        Parameters
+        ----------
+        key : str
+            The key.
+        lo : float
+            The lower bound (default 0).
+        hi : float
+            The upper bound (default none).
+        closed : bool
+            The bounds are allowed.
+
+        Returns
+        -------
+        float
+
+        Raises
+        ------
+        ModelError
+            A missing key, not a finite number, or out of range.
+        """
         v = self.raw(key)
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             raise self.fail(key, f"is not a number; write a plain number ({_SEE})")
@@ -121,7 +211,30 @@ class _Table:
         return x
 
     def whole(self, key: str, v: Any = None, lo: int | None = 1, hi: int | None = None, what: str = "") -> int:
-        """A whole number (``6`` or ``6.0``; not ``6.7``, ``"6"`` or ``true``) in ``lo..hi``."""
+        """A whole number (``6`` or ``6.0``; not ``6.7``, ``"6"`` or ``true``) in ``lo..hi``.
+
+        Parameters
+        ----------
+        key : str
+            The key.
+        v : Any
+            An item of ``key``'s list to check (None: ``key``'s value).
+        lo : int or None
+            The smallest number allowed (None: no bound).
+        hi : int or None
+            The largest number allowed (None: no bound).
+        what : str
+            Added to an out-of-range refusal (e.g. which numbers are nodes).
+
+        Returns
+        -------
+        int
+
+        Raises
+        ------
+        ModelError
+            Not a whole number, or out of range.
+        """
         one = v is None
         v = self.raw(key) if one else v
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not (isinstance(v, int) or v.is_integer()):
@@ -151,7 +264,35 @@ class _Table:
         choices: Sequence[str] | None = None,
         empty: bool = False,
     ) -> tuple[Any, ...]:
-        """A list of distinct ``kind``: ``"whole numbers"`` (in ``lo..hi``) or ``"strings"``."""
+        """A list of distinct ``kind``: ``"whole numbers"`` (in ``lo..hi``) or ``"strings"``.
+
+        Parameters
+        ----------
+        key : str
+            The key.
+        kind : str
+            ``"whole numbers"`` or ``"strings"``.
+        lo : int
+            The smallest whole number allowed.
+        hi : int
+            The largest whole number allowed.
+        what : str
+            Added to an out-of-range refusal.
+        choices : sequence of str or None
+            The values allowed (None: any).
+        empty : bool
+            An empty list is allowed.
+
+        Returns
+        -------
+        tuple
+
+        Raises
+        ------
+        ModelError
+            Not a list (or an empty one without ``empty``), an item of the wrong kind, out of range or not one of
+            ``choices``, or an item listed twice.
+        """
         v = self.raw(key)
         if not isinstance(v, list) or not (v or empty):
             raise self.fail(key, f"must be a {'' if empty else 'non-empty '}list of {kind}")
@@ -215,8 +356,8 @@ def _parse(doc: dict[str, Any], where: str) -> LinkSpec:
             f"{where} is a model of equations, not a link model; bank reads a link model such as "
             f"obsnl:cantilever_link ({_SEE[4:]})"
         )
-    _Table({"": doc}, "", where, _KEYS[""])
-    st = _Table(doc, "structure", where, _KEYS["structure"])
+    LinkTable({"": doc}, "", where, _KEYS[""])
+    st = LinkTable(doc, "structure", where, _KEYS["structure"])
     dims = {k: st.number(k) for k in _KEYS["structure"][:5]}
     ne = st.whole("n_elements", lo=2)
     if ne > MAX_ELEMENTS:
@@ -226,25 +367,25 @@ def _parse(doc: dict[str, Any], where: str) -> LinkSpec:
             f"with the square and time with the cube); use at most {MAX_ELEMENTS}",
         )
     nodes = f" (free nodes are 1..{ne}; node 0 is clamped)"
-    dm = _Table(doc, "damping", where, _KEYS["damping"])
+    dm = LinkTable(doc, "damping", where, _KEYS["damping"])
     zeta, modes = dm.number("zeta", 0.0, 1.0), dm.items("modes", "whole numbers", hi=2 * ne)
     if len(modes) != 2:
         raise dm.fail("modes", "must name two different modes, e.g. [1, 3]")
-    ex = _Table(doc, "excitation", where, _KEYS["excitation"])
+    ex = LinkTable(doc, "excitation", where, _KEYS["excitation"])
     actuators, driven = ex.items("actuator_nodes", "whole numbers", hi=ne, what=nodes), ex.whole("driven_node", lo=None)
     if driven not in actuators:
         raise ex.fail("driven_node", f"is not one of the actuator_nodes {list(actuators)}; drive one of them")
-    se = _Table(doc, "sensors", where)
+    se = LinkTable(doc, "sensors", where)
     sensors = {k: se.items(k, "strings") for k in se.data if k != "noise"}
-    bad = [(k, d) for k, v in sensors.items() for d in v if not ((m := _DOF_NAME.match(d)) and 0 < int(m[2]) <= ne)]
+    bad = [(k, d) for k, v in sensors.items() for d in v if not ((m := DOF_NAME.match(d)) and 0 < int(m[2]) <= ne)]
     if bad:
         raise se.fail(bad[0][0], f"contains {bad[0][1]!r}, not a free DOF; use 'w<k>' or 'theta<k>'{nodes}")
     if not sensors:
         raise ModelError(f'{where}: [sensors] defines no sensor set; add one, e.g. S1 = ["theta1", "w6"]')
-    cr = _Table(doc, "crack", where, _KEYS["crack"])
+    cr = LinkTable(doc, "crack", where, _KEYS["crack"])
     if (opens := cr.data.get("opens_when", OPENS_WHEN[0])) not in OPENS_WHEN:
         raise cr.fail("opens_when", f"is not a crack-opening rule obsnl simulates; use {_choices(OPENS_WHEN)}")
-    bank = _Table(doc, "bank", where).data if "bank" in doc else {}
+    bank = LinkTable(doc, "bank", where).data if "bank" in doc else {}
     return LinkSpec(
         **dims,
         n_elements=ne,

@@ -11,12 +11,12 @@ from typing import Any
 import numpy as np
 
 from obsnl.errors import AnalysisError, DataError, ModelError
-from obsnl.linear.bank import BankDecision, Thresholds, _f, build_bank, calibrate_thresholds, decide
+from obsnl.linear.bank import BankDecision, Thresholds, build_bank, calibrate_thresholds, decide, json_float
 from obsnl.linear.gains import ObserverDesign
 from obsnl.linear.observer import ExtendedObservability, extended_observability, integrator
 from obsnl.observability.verdicts import Verdict
 from obsnl.studies.cantilever import BreathingCrack, LinkSimulation, build_cantilever
-from obsnl.studies.link_model import LinkSpec, _Table, read_link_spec
+from obsnl.studies.link_model import LinkSpec, LinkTable, read_link_spec
 
 __all__ = [
     "ScenarioRun",
@@ -79,7 +79,7 @@ class ScenarioRun:
             "scenario": self.scenario,
             "crack_element": self.crack_element,
             "seed": self.seed,
-            "truth_rms": _f(self.truth_rms),
+            "truth_rms": json_float(self.truth_rms),
             **self.decision.to_dict(),
         }
 
@@ -109,7 +109,7 @@ class GateCheck:
             "n_outputs": self.check.n_outputs,
             "n_channels": self.check.n_channels,
             "static_gain_singular_values": list(self.check.channels[0].singular_values),
-            "condition": None if self.condition is None else _f(self.condition),
+            "condition": None if self.condition is None else json_float(self.condition),
         }
 
 
@@ -459,7 +459,7 @@ def check_bank_settings(spec: LinkSpec) -> BankSettings:
     >>> check_bank_settings(read_link_spec()).observer_elements
     (2, 4, 6)
     """
-    bk = _Table({"bank": spec.bank} if spec.bank else {}, "bank", spec.file or "link model", BANK_KEYS)
+    bk = LinkTable({"bank": spec.bank} if spec.bank else {}, "bank", spec.file or "link model", BANK_KEYS)
     ne, el = spec.n_elements, f" (elements are 1..{spec.n_elements}, 1 = root)"
     out: dict[str, Any] = {
         "observer_elements": bk.items("observer_elements", "whole numbers", hi=ne, what=el),
