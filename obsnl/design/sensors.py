@@ -45,7 +45,7 @@ import itertools
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 from obsnl._progress import Progress
@@ -239,141 +239,239 @@ def sensors(
             seconds=time.perf_counter() - t0,
             complete=True,
         )
-    known: dict[frozenset, Sufficiency] = {frozenset(candidates): full}
-    insufficient: list[frozenset] = []
-    minimal: list[tuple[str, ...]] = []
-    undecided: list[tuple[str, ...]] = []
-    essential_done = False
-
-    def check(sets: list[tuple[str, ...]], done: Callable[[int, Any], None] | None = None) -> list[Sufficiency]:
-        """Analyse ``sets`` on the executor, count the analyses, keep the answers."""
-        nonlocal analyses
-        found = executor.map(_check_task, [(model, x, targets, seed, prob, max_seconds) for x in sets], done=done)
-        analyses += sum(r.how == "analysis" for r in found)
-        known.update((frozenset(x), r) for x, r in zip(sets, found))
-        return found
-
-    anc = {c: output_reachable(restrict(model, [c])) for c in candidates}  # reach of a set: the union
-    want = set(targets)
-    free = list(range(m))  # the candidates that do not suffice alone: a set with one of the others is covered
-    complete = False  # every minimal set of any size is listed (every larger set without one is insufficient)
-    for k in range(1, max_size + 1):
-        if k == 2:
-            free = [i for i in free if (candidates[i],) not in minimal]
-        n = math.comb(len(free), k)
-        if n > MAX_LEVEL_SETS:
-            bar.close()
-            raise OptionError(
-                f"{n:,} sets of {k} sensors to examine among the {len(free)} candidates that do not "
-                f"suffice alone, more than {MAX_LEVEL_SETS:,}; give max_size= of at most {max(k - 1, 1)}, "
-                f"or fewer candidate outputs"
-            )
-        if math.comb(m, k) > n:
-            bar(math.comb(m, k) - n)  # each contains a sensor that suffices alone: sufficient, not minimal
-        level = [tuple(candidates[i] for i in idx) for idx in itertools.combinations(free, k)]
-        todo, covered, before = [], set(), len(minimal)
-        bases = [frozenset(x) for x in minimal]
-        for s in level:
-            key = frozenset(s)
-            base = next((x for x in bases if key >= x), None)
-            if base is not None:  # contains a minimal set: sufficient, not minimal
-                covered.add(key)
-                bar()
-                continue
-            if key in known:
-                bar()
-                continue
-            bigger = next((x for x in insufficient if key <= x), None)
-            if bigger is not None:
-                known[key] = Sufficiency(
-                    s,
-                    False,
-                    missing=known[bigger].missing,
-                    how="implied",
-                    probability=None,
-                    reason="a subset of {" + ", ".join(known[bigger].sensors) + "}, insufficient",
-                )
-                bar()
-                continue
-            reach = set().union(*(anc[c] for c in s))
-            if not want <= reach:  # as check_sensors decides it, without building the restricted model
-                known[key] = unreached(s, [n for n in targets if n not in reach])
-                bar()
-                continue
-            todo.append(s)
-        check(todo, done=lambda i, r: bar())
-        for s in level:
-            if frozenset(s) in covered:
-                continue
-            r = known.get(frozenset(s))
-            if r is None or r.sufficient is None:
-                if r is not None:
-                    undecided.append(s)
-                continue
-            if r.sufficient is False:
-                insufficient.append(frozenset(s))
-                continue
-            subs = [known.get(frozenset(x)) for x in itertools.combinations(s, k - 1)] if k > 1 else []
-            if all(x is not None and x.sufficient is False for x in subs):
-                minimal.append(s)
-            else:
-                undecided.append(s)
-                known[frozenset(s)] = replace(
-                    r, reason="sufficient; minimality undecided: a subset with one sensor fewer was not decided"
-                )
-        if k == m and full.sufficient is None and not minimal:
-            break
-        if len(minimal) > before and k < m:
-            not_alone = [i for i in free if (candidates[i],) not in minimal]
-            largest = _largest_without(candidates, minimal)
-            # worth analyses only when they are fewer than the sets of the next size; at the last size asked, only
-            # what is decided without an analysis
-            if largest is not None and (k == max_size or len(largest) < math.comb(len(not_alone), k + 1)):
-
-                def lost(x: tuple[str, ...]) -> Sufficiency | None:
-                    reach = set().union(*(anc[c] for c in x))
-                    return None if want <= reach else unreached(x, [n for n in targets if n not in reach])
-
-                found = _without_minimal(largest, known, insufficient, lost, check if k < max_size else None)
-                insufficient.extend(frozenset(x) for x, r in zip(largest, found) if r is False and x)
-                if all(r is False for r in found):  # every larger set lacks a minimal set: within an insufficient one
-                    complete = True
-                    bar(sum(math.comb(m, j) for j in range(k + 1, max_size + 1)))  # each larger set is decided
-                    break
-        if (
-            not essential_done
-            and not minimal
-            and k < max_size
-            and math.comb(m, k + 1) <= MAX_LEVEL_SETS
-            and _pending(candidates, k + 1, anc, targets) > 2 * m
-        ):  # (a larger next size is refused before any work)
-            # no set of k sensors suffices and the next size is large: find the essential sensors (those
-            # without which even every other sensor is not enough); every set lacking one is then implied
-            # insufficient as a subset of that set, so only supersets of the essential sensors are analysed
-            essential_done = True
-            rest = [tuple(c for c in candidates if c != x) for x in candidates]
-            rest = [r for r in rest if frozenset(r) not in known]
-            for r_set, r in zip(rest, check(rest)):
-                if r.sufficient is False:
-                    insufficient.append(frozenset(r_set))
+    search = _Search(model, candidates, targets, max_size, full, analyses, seed, prob, max_seconds, executor, bar)
+    search.run()
     bar.close()
-    order = {frozenset(c.sensors): i for i, c in enumerate(known.values())}
-    checked = tuple(sorted(known.values(), key=lambda c: (len(c.sensors), order[frozenset(c.sensors)])))
-    complete = complete or (max_size == m and not undecided)
     return SensorSearch(
         model.name,
         candidates,
         targets,
         max_size,
-        tuple(minimal),
-        tuple(undecided),
-        checked=checked,
-        analyses=analyses,
+        tuple(search.minimal),
+        tuple(search.undecided),
+        checked=search.checked(),
+        analyses=search.analyses,
         seed=seed,
         assumptions=assumptions,
         seconds=time.perf_counter() - t0,
-        complete=complete,
+        complete=search.complete,
     )
+
+
+@dataclass(eq=False)
+class _Search:
+    """The level-wise search of :func:`sensors` once the full set is known not to be insufficient (steps 2 to 5 of
+    the module docstring), with its state.
+
+    ``known`` holds the answer of every set decided (by analysis, reachability or implication), in the order
+    decided; ``insufficient`` the sets proven insufficient, whose subsets are implied insufficient; ``minimal``
+    and ``undecided`` the answer so far; ``free`` the candidates (their indices) that do not suffice alone;
+    ``complete`` whether every minimal set of any size is listed; ``analyses`` the joint verdicts run.
+    """
+
+    model: Model
+    candidates: tuple[str, ...]
+    targets: tuple[str, ...]
+    max_size: int
+    full: Sufficiency
+    analyses: int
+    seed: int
+    prob: float
+    max_seconds: float | None
+    executor: Executor
+    bar: Progress
+    known: dict[frozenset[str], Sufficiency] = field(init=False)
+    insufficient: list[frozenset[str]] = field(init=False, default_factory=list)
+    minimal: list[tuple[str, ...]] = field(init=False, default_factory=list)
+    undecided: list[tuple[str, ...]] = field(init=False, default_factory=list)
+    essential_done: bool = field(init=False, default=False)
+    # every minimal set of any size is listed (every larger set without one is insufficient)
+    complete: bool = field(init=False, default=False)
+    # the candidates that do not suffice alone: a set with one of the others is covered
+    free: list[int] = field(init=False)
+    # what each candidate reaches in the dependency graph (the reach of a set: the union)
+    reach: dict[str, set[str]] = field(init=False)
+
+    def __post_init__(self) -> None:
+        """Start from the full set's answer, every candidate free, and each candidate's reach."""
+        self.known = {frozenset(self.candidates): self.full}
+        self.free = list(range(len(self.candidates)))
+        self.reach = {c: output_reachable(restrict(self.model, [c])) for c in self.candidates}
+
+    def run(self) -> None:
+        """Search size by size, smallest first, up to ``max_size``: decide what a level's sets need no analysis
+        for, analyse the others, record the answers; stop early when the answer is already complete, and find
+        the essential sensors once when the next size is large."""
+        for k in range(1, self.max_size + 1):
+            level = self._level(k)
+            before = len(self.minimal)
+            todo, covered = self._classify(level)
+            self._check(todo, done=lambda i, r: self.bar())
+            self._record(level, covered, k)
+            if len(self.minimal) > before and k < len(self.candidates) and self._complete_after(k):
+                break
+            if self._essential_worth(k):
+                self._find_essential()
+        self.complete = self.complete or (self.max_size == len(self.candidates) and not self.undecided)
+
+    def _level(self, k: int) -> list[tuple[str, ...]]:
+        """The sets of ``k`` sensors to examine: those of the free candidates (a set with a sensor that suffices
+        alone is sufficient and not minimal: counted as decided, never listed).
+
+        A level of more than :data:`MAX_LEVEL_SETS` sets is refused, with the ``max_size`` that stays within it.
+        """
+        m = len(self.candidates)
+        if k == 2:
+            self.free = [i for i in self.free if (self.candidates[i],) not in self.minimal]
+        n = math.comb(len(self.free), k)
+        if n > MAX_LEVEL_SETS:
+            self.bar.close()
+            raise OptionError(
+                f"{n:,} sets of {k} sensors to examine among the {len(self.free)} candidates that do not "
+                f"suffice alone, more than {MAX_LEVEL_SETS:,}; give max_size= of at most {max(k - 1, 1)}, "
+                f"or fewer candidate outputs"
+            )
+        if math.comb(m, k) > n:
+            self.bar(math.comb(m, k) - n)  # each contains a sensor that suffices alone: sufficient, not minimal
+        return [tuple(self.candidates[i] for i in idx) for idx in itertools.combinations(self.free, k)]
+
+    def _classify(self, level: list[tuple[str, ...]]) -> tuple[list[tuple[str, ...]], set[frozenset[str]]]:
+        """Decide the level's sets that need no analysis, in order, and return the others (to analyse) and the
+        sets that contain a minimal set (sufficient, not minimal: ``covered``).
+
+        A set decided before keeps its answer; the others are answered by :meth:`_without_analysis` when it can.
+        """
+        todo: list[tuple[str, ...]] = []
+        covered: set[frozenset[str]] = set()
+        bases = [frozenset(x) for x in self.minimal]
+        for s in level:
+            key = frozenset(s)
+            if any(key >= x for x in bases):  # contains a minimal set: sufficient, not minimal
+                covered.add(key)
+            elif key not in self.known:
+                answer = self._without_analysis(s)
+                if answer is None:
+                    todo.append(s)
+                    continue
+                self.known[key] = answer
+            self.bar()
+        return todo, covered
+
+    def _without_analysis(self, s: tuple[str, ...]) -> Sufficiency | None:
+        """The answer for ``s`` without an analysis, None when there is none: a subset of a set proven
+        insufficient is insufficient (monotonicity), and so is a set that some target has no path to."""
+        key = frozenset(s)
+        bigger = next((x for x in self.insufficient if key <= x), None)
+        if bigger is not None:
+            return Sufficiency(
+                s,
+                False,
+                missing=self.known[bigger].missing,
+                how="implied",
+                probability=None,
+                reason="a subset of {" + ", ".join(self.known[bigger].sensors) + "}, insufficient",
+            )
+        return self._unreached(s)
+
+    def _unreached(self, s: tuple[str, ...]) -> Sufficiency | None:
+        """Insufficient when some target has no path to any output of ``s`` (exact, from the dependency graph:
+        as :func:`~obsnl.design.sufficiency.check_sensors` decides it, without building the restricted model);
+        None when every target is reached."""
+        reach = set().union(*(self.reach[c] for c in s))
+        return None if set(self.targets) <= reach else unreached(s, [n for n in self.targets if n not in reach])
+
+    def _check(self, sets: list[tuple[str, ...]], done: Callable[[int, Any], None] | None = None) -> list[Sufficiency]:
+        """Analyse ``sets`` on the executor, each independently; count the analyses, keep the answers."""
+        tasks = [(self.model, x, self.targets, self.seed, self.prob, self.max_seconds) for x in sets]
+        found = self.executor.map(_check_task, tasks, done=done)
+        self.analyses += sum(r.how == "analysis" for r in found)
+        self.known.update((frozenset(x), r) for x, r in zip(sets, found))
+        return found
+
+    def _record(self, level: list[tuple[str, ...]], covered: set[frozenset[str]], k: int) -> None:
+        """Record the answers of the level's sets that contain no minimal set, in order.
+
+        An insufficient set joins ``insufficient`` (its subsets are then implied); an undecided set joins
+        ``undecided``. A sufficient set is minimal when each of its subsets of size ``k - 1`` was proven
+        insufficient; if one of them was left undecided, the set is reported sufficient with its minimality
+        undecided, never as minimal.
+        """
+        for s in level:
+            if frozenset(s) in covered:
+                continue
+            r = self.known.get(frozenset(s))
+            if r is None or r.sufficient is None:
+                if r is not None:
+                    self.undecided.append(s)
+                continue
+            if r.sufficient is False:
+                self.insufficient.append(frozenset(s))
+                continue
+            subs = [self.known.get(frozenset(x)) for x in itertools.combinations(s, k - 1)] if k > 1 else []
+            if all(x is not None and x.sufficient is False for x in subs):
+                self.minimal.append(s)
+            else:
+                self.undecided.append(s)
+                self.known[frozenset(s)] = replace(
+                    r, reason="sufficient; minimality undecided: a subset with one sensor fewer was not decided"
+                )
+
+    def _complete_after(self, k: int) -> bool:
+        """Whether the minimal sets found up to size ``k`` are every minimal set of any size (then ``complete``).
+
+        A larger set is minimal only if it contains none of them, and every such set lies within one of the
+        largest sets that contain none (:func:`_largest_without`): when each of those is proven insufficient, so
+        is every set they contain, and every larger set is counted as decided. Those largest sets proven
+        insufficient join ``insufficient`` either way.
+        """
+        not_alone = [i for i in self.free if (self.candidates[i],) not in self.minimal]
+        largest = _largest_without(self.candidates, self.minimal)
+        # worth analyses only when they are fewer than the sets of the next size; at the last size asked, only
+        # what is decided without an analysis
+        if largest is None or (k < self.max_size and len(largest) >= math.comb(len(not_alone), k + 1)):
+            return False
+        check = self._check if k < self.max_size else None
+        found = _without_minimal(largest, self.known, self.insufficient, self._unreached, check)
+        self.insufficient.extend(frozenset(x) for x, r in zip(largest, found) if r is False and x)
+        if not all(r is False for r in found):
+            return False
+        # every larger set lacks a minimal set: it lies within an insufficient one
+        self.complete = True
+        m = len(self.candidates)
+        self.bar(sum(math.comb(m, j) for j in range(k + 1, self.max_size + 1)))  # each larger set is decided
+        return True
+
+    def _essential_worth(self, k: int) -> bool:
+        """Whether to find the essential sensors after size ``k``: once, when no set of ``k`` sensors suffices
+        and the next size has many sets to analyse (more than twice the candidates reach every target).
+
+        A next size too large to enumerate is refused before any work, so it is not prepared for.
+        """
+        m = len(self.candidates)
+        return (
+            not self.essential_done
+            and not self.minimal
+            and k < self.max_size
+            and math.comb(m, k + 1) <= MAX_LEVEL_SETS
+            and _pending(self.candidates, k + 1, self.reach, self.targets) > 2 * m
+        )
+
+    def _find_essential(self) -> None:
+        """Find the essential sensors, those without which even every other sensor is not enough: each candidate
+        is left out of the full set in turn, and what remains is analysed (unless known). A remainder proven
+        insufficient joins ``insufficient``: every set lacking that candidate is then implied insufficient as a
+        subset of it, so only supersets of the essential sensors are analysed from then on."""
+        self.essential_done = True
+        rest = [tuple(c for c in self.candidates if c != x) for x in self.candidates]
+        rest = [r for r in rest if frozenset(r) not in self.known]
+        for r_set, r in zip(rest, self._check(rest)):
+            if r.sufficient is False:
+                self.insufficient.append(frozenset(r_set))
+
+    def checked(self) -> tuple[Sufficiency, ...]:
+        """Every answer established, smallest sets first, in the order decided within a size."""
+        order = {frozenset(c.sensors): i for i, c in enumerate(self.known.values())}
+        return tuple(sorted(self.known.values(), key=lambda c: (len(c.sensors), order[frozenset(c.sensors)])))
 
 
 def _without_minimal(
