@@ -442,9 +442,10 @@ def check_identify(
 ) -> CheckedIdentification:
     """Check and resolve what :func:`identify` takes, before any work: the counts and every argument's kind, the
     model and the data read, the inputs between samples, the known initial states, the branch table read, the
-    guesses, the structural analysis's options and the model's size (:func:`~obsnl.observability.analyze.check_analysis`;
-    a table made for another model is refused here). The executor's scheduler is not asked here: :func:`identify` probes it next, and ``obsnl identify``
-    before it reads the model.
+    guesses, the structural analysis's options and the model's size
+    (:func:`~obsnl.observability.analyze.check_analysis`; a table made for another model is refused here). The
+    executor's scheduler is not asked here: :func:`identify` probes it next, and ``obsnl identify`` before it reads
+    the model.
 
     Parameters
     ----------
