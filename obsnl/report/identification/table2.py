@@ -605,9 +605,23 @@ def table2_markdown(doc: Table2Document) -> str:
     summ = table2_summary(doc)
     ml = table2_ml_summary(doc)
     ml_passes = max(k for _, k in summ)
+    lines = _opening(doc, summ, ml, ml_passes)
+    for passes in sorted({k for _, k in summ}):
+        lines += _passes_section(doc, summ, passes, ml if passes == ml_passes else None)
+    lines += _flag_counts(summ, ml)
+    lines += _stopped_runs(doc)
+    lines += _first_reasons(doc, summ)
+    lines += ["", *_protocol(doc, ml, ml_passes)]
+    return "\n".join(lines).rstrip("\n") + "\n"
+
+
+def _opening(
+    doc: Table2Document, summ: Mapping[tuple[str, int], FilterColumn], ml: MLColumn | None, ml_passes: int
+) -> list[str]:
+    """The heading, how to read the errors and the flags, the compact summary, and the runs above the noise
+    floor."""
     exp = doc.experiment
-    paper = doc.paper_errors
-    lines = [
+    return [
         f"# Table 2 analog: {exp.model} under {exp.record.name}",
         "",
         "Errors are |estimate - true| / |true| in %, worst over the reported seeds; † = flagged practically "
@@ -618,7 +632,193 @@ def table2_markdown(doc: Table2Document) -> str:
         "",
         *_above_floor(doc, with_ml=bool(ml)),
     ]
-    protocol = [
+
+
+def _passes_section(
+    doc: Table2Document, summ: Mapping[tuple[str, int], FilterColumn], passes: int, ml: MLColumn | None
+) -> list[str]:
+    """The section of one protocol (one pass, or ``passes`` over the record): its estimates, its filters' costs and
+    goals, the runs redone with another configuration, and (``ml``: the refined protocol) the refinement's protocol
+    and verdict per seed."""
+    methods = [m for m in _T2_METHODS if (m, passes) in summ]
+    lines = [f"## {_passes_title(passes)}", ""]
+    lines += _estimates_table(doc, _columns(summ, methods, passes, ml), passes, summ[(methods[0], passes)])
+    lines += ["", *_filters_table(summ, methods, passes)]
+    lines += _redone(doc, summ, methods, passes)
+    if ml:
+        lines += ["", *_ml_markdown(doc, ml)]
+    lines.append("")
+    return lines
+
+
+def _columns(
+    summ: Mapping[tuple[str, int], FilterColumn], methods: Sequence[str], passes: int, ml: MLColumn | None
+) -> list[tuple[str, FilterColumn | MLColumn]]:
+    """One protocol's columns: the filters', the maximum likelihood's (``ml``: the refined protocol), DUKF-zero
+    last."""
+    columns: list[tuple[str, FilterColumn | MLColumn]] = [(m, summ[(m, passes)]) for m in methods if m != "dukf-zero"]
+    columns += [("ml", ml)] if ml else []
+    columns += [(m, summ[(m, passes)]) for m in methods if m == "dukf-zero"]
+    return columns
+
+
+def _estimates_table(
+    doc: Table2Document, columns: Sequence[tuple[str, FilterColumn | MLColumn]], passes: int, first: FilterColumn
+) -> list[str]:
+    """One protocol's estimates: per parameter the truth, the guess and each column's mean estimate, mean and
+    worst ``|error|`` (the ML column's mean std too; the paper's errors after one pass), then the yield
+    displacements where every column has them (``first``: the first filter's column)."""
+    exp = doc.experiment
+    head = "| parameter | true | guess | " + " | ".join(
+        "ML mean est. | ML mean % | ML worst % | ML std %"
+        if m == "ml"
+        else f"{_T2_METHODS[m]} mean est. | {_T2_METHODS[m]} mean % | {_T2_METHODS[m]} worst %"
+        for m, _ in columns
+    )
+    head += " | paper UKF % | paper DUKF % |" if passes == 1 else " |"
+    lines = [head, "|" + "---|" * (head.count("|") - 1)]
+    for i, p in enumerate(first.parameters):
+        cells = [_T2_MD.get(p, p), f"{exp.truth[p]:.4g}", f"{exp.guess[p]:.4g}"]
+        for _, c in columns:
+            mark = " †" if c.flagged(p) else ""
+            cells += [
+                _num(c.mean_estimate[i], ".4g"),
+                _num(c.mean_abs_error[i], ".2f") + mark,
+                _num(c.worst_abs_error[i], ".2f") + mark,
+            ]
+            if isinstance(c, MLColumn):
+                cells.append(_num(c.mean_std_percent[i], ".3g", inf="flat"))
+        if passes == 1:
+            cells += [f"{doc.paper_errors['ukf'][p]:.2f}", f"{doc.paper_errors['dukf'][p]:.2f}"]
+        lines.append("| " + " | ".join(cells) + " |")
+    if all(c.yield_errors for _, c in columns):  # what the ridge leaves informed
+        lines += _yield_rows(columns, passes, first)
+    return lines
+
+
+def _yield_rows(columns: Sequence[tuple[str, FilterColumn | MLColumn]], passes: int, first: FilterColumn) -> list[str]:
+    """The estimates table's last rows: per Delta the true yield displacement and each column's mean and worst
+    ``|error|`` ("-": no seed ran to the end)."""
+    lines = []
+    for d in ("Delta1", "Delta2"):
+        true = _ridge(first)[d][0]
+        cells = [f"abs({_T2_MD[d]})^(-1/2N) (yield displ.)", f"{true:.4g}", "-"]
+        for m, c in columns:
+            e = np.asarray(_ridge(c)[d][1], float)
+            mean_worst = [f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"] if np.isfinite(e).any() else ["-", "-"]
+            cells += ["-", *mean_worst] + (["-"] if m == "ml" else [])
+        if passes == 1:
+            cells += ["-", "-"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
+
+
+def _filters_table(summ: Mapping[tuple[str, int], FilterColumn], methods: Sequence[str], passes: int) -> list[str]:
+    """One protocol's filters: the tuning reported, the cost, the repairs and interventions, the output misfit and
+    the 5 % goal (with all flags and with the linearised ones alone)."""
+    lines = [
+        "| filter | tuning (s0, q_theta, q_x, gate) | s per run | s per pass | repairs | interventions "
+        "(all seeds) | implicit sigma-point steps | output misfit | 5 % goal (worst seed, unflagged) "
+        "| 5 % goal, linearised flags only |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for m in methods:
+        s = summ[(m, passes)]
+        lines.append(
+            f"| {_T2_METHODS[m]} | {_t2_tuning(s.tuning)} | {s.seconds:.3f} | "
+            f"{s.seconds_per_pass:.3f} | {s.repairs} | {_t2_kinds(s)} | {s.implicit} | "
+            f"{_t2_misfit(s)} | {_t2_goal(s)} | {_t2_goal(s, linearised=True)} |"
+        )
+    return lines
+
+
+def _redone(
+    doc: Table2Document, summ: Mapping[tuple[str, int], FilterColumn], methods: Sequence[str], passes: int
+) -> list[str]:
+    """One protocol's runs reported with another configuration than the tuning's first choice: the document's rule,
+    then per run the configurations tried (misfit, why it stopped) and the one reported; none: nothing."""
+    redone = [(m, r) for m in methods for r in summ[(m, passes)].redone]
+    if not redone:
+        return []
+    factor = doc.diverged_factor
+    floor = doc.noise_floor_factor  # None: a document of the former rule (redone when diverged)
+    lines = [
+        "",
+        f"Redone (the run diverged: it stopped or its output misfit was above {factor:g}x the "
+        "noise level; the next configuration of the tuning ranking was run instead):"
+        if floor is None
+        else f"Chosen on the seed's own data (the tuning's first choice left an output misfit above "
+        f"{floor:g}x the noise level or stopped: the next configurations of the tuning ranking ran on "
+        f"the same data, at most {doc.fallbacks} more, and the smallest misfit is reported):",
+        "",
+    ]
+    for m, (seed, attempts, final) in redone:
+        tried = "; ".join(
+            f"({_t2_tuning(a.tuning)}) misfit "
+            + (f"{a.misfit:.3g}" if np.isfinite(a.misfit) else "inf")
+            + (f", {a.error}" if a.error else "")
+            for a in attempts
+        )
+        lines.append(f"- {_T2_METHODS[m]}, seed {seed}: {tried} -> ({_t2_tuning(final)})")
+    return lines
+
+
+def _flag_counts(summ: Mapping[tuple[str, int], FilterColumn], ml: MLColumn | None) -> list[str]:
+    """The flags counted over the seeds per filter and protocol (with the runs not decided and the mean
+    Monte-Carlo spread), and the maximum-likelihood column's."""
+    lines = ["## Practically unidentifiable (flag counts over seeds)", ""]
+    for (m, k), s in sorted(summ.items()):
+        undecided = "".join(f"; not decided on seed {seed}: {why}" for seed, why in s.undecided)
+        spread = (
+            "; Monte-Carlo std (mean over seeds) "
+            + ", ".join(
+                f"{_T2_MD.get(p, p)} " + (f"{100 * v:.2g} %" if np.isfinite(v) else "held")
+                for p, v in zip(s.parameters, s.spread)
+            )
+            if s.spread
+            else ""
+        )
+        lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {_counted(s)}{undecided}{spread}")
+    if ml:
+        lines.append(f"- ML (std above {_ML_PIN:.3g} %): {_counted(ml)}")
+    return lines
+
+
+def _counted(c: FilterColumn | MLColumn) -> str:
+    """A column's flagged parameters, each with the seeds it is flagged on out of the column's; ``none``."""
+    return ", ".join(f"{_T2_MD.get(p, p)} {n}/{len(c.seeds)}" for p, n in c.flag_counts.items() if n) or "none"
+
+
+def _stopped_runs(doc: Table2Document) -> list[str]:
+    """The reported runs that stopped, each with its error (none: nothing)."""
+    stopped = [r for r in doc.runs if r.error]
+    if not stopped:
+        return []
+    return [
+        "",
+        "## Runs that stopped (reported, not dropped)",
+        "",
+        *(f"- {_T2_METHODS[r.method]}, {r.passes} pass(es), seed {r.seed}: {r.error}" for r in stopped),
+    ]
+
+
+def _first_reasons(doc: Table2Document, summ: Mapping[tuple[str, int], FilterColumn]) -> list[str]:
+    """Per protocol, why the first judged UKF run flagged a parameter or left it undecided (none: nothing)."""
+    lines: list[str] = []
+    for k in sorted({k for m, k in summ if m == "ukf"}):
+        first = next((r.practical for r in doc.runs if r.method == "ukf" and r.passes == k and r.practical), None)
+        if first is not None and (first.reasons or first.undecided):
+            lines += ["", f"Reasons (first seed of the UKF, {k} pass(es)):", ""]
+            lines += [f"- {_T2_MD.get(p, p)}: {why}" for p, why in first.reasons.items()]
+            lines += [f"- {_T2_MD.get(p, p)}: not decided, {why}" for p, why in first.undecided.items()]
+    return lines
+
+
+def _protocol(doc: Table2Document, ml: MLColumn | None, ml_passes: int) -> list[str]:
+    """The section "Protocol", last: the noise, the branch table and the tuning, what the errors, the flags and the
+    goal columns mean, and where the ML column comes from."""
+    exp = doc.experiment
+    return [
         "## Protocol",
         "",
         f"Noise {100 * exp.noise_ratio:g} % (RMS) on input and output; branch table: {doc.table_source}; "
@@ -637,119 +837,6 @@ def table2_markdown(doc: Table2Document) -> str:
         ),
         "",
     ]
-    for passes in sorted({k for _, k in summ}):
-        methods = [m for m in _T2_METHODS if (m, passes) in summ]
-        with_ml = ml if passes == ml_passes else None
-        # each column's summary: the filters', the maximum likelihood's after the refined protocol, DUKF-zero last
-        columns: list[tuple[str, FilterColumn | MLColumn]] = [
-            (m, summ[(m, passes)]) for m in methods if m != "dukf-zero"
-        ]
-        columns += [("ml", with_ml)] if with_ml else []
-        columns += [(m, summ[(m, passes)]) for m in methods if m == "dukf-zero"]
-        cols = [m for m, _ in columns]
-        lines += [f"## {_passes_title(passes)}", ""]
-        head = "| parameter | true | guess | " + " | ".join(
-            "ML mean est. | ML mean % | ML worst % | ML std %"
-            if m == "ml"
-            else f"{_T2_METHODS[m]} mean est. | {_T2_METHODS[m]} mean % | {_T2_METHODS[m]} worst %"
-            for m in cols
-        )
-        head += " | paper UKF % | paper DUKF % |" if passes == 1 else " |"
-        lines += [head, "|" + "---|" * (head.count("|") - 1)]
-        for i, p in enumerate(summ[(methods[0], passes)].parameters):
-            cells = [_T2_MD.get(p, p), f"{exp.truth[p]:.4g}", f"{exp.guess[p]:.4g}"]
-            for _, c in columns:
-                mark = " †" if c.flagged(p) else ""
-                cells += [
-                    _num(c.mean_estimate[i], ".4g"),
-                    _num(c.mean_abs_error[i], ".2f") + mark,
-                    _num(c.worst_abs_error[i], ".2f") + mark,
-                ]
-                if isinstance(c, MLColumn):
-                    cells.append(_num(c.mean_std_percent[i], ".3g", inf="flat"))
-            if passes == 1:
-                cells += [f"{paper['ukf'][p]:.2f}", f"{paper['dukf'][p]:.2f}"]
-            lines.append("| " + " | ".join(cells) + " |")
-        ridge = [c.yield_errors for _, c in columns]
-        if all(ridge):  # what the ridge leaves informed
-            for d in ("Delta1", "Delta2"):
-                true = _ridge(summ[(methods[0], passes)])[d][0]
-                cells = [f"abs({_T2_MD[d]})^(-1/2N) (yield displ.)", f"{true:.4g}", "-"]
-                for m, c in columns:
-                    e = np.asarray(_ridge(c)[d][1], float)
-                    mean_worst = [f"{np.nanmean(e):.2f}", f"{np.nanmax(e):.2f}"] if np.isfinite(e).any() else ["-", "-"]
-                    cells += ["-", *mean_worst] + (["-"] if m == "ml" else [])  # "-": no seed ran to the end
-                if passes == 1:
-                    cells += ["-", "-"]
-                lines.append("| " + " | ".join(cells) + " |")
-        lines += [
-            "",
-            "| filter | tuning (s0, q_theta, q_x, gate) | s per run | s per pass | repairs | interventions "
-            "(all seeds) | implicit sigma-point steps | output misfit | 5 % goal (worst seed, unflagged) "
-            "| 5 % goal, linearised flags only |",
-            "|---|---|---|---|---|---|---|---|---|---|",
-        ]
-        for m in methods:
-            s = summ[(m, passes)]
-            lines.append(
-                f"| {_T2_METHODS[m]} | {_t2_tuning(s.tuning)} | {s.seconds:.3f} | "
-                f"{s.seconds_per_pass:.3f} | {s.repairs} | {_t2_kinds(s)} | {s.implicit} | "
-                f"{_t2_misfit(s)} | {_t2_goal(s)} | {_t2_goal(s, linearised=True)} |"
-            )
-        redone = [(m, r) for m in methods for r in summ[(m, passes)].redone]
-        if redone:
-            factor = doc.diverged_factor
-            floor = doc.noise_floor_factor  # None: a document of the former rule (redone when diverged)
-            lines += [
-                "",
-                f"Redone (the run diverged: it stopped or its output misfit was above {factor:g}x the "
-                "noise level; the next configuration of the tuning ranking was run instead):"
-                if floor is None
-                else f"Chosen on the seed's own data (the tuning's first choice left an output misfit above "
-                f"{floor:g}x the noise level or stopped: the next configurations of the tuning ranking ran on "
-                f"the same data, at most {doc.fallbacks} more, and the smallest misfit is reported):",
-                "",
-            ]
-            for m, (seed, attempts, final) in redone:
-                tried = "; ".join(
-                    f"({_t2_tuning(a.tuning)}) misfit "
-                    + (f"{a.misfit:.3g}" if np.isfinite(a.misfit) else "inf")
-                    + (f", {a.error}" if a.error else "")
-                    for a in attempts
-                )
-                lines.append(f"- {_T2_METHODS[m]}, seed {seed}: {tried} -> ({_t2_tuning(final)})")
-        if with_ml:
-            lines += ["", *_ml_markdown(doc, with_ml)]
-        lines.append("")
-    lines += ["## Practically unidentifiable (flag counts over seeds)", ""]
-    for (m, k), s in sorted(summ.items()):
-        flags = ", ".join(f"{_T2_MD.get(p, p)} {c}/{len(s.seeds)}" for p, c in s.flag_counts.items() if c)
-        undecided = "".join(f"; not decided on seed {seed}: {why}" for seed, why in s.undecided)
-        spread = (
-            "; Monte-Carlo std (mean over seeds) "
-            + ", ".join(
-                f"{_T2_MD.get(p, p)} " + (f"{100 * v:.2g} %" if np.isfinite(v) else "held")
-                for p, v in zip(s.parameters, s.spread)
-            )
-            if s.spread
-            else ""
-        )
-        lines.append(f"- {_T2_METHODS[m]}, {k} pass(es): {flags or 'none'}{undecided}{spread}")
-    if ml:
-        flags = ", ".join(f"{_T2_MD.get(p, p)} {c}/{len(ml.seeds)}" for p, c in ml.flag_counts.items() if c)
-        lines.append(f"- ML (std above {_ML_PIN:.3g} %): {flags or 'none'}")
-    stopped = [r for r in doc.runs if r.error]
-    if stopped:
-        lines += ["", "## Runs that stopped (reported, not dropped)", ""]
-        lines += [f"- {_T2_METHODS[r.method]}, {r.passes} pass(es), seed {r.seed}: {r.error}" for r in stopped]
-    for k in sorted({k for m, k in summ if m == "ukf"}):
-        first = next((r.practical for r in doc.runs if r.method == "ukf" and r.passes == k and r.practical), None)
-        if first is not None and (first.reasons or first.undecided):
-            lines += ["", f"Reasons (first seed of the UKF, {k} pass(es)):", ""]
-            lines += [f"- {_T2_MD.get(p, p)}: {why}" for p, why in first.reasons.items()]
-            lines += [f"- {_T2_MD.get(p, p)}: not decided, {why}" for p, why in first.undecided.items()]
-    lines += ["", *protocol]
-    return "\n".join(lines).rstrip("\n") + "\n"
 
 
 def _passes_title(passes: int) -> str:
