@@ -25,17 +25,18 @@ import math
 import os
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import flint
 import sympy as sp
 
 from obsnl.errors import ModelError
-from obsnl.model.branching.branches import split_branches
+from obsnl.model.branching.branches import Branch, split_branches
 from obsnl.model.core import Model
 from obsnl.model.files import as_model
 from obsnl.model.reading.parse import make_symbol
 from obsnl.observability.analyze import analyze
-from obsnl.observability.certificates.generators import Symmetry
+from obsnl.observability.certificates.generators import Symmetries, Symmetry
 from obsnl.observability.certificates.proofs import verify_reparametrization
 from obsnl.observability.certificates.symmetry import check_search, symmetries_of
 from obsnl.observability.engines.smooth import analyze_smooth
@@ -48,7 +49,7 @@ from obsnl.recombination.invariants import (
     translation_invariants,
 )
 from obsnl.recombination.reparametrization import Reparametrization
-from obsnl.recombination.scalings import scaling_section, section_map
+from obsnl.recombination.scalings import ScalingSection, scaling_section, section_map
 
 __all__ = ["reparametrize"]
 
@@ -168,85 +169,321 @@ def reparametrize(
     check_search(seed, degree)
     check_analysis_limits(model)  # before any work: the analyses below hold dense arrays of this size
     names = dict(names or {})
-    syms = model.symbols
     keep_s = [model.symbol(k) for k in keep]
     elim_s = [model.symbol(k) for k in eliminate]
-    every = split_branches(model, seed=seed, undecided=True)
-    branches = [b for b in every if not b.undecided]
-    per = tuple(symmetries_of(b.model, seed=seed + i, degree=degree) for i, b in enumerate(branches))
-    notes = [
-        f"branch {b.label} ({b.guard_text}) not used, its feasibility is undecided (the new coordinates "
-        f"are not checked there): {b.undecided}"
-        for b in every
-        if b.undecided
-    ]
-    kic = set(model.known_initial_conditions)
-    V = [s for s in model.states if s not in kic] + list(model.parameters)
-    exps = sorted({syms[e] for s in per for e in s.exponents}, key=lambda s: s.name)
-
-    # 2. common scalings and their section
-    common = None
-    for s in per:
-        rows = [[sp.cancel(g.components.get(v.name, 0) / v) for v in V] for g in s.of_kind("scaling")]
-        common = rows if common is None else span_intersection(common, rows)
-    hidden = set().union(*(set(s.unobservable) for s in per)) if per else set()
-    measured = set().union(*(e.free_symbols for e in model.output_exprs))
-    for x in model.states:
-        if x.name not in hidden:
-            measured |= model.equations[x].free_symbols
-    try:
-        sec = scaling_section(
-            [dict(zip(V, r)) for r in (common or [])],
-            V,
-            model.parameters,
-            exponents=exps,
-            keep=keep_s,
-            eliminate=elim_s,
-            avoid=[p for p in model.parameters if p in measured],
-        )
-    except ModelError as exc:
-        if elim_s or keep_s:
-            raise
-        notes.append(f"the common scalings were not divided out: {exc}")
-        common, sec = [], scaling_section([], V, model.parameters)
-    coords = [(v, sec.invariants.get(v, v)) for v in V if v not in sec.pivots]
-
-    # 3. other generators pushed forward
-    branch_vecs: list[list[dict]] = []
-    unmerged = 0
-    common_num = _numeric_rows(common or [], V, exps)
-    for s in per:
-        vecs = []
-        for g in s.generators:
-            comp = {syms[k]: c for k, c in g.components.items()}
-            if g.kind == "scaling" and common_num is not None:
-                row = _numeric_rows([[sp.cancel(comp.get(v, 0) / v) for v in V]], V, exps)
-                if (
-                    common_num.nrows()
-                    and row is not None
-                    and flint.fmpq_mat(common_num.tolist() + row.tolist()).rank() == common_num.rank()
-                ):
-                    continue  # in the divided group: it does not move the invariants
-            pf = pushforward(comp, coords)
-            if pf is None:
-                unmerged += 1
-            elif pf:
-                vecs.append(pf)
-        branch_vecs.append(vecs)
-    common_t = None
-    for vecs in branch_vecs:
-        rows = [[v.get(y, 0) for y, _ in coords] for v in vecs]
-        common_t = rows if common_t is None else span_intersection(common_t, rows)
-    ys = [y for y, _ in coords]
-    unit_states = [y for y in ys if y in model.states and [int(y == z) for z in ys] in (common_t or [])]
-    tpiv, tinv = translation_invariants(
-        [dict(zip(ys, r)) for r in (common_t or [])], ys, list(model.parameters) + unit_states
+    work = _Proposal.start(model, seed, degree)  # 1. the branches and the generators of each
+    sec, common = work.common_section(keep_s, elim_s)  # 2. the common scalings and their section
+    coords = [(v, sec.invariants.get(v, v)) for v in work.V if v not in sec.pivots]
+    moves = work.translations(common, coords)  # 3. the other generators pushed forward
+    new, section, built = work.new_model(coords, moves, sec, names)  # 4. the new coordinates, section and model
+    check = work.check(built, new)  # 4. the new model verified, and analysed by the engine
+    mapping = {nm: phi for nm, phi, _ in new}  # the new symbols, then the states of known initial condition
+    mapping.update({x.name: x for x in model.known_initial_conditions})
+    functions, method, complete = work.functions(new, tuple(mapping.values()), check.nowhere, moves.unmerged)
+    return Reparametrization(
+        built,
+        model.name,
+        mapping,
+        {k.name: v for k, v in section.items()},
+        tuple(p.name for p in list(sec.pivots) + list(moves.pivots)),
+        functions,
+        complete,
+        not check.nowhere,
+        method,
+        work.per,
+        check.unobservable,
+        check.verified,
+        tuple(work.notes),
+        time.perf_counter() - t0,
+        _divided(sec, moves),
+        identifiable=not check.remaining and not check.pending,
+        remaining=check.remaining,
+        undecided=check.pending,
     )
-    if any(p in model.states and p not in unit_states for p in tpiv):
-        notes.append("a common translation moves states only; it was not divided out")
-        tpiv, tinv = [], {}
-    rest = [y for y in ys if y not in tpiv]
-    rvecs = []  # branch translations in the remaining coordinates (y_j - sum c y_piv)
+
+
+# --------------------------------------------------------------------------- its steps
+@dataclass(frozen=True)
+class _Translations:
+    """Step 3's answer: the translations in the coordinates of the scaling section.
+
+    ``unmerged`` counts the generators that are neither translations nor scalings there; ``ys`` are the coordinates
+    of the section; ``common`` the translation rows every branch shares, divided out with ``pivots`` (set to 0) and
+    ``invariants`` (``{y_j: y_j - sum c y_piv}``); ``rest`` the coordinates left; ``forms`` the linear forms on them
+    adapted to each branch (:func:`~obsnl.recombination.invariants.adapted_forms`).
+    """
+
+    unmerged: int
+    ys: list[sp.Symbol]
+    common: list[list[sp.Expr]]
+    pivots: list[sp.Symbol]
+    invariants: dict[sp.Symbol, sp.Expr]
+    rest: list[sp.Symbol]
+    forms: list[tuple[dict[sp.Symbol, sp.Rational], tuple[int, ...]]]
+
+
+@dataclass(frozen=True)
+class _Check:
+    """The new model checked: ``verified`` symbolically against the old branches; per branch of it, the coordinates
+    the engine finds unobservable or undecided (``unobservable``), and those in every branch (``nowhere``); its
+    joint verdict's ``remaining`` (not identifiable) and ``pending`` (inconclusive) coordinates."""
+
+    verified: bool
+    unobservable: dict[str, tuple[str, ...]]
+    nowhere: set[str]
+    remaining: tuple[str, ...]
+    pending: tuple[str, ...]
+
+
+@dataclass(eq=False)
+class _Proposal:
+    """What the steps of :func:`reparametrize` share: the model, its branches (``every``, and ``branches`` those
+    whose feasibility is decided) with the generators of each (``per``), the variables the groups act on (``V``:
+    the states without a known initial condition, then the parameters), the exponent parameters the scaling weights
+    may hold (``exps``), and the notes, in the order the steps write them."""
+
+    model: Model
+    seed: int
+    syms: dict[str, sp.Symbol]
+    every: tuple[Branch, ...]
+    branches: list[Branch]
+    per: tuple[Symmetries, ...]
+    notes: list[str]
+    kic: set[sp.Symbol]
+    V: list[sp.Symbol]
+    exps: list[sp.Symbol]
+
+    @classmethod
+    def start(cls, model: Model, seed: int, degree: int) -> _Proposal:
+        """Step 1: split the model into branches and find the generators of each (branch ``i`` searched with seed
+        ``seed + i``). A branch whose feasibility is undecided is not used; a note says so, since the new
+        coordinates are then not checked there."""
+        syms = model.symbols
+        every = split_branches(model, seed=seed, undecided=True)
+        branches = [b for b in every if not b.undecided]
+        per = tuple(symmetries_of(b.model, seed=seed + i, degree=degree) for i, b in enumerate(branches))
+        notes = [
+            f"branch {b.label} ({b.guard_text}) not used, its feasibility is undecided (the new coordinates "
+            f"are not checked there): {b.undecided}"
+            for b in every
+            if b.undecided
+        ]
+        kic = set(model.known_initial_conditions)
+        V = [s for s in model.states if s not in kic] + list(model.parameters)
+        exps = sorted({syms[e] for s in per for e in s.exponents}, key=lambda s: s.name)
+        return cls(model, seed, syms, every, branches, per, notes, kic, V, exps)
+
+    # ----------------------------------------------------------------------- 2. common scalings
+    def common_section(
+        self, keep: Sequence[sp.Symbol], eliminate: Sequence[sp.Symbol]
+    ) -> tuple[ScalingSection, list[list[sp.Expr]]]:
+        """Step 2: the section of the scalings shared by every branch (their Hubert-Labahn invariants, reference [1]
+        of :func:`reparametrize`, with the pivots set to 1), and the weight rows of that group (over ``V``).
+
+        The pivots avoid the parameters of the measured part of the model where another choice exists. When no
+        section can be made, and no pivot was asked for (``keep``, ``eliminate``), the scalings are not divided
+        out and a note says why; with pivots asked for, the refusal stands.
+        """
+        common = None
+        for s in self.per:
+            rows = [[sp.cancel(g.components.get(v.name, 0) / v) for v in self.V] for g in s.of_kind("scaling")]
+            common = rows if common is None else span_intersection(common, rows)
+        measured = self._measured()
+        try:
+            sec = scaling_section(
+                [dict(zip(self.V, r)) for r in (common or [])],
+                self.V,
+                self.model.parameters,
+                exponents=self.exps,
+                keep=keep,
+                eliminate=eliminate,
+                avoid=[p for p in self.model.parameters if p in measured],
+            )
+        except ModelError as exc:
+            if eliminate or keep:
+                raise
+            self.notes.append(f"the common scalings were not divided out: {exc}")
+            common, sec = [], scaling_section([], self.V, self.model.parameters)
+        return sec, common or []
+
+    def _measured(self) -> set[sp.Symbol]:
+        """The symbols of the measured part of the model: those of the outputs, and of the equation of every state
+        that no branch leaves unobservable."""
+        hidden = set().union(*(set(s.unobservable) for s in self.per)) if self.per else set()
+        measured = set().union(*(e.free_symbols for e in self.model.output_exprs))
+        for x in self.model.states:
+            if x.name not in hidden:
+                measured |= self.model.equations[x].free_symbols
+        return measured
+
+    # ----------------------------------------------------------------------- 3. other generators
+    def translations(self, common: list[list[sp.Expr]], coords: list[tuple[sp.Symbol, sp.Expr]]) -> _Translations:
+        """Step 3: every other generator pushed forward to the coordinates of the section, where a translation is
+        kept. Translations common to all branches are divided out (linear invariants; not when one moves states
+        only, which a note says); those of some branches only become forms adapted to each branch, so that a
+        combination identifiable in one branch and another identifiable in another both survive."""
+        branch_vecs, unmerged = self._pushed_forward(common, coords)
+        common_t = None
+        for vecs in branch_vecs:
+            rows = [[v.get(y, 0) for y, _ in coords] for v in vecs]
+            common_t = rows if common_t is None else span_intersection(common_t, rows)
+        ys = [y for y, _ in coords]
+        states = self.model.states
+        unit_states = [y for y in ys if y in states and [int(y == z) for z in ys] in (common_t or [])]
+        tpiv, tinv = translation_invariants(
+            [dict(zip(ys, r)) for r in (common_t or [])], ys, list(self.model.parameters) + unit_states
+        )
+        if any(p in states and p not in unit_states for p in tpiv):
+            self.notes.append("a common translation moves states only; it was not divided out")
+            tpiv, tinv = [], {}
+        rest = [y for y in ys if y not in tpiv]
+        forms = adapted_forms(_remaining_translations(branch_vecs, ys, rest, tinv), rest)
+        return _Translations(unmerged, ys, common_t or [], tpiv, tinv, rest, forms)
+
+    def _pushed_forward(
+        self, common: list[list[sp.Expr]], coords: list[tuple[sp.Symbol, sp.Expr]]
+    ) -> tuple[list[list[dict[sp.Symbol, sp.Rational]]], int]:
+        """Per branch, the translation vector in ``coords`` of each of its generators that moves them (a scaling of
+        the divided group, tested at a random integer value of the exponents, does not); and how many generators
+        are not translations there."""
+        branch_vecs: list[list[dict[sp.Symbol, sp.Rational]]] = []
+        unmerged = 0
+        common_num = _numeric_rows(common, self.V, self.exps)
+        for s in self.per:
+            vecs = []
+            for g in s.generators:
+                comp = {self.syms[k]: c for k, c in g.components.items()}
+                if g.kind == "scaling" and common_num is not None:
+                    row = _numeric_rows([[sp.cancel(comp.get(v, 0) / v) for v in self.V]], self.V, self.exps)
+                    if (
+                        common_num.nrows()
+                        and row is not None
+                        and flint.fmpq_mat(common_num.tolist() + row.tolist()).rank() == common_num.rank()
+                    ):
+                        continue  # in the divided group: it does not move the invariants
+                pf = pushforward(comp, coords)
+                if pf is None:
+                    unmerged += 1
+                elif pf:
+                    vecs.append(pf)
+            branch_vecs.append(vecs)
+        return branch_vecs, unmerged
+
+    # ----------------------------------------------------------------------- 4. the new model
+    def new_model(
+        self,
+        coords: list[tuple[sp.Symbol, sp.Expr]],
+        moves: _Translations,
+        sec: ScalingSection,
+        names: Mapping[str, str],
+    ) -> tuple[list[tuple[str, sp.Expr, sp.Expr]], dict[sp.Symbol, sp.Expr], Model]:
+        """Step 4: the new coordinates ``(name, phi, linear form)`` renamed by ``names``, the old symbols on the
+        section (pivots 1, translation pivots 0), and the new model, the equation of a new state ``s = phi(z)`` being
+        ``L_f(phi)`` there.
+
+        A ``Delta`` that enters the new model's Piecewise values only negated is flipped, and the model built once
+        more. ``names`` renaming a symbol that is not proposed is refused. A note says when generators that are
+        neither translations nor scalings leave their directions in the new model.
+        """
+        flips: set[str] = set()
+        for _ in range(2):
+            internal = coordinates(coords, moves.rest, moves.invariants, moves.forms, self.V, flips)
+            unknown = set(names) - {nm for nm, _, _ in internal}
+            if unknown:
+                raise ModelError(
+                    f"names= renames {sorted(unknown)[0]!r}, which is not a proposed symbol; proposed: "
+                    f"{', '.join(nm for nm, _, _ in internal)}"
+                )
+            new = [(names.get(nm, nm), phi, lin) for nm, phi, lin in internal]
+            section = section_map(new, moves.rest, moves.pivots, sec, self.V, self.kic)
+            built = _build(self.model, new, section, self.notes)
+            deltas = {names.get(nm, nm): nm for nm, _, _ in internal if nm.startswith("Delta")}
+            neg = _negated_only(built, list(deltas))
+            if not neg:
+                break
+            flips |= {deltas[n] for n in neg}
+        if moves.unmerged:
+            self.notes.append(
+                f"{moves.unmerged} generator(s) are neither translations nor scalings in the invariant "
+                f"coordinates; their directions remain in the new model"
+            )
+        return new, section, built
+
+    def check(self, built: Model, new: Sequence[tuple[str, sp.Expr, sp.Expr]]) -> _Check:
+        """The new model verified symbolically, branch by branch, against the old one, and its observability checked
+        independently by the engine (:func:`~obsnl.observability.engines.smooth.analyze_smooth`) in each of its
+        branches; a note for each branch the engine leaves with a reason.
+
+        Whether the new model is identifiable is its joint verdict (:func:`obsnl.analyze`, its branches together: a
+        coordinate unobservable in each branch alone may be revealed by the branches together), never the
+        proposal's own bookkeeping; a note when no branch of it could be analysed.
+        """
+        new_branches = split_branches(built, seed=self.seed)
+        verified = verify_reparametrization(built, {nm: phi for nm, phi, _ in new}, self.branches, new_branches)
+        unobs = {}
+        for b in new_branches:  # the engine checks our proposal independently (obsnl.analyze_smooth)
+            res = analyze_smooth(b.model, method="sedoglavic", seed=self.seed)
+            unobs[b.label] = tuple(res.unobservable) + tuple(res.undecided)
+            if res.reason:
+                self.notes.append(f"branch {b.label} of the new model: {res.reason}")
+        nowhere = set.intersection(*(set(v) for v in unobs.values())) if unobs else set()
+        joint = analyze(built, seed=self.seed, per_branch=False).joint
+        remaining: tuple[str, ...]
+        if joint is None:
+            remaining, pending = (), tuple(s.name for s in built.states + built.parameters)
+            self.notes.append("the joint verdict of the new model could not be made: no branch of it was analysed")
+        else:
+            remaining, pending = tuple(joint.unobservable), tuple(joint.inconclusive)
+        return _Check(verified, unobs, nowhere, remaining, pending)
+
+    def functions(
+        self,
+        new: Sequence[tuple[str, sp.Expr, sp.Expr]],
+        proposed: tuple[sp.Expr, ...],
+        nowhere: set[str],
+        unmerged: int,
+    ) -> tuple[tuple[sp.Expr, ...], str, bool]:
+        """The identifiable functions, how they were found, and whether they generate the whole field, with the
+        notes on what is left.
+
+        They are the ``proposed`` coordinates, complete when every unobservable direction of every branch got a
+        closed form that is a translation or a scaling there and no coordinate is unobservable in every branch of
+        the new model. A model of one branch (a smooth one) for which that falls short gets its functions from
+        :func:`~obsnl.recombination.identifiable.identifiable_functions`. A branch left undecided is not checked,
+        so the answer is then not complete.
+        """
+        missing = sum(s.missing for s in self.per)
+        complete = not nowhere and not missing and not unmerged
+        functions = proposed
+        method = "symmetries"
+        if len(self.branches) == 1 and not complete:
+            from obsnl.recombination.identifiable import identifiable_functions
+
+            idf = identifiable_functions(
+                self.model, seed=self.seed, symmetries=self.per[0], invariants=[phi for _, phi, _ in new]
+            )
+            functions, method, complete = idf.functions, idf.method, idf.complete
+            self.notes.extend(idf.notes)
+        complete = complete and len(self.every) == len(self.branches)  # an undecided branch is not checked
+        for b, s in zip(self.branches, self.per):
+            if s.missing:
+                self.notes.append(
+                    f"branch {b.label}: {s.missing} unobservable direction(s) without a closed form remain"
+                )
+        if nowhere:
+            self.notes.append(f"unobservable in every branch of the new model: {', '.join(sorted(nowhere))}")
+        return functions, method, complete
+
+
+def _remaining_translations(
+    branch_vecs: Sequence[Sequence[Mapping[sp.Symbol, sp.Rational]]],
+    ys: Sequence[sp.Symbol],
+    rest: Sequence[sp.Symbol],
+    tinv: Mapping[sp.Symbol, sp.Expr],
+) -> list[list[dict[sp.Symbol, sp.Expr]]]:
+    """Per branch, its translations in the remaining coordinates (``y_j - sum c y_piv`` where a common translation
+    was divided out), without those that no longer move anything."""
+    rvecs = []
     for vecs in branch_vecs:
         rv = []
         for v in vecs:
@@ -256,91 +493,19 @@ def reparametrize(
             if any(w.values()):
                 rv.append(w)
         rvecs.append(rv)
-    forms = adapted_forms(rvecs, rest)
+    return rvecs
 
-    # 4. new coordinates, the section, the new model (a Delta that enters only negated is flipped)
-    flips: set[str] = set()
-    for _ in range(2):
-        internal = coordinates(coords, rest, tinv, forms, V, flips)
-        unknown = set(names) - {nm for nm, _, _ in internal}
-        if unknown:
-            raise ModelError(
-                f"names= renames {sorted(unknown)[0]!r}, which is not a proposed symbol; proposed: "
-                f"{', '.join(nm for nm, _, _ in internal)}"
-            )
-        new = [(names.get(nm, nm), phi, lin) for nm, phi, lin in internal]
-        section = section_map(new, rest, tpiv, sec, V, kic)
-        built = _build(model, new, section, notes)
-        deltas = {names.get(nm, nm): nm for nm, _, _ in internal if nm.startswith("Delta")}
-        neg = _negated_only(built, list(deltas))
-        if not neg:
-            break
-        flips |= {deltas[n] for n in neg}
-    if unmerged:
-        notes.append(
-            f"{unmerged} generator(s) are neither translations nor scalings in the invariant "
-            f"coordinates; their directions remain in the new model"
-        )
-    new_branches = split_branches(built, seed=seed)
-    verified = verify_reparametrization(built, {nm: phi for nm, phi, _ in new}, branches, new_branches)
-    unobs = {}
-    for b in new_branches:  # the engine checks our proposal independently (obsnl.analyze_smooth)
-        res = analyze_smooth(b.model, method="sedoglavic", seed=seed)
-        unobs[b.label] = tuple(res.unobservable) + tuple(res.undecided)
-        if res.reason:
-            notes.append(f"branch {b.label} of the new model: {res.reason}")
-    nowhere = set.intersection(*(set(v) for v in unobs.values())) if unobs else set()
-    # whether the new model is identifiable: the joint verdict over its branches (a coordinate unobservable in each
-    # branch alone may be revealed by the branches together), never the proposal's own bookkeeping
-    joint = analyze(built, seed=seed, per_branch=False).joint
-    remaining: tuple[str, ...]
-    if joint is None:
-        remaining, pending = (), tuple(s.name for s in built.states + built.parameters)
-        notes.append("the joint verdict of the new model could not be made: no branch of it was analysed")
-    else:
-        remaining, pending = tuple(joint.unobservable), tuple(joint.inconclusive)
-    missing = sum(s.missing for s in per)
-    complete = not nowhere and not missing and not unmerged
-    mapping = {nm: phi for nm, phi, _ in new}
-    mapping.update({x.name: x for x in model.known_initial_conditions})
-    functions = tuple(mapping.values())
-    method = "symmetries"
-    if len(branches) == 1 and not complete:
-        from obsnl.recombination.identifiable import identifiable_functions
 
-        idf = identifiable_functions(model, seed=seed, symmetries=per[0], invariants=[phi for _, phi, _ in new])
-        functions, method, complete = idf.functions, idf.method, idf.complete
-        notes.extend(idf.notes)
-    complete = complete and len(every) == len(branches)  # an undecided branch is not checked
-    for b, s in zip(branches, per):
-        if s.missing:
-            notes.append(f"branch {b.label}: {s.missing} unobservable direction(s) without a closed form remain")
-    if nowhere:
-        notes.append(f"unobservable in every branch of the new model: {', '.join(sorted(nowhere))}")
+def _divided(sec: ScalingSection, moves: _Translations) -> tuple[str, ...]:
+    """The group divided out, one generator per pivot, as text: the scalings in rref form over their pivots, then
+    the common translations (when some were divided out)."""
     divided = [str(Symmetry("scaling", {v.name: w * v for v, w in row.items()})) for row in sec.weights]
     divided += [
-        str(Symmetry("translation", {y.name: c for y, c in zip(ys, r) if c != 0})) for r in (common_t or []) if tpiv
+        str(Symmetry("translation", {y.name: c for y, c in zip(moves.ys, r) if c != 0}))
+        for r in moves.common
+        if moves.pivots
     ]
-    return Reparametrization(
-        built,
-        model.name,
-        mapping,
-        {k.name: v for k, v in section.items()},
-        tuple(p.name for p in list(sec.pivots) + list(tpiv)),
-        functions,
-        complete,
-        not nowhere,
-        method,
-        per,
-        unobs,
-        verified,
-        tuple(notes),
-        time.perf_counter() - t0,
-        tuple(divided),
-        identifiable=not remaining and not pending,
-        remaining=remaining,
-        undecided=pending,
-    )
+    return tuple(divided)
 
 
 def _negated_only(model: Model, deltas: Sequence[str]) -> set[str]:
