@@ -249,7 +249,7 @@ class _Proposal:
     branches: list[Branch]
     per: tuple[Symmetries, ...]
     notes: list[str]
-    kic: set[sp.Symbol]
+    kic: tuple[sp.Symbol, ...]
     V: list[sp.Symbol]
     exps: list[sp.Symbol]
 
@@ -268,7 +268,7 @@ class _Proposal:
             for b in every
             if b.undecided
         ]
-        kic = set(model.known_initial_conditions)
+        kic = tuple(model.known_initial_conditions)  # in the model's order: the section lists them so, on every run
         V = [s for s in model.states if s not in kic] + list(model.parameters)
         exps = sorted({syms[e] for s in per for e in s.exponents}, key=lambda s: s.name)
         return cls(model, seed, syms, every, branches, per, notes, kic, V, exps)

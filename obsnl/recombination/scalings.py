@@ -198,7 +198,7 @@ def section_map(
     tpiv: Sequence[sp.Symbol],
     sec: ScalingSection,
     V: Sequence[sp.Symbol],
-    kic: set[sp.Symbol],
+    kic: Sequence[sp.Symbol],
 ) -> dict[sp.Symbol, sp.Expr]:
     """Old symbols in terms of the new ones on the section (pivots 1, translation pivots 0).
 
@@ -214,8 +214,8 @@ def section_map(
         The scaling section (pivots set to 1).
     V : sequence of sympy.Symbol
         Old symbols.
-    kic : set of sympy.Symbol
-        Known initial conditions, kept as they are.
+    kic : sequence of sympy.Symbol
+        Known initial conditions, kept as they are (last in the section, in this order).
 
     Returns
     -------
