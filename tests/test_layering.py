@@ -17,7 +17,7 @@ PKG = Path(__file__).resolve().parents[1] / "obsnl"
 
 #: Rank of each room along the data flow: a module may import only rooms of a lower rank, or its own room.
 LAYERS = {
-    "errors": 0, "_progress": 0, "_text": 0, "_exports": 0, "_display": 0, "_types": 0,
+    "errors": 0, "_progress": 0, "_text": 0, "_exports": 0, "_display": 0, "_types": 0, "_files": 0,
     "executor": 1,
     "model": 1,
     "algebra": 2,

@@ -33,6 +33,7 @@ from typing import IO, NamedTuple, cast
 
 import numpy as np
 
+from obsnl._files import FILE_KINDS
 from obsnl._text import os_error_line, shorten
 from obsnl.errors import DataError, refuse_non_path
 from obsnl.estimation.accelerogram import (
@@ -329,14 +330,6 @@ class _Rows:
         return vals
 
 
-_KINDS = (
-    (stat.S_ISFIFO, "FIFO"),
-    (stat.S_ISCHR, "character device"),
-    (stat.S_ISBLK, "block device"),
-    (stat.S_ISSOCK, "socket"),
-)
-
-
 @contextmanager
 def _open_text(p: Path, what: str) -> Iterator[IO[str]]:
     """A context manager: the file ``p`` opened as UTF-8 text (without a byte-order mark; any line ending),
@@ -362,7 +355,7 @@ def _open_text(p: Path, what: str) -> Iterator[IO[str]]:
     if stat.S_ISDIR(st.st_mode):
         raise DataError(f"{where} is a folder; give a file")
     if not stat.S_ISREG(st.st_mode):
-        kind = next((name for test, name in _KINDS if test(st.st_mode)), "special file")
+        kind = next((name for test, name in FILE_KINDS if test(st.st_mode)), "special file")
         raise DataError(f"{where} is a {kind}, not a regular file: give a file")
     if fd is None:
         raise DataError(

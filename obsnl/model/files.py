@@ -12,6 +12,7 @@ from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+from obsnl._files import read_document
 from obsnl._text import quote
 from obsnl.errors import OptionError, ParseError
 from obsnl.model.bounds.textsize import MAX_DIGITS
@@ -47,15 +48,13 @@ def read_model_file(path: str | os.PathLike[str]) -> dict[str, Any]:
             raise ParseError(f"model file {str(p)!r} does not exist")
         if p.is_dir():
             raise ParseError(f"{str(p)!r} is a directory; give a .toml or .json model file")
-        raw = p.read_bytes()
     except OSError as exc:
         raise ParseError(f"cannot read {str(p)!r}: {exc.strerror}") from None
-    try:
-        text = raw.decode("utf-8").removeprefix("\ufeff")  # a byte-order mark (Windows editors write one)
-    except UnicodeDecodeError:
-        raise ParseError(f"{str(p)!r} is not UTF-8 text") from None
     if suffix not in (".toml", ".json"):
         raise ParseError(f"{str(p)!r}: unknown model file type {suffix!r}; use .toml or .json")
+    # a regular file of a bounded size only: a FIFO would block the read, a device never end
+    text = read_document(p, where=f"model file {str(p)!r}", error=ParseError, fix="give a .toml or .json model file")
+    text = text.removeprefix("\ufeff")  # a byte-order mark (Windows editors write one)
     data = parse_text(text, kind=suffix[1:], where=repr(str(p)))
     if not isinstance(data, dict):
         raise ParseError(f"{str(p)!r}: the top level must be a table/object of model keys")

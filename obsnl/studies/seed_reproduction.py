@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from obsnl._files import read_document
 from obsnl.errors import DataError, OptionError
 from obsnl.estimation.ukf import Trajectory
 from obsnl.identification.experiments import DIVERGED, Setup, Tuning, make_data
@@ -265,11 +266,10 @@ def read_reproduction(path: str | Path) -> Reproduction:
     """
     import json
 
+    text = read_document(path, where=Path(path).name, error=DataError, fix=FIX)  # a FIFO or a device refused
     try:
-        doc = json.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise DataError(f"cannot read {Path(path).name}: {exc.strerror or exc}; {FIX}") from None
-    except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
         raise DataError(f"{Path(path).name} is not JSON ({exc}); {FIX}") from None
     return Reproduction.from_dict(doc)
 

@@ -17,6 +17,7 @@ from importlib import resources
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from obsnl._files import read_document
 from obsnl._text import quoted
 from obsnl.errors import DataError, TableError
 from obsnl.model.bounds.textsize import quote, shorten
@@ -434,17 +435,16 @@ def read_branch_table(path: str | Path) -> BranchTable:
     from obsnl.model.files import parse_text  # nesting, duplicate keys, NaN and huge integers refused
 
     p = Path(path)
+    where = f"branch table {str(p)!r}"
+    # a regular file of a bounded size only: a FIFO would block the read, a device never end
+    text = read_document(
+        p,
+        where=where,
+        error=TableError,
+        fix="give the .json file (`obsnl analyze MODEL --format json-table -o FILE.json` writes one)",
+    )
     try:
-        if p.is_dir():
-            raise TableError(
-                f"branch table {str(p)!r} is a folder; give the .json file "
-                f"(`obsnl analyze MODEL --format json-table -o FILE.json` writes one)"
-            )
-        if not p.is_file():
-            raise TableError(f"branch table {str(p)!r} does not exist")
-        data = parse_text(p.read_bytes().decode("utf-8"), kind="json", where=f"branch table {str(p)!r}")
-    except (ParseError, UnicodeDecodeError) as exc:
-        raise TableError(str(exc) if isinstance(exc, ParseError) else f"branch table {str(p)!r} is not UTF-8") from None
-    except OSError as exc:
-        raise TableError(f"cannot read branch table {str(p)!r}: {exc.strerror or exc}") from None
+        data = parse_text(text, kind="json", where=where)
+    except ParseError as exc:
+        raise TableError(str(exc)) from None
     return BranchTable.from_dict(data)
