@@ -101,3 +101,28 @@ def test_read_document_names_each_refusal_and_reads_a_regular_file(tmp_path):
     latin = tmp_path / "latin.json"
     latin.write_bytes(b'{"a": "\xe9"}')
     assert refused(latin) == "file 'latin.json' is not UTF-8 text (byte 7); give a file"
+
+
+@pytest.mark.parametrize("reader", ["obsnl.observability.contract.branch_table:read_branch_table",
+                                    "obsnl.studies.seed_reproduction:read_reproduction"])
+def test_a_reader_refuses_an_argument_that_is_not_a_path_in_one_line(reader):
+    # a number reached Path(), a TypeError
+    import importlib
+
+    from obsnl.errors import OptionError
+
+    module, function = reader.split(":")
+    with pytest.raises(OptionError, match=rf"^{function} takes the path of .* \(text or a path\), got int 5$"):
+        getattr(importlib.import_module(module), function)(5)
+
+
+@pytest.mark.parametrize("suffix", [".toml", ".json", "." + "t" * 200])
+def test_a_long_path_is_not_echoed_whole(tmp_path, suffix):
+    # the model reader echoed a path of thousands of characters whole; the system's refusals cut it at 100
+    from obsnl.observability.contract.branch_table import read_branch_table
+
+    long = tmp_path / ("d" * 200) / ("m" * 200 + suffix)
+    for read in (obsnl.read_model, read_branch_table):
+        with pytest.raises(obsnl.ObsnlError) as info:
+            read(long)
+        assert len(str(info.value)) < 400 and "\n" not in str(info.value), str(info.value)

@@ -43,21 +43,22 @@ def read_model_file(path: str | os.PathLike[str]) -> dict[str, Any]:
     """
     p = Path(path)
     suffix = p.suffix.lower()
+    shown = quote(str(p), 100)  # a long path is cut, as the system's refusals cut it
     try:
         if not p.exists():
-            raise ParseError(f"model file {str(p)!r} does not exist")
+            raise ParseError(f"model file {shown} does not exist")
         if p.is_dir():
-            raise ParseError(f"{str(p)!r} is a directory; give a .toml or .json model file")
+            raise ParseError(f"{shown} is a directory; give a .toml or .json model file")
     except OSError as exc:
-        raise ParseError(f"cannot read {str(p)!r}: {exc.strerror}") from None
+        raise ParseError(f"cannot read {shown}: {exc.strerror}") from None
     if suffix not in (".toml", ".json"):
-        raise ParseError(f"{str(p)!r}: unknown model file type {suffix!r}; use .toml or .json")
+        raise ParseError(f"{shown}: unknown model file type {quote(suffix)}; use .toml or .json")
     # a regular file of a bounded size only: a FIFO would block the read, a device never end
-    text = read_document(p, where=f"model file {str(p)!r}", error=ParseError, fix="give a .toml or .json model file")
+    text = read_document(p, where=f"model file {shown}", error=ParseError, fix="give a .toml or .json model file")
     text = text.removeprefix("\ufeff")  # a byte-order mark (Windows editors write one)
-    data = parse_text(text, kind=suffix[1:], where=repr(str(p)))
+    data = parse_text(text, kind=suffix[1:], where=shown)
     if not isinstance(data, dict):
-        raise ParseError(f"{str(p)!r}: the top level must be a table/object of model keys")
+        raise ParseError(f"{shown}: the top level must be a table/object of model keys")
     return data
 
 

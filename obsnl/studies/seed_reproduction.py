@@ -16,7 +16,8 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from obsnl._files import read_document
-from obsnl.errors import DataError, OptionError
+from obsnl._text import shorten
+from obsnl.errors import DataError, OptionError, refuse_non_path
 from obsnl.estimation.ukf import Trajectory
 from obsnl.identification.experiments import DIVERGED, Setup, Tuning, make_data
 from obsnl.studies.seed_document import FIX, Experiment, TuningChoice, TuningScore, read_part
@@ -266,11 +267,13 @@ def read_reproduction(path: str | Path) -> Reproduction:
     """
     import json
 
-    text = read_document(path, where=Path(path).name, error=DataError, fix=FIX)  # a FIFO or a device refused
+    refuse_non_path(path, "read_reproduction takes the path of a table2.json")
+    where = shorten(Path(path).name, 100)
+    text = read_document(path, where=where, error=DataError, fix=FIX)  # a FIFO or a device refused
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise DataError(f"{Path(path).name} is not JSON ({exc}); {FIX}") from None
+        raise DataError(f"{where} is not JSON ({exc}); {FIX}") from None
     return Reproduction.from_dict(doc)
 
 

@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 from obsnl._files import read_document
 from obsnl._text import quoted
-from obsnl.errors import DataError, TableError
+from obsnl.errors import DataError, TableError, refuse_non_path
 from obsnl.model.bounds.textsize import quote, shorten
 from obsnl.model.branching.signature import TABLE_FIX, ModelSignature
 from obsnl.observability.assumptions import Assumptions
@@ -434,8 +434,9 @@ def read_branch_table(path: str | Path) -> BranchTable:
     from obsnl.errors import ParseError
     from obsnl.model.files import parse_text  # nesting, duplicate keys, NaN and huge integers refused
 
+    refuse_non_path(path, "read_branch_table takes the path of a branch table")
     p = Path(path)
-    where = f"branch table {str(p)!r}"
+    where = f"branch table {quote(str(p), 100)}"
     # a regular file of a bounded size only: a FIFO would block the read, a device never end
     text = read_document(
         p,
