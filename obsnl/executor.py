@@ -444,6 +444,11 @@ class _Session:
         for pid in running:  # the pool stops the others (SIGTERM): each has ended, or does within a second
             if pid in procs:
                 procs[pid].join(timeout=2.0)
+        # the pool's own thread reaps the processes too: a join that loses that race returns before the exit code is
+        # set, and the code shows once that thread has set it (a died worker was reported without its exit code)
+        settled = time.monotonic() + 2.0
+        while time.monotonic() < settled and any(procs[p].exitcode is None for p in running if p in procs):
+            time.sleep(0.01)
         dead = {
             pid: procs[pid].exitcode
             for pid in running
