@@ -102,6 +102,12 @@ def test_a_record_with_many_switches_needs_no_repair():
     assert min(np.linalg.eigvalsh(P).min() for P in tr.P) > 0
 
 
+def test_with_options_refuses_a_name_that_is_not_an_option():
+    # dataclasses.replace raised a TypeError for a misspelt option; the filter's class is named, and its options
+    with pytest.raises(EstimatorError, match=r"^DUKF\.with_options takes the filter's options \(model, dt, .*\); 'QQ' is none$"):
+        _dukf().with_options(QQ=np.eye(14))
+
+
 def test_tables_for_another_model_are_refused():
     with pytest.raises(TableError, match="needs a branch table"):
         DUKF(NUM, dt=0.01, R=1.0)

@@ -27,7 +27,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Hashable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 import casadi as ca
@@ -236,7 +236,31 @@ class UKF:
         return self.model.states + self._coordinates.names
 
     def with_options(self, **changes: Any) -> UKF:
-        """A copy with some options changed (compiled functions are reused where possible)."""
+        """A copy with some options changed (compiled functions are reused where possible).
+
+        Parameters
+        ----------
+        **changes
+            New values of options, by name: the keywords are the filter's constructor arguments (the dataclass's
+            fields), so the call keeps the constructor's own contract; a name that is not one is refused.
+
+        Returns
+        -------
+        UKF
+            A filter of the same class (a :class:`~obsnl.estimation.dukf.DUKF` stays one).
+
+        Raises
+        ------
+        EstimatorError
+            A keyword that is not an option of the filter.
+        """
+        options = [f.name for f in fields(self) if f.init]
+        unknown = [k for k in changes if k not in options]
+        if unknown:  # dataclasses.replace would raise a TypeError
+            raise EstimatorError(
+                f"{type(self).__name__}.with_options takes the filter's options ({', '.join(options)}); "
+                f"{unknown[0][:40]!r} is none"
+            )
         return replace(self, **changes)
 
     def to_z(self, x: Any, theta: Any) -> np.ndarray:

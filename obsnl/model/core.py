@@ -279,7 +279,38 @@ class Model:
         return d
 
     def replace(self, **changes: Any) -> Model:
-        """A new model with some fields changed (validated again)."""
+        """A new model with some fields changed (validated again).
+
+        Parameters
+        ----------
+        **changes
+            New values of fields, by name: the keywords are the fields of :class:`Model` (as its constructor takes
+            them), so the call keeps the dataclass's own contract; a name that is not a field is refused.
+
+        Returns
+        -------
+        Model
+
+        Raises
+        ------
+        ModelError
+            A keyword that is not a field of :class:`Model` (the closest field named), or what validation refuses.
+
+        Examples
+        --------
+        >>> m = Model(name="m", states=["x"], parameters=["a"], equations={"x": "-a*x"}, outputs={"y": "x"})
+        >>> dict(m.replace(outputs={"y": "2*x"}).outputs)
+        {'y': 2*x}
+        >>> m.replace(ouputs={"y": "2*x"})
+        Traceback (most recent call last):
+        ...
+        obsnl.errors.ModelError: Model.replace takes fields of a Model; 'ouputs' is none (did you mean 'outputs'?)
+        """
+        fields = [f.name for f in dataclasses.fields(self)]
+        unknown = [k for k in changes if k not in fields]
+        if unknown:  # Model(**d) would raise a TypeError
+            k = unknown[0]
+            raise ModelError(f"Model.replace takes fields of a Model; {quote(k, 40)} is none{_close(k, fields)}")
         d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
         d["equations"] = {s.name: e for s, e in self.equations.items()}
         d["initial_condition_values"] = {s.name: e for s, e in self.initial_condition_values.items()}

@@ -223,9 +223,50 @@ def _branch_result(
     return br, failure
 
 
-def branch_result(b: Branch, variables: Sequence[str], **options: Any) -> tuple[BranchResult, float]:
-    """The result of one branch of an analysis (:func:`_branch_result` with ``options``) and its failure bound; a
-    branch whose feasibility is undecided (:attr:`~obsnl.model.Branch.undecided`) is not analysed: inconclusive."""
+def branch_result(
+    b: Branch,
+    variables: Sequence[str],
+    *,
+    method: str,
+    seed: int,
+    deadline: float | None,
+    target: float,
+    decompose: bool,
+    unknown_input_derivatives: int | str,
+    input_derivatives: int | None,
+    factor_cache: dict | None = None,
+) -> tuple[BranchResult, float]:
+    """The result of one branch of an analysis and its failure bound; a branch whose feasibility is undecided
+    (:attr:`~obsnl.model.Branch.undecided`) is not analysed: inconclusive.
+
+    Parameters
+    ----------
+    b : Branch
+        The branch.
+    variables : sequence of str
+        The reported variables (every state, then every parameter).
+    method : str
+        The engine (``"auto"``, ``"orc"`` or ``"sedoglavic"``).
+    seed : int
+        The seed of the random choices.
+    deadline : float or None
+        ``time.perf_counter()`` time limit (None: none).
+    target : float
+        The failure bound this branch may use.
+    decompose : bool
+        Analyse the output-connected blocks separately.
+    unknown_input_derivatives : int or str
+        The unknown-input assumption in force.
+    input_derivatives : int or None
+        The known inputs' degree (None: generic inputs).
+    factor_cache : dict or None
+        Shared between the branches of one analysis: their logarithm arguments.
+
+    Returns
+    -------
+    tuple of BranchResult and float
+        The branch's result (its signs set) and its failure bound.
+    """
     if b.undecided:
         return BranchResult(
             label=b.label,
@@ -242,7 +283,20 @@ def branch_result(b: Branch, variables: Sequence[str], **options: Any) -> tuple[
             undecided=tuple(variables),
             signs=tuple(b.signs),
         ), 0.0
-    br, failure = _branch_result(b.label, b.guard_text, b.model, variables, **options)
+    br, failure = _branch_result(
+        b.label,
+        b.guard_text,
+        b.model,
+        variables,
+        method=method,
+        seed=seed,
+        deadline=deadline,
+        target=target,
+        decompose=decompose,
+        unknown_input_derivatives=unknown_input_derivatives,
+        input_derivatives=input_derivatives,
+        factor_cache=factor_cache,
+    )
     return replace(br, signs=tuple(b.signs)), failure
 
 
