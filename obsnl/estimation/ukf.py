@@ -240,7 +240,7 @@ class UKF:
 
         Parameters
         ----------
-        **changes
+        **changes : Any
             New values of options, by name: the keywords are the filter's constructor arguments (the dataclass's
             fields), so the call keeps the constructor's own contract; a name that is not one is refused.
 

@@ -283,7 +283,7 @@ class Model:
 
         Parameters
         ----------
-        **changes
+        **changes : Any
             New values of fields, by name: the keywords are the fields of :class:`Model` (as its constructor takes
             them), so the call keeps the dataclass's own contract; a name that is not a field is refused.
 
