@@ -44,17 +44,10 @@ def read_model_file(path: str | os.PathLike[str]) -> dict[str, Any]:
     p = Path(path)
     suffix = p.suffix.lower()
     shown = quote(str(p), 100)  # a long path is cut, as the system's refusals cut it
-    try:
-        if not p.exists():
-            raise ParseError(f"model file {shown} does not exist")
-        if p.is_dir():
-            raise ParseError(f"{shown} is a directory; give a .toml or .json model file")
-    except OSError as exc:
-        raise ParseError(f"cannot read {shown}: {exc.strerror}") from None
+    # a regular file of a bounded size only (missing, a folder, a FIFO, a device refused), in UTF-8
+    text = read_document(p, where=f"model file {shown}", error=ParseError, fix="give a .toml or .json model file")
     if suffix not in (".toml", ".json"):
         raise ParseError(f"{shown}: unknown model file type {quote(suffix)}; use .toml or .json")
-    # a regular file of a bounded size only: a FIFO would block the read, a device never end
-    text = read_document(p, where=f"model file {shown}", error=ParseError, fix="give a .toml or .json model file")
     text = text.removeprefix("\ufeff")  # a byte-order mark (Windows editors write one)
     data = parse_text(text, kind=suffix[1:], where=shown)
     if not isinstance(data, dict):
